@@ -1,0 +1,34 @@
+//! `gridrt-coproc`: a no_std model of the GridRT ray-intersection co-processor.
+//!
+//! Source: A. S. Nery, *GridRT: Uma Arquitetura Paralela para Ray Tracing Utilizando Volumes
+//! Uniformes*, M.Sc. thesis, COPPE/UFRJ 2010 (seed 004), with its cross-voxel flaw fixed.
+//!
+//! - [`Coprocessor`]: PE memories in caller-provided backing words, the FSL word interface
+//!   ([`Coprocessor::push`] / [`Coprocessor::pop`]) and a direct API for the host
+//!   ([`Coprocessor::load_pe`], [`Coprocessor::trace`], [`Coprocessor::trace_untimed`]);
+//!   protocol violations become ERROR words, never guesses ([`coproc`] module doc).
+//! - [`timing`]: cycle accounting with the [`TimingProfile::GRIDRT`] (648 cycles/test at
+//!   50 MHz) and [`TimingProfile::PIPELINED`] profiles.
+//! - [`isect`]: intersection kernels (watertight — default —, Möller–Trumbore, Cramer).
+//!
+//! Links into the host and into the emulated-board firmware image: no allocation, fixed
+//! capacities ([`LIST_CAPACITY`], [`OUT_QUEUE_WORDS`]), no panics on link data.
+#![cfg_attr(not(test), no_std)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+#![warn(missing_docs)]
+#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+pub mod config;
+pub mod coproc;
+pub mod isect;
+pub mod timing;
+
+#[cfg(test)]
+mod tests;
+
+pub use config::{ArbitrationRule, ConfigError, CoprocConfig, LIST_CAPACITY, OUT_QUEUE_WORDS};
+pub use coproc::{ack_word, CoprocStats, Coprocessor, CLEAR_ACK, T_EXIT_REL_TOL};
+pub use gridrt_shared::fsl::{FslError, FslWord, ListEntry, RayKind, RayResult};
+pub use gridrt_shared::math::Ray;
+pub use isect::{Kernel, KernelKind};
+pub use timing::TimingProfile;

@@ -1,0 +1,75 @@
+//! Seeded property tests on the random 2×2×2 scene.
+
+use super::*;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+/// `trace` over the grid equals a brute-force nearest hit over every triangle, for 10⁴ random
+/// rays per kernel. Allowed differences: exact ties (same t, another prim) and near-ties
+/// within the documented t_exit tolerance (t ≤ t*·(1 + 2⁻¹¹)), which must stay rare.
+#[test]
+fn trace_equals_brute_force_nearest_hit_on_2x2x2_scene() {
+    let scene = GridScene::random(0x2222, 40);
+    let map = |id: u32| (id % 4) as u8;
+    let images = scene.images(4, map);
+    for kernel in KernelKind::ALL {
+        let mut backing = Vec::new();
+        let mut cp = loaded(CoprocConfig { kernel, ..config(4, 4096) }, &mut backing, &images);
+        let mut rng = ChaCha8Rng::seed_from_u64(0xB0B + kernel as u64);
+        let (mut hits, mut near_ties) = (0, 0);
+        for i in 0..10_000 {
+            let (ray, t_max) = random_ray(&mut rng);
+            let list = scene.list(&ray, map);
+            let r = cp.trace(RayKind::Closest, &ray, t_max, &list).unwrap();
+            let u = cp.trace_untimed(RayKind::Closest, &ray, t_max, &list).unwrap();
+            assert_eq!((r.hit, r.t.to_bits(), r.prim, r.list_pos, r.pe), (u.hit, u.t.to_bits(), u.prim, u.list_pos, u.pe));
+            match scene.brute_force(kernel, &ray, t_max) {
+                None => assert!(!r.hit, "{kernel:?} ray {i}: spurious hit {r:?}"),
+                Some((t, prim)) => {
+                    hits += 1;
+                    assert!(r.hit, "{kernel:?} ray {i}: missed t={t} prim={prim} ({ray:?}, list {list:?})");
+                    assert!(r.t >= t, "{kernel:?} ray {i}: nearer than brute force");
+                    if r.prim != prim && r.t != t {
+                        assert!(r.t <= t * (1.0 + 2.0 * T_EXIT_REL_TOL), "{kernel:?} ray {i}: t {} vs {t}", r.t);
+                        near_ties += 1;
+                    }
+                    let g = &scene.tris[(r.prim - 1000) as usize];
+                    assert_eq!(r.material as u32, g.material);
+                    let n = isect::geometric_normal(&g.vertices.map(Vec3::from_array));
+                    assert_eq!(r.normal, n.to_array());
+                    assert_eq!(r.pe, map(list[r.list_pos as usize].voxel));
+                }
+            }
+        }
+        assert!(hits > 3000, "{kernel:?}: too few hits ({hits}) to mean anything");
+        assert!(near_ties * 1000 < hits, "{kernel:?}: {near_ties} near-ties in {hits} hits");
+    }
+}
+
+/// The same voxels mapped to 1, 4 or 8 PEs give the same answers (only `pe` and the
+/// timeline differ); the functional test count is the same too.
+#[test]
+fn answers_are_independent_of_the_pe_count() {
+    let scene = GridScene::random(0x4E5, 40);
+    let maps: [(u8, fn(u32) -> u8); 3] = [(1, |_| 0), (4, |id| (id % 4) as u8), (8, |id| id as u8)];
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
+    let rays: Vec<_> = (0..2000).map(|_| random_ray(&mut rng)).collect();
+    let mut answers: Vec<Vec<_>> = Vec::new();
+    for (pes, map) in maps {
+        let mut backing = Vec::new();
+        let mut cp = loaded(config(pes as u16, 4096), &mut backing, &scene.images(pes, map));
+        let a = rays
+            .iter()
+            .map(|(ray, t_max)| {
+                let list = scene.list(ray, map);
+                let r = cp.trace(RayKind::Closest, ray, *t_max, &list).unwrap();
+                let u = cp.trace_untimed(RayKind::Closest, ray, *t_max, &list).unwrap();
+                let any = cp.trace(RayKind::Any, ray, *t_max, &list).unwrap();
+                (r.hit, r.t.to_bits(), r.prim, r.material, r.normal.map(f32::to_bits), r.list_pos, u.tests, any.hit, any.prim)
+            })
+            .collect();
+        answers.push(a);
+    }
+    assert_eq!(answers[0], answers[1]);
+    assert_eq!(answers[0], answers[2]);
+}

@@ -1,0 +1,17 @@
+//! The hart's own performance counters as a [`CycleCounter`].
+
+use gridrt_firmware::bsp::CycleCounter;
+
+/// `mcycle` / `minstret` through the `riscv` crate (64-bit reads that are consistent
+/// across the high/low halves on riscv32).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CsrCounters;
+
+impl CycleCounter for CsrCounters {
+    fn cycles(&self) -> u64 {
+        riscv::register::mcycle::read64()
+    }
+    fn instret(&self) -> u64 {
+        riscv::register::minstret::read64()
+    }
+}

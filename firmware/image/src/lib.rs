@@ -1,0 +1,21 @@
+//! Entry layer shared by the soft-core images (`app`, `bootloader`): board constants and
+//! console, RISC-V counters, and the panic / trap handlers.
+//!
+//! Everything device-independent lives in the host-testable `gridrt-firmware` library;
+//! this crate only knows addresses, CSRs and the riscv-rt runtime.
+#![no_std]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, missing_docs)]
+
+pub mod board;
+pub mod counters;
+pub mod trap;
+
+/// Version of the images, printed in the banner.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// Halts the hart for good: interrupts stay as they are, `wfi` just saves power.
+pub fn halt() -> ! {
+    loop {
+        riscv::asm::wfi();
+    }
+}

@@ -1,0 +1,99 @@
+//! Board support: register access, byte UARTs, the AXI4-Stream FIFO link, counters.
+//!
+//! Every driver here is generic over [`Mmio`], so the same code runs on the soft-core
+//! (through [`VolatileMmio`]) and in host unit tests (through the register-level mock in
+//! `mock`, which records every access and plays back scripted register values).
+//!
+//! | driver | IP | used on |
+//! | --- | --- | --- |
+//! | [`ns16550::Ns16550`] | NS16550A UART | QEMU `virt` (0x1000_0000) |
+//! | [`uartlite::UartLite`] | Xilinx AXI UART Lite (PG142) | FPGA SoC console/host link |
+//! | [`axis_fifo::AxisFifo`] | Xilinx AXI4-Stream FIFO (PG080) | FPGA SoC FSL-style link to the co-processor |
+//!
+//! Register offsets and bit values live only in each driver's `regs.rs`; above that
+//! layer no magic numbers appear.
+//!
+//! # Execution model
+//!
+//! One model for every trait here, the one of the [`nb`] crate: the `n*`/`read_byte`/
+//! `write_byte` primitives never wait and return `Err(nb::Error::WouldBlock)` when the
+//! hardware is not ready; the blocking helpers spin on them (`nb::block!`) and return only
+//! once the operation happened or failed. Nothing here uses interrupts.
+
+pub mod axis_fifo;
+pub mod mmio;
+#[cfg(test)]
+pub(crate) mod mock;
+pub mod ns16550;
+pub mod uartlite;
+
+pub use mmio::{Mmio, VolatileMmio};
+
+/// A byte-oriented serial port (console or host link).
+///
+/// `write_byte` and `read_byte` never block; `write_all` and `flush` block.
+pub trait ByteUart {
+    /// Receive-side error (overrun, framing, parity, ...). Transmit never fails on
+    /// the UARTs we have, but the type is shared.
+    type Error: core::fmt::Debug;
+
+    /// Queues one byte for transmission if the transmitter has room, else
+    /// `Err(WouldBlock)` and nothing is written.
+    fn write_byte(&mut self, byte: u8) -> nb::Result<(), Self::Error>;
+
+    /// Takes one received byte, `Err(WouldBlock)` if none is waiting, or a line error.
+    ///
+    /// After a line error the next call goes on with the following byte: errors are
+    /// reported once and are not sticky.
+    fn read_byte(&mut self) -> nb::Result<u8, Self::Error>;
+
+    /// Blocks until the transmitter has sent everything queued (shift register empty),
+    /// e.g. before halting or resetting.
+    fn flush(&mut self) -> nb::Result<(), Self::Error>;
+
+    /// Blocks until every byte of `bytes` is queued in the transmitter (not until it
+    /// has left the wire: use [`ByteUart::flush`] for that).
+    fn write_all(&mut self, bytes: &[u8]) -> Result<(), Self::Error> {
+        for &b in bytes {
+            nb::block!(self.write_byte(b))?;
+        }
+        Ok(())
+    }
+}
+
+/// `core::fmt::Write` over any [`ByteUart`], for `write!`-style console output.
+///
+/// A transmit error becomes `core::fmt::Error` (its detail is lost, as fmt allows no more).
+pub struct UartWriter<'a, U: ByteUart + ?Sized>(pub &'a mut U);
+
+impl<U: ByteUart + ?Sized> core::fmt::Write for UartWriter<'_, U> {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        self.0.write_all(s.as_bytes()).map_err(|_| core::fmt::Error)
+    }
+}
+
+/// Free-running performance counters of the hart (RISC-V `mcycle`/`minstret`, or a
+/// board timer). Both count up from an arbitrary origin; take differences.
+pub trait CycleCounter {
+    /// Clock cycles elapsed (`mcycle`).
+    fn cycles(&self) -> u64;
+    /// Instructions retired (`minstret`; exact under QEMU `-icount shift=0`).
+    fn instret(&self) -> u64;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::mock::MockMmio;
+    use super::ns16550::{regs, Ns16550};
+    use super::UartWriter;
+    use core::fmt::Write as _;
+
+    #[test]
+    fn uart_writer_formats_through_the_byte_uart() {
+        let mock = MockMmio::new();
+        mock.set8(regs::LSR, regs::LSR_THRE);
+        let mut uart = Ns16550::new(&mock);
+        assert_eq!(write!(UartWriter(&mut uart), "n={}", 42), Ok(()));
+        assert_eq!(mock.writes8_at(regs::THR), b"n=42".to_vec());
+    }
+}

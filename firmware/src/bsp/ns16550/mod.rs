@@ -1,0 +1,272 @@
+//! NS16550A UART driver (polled), as emulated by QEMU `virt` at 0x1000_0000.
+//!
+//! All registers are accessed 8 bits wide: QEMU's 16550 splits wider accesses into
+//! byte accesses of the neighbouring registers, which would clobber IER/FCR/LCR.
+
+pub mod regs;
+
+use super::{ByteUart, Mmio};
+
+/// A receive-side line error, as flagged in LSR.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Ns16550Error {
+    /// A received byte was lost (FIFO full); the bytes still queued are good.
+    RxOverrun,
+    /// Parity error; the bad byte was dropped.
+    RxParity,
+    /// Framing error (bad stop bit); the bad byte was dropped.
+    RxFraming,
+    /// Break condition on the line; its zero byte was dropped.
+    RxBreak,
+}
+
+impl core::fmt::Display for Ns16550Error {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::RxOverrun => "uart receive overrun",
+            Self::RxParity => "uart receive parity error",
+            Self::RxFraming => "uart receive framing error",
+            Self::RxBreak => "uart break on receive line",
+        })
+    }
+}
+
+/// An NS16550A-compatible UART.
+pub struct Ns16550<M: Mmio> {
+    mmio: M,
+    /// log2 of the byte distance between consecutive registers.
+    reg_shift: u32,
+}
+
+impl<M: Mmio> Ns16550<M> {
+    /// A UART with byte-spaced registers (QEMU `virt`).
+    pub const fn new(mmio: M) -> Self {
+        Self::with_reg_shift(mmio, 0)
+    }
+
+    /// A UART whose registers are `1 << reg_shift` bytes apart (device tree `reg-shift`;
+    /// 2 for Xilinx AXI UART16550 and most SoC integrations).
+    pub const fn with_reg_shift(mmio: M, reg_shift: u32) -> Self {
+        Self { mmio, reg_shift }
+    }
+
+    fn read(&self, reg: usize) -> u8 {
+        self.mmio.read8(reg << self.reg_shift)
+    }
+
+    fn write(&self, reg: usize, value: u8) {
+        self.mmio.write8(reg << self.reg_shift, value)
+    }
+
+    /// Puts the UART in polled 8N1 mode with FIFOs on and cleared.
+    ///
+    /// `divisor` is `input clock / (16 × baud)`; `None` keeps the current one (what the
+    /// boot ROM or QEMU set, which ignores it anyway).
+    pub fn init(&mut self, divisor: Option<u16>) {
+        self.write(regs::IER, regs::IER_NONE);
+        if let Some(div) = divisor {
+            let [lo, hi] = div.to_le_bytes();
+            self.write(regs::LCR, regs::LCR_DLAB);
+            self.write(regs::DLL, lo);
+            self.write(regs::DLM, hi);
+        }
+        // Writing LCR also clears DLAB, which RBR/THR access needs.
+        self.write(regs::LCR, regs::LCR_8N1);
+        self.write(
+            regs::FCR,
+            regs::FCR_ENABLE | regs::FCR_CLEAR_RX | regs::FCR_CLEAR_TX,
+        );
+    }
+
+    /// Gives back the register block.
+    pub fn free(self) -> M {
+        self.mmio
+    }
+}
+
+impl<M: Mmio> ByteUart for Ns16550<M> {
+    type Error = Ns16550Error;
+
+    fn write_byte(&mut self, byte: u8) -> nb::Result<(), Self::Error> {
+        // THRE means the whole TX FIFO is empty; one byte per check keeps it simple
+        // and never overfills, at a small cost in LSR reads.
+        if self.read(regs::LSR) & regs::LSR_THRE == 0 {
+            return Err(nb::Error::WouldBlock);
+        }
+        self.write(regs::THR, byte);
+        Ok(())
+    }
+
+    fn read_byte(&mut self) -> nb::Result<u8, Self::Error> {
+        // One LSR read: it clears the error bits, so they are reported exactly once.
+        let lsr = self.read(regs::LSR);
+        if lsr & regs::LSR_OE != 0 {
+            // The lost byte is gone; the queued ones are fine and stay for the next call.
+            return Err(nb::Error::Other(Ns16550Error::RxOverrun));
+        }
+        if lsr & regs::LSR_DR == 0 {
+            return Err(nb::Error::WouldBlock);
+        }
+        let byte = self.read(regs::RBR);
+        // PE/FE/BI describe the byte at the head of the FIFO, i.e. the one just popped.
+        if lsr & regs::LSR_BI != 0 {
+            Err(nb::Error::Other(Ns16550Error::RxBreak))
+        } else if lsr & regs::LSR_FE != 0 {
+            Err(nb::Error::Other(Ns16550Error::RxFraming))
+        } else if lsr & regs::LSR_PE != 0 {
+            Err(nb::Error::Other(Ns16550Error::RxParity))
+        } else {
+            Ok(byte)
+        }
+    }
+
+    fn flush(&mut self) -> nb::Result<(), Self::Error> {
+        if self.read(regs::LSR) & regs::LSR_TEMT == 0 {
+            return Err(nb::Error::WouldBlock);
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::regs::*;
+    use super::*;
+    use crate::bsp::mock::MockMmio;
+
+    #[test]
+    fn init_sets_divisor_then_8n1_and_fifos() {
+        let mock = MockMmio::new();
+        let mut uart = Ns16550::new(&mock);
+        uart.init(Some(0x0102));
+        assert_eq!(
+            mock.writes(),
+            vec![
+                (IER, 0),
+                (LCR, u32::from(LCR_DLAB)),
+                (DLL, 0x02),
+                (DLM, 0x01),
+                (LCR, u32::from(LCR_8N1)),
+                (FCR, u32::from(FCR_ENABLE | FCR_CLEAR_RX | FCR_CLEAR_TX)),
+            ]
+        );
+    }
+
+    #[test]
+    fn init_without_divisor_leaves_dlab_alone() {
+        let mock = MockMmio::new();
+        Ns16550::new(&mock).init(None);
+        assert!(!mock
+            .writes()
+            .iter()
+            .any(|&(o, v)| o == LCR && v & u32::from(LCR_DLAB) != 0));
+    }
+
+    #[test]
+    fn reg_shift_spaces_registers() {
+        let mock = MockMmio::new();
+        mock.set8(LSR << 2, LSR_THRE);
+        let mut uart = Ns16550::with_reg_shift(&mock, 2);
+        assert_eq!(uart.write_byte(b'x'), Ok(()));
+        assert_eq!(mock.reads_at(LSR << 2), 1);
+        assert_eq!(mock.writes(), vec![(THR << 2, u32::from(b'x'))]);
+    }
+
+    #[test]
+    fn write_byte_waits_for_thre() {
+        let mock = MockMmio::new();
+        mock.queue(LSR, &[0, u32::from(LSR_THRE)]);
+        let mut uart = Ns16550::new(&mock);
+        assert_eq!(uart.write_byte(b'a'), Err(nb::Error::WouldBlock));
+        assert!(mock.writes().is_empty());
+        assert_eq!(uart.write_byte(b'a'), Ok(()));
+        assert_eq!(mock.writes8_at(THR), b"a".to_vec());
+    }
+
+    #[test]
+    fn write_all_blocks_until_every_byte_is_queued() {
+        let mock = MockMmio::new();
+        mock.queue(LSR, &[0, 0, u32::from(LSR_THRE), 0, u32::from(LSR_THRE)]);
+        mock.set8(LSR, LSR_THRE);
+        let mut uart = Ns16550::new(&mock);
+        assert_eq!(uart.write_all(b"hi!"), Ok(()));
+        assert_eq!(mock.writes8_at(THR), b"hi!".to_vec());
+        assert_eq!(mock.reads_at(LSR), 6);
+    }
+
+    #[test]
+    fn read_byte_is_nonblocking() {
+        let mock = MockMmio::new();
+        let mut uart = Ns16550::new(&mock);
+        assert_eq!(uart.read_byte(), Err(nb::Error::WouldBlock));
+        assert_eq!(
+            mock.reads_at(RBR),
+            0,
+            "RBR must not be popped when DR is clear"
+        );
+        mock.queue(LSR, &[u32::from(LSR_DR)]);
+        mock.queue(RBR, &[0x5A]);
+        assert_eq!(uart.read_byte(), Ok(0x5A));
+    }
+
+    #[test]
+    fn read_byte_checks_lsr_before_popping_rbr() {
+        use crate::bsp::mock::{Access, Width};
+        let mock = MockMmio::new();
+        mock.set8(LSR, LSR_DR);
+        mock.set8(RBR, b'r');
+        assert_eq!(Ns16550::new(&mock).read_byte(), Ok(b'r'));
+        assert_eq!(
+            mock.log(),
+            vec![
+                Access::Read {
+                    off: LSR,
+                    width: Width::W8,
+                    value: u32::from(LSR_DR)
+                },
+                Access::Read {
+                    off: RBR,
+                    width: Width::W8,
+                    value: u32::from(b'r')
+                },
+            ]
+        );
+    }
+
+    #[test]
+    fn read_byte_reports_overrun_and_keeps_queued_byte() {
+        let mock = MockMmio::new();
+        mock.queue(LSR, &[u32::from(LSR_OE | LSR_DR), u32::from(LSR_DR)]);
+        mock.queue(RBR, &[7]);
+        let mut uart = Ns16550::new(&mock);
+        assert_eq!(
+            uart.read_byte(),
+            Err(nb::Error::Other(Ns16550Error::RxOverrun))
+        );
+        assert_eq!(uart.read_byte(), Ok(7));
+    }
+
+    #[test]
+    fn read_byte_drops_byte_with_framing_error() {
+        let mock = MockMmio::new();
+        mock.queue(LSR, &[u32::from(LSR_FE | LSR_DR), u32::from(LSR_DR)]);
+        mock.queue(RBR, &[0xFF, b'k'.into()]);
+        let mut uart = Ns16550::new(&mock);
+        assert_eq!(
+            uart.read_byte(),
+            Err(nb::Error::Other(Ns16550Error::RxFraming))
+        );
+        assert_eq!(uart.read_byte(), Ok(b'k'));
+    }
+
+    #[test]
+    fn flush_waits_for_transmitter_empty() {
+        let mock = MockMmio::new();
+        mock.queue(LSR, &[u32::from(LSR_THRE)]);
+        mock.set8(LSR, LSR_THRE | LSR_TEMT);
+        let mut uart = Ns16550::new(&mock);
+        assert_eq!(uart.flush(), Err(nb::Error::WouldBlock));
+        assert_eq!(uart.flush(), Ok(()));
+    }
+}

@@ -1,0 +1,196 @@
+//! Pinhole camera: one primary ray per pixel centre.
+//!
+//! The formulas are pinned in `docs/CONTRACTS.md` § Camera, because the host's f64 reference
+//! renderer re-implements them; keep both in step. Source: the Suffern-style pinhole camera
+//! GridRT's MicroBlaze program uses (seed 004 §2.1), with an explicit field of view.
+
+use gridrt_shared::math::{Ray, Vec3};
+
+/// Why a camera could not be built. Bad inputs are refused here so that no NaN ray is ever
+/// sent to the co-processor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CameraError {
+    /// Eye, target or up has a NaN or infinite component.
+    NonFinite,
+    /// Eye and target coincide: there is no viewing direction.
+    EyeIsTarget,
+    /// Up is zero or parallel to the viewing direction: the camera frame is undefined.
+    DegenerateUp,
+    /// Field of view not inside (0°, 180°).
+    BadFov,
+    /// Width or height is zero.
+    BadSize,
+}
+
+/// Smallest accepted `|forward × û|` (sine of the angle between view direction and up):
+/// below it the right vector is dominated by rounding.
+const MIN_UP_SINE: f32 = 1e-6;
+
+/// A validated pinhole camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    eye: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    cam_up: Vec3,
+    half_w: f32,
+    half_h: f32,
+    width: f32,
+    height: f32,
+}
+
+impl Camera {
+    /// Builds the camera of CONTRACTS.md: forward = normalize(target − eye),
+    /// right = normalize(forward × up), cam_up = right × forward, half_h = tan(fov/2),
+    /// half_w = half_h · W / H.
+    pub fn new(eye: Vec3, target: Vec3, up: Vec3, fov_y_deg: f32, width: u32, height: u32) -> Result<Self, CameraError> {
+        if !(eye.is_finite() && target.is_finite() && up.is_finite() && fov_y_deg.is_finite()) {
+            return Err(CameraError::NonFinite);
+        }
+        if width == 0 || height == 0 {
+            return Err(CameraError::BadSize);
+        }
+        if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) {
+            return Err(CameraError::BadFov);
+        }
+        // try_normalize refuses zero, subnormal-overflowing and non-finite lengths.
+        let forward = (target - eye).try_normalize().ok_or(CameraError::EyeIsTarget)?;
+        let up_n = up.try_normalize().ok_or(CameraError::DegenerateUp)?;
+        let side = forward.cross(up_n);
+        let sine = side.length();
+        if sine.is_nan() || sine < MIN_UP_SINE {
+            return Err(CameraError::DegenerateUp);
+        }
+        // CONTRACTS.md normalises forward × up (with the caller's up); the direction is the
+        // same as forward × û, so normalising `side` gives the same vector.
+        let right = side.try_normalize().ok_or(CameraError::DegenerateUp)?;
+        let cam_up = right.cross(forward);
+        let half_h = libm::tanf(fov_y_deg.to_radians() * 0.5);
+        let (w, h) = (width as f32, height as f32);
+        let half_w = half_h * w / h;
+        if !(half_h.is_finite() && half_w.is_finite() && half_w > 0.0) {
+            return Err(CameraError::BadFov);
+        }
+        Ok(Self { eye, forward, right, cam_up, half_w, half_h, width: w, height: h })
+    }
+
+    /// Ray through the centre of pixel (x, y), x to the right, y down:
+    /// sx = (2(x + 0.5)/W − 1)·half_w, sy = (1 − 2(y + 0.5)/H)·half_h,
+    /// dir = forward + sx·right + sy·cam_up (not normalised), origin = eye.
+    ///
+    /// Pixels outside the image extrapolate the same formula (no error, no panic).
+    #[inline]
+    pub fn primary_ray(&self, x: u32, y: u32) -> Ray {
+        let sx = (2.0 * (x as f32 + 0.5) / self.width - 1.0) * self.half_w;
+        let sy = (1.0 - 2.0 * (y as f32 + 0.5) / self.height) * self.half_h;
+        Ray { origin: self.eye, dir: self.forward + sx * self.right + sy * self.cam_up }
+    }
+
+    /// Unit viewing direction.
+    pub fn forward(&self) -> Vec3 {
+        self.forward
+    }
+    /// Unit right vector.
+    pub fn right(&self) -> Vec3 {
+        self.right
+    }
+    /// Unit camera-up vector (orthogonal to forward and right).
+    pub fn up(&self) -> Vec3 {
+        self.cam_up
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn cam(w: u32, h: u32) -> Camera {
+        Camera::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 90.0, w, h).unwrap()
+    }
+
+    #[test]
+    fn centre_pixel_of_odd_image_looks_straight_at_target() {
+        let c = cam(3, 3);
+        let r = c.primary_ray(1, 1);
+        assert_eq!(r.origin, Vec3::new(0.0, 0.0, 5.0));
+        assert!((r.dir - Vec3::new(0.0, 0.0, -1.0)).length() < 1e-6);
+    }
+
+    #[test]
+    fn corner_pixels_follow_contract_signs_x_right_y_down() {
+        // 90° vertical FOV, 2×2 image: half_h = 1, half_w = 1; pixel centres at ±0.5.
+        let c = cam(2, 2);
+        let tl = c.primary_ray(0, 0).dir;
+        assert!((tl - Vec3::new(-0.5, 0.5, -1.0)).length() < 1e-6, "{tl}");
+        let br = c.primary_ray(1, 1).dir;
+        assert!((br - Vec3::new(0.5, -0.5, -1.0)).length() < 1e-6, "{br}");
+    }
+
+    #[test]
+    fn aspect_ratio_scales_horizontal_extent() {
+        // W = 2H: half_w = 2·half_h.
+        let c = cam(4, 2);
+        let d = c.primary_ray(3, 0).dir; // sx = (2·3.5/4 − 1)·2 = 1.5, sy = 0.5
+        assert!((d - Vec3::new(1.5, 0.5, -1.0)).length() < 1e-6, "{d}");
+    }
+
+    #[test]
+    fn invalid_inputs_are_errors_not_nan_rays() {
+        let e = Vec3::new(0.0, 0.0, 5.0);
+        assert_eq!(Camera::new(e, e, Vec3::Y, 45.0, 4, 4), Err(CameraError::EyeIsTarget));
+        assert_eq!(Camera::new(e, Vec3::ZERO, Vec3::ZERO, 45.0, 4, 4), Err(CameraError::DegenerateUp));
+        assert_eq!(Camera::new(e, Vec3::ZERO, Vec3::Z, 45.0, 4, 4), Err(CameraError::DegenerateUp));
+        assert_eq!(Camera::new(e, Vec3::ZERO, Vec3::Y, 0.0, 4, 4), Err(CameraError::BadFov));
+        assert_eq!(Camera::new(e, Vec3::ZERO, Vec3::Y, 180.0, 4, 4), Err(CameraError::BadFov));
+        assert_eq!(Camera::new(e, Vec3::ZERO, Vec3::Y, f32::NAN, 4, 4), Err(CameraError::NonFinite));
+        assert_eq!(Camera::new(Vec3::NAN, Vec3::ZERO, Vec3::Y, 45.0, 4, 4), Err(CameraError::NonFinite));
+        assert_eq!(Camera::new(e, Vec3::splat(f32::INFINITY), Vec3::Y, 45.0, 4, 4), Err(CameraError::NonFinite));
+        assert_eq!(Camera::new(e, Vec3::ZERO, Vec3::Y, 45.0, 0, 4), Err(CameraError::BadSize));
+        assert_eq!(Camera::new(e, Vec3::ZERO, Vec3::Y, 45.0, 4, 0), Err(CameraError::BadSize));
+    }
+
+    #[test]
+    fn random_valid_cameras_give_finite_rays_matching_f64_formula() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0xCA3E_0001);
+        let mut checked = 0;
+        for _ in 0..2000 {
+            let v = |rng: &mut ChaCha8Rng| {
+                Vec3::new(rng.gen_range(-50.0..50.0), rng.gen_range(-50.0..50.0), rng.gen_range(-50.0..50.0))
+            };
+            let (eye, target, up) = (v(&mut rng), v(&mut rng), v(&mut rng));
+            let fov = rng.gen_range(1.0..170.0f32);
+            let (w, h) = (rng.gen_range(1..4097u32), rng.gen_range(1..4097u32));
+            let Ok(c) = Camera::new(eye, target, up, fov, w, h) else { continue };
+            let (x, y) = (rng.gen_range(0..w), rng.gen_range(0..h));
+            let r = c.primary_ray(x, y);
+            assert!(r.is_valid());
+            // f64 re-implementation of CONTRACTS.md.
+            let f = |a: Vec3| [a.x as f64, a.y as f64, a.z as f64];
+            let (e, t, u) = (f(eye), f(target), f(up));
+            let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+            let cross =
+                |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+            let norm = |a: [f64; 3]| {
+                let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+                [a[0] / l, a[1] / l, a[2] / l]
+            };
+            let fw = norm(sub(t, e));
+            let rt = norm(cross(fw, u));
+            let cu = cross(rt, fw);
+            let hh = (fov as f64).to_radians().mul_add(0.5, 0.0).tan();
+            let hw = hh * w as f64 / h as f64;
+            let sx = (2.0 * (x as f64 + 0.5) / w as f64 - 1.0) * hw;
+            let sy = (1.0 - 2.0 * (y as f64 + 0.5) / h as f64) * hh;
+            let d: [f64; 3] = core::array::from_fn(|i| fw[i] + sx * rt[i] + sy * cu[i]);
+            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            for i in 0..3 {
+                // Relative to the ray's length; loose for near-parallel up vectors.
+                assert!((r.dir[i] as f64 - d[i]).abs() <= 1e-3 * len, "{:?} vs {d:?}", r.dir);
+            }
+            checked += 1;
+        }
+        assert!(checked > 1900);
+    }
+}

@@ -1,0 +1,757 @@
+//! Device tests against a small scripted co-processor (`FakeCoproc`), independent of the
+//! `gridrt-coproc` model: it checks packet framing strictly and answers with canned results.
+
+use super::*;
+use gridrt_shared::frame::{crc32, encode_frame, FrameAccumulator, MAX_ENCODED};
+use gridrt_shared::fsl::{entry_from_words, ListEntry};
+use gridrt_shared::msg::stat_entries;
+use gridrt_shared::scene::{TriangleRecord, HEADER_LEN};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::collections::VecDeque;
+use std::vec::Vec;
+
+// ---------------------------------------------------------------- fake co-processor
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Mode {
+    /// Answer everything.
+    Normal,
+    /// Answer ray packets with this ERROR word.
+    ErrorOnRay(u32),
+    /// Answer LOAD_PE packets with this ERROR word.
+    ErrorOnLoad(u32),
+    /// Never answer ray packets (the device must time out).
+    SilentOnRay,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+struct RayReq {
+    kind: u32,
+    origin: [f32; 3],
+    dir: [f32; 3],
+    t_max: f32,
+    list: Vec<ListEntry>,
+}
+
+struct FakeCoproc {
+    mode: Mode,
+    /// Answer of any-hit queries.
+    shadow_hit: bool,
+    packet: Vec<u32>,
+    out: VecDeque<FslWord>,
+    words_in: usize,
+    clears: usize,
+    loads: Vec<(u8, Vec<u32>)>,
+    rays: Vec<RayReq>,
+    violations: Vec<&'static str>,
+}
+
+impl FakeCoproc {
+    fn new() -> Self {
+        Self {
+            mode: Mode::Normal,
+            shadow_hit: false,
+            packet: Vec::new(),
+            out: VecDeque::new(),
+            words_in: 0,
+            clears: 0,
+            loads: Vec::new(),
+            rays: Vec::new(),
+            violations: Vec::new(),
+        }
+    }
+
+    fn answer(&mut self, words: &[u32]) {
+        for (i, &w) in words.iter().enumerate() {
+            self.out.push_back(FslWord { data: w, control: i + 1 == words.len() });
+        }
+    }
+
+    fn packet_done(&mut self) {
+        let p = core::mem::take(&mut self.packet);
+        let ack = op::ACK << 28;
+        match wire::opcode(p[0]) {
+            op::CLEAR => {
+                if p.len() != 1 {
+                    self.violations.push("CLEAR length");
+                }
+                self.clears += 1;
+                self.answer(&[ack]);
+            }
+            op::LOAD_PE => {
+                let count = p.get(1).copied().unwrap_or(u32::MAX) as usize;
+                if p.len() != 2 + count {
+                    self.violations.push("LOAD_PE length");
+                }
+                self.loads.push((p[0] as u8, p[2..].to_vec()));
+                match self.mode {
+                    Mode::ErrorOnLoad(w) => self.answer(&[w]),
+                    _ => self.answer(&[ack]),
+                }
+            }
+            op::RAY_CLOSEST | op::RAY_ANY => {
+                let n = (p[0] & 0xFFFF) as usize;
+                if p.len() != RAY_HEADER + 2 * n || n == 0 {
+                    self.violations.push("ray length");
+                }
+                let f = |i: usize| f32::from_bits(p[i]);
+                let list: Vec<_> = p[RAY_HEADER..].chunks(2).map(|c| entry_from_words(c[0], c[1])).collect();
+                let req =
+                    RayReq { kind: wire::opcode(p[0]), origin: [f(1), f(2), f(3)], dir: [f(4), f(5), f(6)], t_max: f(7), list };
+                let first = req.list.first().copied();
+                let kind = req.kind;
+                self.rays.push(req);
+                match self.mode {
+                    Mode::ErrorOnRay(w) => return self.answer(&[w]),
+                    Mode::SilentOnRay => return,
+                    _ => {}
+                }
+                let hit = kind == op::RAY_CLOSEST || self.shadow_hit;
+                let r = match (hit, first) {
+                    (true, Some(e)) => RayResult {
+                        hit: true,
+                        pe: e.pe,
+                        list_pos: 0,
+                        t: e.t_exit * 0.95,
+                        prim: e.voxel + 100,
+                        material: (e.voxel % 2) as u16,
+                        tests: n as u16,
+                        normal: [0.0, 0.0, 2.0],
+                        cycles: 648 * n as u32,
+                    },
+                    _ => RayResult { tests: n as u16, cycles: 648 * n as u32, ..RayResult::MISS },
+                };
+                self.answer(&r.to_words());
+            }
+            _ => {
+                self.violations.push("unknown opcode");
+                self.answer(&[FslError::UnknownOpcode.to_word(0)]);
+            }
+        }
+    }
+}
+
+const RAY_HEADER: usize = wire::RAY_HEADER_WORDS;
+
+impl FslLink for FakeCoproc {
+    type Error = core::convert::Infallible;
+    fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
+        self.words_in += 1;
+        self.packet.push(word.data);
+        if word.control {
+            self.packet_done();
+        }
+        Ok(())
+    }
+    fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+        self.out.pop_front().ok_or(nb::Error::WouldBlock)
+    }
+}
+
+// ---------------------------------------------------------------- host side helpers
+
+#[derive(Default)]
+struct Wire(Vec<u8>);
+impl ByteSink for Wire {
+    fn write_bytes(&mut self, bytes: &[u8]) {
+        self.0.extend_from_slice(bytes);
+    }
+}
+
+/// One frame the device sent: (seq, kind, payload).
+#[derive(Debug, Clone)]
+struct Reply(u16, u8, Vec<u8>);
+
+impl Reply {
+    fn msg(&self) -> Msg<'_> {
+        Msg::decode(self.1, &self.2).unwrap()
+    }
+}
+
+const VOXELS: usize = 64;
+type Dev = Device<FakeCoproc, NoClock, VOXELS>;
+
+fn info() -> DeviceInfo {
+    DeviceInfo {
+        protocol: 0,
+        firmware: [0, 1, 0],
+        board: 0,
+        max_payload: 0,
+        pe_count: 4,
+        voxel_capacity: 0,
+        pe_mem_words: 4096,
+        features: 0,
+    }
+}
+
+fn device() -> Dev {
+    Device::new(FakeCoproc::new(), NoClock, info())
+}
+
+fn frame(msg: &Msg<'_>, seq: u16) -> Vec<u8> {
+    let mut payload = [0u8; MAX_PAYLOAD];
+    let n = msg.encode(&mut payload).unwrap();
+    let mut out = [0u8; MAX_ENCODED];
+    let len = encode_frame(msg.kind() as u8, seq, &payload[..n], &mut out).unwrap();
+    out[..len].to_vec()
+}
+
+fn replies(wire: &[u8]) -> Vec<Reply> {
+    let mut acc = FrameAccumulator::<{ MAX_ENCODED }>::new();
+    let mut input = wire;
+    let mut out = Vec::new();
+    loop {
+        match acc.feed(input) {
+            FeedResult::Frame { frame, rest } => {
+                out.push(Reply(frame.seq, frame.kind, frame.payload.to_vec()));
+                input = rest;
+            }
+            FeedResult::Consumed => return out,
+            other => panic!("device sent a bad frame: {other:?}"),
+        }
+    }
+}
+
+fn exchange(dev: &mut Dev, bytes: &[u8]) -> Vec<Reply> {
+    let mut w = Wire::default();
+    dev.feed(bytes, &mut w);
+    replies(&w.0)
+}
+
+fn send(dev: &mut Dev, msg: &Msg<'_>) -> Vec<Reply> {
+    exchange(dev, &frame(msg, 0))
+}
+
+fn error_of(r: &Reply) -> (ErrorCode, u32) {
+    match r.msg() {
+        Msg::Error { code, detail, .. } => (code, detail),
+        other => panic!("expected an error, got {other:?}"),
+    }
+}
+
+/// A 2×2×1 grid over [0,2]×[0,2]×[0,1]; voxel 2 is empty, PE 0 owns voxels 0 and 3, PE 1
+/// owns voxel 1. Each PE image holds one triangle per voxel it owns (realistic layout; the
+/// fake does not parse it).
+fn scene_image(dims: [u16; 3], materials: &[Material]) -> Vec<u8> {
+    let voxels = dims.iter().map(|&d| d as usize).product::<usize>();
+    let mut map: Vec<u8> = (0..voxels).map(|v| [0u8, 1, EMPTY_VOXEL, 0][v % 4]).collect();
+    while !map.len().is_multiple_of(4) {
+        map.push(0);
+    }
+    let mut body = map;
+    for m in materials {
+        body.extend_from_slice(&m.to_bytes());
+    }
+    for pe in 0..2u16 {
+        let tri = TriangleRecord { vertices: [[0.1, 0.1, 0.5], [0.9, 0.1, 0.5], [0.1, 0.9, 0.5]], prim: pe as u32, material: 0 };
+        let mut words = vec![1, 1, 1, pe as u32, 0, 1, 0];
+        words.extend_from_slice(&tri.to_words());
+        body.extend_from_slice(&pe.to_le_bytes());
+        body.extend_from_slice(&0u16.to_le_bytes());
+        body.extend_from_slice(&(words.len() as u32).to_le_bytes());
+        for w in words {
+            body.extend_from_slice(&w.to_le_bytes());
+        }
+    }
+    let header = SceneHeader {
+        dims,
+        pe_count: 2,
+        bounds_min: [0.0, 0.0, 0.0],
+        bounds_max: [2.0, 2.0, 1.0],
+        material_count: materials.len() as u16,
+        flags: 0,
+        triangle_count: 2,
+        pe_mem_words: 1024,
+        total_len: (HEADER_LEN + body.len()) as u32,
+        body_crc: crc32(&body),
+    };
+    let mut img = header.to_bytes().to_vec();
+    img.extend_from_slice(&body);
+    img
+}
+
+fn materials() -> [Material; 2] {
+    [Material { diffuse: [0.8, 0.4, 0.2], reflect: 0.0 }, Material { diffuse: [0.1, 0.9, 0.5], reflect: 0.0 }]
+}
+
+/// Uploads `img` in chunks of `chunk` bytes; returns all replies.
+fn upload(dev: &mut Dev, img: &[u8], chunk: usize) -> Vec<Reply> {
+    let mut all = send(dev, &Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(img) });
+    for (i, c) in img.chunks(chunk).enumerate() {
+        all.extend(send(dev, &Msg::SceneChunk { offset: (i * chunk) as u32, data: c }));
+    }
+    all
+}
+
+fn loaded_device() -> Dev {
+    let mut dev = device();
+    let r = upload(&mut dev, &scene_image([2, 2, 1], &materials()), 100);
+    assert!(matches!(r.last().unwrap().msg(), Msg::SceneAck { status: SceneStatus::Loaded, .. }), "{r:?}");
+    dev
+}
+
+fn request(w: u16, h: u16, flags: u16) -> RenderRequest {
+    RenderRequest {
+        frame: 9,
+        width: w,
+        height: h,
+        flags,
+        eye: [1.0, 1.0, 6.0],
+        target: [1.0, 1.0, 0.5],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 20.0,
+        light_pos: [1.0, 3.0, 8.0],
+        light_intensity: 1.0,
+        ambient: 0.15,
+        encoding: PixelEncoding::Rgb888,
+    }
+}
+
+fn stats_map(r: &Reply) -> std::collections::BTreeMap<u8, u64> {
+    let Msg::Stats { entries, .. } = r.msg() else { panic!("not stats: {r:?}") };
+    stat_entries(entries).collect()
+}
+
+/// Splits a render's replies into (colour spans' bytes, prim-id bytes, span count, stats,
+/// frame end (spans, crc)).
+struct Rendered {
+    rgb: Vec<u8>,
+    ids: Vec<u32>,
+    spans: u32,
+    stats: std::collections::BTreeMap<u8, u64>,
+    end: (u32, u32),
+}
+
+fn rendered(replies: &[Reply], w: u16, h: u16) -> Rendered {
+    let mut out = Rendered { rgb: Vec::new(), ids: Vec::new(), spans: 0, stats: Default::default(), end: (0, 0) };
+    let mut next = (0u16, 0u16);
+    for (i, r) in replies.iter().enumerate() {
+        match r.msg() {
+            Msg::PixelSpan { frame, y, x0, count, encoding, data } => {
+                assert_eq!(frame, 9);
+                out.spans += 1;
+                match encoding {
+                    PixelEncoding::Rgb888 => {
+                        assert_eq!((x0, y), next, "spans in row-major order");
+                        let nx = x0 + count;
+                        next = if nx == w { (0, y + 1) } else { (nx, y) };
+                        out.rgb.extend_from_slice(data);
+                    }
+                    PixelEncoding::PrimId32 => {
+                        // Right after the colour span of the same pixels.
+                        let Msg::PixelSpan { y: py, x0: px, count: pc, encoding: PixelEncoding::Rgb888, .. } =
+                            replies[i - 1].msg()
+                        else {
+                            panic!("prim span not after colour span")
+                        };
+                        assert_eq!((py, px, pc), (y, x0, count));
+                        out.ids.extend(data.chunks(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())));
+                    }
+                    _ => panic!(),
+                }
+            }
+            Msg::Stats { frame, .. } => {
+                assert_eq!(frame, 9);
+                out.stats = stats_map(r);
+            }
+            Msg::FrameEnd { frame, spans, image_crc } => {
+                assert_eq!(frame, 9);
+                assert_eq!(i, replies.len() - 1, "FrameEnd comes last");
+                out.end = (spans, image_crc);
+            }
+            other => panic!("unexpected reply {other:?}"),
+        }
+    }
+    assert_eq!(next, (0, h), "every pixel sent once");
+    out
+}
+
+// ---------------------------------------------------------------- tests
+
+#[test]
+fn hello_is_answered_with_version_reporting_capacity_and_features() {
+    let mut dev = device();
+    let r = send(&mut dev, &Msg::Hello { protocol: 1 });
+    assert_eq!(r.len(), 1);
+    let Msg::Version(v) = r[0].msg() else { panic!() };
+    assert_eq!(v.voxel_capacity, VOXELS as u32);
+    assert_eq!(v.protocol, gridrt_shared::PROTOCOL_VERSION as u16);
+    assert_eq!(v.max_payload as usize, MAX_PAYLOAD);
+    assert_eq!((v.board, v.pe_count, v.pe_mem_words, v.firmware), (0, 4, 4096, [0, 1, 0]));
+    assert_eq!(v.features & FEATURE_SHADOWS != 0, cfg!(feature = "shadows"));
+    assert_ne!(v.features & FEATURE_PRIM_IDS, 0);
+    // Sequence numbers count up per frame sent.
+    let r2 = send(&mut dev, &Msg::Hello { protocol: 1 });
+    assert_eq!((r[0].0, r2[0].0), (0, 1));
+}
+
+#[test]
+fn scene_upload_clears_then_loads_every_pe_block_and_acks_every_chunk() {
+    let img = scene_image([2, 2, 1], &materials());
+    let mut dev = device();
+    let r = upload(&mut dev, &img, 37);
+    let chunks = img.len().div_ceil(37);
+    assert_eq!(r.len(), chunks, "one ack per chunk, none for SceneBegin");
+    for (i, a) in r.iter().enumerate() {
+        let Msg::SceneAck { next_offset, status } = a.msg() else { panic!("{a:?}") };
+        assert_eq!(next_offset as usize, ((i + 1) * 37).min(img.len()));
+        let want = if i + 1 == chunks { SceneStatus::Loaded } else { SceneStatus::Receiving };
+        assert_eq!(status, want);
+    }
+    assert!(dev.scene_loaded());
+    let fake = dev.link();
+    assert_eq!(fake.clears, 1);
+    assert!(fake.violations.is_empty(), "{:?}", fake.violations);
+    assert_eq!(fake.loads.len(), 2);
+    for (pe, (hdr, words)) in fake.loads.iter().enumerate() {
+        assert_eq!(*hdr, wire::load_header(pe as u8) as u8);
+        assert_eq!(words.len(), 7 + 11);
+        assert_eq!(words[3], pe as u32);
+    }
+}
+
+#[test]
+fn any_chunking_of_the_image_loads_the_same_scene() {
+    let img = scene_image([2, 2, 1], &materials());
+    let mut rng = ChaCha8Rng::seed_from_u64(0xC4_0001);
+    for _ in 0..50 {
+        let mut dev = device();
+        let mut all = send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) });
+        let mut off = 0;
+        while off < img.len() {
+            let n = rng.gen_range(0..=64).min(img.len() - off);
+            all.extend(send(&mut dev, &Msg::SceneChunk { offset: off as u32, data: &img[off..off + n] }));
+            off += n;
+        }
+        assert!(matches!(all.last().unwrap().msg(), Msg::SceneAck { status: SceneStatus::Loaded, .. }));
+        assert_eq!(dev.link().loads.len(), 2);
+    }
+}
+
+#[test]
+fn corrupted_image_is_rejected_with_bad_crc_and_renders_get_no_scene() {
+    let mut img = scene_image([2, 2, 1], &materials());
+    let last = img.len() - 1;
+    img[last] ^= 0x01; // inside the last PE word: the body CRC no longer matches
+    let mut dev = device();
+    let r = upload(&mut dev, &img, 1000);
+    assert_eq!(error_of(r.last().unwrap()), (ErrorCode::SceneRejected, scene_error_code(SceneError::BadCrc)));
+    assert!(!dev.scene_loaded());
+    let r = send(&mut dev, &Msg::RenderRequest(request(4, 3, 0)));
+    assert_eq!(error_of(&r[0]).0, ErrorCode::NoScene);
+    assert_eq!(r.len(), 1);
+}
+
+#[test]
+fn scene_begin_crc_mismatch_is_rejected() {
+    let img = scene_image([2, 2, 1], &materials());
+    let mut dev = device();
+    send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) ^ 1 });
+    let r = send(&mut dev, &Msg::SceneChunk { offset: 0, data: &img });
+    assert_eq!(error_of(&r[0]), (ErrorCode::SceneRejected, scene_error_code(SceneError::BadCrc)));
+    assert!(!dev.scene_loaded());
+}
+
+#[test]
+fn out_of_order_chunk_gets_bad_offset_and_upload_can_continue() {
+    let img = scene_image([2, 2, 1], &materials());
+    let mut dev = device();
+    send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) });
+    let r = send(&mut dev, &Msg::SceneChunk { offset: 0, data: &img[..50] });
+    assert!(matches!(r[0].msg(), Msg::SceneAck { next_offset: 50, status: SceneStatus::Receiving }));
+    // Skips ahead, then repeats: both refused with the expected offset.
+    let r = send(&mut dev, &Msg::SceneChunk { offset: 60, data: &img[60..80] });
+    assert_eq!(error_of(&r[0]), (ErrorCode::BadOffset, 50));
+    let r = send(&mut dev, &Msg::SceneChunk { offset: 0, data: &img[..50] });
+    assert_eq!(error_of(&r[0]), (ErrorCode::BadOffset, 50));
+    let r = send(&mut dev, &Msg::SceneChunk { offset: 50, data: &img[50..] });
+    assert!(matches!(r[0].msg(), Msg::SceneAck { status: SceneStatus::Loaded, .. }));
+    assert!(dev.scene_loaded());
+}
+
+#[test]
+fn chunk_without_scene_begin_is_unexpected() {
+    let mut dev = device();
+    let r = send(&mut dev, &Msg::SceneChunk { offset: 0, data: &[1, 2, 3] });
+    assert_eq!(error_of(&r[0]), (ErrorCode::UnexpectedMessage, MsgType::SceneChunk as u32));
+}
+
+#[test]
+fn grid_larger_than_voxel_capacity_is_rejected_before_touching_the_coproc() {
+    let img = scene_image([9, 9, 1], &materials()); // 81 > 64 voxels
+    let mut dev = device();
+    let r = upload(&mut dev, &img, 2000);
+    assert_eq!(error_of(&r[0]), (ErrorCode::SceneRejected, scene_error_code(SceneError::GridTooLarge)));
+    assert_eq!(dev.link().clears, 0);
+    assert_eq!(dev.link().words_in, 0);
+}
+
+#[test]
+fn coproc_error_on_load_rejects_the_scene() {
+    let img = scene_image([2, 2, 1], &materials());
+    let mut dev = device();
+    dev.link_mut().mode = Mode::ErrorOnLoad(FslError::PeMemoryOverflow.to_word(1));
+    let r = upload(&mut dev, &img, 2000);
+    assert_eq!(r.len(), 1);
+    assert_eq!(error_of(&r[0]), (ErrorCode::SceneRejected, scene_error_code(SceneError::Rejected)));
+    let Msg::Error { text, .. } = r[0].msg() else { panic!() };
+    assert!(text.contains("PE memory"), "{text}");
+    assert!(!dev.scene_loaded());
+}
+
+#[test]
+fn render_4x3_sends_one_span_per_row_then_stats_then_frame_end_with_image_crc() {
+    let mut dev = loaded_device();
+    let r = send(&mut dev, &Msg::RenderRequest(request(4, 3, 0)));
+    let out = rendered(&r, 4, 3);
+    assert_eq!(out.spans, 3);
+    assert_eq!(out.end, (3, crc32(&out.rgb)));
+    assert_eq!(out.rgb.len(), 4 * 3 * 3);
+    let s = &out.stats;
+    assert_eq!(s.len(), STAT_COUNT);
+    assert_eq!((s[&stat::PIXELS], s[&stat::PRIMARY_RAYS], s[&stat::SHADOW_RAYS]), (12, 12, 0));
+    assert_eq!(s[&stat::COPROC_RAYS] + s[&stat::CULLED_RAYS], 12);
+    assert!(s[&stat::COPROC_RAYS] > 0 && s[&stat::CULLED_RAYS] > 0, "{s:?}");
+    let fake = dev.link();
+    assert!(fake.violations.is_empty(), "{:?}", fake.violations);
+    let entries: usize = fake.rays.iter().map(|r| r.list.len()).sum();
+    assert_eq!(s[&stat::COPROC_RAYS], fake.rays.len() as u64);
+    assert_eq!(s[&stat::LIST_ENTRIES], entries as u64);
+    assert_eq!(s[&stat::FSL_WORDS_OUT], (8 * fake.rays.len() + 2 * entries) as u64);
+    assert_eq!(s[&stat::FSL_WORDS_IN], 8 * fake.rays.len() as u64);
+    assert_eq!(s[&stat::INTERSECTION_TESTS], entries as u64);
+    assert_eq!(s[&stat::COPROC_CYCLES], 648 * entries as u64);
+    for st in Stage::ALL {
+        assert_eq!((s[&st.instret_key()], s[&st.cycles_key()]), (0, 0), "NoClock counts nothing");
+    }
+    // Rays are primary rays from the eye with t_max = ∞; lists skip the empty voxel 2.
+    for ray in &fake.rays {
+        assert_eq!((ray.kind, ray.origin, ray.t_max), (op::RAY_CLOSEST, [1.0, 1.0, 6.0], f32::INFINITY));
+        assert!(ray.list.iter().all(|e| e.voxel != 2 && e.voxel < 4));
+    }
+}
+
+#[test]
+fn rendered_pixels_follow_the_shading_contract() {
+    let mut dev = loaded_device();
+    let req = request(4, 3, render_flags::PRIM_IDS);
+    let r = send(&mut dev, &Msg::RenderRequest(req));
+    let out = rendered(&r, 4, 3);
+    assert_eq!(out.spans, 6, "a prim-id span after each colour span");
+    assert_eq!(out.end.1, crc32(&out.rgb));
+    let cam = Camera::new(Vec3::from(req.eye), Vec3::from(req.target), Vec3::from(req.up), req.fov_y_deg, 4, 3).unwrap();
+    let light = Light { pos: Vec3::from(req.light_pos), intensity: 1.0, ambient: 0.15 };
+    let mats = materials();
+    let mut list = TraversalList::new();
+    let grid = GridDesc { min: Vec3::ZERO, max: Vec3::new(2.0, 2.0, 1.0), dims: [2, 2, 1] };
+    for y in 0..3u32 {
+        for x in 0..4u32 {
+            let i = (y * 4 + x) as usize;
+            let ray = cam.primary_ray(x, y);
+            build_list(&grid, &[0, 1, EMPTY_VOXEL, 0], &ray, 0.0, f32::INFINITY, &mut list);
+            let (want, id) = match list.first() {
+                None => (shade::to_rgb8(BACKGROUND), u32::MAX),
+                Some(e) => {
+                    // The fake hits at 0.95 of the first entry's exit with normal +z.
+                    let p = shade::hit_point(&ray, e.t_exit * 0.95);
+                    let n = shade::facing_normal([0.0, 0.0, 2.0], ray.dir).unwrap();
+                    let c = shade::lambert(mats[(e.voxel % 2) as usize].diffuse, &light, shade::n_dot_l(p, n, light.pos), true);
+                    (shade::to_rgb8(c), e.voxel + 100)
+                }
+            };
+            assert_eq!(&out.rgb[3 * i..3 * i + 3], &want, "pixel ({x}, {y})");
+            assert_eq!(out.ids[i], id, "prim id of ({x}, {y})");
+        }
+    }
+}
+
+#[cfg(feature = "shadows")]
+#[test]
+fn shadow_rays_are_any_hit_queries_toward_the_light_and_darken_occluded_pixels() {
+    let mut dev = loaded_device();
+    dev.link_mut().shadow_hit = true;
+    let r = send(&mut dev, &Msg::RenderRequest(request(4, 3, render_flags::SHADOWS)));
+    let shadowed = rendered(&r, 4, 3);
+    let s = &shadowed.stats;
+    assert!(s[&stat::SHADOW_RAYS] > 0);
+    assert_eq!(s[&stat::COPROC_RAYS] + s[&stat::CULLED_RAYS], s[&stat::PRIMARY_RAYS] + s[&stat::SHADOW_RAYS]);
+    let fake = dev.link();
+    let any: Vec<_> = fake.rays.iter().filter(|r| r.kind == op::RAY_ANY).collect();
+    assert!(!any.is_empty());
+    for ray in &any {
+        assert_eq!(ray.t_max, shade::SHADOW_T_MAX);
+        // Direction ends at the light.
+        let end = Vec3::from(ray.origin) + Vec3::from(ray.dir);
+        assert!((end - Vec3::new(1.0, 3.0, 8.0)).length() < 1e-5);
+    }
+    // Same frame with the light unoccluded is brighter wherever a shadow ray was sent.
+    dev.link_mut().shadow_hit = false;
+    let r = send(&mut dev, &Msg::RenderRequest(request(4, 3, render_flags::SHADOWS)));
+    let lit = rendered(&r, 4, 3);
+    assert!(shadowed.rgb.iter().zip(&lit.rgb).all(|(a, b)| a <= b));
+    assert!(shadowed.rgb.iter().zip(&lit.rgb).any(|(a, b)| a < b));
+}
+
+#[cfg(not(feature = "shadows"))]
+#[test]
+fn without_shadows_feature_no_any_hit_query_is_ever_sent() {
+    let mut dev = loaded_device();
+    let r = send(&mut dev, &Msg::RenderRequest(request(4, 3, render_flags::SHADOWS)));
+    let out = rendered(&r, 4, 3);
+    assert_eq!(out.stats[&stat::SHADOW_RAYS], 0);
+    assert!(dev.link().rays.iter().all(|r| r.kind == op::RAY_CLOSEST));
+}
+
+#[test]
+fn ray_missing_the_grid_costs_zero_fsl_words() {
+    let mut dev = loaded_device();
+    let words_after_load = dev.link().words_in;
+    let mut req = request(4, 3, render_flags::SHADOWS | render_flags::PRIM_IDS);
+    req.target = [1.0, 1.0, 20.0]; // looking away from the grid
+    let r = send(&mut dev, &Msg::RenderRequest(req));
+    let out = rendered(&r, 4, 3);
+    assert_eq!(dev.link().words_in, words_after_load);
+    assert_eq!(out.stats[&stat::FSL_WORDS_OUT], 0);
+    assert_eq!(out.stats[&stat::FSL_WORDS_IN], 0);
+    assert_eq!(out.stats[&stat::CULLED_RAYS], 12);
+    assert!(out.rgb.chunks(3).all(|p| p == shade::to_rgb8(BACKGROUND)));
+    assert!(out.ids.iter().all(|&i| i == u32::MAX));
+}
+
+#[test]
+fn coproc_error_word_aborts_the_frame_with_an_error_message_then_device_recovers() {
+    let mut dev = loaded_device();
+    let word = FslError::VoxelNotLoaded.to_word(3);
+    dev.link_mut().mode = Mode::ErrorOnRay(word);
+    let r = send(&mut dev, &Msg::RenderRequest(request(4, 3, 0)));
+    let last = r.last().unwrap();
+    assert_eq!(error_of(last), (ErrorCode::Coprocessor, word));
+    assert!(!r.iter().any(|x| x.1 == MsgType::FrameEnd as u8), "aborted frame has no FrameEnd");
+    assert_eq!(dev.link().rays.len(), 1, "stops at the first failing ray");
+    dev.link_mut().mode = Mode::Normal;
+    let r = send(&mut dev, &Msg::RenderRequest(request(4, 3, 0)));
+    rendered(&r, 4, 3);
+}
+
+#[test]
+fn link_timeout_aborts_the_frame_with_an_error_and_does_not_hang() {
+    let mut dev = loaded_device();
+    dev.set_poll_budget(10_000);
+    dev.link_mut().mode = Mode::SilentOnRay;
+    let r = send(&mut dev, &Msg::RenderRequest(request(4, 3, 0)));
+    assert_eq!(error_of(r.last().unwrap()), (ErrorCode::Coprocessor, DETAIL_LINK_TIMEOUT));
+    assert!(!r.iter().any(|x| x.1 == MsgType::FrameEnd as u8));
+    // The device still answers.
+    let r = send(&mut dev, &Msg::Hello { protocol: 1 });
+    assert!(matches!(r[0].msg(), Msg::Version(_)));
+}
+
+#[test]
+fn garbage_between_frames_is_survived() {
+    let mut rng = ChaCha8Rng::seed_from_u64(0x6A6B_0001);
+    let mut dev = device();
+    let hello = frame(&Msg::Hello { protocol: 1 }, 3);
+    for round in 0..200 {
+        let mut bytes = Vec::new();
+        let n = rng.gen_range(1..300);
+        bytes.extend((0..n).map(|_| rng.gen::<u8>()));
+        bytes.push(0); // the host's flush delimiter ends the noise
+        bytes.extend_from_slice(&hello);
+        // Feed in random pieces: reassembly must not depend on read boundaries.
+        let mut w = Wire::default();
+        let mut rest = &bytes[..];
+        while !rest.is_empty() {
+            let k = rng.gen_range(1..=rest.len());
+            dev.feed(&rest[..k], &mut w);
+            rest = &rest[k..];
+        }
+        let r = replies(&w.0);
+        let last = r.last().unwrap_or_else(|| panic!("round {round}: no reply"));
+        assert!(matches!(last.msg(), Msg::Version(_)), "round {round}: {r:?}");
+        for e in &r[..r.len() - 1] {
+            let (code, _) = error_of(e);
+            assert!(matches!(code, ErrorCode::BadFrame | ErrorCode::UnexpectedMessage | ErrorCode::BadRequest), "{code:?}");
+        }
+    }
+}
+
+#[test]
+fn oversize_frame_is_reported_and_the_next_frame_handled() {
+    let mut dev = device();
+    let mut bytes = vec![0x55u8; MAX_ENCODED + 10];
+    bytes.push(0);
+    bytes.extend_from_slice(&frame(&Msg::Hello { protocol: 1 }, 0));
+    let r = exchange(&mut dev, &bytes);
+    assert_eq!(error_of(&r[0]), (ErrorCode::BadFrame, frame_error_code(FrameError::DecodeOversize)));
+    assert!(matches!(r[1].msg(), Msg::Version(_)));
+}
+
+#[test]
+fn bad_render_requests_name_the_offending_field() {
+    let mut dev = loaded_device();
+    type Edit = fn(&mut RenderRequest);
+    let cases: [(Edit, u32); 8] = [
+        (|r| r.width = 0, 2),
+        (|r| r.height = 4097, 4),
+        (|r| r.eye = [f32::NAN, 0.0, 0.0], 8),
+        (|r| r.target = r.eye, 20),
+        (|r| r.up = [0.0, 0.0, 1.0], 32),
+        (|r| r.fov_y_deg = 0.0, 44),
+        (|r| r.ambient = f32::INFINITY, 64),
+        (|r| r.encoding = PixelEncoding::PrimId32, 68),
+    ];
+    for (edit, field) in cases {
+        let mut req = request(4, 3, 0);
+        edit(&mut req);
+        let r = send(&mut dev, &Msg::RenderRequest(req));
+        assert_eq!(r.len(), 1);
+        assert_eq!(error_of(&r[0]), (ErrorCode::BadRequest, field));
+    }
+    assert!(dev.link().rays.is_empty(), "no ray for an invalid request");
+}
+
+#[test]
+fn device_to_host_messages_and_unknown_types_are_unexpected() {
+    let mut dev = device();
+    let r = send(&mut dev, &Msg::SceneAck { next_offset: 0, status: SceneStatus::Receiving });
+    assert_eq!(error_of(&r[0]), (ErrorCode::UnexpectedMessage, MsgType::SceneAck as u32));
+    let mut out = [0u8; 64];
+    let n = encode_frame(0x55, 0, &[], &mut out).unwrap();
+    let r = exchange(&mut dev, &out[..n]);
+    assert_eq!(error_of(&r[0]), (ErrorCode::UnexpectedMessage, 0x55));
+    // Known type, malformed payload.
+    let n = encode_frame(MsgType::RenderRequest as u8, 0, &[1, 2, 3], &mut out).unwrap();
+    let r = exchange(&mut dev, &out[..n]);
+    assert_eq!(error_of(&r[0]), (ErrorCode::BadRequest, MsgType::RenderRequest as u32));
+}
+
+/// A clock that advances by a fixed amount per read: stage counters must add up to the
+/// total of all laps.
+struct TickClock(core::cell::Cell<u64>);
+impl StageClock for TickClock {
+    fn now(&self) -> StageCount {
+        let t = self.0.get() + 10;
+        self.0.set(t);
+        StageCount { cycles: t, instret: t / 2 }
+    }
+}
+
+#[test]
+fn stage_counters_are_reported_under_stage_keys() {
+    let mut dev: Device<FakeCoproc, TickClock, VOXELS> = Device::new(FakeCoproc::new(), TickClock(Default::default()), info());
+    let mut w = Wire::default();
+    let img = scene_image([2, 2, 1], &materials());
+    dev.feed(&frame(&Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) }, 0), &mut w);
+    dev.feed(&frame(&Msg::SceneChunk { offset: 0, data: &img }, 1), &mut w);
+    let mut w = Wire::default();
+    dev.feed(&frame(&Msg::RenderRequest(request(4, 3, 0)), 2), &mut w);
+    let out = rendered(&replies(&w.0), 4, 3);
+    let s = &out.stats;
+    for st in Stage::ALL {
+        assert!(s[&st.cycles_key()] > 0, "{st:?}");
+        assert_eq!(s[&st.instret_key()], s[&st.cycles_key()] / 2, "{st:?}");
+    }
+    assert_eq!(Stage::RayGen.instret_key(), stat::STAGE_BASE);
+    assert_eq!(Stage::Encode.cycles_key(), stat::STAGE_BASE + 9);
+}

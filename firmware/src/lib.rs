@@ -1,0 +1,24 @@
+//! Soft-core firmware library: everything the device does between its UART and its
+//! co-processor link, written once and compiled both for the RISC-V image and for host tests
+//! and the loopback simulator.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`camera`] | pinhole camera (CONTRACTS.md) |
+//! | [`dda`] | 3D-DDA grid traversal and traversal lists (Amanatides & Woo 1987) |
+//! | [`shade`] | ambient + Lambert + shadow-ray shading (CONTRACTS.md) |
+//! | [`pixels`] | frame encoder, pixel spans, running image CRC |
+//! | [`device`] | the device state machine (UART frames ↔ FSL link) |
+//! | [`fsl`] | the co-processor link trait |
+//! | [`bsp`] | board drivers |
+#![cfg_attr(not(test), no_std)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+pub mod bsp;
+pub mod camera;
+pub mod dda;
+pub mod device;
+pub mod fsl;
+pub mod pixels;
+pub mod shade;

@@ -1,0 +1,292 @@
+//! Outbound frames: the UART frame encoder with the device's sequence number, and the pixel
+//! span packer with the running image CRC.
+//!
+//! Wire format: `shared::frame` (COBS + CRC-32 frames) carrying `shared::msg` payloads.
+//! A frame's pixels leave as `PixelSpan` messages of one row segment each, in row-major order,
+//! so the CRC-32 of the whole RGB888 image (sent in `FrameEnd`) can be computed on the fly
+//! without holding the image.
+
+use crate::device::ByteSink;
+use gridrt_shared::frame::{encode_frame, Crc32Digest, FrameError, MAX_ENCODED, MAX_PAYLOAD};
+use gridrt_shared::msg::{Msg, MsgError, PixelEncoding};
+
+/// Bytes of a `PixelSpan` payload before the pixel data.
+pub const SPAN_HEADER_LEN: usize = 10;
+
+/// Pixels per colour span when only colour is sent (1 546-byte payload).
+pub const MAX_SPAN_PIXELS: usize = 512;
+
+/// Pixels per span when `render_flags::PRIM_IDS` is set: a 512-pixel `PrimId32` span would
+/// need 10 + 2 048 bytes > `MAX_PAYLOAD`, so both spans of a pair hold at most 509 pixels.
+pub const MAX_SPAN_PIXELS_WITH_IDS: usize = (MAX_PAYLOAD - SPAN_HEADER_LEN) / 4;
+
+const _: () = assert!(SPAN_HEADER_LEN + 3 * MAX_SPAN_PIXELS <= MAX_PAYLOAD);
+const _: () = assert!(SPAN_HEADER_LEN + 4 * MAX_SPAN_PIXELS_WITH_IDS <= MAX_PAYLOAD);
+const _: () = assert!(MAX_SPAN_PIXELS_WITH_IDS <= MAX_SPAN_PIXELS);
+
+/// Why a message could not be sent (a firmware bug, never outside data).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TxError {
+    /// The payload did not fit.
+    Msg(MsgError),
+    /// The frame did not fit.
+    Frame(FrameError),
+}
+
+/// Frame encoder: owns the outbound sequence number and the payload/wire buffers.
+pub struct FrameTx {
+    seq: u16,
+    payload: [u8; MAX_PAYLOAD],
+    wire: [u8; MAX_ENCODED],
+}
+
+impl Default for FrameTx {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl FrameTx {
+    /// Encoder whose first frame has sequence number 0.
+    pub const fn new() -> Self {
+        Self { seq: 0, payload: [0; MAX_PAYLOAD], wire: [0; MAX_ENCODED] }
+    }
+
+    /// Sequence number of the next frame.
+    pub fn next_seq(&self) -> u16 {
+        self.seq
+    }
+
+    /// Encodes `msg` as one frame and writes it; the sequence number advances (wrapping) only
+    /// when the frame was written.
+    pub fn send<S: ByteSink + ?Sized>(&mut self, msg: &Msg<'_>, out: &mut S) -> Result<(), TxError> {
+        let n = msg.encode(&mut self.payload).map_err(TxError::Msg)?;
+        let payload = self.payload.get(..n).ok_or(TxError::Msg(MsgError::EncodeBufferTooSmall))?;
+        let len = encode_frame(msg.kind() as u8, self.seq, payload, &mut self.wire).map_err(TxError::Frame)?;
+        let wire = self.wire.get(..len).ok_or(TxError::Frame(FrameError::EncodeBufferTooSmall))?;
+        out.write_bytes(wire);
+        self.seq = self.seq.wrapping_add(1);
+        Ok(())
+    }
+}
+
+/// Packs pixels into row-segment spans (plus `PrimId32` spans when asked) and keeps the
+/// running CRC-32 of the RGB888 image. Pixels must be pushed in row-major order.
+pub struct SpanEncoder {
+    frame: u16,
+    prim_ids: bool,
+    span_len: usize,
+    y: u16,
+    x0: u16,
+    count: usize,
+    rgb: [u8; 3 * MAX_SPAN_PIXELS],
+    ids: [u8; 4 * MAX_SPAN_PIXELS_WITH_IDS],
+    crc: Crc32Digest,
+    spans: u32,
+}
+
+impl Default for SpanEncoder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl SpanEncoder {
+    /// An idle encoder (call [`begin`](Self::begin) per frame).
+    pub fn new() -> Self {
+        Self {
+            frame: 0,
+            prim_ids: false,
+            span_len: MAX_SPAN_PIXELS,
+            y: 0,
+            x0: 0,
+            count: 0,
+            rgb: [0; 3 * MAX_SPAN_PIXELS],
+            ids: [0; 4 * MAX_SPAN_PIXELS_WITH_IDS],
+            crc: Crc32Digest::default(),
+            spans: 0,
+        }
+    }
+
+    /// Starts frame `frame`; with `prim_ids` every colour span is followed by a `PrimId32`
+    /// span of the same pixels.
+    pub fn begin(&mut self, frame: u16, prim_ids: bool) {
+        self.frame = frame;
+        self.prim_ids = prim_ids;
+        self.span_len = if prim_ids { MAX_SPAN_PIXELS_WITH_IDS } else { MAX_SPAN_PIXELS };
+        self.count = 0;
+        self.crc = Crc32Digest::default();
+        self.spans = 0;
+    }
+
+    /// Adds pixel (x, y). A pixel that does not continue the pending span (other row, gap) or
+    /// a full span flushes the pending span first.
+    #[inline]
+    pub fn push<S: ByteSink + ?Sized>(
+        &mut self,
+        x: u16,
+        y: u16,
+        rgb: [u8; 3],
+        prim: u32,
+        tx: &mut FrameTx,
+        out: &mut S,
+    ) -> Result<(), TxError> {
+        let continues = self.count > 0 && y == self.y && x as usize == self.x0 as usize + self.count;
+        if self.count > 0 && (!continues || self.count >= self.span_len) {
+            self.flush(tx, out)?;
+        }
+        if self.count == 0 {
+            self.y = y;
+            self.x0 = x;
+        }
+        let i = self.count;
+        if let Some(dst) = self.rgb.get_mut(3 * i..3 * i + 3) {
+            dst.copy_from_slice(&rgb);
+        }
+        if self.prim_ids {
+            if let Some(dst) = self.ids.get_mut(4 * i..4 * i + 4) {
+                dst.copy_from_slice(&prim.to_le_bytes());
+            }
+        }
+        self.count += 1;
+        Ok(())
+    }
+
+    /// Sends the pending span (and its `PrimId32` span), if any.
+    pub fn flush<S: ByteSink + ?Sized>(&mut self, tx: &mut FrameTx, out: &mut S) -> Result<(), TxError> {
+        let n = core::mem::take(&mut self.count);
+        if n == 0 {
+            return Ok(());
+        }
+        let rgb = self.rgb.get(..3 * n).unwrap_or(&[]);
+        self.crc.update(rgb);
+        let span = |encoding, data| Msg::PixelSpan { frame: self.frame, y: self.y, x0: self.x0, count: n as u16, encoding, data };
+        tx.send(&span(PixelEncoding::Rgb888, rgb), out)?;
+        self.spans += 1;
+        if self.prim_ids {
+            tx.send(&span(PixelEncoding::PrimId32, self.ids.get(..4 * n).unwrap_or(&[])), out)?;
+            self.spans += 1;
+        }
+        Ok(())
+    }
+
+    /// Spans sent so far in this frame (colour and prim-id spans).
+    pub fn spans(&self) -> u32 {
+        self.spans
+    }
+
+    /// Ends the frame: returns (spans sent, CRC-32 of the RGB888 image). Call after the last
+    /// [`flush`](Self::flush).
+    pub fn finish(&mut self) -> (u32, u32) {
+        (self.spans, core::mem::take(&mut self.crc).finalize())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gridrt_shared::frame::{crc32, FeedResult, FrameAccumulator};
+
+    #[derive(Default)]
+    struct Wire(Vec<u8>);
+    impl ByteSink for Wire {
+        fn write_bytes(&mut self, bytes: &[u8]) {
+            self.0.extend_from_slice(bytes);
+        }
+    }
+
+    /// Decodes every frame on the wire as (seq, kind, payload).
+    fn frames(wire: &[u8]) -> Vec<(u16, u8, Vec<u8>)> {
+        let mut acc = FrameAccumulator::<{ MAX_ENCODED }>::new();
+        let mut input = wire;
+        let mut out = Vec::new();
+        loop {
+            match acc.feed(input) {
+                FeedResult::Frame { frame, rest } => {
+                    out.push((frame.seq, frame.kind, frame.payload.to_vec()));
+                    input = rest;
+                }
+                FeedResult::Consumed => return out,
+                other => panic!("{other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn sequence_numbers_count_up_per_frame_and_wrap() {
+        let mut tx = FrameTx::new();
+        let mut w = Wire::default();
+        tx.seq = u16::MAX;
+        tx.send(&Msg::Hello { protocol: 1 }, &mut w).unwrap();
+        tx.send(&Msg::Hello { protocol: 1 }, &mut w).unwrap();
+        let seqs: Vec<_> = frames(&w.0).iter().map(|f| f.0).collect();
+        assert_eq!(seqs, [u16::MAX, 0]);
+    }
+
+    #[test]
+    fn long_rows_split_into_max_size_spans_and_crc_covers_the_image() {
+        for prim_ids in [false, true] {
+            let (w, h) = (1100u16, 2u16);
+            let mut tx = FrameTx::new();
+            let mut enc = SpanEncoder::new();
+            let mut wire = Wire::default();
+            enc.begin(7, prim_ids);
+            let mut image = Vec::new();
+            for y in 0..h {
+                for x in 0..w {
+                    let rgb = [x as u8, y as u8, (x >> 8) as u8];
+                    image.extend_from_slice(&rgb);
+                    enc.push(x, y, rgb, x as u32 * 10 + y as u32, &mut tx, &mut wire).unwrap();
+                }
+                enc.flush(&mut tx, &mut wire).unwrap();
+            }
+            let (spans, crc) = enc.finish();
+            assert_eq!(crc, crc32(&image));
+            let frames = frames(&wire.0);
+            assert_eq!(frames.len() as u32, spans);
+            let per_row = if prim_ids { 3 * 2 } else { 3 };
+            assert_eq!(spans, per_row * h as u32);
+            let mut got = Vec::new();
+            let mut next_x = 0;
+            for (_, kind, payload) in &frames {
+                let Msg::PixelSpan { frame, y, x0, count, encoding, data } = Msg::decode(*kind, payload).unwrap() else {
+                    panic!()
+                };
+                assert_eq!(frame, 7);
+                let cap = if prim_ids { MAX_SPAN_PIXELS_WITH_IDS } else { MAX_SPAN_PIXELS };
+                assert!(count as usize <= cap);
+                match encoding {
+                    PixelEncoding::Rgb888 => {
+                        assert_eq!(x0, next_x % w);
+                        next_x = (x0 + count) % w;
+                        got.extend_from_slice(data);
+                    }
+                    PixelEncoding::PrimId32 => {
+                        for (i, c) in data.chunks(4).enumerate() {
+                            let id = u32::from_le_bytes(c.try_into().unwrap());
+                            assert_eq!(id, (x0 as u32 + i as u32) * 10 + y as u32);
+                        }
+                    }
+                    _ => panic!(),
+                }
+            }
+            assert_eq!(got, image);
+        }
+    }
+
+    #[test]
+    fn gap_or_row_change_flushes_pending_span() {
+        let mut tx = FrameTx::new();
+        let mut enc = SpanEncoder::new();
+        let mut wire = Wire::default();
+        enc.begin(1, false);
+        enc.push(0, 0, [1; 3], 0, &mut tx, &mut wire).unwrap();
+        enc.push(1, 0, [1; 3], 0, &mut tx, &mut wire).unwrap();
+        enc.push(0, 1, [2; 3], 0, &mut tx, &mut wire).unwrap();
+        enc.push(5, 1, [3; 3], 0, &mut tx, &mut wire).unwrap();
+        enc.flush(&mut tx, &mut wire).unwrap();
+        enc.flush(&mut tx, &mut wire).unwrap(); // nothing pending: no frame
+        assert_eq!(enc.finish().0, 3);
+        assert_eq!(frames(&wire.0).len(), 3);
+    }
+}

@@ -1,0 +1,124 @@
+//! Option groups shared by subcommands (`#[clap(flatten)]`ed).
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use gridrt_coproc::{KernelKind, TimingProfile};
+use gridrt_host::grid::PeMapping;
+use gridrt_host::scene::Mesh;
+
+/// Where the device is.
+#[derive(Debug, Clone, clap::Args)]
+#[command(next_help_heading = "Connection")]
+pub struct PortOptions {
+    /// Use the in-process loopback simulator (firmware device loop + co-processor model),
+    /// reached only through an in-memory UART byte stream.
+    #[arg(long, required_unless_present = "port", conflicts_with = "port")]
+    pub sim: bool,
+    /// Serial port of a board or of QEMU's pty (e.g. /dev/ttyUSB0, /dev/pts/3).
+    #[arg(long, value_name = "PATH")]
+    pub port: Option<String>,
+    /// Baud rate for --port.
+    #[arg(long, default_value_t = 115_200, value_name = "BAUD")]
+    pub baud: u32,
+    /// Seconds the render may go without any message from the device before it fails.
+    #[arg(long, default_value_t = 120.0, value_name = "SECONDS")]
+    pub timeout: f64,
+}
+
+/// Scene file and grid build.
+#[derive(Debug, Clone, clap::Args)]
+#[command(next_help_heading = "Scene and grid")]
+pub struct SceneOptions {
+    /// Scene file: Wavefront .obj (with .mtl materials) or .ply.
+    #[arg(long, value_name = "PATH")]
+    pub scene: PathBuf,
+    /// Processing elements of the co-processor (1..=255).
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    pub pes: u16,
+    /// Words of memory per PE [default: the simulator's 1048576; a board reports its own].
+    #[arg(long, value_name = "W")]
+    pub pe_mem_words: Option<u32>,
+    /// Grid resolution multiplier m of GridRT Eq. 6.1 (n_i = floor(m·w_i/s) + 1).
+    #[arg(long, default_value_t = 1.0, value_name = "M")]
+    pub grid_m: f64,
+    /// Voxel→PE mapping.
+    #[arg(long, value_enum, default_value_t = Mapping::Interleaved)]
+    pub mapping: Mapping,
+}
+
+impl SceneOptions {
+    /// Loads the scene file.
+    pub fn load(&self) -> anyhow::Result<Mesh> {
+        gridrt_host::scene::load(&self.scene).with_context(|| format!("loading scene {}", self.scene.display()))
+    }
+}
+
+/// Voxel→PE mapping choices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Mapping {
+    /// (ix + iy + iz) mod N: consecutive voxels of a ray go to different PEs.
+    Interleaved,
+    /// N contiguous slabs along x (GridRT's spatial split).
+    Slabs,
+}
+
+impl From<Mapping> for PeMapping {
+    fn from(m: Mapping) -> Self {
+        match m {
+            Mapping::Interleaved => PeMapping::Interleaved,
+            Mapping::Slabs => PeMapping::Slabs,
+        }
+    }
+}
+
+/// Co-processor model choices (simulator and bench).
+#[derive(Debug, Clone, clap::Args)]
+#[command(next_help_heading = "Co-processor model")]
+pub struct ModelOptions {
+    /// Intersection kernel every PE runs.
+    #[arg(long, value_enum, default_value_t = Kernel::Watertight)]
+    pub kernel: Kernel,
+    /// Cycle model of the simulator (does not affect the image).
+    #[arg(long, value_enum, default_value_t = Timing::Gridrt)]
+    pub timing: Timing,
+}
+
+/// Intersection kernels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Kernel {
+    /// Woop–Benthin–Wald watertight test with a conservative t bound.
+    Watertight,
+    /// Möller–Trumbore.
+    MollerTrumbore,
+    /// GridRT's Cramer's-rule test.
+    Cramer,
+}
+
+impl From<Kernel> for KernelKind {
+    fn from(k: Kernel) -> Self {
+        match k {
+            Kernel::Watertight => KernelKind::Watertight,
+            Kernel::MollerTrumbore => KernelKind::MollerTrumbore,
+            Kernel::Cramer => KernelKind::Cramer,
+        }
+    }
+}
+
+/// Cycle models.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Timing {
+    /// GridRT's multi-cycle PE: 648 cycles per test at 50 MHz.
+    Gridrt,
+    /// A pipelined PE.
+    Pipelined,
+}
+
+impl From<Timing> for TimingProfile {
+    fn from(t: Timing) -> Self {
+        match t {
+            Timing::Gridrt => TimingProfile::GRIDRT,
+            Timing::Pipelined => TimingProfile::PIPELINED,
+        }
+    }
+}

@@ -1,0 +1,6 @@
+//! Subcommands (one file each) and the option groups and progress display they share.
+
+pub mod bench;
+pub mod common;
+pub mod progress;
+pub mod render;

@@ -1,0 +1,236 @@
+//! `gridrt render`: load a scene, build its grid, upload it, render one frame, write a PNG
+//! and statistics, optionally compare with the f64 reference renderer.
+
+use std::io::{Read, Write};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use gridrt_host::camera::RenderSettings;
+use gridrt_host::compare::compare;
+use gridrt_host::grid::GridParams;
+use gridrt_host::pipeline::PreparedScene;
+use gridrt_host::reference::{render as reference_render, ReferenceScene};
+use gridrt_host::scene::Mesh;
+use gridrt_host::session::{RenderedFrame, Session, SessionConfig};
+use gridrt_host::stats::{ReferenceStats, RenderStats, SceneFacts};
+
+use super::common::{ModelOptions, PortOptions, SceneOptions};
+use super::progress::CliProgress;
+
+/// Transport read timeout: short, so the session's own stage timeouts stay responsive.
+const PORT_READ_TIMEOUT: Duration = Duration::from_millis(50);
+
+/// Render one frame and write it as a PNG.
+///
+/// With --sim the scene image is built here, a loopback simulator is started in-process, and
+/// everything (hello, upload, render) goes through its UART byte stream, exactly as with a
+/// board. With --reference the same frame is also rendered by the independent f64 reference
+/// renderer and compared (PSNR, differing pixels, primary-hit mismatches).
+#[derive(Debug, clap::Parser)]
+pub struct Cmd {
+    #[clap(flatten)]
+    port: PortOptions,
+    #[clap(flatten)]
+    scene: SceneOptions,
+    #[clap(flatten)]
+    model: ModelOptions,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 320, help_heading = "Frame")]
+    width: u16,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 240, help_heading = "Frame")]
+    height: u16,
+    /// Do not trace shadow rays.
+    #[arg(long, help_heading = "Frame")]
+    no_shadows: bool,
+    /// Output PNG.
+    #[arg(long, value_name = "PNG", help_heading = "Output")]
+    out: PathBuf,
+    /// Write statistics as JSON here.
+    #[arg(long, value_name = "JSON", help_heading = "Output")]
+    stats: Option<PathBuf>,
+    /// Also render with the f64 reference renderer and compare (asks the device for
+    /// primitive ids too).
+    #[arg(long, help_heading = "Output")]
+    reference: bool,
+    /// Also write the reference image here (implies --reference).
+    #[arg(long, value_name = "PNG", help_heading = "Output")]
+    reference_out: Option<PathBuf>,
+}
+
+impl Cmd {
+    /// Runs the command.
+    pub fn run(self) -> anyhow::Result<()> {
+        let mesh = self.scene.load()?;
+        if let Some(path) = &self.port.port {
+            let port = serialport::new(path, self.port.baud)
+                .timeout(PORT_READ_TIMEOUT)
+                .open()
+                .with_context(|| format!("opening serial port {path}"))?;
+            self.run_on(port, path.clone(), mesh)
+        } else {
+            let defaults = gridrt_loopback::SimConfig::default();
+            let config = gridrt_loopback::SimConfig {
+                pe_count: self.scene.pes,
+                pe_mem_words: self.scene.pe_mem_words.unwrap_or(defaults.pe_mem_words),
+                timing: self.model.timing.into(),
+                kernel: self.model.kernel.into(),
+                ..defaults
+            };
+            let mut port = gridrt_loopback::spawn(config);
+            port.set_timeout(PORT_READ_TIMEOUT);
+            self.run_on(port, "sim".to_string(), mesh)
+        }
+    }
+
+    fn run_on<T: Read + Write>(&self, port: T, port_name: String, mesh: Mesh) -> anyhow::Result<()> {
+        let total_start = Instant::now();
+        let cfg = SessionConfig::new(port_name.clone()).render_timeout(Duration::from_secs_f64(self.port.timeout.max(0.1)));
+        let mut session = Session::new(port, cfg);
+        let mut progress = CliProgress::default();
+        let mut on_event = |e| progress.handle(e);
+
+        // Hello: the device tells us its PEs and memories.
+        let info = session.hello(&mut on_event).with_context(|| format!("connecting to {port_name}"))?;
+        if self.port.port.is_some() && info.pe_count != self.scene.pes {
+            eprintln!("note: the device has {} PEs; using that instead of --pes {}", info.pe_count, self.scene.pes);
+        }
+        let pe_mem_words = match self.scene.pe_mem_words {
+            Some(w) if w > info.pe_mem_words => bail!("--pe-mem-words {w} exceeds the device's PE memory of {} words", info.pe_mem_words),
+            Some(w) => w,
+            None => info.pe_mem_words,
+        };
+
+        // Grid and scene image.
+        let params = GridParams {
+            m: self.scene.grid_m,
+            pe_count: info.pe_count,
+            pe_mem_words,
+            mapping: self.scene.mapping.into(),
+            dims_override: None,
+        };
+        let dropped = mesh.stats.dropped_degenerate;
+        for w in &mesh.stats.warnings {
+            eprintln!("warning: {w}");
+        }
+        let prepared = PreparedScene::new(mesh, &params).context("building the grid")?;
+        let voxels = prepared.grid.voxel_count();
+        if voxels > info.voxel_capacity {
+            let d = prepared.grid.dims;
+            bail!(
+                "grid {}×{}×{} = {voxels} voxels exceeds the device's capacity of {} voxels; use a smaller --grid-m (now {})",
+                d[0],
+                d[1],
+                d[2],
+                info.voxel_capacity,
+                self.scene.grid_m
+            );
+        }
+
+        // Upload.
+        let upload_start = Instant::now();
+        session.upload_scene(&prepared.image, &mut on_event).context("uploading the scene")?;
+        let upload_ms = upload_start.elapsed().as_secs_f64() * 1e3;
+
+        // Render.
+        let bounds = prepared.grid.mesh_bounds;
+        let want_reference = self.reference || self.reference_out.is_some();
+        let settings = RenderSettings::default_for(&bounds)
+            .with_size(self.width, self.height)
+            .with_shadows(!self.no_shadows)
+            .with_prim_ids(want_reference);
+        let frame = session.render(&settings.to_request(1), &mut on_event).context("rendering")?;
+        drop(progress);
+        write_png(&self.out, frame.width, frame.height, frame.rgb.clone())?;
+
+        let facts = SceneFacts {
+            scene: self.scene.scene.display().to_string(),
+            dropped_triangles: dropped,
+            scene_image_bytes: prepared.image.len() as u64,
+            upload_ms,
+        };
+        let mut stats = RenderStats::new(&facts, &prepared.grid, &frame);
+
+        // Reference.
+        if want_reference {
+            let start = Instant::now();
+            let scene = ReferenceScene::new(&prepared.mesh, &prepared.grid.bounds);
+            let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(2);
+            let reference = reference_render(&scene, &settings, threads);
+            let reference_ms = start.elapsed().as_secs_f64() * 1e3;
+            let cmp = compare(&frame.rgb, &reference.rgb, frame.prim_ids.as_deref(), Some(&reference.prim_ids))?;
+            stats.reference = Some(ReferenceStats::new(&cmp, reference_ms));
+            if let Some(path) = &self.reference_out {
+                write_png(path, reference.width, reference.height, reference.rgb)?;
+            }
+        }
+
+        if let Some(path) = &self.stats {
+            let json = serde_json::to_string_pretty(&stats)?;
+            std::fs::write(path, json + "\n").with_context(|| format!("writing {}", path.display()))?;
+        }
+        print_summary(&stats, &frame, &self.out, total_start.elapsed());
+        Ok(())
+    }
+}
+
+fn write_png(path: &PathBuf, w: u16, h: u16, rgb: Vec<u8>) -> anyhow::Result<()> {
+    let img = image::RgbImage::from_raw(w as u32, h as u32, rgb).context("image buffer has the wrong size")?;
+    img.save(path).with_context(|| format!("writing {}", path.display()))
+}
+
+fn si(v: u64) -> String {
+    match v {
+        v if v >= 10_000_000_000 => format!("{:.1} G", v as f64 / 1e9),
+        v if v >= 10_000_000 => format!("{:.1} M", v as f64 / 1e6),
+        v if v >= 10_000 => format!("{:.1} k", v as f64 / 1e3),
+        v => v.to_string(),
+    }
+}
+
+fn print_summary(s: &RenderStats, frame: &RenderedFrame, out: &std::path::Path, total: Duration) {
+    let g = s.grid;
+    println!(
+        "scene      {}: {} triangles ({} zero-area dropped), grid {}×{}×{} ({} non-empty voxels), {} PEs, image {} B",
+        s.scene,
+        s.triangles,
+        s.dropped_triangles,
+        g[0],
+        g[1],
+        g[2],
+        s.nonempty_voxels,
+        s.pe_count,
+        s.scene_image_bytes
+    );
+    println!("upload     {:.0} ms", s.upload_ms);
+    println!(
+        "render     {}×{} in {:.0} ms: {} primary + {} shadow rays ({} culled), {} list entries, {} tests, {} co-processor cycles",
+        s.width,
+        s.height,
+        s.wall_ms,
+        si(s.primary_rays),
+        si(s.shadow_rays),
+        si(s.culled_rays),
+        si(s.list_entries),
+        si(s.intersection_tests),
+        si(s.coproc_cycles)
+    );
+    println!(
+        "link       {} FSL words, {} UART bytes ({} spans)",
+        si(s.fsl_words),
+        si(s.uart_bytes),
+        frame.spans_received
+    );
+    if let Some(r) = &s.reference {
+        let psnr = r.psnr_db.map_or_else(|| "∞ (identical)".to_string(), |p| format!("{p:.2} dB"));
+        println!(
+            "reference  PSNR {psnr}, max diff {}, {} differing pixels, {} hit mismatches ({:.0} ms)",
+            r.max_abs_diff,
+            r.differing_pixels,
+            r.hit_mismatches.map_or_else(|| "n/a".to_string(), |m| m.to_string()),
+            r.reference_ms
+        );
+    }
+    println!("wrote      {} ({:.1} s total)", out.display(), total.as_secs_f64());
+}

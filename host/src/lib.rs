@@ -1,0 +1,27 @@
+//! Host library of the GridRT toolkit: everything the `gridrt` CLI does, as a library.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`scene`] | OBJ (tobj) and PLY loading into a triangle [`scene::Mesh`] |
+//! | [`grid`] | Eq. 6.1 resolution, SAT binning, voxel→PE map, PE memory images |
+//! | [`image_format`] | the versioned scene image (`shared::scene`) |
+//! | [`pipeline`] | mesh → grid → scene image in one call |
+//! | [`camera`] | default camera/light and [`camera::RenderSettings`] (docs/CONTRACTS.md) |
+//! | [`reference`] | independent f64 reference renderer (BVH + watertight test) |
+//! | [`compare`] | PSNR and pixel/hit differences |
+//! | [`session`] | protocol client over any `Read + Write` byte transport, progress events |
+//! | [`stats`] | JSON statistics |
+//!
+//! Errors are typed (`thiserror`); the library never prints. Progress is reported through
+//! [`session::ProgressEvent`] callbacks, which only the binary draws.
+#![warn(missing_docs)]
+
+pub mod camera;
+pub mod compare;
+pub mod grid;
+pub mod image_format;
+pub mod pipeline;
+pub mod reference;
+pub mod scene;
+pub mod session;
+pub mod stats;

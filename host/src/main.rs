@@ -1,0 +1,50 @@
+//! `gridrt`: the host command-line tool. Only parses arguments and dispatches; every
+//! subcommand lives in its own file under `cmd/`.
+
+mod cmd;
+
+use clap::Parser;
+
+/// Host tool of the GridRT FPGA ray tracer: builds uniform-grid scenes, uploads them to a
+/// device (or the loopback simulator), assembles rendered frames, compares them with an f64
+/// reference, and benchmarks the native ray path.
+#[derive(Debug, Parser)]
+#[command(name = "gridrt", version, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum Command {
+    /// Render one frame on a device or the loopback simulator and write a PNG.
+    Render(cmd::render::Cmd),
+    /// Benchmarks.
+    Bench(cmd::bench::Cmd),
+}
+
+fn main() -> anyhow::Result<()> {
+    match Cli::parse().command {
+        Command::Render(cmd) => cmd.run(),
+        Command::Bench(cmd) => cmd.run(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cli_definition_is_consistent() {
+        use clap::CommandFactory;
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn render_requires_a_connection() {
+        assert!(Cli::try_parse_from(["gridrt", "render", "--scene", "a.obj", "--out", "a.png"]).is_err());
+        assert!(Cli::try_parse_from(["gridrt", "render", "--sim", "--port", "x", "--scene", "a.obj", "--out", "a.png"]).is_err());
+        let ok = Cli::try_parse_from(["gridrt", "render", "--sim", "--scene", "a.obj", "--out", "a.png", "--pes", "8", "--reference"]);
+        assert!(ok.is_ok(), "{ok:?}");
+    }
+}

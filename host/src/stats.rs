@@ -1,0 +1,266 @@
+//! JSON statistics of a render (`gridrt render --stats`) and of the ray bench.
+//!
+//! Field meanings (all counters are of the one rendered frame):
+//! - `primary_rays`, `shadow_rays`: rays the device generated; `rays` = their sum.
+//! - `coproc_rays`: rays sent to the co-processor; `culled_rays`: rays that missed the grid box
+//!   and cost no FSL traffic.
+//! - `fsl_words` = `fsl_words_out` + `fsl_words_in`; `list_entries`: traversal-list entries sent.
+//! - `intersection_tests`, `coproc_cycles`: as reported by the co-processor.
+//! - `uart_bytes`: bytes on the wire in both directions from the render request to `FrameEnd`.
+//! - `wall_ms`: host wall time of the render (request to verified `FrameEnd`); `upload_ms`: of
+//!   the scene upload.
+//! - With `--reference`: `psnr_db` (`null` when the images are identical, see
+//!   [`crate::compare`]), `identical`, `max_abs_diff`, `differing_pixels`, `hit_mismatches`,
+//!   `reference_ms`.
+//! - `device_counters`: every counter the device sent, by name (per-stage counters as
+//!   `stage_<stage>_instret` / `stage_<stage>_cycles`, unknown keys as `key_<n>`).
+
+use std::collections::BTreeMap;
+
+use gridrt_firmware::device::Stage;
+use gridrt_shared::msg::stat;
+use serde::Serialize;
+
+use crate::compare::Comparison;
+use crate::grid::Grid;
+use crate::session::RenderedFrame;
+
+/// Name of a device statistics key.
+pub fn stat_name(key: u8) -> String {
+    match key {
+        stat::PRIMARY_RAYS => "primary_rays".into(),
+        stat::SHADOW_RAYS => "shadow_rays".into(),
+        stat::COPROC_RAYS => "coproc_rays".into(),
+        stat::CULLED_RAYS => "culled_rays".into(),
+        stat::FSL_WORDS_OUT => "fsl_words_out".into(),
+        stat::FSL_WORDS_IN => "fsl_words_in".into(),
+        stat::INTERSECTION_TESTS => "intersection_tests".into(),
+        stat::COPROC_CYCLES => "coproc_cycles".into(),
+        stat::PIXELS => "pixels".into(),
+        stat::LIST_ENTRIES => "list_entries".into(),
+        k => {
+            // Per-stage counters, keyed as the firmware sends them (`device::Stage`).
+            for s in Stage::ALL {
+                let name = match s {
+                    Stage::RayGen => "raygen",
+                    Stage::Traverse => "traverse",
+                    Stage::FslIo => "fsl_io",
+                    Stage::Shade => "shade",
+                    Stage::Encode => "encode",
+                };
+                if k == s.instret_key() {
+                    return format!("stage_{name}_instret");
+                }
+                if k == s.cycles_key() {
+                    return format!("stage_{name}_cycles");
+                }
+            }
+            format!("key_{k}")
+        }
+    }
+}
+
+/// Comparison with the reference renderer.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReferenceStats {
+    /// PSNR in dB, `null` for identical images.
+    pub psnr_db: Option<f64>,
+    /// Every byte matches.
+    pub identical: bool,
+    /// Largest channel difference.
+    pub max_abs_diff: u8,
+    /// Pixels with any difference.
+    pub differing_pixels: u64,
+    /// Pixels whose primary primitive id differs.
+    pub hit_mismatches: Option<u64>,
+    /// Reference render time.
+    pub reference_ms: f64,
+}
+
+impl ReferenceStats {
+    /// From a comparison and the reference time.
+    pub fn new(c: &Comparison, reference_ms: f64) -> Self {
+        Self {
+            psnr_db: c.psnr_db,
+            identical: c.identical,
+            max_abs_diff: c.max_abs_diff,
+            differing_pixels: c.differing_pixels,
+            hit_mismatches: c.hit_mismatches,
+            reference_ms,
+        }
+    }
+}
+
+/// Statistics of one `gridrt render`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RenderStats {
+    /// Scene file.
+    pub scene: String,
+    /// Image width.
+    pub width: u16,
+    /// Image height.
+    pub height: u16,
+    /// Triangles in the scene.
+    pub triangles: u32,
+    /// Zero-area triangles dropped while loading.
+    pub dropped_triangles: u64,
+    /// Grid resolution.
+    pub grid: [u16; 3],
+    /// Non-empty voxels.
+    pub nonempty_voxels: u64,
+    /// Triangle references over all voxels.
+    pub grid_refs: u64,
+    /// PEs.
+    pub pe_count: u16,
+    /// Words per PE memory.
+    pub pe_mem_words: u32,
+    /// Largest PE image in words.
+    pub max_pe_words: u64,
+    /// Scene image size in bytes.
+    pub scene_image_bytes: u64,
+    /// Camera rays.
+    pub primary_rays: u64,
+    /// Shadow rays.
+    pub shadow_rays: u64,
+    /// All rays generated (primary + shadow).
+    pub rays: u64,
+    /// Rays sent to the co-processor.
+    pub coproc_rays: u64,
+    /// Rays that missed the grid box.
+    pub culled_rays: u64,
+    /// Traversal-list entries sent.
+    pub list_entries: u64,
+    /// FSL words in both directions.
+    pub fsl_words: u64,
+    /// FSL words to the co-processor.
+    pub fsl_words_out: u64,
+    /// FSL words from the co-processor.
+    pub fsl_words_in: u64,
+    /// Ray–triangle tests.
+    pub intersection_tests: u64,
+    /// Co-processor cycles.
+    pub coproc_cycles: u64,
+    /// UART bytes in both directions during the render.
+    pub uart_bytes: u64,
+    /// UART bytes host → device during the render.
+    pub uart_bytes_tx: u64,
+    /// UART bytes device → host during the render.
+    pub uart_bytes_rx: u64,
+    /// Scene upload time.
+    pub upload_ms: f64,
+    /// Render wall time.
+    pub wall_ms: f64,
+    /// Comparison with the reference (only with `--reference`).
+    #[serde(flatten)]
+    pub reference: Option<ReferenceStats>,
+    /// Every device counter by name.
+    pub device_counters: BTreeMap<String, u64>,
+}
+
+/// Scene-side facts for [`RenderStats::new`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneFacts {
+    /// Scene file.
+    pub scene: String,
+    /// Dropped zero-area triangles.
+    pub dropped_triangles: u64,
+    /// Scene image size.
+    pub scene_image_bytes: u64,
+    /// Upload time.
+    pub upload_ms: f64,
+}
+
+impl RenderStats {
+    /// Collects the statistics of `frame` rendered from `grid`.
+    pub fn new(facts: &SceneFacts, grid: &Grid, frame: &RenderedFrame) -> Self {
+        let get = |k: u8| frame.stats.get(&k).copied().unwrap_or(0);
+        let (primary, shadow) = (get(stat::PRIMARY_RAYS), get(stat::SHADOW_RAYS));
+        let (out, inn) = (get(stat::FSL_WORDS_OUT), get(stat::FSL_WORDS_IN));
+        Self {
+            scene: facts.scene.clone(),
+            width: frame.width,
+            height: frame.height,
+            triangles: grid.triangle_count,
+            dropped_triangles: facts.dropped_triangles,
+            grid: grid.dims,
+            nonempty_voxels: grid.voxels.len() as u64,
+            grid_refs: grid.ref_count() as u64,
+            pe_count: grid.pe_count,
+            pe_mem_words: grid.pe_mem_words,
+            max_pe_words: grid.max_pe_words() as u64,
+            scene_image_bytes: facts.scene_image_bytes,
+            primary_rays: primary,
+            shadow_rays: shadow,
+            rays: primary + shadow,
+            coproc_rays: get(stat::COPROC_RAYS),
+            culled_rays: get(stat::CULLED_RAYS),
+            list_entries: get(stat::LIST_ENTRIES),
+            fsl_words: out + inn,
+            fsl_words_out: out,
+            fsl_words_in: inn,
+            intersection_tests: get(stat::INTERSECTION_TESTS),
+            coproc_cycles: get(stat::COPROC_CYCLES),
+            uart_bytes: frame.bytes_tx + frame.bytes_rx,
+            uart_bytes_tx: frame.bytes_tx,
+            uart_bytes_rx: frame.bytes_rx,
+            upload_ms: facts.upload_ms,
+            wall_ms: frame.elapsed.as_secs_f64() * 1e3,
+            reference: None,
+            device_counters: frame.stats.iter().map(|(&k, &v)| (stat_name(k), v)).collect(),
+        }
+    }
+}
+
+/// Result of `gridrt bench rays`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BenchReport {
+    /// Scene file.
+    pub scene: String,
+    /// Triangles.
+    pub triangles: u32,
+    /// Grid resolution.
+    pub grid: [u16; 3],
+    /// PEs.
+    pub pe_count: u16,
+    /// Image width.
+    pub width: u16,
+    /// Image height.
+    pub height: u16,
+    /// Rays per run (one per pixel).
+    pub rays: u64,
+    /// Rays that hit something.
+    pub hits: u64,
+    /// Rays clipped away by the grid box (no co-processor query).
+    pub culled: u64,
+    /// Timed runs.
+    pub runs: u32,
+    /// Untimed warm-up runs.
+    pub warmup: u32,
+    /// Best run time.
+    pub best_ms: f64,
+    /// Median run time.
+    pub median_ms: f64,
+    /// Nanoseconds per ray (best run).
+    pub ns_per_ray: f64,
+    /// Million rays per second (best run).
+    pub mrays_per_s: f64,
+    /// Always 1: the bench is single-threaded.
+    pub threads: u32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reference_fields_are_flattened_and_optional() {
+        let c = Comparison { psnr_db: None, identical: true, max_abs_diff: 0, differing_pixels: 0, hit_mismatches: Some(0) };
+        let r = ReferenceStats::new(&c, 1.5);
+        let v = serde_json::to_value(&r).unwrap();
+        assert_eq!(v["psnr_db"], serde_json::Value::Null);
+        assert_eq!(v["reference_ms"], 1.5);
+        assert_eq!(stat_name(stat::COPROC_CYCLES), "coproc_cycles");
+        assert_eq!(stat_name(Stage::Traverse.cycles_key()), "stage_traverse_cycles");
+        assert_eq!(stat_name(0x30), "key_48");
+    }
+}

@@ -1,0 +1,388 @@
+//! UART frames: COBS-delimited, versioned, sequence-numbered and CRC-32 checked.
+//!
+//! A frame on the wire is `COBS(header ‖ payload ‖ crc32) ‖ 0x00` (SPEC.md §2):
+//!
+//! | offset | size | field |
+//! |---|---|---|
+//! | 0 | 1 | message type |
+//! | 1 | 1 | protocol version ([`crate::PROTOCOL_VERSION`]) |
+//! | 2 | 2 | sequence number, LE |
+//! | 4 | 2 | payload length, LE, ≤ [`MAX_PAYLOAD`] |
+//! | 6 | len | payload |
+//! | 6+len | 4 | CRC-32/ISO-HDLC of bytes `0..6+len`, LE |
+//!
+//! Reassembly uses [`FrameAccumulator`], a fixed-capacity buffer that resynchronises at the
+//! next `0x00` after noise and reports every outcome through [`FeedResult`].
+
+use crate::PROTOCOL_VERSION;
+
+/// Largest payload a frame may carry.
+pub const MAX_PAYLOAD: usize = 2048;
+/// Header bytes before the payload.
+pub const HEADER_LEN: usize = 6;
+/// CRC bytes after the payload.
+pub const CRC_LEN: usize = 4;
+/// Largest frame before COBS encoding.
+pub const MAX_RAW: usize = HEADER_LEN + MAX_PAYLOAD + CRC_LEN;
+/// Largest frame on the wire, COBS overhead and the `0x00` delimiter included.
+pub const MAX_ENCODED: usize = MAX_RAW + MAX_RAW / 254 + 2;
+
+const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// CRC-32/ISO-HDLC (the zlib/Ethernet CRC) of `data`.
+pub fn crc32(data: &[u8]) -> u32 {
+    CRC32.checksum(data)
+}
+
+/// Incremental CRC-32/ISO-HDLC, for data that arrives in pieces.
+pub struct Crc32Digest(crc::Digest<'static, u32>);
+
+impl Default for Crc32Digest {
+    fn default() -> Self {
+        Self(CRC32.digest())
+    }
+}
+
+impl core::fmt::Debug for Crc32Digest {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("Crc32Digest")
+    }
+}
+
+impl Crc32Digest {
+    /// Adds bytes to the running checksum.
+    pub fn update(&mut self, data: &[u8]) {
+        self.0.update(data)
+    }
+    /// Returns the checksum of everything added so far.
+    pub fn finalize(self) -> u32 {
+        self.0.finalize()
+    }
+}
+
+/// Everything that can go wrong while encoding or decoding a frame.
+#[non_exhaustive]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameError {
+    /// The payload is longer than [`MAX_PAYLOAD`].
+    EncodePayloadTooLarge,
+    /// The output buffer cannot hold the encoded frame.
+    EncodeBufferTooSmall,
+    /// The bytes between two delimiters are not valid COBS.
+    DecodeBadCobs,
+    /// The frame is shorter than a header plus CRC.
+    DecodeTruncated,
+    /// The header's length field disagrees with the bytes received.
+    DecodeBadLength,
+    /// The CRC does not match: the frame was corrupted on the line.
+    DecodeBadCrc,
+    /// The peer speaks another protocol version.
+    DecodeBadVersion,
+    /// More bytes arrived before a delimiter than the accumulator can hold.
+    DecodeOversize,
+}
+
+impl FrameError {
+    /// Error number used in `Error.detail` (SPEC.md §3.9): declaration order, from 1.
+    pub const fn code(self) -> u32 {
+        match self {
+            Self::EncodePayloadTooLarge => 1,
+            Self::EncodeBufferTooSmall => 2,
+            Self::DecodeBadCobs => 3,
+            Self::DecodeTruncated => 4,
+            Self::DecodeBadLength => 5,
+            Self::DecodeBadCrc => 6,
+            Self::DecodeBadVersion => 7,
+            Self::DecodeOversize => 8,
+        }
+    }
+}
+
+impl core::fmt::Display for FrameError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::EncodePayloadTooLarge => "payload larger than MAX_PAYLOAD",
+            Self::EncodeBufferTooSmall => "output buffer too small for the encoded frame",
+            Self::DecodeBadCobs => "invalid COBS encoding",
+            Self::DecodeTruncated => "frame shorter than header and CRC",
+            Self::DecodeBadLength => "length field disagrees with frame size",
+            Self::DecodeBadCrc => "CRC mismatch",
+            Self::DecodeBadVersion => "unsupported protocol version",
+            Self::DecodeOversize => "frame larger than the receive buffer",
+        })
+    }
+}
+
+#[cfg(any(test, feature = "std"))]
+impl std::error::Error for FrameError {}
+
+/// A decoded, CRC-verified frame borrowed from the accumulator's buffer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Frame<'a> {
+    /// Message type byte (see [`crate::msg::MsgType`]).
+    pub kind: u8,
+    /// Sender's sequence number.
+    pub seq: u16,
+    /// Payload bytes.
+    pub payload: &'a [u8],
+}
+
+/// Encodes one frame into `out` and returns the number of bytes written, delimiter included.
+pub fn encode_frame(kind: u8, seq: u16, payload: &[u8], out: &mut [u8]) -> Result<usize, FrameError> {
+    if payload.len() > MAX_PAYLOAD {
+        return Err(FrameError::EncodePayloadTooLarge);
+    }
+    let mut raw = [0u8; MAX_RAW];
+    let raw_len = HEADER_LEN + payload.len() + CRC_LEN;
+    let (head, tail) = raw.split_at_mut(HEADER_LEN);
+    head[0] = kind;
+    head[1] = PROTOCOL_VERSION;
+    head[2..4].copy_from_slice(&seq.to_le_bytes());
+    head[4..6].copy_from_slice(&(payload.len() as u16).to_le_bytes());
+    tail[..payload.len()].copy_from_slice(payload);
+    let crc = crc32(&raw[..HEADER_LEN + payload.len()]);
+    raw[HEADER_LEN + payload.len()..raw_len].copy_from_slice(&crc.to_le_bytes());
+    if out.len() < cobs::max_encoding_length(raw_len) + 1 {
+        return Err(FrameError::EncodeBufferTooSmall);
+    }
+    let n = cobs::try_encode(&raw[..raw_len], out).map_err(|_| FrameError::EncodeBufferTooSmall)?;
+    *out.get_mut(n).ok_or(FrameError::EncodeBufferTooSmall)? = 0;
+    Ok(n + 1)
+}
+
+/// Validates a COBS-decoded frame (header, length, CRC, version).
+pub fn parse_raw(raw: &[u8]) -> Result<Frame<'_>, FrameError> {
+    if raw.len() < HEADER_LEN + CRC_LEN {
+        return Err(FrameError::DecodeTruncated);
+    }
+    let body_len = raw.len() - CRC_LEN;
+    let (body, crc_bytes) = raw.split_at(body_len);
+    let mut crc = [0u8; 4];
+    crc.copy_from_slice(crc_bytes);
+    let len = u16::from_le_bytes([body[4], body[5]]) as usize;
+    if len > MAX_PAYLOAD || HEADER_LEN + len != body_len {
+        return Err(FrameError::DecodeBadLength);
+    }
+    if crc32(body) != u32::from_le_bytes(crc) {
+        return Err(FrameError::DecodeBadCrc);
+    }
+    if body[1] != PROTOCOL_VERSION {
+        return Err(FrameError::DecodeBadVersion);
+    }
+    Ok(Frame { kind: body[0], seq: u16::from_le_bytes([body[2], body[3]]), payload: &body[HEADER_LEN..] })
+}
+
+/// Outcome of [`FrameAccumulator::feed`]. Each variant hands back the unconsumed input.
+#[derive(Debug, PartialEq, Eq)]
+pub enum FeedResult<'buf, 'input> {
+    /// All input was consumed; no frame is complete yet.
+    Consumed,
+    /// A delimiter ended a frame that did not fit the buffer; it was dropped.
+    Overflow {
+        /// Input after that delimiter.
+        rest: &'input [u8],
+    },
+    /// A delimiter ended bytes that are not a valid frame (noise, corruption).
+    BadFrame {
+        /// Why the frame was rejected.
+        error: FrameError,
+        /// Input after that delimiter.
+        rest: &'input [u8],
+    },
+    /// A valid frame.
+    Frame {
+        /// The frame, borrowed from the accumulator until the next `feed`.
+        frame: Frame<'buf>,
+        /// Input after the frame's delimiter.
+        rest: &'input [u8],
+    },
+}
+
+/// Fixed-capacity reassembly buffer for a COBS byte stream.
+///
+/// Bytes are buffered up to the next `0x00`. Empty frames (repeated delimiters) are skipped
+/// silently; they are how a sender flushes a receiver that may hold noise.
+#[derive(Debug)]
+pub struct FrameAccumulator<const N: usize = MAX_ENCODED> {
+    buf: [u8; N],
+    len: usize,
+    overflowed: bool,
+}
+
+impl<const N: usize> Default for FrameAccumulator<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> FrameAccumulator<N> {
+    /// An empty accumulator.
+    pub const fn new() -> Self {
+        Self { buf: [0; N], len: 0, overflowed: false }
+    }
+
+    /// Drops any partial frame, e.g. after a link reset.
+    pub fn reset(&mut self) {
+        self.len = 0;
+        self.overflowed = false;
+    }
+
+    /// True when bytes of an unfinished frame are buffered.
+    pub fn has_partial(&self) -> bool {
+        self.len > 0 || self.overflowed
+    }
+
+    /// Feeds bytes and returns at the first complete frame, error, or end of input.
+    pub fn feed<'me, 'input>(&'me mut self, input: &'input [u8]) -> FeedResult<'me, 'input> {
+        for (i, &b) in input.iter().enumerate() {
+            if b != 0 {
+                match self.buf.get_mut(self.len) {
+                    Some(slot) if !self.overflowed => {
+                        *slot = b;
+                        self.len += 1;
+                    }
+                    _ => self.overflowed = true,
+                }
+                continue;
+            }
+            let rest = input.get(i + 1..).unwrap_or(&[]);
+            if self.overflowed {
+                self.reset();
+                return FeedResult::Overflow { rest };
+            }
+            if self.len == 0 {
+                continue;
+            }
+            let len = core::mem::replace(&mut self.len, 0);
+            let Some(encoded) = self.buf.get_mut(..len) else {
+                return FeedResult::BadFrame { error: FrameError::DecodeOversize, rest };
+            };
+            return match cobs::decode_in_place(encoded) {
+                Err(_) => FeedResult::BadFrame { error: FrameError::DecodeBadCobs, rest },
+                Ok(n) => match parse_raw(encoded.get(..n).unwrap_or(&[])) {
+                    Ok(frame) => FeedResult::Frame { frame, rest },
+                    Err(error) => FeedResult::BadFrame { error, rest },
+                },
+            };
+        }
+        FeedResult::Consumed
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn encode(kind: u8, seq: u16, payload: &[u8]) -> std::vec::Vec<u8> {
+        let mut out = [0u8; MAX_ENCODED];
+        let n = encode_frame(kind, seq, payload, &mut out).unwrap();
+        out[..n].to_vec()
+    }
+
+    /// SPEC.md §2.3 worked example: a Hello frame (type 0x01, seq 7, payload 01 00 00 00).
+    #[test]
+    fn golden_hello_frame_bytes() {
+        let wire = encode(0x01, 7, &[0x01, 0x00, 0x00, 0x00]);
+        let raw_crc = crc32(&[0x01, 0x01, 0x07, 0x00, 0x04, 0x00, 0x01, 0x00, 0x00, 0x00]);
+        assert_eq!(raw_crc, 0x32DB_3B61, "CRC of the worked example");
+        assert_eq!(
+            wire,
+            [0x04, 0x01, 0x01, 0x07, 0x02, 0x04, 0x02, 0x01, 0x01, 0x01, 0x05, 0x61, 0x3B, 0xDB, 0x32, 0x00]
+        );
+    }
+
+    #[test]
+    fn accumulator_returns_frame_and_rest() {
+        let mut wire = encode(0x21, 1, b"abc");
+        wire.extend_from_slice(&encode(0x22, 2, b""));
+        let mut acc = FrameAccumulator::<64>::new();
+        let rest = match acc.feed(&wire) {
+            FeedResult::Frame { frame, rest } => {
+                assert_eq!((frame.kind, frame.seq, frame.payload), (0x21, 1, &b"abc"[..]));
+                rest
+            }
+            other => panic!("{other:?}"),
+        };
+        match acc.feed(rest) {
+            FeedResult::Frame { frame, rest } => {
+                assert_eq!((frame.kind, frame.seq, frame.payload.len(), rest.len()), (0x22, 2, 0, 0));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn decoder_rejects_bad_crc() {
+        let mut wire = encode(0x01, 7, &[1, 0, 0, 0]);
+        wire[3] ^= 0x10; // flip a bit of the sequence number
+        let mut acc = FrameAccumulator::<64>::new();
+        assert!(matches!(acc.feed(&wire), FeedResult::BadFrame { error: FrameError::DecodeBadCrc, .. }));
+    }
+
+    #[test]
+    fn decoder_rejects_truncated_frame() {
+        let wire = encode(0x01, 7, &[1, 0, 0, 0]);
+        let mut cut = wire[..6].to_vec();
+        cut.push(0);
+        let mut acc = FrameAccumulator::<64>::new();
+        assert!(matches!(acc.feed(&cut), FeedResult::BadFrame { .. }));
+    }
+
+    #[test]
+    fn decoder_rejects_oversize_frame_then_resynchronises() {
+        let mut wire = vec![0x55u8; 100];
+        wire.push(0);
+        wire.extend_from_slice(&encode(0x02, 9, b"ok"));
+        let mut acc = FrameAccumulator::<32>::new();
+        let rest = match acc.feed(&wire) {
+            FeedResult::Overflow { rest } => rest,
+            other => panic!("{other:?}"),
+        };
+        assert!(matches!(acc.feed(rest), FeedResult::Frame { frame: Frame { kind: 0x02, seq: 9, .. }, .. }));
+    }
+
+    #[test]
+    fn encoder_rejects_oversize_payload() {
+        let mut out = [0u8; MAX_ENCODED];
+        let big = [0u8; MAX_PAYLOAD + 1];
+        assert_eq!(encode_frame(1, 0, &big, &mut out), Err(FrameError::EncodePayloadTooLarge));
+        let mut small = [0u8; 8];
+        assert_eq!(encode_frame(1, 0, &[1, 2, 3], &mut small), Err(FrameError::EncodeBufferTooSmall));
+    }
+
+    #[test]
+    fn decoder_rejects_length_field_mismatch_and_wrong_version() {
+        let mut raw = [0x01, 0x01, 0x07, 0x00, 0x05, 0x00, 1, 0, 0, 0, 0, 0, 0, 0];
+        let crc = crc32(&raw[..10]);
+        raw[10..].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(parse_raw(&raw), Err(FrameError::DecodeBadLength));
+        let mut raw = [0x01, 0x09, 0x07, 0x00, 0x04, 0x00, 1, 0, 0, 0, 0, 0, 0, 0];
+        let crc = crc32(&raw[..10]);
+        raw[10..].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(parse_raw(&raw), Err(FrameError::DecodeBadVersion));
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn any_payload_round_trips_through_noise(
+            kind: u8, seq: u16,
+            payload in proptest::collection::vec(proptest::num::u8::ANY, 0..300),
+            noise in proptest::collection::vec(1u8..=255, 0..40),
+        ) {
+            let mut wire = noise.clone();
+            wire.push(0);
+            wire.extend_from_slice(&encode(kind, seq, &payload));
+            let mut acc = FrameAccumulator::<1024>::new();
+            let mut input: &[u8] = &wire;
+            let mut got = None;
+            for _ in 0..4 {
+                match acc.feed(input) {
+                    FeedResult::Frame { frame, .. } => { got = Some((frame.kind, frame.seq, frame.payload.to_vec())); break; }
+                    FeedResult::BadFrame { rest, .. } | FeedResult::Overflow { rest } => input = rest,
+                    FeedResult::Consumed => break,
+                }
+            }
+            proptest::prop_assert_eq!(got, Some((kind, seq, payload)));
+        }
+    }
+}

@@ -1,0 +1,591 @@
+//! Messages carried in UART frame payloads (SPEC.md §3). All integers little-endian.
+//!
+//! Decoders check exact lengths: a payload with missing or extra bytes is an error, never
+//! a guess. Variable-length messages (scene chunk, pixel span, stats, error) carry their
+//! variable part last.
+
+use crate::bytes::{Overflow, Reader, Truncated, Writer};
+
+/// Message type bytes (frame header byte 0).
+#[non_exhaustive]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum MsgType {
+    /// Host → device: start of a session.
+    Hello = 0x01,
+    /// Device → host: answer to Hello.
+    Version = 0x02,
+    /// Host → device: a scene image follows.
+    SceneBegin = 0x10,
+    /// Host → device: bytes of the scene image.
+    SceneChunk = 0x11,
+    /// Device → host: scene bytes received so far.
+    SceneAck = 0x12,
+    /// Host → device: render one frame.
+    RenderRequest = 0x20,
+    /// Device → host: pixels of one row segment.
+    PixelSpan = 0x21,
+    /// Device → host: the frame is complete.
+    FrameEnd = 0x22,
+    /// Device → host: counters of the frame.
+    Stats = 0x23,
+    /// Either direction: something went wrong.
+    Error = 0x7F,
+}
+
+impl MsgType {
+    /// Type for a header byte.
+    pub fn from_u8(b: u8) -> Option<Self> {
+        Some(match b {
+            0x01 => Self::Hello,
+            0x02 => Self::Version,
+            0x10 => Self::SceneBegin,
+            0x11 => Self::SceneChunk,
+            0x12 => Self::SceneAck,
+            0x20 => Self::RenderRequest,
+            0x21 => Self::PixelSpan,
+            0x22 => Self::FrameEnd,
+            0x23 => Self::Stats,
+            0x7F => Self::Error,
+            _ => return None,
+        })
+    }
+}
+
+/// Why a payload could not be encoded or decoded.
+#[non_exhaustive]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MsgError {
+    /// Unknown message type byte.
+    DecodeUnknownType,
+    /// Payload shorter than the message requires.
+    DecodeTruncated,
+    /// Payload longer than the message allows.
+    DecodeTrailingBytes,
+    /// A field holds a value outside its range.
+    DecodeBadField,
+    /// Error text is not UTF-8.
+    DecodeBadText,
+    /// Output buffer too small.
+    EncodeBufferTooSmall,
+    /// A field cannot be encoded as given (data length disagrees with a count, too many entries).
+    EncodeBadField,
+}
+
+impl core::fmt::Display for MsgError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::DecodeUnknownType => "unknown message type",
+            Self::DecodeTruncated => "payload truncated",
+            Self::DecodeTrailingBytes => "payload has trailing bytes",
+            Self::DecodeBadField => "field out of range",
+            Self::DecodeBadText => "error text is not UTF-8",
+            Self::EncodeBufferTooSmall => "output buffer too small",
+            Self::EncodeBadField => "field cannot be encoded as given",
+        })
+    }
+}
+
+#[cfg(any(test, feature = "std"))]
+impl std::error::Error for MsgError {}
+
+impl MsgError {
+    /// Error number used in `Error.detail` (SPEC.md §3.9): declaration order, from 1.
+    pub const fn code(self) -> u32 {
+        match self {
+            Self::DecodeUnknownType => 1,
+            Self::DecodeTruncated => 2,
+            Self::DecodeTrailingBytes => 3,
+            Self::DecodeBadField => 4,
+            Self::DecodeBadText => 5,
+            Self::EncodeBufferTooSmall => 6,
+            Self::EncodeBadField => 7,
+        }
+    }
+}
+
+impl From<Truncated> for MsgError {
+    fn from(_: Truncated) -> Self {
+        Self::DecodeTruncated
+    }
+}
+impl From<Overflow> for MsgError {
+    fn from(_: Overflow) -> Self {
+        Self::EncodeBufferTooSmall
+    }
+}
+
+/// Pixel encodings of a [`Msg::PixelSpan`].
+#[non_exhaustive]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum PixelEncoding {
+    /// 3 bytes per pixel: R, G, B.
+    Rgb888 = 0,
+    /// Auxiliary: 4 bytes per pixel, the primitive id of the primary hit (LE), `u32::MAX` for
+    /// a miss. Sent after the colour span of the same pixels when
+    /// [`render_flags::PRIM_IDS`] is set; lets the host compare hits with a reference.
+    PrimId32 = 0x80,
+}
+
+impl PixelEncoding {
+    /// Bytes per pixel on the wire.
+    pub const fn bytes_per_pixel(self) -> usize {
+        match self {
+            Self::Rgb888 => 3,
+            Self::PrimId32 => 4,
+        }
+    }
+    /// Encoding for a wire byte.
+    pub fn from_u8(b: u8) -> Option<Self> {
+        match b {
+            0 => Some(Self::Rgb888),
+            0x80 => Some(Self::PrimId32),
+            _ => None,
+        }
+    }
+}
+
+/// What the device says about itself in [`Msg::Version`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DeviceInfo {
+    /// UART protocol version the device speaks.
+    pub protocol: u16,
+    /// Firmware version major, minor, patch.
+    pub firmware: [u8; 3],
+    /// Board id: 0 = loopback simulator, 1 = qemu-virt, 2 = FPGA SoC.
+    pub board: u8,
+    /// Largest payload the device accepts.
+    pub max_payload: u16,
+    /// PEs of the attached co-processor.
+    pub pe_count: u16,
+    /// Largest grid (voxels) the device can hold.
+    pub voxel_capacity: u32,
+    /// Words of memory per PE.
+    pub pe_mem_words: u32,
+    /// Compiled-in pipeline stages (bit flags, SPEC.md §3.2).
+    pub features: u32,
+}
+
+/// Compiled-in pipeline stages (bit flags in [`DeviceInfo::features`]).
+pub mod feature {
+    /// The shadow-ray stage is compiled in.
+    pub const SHADOWS: u32 = 1 << 0;
+    /// The device can send primitive-id spans ([`super::render_flags::PRIM_IDS`]).
+    pub const PRIM_IDS: u32 = 1 << 1;
+}
+
+/// Render request options (bit flags in [`RenderRequest::flags`]).
+pub mod render_flags {
+    /// Trace shadow rays toward the light.
+    pub const SHADOWS: u16 = 1 << 0;
+    /// Also send the primitive id of every primary hit ([`super::PixelEncoding::PrimId32`]).
+    pub const PRIM_IDS: u16 = 1 << 1;
+}
+
+/// Camera, light and output settings of one frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderRequest {
+    /// Frame id echoed in every pixel span and the frame end.
+    pub frame: u16,
+    /// Image width in pixels.
+    pub width: u16,
+    /// Image height in pixels.
+    pub height: u16,
+    /// Option bits, see [`render_flags`].
+    pub flags: u16,
+    /// Camera position.
+    pub eye: [f32; 3],
+    /// Point the camera looks at.
+    pub target: [f32; 3],
+    /// Up vector.
+    pub up: [f32; 3],
+    /// Vertical field of view in degrees.
+    pub fov_y_deg: f32,
+    /// Point light position.
+    pub light_pos: [f32; 3],
+    /// Point light intensity (scales the diffuse term).
+    pub light_intensity: f32,
+    /// Ambient term.
+    pub ambient: f32,
+    /// Pixel encoding of the spans.
+    pub encoding: PixelEncoding,
+}
+
+/// Payload size of a render request.
+pub const RENDER_REQUEST_LEN: usize = 72;
+
+/// Status of a [`Msg::SceneAck`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum SceneStatus {
+    /// Bytes up to `next_offset` were accepted; send more.
+    Receiving = 0,
+    /// The whole image arrived, its CRC matched, and the co-processor accepted every PE block.
+    Loaded = 1,
+}
+
+/// Device error codes of a [`Msg::Error`] (SPEC.md §3.9).
+#[non_exhaustive]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ErrorCode {
+    /// A frame failed its CRC or framing; detail = frame error number.
+    BadFrame,
+    /// A message arrived that is not valid in the current state; detail = its type byte.
+    UnexpectedMessage,
+    /// The scene image was rejected; detail = scene error number.
+    SceneRejected,
+    /// The co-processor reported a protocol violation; detail = its ERROR word.
+    Coprocessor,
+    /// A render request arrived before a scene was loaded.
+    NoScene,
+    /// A request field is out of range; detail = field offset.
+    BadRequest,
+    /// A scene chunk arrived out of order; detail = expected offset.
+    BadOffset,
+    /// A code this build does not know.
+    Unknown(u16),
+}
+
+impl ErrorCode {
+    /// Wire value.
+    pub fn code(self) -> u16 {
+        match self {
+            Self::BadFrame => 1,
+            Self::UnexpectedMessage => 2,
+            Self::SceneRejected => 3,
+            Self::Coprocessor => 4,
+            Self::NoScene => 5,
+            Self::BadRequest => 6,
+            Self::BadOffset => 7,
+            Self::Unknown(c) => c,
+        }
+    }
+    /// Code for a wire value.
+    pub fn from_code(c: u16) -> Self {
+        match c {
+            1 => Self::BadFrame,
+            2 => Self::UnexpectedMessage,
+            3 => Self::SceneRejected,
+            4 => Self::Coprocessor,
+            5 => Self::NoScene,
+            6 => Self::BadRequest,
+            7 => Self::BadOffset,
+            c => Self::Unknown(c),
+        }
+    }
+}
+
+/// Keys of the device statistics in a [`Msg::Stats`] (SPEC.md §3.8).
+pub mod stat {
+    /// Camera rays generated.
+    pub const PRIMARY_RAYS: u8 = 1;
+    /// Shadow rays generated.
+    pub const SHADOW_RAYS: u8 = 2;
+    /// Rays sent to the co-processor (all kinds).
+    pub const COPROC_RAYS: u8 = 3;
+    /// Rays that missed the grid box and cost no FSL words.
+    pub const CULLED_RAYS: u8 = 4;
+    /// FSL words written to the co-processor.
+    pub const FSL_WORDS_OUT: u8 = 5;
+    /// FSL words read from the co-processor.
+    pub const FSL_WORDS_IN: u8 = 6;
+    /// Ray–primitive tests the co-processor reported.
+    pub const INTERSECTION_TESTS: u8 = 7;
+    /// Co-processor cycles the co-processor reported.
+    pub const COPROC_CYCLES: u8 = 8;
+    /// Pixels sent.
+    pub const PIXELS: u8 = 9;
+    /// Traversal-list entries sent.
+    pub const LIST_ENTRIES: u8 = 10;
+    /// First key of the per-stage device counters (instructions), see SPEC.md §3.8.
+    pub const STAGE_BASE: u8 = 0x40;
+}
+
+/// Bytes per stats entry: key u8, value u64.
+pub const STAT_ENTRY_LEN: usize = 9;
+
+/// A decoded message borrowing variable parts from the payload.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Msg<'a> {
+    /// Host → device session start.
+    Hello {
+        /// Protocol version the host speaks.
+        protocol: u16,
+    },
+    /// Device → host answer to Hello.
+    Version(DeviceInfo),
+    /// Host → device: a scene image of `total_len` bytes with CRC-32 `crc` follows.
+    SceneBegin {
+        /// Image length.
+        total_len: u32,
+        /// CRC-32 of the whole image.
+        crc: u32,
+    },
+    /// Host → device: image bytes at `offset`.
+    SceneChunk {
+        /// Offset of `data[0]` in the image.
+        offset: u32,
+        /// The bytes.
+        data: &'a [u8],
+    },
+    /// Device → host acknowledgement.
+    SceneAck {
+        /// Bytes accepted so far (the next offset expected).
+        next_offset: u32,
+        /// Loading state.
+        status: SceneStatus,
+    },
+    /// Host → device render request.
+    RenderRequest(RenderRequest),
+    /// Device → host pixels of row `y`, columns `x0..x0+count`.
+    PixelSpan {
+        /// Frame id.
+        frame: u16,
+        /// Row.
+        y: u16,
+        /// First column.
+        x0: u16,
+        /// Pixel count.
+        count: u16,
+        /// Encoding of `data`.
+        encoding: PixelEncoding,
+        /// Encoded pixels.
+        data: &'a [u8],
+    },
+    /// Device → host end of frame.
+    FrameEnd {
+        /// Frame id.
+        frame: u16,
+        /// Pixel spans sent for this frame.
+        spans: u32,
+        /// CRC-32 of the whole image as RGB888, row-major.
+        image_crc: u32,
+    },
+    /// Device → host counters; `entries` is a list of (key u8, value u64).
+    Stats {
+        /// Frame id.
+        frame: u16,
+        /// Raw entries, [`STAT_ENTRY_LEN`] bytes each; iterate with [`stat_entries`].
+        entries: &'a [u8],
+    },
+    /// Error report.
+    Error {
+        /// What went wrong.
+        code: ErrorCode,
+        /// Code-specific detail.
+        detail: u32,
+        /// Human-readable text (≤ 128 bytes).
+        text: &'a str,
+    },
+}
+
+/// Longest error text.
+pub const MAX_ERROR_TEXT: usize = 128;
+
+/// Iterates over the (key, value) entries of a stats payload.
+pub fn stat_entries(entries: &[u8]) -> impl Iterator<Item = (u8, u64)> + '_ {
+    entries.chunks_exact(STAT_ENTRY_LEN).map(|c| {
+        let mut v = [0u8; 8];
+        v.copy_from_slice(c.get(1..9).unwrap_or(&[0; 8]));
+        (c.first().copied().unwrap_or(0), u64::from_le_bytes(v))
+    })
+}
+
+impl<'a> Msg<'a> {
+    /// The type byte of this message.
+    pub fn kind(&self) -> MsgType {
+        match self {
+            Self::Hello { .. } => MsgType::Hello,
+            Self::Version(_) => MsgType::Version,
+            Self::SceneBegin { .. } => MsgType::SceneBegin,
+            Self::SceneChunk { .. } => MsgType::SceneChunk,
+            Self::SceneAck { .. } => MsgType::SceneAck,
+            Self::RenderRequest(_) => MsgType::RenderRequest,
+            Self::PixelSpan { .. } => MsgType::PixelSpan,
+            Self::FrameEnd { .. } => MsgType::FrameEnd,
+            Self::Stats { .. } => MsgType::Stats,
+            Self::Error { .. } => MsgType::Error,
+        }
+    }
+
+    /// Writes the payload into `out` and returns its length.
+    pub fn encode(&self, out: &mut [u8]) -> Result<usize, MsgError> {
+        let mut w = Writer::new(out);
+        match *self {
+            Self::Hello { protocol } => {
+                w.u16(protocol)?;
+                w.u16(0)?;
+            }
+            Self::Version(d) => {
+                w.u16(d.protocol)?;
+                w.bytes(&d.firmware)?;
+                w.u8(d.board)?;
+                w.u16(d.max_payload)?;
+                w.u16(d.pe_count)?;
+                w.u32(d.voxel_capacity)?;
+                w.u32(d.pe_mem_words)?;
+                w.u32(d.features)?;
+            }
+            Self::SceneBegin { total_len, crc } => {
+                w.u32(total_len)?;
+                w.u32(crc)?;
+            }
+            Self::SceneChunk { offset, data } => {
+                w.u32(offset)?;
+                w.bytes(data)?;
+            }
+            Self::SceneAck { next_offset, status } => {
+                w.u32(next_offset)?;
+                w.u8(status as u8)?;
+                w.bytes(&[0; 3])?;
+            }
+            Self::RenderRequest(r) => {
+                w.u16(r.frame)?;
+                w.u16(r.width)?;
+                w.u16(r.height)?;
+                w.u16(r.flags)?;
+                w.vec3(r.eye)?;
+                w.vec3(r.target)?;
+                w.vec3(r.up)?;
+                w.f32(r.fov_y_deg)?;
+                w.vec3(r.light_pos)?;
+                w.f32(r.light_intensity)?;
+                w.f32(r.ambient)?;
+                w.u8(r.encoding as u8)?;
+                w.bytes(&[0; 3])?;
+            }
+            Self::PixelSpan { frame, y, x0, count, encoding, data } => {
+                if data.len() != count as usize * encoding.bytes_per_pixel() {
+                    return Err(MsgError::EncodeBadField);
+                }
+                w.u16(frame)?;
+                w.u16(y)?;
+                w.u16(x0)?;
+                w.u16(count)?;
+                w.u8(encoding as u8)?;
+                w.u8(0)?;
+                w.bytes(data)?;
+            }
+            Self::FrameEnd { frame, spans, image_crc } => {
+                w.u16(frame)?;
+                w.u16(0)?;
+                w.u32(spans)?;
+                w.u32(image_crc)?;
+            }
+            Self::Stats { frame, entries } => {
+                if entries.len() % STAT_ENTRY_LEN != 0 || entries.len() / STAT_ENTRY_LEN > u16::MAX as usize {
+                    return Err(MsgError::EncodeBadField);
+                }
+                w.u16(frame)?;
+                w.u16((entries.len() / STAT_ENTRY_LEN) as u16)?;
+                w.bytes(entries)?;
+            }
+            Self::Error { code, detail, text } => {
+                // Cut at a character boundary so the decoder's UTF-8 check accepts it.
+                let mut cut = MAX_ERROR_TEXT.min(text.len());
+                while !text.is_char_boundary(cut) {
+                    cut -= 1;
+                }
+                let text = text.as_bytes().get(..cut).unwrap_or(&[]);
+                w.u16(code.code())?;
+                w.u16(text.len() as u16)?;
+                w.u32(detail)?;
+                w.bytes(text)?;
+            }
+        }
+        Ok(w.len())
+    }
+
+    /// Decodes a payload of message type `kind`.
+    pub fn decode(kind: u8, payload: &'a [u8]) -> Result<Self, MsgError> {
+        let ty = MsgType::from_u8(kind).ok_or(MsgError::DecodeUnknownType)?;
+        let mut r = Reader::new(payload);
+        let msg = match ty {
+            MsgType::Hello => {
+                let protocol = r.u16()?;
+                let _ = r.u16()?;
+                Self::Hello { protocol }
+            }
+            MsgType::Version => Self::Version(DeviceInfo {
+                protocol: r.u16()?,
+                firmware: [r.u8()?, r.u8()?, r.u8()?],
+                board: r.u8()?,
+                max_payload: r.u16()?,
+                pe_count: r.u16()?,
+                voxel_capacity: r.u32()?,
+                pe_mem_words: r.u32()?,
+                features: r.u32()?,
+            }),
+            MsgType::SceneBegin => Self::SceneBegin { total_len: r.u32()?, crc: r.u32()? },
+            MsgType::SceneChunk => Self::SceneChunk { offset: r.u32()?, data: r.rest() },
+            MsgType::SceneAck => {
+                let next_offset = r.u32()?;
+                let status = match r.u8()? {
+                    0 => SceneStatus::Receiving,
+                    1 => SceneStatus::Loaded,
+                    _ => return Err(MsgError::DecodeBadField),
+                };
+                let _ = r.take(3)?;
+                Self::SceneAck { next_offset, status }
+            }
+            MsgType::RenderRequest => {
+                let req = RenderRequest {
+                    frame: r.u16()?,
+                    width: r.u16()?,
+                    height: r.u16()?,
+                    flags: r.u16()?,
+                    eye: r.vec3()?,
+                    target: r.vec3()?,
+                    up: r.vec3()?,
+                    fov_y_deg: r.f32()?,
+                    light_pos: r.vec3()?,
+                    light_intensity: r.f32()?,
+                    ambient: r.f32()?,
+                    encoding: PixelEncoding::from_u8(r.u8()?).ok_or(MsgError::DecodeBadField)?,
+                };
+                let _ = r.take(3)?;
+                Self::RenderRequest(req)
+            }
+            MsgType::PixelSpan => {
+                let frame = r.u16()?;
+                let y = r.u16()?;
+                let x0 = r.u16()?;
+                let count = r.u16()?;
+                let encoding = PixelEncoding::from_u8(r.u8()?).ok_or(MsgError::DecodeBadField)?;
+                let _ = r.u8()?;
+                let data = r.rest();
+                let expected = count as usize * encoding.bytes_per_pixel();
+                if data.len() != expected {
+                    return Err(MsgError::DecodeBadField);
+                }
+                Self::PixelSpan { frame, y, x0, count, encoding, data }
+            }
+            MsgType::FrameEnd => {
+                let frame = r.u16()?;
+                let _ = r.u16()?;
+                Self::FrameEnd { frame, spans: r.u32()?, image_crc: r.u32()? }
+            }
+            MsgType::Stats => {
+                let frame = r.u16()?;
+                let n = r.u16()? as usize;
+                let entries = r.take(n * STAT_ENTRY_LEN)?;
+                Self::Stats { frame, entries }
+            }
+            MsgType::Error => {
+                let code = ErrorCode::from_code(r.u16()?);
+                let len = r.u16()? as usize;
+                if len > MAX_ERROR_TEXT {
+                    return Err(MsgError::DecodeBadField);
+                }
+                let detail = r.u32()?;
+                let text = core::str::from_utf8(r.take(len)?).map_err(|_| MsgError::DecodeBadText)?;
+                Self::Error { code, detail, text }
+            }
+        };
+        if r.remaining() != 0 {
+            return Err(MsgError::DecodeTrailingBytes);
+        }
+        Ok(msg)
+    }
+}

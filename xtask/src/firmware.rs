@@ -1,0 +1,128 @@
+//! `cargo xtask firmware`: build firmware/image for the soft-core.
+
+use crate::elf;
+use crate::toolchain::{self, Target, Toolchain, ToolchainChoice};
+use anyhow::Result;
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+
+/// Board: memory map plus console/link drivers (a `board-*` feature of the image).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Board {
+    /// QEMU `virt`: RAM at 0x8000_0000, NS16550A UART (repo-root memory.x).
+    QemuVirt,
+    /// Small FPGA SoC: BRAM at 0x0, AXI UART Lite, AXI4-Stream FIFO (boards/fpga-soc.x).
+    FpgaSoc,
+}
+
+impl Board {
+    fn feature(self) -> &'static str {
+        match self {
+            Board::QemuVirt => "board-qemu-virt",
+            Board::FpgaSoc => "board-fpga-soc",
+        }
+    }
+}
+
+/// Which binary of the image package.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Bin {
+    App,
+    Bootloader,
+}
+
+impl Bin {
+    fn name(self) -> &'static str {
+        match self {
+            Bin::App => "app",
+            Bin::Bootloader => "bootloader",
+        }
+    }
+}
+
+/// Build options shared by `firmware` and `qemu`.
+#[derive(Args, Clone, Debug)]
+pub struct BuildOpts {
+    /// Instruction set: soft float (imac) or hard float (imafc).
+    #[arg(long, value_enum, default_value_t = Target::Riscv32imac)]
+    pub target: Target,
+    /// Extra cargo features of the image (comma-separated), e.g. `trap-test`.
+    #[arg(long, value_delimiter = ',')]
+    pub features: Vec<String>,
+    /// Binary to build.
+    #[arg(long, value_enum, default_value_t = Bin::App)]
+    pub bin: Bin,
+    /// Optimised build (the default).
+    #[arg(long, conflicts_with = "debug")]
+    pub release: bool,
+    /// Unoptimised dev-profile build instead of release.
+    #[arg(long)]
+    pub debug: bool,
+    /// How to cross-compile (see scripts/setup-riscv-toolchain.sh).
+    #[arg(long, value_enum, default_value_t = ToolchainChoice::Auto)]
+    pub toolchain: ToolchainChoice,
+    /// Parallel cargo jobs.
+    #[arg(short, long)]
+    pub jobs: Option<u32>,
+}
+
+impl BuildOpts {
+    /// Builds the image for `board` and returns the ELF path.
+    pub fn build(&self, board: Board) -> Result<PathBuf> {
+        let tc = Toolchain::resolve(self.toolchain, self.target)?;
+        eprintln!(
+            "xtask: building {} for {} on {} with the {}",
+            self.bin.name(),
+            self.target.triple(),
+            match board {
+                Board::QemuVirt => "qemu-virt",
+                Board::FpgaSoc => "fpga-soc",
+            },
+            tc.describe()
+        );
+        let mut features = vec![board.feature().to_string()];
+        features.extend(self.features.iter().cloned());
+
+        let image = toolchain::image_dir();
+        let mut cmd = tc.cargo_build(self.target);
+        cmd.current_dir(&image)
+            .arg("--manifest-path")
+            .arg(image.join("Cargo.toml"))
+            .arg("--target-dir")
+            .arg(toolchain::image_target_dir())
+            .args(["--bin", self.bin.name()])
+            // The board is always explicit, so the default board feature must be off.
+            .arg("--no-default-features")
+            .arg("--features")
+            .arg(features.join(","));
+        if !self.debug {
+            cmd.arg("--release");
+        }
+        if let Some(j) = self.jobs {
+            cmd.arg("--jobs").arg(j.to_string());
+        }
+        toolchain::run_echoed(&mut cmd)?;
+
+        Ok(toolchain::image_target_dir()
+            .join(self.target.triple())
+            .join(if self.debug { "debug" } else { "release" })
+            .join(self.bin.name()))
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct Cmd {
+    #[command(flatten)]
+    build: BuildOpts,
+    /// Board to build for.
+    #[arg(long, value_enum, default_value_t = Board::QemuVirt)]
+    board: Board,
+}
+
+impl Cmd {
+    pub fn run(self) -> Result<()> {
+        let elf_path = self.build.build(self.board)?;
+        println!("ELF: {}", elf_path.display());
+        elf::print_sections(&elf_path)
+    }
+}

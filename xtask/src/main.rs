@@ -1,0 +1,40 @@
+//! `cargo xtask`: project automation that plain cargo cannot express.
+//!
+//! - `cargo xtask setup`     install the RISC-V toolchain and QEMU (the scripts in scripts/)
+//! - `cargo xtask firmware`  build a soft-core image (firmware/image) and print its sections
+//! - `cargo xtask qemu`      boot an image on QEMU `virt` with its UART on a pseudo-terminal
+//!
+//! One file per subcommand; `toolchain.rs` decides how to cross-compile.
+
+mod elf;
+mod firmware;
+mod qemu;
+mod setup;
+mod toolchain;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "cargo xtask", about = "gridrt project automation", version)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Install the RISC-V Rust toolchain (rustup target, else Debian packages) and QEMU.
+    Setup(setup::Cmd),
+    /// Build a firmware image for the soft-core and print its section sizes.
+    Firmware(firmware::Cmd),
+    /// Boot a firmware image on qemu-system-riscv32 (`virt`), serial on a pty.
+    Qemu(qemu::Cmd),
+}
+
+fn main() -> anyhow::Result<()> {
+    match Cli::parse().cmd {
+        Cmd::Setup(cmd) => cmd.run(),
+        Cmd::Firmware(cmd) => cmd.run(),
+        Cmd::Qemu(cmd) => cmd.run(),
+    }
+}

@@ -1,0 +1,28 @@
+//! `cargo xtask setup`: run the install scripts in scripts/.
+
+use crate::toolchain::run_script;
+use anyhow::Result;
+use clap::Args;
+
+#[derive(Args, Debug)]
+pub struct Cmd {
+    /// Prepare the Debian toolchain in .toolchain/ even if rustup targets work.
+    #[arg(long)]
+    debian: bool,
+    /// Skip QEMU and socat.
+    #[arg(long)]
+    no_qemu: bool,
+}
+
+impl Cmd {
+    pub fn run(self) -> Result<()> {
+        run_script(
+            "setup-riscv-toolchain.sh",
+            self.debian.then_some("--debian"),
+        )?;
+        if !self.no_qemu {
+            run_script("setup-qemu.sh", None)?;
+        }
+        Ok(())
+    }
+}
