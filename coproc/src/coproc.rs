@@ -7,7 +7,7 @@
 //!
 //! | packet | words | reply |
 //! |---|---|---|
-//! | LOAD_PE | `load_header(pe)`, word count N, N image words | `ack_word(pe)` |
+//! | LOAD_PE | `load_header(pe)`, word count N, N image words | [`load_ack`]`(pe)` |
 //! | CLEAR | `CLEAR_WORD` | [`CLEAR_ACK`] |
 //! | RAY_CLOSEST / RAY_ANY | `ray_request_head` (8), then 2 words per entry (`entry_words`) | 8 words of `RayResult::to_words` |
 //!
@@ -29,7 +29,7 @@
 //! | PeOutOfRange | LOAD header / list entry word 0 | the PE id |
 //! | VoxelOutOfRange | direct API only: voxel id ≥ 2²⁴ (not encodable) | list position |
 //! | VoxelNotLoaded | list entry word 0: voxel not in that PE's voxel table | list position |
-//! | ListTooLong | ray header: count > `max_list` | the count |
+//! | ListTooLong | ray header: count > `max_list` | `max_list` (the limit, SPEC §4.5) |
 //! | PeMemoryOverflow | LOAD word count > `pe_mem_words` (nothing is buffered) | the PE id |
 //! | PeImageMalformed | LOAD last word: `PeImage::parse` fails, voxel ids not strictly increasing, or a material > 65535 | the PE id |
 //! | SceneNotLoaded | ray header while no PE holds a loaded image | 0 |
@@ -64,12 +64,12 @@ use crate::timing::PeTimeline;
 /// `t ≤ t_exit·(1 + T_EXIT_REL_TOL)`.
 pub const T_EXIT_REL_TOL: f32 = 1.0 / 4096.0;
 
-/// Reply to CLEAR.
-pub const CLEAR_ACK: u32 = op::ACK << 28;
+/// Reply to CLEAR (SPEC §4.4: `0x94000000`).
+pub const CLEAR_ACK: u32 = fsl::ack_word(op::CLEAR, 0);
 
-/// Reply to a successful LOAD_PE of `pe`.
-pub const fn ack_word(pe: u8) -> u32 {
-    (op::ACK << 28) | pe as u32
+/// Reply to a successful LOAD_PE of `pe` (SPEC §4.4: `0x910000pe`).
+pub const fn load_ack(pe: u8) -> u32 {
+    fsl::ack_word(op::LOAD_PE, pe)
 }
 
 /// Counters of the model since creation or [`Coprocessor::reset_stats`].
@@ -164,7 +164,11 @@ fn accept(t: f32, t_max: f32, hi: f32) -> bool {
 /// kernel's range test never drops a hit that the exact test would accept or tie.
 #[inline(always)]
 fn inflate(x: f32) -> f32 {
-    x + x.abs() * (1.0 / 65536.0)
+    if x.is_finite() {
+        x + x.abs() * (1.0 / 65536.0)
+    } else {
+        x
+    }
 }
 
 #[inline(always)]
@@ -223,7 +227,7 @@ impl View<'_> {
             return Err((FslError::SceneNotLoaded, 0));
         }
         if count > self.cfg.max_list as usize {
-            return Err((FslError::ListTooLong, count.min(u16::MAX as usize) as u16));
+            return Err((FslError::ListTooLong, self.cfg.max_list));
         }
         Ok(())
     }
@@ -767,7 +771,7 @@ impl<'m> Coprocessor<'m> {
     fn complete_load(&mut self, pe: u8, len: usize) -> Rx {
         match self.core.finish_load(pe, len) {
             Ok(()) => {
-                self.emit(ack_word(pe), true);
+                self.emit(load_ack(pe), true);
                 Rx::Idle
             }
             Err(e) => self.fail(e, pe as u16, true),
@@ -817,7 +821,7 @@ impl<'m> Coprocessor<'m> {
             return self.fail(e, d, ctl);
         }
         if self.list.push(e).is_err() {
-            return self.fail(FslError::ListTooLong, count, ctl);
+            return self.fail(FslError::ListTooLong, self.core.cfg.max_list, ctl);
         }
         if k + 1 == count as usize {
             if !ctl {

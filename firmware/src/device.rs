@@ -24,7 +24,7 @@ use gridrt_shared::frame::{Crc32Digest, FeedResult, FrameAccumulator, FrameError
 use gridrt_shared::fsl::{self as wire, op, FslError, RayKind, RayResult, RESULT_WORDS};
 use gridrt_shared::math::{Ray, Vec3};
 use gridrt_shared::msg::{
-    render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, PixelEncoding, RenderRequest, SceneStatus, MAX_ERROR_TEXT,
+    feature, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, PixelEncoding, RenderRequest, SceneStatus, MAX_ERROR_TEXT,
     STAT_ENTRY_LEN,
 };
 use gridrt_shared::scene::{Material, SceneError, SceneHeader, SceneSink, SceneStream, EMPTY_VOXEL};
@@ -197,16 +197,10 @@ pub const DEFAULT_POLLS: u32 = 1 << 22;
 /// Most stale words read back (and dropped) after an aborted ray, to resynchronise.
 const DRAIN_WORDS: u32 = 4096;
 
-/// `DeviceInfo::features` bit: shadow rays are compiled in (same bit as
-/// `render_flags::SHADOWS`).
-pub const FEATURE_SHADOWS: u32 = render_flags::SHADOWS as u32;
-/// `DeviceInfo::features` bit: primitive-id spans are supported (`render_flags::PRIM_IDS`).
-pub const FEATURE_PRIM_IDS: u32 = render_flags::PRIM_IDS as u32;
-
 /// Feature bits of this build.
 pub const fn compiled_features() -> u32 {
-    let shadows = if cfg!(feature = "shadows") { FEATURE_SHADOWS } else { 0 };
-    shadows | FEATURE_PRIM_IDS
+    let shadows = if cfg!(feature = "shadows") { feature::SHADOWS } else { 0 };
+    shadows | feature::PRIM_IDS
 }
 
 /// `Msg::Error` detail of a link timeout (distinct from any ERROR word, whose top nibble is 0xE).
@@ -215,43 +209,6 @@ pub const DETAIL_LINK_TIMEOUT: u32 = 0xFFFF_0001;
 pub const DETAIL_LINK_HARDWARE: u32 = 0xFFFF_0002;
 /// `Msg::Error` detail of any other link error.
 pub const DETAIL_LINK_OTHER: u32 = 0xFFFF_0003;
-
-/// Wire number of a scene error (`Msg::Error{SceneRejected}` detail): position in
-/// `shared::scene::SceneError`, from 1. (shared has no `code()` for it yet.)
-pub fn scene_error_code(e: SceneError) -> u32 {
-    match e {
-        SceneError::BadMagic => 1,
-        SceneError::BadVersion => 2,
-        SceneError::Truncated => 3,
-        SceneError::TrailingBytes => 4,
-        SceneError::BadHeader => 5,
-        SceneError::BadVoxelMap => 6,
-        SceneError::BadPeBlock => 7,
-        SceneError::PeMemoryOverflow => 8,
-        SceneError::BadCrc => 9,
-        SceneError::GridTooLarge => 10,
-        SceneError::TooManyMaterials => 11,
-        SceneError::NonFinite => 12,
-        SceneError::Rejected => 13,
-        _ => 0xFF,
-    }
-}
-
-/// Wire number of a frame error (`Msg::Error{BadFrame}` detail): position in
-/// `shared::frame::FrameError`, from 1. (shared has no `code()` for it yet.)
-pub fn frame_error_code(e: FrameError) -> u32 {
-    match e {
-        FrameError::EncodePayloadTooLarge => 1,
-        FrameError::EncodeBufferTooSmall => 2,
-        FrameError::DecodeBadCobs => 3,
-        FrameError::DecodeTruncated => 4,
-        FrameError::DecodeBadLength => 5,
-        FrameError::DecodeBadCrc => 6,
-        FrameError::DecodeBadVersion => 7,
-        FrameError::DecodeOversize => 8,
-        _ => 0xFF,
-    }
-}
 
 /// Offsets of the RenderRequest fields (`Msg::Error{BadRequest}` detail).
 mod field {
@@ -675,7 +632,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
     fn bad_frame(&mut self, e: FrameError, out: &mut impl ByteSink) {
         let mut t = Text::new();
         let _ = write!(Trunc(&mut t), "bad frame: {e}");
-        self.error(ErrorCode::BadFrame, frame_error_code(e), t.as_str(), out);
+        self.error(ErrorCode::BadFrame, e.code(), t.as_str(), out);
     }
 
     fn handle(&mut self, kind: u8, payload: &[u8], out: &mut impl ByteSink) {
@@ -753,7 +710,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
                     let _ = Trunc(&mut t).write_str("; ");
                     f.describe(&mut t);
                 }
-                self.error(ErrorCode::SceneRejected, scene_error_code(e), t.as_str(), out);
+                self.error(ErrorCode::SceneRejected, e.code(), t.as_str(), out);
             }
             Ok(()) => {
                 up.next = end as u32;
@@ -767,11 +724,11 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
                 let crc_ok = core::mem::take(&mut up.digest).finalize() == up.crc;
                 self.upload = None;
                 if !done {
-                    self.error(ErrorCode::SceneRejected, scene_error_code(SceneError::Truncated), "scene image ended early", out);
+                    self.error(ErrorCode::SceneRejected, SceneError::Truncated.code(), "scene image ended early", out);
                 } else if !crc_ok {
                     self.error(
                         ErrorCode::SceneRejected,
-                        scene_error_code(SceneError::BadCrc),
+                        SceneError::BadCrc.code(),
                         "scene CRC differs from SceneBegin",
                         out,
                     );

@@ -78,7 +78,10 @@ impl RenderSettings {
                 up: [0.0, 1.0, 0.0],
                 fov_y_deg: DEFAULT_FOV_Y_DEG,
             },
-            light: Light { pos: to_f32([c[0] + 0.6 * d, c[1] + 1.0 * d, c[2] + 0.8 * d]), intensity: DEFAULT_LIGHT_INTENSITY },
+            light: Light {
+                pos: to_f32([c[0] + 0.6 * d, c[1] + 1.0 * d, c[2] + 0.8 * d]),
+                intensity: DEFAULT_LIGHT_INTENSITY,
+            },
             ambient: DEFAULT_AMBIENT,
             width: DEFAULT_WIDTH,
             height: DEFAULT_HEIGHT,
@@ -111,7 +114,8 @@ impl RenderSettings {
 
     /// Render flag bits ([`render_flags`]).
     pub fn flags(&self) -> u16 {
-        (if self.shadows { render_flags::SHADOWS } else { 0 }) | (if self.prim_ids { render_flags::PRIM_IDS } else { 0 })
+        (if self.shadows { render_flags::SHADOWS } else { 0 })
+            | (if self.prim_ids { render_flags::PRIM_IDS } else { 0 })
     }
 
     /// The wire request for frame `frame`.

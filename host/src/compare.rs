@@ -45,9 +45,16 @@ pub fn psnr(a: &[u8], b: &[u8]) -> Option<f64> {
 
 /// Compares `rgb` with `reference_rgb` (both RGB8 row-major, same size), and the primitive
 /// ids when both are given.
-pub fn compare(rgb: &[u8], reference_rgb: &[u8], ids: Option<&[u32]>, reference_ids: Option<&[u32]>) -> Result<Comparison, CompareError> {
-    if rgb.len() != reference_rgb.len() || rgb.len() % 3 != 0 {
-        return Err(CompareError { what: format!("image sizes differ ({} vs {} bytes)", rgb.len(), reference_rgb.len()) });
+pub fn compare(
+    rgb: &[u8],
+    reference_rgb: &[u8],
+    ids: Option<&[u32]>,
+    reference_ids: Option<&[u32]>,
+) -> Result<Comparison, CompareError> {
+    if rgb.len() != reference_rgb.len() || !rgb.len().is_multiple_of(3) {
+        return Err(CompareError {
+            what: format!("image sizes differ ({} vs {} bytes)", rgb.len(), reference_rgb.len()),
+        });
     }
     let mut max_abs_diff = 0u8;
     let mut differing_pixels = 0u64;
@@ -59,13 +66,21 @@ pub fn compare(rgb: &[u8], reference_rgb: &[u8], ids: Option<&[u32]>, reference_
     let hit_mismatches = match (ids, reference_ids) {
         (Some(a), Some(b)) => {
             if a.len() != b.len() || a.len() * 3 != rgb.len() {
-                return Err(CompareError { what: format!("primitive-id buffers differ in size ({} vs {})", a.len(), b.len()) });
+                return Err(CompareError {
+                    what: format!("primitive-id buffers differ in size ({} vs {})", a.len(), b.len()),
+                });
             }
             Some(a.iter().zip(b).filter(|(x, y)| x != y).count() as u64)
         }
         _ => None,
     };
-    Ok(Comparison { psnr_db: psnr(rgb, reference_rgb), identical: differing_pixels == 0, max_abs_diff, differing_pixels, hit_mismatches })
+    Ok(Comparison {
+        psnr_db: psnr(rgb, reference_rgb),
+        identical: differing_pixels == 0,
+        max_abs_diff,
+        differing_pixels,
+        hit_mismatches,
+    })
 }
 
 #[cfg(test)]

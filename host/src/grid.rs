@@ -126,7 +126,8 @@ pub enum GridError {
 /// Eq. 6.1 resolution for `n` objects in a box of extents `w` with multiplier `m`.
 pub fn resolution(w: [f64; 3], n: usize, m: f64) -> [u16; 3] {
     let wmax = w.iter().cloned().fold(0.0f64, f64::max);
-    if !(wmax > 0.0) || n == 0 || !(m > 0.0) || !m.is_finite() {
+    let usable = wmax > 0.0 && n > 0 && m > 0.0 && m.is_finite();
+    if !usable {
         return [1, 1, 1];
     }
     let solid: Vec<usize> = (0..3).filter(|&i| w[i] > wmax * FLAT_AXIS_REL).collect();
@@ -355,7 +356,12 @@ pub fn build(mesh: &Mesh, params: &GridParams) -> Result<Grid, GridError> {
             dims[1],
             dims[2]
         );
-        return Err(GridError::SceneTooLarge { pe: pe as u8, needed_words: img.len() as u64, limit_words: params.pe_mem_words, hint });
+        return Err(GridError::SceneTooLarge {
+            pe: pe as u8,
+            needed_words: img.len() as u64,
+            limit_words: params.pe_mem_words,
+            hint,
+        });
     }
 
     Ok(Grid {
@@ -380,7 +386,8 @@ pub fn build(mesh: &Mesh, params: &GridParams) -> Result<Grid, GridError> {
 /// overlap. Axes that degenerate to zero never separate, so the test errs on "overlap".
 pub fn tri_box_overlap(center: [f64; 3], half: [f64; 3], v: &[[f64; 3]; 3]) -> bool {
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let cross = |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let cross =
+        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     // Move the box to the origin.
     let p = [sub(v[0], center), sub(v[1], center), sub(v[2], center)];
@@ -428,7 +435,12 @@ mod tests {
     }
 
     fn mesh_of(tris: Vec<[[f32; 3]; 3]>) -> Mesh {
-        Mesh::from_triangles(Path::new("t"), tris.into_iter().map(|v| Triangle { v, material: 0 }), vec![DEFAULT_MATERIAL]).unwrap()
+        Mesh::from_triangles(
+            Path::new("t"),
+            tris.into_iter().map(|v| Triangle { v, material: 0 }),
+            vec![DEFAULT_MATERIAL],
+        )
+        .unwrap()
     }
 
     #[test]
@@ -528,7 +540,10 @@ mod tests {
         // A triangle in the plane x = 0.5 of a 2×1×1 grid over [0,1]: after box padding the
         // plane is close to, but not exactly on, the face; it must be listed where it lies and
         // every point of it must be in a listing voxel.
-        let mesh = mesh_of(vec![[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 1.0]], [[0.5, 0.0, 0.0], [0.5, 1.0, 0.0], [0.5, 0.0, 1.0]]]);
+        let mesh = mesh_of(vec![
+            [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 1.0]],
+            [[0.5, 0.0, 0.0], [0.5, 1.0, 0.0], [0.5, 0.0, 1.0]],
+        ]);
         let grid = build(&mesh, &GridParams { dims_override: Some([2, 1, 1]), ..Default::default() }).unwrap();
         assert!(grid.triangles_in(0).contains(&1) && grid.triangles_in(1).contains(&1));
     }
@@ -571,7 +586,10 @@ mod tests {
         let dims = [10, 10, 10];
         for n in [2u16, 3, 4, 7] {
             for (a, b) in [((3, 4, 5), (4, 4, 5)), ((3, 4, 5), (3, 5, 5)), ((3, 4, 5), (3, 4, 4))] {
-                assert_ne!(PeMapping::Interleaved.pe_of(a.0, a.1, a.2, dims, n), PeMapping::Interleaved.pe_of(b.0, b.1, b.2, dims, n));
+                assert_ne!(
+                    PeMapping::Interleaved.pe_of(a.0, a.1, a.2, dims, n),
+                    PeMapping::Interleaved.pe_of(b.0, b.1, b.2, dims, n)
+                );
             }
         }
     }
@@ -590,9 +608,18 @@ mod tests {
             other => panic!("{other:?}"),
         }
         assert!(err.to_string().starts_with("scene too large: PE 0 needs"));
-        assert!(matches!(build(&mesh, &GridParams { pe_count: 0, ..Default::default() }), Err(GridError::BadPeCount(0))));
-        assert!(matches!(build(&mesh, &GridParams { pe_count: 256, ..Default::default() }), Err(GridError::BadPeCount(256))));
-        assert!(matches!(build(&mesh, &GridParams { m: f64::NAN, ..Default::default() }), Err(GridError::BadMultiplier(_))));
+        assert!(matches!(
+            build(&mesh, &GridParams { pe_count: 0, ..Default::default() }),
+            Err(GridError::BadPeCount(0))
+        ));
+        assert!(matches!(
+            build(&mesh, &GridParams { pe_count: 256, ..Default::default() }),
+            Err(GridError::BadPeCount(256))
+        ));
+        assert!(matches!(
+            build(&mesh, &GridParams { m: f64::NAN, ..Default::default() }),
+            Err(GridError::BadMultiplier(_))
+        ));
     }
 
     #[test]

@@ -18,8 +18,14 @@ struct Cli {
 #[derive(Debug, clap::Subcommand)]
 enum Command {
     /// Render one frame on a device or the loopback simulator and write a PNG.
+    ///
+    /// Loads the scene, builds the uniform grid (GridRT Eq. 6.1) for the device's PEs,
+    /// uploads the scene image, requests one frame and assembles it from the pixel spans
+    /// (every pixel and the image CRC are checked). With --sim an in-process loopback
+    /// simulator plays the board and is reached only through its UART byte stream. With
+    /// --reference the frame is compared with the independent f64 reference renderer.
     Render(cmd::render::Cmd),
-    /// Benchmarks.
+    /// Benchmarks (`gridrt bench rays`: the native primary-ray path, single-threaded).
     Bench(cmd::bench::Cmd),
 }
 
@@ -43,8 +49,34 @@ mod tests {
     #[test]
     fn render_requires_a_connection() {
         assert!(Cli::try_parse_from(["gridrt", "render", "--scene", "a.obj", "--out", "a.png"]).is_err());
-        assert!(Cli::try_parse_from(["gridrt", "render", "--sim", "--port", "x", "--scene", "a.obj", "--out", "a.png"]).is_err());
-        let ok = Cli::try_parse_from(["gridrt", "render", "--sim", "--scene", "a.obj", "--out", "a.png", "--pes", "8", "--reference"]);
+        assert!(Cli::try_parse_from([
+            "gridrt", "render", "--sim", "--port", "x", "--scene", "a.obj", "--out", "a.png"
+        ])
+        .is_err());
+        let ok = Cli::try_parse_from([
+            "gridrt",
+            "render",
+            "--sim",
+            "--scene",
+            "a.obj",
+            "--out",
+            "a.png",
+            "--pes",
+            "8",
+            "--reference",
+        ]);
         assert!(ok.is_ok(), "{ok:?}");
+        assert!(Cli::try_parse_from([
+            "gridrt", "render", "--sim", "--scene", "a.obj", "--out", "a.png", "--pes", "256"
+        ])
+        .is_err());
+        assert!(Cli::try_parse_from([
+            "gridrt", "render", "--sim", "--scene", "a.obj", "--out", "a.png", "--grid-m", "0"
+        ])
+        .is_err());
+        assert!(Cli::try_parse_from([
+            "gridrt", "bench", "rays", "--scene", "a.obj", "--width", "64", "--height", "64", "--json", "b.json"
+        ])
+        .is_ok());
     }
 }

@@ -112,7 +112,13 @@ impl ReferenceScene {
                 continue;
             }
             let ext = [0, 1, 2].map(|a| bmax[a] - bmin[a]);
-            let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] { 0 } else if ext[1] >= ext[2] { 1 } else { 2 };
+            let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] {
+                0
+            } else if ext[1] >= ext[2] {
+                1
+            } else {
+                2
+            };
             let mid = (lo + hi) / 2;
             order[lo..hi].select_nth_unstable_by(mid - lo, |&x, &y| centroid(x, axis).total_cmp(&centroid(y, axis)));
             nodes.push(Node { min: bmin, max: bmax, index: 0, count: 0, axis: axis as u8 });
@@ -167,7 +173,8 @@ impl ReferenceScene {
                 }
             } else if sp + 2 <= stack.len() {
                 // Visit the near child first.
-                let (first, second) = if neg[node.axis as usize] { (node.index, ni as u32 + 1) } else { (ni as u32 + 1, node.index) };
+                let (first, second) =
+                    if neg[node.axis as usize] { (node.index, ni as u32 + 1) } else { (ni as u32 + 1, node.index) };
                 stack[sp] = second;
                 stack[sp + 1] = first;
                 sp += 2;
@@ -259,7 +266,13 @@ struct WatertightRay {
 impl WatertightRay {
     fn new(o: [f64; 3], d: [f64; 3]) -> Self {
         // Permute so that z is the largest direction component; swap x/y to keep winding.
-        let kz = if d[0].abs() >= d[1].abs() && d[0].abs() >= d[2].abs() { 0 } else if d[1].abs() >= d[2].abs() { 1 } else { 2 };
+        let kz = if d[0].abs() >= d[1].abs() && d[0].abs() >= d[2].abs() {
+            0
+        } else if d[1].abs() >= d[2].abs() {
+            1
+        } else {
+            2
+        };
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
         if d[kz] < 0.0 {
@@ -300,7 +313,9 @@ pub fn render(scene: &ReferenceScene, settings: &RenderSettings, threads: usize)
     let (w, h) = (settings.width as usize, settings.height as usize);
     let cam = CameraF64::new(settings);
     let next = AtomicUsize::new(0);
-    let rows: Vec<Vec<(usize, Vec<u8>, Vec<u32>)>> = std::thread::scope(|sc| {
+    /// One rendered row: (y, RGB8, prim ids).
+    type Row = (usize, Vec<u8>, Vec<u32>);
+    let rows: Vec<Vec<Row>> = std::thread::scope(|sc| {
         let workers: Vec<_> = (0..threads.max(1))
             .map(|_| {
                 sc.spawn(|| {
@@ -356,7 +371,9 @@ mod tests {
 
     #[test]
     fn bvh_matches_brute_force_on_the_bunny() {
-        let mesh = crate::scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj")).unwrap();
+        let mesh =
+            crate::scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj"))
+                .unwrap();
         let b = mesh.bounds().unwrap();
         let scene = ReferenceScene::new(&mesh, &b);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(42);
@@ -377,7 +394,8 @@ mod tests {
     fn watertight_on_a_shared_edge() {
         // Two triangles sharing the diagonal of a unit square; rays through the diagonal
         // must hit exactly one of them or both, never neither.
-        let tris = [[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]], [[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]]];
+        let tris =
+            [[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]], [[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]]];
         for k in 0..=1000 {
             let s = k as f64 / 1000.0;
             let o = [s, s, 1.0];
@@ -390,8 +408,14 @@ mod tests {
     fn shadow_and_shading_follow_the_contract() {
         // Floor at y = 0, a square occluder at y = 0.5, light at (0.5, 1, 0): the shadow of the
         // occluder falls on x ∈ [-0.9, -0.1], z ∈ [-0.4, 0.4], visible from the camera above.
-        let floor = [[[-1.0f32, 0.0, -1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0]], [[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0]]];
-        let occ = [[[-0.2f32, 0.5, -0.2], [0.2, 0.5, 0.2], [0.2, 0.5, -0.2]], [[-0.2, 0.5, -0.2], [-0.2, 0.5, 0.2], [0.2, 0.5, 0.2]]];
+        let floor = [
+            [[-1.0f32, 0.0, -1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0]],
+            [[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0]],
+        ];
+        let occ = [
+            [[-0.2f32, 0.5, -0.2], [0.2, 0.5, 0.2], [0.2, 0.5, -0.2]],
+            [[-0.2, 0.5, -0.2], [-0.2, 0.5, 0.2], [0.2, 0.5, 0.2]],
+        ];
         let tris: Vec<Triangle> = floor.iter().chain(occ.iter()).map(|&v| Triangle { v, material: 0 }).collect();
         let mesh = Mesh::from_triangles(Path::new("t"), tris, vec![DEFAULT_MATERIAL]).unwrap();
         let b = mesh.bounds().unwrap();
@@ -401,7 +425,12 @@ mod tests {
         s.camera.target = [0.0, 0.0, 0.0];
         s.light.pos = [0.5, 1.0, 0.0];
         let img = render(&scene, &s, 2);
-        let px = |x: usize, y: usize| (img.prim_ids[y * 64 + x], [img.rgb[3 * (y * 64 + x)], img.rgb[3 * (y * 64 + x) + 1], img.rgb[3 * (y * 64 + x) + 2]]);
+        let px = |x: usize, y: usize| {
+            (
+                img.prim_ids[y * 64 + x],
+                [img.rgb[3 * (y * 64 + x)], img.rgb[3 * (y * 64 + x) + 1], img.rgb[3 * (y * 64 + x) + 2]],
+            )
+        };
         // Occluder, lit.
         let (id, occ_rgb) = px(34, 30);
         assert!(id >= 2, "{id}");
@@ -421,7 +450,9 @@ mod tests {
 
     #[test]
     fn render_threads_agree() {
-        let mesh = crate::scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj")).unwrap();
+        let mesh =
+            crate::scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj"))
+                .unwrap();
         let b = mesh.bounds().unwrap();
         let scene = ReferenceScene::new(&mesh, &b);
         let s = RenderSettings::default_for(&b).with_size(40, 30);

@@ -86,9 +86,9 @@ impl Mesh {
         let first = *it.next()?;
         let mut b = Bounds { min: first, max: first };
         for p in it {
-            for i in 0..3 {
-                b.min[i] = b.min[i].min(p[i]);
-                b.max[i] = b.max[i].max(p[i]);
+            for (i, &c) in p.iter().enumerate() {
+                b.min[i] = b.min[i].min(c);
+                b.max[i] = b.max[i].max(c);
             }
         }
         Some(b)
@@ -107,7 +107,10 @@ impl Mesh {
         for (i, t) in triangles.into_iter().enumerate() {
             stats.triangles_read += 1;
             if t.v.iter().flatten().any(|c| !c.is_finite()) {
-                return Err(SceneLoadError::NonFinite { path: name.to_path_buf(), at: Location::Element("triangle", i as u64) });
+                return Err(SceneLoadError::NonFinite {
+                    path: name.to_path_buf(),
+                    at: Location::Element("triangle", i as u64),
+                });
             }
             if t.material as usize >= materials.len() {
                 return Err(SceneLoadError::Malformed {
@@ -280,7 +283,9 @@ pub fn load_obj_bytes(
         let data = match read_mtl(p) {
             Ok(d) => d,
             Err(e) => {
-                warnings.borrow_mut().push(format!("{}: cannot read MTL ({e}); using the default material", mtl_name.display()));
+                warnings
+                    .borrow_mut()
+                    .push(format!("{}: cannot read MTL ({e}); using the default material", mtl_name.display()));
                 return Err(tobj::LoadError::OpenFileFailed);
             }
         };
@@ -297,7 +302,16 @@ pub fn load_obj_bytes(
         }
         tobj::load_mtl_buf(&mut Cursor::new(data))
     };
-    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true, ..Default::default() };
+    // `..Default::default()` is needed when tobj's optional `merging`/`reordering` features
+    // are unified in by another crate; they add fields we want off.
+    #[allow(clippy::needless_update)]
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ignore_points: true,
+        ignore_lines: true,
+        ..Default::default()
+    };
     let result = tobj::load_obj_buf(&mut Cursor::new(bytes), &opts, loader);
     if let Some(e) = mtl_problem.into_inner() {
         return Err(e);
@@ -322,7 +336,8 @@ pub fn load_obj_bytes(
         }
         Err(e) => {
             if stats_warnings.is_empty() {
-                stats_warnings.push(format!("{}: materials not loaded ({e}); using the default material", name.display()));
+                stats_warnings
+                    .push(format!("{}: materials not loaded ({e}); using the default material", name.display()));
             }
         }
     }
@@ -369,7 +384,8 @@ fn prescan_obj(name: &Path, text: &str) -> Result<(), SceneLoadError> {
         match words.next() {
             Some("v") => {
                 let vals: Vec<&str> = words.collect();
-                let malformed = |reason: String| SceneLoadError::Malformed { path: name.to_path_buf(), at: at(), reason };
+                let malformed =
+                    |reason: String| SceneLoadError::Malformed { path: name.to_path_buf(), at: at(), reason };
                 if vals.len() < 3 {
                     return Err(malformed(format!("vertex needs 3 coordinates, found {}", vals.len())));
                 }
@@ -399,13 +415,26 @@ fn prescan_obj(name: &Path, text: &str) -> Result<(), SceneLoadError> {
                         at: at(),
                         reason: format!("`{w}` is not a face vertex index"),
                     })?;
-                    let ok = if index < 0 { index.unsigned_abs() <= vertices } else { index >= 1 && index as u64 <= vertices };
+                    let ok = if index < 0 {
+                        index.unsigned_abs() <= vertices
+                    } else {
+                        index >= 1 && index as u64 <= vertices
+                    };
                     if !ok {
-                        return Err(SceneLoadError::IndexOutOfRange { path: name.to_path_buf(), at: at(), index, vertex_count: vertices });
+                        return Err(SceneLoadError::IndexOutOfRange {
+                            path: name.to_path_buf(),
+                            at: at(),
+                            index,
+                            vertex_count: vertices,
+                        });
                     }
                 }
                 if count == 0 {
-                    return Err(SceneLoadError::Malformed { path: name.to_path_buf(), at: at(), reason: "face without vertices".into() });
+                    return Err(SceneLoadError::Malformed {
+                        path: name.to_path_buf(),
+                        at: at(),
+                        reason: "face without vertices".into(),
+                    });
                 }
             }
             _ => {}
@@ -558,7 +587,9 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
             }
             ["comment", ..] | ["obj_info", ..] | [] => {}
             ["element", name, count] => {
-                let count = count.parse::<u64>().map_err(|_| malformed(Location::Line(ln), format!("bad element count `{count}`")))?;
+                let count = count
+                    .parse::<u64>()
+                    .map_err(|_| malformed(Location::Line(ln), format!("bad element count `{count}`")))?;
                 elements.push(Element { name: name.to_string(), count, props: Vec::new() });
             }
             ["property", "list", c, i, name] => {
@@ -568,12 +599,17 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
                 if !count.is_integer() {
                     return Err(malformed(Location::Line(ln), "list count type must be an integer".into()));
                 }
-                let el = elements.last_mut().ok_or_else(|| malformed(Location::Line(ln), "property before any element".into()))?;
+                let el = elements
+                    .last_mut()
+                    .ok_or_else(|| malformed(Location::Line(ln), "property before any element".into()))?;
                 el.props.push(Property { name: name.to_string(), kind: PropKind::List { count, item } });
             }
             ["property", ty, name] => {
-                let ty = Scalar::parse(ty).ok_or_else(|| malformed(Location::Line(ln), format!("unknown property type `{ty}`")))?;
-                let el = elements.last_mut().ok_or_else(|| malformed(Location::Line(ln), "property before any element".into()))?;
+                let ty = Scalar::parse(ty)
+                    .ok_or_else(|| malformed(Location::Line(ln), format!("unknown property type `{ty}`")))?;
+                let el = elements
+                    .last_mut()
+                    .ok_or_else(|| malformed(Location::Line(ln), "property before any element".into()))?;
                 el.props.push(Property { name: name.to_string(), kind: PropKind::Scalar(ty) });
             }
             _ => return Err(malformed(Location::Line(ln), format!("unrecognised header line `{line}`"))),
@@ -582,7 +618,10 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
     let format = format.ok_or_else(|| malformed(Location::Line(header_lines), "header has no `format` line".into()))?;
 
     // Locate the properties we need.
-    let vertex_el = elements.iter().position(|e| e.name == "vertex").ok_or_else(|| malformed(Location::File, "no `vertex` element".into()))?;
+    let vertex_el = elements
+        .iter()
+        .position(|e| e.name == "vertex")
+        .ok_or_else(|| malformed(Location::File, "no `vertex` element".into()))?;
     let xyz_idx: Vec<usize> = ["x", "y", "z"]
         .iter()
         .map(|n| elements[vertex_el].props.iter().position(|p| p.name == *n && matches!(p.kind, PropKind::Scalar(_))))
@@ -594,7 +633,9 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
             elements[f]
                 .props
                 .iter()
-                .position(|p| (p.name == "vertex_indices" || p.name == "vertex_index") && matches!(p.kind, PropKind::List { .. }))
+                .position(|p| {
+                    (p.name == "vertex_indices" || p.name == "vertex_index") && matches!(p.kind, PropKind::List { .. })
+                })
                 .ok_or_else(|| malformed(Location::File, "face element lacks a vertex_indices list".into()))?,
         ),
         None => None,
@@ -610,7 +651,18 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
     let mut tris: Vec<Triangle> = Vec::new();
     for (ei, el) in elements.iter().enumerate() {
         for k in 0..el.count {
-            let loc = |src: &dyn ValueSource| src.location(if ei == vertex_el { "vertex" } else if Some(ei) == face_el { "face" } else { "element" }, k);
+            let loc = |src: &dyn ValueSource| {
+                src.location(
+                    if ei == vertex_el {
+                        "vertex"
+                    } else if Some(ei) == face_el {
+                        "face"
+                    } else {
+                        "element"
+                    },
+                    k,
+                )
+            };
             let mut xyz = [0.0f32; 3];
             let mut face: Vec<i64> = Vec::new();
             src.begin_record();
@@ -618,7 +670,9 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
             for (pi, prop) in el.props.iter().enumerate() {
                 match prop.kind {
                     PropKind::Scalar(t) => {
-                        let v = src.value(t).map_err(|r| malformed(loc(src.as_ref()), format!("property `{}`: {r}", prop.name)))?;
+                        let v = src
+                            .value(t)
+                            .map_err(|r| malformed(loc(src.as_ref()), format!("property `{}`: {r}", prop.name)))?;
                         if ei == vertex_el {
                             if let Some(axis) = xyz_idx.iter().position(|&x| x == pi) {
                                 xyz[axis] = v as f32;
@@ -626,16 +680,26 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
                         }
                     }
                     PropKind::List { count, item } => {
-                        let n = src.value(count).map_err(|r| malformed(loc(src.as_ref()), format!("list `{}` length: {r}", prop.name)))?;
+                        let n = src
+                            .value(count)
+                            .map_err(|r| malformed(loc(src.as_ref()), format!("list `{}` length: {r}", prop.name)))?;
                         if !(0.0..=MAX_FACE_VERTICES as f64).contains(&n) || n.fract() != 0.0 {
-                            return Err(malformed(loc(src.as_ref()), format!("list `{}` has invalid length {n}", prop.name)));
+                            return Err(malformed(
+                                loc(src.as_ref()),
+                                format!("list `{}` has invalid length {n}", prop.name),
+                            ));
                         }
                         let want = Some(ei) == face_el && Some(pi) == face_idx;
                         for _ in 0..n as u64 {
-                            let v = src.value(item).map_err(|r| malformed(loc(src.as_ref()), format!("list `{}`: {r}", prop.name)))?;
+                            let v = src
+                                .value(item)
+                                .map_err(|r| malformed(loc(src.as_ref()), format!("list `{}`: {r}", prop.name)))?;
                             if want {
                                 if !item.is_integer() && v.fract() != 0.0 {
-                                    return Err(malformed(loc(src.as_ref()), format!("vertex index {v} is not an integer")));
+                                    return Err(malformed(
+                                        loc(src.as_ref()),
+                                        format!("vertex index {v} is not an integer"),
+                                    ));
                                 }
                                 face.push(v as i64);
                             }
@@ -830,7 +894,10 @@ mod tests {
     #[test]
     fn obj_out_of_range_index_names_its_line() {
         let err = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").unwrap_err();
-        assert!(matches!(err, SceneLoadError::IndexOutOfRange { at: Location::Line(4), index: 4, vertex_count: 3, .. }), "{err}");
+        assert!(
+            matches!(err, SceneLoadError::IndexOutOfRange { at: Location::Line(4), index: 4, vertex_count: 3, .. }),
+            "{err}"
+        );
         let err = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n").unwrap_err();
         assert!(matches!(err, SceneLoadError::IndexOutOfRange { index: 0, .. }), "{err}");
         let err = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n").unwrap_err();
@@ -875,9 +942,15 @@ mod tests {
     #[test]
     fn obj_malformed_mtl_names_mtl_line() {
         let mtl = b"newmtl red\nKd 1 0\n".to_vec();
-        let err = load_obj_bytes(Path::new("dir/a.obj"), format!("mtllib m.mtl\nusemtl red\n{QUAD}").as_bytes(), &|_| Ok(mtl.clone()))
+        let err =
+            load_obj_bytes(Path::new("dir/a.obj"), format!("mtllib m.mtl\nusemtl red\n{QUAD}").as_bytes(), &|_| {
+                Ok(mtl.clone())
+            })
             .unwrap_err();
-        assert!(matches!(&err, SceneLoadError::Malformed { at: Location::Line(2), path, .. } if path.ends_with("m.mtl")), "{err}");
+        assert!(
+            matches!(&err, SceneLoadError::Malformed { at: Location::Line(2), path, .. } if path.ends_with("m.mtl")),
+            "{err}"
+        );
     }
 
     #[test]

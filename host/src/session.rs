@@ -29,7 +29,10 @@ use std::io::{ErrorKind, Read, Write};
 use std::time::{Duration, Instant};
 
 use gridrt_shared::frame::{crc32, encode_frame, FeedResult, FrameAccumulator, MAX_ENCODED, MAX_PAYLOAD};
-use gridrt_shared::msg::{render_flags, stat_entries, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, PixelEncoding, RenderRequest, SceneStatus};
+use gridrt_shared::msg::{
+    render_flags, stat_entries, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, PixelEncoding, RenderRequest,
+    SceneStatus,
+};
 use gridrt_shared::PROTOCOL_VERSION;
 
 /// Largest scene chunk the host sends.
@@ -349,7 +352,9 @@ impl Incoming {
         match m {
             Msg::Version(d) => Self::Version(d),
             Msg::SceneAck { next_offset, status } => Self::SceneAck { next_offset, status },
-            Msg::PixelSpan { frame, y, x0, count, encoding, data } => Self::PixelSpan { frame, y, x0, count, encoding, data: data.to_vec() },
+            Msg::PixelSpan { frame, y, x0, count, encoding, data } => {
+                Self::PixelSpan { frame, y, x0, count, encoding, data: data.to_vec() }
+            }
             Msg::FrameEnd { frame, spans, image_crc } => Self::FrameEnd { frame, spans, image_crc },
             Msg::Stats { frame, entries } => Self::Stats { frame, entries: stat_entries(entries).collect() },
             Msg::Error { code, detail, text } => Self::Error { code, detail, text: text.to_string() },
@@ -545,13 +550,46 @@ impl<T: Read + Write> Session<T> {
         Err(self.timeout(stage, start.elapsed()))
     }
 
+    /// Discards incoming messages until the line has been quiet for `quiet` (at most `max`).
+    /// Used after a failed upload: the device answers every chunk still in flight with an
+    /// error of its own, which must not be mistaken for an answer to the next request.
+    fn drain(&mut self, stage: Stage, quiet: Duration, max: Duration) {
+        let end = Instant::now() + max;
+        loop {
+            let until = (Instant::now() + quiet).min(end);
+            match self.poll(stage, until) {
+                Ok(Some(_)) if Instant::now() < end => {}
+                _ => return,
+            }
+        }
+    }
+
     /// Uploads a scene image and waits until the device has loaded it.
+    ///
+    /// When the device refuses the image, the answers to chunks still in flight are drained
+    /// (until the line is quiet for up to `retransmit_after`) before the error is returned,
+    /// so the session can go on with the next request.
     pub fn upload_scene(&mut self, image: &[u8], progress: &mut dyn FnMut(ProgressEvent)) -> Result<(), SessionError> {
+        let r = self.upload_inner(image, progress);
+        if matches!(
+            r,
+            Err(SessionError::Device { .. } | SessionError::Protocol { .. } | SessionError::UploadStalled { .. })
+        ) {
+            let quiet = self.cfg.retransmit_after.min(Duration::from_millis(250));
+            self.drain(Stage::Upload, quiet, 10 * quiet);
+        }
+        r
+    }
+
+    fn upload_inner(&mut self, image: &[u8], progress: &mut dyn FnMut(ProgressEvent)) -> Result<(), SessionError> {
         let stage = Stage::Upload;
-        let total = u32::try_from(image.len())
-            .map_err(|_| SessionError::BadInput { port: self.cfg.port_name.clone(), stage, what: "scene image larger than 4 GiB".into() })?;
+        let total = u32::try_from(image.len()).map_err(|_| SessionError::BadInput {
+            port: self.cfg.port_name.clone(),
+            stage,
+            what: "scene image larger than 4 GiB".into(),
+        })?;
         let device_cap = self.device.map_or(MAX_CHUNK, |d| (d.max_payload as usize).saturating_sub(4));
-        let chunk = self.cfg.chunk_size.min(MAX_CHUNK).min(device_cap).min(MAX_PAYLOAD - 4).max(1);
+        let chunk = self.cfg.chunk_size.min(MAX_CHUNK).min(device_cap).clamp(1, MAX_PAYLOAD - 4);
         let window = (self.cfg.window.max(1) * chunk) as u32;
 
         self.send(stage, &Msg::SceneBegin { total_len: total, crc: crc32(image) })?;
@@ -572,7 +610,8 @@ impl<T: Read + Write> Session<T> {
             match self.poll(stage, until)? {
                 Some(Incoming::SceneAck { next_offset, status }) => {
                     if next_offset > total {
-                        return Err(self.protocol(stage, format!("ack of offset {next_offset} beyond the image ({total} bytes)")));
+                        return Err(self
+                            .protocol(stage, format!("ack of offset {next_offset} beyond the image ({total} bytes)")));
                     }
                     if next_offset > acked {
                         acked = next_offset;
@@ -584,7 +623,8 @@ impl<T: Read + Write> Session<T> {
                     }
                     if status == SceneStatus::Loaded {
                         if next_offset != total {
-                            return Err(self.protocol(stage, format!("device reports Loaded at offset {next_offset} of {total}")));
+                            return Err(self
+                                .protocol(stage, format!("device reports Loaded at offset {next_offset} of {total}")));
                         }
                         progress(ProgressEvent::UploadFinished { total: total as u64 });
                         return Ok(());
@@ -592,14 +632,21 @@ impl<T: Read + Write> Session<T> {
                 }
                 Some(Incoming::Error { code: ErrorCode::BadOffset, detail, .. }) => {
                     if detail > total {
-                        return Err(self.protocol(stage, format!("device expects offset {detail} beyond the image ({total} bytes)")));
+                        return Err(self.protocol(
+                            stage,
+                            format!("device expects offset {detail} beyond the image ({total} bytes)"),
+                        ));
                     }
                     // An offset below what the device already acknowledged is a stale report;
                     // the same offset twice means the rewind is already under way.
                     if detail >= acked && rewound_to != Some(detail) {
                         rewinds += 1;
                         if rewinds > self.cfg.max_rewinds {
-                            return Err(SessionError::UploadStalled { port: self.cfg.port_name.clone(), offset: acked, rewinds });
+                            return Err(SessionError::UploadStalled {
+                                port: self.cfg.port_name.clone(),
+                                offset: acked,
+                                rewinds,
+                            });
                         }
                         rewound_to = Some(detail);
                         acked = detail;
@@ -618,7 +665,11 @@ impl<T: Read + Write> Session<T> {
                         // Nothing acknowledged for a while: go back and resend.
                         rewinds += 1;
                         if rewinds > self.cfg.max_rewinds {
-                            return Err(SessionError::UploadStalled { port: self.cfg.port_name.clone(), offset: acked, rewinds });
+                            return Err(SessionError::UploadStalled {
+                                port: self.cfg.port_name.clone(),
+                                offset: acked,
+                                rewinds,
+                            });
                         }
                         next = acked;
                         rewound_to = Some(acked);
@@ -630,11 +681,19 @@ impl<T: Read + Write> Session<T> {
     }
 
     /// Requests one frame and assembles it.
-    pub fn render(&mut self, req: &RenderRequest, progress: &mut dyn FnMut(ProgressEvent)) -> Result<RenderedFrame, SessionError> {
+    pub fn render(
+        &mut self,
+        req: &RenderRequest,
+        progress: &mut dyn FnMut(ProgressEvent),
+    ) -> Result<RenderedFrame, SessionError> {
         let stage = Stage::Render;
         let (w, h) = (req.width as usize, req.height as usize);
         if w == 0 || h == 0 {
-            return Err(SessionError::BadInput { port: self.cfg.port_name.clone(), stage, what: "image size is zero".into() });
+            return Err(SessionError::BadInput {
+                port: self.cfg.port_name.clone(),
+                stage,
+                what: "image size is zero".into(),
+            });
         }
         let want_ids = req.flags & render_flags::PRIM_IDS != 0;
         let (tx0, rx0) = (self.bytes_tx, self.bytes_rx);
@@ -663,21 +722,31 @@ impl<T: Read + Write> Session<T> {
                     }
                     let (y, x0, count) = (y as usize, x0 as usize, count as usize);
                     if y >= h || x0 + count > w {
-                        return Err(self.protocol(stage, format!("span y {y} x {x0}+{count} outside the {w}×{h} image")));
+                        return Err(
+                            self.protocol(stage, format!("span y {y} x {x0}+{count} outside the {w}×{h} image"))
+                        );
                     }
                     spans_received += 1;
                     let base = y * w + x0;
                     let newly = match encoding {
                         PixelEncoding::Rgb888 => {
                             rgb[3 * base..3 * (base + count)].copy_from_slice(&data);
-                            got_rgb[base..base + count].iter_mut().map(|g| !std::mem::replace(g, true)).filter(|&n| n).count()
+                            got_rgb[base..base + count]
+                                .iter_mut()
+                                .map(|g| !std::mem::replace(g, true))
+                                .filter(|&n| n)
+                                .count()
                         }
                         PixelEncoding::PrimId32 => match ids.as_mut() {
                             Some(ids) => {
                                 for (k, c) in data.chunks_exact(4).enumerate() {
                                     ids[base + k] = u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
                                 }
-                                got_ids[base..base + count].iter_mut().map(|g| !std::mem::replace(g, true)).filter(|&n| n).count()
+                                got_ids[base..base + count]
+                                    .iter_mut()
+                                    .map(|g| !std::mem::replace(g, true))
+                                    .filter(|&n| n)
+                                    .count()
                             }
                             None => 0,
                         },
@@ -718,7 +787,12 @@ impl<T: Read + Write> Session<T> {
                     }
                     let received = crc32(&rgb);
                     if received != image_crc {
-                        return Err(SessionError::ImageCrc { port: self.cfg.port_name.clone(), frame, device: image_crc, received });
+                        return Err(SessionError::ImageCrc {
+                            port: self.cfg.port_name.clone(),
+                            frame,
+                            device: image_crc,
+                            received,
+                        });
                     }
                     progress(ProgressEvent::Finished);
                     return Ok(RenderedFrame {
@@ -835,13 +909,21 @@ pub(crate) mod tests {
                         return;
                     }
                     if offset != self.expected {
-                        self.emit(&Msg::Error { code: ErrorCode::BadOffset, detail: self.expected, text: "bad offset" });
+                        self.emit(&Msg::Error {
+                            code: ErrorCode::BadOffset,
+                            detail: self.expected,
+                            text: "bad offset",
+                        });
                         return;
                     }
                     self.scene.extend_from_slice(data);
                     self.expected += data.len() as u32;
                     if self.faults.reject_scene {
-                        self.emit(&Msg::Error { code: ErrorCode::SceneRejected, detail: 8, text: "PE block exceeds PE memory" });
+                        self.emit(&Msg::Error {
+                            code: ErrorCode::SceneRejected,
+                            detail: 8,
+                            text: "PE block exceeds PE memory",
+                        });
                         return;
                     }
                     let status = if self.expected == self.total { SceneStatus::Loaded } else { SceneStatus::Receiving };
@@ -864,16 +946,33 @@ pub(crate) mod tests {
                         if self.faults.skip_row == Some(y) {
                             continue;
                         }
-                        self.emit(&Msg::PixelSpan { frame: r.frame, y, x0: 0, count: r.width, encoding: PixelEncoding::Rgb888, data: &row });
+                        self.emit(&Msg::PixelSpan {
+                            frame: r.frame,
+                            y,
+                            x0: 0,
+                            count: r.width,
+                            encoding: PixelEncoding::Rgb888,
+                            data: &row,
+                        });
                         spans += 1;
                         if r.flags & render_flags::PRIM_IDS != 0 {
-                            let ids: Vec<u8> = (0..r.width).flat_map(|x| (x as u32 + 1000 * y as u32).to_le_bytes()).collect();
-                            self.emit(&Msg::PixelSpan { frame: r.frame, y, x0: 0, count: r.width, encoding: PixelEncoding::PrimId32, data: &ids });
+                            let ids: Vec<u8> =
+                                (0..r.width).flat_map(|x| (x as u32 + 1000 * y as u32).to_le_bytes()).collect();
+                            self.emit(&Msg::PixelSpan {
+                                frame: r.frame,
+                                y,
+                                x0: 0,
+                                count: r.width,
+                                encoding: PixelEncoding::PrimId32,
+                                data: &ids,
+                            });
                             spans += 1;
                         }
                     }
                     let mut entries = Vec::new();
-                    for (k, v) in [(stat::PRIMARY_RAYS, (r.width as u64) * r.height as u64), (stat::COPROC_CYCLES, 12345)] {
+                    for (k, v) in
+                        [(stat::PRIMARY_RAYS, (r.width as u64) * r.height as u64), (stat::COPROC_CYCLES, 12345)]
+                    {
                         entries.push(k);
                         entries.extend_from_slice(&u64::to_le_bytes(v));
                     }
@@ -1001,6 +1100,12 @@ pub(crate) mod tests {
             matches!(&err, SessionError::Device { stage: Stage::Upload, code: ErrorCode::SceneRejected, detail: 8, text, .. } if text.contains("PE memory")),
             "{err}"
         );
+        // Errors answering chunks that were still in flight were drained: the next request
+        // gets its own answer.
+        let mut s = session(Faults { reject_scene: true, ..Default::default() });
+        let _ = s.upload_scene(&vec![0u8; 5000], &mut |_| {}).unwrap_err();
+        s.port_mut().faults.reject_scene = false;
+        s.render(&request(4, 4, 0), &mut |_| {}).unwrap();
     }
 
     #[test]

@@ -254,7 +254,13 @@ mod tests {
 
     #[test]
     fn reference_fields_are_flattened_and_optional() {
-        let c = Comparison { psnr_db: None, identical: true, max_abs_diff: 0, differing_pixels: 0, hit_mismatches: Some(0) };
+        let c = Comparison {
+            psnr_db: None,
+            identical: true,
+            max_abs_diff: 0,
+            differing_pixels: 0,
+            hit_mismatches: Some(0),
+        };
         let r = ReferenceStats::new(&c, 1.5);
         let v = serde_json::to_value(&r).unwrap();
         assert_eq!(v["psnr_db"], serde_json::Value::Null);

@@ -29,6 +29,14 @@ pub enum MsgType {
     FrameEnd = 0x22,
     /// Device → host: counters of the frame.
     Stats = 0x23,
+    /// Host → bootloader: an application image follows (SPEC.md §3.11).
+    FlashBegin = 0x30,
+    /// Host → bootloader: bytes of the application image.
+    FlashChunk = 0x31,
+    /// Bootloader → host: image bytes received / verified / booting.
+    FlashAck = 0x32,
+    /// Host → bootloader: jump to the verified image.
+    FlashBoot = 0x33,
     /// Either direction: something went wrong.
     Error = 0x7F,
 }
@@ -46,6 +54,10 @@ impl MsgType {
             0x21 => Self::PixelSpan,
             0x22 => Self::FrameEnd,
             0x23 => Self::Stats,
+            0x30 => Self::FlashBegin,
+            0x31 => Self::FlashChunk,
+            0x32 => Self::FlashAck,
+            0x33 => Self::FlashBoot,
             0x7F => Self::Error,
             _ => return None,
         })
@@ -243,6 +255,8 @@ pub enum ErrorCode {
     BadRequest,
     /// A scene chunk arrived out of order; detail = expected offset.
     BadOffset,
+    /// The bootloader refused an application image; detail = [`FlashError`] number.
+    FlashRejected,
     /// A code this build does not know.
     Unknown(u16),
 }
@@ -258,6 +272,7 @@ impl ErrorCode {
             Self::NoScene => 5,
             Self::BadRequest => 6,
             Self::BadOffset => 7,
+            Self::FlashRejected => 8,
             Self::Unknown(c) => c,
         }
     }
@@ -271,8 +286,96 @@ impl ErrorCode {
             5 => Self::NoScene,
             6 => Self::BadRequest,
             7 => Self::BadOffset,
+            8 => Self::FlashRejected,
             c => Self::Unknown(c),
         }
+    }
+}
+
+/// Version of the flash image format a bootloader accepts in [`Msg::FlashBegin`]
+/// (SPEC.md §3.11).
+pub const FLASH_FORMAT_VERSION: u16 = 1;
+
+/// `DeviceInfo::features` bit set by a bootloader: it accepts the `Flash*` messages and no
+/// scenes or renders (SPEC.md §3.2).
+pub const FEATURE_BOOTLOADER: u32 = 1 << 31;
+
+/// Status of a [`Msg::FlashAck`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum FlashStatus {
+    /// Bytes up to `next_offset` were written; send more.
+    Receiving = 0,
+    /// The whole image is in memory and its CRC-32, read back from memory, matched.
+    Verified = 1,
+    /// The bootloader jumps to the entry point right after this message.
+    Booting = 2,
+}
+
+/// Why a bootloader refused an image: the detail of `Error{FlashRejected}` (SPEC.md §3.11).
+#[non_exhaustive]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FlashError {
+    /// `FlashBegin.version` is not [`FLASH_FORMAT_VERSION`].
+    BadVersion,
+    /// The image is empty or larger than the application region.
+    TooLarge,
+    /// The load address is misaligned or the image does not lie inside the application region.
+    BadAddress,
+    /// The entry point is misaligned or outside the image.
+    BadEntry,
+    /// The CRC-32 read back from memory differs from `FlashBegin.crc`.
+    BadCrc,
+    /// A chunk or boot request arrived without an accepted `FlashBegin`.
+    NotBegun,
+    /// `FlashBoot` before the image was verified, or with another CRC.
+    NotVerified,
+    /// A chunk reaches past `FlashBegin.total_len`.
+    Overrun,
+}
+
+impl FlashError {
+    /// Wire number (declaration order, from 1).
+    pub const fn code(self) -> u32 {
+        match self {
+            Self::BadVersion => 1,
+            Self::TooLarge => 2,
+            Self::BadAddress => 3,
+            Self::BadEntry => 4,
+            Self::BadCrc => 5,
+            Self::NotBegun => 6,
+            Self::NotVerified => 7,
+            Self::Overrun => 8,
+        }
+    }
+    /// Error for a wire number.
+    pub const fn from_code(c: u32) -> Option<Self> {
+        Some(match c {
+            1 => Self::BadVersion,
+            2 => Self::TooLarge,
+            3 => Self::BadAddress,
+            4 => Self::BadEntry,
+            5 => Self::BadCrc,
+            6 => Self::NotBegun,
+            7 => Self::NotVerified,
+            8 => Self::Overrun,
+            _ => return None,
+        })
+    }
+}
+
+impl core::fmt::Display for FlashError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::BadVersion => "unsupported flash image format version",
+            Self::TooLarge => "image empty or larger than the application region",
+            Self::BadAddress => "image outside the application region or misaligned",
+            Self::BadEntry => "entry point outside the image or misaligned",
+            Self::BadCrc => "CRC-32 read back from memory differs",
+            Self::NotBegun => "no image transfer in progress",
+            Self::NotVerified => "image not verified",
+            Self::Overrun => "chunk past the end of the image",
+        })
     }
 }
 
@@ -378,6 +481,42 @@ pub enum Msg<'a> {
         /// Human-readable text (≤ 128 bytes).
         text: &'a str,
     },
+    /// Host → bootloader: an application image of `total_len` bytes is to be written at
+    /// `load_addr` and started at `entry` (SPEC.md §3.11).
+    FlashBegin {
+        /// Flash image format version, [`FLASH_FORMAT_VERSION`].
+        version: u16,
+        /// Image length in bytes.
+        total_len: u32,
+        /// CRC-32 of the whole image.
+        crc: u32,
+        /// Target address of image byte 0.
+        load_addr: u32,
+        /// Address the bootloader jumps to.
+        entry: u32,
+    },
+    /// Host → bootloader: image bytes at `offset`.
+    FlashChunk {
+        /// Offset of `data[0]` in the image.
+        offset: u32,
+        /// The bytes.
+        data: &'a [u8],
+    },
+    /// Bootloader → host acknowledgement.
+    FlashAck {
+        /// Bytes written so far (the next offset expected).
+        next_offset: u32,
+        /// Transfer state.
+        status: FlashStatus,
+        /// CRC-32 read back from memory over the whole image (`Verified`, `Booting`); 0 while
+        /// `Receiving`.
+        crc: u32,
+    },
+    /// Host → bootloader: start the verified image whose CRC-32 is `crc`.
+    FlashBoot {
+        /// CRC-32 of the image to start (must equal the verified one).
+        crc: u32,
+    },
 }
 
 /// Longest error text.
@@ -405,6 +544,10 @@ impl<'a> Msg<'a> {
             Self::PixelSpan { .. } => MsgType::PixelSpan,
             Self::FrameEnd { .. } => MsgType::FrameEnd,
             Self::Stats { .. } => MsgType::Stats,
+            Self::FlashBegin { .. } => MsgType::FlashBegin,
+            Self::FlashChunk { .. } => MsgType::FlashChunk,
+            Self::FlashAck { .. } => MsgType::FlashAck,
+            Self::FlashBoot { .. } => MsgType::FlashBoot,
             Self::Error { .. } => MsgType::Error,
         }
     }
@@ -480,6 +623,27 @@ impl<'a> Msg<'a> {
                 w.u16(frame)?;
                 w.u16((entries.len() / STAT_ENTRY_LEN) as u16)?;
                 w.bytes(entries)?;
+            }
+            Self::FlashBegin { version, total_len, crc, load_addr, entry } => {
+                w.u16(version)?;
+                w.u16(0)?;
+                w.u32(total_len)?;
+                w.u32(crc)?;
+                w.u32(load_addr)?;
+                w.u32(entry)?;
+            }
+            Self::FlashChunk { offset, data } => {
+                w.u32(offset)?;
+                w.bytes(data)?;
+            }
+            Self::FlashAck { next_offset, status, crc } => {
+                w.u32(next_offset)?;
+                w.u8(status as u8)?;
+                w.bytes(&[0; 3])?;
+                w.u32(crc)?;
+            }
+            Self::FlashBoot { crc } => {
+                w.u32(crc)?;
             }
             Self::Error { code, detail, text } => {
                 // Cut at a character boundary so the decoder's UTF-8 check accepts it.
@@ -572,6 +736,24 @@ impl<'a> Msg<'a> {
                 let entries = r.take(n * STAT_ENTRY_LEN)?;
                 Self::Stats { frame, entries }
             }
+            MsgType::FlashBegin => {
+                let version = r.u16()?;
+                let _ = r.u16()?;
+                Self::FlashBegin { version, total_len: r.u32()?, crc: r.u32()?, load_addr: r.u32()?, entry: r.u32()? }
+            }
+            MsgType::FlashChunk => Self::FlashChunk { offset: r.u32()?, data: r.rest() },
+            MsgType::FlashAck => {
+                let next_offset = r.u32()?;
+                let status = match r.u8()? {
+                    0 => FlashStatus::Receiving,
+                    1 => FlashStatus::Verified,
+                    2 => FlashStatus::Booting,
+                    _ => return Err(MsgError::DecodeBadField),
+                };
+                let _ = r.take(3)?;
+                Self::FlashAck { next_offset, status, crc: r.u32()? }
+            }
+            MsgType::FlashBoot => Self::FlashBoot { crc: r.u32()? },
             MsgType::Error => {
                 let code = ErrorCode::from_code(r.u16()?);
                 let len = r.u16()? as usize;

@@ -8,7 +8,8 @@ use common::*;
 use gridrt_shared::frame::{self, FeedResult, FrameAccumulator, FrameError};
 use gridrt_shared::fsl::{self, op, FslError, FslWord, ListEntry, RayKind, RayResult};
 use gridrt_shared::msg::{
-    self, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgType, PixelEncoding, RenderRequest, SceneStatus,
+    self, render_flags, stat, DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgType, PixelEncoding, RenderRequest,
+    SceneStatus,
 };
 use gridrt_shared::scene::{self, Material, PeImage, SceneHeader, SceneStream, TriangleRecord};
 use gridrt_shared::PROTOCOL_VERSION;
@@ -162,6 +163,10 @@ fn msg_type_table() {
         (0x21, MsgType::PixelSpan),
         (0x22, MsgType::FrameEnd),
         (0x23, MsgType::Stats),
+        (0x30, MsgType::FlashBegin),
+        (0x31, MsgType::FlashChunk),
+        (0x32, MsgType::FlashAck),
+        (0x33, MsgType::FlashBoot),
         (0x7F, MsgType::Error),
     ];
     for (b, t) in table {
@@ -469,12 +474,13 @@ fn msg_error_code_table() {
         (5, ErrorCode::NoScene),
         (6, ErrorCode::BadRequest),
         (7, ErrorCode::BadOffset),
+        (8, ErrorCode::FlashRejected),
     ];
     for (c, e) in table {
         assert_eq!(e.code(), c);
         assert_eq!(ErrorCode::from_code(c), e);
     }
-    for c in [0u16, 8, 0x7F, 0xFFFF] {
+    for c in [0u16, 9, 0x7F, 0xFFFF] {
         assert_eq!(ErrorCode::from_code(c), ErrorCode::Unknown(c));
         assert_eq!(ErrorCode::Unknown(c).code(), c);
     }
@@ -518,6 +524,109 @@ fn msg_size_limits() {
     assert!(!fits(Msg::Stats { frame: 0, entries: &data[..228 * 9] }, &mut out));
     let text = "x".repeat(128);
     assert_eq!(encode_payload(&Msg::Error { code: ErrorCode::BadFrame, detail: 0, text: &text }).len(), 136);
+}
+
+// ---------------------------------------------------------------- §3.11 flashing
+
+/// §3.11 constants and the FlashError / FlashStatus numbering.
+#[test]
+fn msg_flash_tables() {
+    assert_eq!(msg::FLASH_FORMAT_VERSION, 1);
+    assert_eq!(msg::FEATURE_BOOTLOADER, 0x8000_0000);
+    assert_eq!([FlashStatus::Receiving as u8, FlashStatus::Verified as u8, FlashStatus::Booting as u8], [0, 1, 2]);
+    let table = [
+        (1, FlashError::BadVersion),
+        (2, FlashError::TooLarge),
+        (3, FlashError::BadAddress),
+        (4, FlashError::BadEntry),
+        (5, FlashError::BadCrc),
+        (6, FlashError::NotBegun),
+        (7, FlashError::NotVerified),
+        (8, FlashError::Overrun),
+    ];
+    for (c, e) in table {
+        assert_eq!(e.code(), c);
+        assert_eq!(FlashError::from_code(c), Some(e));
+    }
+    assert_eq!(FlashError::from_code(0), None);
+    assert_eq!(FlashError::from_code(9), None);
+}
+
+#[test]
+fn msg_flash_begin() {
+    check_msg(
+        Msg::FlashBegin { version: 1, total_len: 0x1234, crc: 0xDEAD_BEEF, load_addr: 0x8010_0000, entry: 0x8010_0000 },
+        1,
+        &[
+            0x01, 0x00, 0x00, 0x00, 0x34, 0x12, 0x00, 0x00, 0xEF, 0xBE, 0xAD, 0xDE, 0x00, 0x00, 0x10, 0x80, 0x00, 0x00, 0x10,
+            0x80,
+        ],
+        &[
+            0x04, 0x30, 0x01, 0x01, 0x02, 0x14, 0x02, 0x01, 0x01, 0x01, 0x03, 0x34, 0x12, 0x01, 0x05, 0xEF, 0xBE, 0xAD,
+            0xDE, 0x01, 0x03, 0x10, 0x80, 0x01, 0x07, 0x10, 0x80, 0xC1, 0x94, 0xEC, 0x55, 0x00,
+        ],
+    );
+}
+
+#[test]
+fn msg_flash_chunk() {
+    check_msg(
+        Msg::FlashChunk { offset: 0x400, data: &[0x97, 0x01, 0x00, 0x00] },
+        2,
+        &[0x00, 0x04, 0x00, 0x00, 0x97, 0x01, 0x00, 0x00],
+        &[
+            0x04, 0x31, 0x01, 0x02, 0x02, 0x08, 0x01, 0x02, 0x04, 0x01, 0x03, 0x97, 0x01, 0x01, 0x05, 0xD2, 0x4C, 0x02,
+            0x10, 0x00,
+        ],
+    );
+}
+
+#[test]
+fn msg_flash_ack() {
+    check_msg(
+        Msg::FlashAck { next_offset: 0x404, status: FlashStatus::Receiving, crc: 0 },
+        3,
+        &[0x04, 0x04, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00],
+        &[
+            0x04, 0x32, 0x01, 0x03, 0x02, 0x0C, 0x03, 0x04, 0x04, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01, 0x01,
+            0x05, 0x87, 0xE6, 0x6E, 0x26, 0x00,
+        ],
+    );
+    check_msg(
+        Msg::FlashAck { next_offset: 0x1234, status: FlashStatus::Verified, crc: 0xDEAD_BEEF },
+        4,
+        &[0x34, 0x12, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0xEF, 0xBE, 0xAD, 0xDE],
+        &[
+            0x04, 0x32, 0x01, 0x04, 0x02, 0x0C, 0x03, 0x34, 0x12, 0x01, 0x02, 0x01, 0x01, 0x01, 0x09, 0xEF, 0xBE, 0xAD,
+            0xDE, 0xE3, 0x99, 0x49, 0x7E, 0x00,
+        ],
+    );
+    // Status 3 is not assigned.
+    let bad = [0x34, 0x12, 0x00, 0x00, 0x03, 0x00, 0x00, 0x00, 0xEF, 0xBE, 0xAD, 0xDE];
+    assert_eq!(Msg::decode(0x32, &bad), Err(msg::MsgError::DecodeBadField));
+}
+
+#[test]
+fn msg_flash_boot() {
+    check_msg(
+        Msg::FlashBoot { crc: 0xDEAD_BEEF },
+        5,
+        &[0xEF, 0xBE, 0xAD, 0xDE],
+        &[0x04, 0x33, 0x01, 0x05, 0x02, 0x04, 0x09, 0xEF, 0xBE, 0xAD, 0xDE, 0x7F, 0xB6, 0x5A, 0x9F, 0x00],
+    );
+}
+
+#[test]
+fn msg_flash_rejected_error() {
+    check_msg(
+        Msg::Error { code: ErrorCode::FlashRejected, detail: FlashError::BadCrc.code(), text: "bad crc" },
+        6,
+        &[0x08, 0x00, 0x07, 0x00, 0x05, 0x00, 0x00, 0x00, 0x62, 0x61, 0x64, 0x20, 0x63, 0x72, 0x63],
+        &[
+            0x04, 0x7F, 0x01, 0x06, 0x02, 0x0F, 0x02, 0x08, 0x02, 0x07, 0x02, 0x05, 0x01, 0x01, 0x0C, 0x62, 0x61, 0x64,
+            0x20, 0x63, 0x72, 0x63, 0x12, 0xF4, 0x6A, 0x48, 0x00,
+        ],
+    );
 }
 
 // ---------------------------------------------------------------- §4 FSL

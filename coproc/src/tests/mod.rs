@@ -213,3 +213,10 @@ pub(crate) fn loaded<'m>(cfg: CoprocConfig, backing: &'m mut Vec<u32>, images: &
     }
     cp
 }
+
+/// The model lives in firmware RAM on the emulated board: keep its footprint known.
+#[test]
+fn coprocessor_footprint_stays_below_24_kib() {
+    let size = core::mem::size_of::<Coprocessor<'static>>();
+    assert!(size < 24 * 1024, "{size} bytes");
+}

@@ -51,7 +51,8 @@ fn trace_equals_brute_force_nearest_hit_on_2x2x2_scene() {
 #[test]
 fn answers_are_independent_of_the_pe_count() {
     let scene = GridScene::random(0x4E5, 40);
-    let maps: [(u8, fn(u32) -> u8); 3] = [(1, |_| 0), (4, |id| (id % 4) as u8), (8, |id| id as u8)];
+    type Map = fn(u32) -> u8;
+    let maps: [(u8, Map); 3] = [(1, |_| 0), (4, |id| (id % 4) as u8), (8, |id| id as u8)];
     let mut rng = ChaCha8Rng::seed_from_u64(99);
     let rays: Vec<_> = (0..2000).map(|_| random_ray(&mut rng)).collect();
     let mut answers: Vec<Vec<_>> = Vec::new();

@@ -1,7 +1,7 @@
 //! The FSL word interface: packets, replies, every protocol violation, resynchronisation.
 
 use super::*;
-use gridrt_shared::fsl::{op, ray_header, CLEAR_WORD};
+use gridrt_shared::fsl::{ray_header, CLEAR_WORD};
 
 /// PE 0 holds voxel 0 (hit at t = 2, prim 3) and voxel 4; PE 1 holds voxel 1.
 fn images() -> Vec<Vec<u32>> {
@@ -85,7 +85,7 @@ fn every_violation_is_answered_with_one_error_word_and_the_link_resynchronises()
             1,
         ),
         ("voxel owned by another PE", framed(&with_head(1, &entry_words(entry(4, 1, 5.0)))), FslError::VoxelNotLoaded, 0),
-        ("list longer than max_list", framed(&with_head(65, &[0; 130])), FslError::ListTooLong, 65),
+        ("list longer than max_list", framed(&with_head(65, &[0; 130])), FslError::ListTooLong, 64),
         ("LOAD longer than PE memory", framed(&[load_header(1), 257, 1, 2, 3]), FslError::PeMemoryOverflow, 1),
         ("LOAD of inconsistent image", framed(&[load_header(1), 4, 1, 0, 0, 0]), FslError::PeImageMalformed, 1),
         (
@@ -146,8 +146,9 @@ fn ray_before_any_load_and_after_clear_is_scene_not_loaded() {
     assert_eq!(cp.trace(RayKind::Any, &probe_ray(), 1.0, &[]), Err(FslError::SceneNotLoaded));
 
     push_all(&mut cp, &load_packet(0, &images()[0]));
-    assert_eq!(drain(&mut cp), vec![FslWord::last(ack_word(0))]);
-    assert_eq!(ack_word(0), op::ACK << 28);
+    assert_eq!(drain(&mut cp), vec![FslWord::last(load_ack(0))]);
+    // SPEC §4.4 worked example: LOAD_PE ACK of PE 0 is 91000000, CLEAR's ACK 94000000.
+    assert_eq!((load_ack(0), load_ack(3), CLEAR_ACK), (0x9100_0000, 0x9100_0003, 0x9400_0000));
     push_all(&mut cp, &req);
     assert_eq!(drain(&mut cp).len(), 8);
 
@@ -197,7 +198,7 @@ fn pe_memory_limit_is_exact_for_both_interfaces() {
     assert_eq!(cp.load_pe(0, &fits), Ok(()));
     assert_eq!(cp.load_pe(1, &too_big), Err(FslError::PeMemoryOverflow));
     push_all(&mut cp, &load_packet(1, &fits));
-    assert_eq!(drain(&mut cp), vec![FslWord::last(ack_word(1))]);
+    assert_eq!(drain(&mut cp), vec![FslWord::last(load_ack(1))]);
     push_all(&mut cp, &load_packet(1, &too_big));
     assert_eq!(drain(&mut cp), vec![FslWord::last(FslError::PeMemoryOverflow.to_word(1))]);
     // PE 0's memory (just below PE 1's) was not touched by the refused load.
@@ -218,7 +219,7 @@ fn loading_via_words_equals_load_pe() {
     let mut worded = Coprocessor::new(cfg, &mut b2).unwrap();
     for (pe, img) in images.iter().enumerate() {
         push_all(&mut worded, &load_packet(pe as u8, img));
-        assert_eq!(drain(&mut worded), vec![FslWord::last(ack_word(pe as u8))]);
+        assert_eq!(drain(&mut worded), vec![FslWord::last(load_ack(pe as u8))]);
         assert_eq!(worded.pe_image(pe as u8), direct.pe_image(pe as u8));
     }
     let mut direct = direct;
@@ -312,4 +313,33 @@ fn configuration_is_validated() {
     assert_eq!(Coprocessor::new(long, &mut small).err(), Some(ConfigError::MaxList));
     assert!(Coprocessor::new(config(1, 8), &mut small).is_ok());
     assert_eq!(CoprocConfig::GRIDRT.required_backing_words(), 4 * 8192);
+}
+
+/// SPEC §4.4 / §5.7 worked example as literal words: the LOAD_PE packet of the tiny scene's
+/// PE 0 is acknowledged with `91000000`; a ray down onto its triangle returns these 8 words.
+#[test]
+fn golden_spec_tiny_scene_load_and_ray() {
+    let packet: [u32; 20] = [
+        0x1000_0000, 0x0000_0012, 0x0000_0001, 0x0000_0001, 0x0000_0001, 0x0000_0000, 0x0000_0000,
+        0x0000_0001, 0x0000_0000, 0x3E80_0000, 0x3E80_0000, 0x3F00_0000, 0x3F40_0000, 0x3E80_0000,
+        0x3F00_0000, 0x3E80_0000, 0x3F40_0000, 0x3F00_0000, 0x0000_0000, 0x0000_0000,
+    ];
+    let cfg = CoprocConfig { timing: TimingProfile::GRIDRT, ..config(1, 64) };
+    let mut backing = vec![0; cfg.required_backing_words()];
+    let mut cp = Coprocessor::new(cfg, &mut backing).unwrap();
+    push_all(&mut cp, &framed(&packet));
+    assert_eq!(drain(&mut cp), vec![FslWord::last(0x9100_0000)]);
+    // Origin (0.375, 0.375, 2), direction (0, 0, −1), voxel 0 left at t = 2.
+    let ray = Ray { origin: v(0.375, 0.375, 2.0), dir: v(0.0, 0.0, -1.0) };
+    push_all(&mut cp, &ray_packet(RayKind::Closest, &ray, f32::INFINITY, &[entry(0, 0, 2.0)]));
+    let out: Vec<u32> = drain(&mut cp).iter().map(|w| w.data).collect();
+    // hit, t = 1.5, prim 0, 1 test, normal (0, 0, 0.25), 10 + 70 + 648 + 4 + 8 = 740 cycles.
+    assert_eq!(out, [0x8000_0001, 0x3FC0_0000, 0, 0x0001_0000, 0, 0, 0x3E80_0000, 740]);
+}
+
+/// SPEC §4.3: the acceptance limit is fl32(t_exit × 0x3F800800), e.g. 1.5 → 0x3FC00C00.
+#[test]
+fn golden_spec_acceptance_limit_constant() {
+    assert_eq!((1.0f32 + T_EXIT_REL_TOL).to_bits(), 0x3F80_0800);
+    assert_eq!((1.5f32 * (1.0 + T_EXIT_REL_TOL)).to_bits(), 0x3FC0_0C00);
 }

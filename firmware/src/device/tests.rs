@@ -379,8 +379,8 @@ fn hello_is_answered_with_version_reporting_capacity_and_features() {
     assert_eq!(v.protocol, gridrt_shared::PROTOCOL_VERSION as u16);
     assert_eq!(v.max_payload as usize, MAX_PAYLOAD);
     assert_eq!((v.board, v.pe_count, v.pe_mem_words, v.firmware), (0, 4, 4096, [0, 1, 0]));
-    assert_eq!(v.features & FEATURE_SHADOWS != 0, cfg!(feature = "shadows"));
-    assert_ne!(v.features & FEATURE_PRIM_IDS, 0);
+    assert_eq!(v.features & gridrt_shared::msg::feature::SHADOWS != 0, cfg!(feature = "shadows"));
+    assert_ne!(v.features & gridrt_shared::msg::feature::PRIM_IDS, 0);
     // Sequence numbers count up per frame sent.
     let r2 = send(&mut dev, &Msg::Hello { protocol: 1 });
     assert_eq!((r[0].0, r2[0].0), (0, 1));
@@ -436,7 +436,7 @@ fn corrupted_image_is_rejected_with_bad_crc_and_renders_get_no_scene() {
     img[last] ^= 0x01; // inside the last PE word: the body CRC no longer matches
     let mut dev = device();
     let r = upload(&mut dev, &img, 1000);
-    assert_eq!(error_of(r.last().unwrap()), (ErrorCode::SceneRejected, scene_error_code(SceneError::BadCrc)));
+    assert_eq!(error_of(r.last().unwrap()), (ErrorCode::SceneRejected, SceneError::BadCrc.code()));
     assert!(!dev.scene_loaded());
     let r = send(&mut dev, &Msg::RenderRequest(request(4, 3, 0)));
     assert_eq!(error_of(&r[0]).0, ErrorCode::NoScene);
@@ -449,7 +449,7 @@ fn scene_begin_crc_mismatch_is_rejected() {
     let mut dev = device();
     send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) ^ 1 });
     let r = send(&mut dev, &Msg::SceneChunk { offset: 0, data: &img });
-    assert_eq!(error_of(&r[0]), (ErrorCode::SceneRejected, scene_error_code(SceneError::BadCrc)));
+    assert_eq!(error_of(&r[0]), (ErrorCode::SceneRejected, SceneError::BadCrc.code()));
     assert!(!dev.scene_loaded());
 }
 
@@ -482,7 +482,7 @@ fn grid_larger_than_voxel_capacity_is_rejected_before_touching_the_coproc() {
     let img = scene_image([9, 9, 1], &materials()); // 81 > 64 voxels
     let mut dev = device();
     let r = upload(&mut dev, &img, 2000);
-    assert_eq!(error_of(&r[0]), (ErrorCode::SceneRejected, scene_error_code(SceneError::GridTooLarge)));
+    assert_eq!(error_of(&r[0]), (ErrorCode::SceneRejected, SceneError::GridTooLarge.code()));
     assert_eq!(dev.link().clears, 0);
     assert_eq!(dev.link().words_in, 0);
 }
@@ -494,7 +494,7 @@ fn coproc_error_on_load_rejects_the_scene() {
     dev.link_mut().mode = Mode::ErrorOnLoad(FslError::PeMemoryOverflow.to_word(1));
     let r = upload(&mut dev, &img, 2000);
     assert_eq!(r.len(), 1);
-    assert_eq!(error_of(&r[0]), (ErrorCode::SceneRejected, scene_error_code(SceneError::Rejected)));
+    assert_eq!(error_of(&r[0]), (ErrorCode::SceneRejected, SceneError::Rejected.code()));
     let Msg::Error { text, .. } = r[0].msg() else { panic!() };
     assert!(text.contains("PE memory"), "{text}");
     assert!(!dev.scene_loaded());
@@ -683,7 +683,7 @@ fn oversize_frame_is_reported_and_the_next_frame_handled() {
     bytes.push(0);
     bytes.extend_from_slice(&frame(&Msg::Hello { protocol: 1 }, 0));
     let r = exchange(&mut dev, &bytes);
-    assert_eq!(error_of(&r[0]), (ErrorCode::BadFrame, frame_error_code(FrameError::DecodeOversize)));
+    assert_eq!(error_of(&r[0]), (ErrorCode::BadFrame, FrameError::DecodeOversize.code()));
     assert!(matches!(r[1].msg(), Msg::Version(_)));
 }
 

@@ -89,7 +89,8 @@ impl RaysArgs {
             kernel: self.kernel.into(),
         };
         let mut backing = vec![0u32; config.required_backing_words()];
-        let mut coproc = Coprocessor::new(config, &mut backing).map_err(|e| anyhow!("co-processor configuration: {e}"))?;
+        let mut coproc =
+            Coprocessor::new(config, &mut backing).map_err(|e| anyhow!("co-processor configuration: {e}"))?;
         for (pe, words) in grid.pe_images.iter().enumerate() {
             coproc.load_pe(pe as u8, words).map_err(|e| anyhow!("loading PE {pe}: {e}"))?;
         }
@@ -180,14 +181,24 @@ impl RaysArgs {
         };
         println!(
             "{}: {} triangles, grid {}×{}×{}, {} PEs, {}×{} primary rays ({} hits, {} culled)",
-            report.scene, report.triangles, report.grid[0], report.grid[1], report.grid[2], report.pe_count, report.width, report.height, report.hits, report.culled
+            report.scene,
+            report.triangles,
+            report.grid[0],
+            report.grid[1],
+            report.grid[2],
+            report.pe_count,
+            report.width,
+            report.height,
+            report.hits,
+            report.culled
         );
         println!(
             "best {:.2} ms, median {:.2} ms of {} runs: {:.2} Mrays/s, {:.1} ns/ray (single thread)",
             report.best_ms, report.median_ms, report.runs, report.mrays_per_s, report.ns_per_ray
         );
         if let Some(path) = &self.json {
-            std::fs::write(path, serde_json::to_string_pretty(&report)? + "\n").with_context(|| format!("writing {}", path.display()))?;
+            std::fs::write(path, serde_json::to_string_pretty(&report)? + "\n")
+                .with_context(|| format!("writing {}", path.display()))?;
         }
         Ok(())
     }

@@ -34,17 +34,25 @@ pub struct SceneOptions {
     #[arg(long, value_name = "PATH")]
     pub scene: PathBuf,
     /// Processing elements of the co-processor (1..=255).
-    #[arg(long, default_value_t = 4, value_name = "N")]
+    #[arg(long, default_value_t = 4, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=255))]
     pub pes: u16,
-    /// Words of memory per PE [default: the simulator's 1048576; a board reports its own].
+    /// Words of memory per PE [default: what the device reports (the simulator: 1048576);
+    /// bench: the largest PE image].
     #[arg(long, value_name = "W")]
     pub pe_mem_words: Option<u32>,
     /// Grid resolution multiplier m of GridRT Eq. 6.1 (n_i = floor(m·w_i/s) + 1).
-    #[arg(long, default_value_t = 1.0, value_name = "M")]
+    #[arg(long, default_value_t = 1.0, value_name = "M", value_parser = positive_f64)]
     pub grid_m: f64,
     /// Voxel→PE mapping.
     #[arg(long, value_enum, default_value_t = Mapping::Interleaved)]
     pub mapping: Mapping,
+}
+
+fn positive_f64(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("`{s}` is not a positive number")),
+    }
 }
 
 impl SceneOptions {

@@ -86,7 +86,8 @@ impl Cmd {
 
     fn run_on<T: Read + Write>(&self, port: T, port_name: String, mesh: Mesh) -> anyhow::Result<()> {
         let total_start = Instant::now();
-        let cfg = SessionConfig::new(port_name.clone()).render_timeout(Duration::from_secs_f64(self.port.timeout.max(0.1)));
+        let cfg =
+            SessionConfig::new(port_name.clone()).render_timeout(Duration::from_secs_f64(self.port.timeout.max(0.1)));
         let mut session = Session::new(port, cfg);
         let mut progress = CliProgress::default();
         let mut on_event = |e| progress.handle(e);
@@ -97,7 +98,9 @@ impl Cmd {
             eprintln!("note: the device has {} PEs; using that instead of --pes {}", info.pe_count, self.scene.pes);
         }
         let pe_mem_words = match self.scene.pe_mem_words {
-            Some(w) if w > info.pe_mem_words => bail!("--pe-mem-words {w} exceeds the device's PE memory of {} words", info.pe_mem_words),
+            Some(w) if w > info.pe_mem_words => {
+                bail!("--pe-mem-words {w} exceeds the device's PE memory of {} words", info.pe_mem_words)
+            }
             Some(w) => w,
             None => info.pe_mem_words,
         };
@@ -193,15 +196,7 @@ fn print_summary(s: &RenderStats, frame: &RenderedFrame, out: &std::path::Path, 
     let g = s.grid;
     println!(
         "scene      {}: {} triangles ({} zero-area dropped), grid {}×{}×{} ({} non-empty voxels), {} PEs, image {} B",
-        s.scene,
-        s.triangles,
-        s.dropped_triangles,
-        g[0],
-        g[1],
-        g[2],
-        s.nonempty_voxels,
-        s.pe_count,
-        s.scene_image_bytes
+        s.scene, s.triangles, s.dropped_triangles, g[0], g[1], g[2], s.nonempty_voxels, s.pe_count, s.scene_image_bytes
     );
     println!("upload     {:.0} ms", s.upload_ms);
     println!(
