@@ -10,11 +10,13 @@
 //! | [`pixels`] | frame encoder, pixel spans, running image CRC |
 //! | [`device`] | the device state machine (UART frames ↔ FSL link) |
 //! | [`fsl`] | the co-processor link trait |
+//! | [`boot`] | the flash bootloader's protocol (SPEC.md §3.11) |
 //! | [`bsp`] | board drivers |
 #![cfg_attr(not(test), no_std)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
+pub mod boot;
 pub mod bsp;
 pub mod camera;
 pub mod dda;

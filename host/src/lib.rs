@@ -7,7 +7,7 @@
 //! | [`image_format`] | the versioned scene image (`shared::scene`) |
 //! | [`pipeline`] | mesh → grid → scene image in one call |
 //! | [`camera`] | default camera/light and [`camera::RenderSettings`] (docs/CONTRACTS.md) |
-//! | [`reference`] | independent f64 reference renderer (BVH + watertight test) |
+//! | [`reference`](mod@reference) | independent f64 reference renderer (BVH + watertight test) |
 //! | [`compare`] | PSNR and pixel/hit differences |
 //! | [`session`] | protocol client over any `Read + Write` byte transport, progress events |
 //! | [`stats`] | JSON statistics |

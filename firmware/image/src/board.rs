@@ -30,6 +30,28 @@ mod imp {
     pub fn init_console(console: &mut Console) {
         console.init(None);
     }
+    /// Board id in `Msg::Version` (SPEC.md §3.2).
+    pub const BOARD_ID: u8 = 1;
+    /// Largest grid the app accepts (voxels): 64³. The voxel map lives on the stack, which
+    /// is most of RAM here.
+    pub const MAX_VOXELS: usize = 1 << 18;
+    /// PEs of the virtual co-processor (GridRT had 4).
+    pub const PE_COUNT: u16 = 4;
+    /// Words per PE memory of the virtual co-processor: 2 MiB each, 8 MiB of .bss in all.
+    /// The 69 451-triangle Stanford bunny needs 391 928 words per PE on a 4-PE grid
+    /// (`bun_zipper_res4`: 8 139), so every test scene fits.
+    pub const PE_MEM_WORDS: u32 = 1 << 19;
+
+    /// QEMU `virt`'s SiFive test device: a write ends the emulation.
+    const SIFIVE_TEST_BASE: usize = 0x0010_0000;
+
+    /// Ends QEMU with exit status `code` (≥ 1), so scripts and tests see a crash at once.
+    /// (Returns only if the device is absent.)
+    pub fn exit_failure(code: u16) {
+        let value = 0x3333 | (u32::from(code) << 16);
+        // SAFETY: the SiFive test device of QEMU virt; the write ends the process.
+        unsafe { core::ptr::write_volatile(SIFIVE_TEST_BASE as *mut u32, value) };
+    }
 }
 
 #[cfg(feature = "board-fpga-soc")]
@@ -61,9 +83,37 @@ mod imp {
     pub fn init_console(console: &mut Console) {
         console.init();
     }
+    /// Board id in `Msg::Version` (SPEC.md §3.2).
+    pub const BOARD_ID: u8 = 2;
+    /// Largest grid the app accepts (voxels), sized for 128 KiB of BRAM.
+    pub const MAX_VOXELS: usize = 1 << 14;
+    /// PEs of the co-processor in the block design (GridRT: 4).
+    pub const PE_COUNT: u16 = 4;
+    /// Words per PE memory in the block design (GridRT: 8192).
+    pub const PE_MEM_WORDS: u32 = 8192;
+
+    /// Nothing to exit from on hardware: the caller halts.
+    pub fn exit_failure(_code: u16) {}
 }
 
 pub use imp::*;
+
+/// The application region the bootloader loads images into: `[start, end)` from the
+/// `_gridrt_app_start` / `_gridrt_app_end` symbols of boards/<board>-bootloader.x.
+/// Only meaningful in the bootloader binary (the app's memory map does not define them).
+pub fn app_region() -> (usize, usize) {
+    extern "C" {
+        static _gridrt_app_start: u8;
+        static _gridrt_app_end: u8;
+    }
+    // SAFETY: only the addresses of the linker symbols are taken, never their contents.
+    unsafe {
+        (
+            core::ptr::addr_of!(_gridrt_app_start) as usize,
+            core::ptr::addr_of!(_gridrt_app_end) as usize,
+        )
+    }
+}
 
 /// Takes the console at start-up and initialises it.
 ///

@@ -1,5 +1,6 @@
 //! Entry layer shared by the soft-core images (`app`, `bootloader`): board constants and
-//! console, RISC-V counters, and the panic / trap handlers.
+//! console, RISC-V counters, the co-processor link of each board with its stage clock, the
+//! UART loop, and the panic / trap handlers.
 //!
 //! Everything device-independent lives in the host-testable `gridrt-firmware` library;
 //! this crate only knows addresses, CSRs and the riscv-rt runtime.
@@ -8,6 +9,8 @@
 
 pub mod board;
 pub mod counters;
+pub mod link;
+pub mod serve;
 pub mod trap;
 
 /// Version of the images, printed in the banner.

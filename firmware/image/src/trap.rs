@@ -1,5 +1,7 @@
 //! Last-resort reports: panics, unhandled exceptions and interrupts print what is known
-//! over the console, then the hart halts (it never returns into broken state).
+//! over the console, then the hart halts (it never returns into broken state). On QEMU
+//! `virt` the emulation then ends with exit status 1 (trap) or 2 (panic) through the SiFive
+//! test device, so a crash is never mistaken for a slow device.
 //!
 //! The report lines start with `PANIC:` / `TRAP:` so host tools can spot them.
 
@@ -48,6 +50,7 @@ fn report(kind: &str) -> ! {
         mtval::read(),
     );
     let _ = nb::block!(console.flush());
+    board::exit_failure(1);
     halt()
 }
 
@@ -72,5 +75,6 @@ fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
     let mut console = unsafe { board::console_unchecked() };
     let _ = writeln!(UartWriter(&mut console), "\r\nPANIC: {info}; halted");
     let _ = nb::block!(console.flush());
+    board::exit_failure(2);
     halt()
 }

@@ -1,0 +1,461 @@
+//! The flash bootloader's protocol (SPEC.md §3.11), I/O agnostic like [`crate::device`].
+//!
+//! [`Bootloader`] owns a window of memory, the *application region*, given as a byte slice
+//! and the address of its first byte. It answers `Hello` (as a device with
+//! [`FEATURE_BOOTLOADER`] set), accepts one image at a time (`FlashBegin`: version, size,
+//! address and entry checks; `FlashChunk`s written in order; CRC-32 read back from memory
+//! after the last byte) and, on `FlashBoot` with the verified CRC, returns the entry point
+//! from [`Bootloader::feed`]. The caller (the bootloader binary) then jumps there. Every
+//! refusal is an `Error` message and leaves the bootloader serving.
+
+use core::fmt::Write as _;
+
+use crate::device::ByteSink;
+use crate::pixels::FrameTx;
+use gridrt_shared::frame::{crc32, FeedResult, FrameAccumulator, FrameError};
+use gridrt_shared::msg::{
+    DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgError, FEATURE_BOOTLOADER, FLASH_FORMAT_VERSION,
+    MAX_ERROR_TEXT,
+};
+
+/// Error text buffer.
+type Text = heapless::String<MAX_ERROR_TEXT>;
+
+/// The image being received.
+#[derive(Debug, Clone, Copy)]
+struct Transfer {
+    /// Offset of `load_addr` in the region.
+    start: usize,
+    total_len: u32,
+    crc: u32,
+    entry: u32,
+    next: u32,
+    verified: bool,
+}
+
+/// The bootloader: feed it UART bytes; it writes images into its region and says when to
+/// jump.
+pub struct Bootloader<'m> {
+    rx: FrameAccumulator,
+    tx: FrameTx,
+    info: DeviceInfo,
+    base: u32,
+    region: &'m mut [u8],
+    xfer: Option<Transfer>,
+}
+
+impl<'m> Bootloader<'m> {
+    /// A bootloader whose application region is `region`, starting at address `base`.
+    /// `info` supplies firmware version and board; the protocol, payload limit and the
+    /// [`FEATURE_BOOTLOADER`] bit are filled in here, and the co-processor fields are 0.
+    pub fn new(base: u32, region: &'m mut [u8], info: DeviceInfo) -> Self {
+        let info = DeviceInfo {
+            protocol: gridrt_shared::PROTOCOL_VERSION as u16,
+            max_payload: gridrt_shared::frame::MAX_PAYLOAD as u16,
+            pe_count: 0,
+            voxel_capacity: 0,
+            pe_mem_words: 0,
+            features: FEATURE_BOOTLOADER,
+            ..info
+        };
+        Self { rx: FrameAccumulator::new(), tx: FrameTx::new(), info, base, region, xfer: None }
+    }
+
+    /// What the bootloader reports in `Msg::Version`.
+    pub fn info(&self) -> &DeviceInfo {
+        &self.info
+    }
+
+    /// First address of the application region.
+    pub fn region_start(&self) -> u32 {
+        self.base
+    }
+
+    /// Size of the application region in bytes.
+    pub fn region_len(&self) -> usize {
+        self.region.len()
+    }
+
+    /// The application region (what has been written so far).
+    pub fn region(&self) -> &[u8] {
+        self.region
+    }
+
+    /// Processes received bytes. Returns `Some(entry)` once a verified image was asked to
+    /// boot (its `FlashAck{Booting}` has been written to `out`); bytes after that frame are
+    /// ignored. Partial frames wait for the next call.
+    pub fn feed(&mut self, input: &[u8], out: &mut impl ByteSink) -> Option<u32> {
+        let mut input = input;
+        // Each round consumes at least one byte, so the bound is never hit.
+        for _ in 0..=input.len() {
+            match self.rx.feed(input) {
+                FeedResult::Consumed => return None,
+                FeedResult::Overflow { rest } => {
+                    let rest_len = rest.len();
+                    self.bad_frame(FrameError::DecodeOversize, out);
+                    input = input.get(input.len() - rest_len..).unwrap_or(&[]);
+                }
+                FeedResult::BadFrame { error, rest } => {
+                    let rest_len = rest.len();
+                    self.bad_frame(error, out);
+                    input = input.get(input.len() - rest_len..).unwrap_or(&[]);
+                }
+                FeedResult::Frame { frame, rest } => {
+                    let rest_len = rest.len();
+                    // Copy the frame out of the accumulator's buffer so `self` is free.
+                    let kind = frame.kind;
+                    let mut payload = [0u8; gridrt_shared::frame::MAX_PAYLOAD];
+                    let n = frame.payload.len().min(payload.len());
+                    payload[..n].copy_from_slice(&frame.payload[..n]);
+                    if let Some(entry) = self.handle(kind, &payload[..n], out) {
+                        return Some(entry);
+                    }
+                    input = input.get(input.len() - rest_len..).unwrap_or(&[]);
+                }
+            }
+            if input.is_empty() {
+                return None;
+            }
+        }
+        None
+    }
+
+    fn send(&mut self, msg: &Msg<'_>, out: &mut impl ByteSink) {
+        // Fails only on a firmware bug (message larger than a frame).
+        let _ = self.tx.send(msg, out);
+    }
+
+    fn error(&mut self, code: ErrorCode, detail: u32, text: &str, out: &mut impl ByteSink) {
+        self.send(&Msg::Error { code, detail, text }, out);
+    }
+
+    fn reject(&mut self, e: FlashError, text: &str, out: &mut impl ByteSink) {
+        self.error(ErrorCode::FlashRejected, e.code(), text, out);
+    }
+
+    fn bad_frame(&mut self, e: FrameError, out: &mut impl ByteSink) {
+        let mut t = Text::new();
+        let _ = write!(t, "bad frame: {e}");
+        self.error(ErrorCode::BadFrame, e.code(), &t, out);
+    }
+
+    fn handle(&mut self, kind: u8, payload: &[u8], out: &mut impl ByteSink) -> Option<u32> {
+        let msg = match Msg::decode(kind, payload) {
+            Ok(m) => m,
+            Err(MsgError::DecodeUnknownType) => {
+                self.error(ErrorCode::UnexpectedMessage, kind as u32, "unknown message type", out);
+                return None;
+            }
+            Err(e) => {
+                let mut t = Text::new();
+                let _ = write!(t, "malformed payload of message {kind:#04x}: {e}");
+                self.error(ErrorCode::BadRequest, 0xFFFF_0000 | e.code(), &t, out);
+                return None;
+            }
+        };
+        match msg {
+            Msg::Hello { .. } => {
+                let info = self.info;
+                self.send(&Msg::Version(info), out);
+            }
+            Msg::FlashBegin { version, total_len, crc, load_addr, entry } => {
+                self.begin(version, total_len, crc, load_addr, entry, out);
+            }
+            Msg::FlashChunk { offset, data } => self.chunk(offset, data, out),
+            Msg::FlashBoot { crc } => return self.boot(crc, out),
+            // Never answer an Error with an Error (SPEC.md §1).
+            Msg::Error { .. } => {}
+            other => {
+                let k = other.kind() as u8;
+                self.error(ErrorCode::UnexpectedMessage, k as u32, "this is the bootloader: only Hello and Flash* messages", out);
+            }
+        }
+        None
+    }
+
+    fn begin(&mut self, version: u16, total_len: u32, crc: u32, load_addr: u32, entry: u32, out: &mut impl ByteSink) {
+        self.xfer = None;
+        let mut t = Text::new();
+        if version != FLASH_FORMAT_VERSION {
+            let _ = write!(t, "flash image format {version}, this bootloader takes {FLASH_FORMAT_VERSION}");
+            return self.reject(FlashError::BadVersion, &t, out);
+        }
+        let len = total_len as usize;
+        let (base, size) = (self.base, self.region.len());
+        if len == 0 || len > size {
+            let _ = write!(t, "image of {total_len} bytes; the application region holds 1..={size}");
+            return self.reject(FlashError::TooLarge, &t, out);
+        }
+        let start = load_addr.wrapping_sub(base) as usize;
+        if load_addr % 4 != 0 || load_addr < base || start.checked_add(len).is_none_or(|end| end > size) {
+            let _ = write!(
+                t,
+                "image {load_addr:#010x}+{total_len:#x} not inside the application region {base:#010x}+{size:#x} (or misaligned)"
+            );
+            return self.reject(FlashError::BadAddress, &t, out);
+        }
+        if entry % 2 != 0 || entry < load_addr || entry - load_addr >= total_len {
+            let _ = write!(t, "entry {entry:#010x} not inside the image {load_addr:#010x}+{total_len:#x} (or misaligned)");
+            return self.reject(FlashError::BadEntry, &t, out);
+        }
+        self.xfer = Some(Transfer { start, total_len, crc, entry, next: 0, verified: false });
+        self.send(&Msg::FlashAck { next_offset: 0, status: FlashStatus::Receiving, crc: 0 }, out);
+    }
+
+    fn chunk(&mut self, offset: u32, data: &[u8], out: &mut impl ByteSink) {
+        let Some(mut x) = self.xfer else {
+            return self.reject(FlashError::NotBegun, "flash chunk without FlashBegin", out);
+        };
+        if x.verified || offset != x.next {
+            return self.error(ErrorCode::BadOffset, x.next, "flash chunk out of order", out);
+        }
+        let end = offset as u64 + data.len() as u64;
+        if end > x.total_len as u64 {
+            self.xfer = None;
+            return self.reject(FlashError::Overrun, "flash chunk past the end of the image", out);
+        }
+        let from = x.start + offset as usize;
+        let Some(dst) = self.region.get_mut(from..from + data.len()) else {
+            // Unreachable: begin() checked start + total_len against the region.
+            self.xfer = None;
+            return self.reject(FlashError::BadAddress, "chunk outside the application region", out);
+        };
+        dst.copy_from_slice(data);
+        x.next = end as u32;
+        if x.next < x.total_len {
+            self.xfer = Some(x);
+            return self.send(&Msg::FlashAck { next_offset: x.next, status: FlashStatus::Receiving, crc: 0 }, out);
+        }
+        // Complete: verify what memory now holds, not what we were sent.
+        let image = self.region.get(x.start..x.start + x.total_len as usize).unwrap_or(&[]);
+        let got = crc32(image);
+        if got != x.crc {
+            self.xfer = None;
+            let mut t = Text::new();
+            let _ = write!(t, "image CRC-32 read back from memory is {got:#010x}, FlashBegin announced {:#010x}", x.crc);
+            return self.reject(FlashError::BadCrc, &t, out);
+        }
+        x.verified = true;
+        self.xfer = Some(x);
+        self.send(&Msg::FlashAck { next_offset: x.total_len, status: FlashStatus::Verified, crc: got }, out);
+    }
+
+    fn boot(&mut self, crc: u32, out: &mut impl ByteSink) -> Option<u32> {
+        match self.xfer {
+            Some(x) if x.verified && x.crc == crc => {
+                self.send(&Msg::FlashAck { next_offset: x.total_len, status: FlashStatus::Booting, crc }, out);
+                Some(x.entry)
+            }
+            Some(x) if x.verified => {
+                let mut t = Text::new();
+                let _ = write!(t, "FlashBoot CRC {crc:#010x} is not the verified image's {:#010x}", x.crc);
+                self.reject(FlashError::NotVerified, &t, out);
+                None
+            }
+            _ => {
+                self.reject(FlashError::NotVerified, "no verified image to boot", out);
+                None
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gridrt_shared::msg::MsgType;
+    use gridrt_shared::frame::{encode_frame, MAX_ENCODED, MAX_PAYLOAD};
+
+    struct Out(Vec<u8>);
+    impl ByteSink for Out {
+        fn write_bytes(&mut self, bytes: &[u8]) {
+            self.0.extend_from_slice(bytes);
+        }
+    }
+
+    fn frame(m: &Msg<'_>) -> Vec<u8> {
+        let mut p = [0u8; MAX_PAYLOAD];
+        let n = m.encode(&mut p).unwrap();
+        let mut w = [0u8; MAX_ENCODED];
+        let len = encode_frame(m.kind() as u8, 0, &p[..n], &mut w).unwrap();
+        w[..len].to_vec()
+    }
+
+    /// Decoded replies: (type, payload).
+    fn replies(bytes: &[u8]) -> Vec<(u8, Vec<u8>)> {
+        let mut acc = FrameAccumulator::<MAX_ENCODED>::new();
+        let mut out = vec![];
+        let mut input = bytes;
+        loop {
+            match acc.feed(input) {
+                FeedResult::Frame { frame, rest } => {
+                    out.push((frame.kind, frame.payload.to_vec()));
+                    input = rest;
+                }
+                FeedResult::Consumed => break,
+                other => panic!("{other:?}"),
+            }
+        }
+        out
+    }
+
+    const BASE: u32 = 0x8010_0000;
+
+    fn info() -> DeviceInfo {
+        DeviceInfo {
+            protocol: 0,
+            firmware: [0, 1, 0],
+            board: 1,
+            max_payload: 0,
+            pe_count: 9,
+            voxel_capacity: 9,
+            pe_mem_words: 9,
+            features: 0,
+        }
+    }
+
+    fn exchange(b: &mut Bootloader<'_>, m: &Msg<'_>) -> (Option<u32>, Vec<(u8, Vec<u8>)>) {
+        let mut out = Out(vec![]);
+        let r = b.feed(&frame(m), &mut out);
+        (r, replies(&out.0))
+    }
+
+    fn one(b: &mut Bootloader<'_>, m: &Msg<'_>) -> Msg<'static> {
+        let (r, rep) = exchange(b, m);
+        assert_eq!(r, None);
+        assert_eq!(rep.len(), 1, "{rep:?}");
+        let (k, p) = &rep[0];
+        let p: &'static [u8] = Box::leak(p.clone().into_boxed_slice());
+        Msg::decode(*k, p).unwrap()
+    }
+
+    fn rejected(m: Msg<'_>) -> Option<FlashError> {
+        match m {
+            Msg::Error { code: ErrorCode::FlashRejected, detail, .. } => FlashError::from_code(detail),
+            _ => None,
+        }
+    }
+
+    fn image(n: usize) -> Vec<u8> {
+        (0..n).map(|i| (i * 7 + 3) as u8).collect()
+    }
+
+    fn begin(img: &[u8], load_addr: u32, entry: u32) -> Msg<'_> {
+        Msg::FlashBegin { version: FLASH_FORMAT_VERSION, total_len: img.len() as u32, crc: crc32(img), load_addr, entry }
+    }
+
+    #[test]
+    fn hello_reports_a_bootloader() {
+        let mut mem = vec![0u8; 4096];
+        let mut b = Bootloader::new(BASE, &mut mem, info());
+        let Msg::Version(v) = one(&mut b, &Msg::Hello { protocol: 1 }) else { panic!() };
+        assert_eq!(v.features, FEATURE_BOOTLOADER);
+        assert_eq!((v.pe_count, v.voxel_capacity, v.board, v.firmware), (0, 0, 1, [0, 1, 0]));
+    }
+
+    #[test]
+    fn flashes_verifies_and_boots() {
+        let mut mem = vec![0u8; 4096];
+        let img = image(3000);
+        let mut b = Bootloader::new(BASE, &mut mem, info());
+        let load = BASE + 64;
+        assert_eq!(
+            one(&mut b, &begin(&img, load, load + 8)),
+            Msg::FlashAck { next_offset: 0, status: FlashStatus::Receiving, crc: 0 }
+        );
+        let mut off = 0;
+        for c in img.chunks(1024) {
+            let m = one(&mut b, &Msg::FlashChunk { offset: off, data: c });
+            off += c.len() as u32;
+            let expect = if off == 3000 {
+                Msg::FlashAck { next_offset: 3000, status: FlashStatus::Verified, crc: crc32(&img) }
+            } else {
+                Msg::FlashAck { next_offset: off, status: FlashStatus::Receiving, crc: 0 }
+            };
+            assert_eq!(m, expect);
+        }
+        assert_eq!(rejected(one(&mut b, &Msg::FlashBoot { crc: 1 })), Some(FlashError::NotVerified));
+        let (entry, rep) = exchange(&mut b, &Msg::FlashBoot { crc: crc32(&img) });
+        assert_eq!(entry, Some(load + 8));
+        assert_eq!(
+            Msg::decode(rep[0].0, &rep[0].1).unwrap(),
+            Msg::FlashAck { next_offset: 3000, status: FlashStatus::Booting, crc: crc32(&img) }
+        );
+        drop(b);
+        assert_eq!(&mem[64..3064], &img[..]);
+        assert!(mem[..64].iter().chain(&mem[3064..]).all(|&x| x == 0));
+    }
+
+    #[test]
+    fn refuses_bad_images_and_stays_alive() {
+        let mut mem = vec![0u8; 4096];
+        let img = image(100);
+        let mut b = Bootloader::new(BASE, &mut mem, info());
+        let mut m = begin(&img, BASE, BASE);
+        if let Msg::FlashBegin { version, .. } = &mut m {
+            *version = 2;
+        }
+        assert_eq!(rejected(one(&mut b, &m)), Some(FlashError::BadVersion));
+        let big = image(4097);
+        assert_eq!(rejected(one(&mut b, &begin(&big, BASE, BASE))), Some(FlashError::TooLarge));
+        assert_eq!(rejected(one(&mut b, &begin(&[], BASE, BASE))), Some(FlashError::TooLarge));
+        for load in [BASE - 4, BASE + 2, BASE + 4000, 0, u32::MAX - 3] {
+            assert_eq!(rejected(one(&mut b, &begin(&img, load, load))), Some(FlashError::BadAddress), "{load:#x}");
+        }
+        for entry in [BASE - 2, BASE + 100, BASE + 1] {
+            assert_eq!(rejected(one(&mut b, &begin(&img, BASE, entry))), Some(FlashError::BadEntry), "{entry:#x}");
+        }
+        assert_eq!(rejected(one(&mut b, &Msg::FlashChunk { offset: 0, data: &img })), Some(FlashError::NotBegun));
+        assert_eq!(rejected(one(&mut b, &Msg::FlashBoot { crc: 0 })), Some(FlashError::NotVerified));
+
+        // Corrupted transfer: one byte flipped on the way, CRC of the original announced.
+        one(&mut b, &begin(&img, BASE, BASE));
+        let mut bad = img.clone();
+        bad[50] ^= 0x40;
+        assert_eq!(rejected(one(&mut b, &Msg::FlashChunk { offset: 0, data: &bad })), Some(FlashError::BadCrc));
+        assert_eq!(rejected(one(&mut b, &Msg::FlashBoot { crc: crc32(&img) })), Some(FlashError::NotVerified));
+
+        // Out of order, overrun.
+        one(&mut b, &begin(&img, BASE, BASE));
+        let m = one(&mut b, &Msg::FlashChunk { offset: 4, data: &img[4..] });
+        assert!(matches!(m, Msg::Error { code: ErrorCode::BadOffset, detail: 0, .. }), "{m:?}");
+        assert_eq!(rejected(one(&mut b, &Msg::FlashChunk { offset: 0, data: &big[..101] })), Some(FlashError::Overrun));
+
+        // Not a device: scenes are refused; Errors are not answered; noise is reported.
+        let m = one(&mut b, &Msg::SceneBegin { total_len: 4, crc: 0 });
+        assert!(matches!(m, Msg::Error { code: ErrorCode::UnexpectedMessage, detail: 0x10, .. }), "{m:?}");
+        let (r, rep) = exchange(&mut b, &Msg::Error { code: ErrorCode::BadFrame, detail: 0, text: "" });
+        assert_eq!((r, rep.len()), (None, 0));
+        let mut out = Out(vec![]);
+        assert_eq!(b.feed(b"gridrt banner noise\r\n\0", &mut out), None);
+        assert_eq!(replies(&out.0)[0].0, MsgType::Error as u8);
+
+        // Still alive: a good image goes through.
+        one(&mut b, &begin(&img, BASE, BASE));
+        let m = one(&mut b, &Msg::FlashChunk { offset: 0, data: &img });
+        assert_eq!(m, Msg::FlashAck { next_offset: 100, status: FlashStatus::Verified, crc: crc32(&img) });
+        assert_eq!(exchange(&mut b, &Msg::FlashBoot { crc: crc32(&img) }).0, Some(BASE));
+    }
+
+    #[test]
+    fn split_frames_and_several_per_call() {
+        let mut mem = vec![0u8; 256];
+        let img = image(10);
+        let mut b = Bootloader::new(BASE, &mut mem, info());
+        let mut bytes = frame(&begin(&img, BASE, BASE));
+        bytes.extend(frame(&Msg::FlashChunk { offset: 0, data: &img }));
+        bytes.extend(frame(&Msg::FlashBoot { crc: crc32(&img) }));
+        bytes.extend(frame(&Msg::Hello { protocol: 1 }));
+        let mut out = Out(vec![]);
+        let mut entry = None;
+        for c in bytes.chunks(3) {
+            if let Some(e) = b.feed(c, &mut out) {
+                entry = Some(e);
+                break;
+            }
+        }
+        assert_eq!(entry, Some(BASE));
+        let kinds: Vec<u8> = replies(&out.0).iter().map(|r| r.0).collect();
+        assert_eq!(kinds, [0x32, 0x32, 0x32]);
+    }
+}

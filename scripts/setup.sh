@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# One-stop setup for a fresh machine: the emulated board (QEMU, socat) and the RISC-V
+# cross toolchain (rustup target, else Debian's rustc-web unpacked into .toolchain/).
+# Idempotent; the host tool itself needs only cargo.
+#
+#   bash scripts/setup.sh
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+bash "$here/setup-qemu.sh"
+bash "$here/setup-riscv-toolchain.sh"
