@@ -37,6 +37,18 @@
 //!
 //! A LOAD that fails for any reason after its header named a valid PE leaves that PE empty.
 //!
+//! # Kernels, number formats and record tables
+//!
+//! Every PE runs `config.kernel` in the number format set by
+//! [`Coprocessor::set_number_format`] (default f32). A (kernel, format) pair whose record is
+//! not the image's own vertex words (`Kernel::USES_IMAGE`) gets its per-triangle records
+//! precomputed at LOAD time into the PE's memory right after the image; the image plus
+//! that table must fit `pe_mem_words` or the LOAD fails with `PeMemoryOverflow`
+//! ([`crate::KernelKind::pe_words_needed`]; the scene image format does not change). The
+//! precomputation is not charged in cycles (a hardware design would receive the records from
+//! the host). Fixed-point range overflows are counted ([`CoprocStats::overflows`], per test;
+//! [`CoprocStats::overflow_records`], per record at load) and such a test is a miss.
+//!
 //! # Arbitration (GridRT's flaw fixed)
 //!
 //! A hit at distance t in list entry k is accepted iff `t > 0` (each kernel reports only
@@ -53,12 +65,19 @@ use heapless::{Deque, Vec as HVec};
 
 use gridrt_shared::fsl::{self, op, FslError, FslWord, ListEntry, RayKind, RayResult, RAY_HEADER_WORDS, VOXEL_MASK};
 use gridrt_shared::math::{Ray, Vec3};
-use gridrt_shared::scene::{PeImage, MAX_PES, PE_HEADER_WORDS, TRIANGLE_WORDS, VOXEL_ENTRY_WORDS};
+use gridrt_shared::scene::{PeImage, MAX_PES, PRIM_WORDS, TRIANGLE_WORDS, VOXEL_ENTRY_WORDS};
 
 use crate::config::{ArbitrationRule, ConfigError, CoprocConfig, LIST_CAPACITY, OUT_QUEUE_WORDS};
-use crate::isect::{cramer::Cramer, geometric_normal, moller_trumbore::MollerTrumbore, watertight::Watertight};
-use crate::isect::{Kernel, KernelKind, Triangle};
+use crate::isect::{geometric_normal, with_kernel, Kernel, RecordStatus, Triangle};
+use crate::numeric::{FixedFrame, NumberFormat, Overflow};
 use crate::timing::PeTimeline;
+
+/// The number format the PEs compute in and its fixed-point frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Numerics {
+    format: NumberFormat,
+    frame: FixedFrame,
+}
 
 /// Relative tolerance on a list entry's exit distance: a hit is accepted in entry k if
 /// `t ≤ t_exit·(1 + T_EXIT_REL_TOL)`.
@@ -93,6 +112,23 @@ pub struct CoprocStats {
     pub loads: u64,
     /// Output words dropped because the output queue was full (the reader did not pop).
     pub out_dropped: u64,
+    /// Ray–triangle tests (timed path) whose fixed-point arithmetic overflowed: reported and
+    /// counted as misses, never wrapped.
+    pub overflows: u64,
+    /// Triangle records found degenerate at load (zero area): they never hit.
+    pub degenerate_records: u64,
+    /// Triangle records whose precomputed values do not fit the fixed-point storage at load
+    /// (every test of them counts in `overflows`).
+    pub overflow_records: u64,
+}
+
+/// What an untimed trace saw besides its result ([`Coprocessor::trace_untimed_with_info`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct TraceInfo {
+    /// Tests performed (entries up to the winner), not saturated.
+    pub tests: u64,
+    /// Tests whose fixed-point arithmetic overflowed (counted as misses).
+    pub overflows: u64,
 }
 
 /// Layout of one loaded PE image (offsets relative to the PE's memory base).
@@ -103,6 +139,12 @@ struct PeSlot {
     voxels: u32,
     ref_off: u32,
     tri_off: u32,
+    /// Words before the voxel table (3 for a v1 image, 5 for v2).
+    hdr: u32,
+    /// Triangles T (refs ≥ T name analytic primitives, scene image v2).
+    tris: u32,
+    /// Offset of the primitive records.
+    prim_off: u32,
 }
 
 /// Checks a PE image beyond `PeImage::parse`: voxel ids strictly increasing (so lookups can
@@ -123,7 +165,12 @@ fn validate_image(words: &[u32]) -> Option<PeSlot> {
             return None;
         }
     }
-    let ref_off = PE_HEADER_WORDS + voxels * VOXEL_ENTRY_WORDS;
+    for i in 0..img.primitive_count() {
+        if img.primitive(i)?.material > u16::MAX as u32 {
+            return None;
+        }
+    }
+    let ref_off = img.header_words() + voxels * VOXEL_ENTRY_WORDS;
     let tri_off = ref_off + img.ref_table().len();
     Some(PeSlot {
         loaded: true,
@@ -131,6 +178,9 @@ fn validate_image(words: &[u32]) -> Option<PeSlot> {
         voxels: u32::try_from(voxels).ok()?,
         ref_off: u32::try_from(ref_off).ok()?,
         tri_off: u32::try_from(tri_off).ok()?,
+        hdr: u32::try_from(img.header_words()).ok()?,
+        tris: u32::try_from(img.triangle_count()).ok()?,
+        prim_off: u32::try_from(img.primitive_offset()).ok()?,
     })
 }
 
@@ -141,6 +191,12 @@ struct EntryRefs {
     first: usize,
     count: u32,
     tri_base: usize,
+    /// Triangles of the PE: refs ≥ this name analytic primitives at `prim_base`.
+    tris: u32,
+    prim_base: usize,
+    /// Load-time kernel record table (right after the image; unused by `USES_IMAGE`
+    /// kernels, which read the triangle records at `tri_base`).
+    rec_base: usize,
 }
 
 /// The winning hit of a search.
@@ -148,8 +204,10 @@ struct EntryRefs {
 struct Found {
     /// List position.
     k: usize,
-    /// Absolute index of the triangle record.
+    /// Absolute index of the triangle (or primitive) record.
     rec: usize,
+    /// The record is an analytic primitive (scene image v2).
+    prim: bool,
     t: f32,
     /// Tests the winning entry performed (all of them for Closest; up to the hit for Any).
     tests_in_entry: u32,
@@ -189,6 +247,7 @@ struct View<'a> {
     pes: &'a [PeSlot; MAX_PES],
     loaded_pes: u16,
     rule: ArbitrationRule,
+    numerics: Numerics,
 }
 
 impl View<'_> {
@@ -199,7 +258,7 @@ impl View<'_> {
             return None;
         }
         let base = pe as usize * self.cfg.pe_mem_words as usize;
-        let table = self.mem.get(base + PE_HEADER_WORDS..base + slot.ref_off as usize)?;
+        let table = self.mem.get(base + slot.hdr as usize..base + slot.ref_off as usize)?;
         let (mut lo, mut hi) = (0usize, slot.voxels as usize);
         while lo < hi {
             let mid = lo + (hi - lo) / 2;
@@ -215,6 +274,9 @@ impl View<'_> {
                     first: base + slot.ref_off as usize + first,
                     count,
                     tri_base: base + slot.tri_off as usize,
+                    tris: slot.tris,
+                    prim_base: base + slot.prim_off as usize,
+                    rec_base: base + slot.len as usize,
                 });
             }
         }
@@ -286,72 +348,129 @@ impl View<'_> {
     }
 
     /// One PE working through one entry: tests every referenced triangle (Closest) or up to
-    /// the first accepted one (Any). Returns the entry's hit and the tests performed.
+    /// the first accepted one (Any). Returns the entry's hit and the tests performed; adds
+    /// the tests whose fixed-point arithmetic overflowed to `overflows`.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn test_entry<K: Kernel>(
         &self,
         pre: &K::RayData,
+        ray: &Ray,
         kind: RayKind,
         refs: EntryRefs,
         t_max: f32,
         hi: f32,
-    ) -> (Option<(f32, usize)>, u32) {
+        overflows: &mut u64,
+    ) -> (Option<(f32, usize, bool)>, u32) {
         let Some(list) = self.mem.get(refs.first..refs.first.saturating_add(refs.count as usize)) else {
             return (None, 0);
         };
         let limit = if t_max < hi { t_max } else { hi };
-        let mut best: Option<(f32, usize, u32)> = None;
+        let mut best: Option<(f32, usize, u32, bool)> = None;
         let mut bound = inflate(limit);
         for (i, &r) in list.iter().enumerate() {
+            if r >= refs.tris {
+                // Analytic primitive (scene image v2): same acceptance and arbitration.
+                let rec = refs.prim_base + (r - refs.tris) as usize * PRIM_WORDS;
+                let Some(words) = self.mem.get(rec..rec + PRIM_WORDS) else { continue };
+                let Ok(words) = <&[u32; PRIM_WORDS]>::try_from(words) else { continue };
+                let Some(t) = crate::isect::analytic::intersect(words, ray) else { continue };
+                if !accept(t, t_max, hi) {
+                    continue;
+                }
+                match kind {
+                    RayKind::Any => return (Some((t, rec, true)), i as u32 + 1),
+                    RayKind::Closest => {
+                        let prim = words[1];
+                        if best.is_none_or(|(bt, _, bp, _)| t < bt || (t == bt && prim < bp)) {
+                            best = Some((t, rec, prim, true));
+                            bound = inflate(t);
+                        }
+                    }
+                }
+                continue;
+            }
             let rec = refs.tri_base + r as usize * TRIANGLE_WORDS;
             let Some(words) = self.mem.get(rec..rec + TRIANGLE_WORDS) else { continue };
             let Ok(words) = <&[u32; TRIANGLE_WORDS]>::try_from(words) else { continue };
-            let Some(t) = K::intersect(pre, &record(words), bound) else { continue };
+            // The kernel's record: the image's vertex words, or its load-time table entry.
+            let kr = if K::USES_IMAGE { rec } else { refs.rec_base + r as usize * K::RECORD_WORDS };
+            let Some(kwords) = self.mem.get(kr..kr + K::RECORD_WORDS) else { continue };
+            let t = match K::intersect(pre, kwords, bound) {
+                Ok(Some(t)) => t,
+                Ok(None) => continue,
+                Err(Overflow) => {
+                    *overflows += 1;
+                    continue;
+                }
+            };
             if !accept(t, t_max, hi) {
                 continue;
             }
             match kind {
-                RayKind::Any => return (Some((t, rec)), i as u32 + 1),
+                RayKind::Any => return (Some((t, rec, false)), i as u32 + 1),
                 RayKind::Closest => {
                     let prim = words[9];
-                    if best.is_none_or(|(bt, _, bp)| t < bt || (t == bt && prim < bp)) {
-                        best = Some((t, rec, prim));
+                    if best.is_none_or(|(bt, _, bp, _)| t < bt || (t == bt && prim < bp)) {
+                        best = Some((t, rec, prim, false));
                         bound = inflate(t);
                     }
                 }
             }
         }
-        (best.map(|(t, rec, _)| (t, rec)), refs.count)
+        (best.map(|(t, rec, _, p)| (t, rec, p)), refs.count)
     }
 
     /// The functional model: entries in list order until the first with an accepted hit.
-    /// Returns the winner and the tests performed. Assumes `validate` passed.
-    fn search<K: Kernel>(&self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> (Option<Found>, u64) {
-        let pre = K::prepare(ray);
-        let mut tests = 0u64;
+    /// Returns the winner, the tests performed and the tests that overflowed. Assumes
+    /// `validate` passed. A ray the fixed-point frame cannot represent overflows every test
+    /// it would have made (reported, and a miss).
+    fn search<K: Kernel>(&self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> (Option<Found>, TraceInfo) {
+        let mut info = TraceInfo::default();
+        let pre = match K::prepare(ray, &self.numerics.frame) {
+            Ok(pre) => pre,
+            Err(Overflow) => {
+                for e in list {
+                    info.tests += self.lookup(e.pe, e.voxel).map_or(0, |r| r.count as u64);
+                }
+                info.overflows = info.tests;
+                return (None, info);
+            }
+        };
         for (k, e) in list.iter().enumerate() {
             let Some(refs) = self.lookup(e.pe, e.voxel) else { continue };
-            let (hit, n) = self.test_entry::<K>(&pre, kind, refs, t_max, self.entry_hi(e));
-            tests += n as u64;
-            if let Some((t, rec)) = hit {
-                return (Some(Found { k, rec, t, tests_in_entry: n }), tests);
+            let (hit, n) = self.test_entry::<K>(&pre, ray, kind, refs, t_max, self.entry_hi(e), &mut info.overflows);
+            info.tests += n as u64;
+            if let Some((t, rec, prim)) = hit {
+                return (Some(Found { k, rec, prim, t, tests_in_entry: n }), info);
             }
         }
-        (None, tests)
+        (None, info)
     }
 
-    fn search_dyn(&self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> (Option<Found>, u64) {
-        match self.cfg.kernel {
-            KernelKind::Watertight => self.search::<Watertight>(kind, ray, t_max, list),
-            KernelKind::MollerTrumbore => self.search::<MollerTrumbore>(kind, ray, t_max, list),
-            KernelKind::Cramer => self.search::<Cramer>(kind, ray, t_max, list),
-        }
+    fn search_dyn(&self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> (Option<Found>, TraceInfo) {
+        with_kernel!(self.cfg.kernel, self.numerics.format, K => self.search::<K>(kind, ray, t_max, list))
     }
 
     /// The result words' content for a winner (tests/cycles filled by the caller).
-    fn result_of(&self, list: &[ListEntry], found: Option<Found>) -> RayResult {
+    fn result_of(&self, list: &[ListEntry], found: Option<Found>, ray: &Ray) -> RayResult {
         let Some(f) = found else { return RayResult::MISS };
         let Some(e) = list.get(f.k) else { return RayResult::MISS };
+        if f.prim {
+            let Some(words) = self.mem.get(f.rec..f.rec + PRIM_WORDS) else { return RayResult::MISS };
+            let Ok(words) = <&[u32; PRIM_WORDS]>::try_from(words) else { return RayResult::MISS };
+            return RayResult {
+                hit: true,
+                pe: e.pe,
+                list_pos: f.k.min(u16::MAX as usize) as u16,
+                t: f.t,
+                prim: words[1],
+                material: words[2] as u16,
+                tests: 0,
+                normal: crate::isect::analytic::normal(words, ray, f.t),
+                cycles: 0,
+            };
+        }
         let Some(words) = self.mem.get(f.rec..f.rec + TRIANGLE_WORDS) else { return RayResult::MISS };
         let Ok(words) = <&[u32; TRIANGLE_WORDS]>::try_from(words) else { return RayResult::MISS };
         let n = geometric_normal(&record(words));
@@ -376,13 +495,15 @@ struct Core<'m> {
     pes: [PeSlot; MAX_PES],
     loaded_pes: u16,
     rule: ArbitrationRule,
+    numerics: Numerics,
     clocks: [u64; MAX_PES],
     stats: CoprocStats,
 }
 
 impl Core<'_> {
     fn view(&self) -> View<'_> {
-        View { cfg: &self.cfg, mem: self.mem, pes: &self.pes, loaded_pes: self.loaded_pes, rule: self.rule }
+        let numerics = self.numerics;
+        View { cfg: &self.cfg, mem: self.mem, pes: &self.pes, loaded_pes: self.loaded_pes, rule: self.rule, numerics }
     }
 
     fn base(&self, pe: u8) -> usize {
@@ -399,17 +520,48 @@ impl Core<'_> {
         }
     }
 
-    /// Validates the `len` words already written at `pe`'s base and installs them.
+    /// Validates the `len` words already written at `pe`'s base, builds the kernel's record
+    /// table after them if it needs one (module doc), and installs them.
     fn finish_load(&mut self, pe: u8, len: usize) -> Result<(), FslError> {
         let base = self.base(pe);
         let words = self.mem.get(base..base + len).ok_or(FslError::PeMemoryOverflow)?;
         let slot = validate_image(words).ok_or(FslError::PeImageMalformed)?;
+        with_kernel!(self.cfg.kernel, self.numerics.format, K => {
+            if !K::USES_IMAGE {
+                self.build_records::<K>(base, &slot)?;
+            }
+        });
         let dst = self.pes.get_mut(pe as usize).ok_or(FslError::PeOutOfRange)?;
         *dst = slot;
         self.loaded_pes += 1;
         self.stats.loads += 1;
         let t = &self.cfg.timing;
         self.stats.cycles += (2 + len as u64) * t.word_in_cycles as u64 + t.word_out_cycles as u64;
+        Ok(())
+    }
+
+    /// Precomputes kernel `K`'s record of every triangle of the image at `base` into PE
+    /// memory right after the image, charged against `pe_mem_words`.
+    fn build_records<K: Kernel>(&mut self, base: usize, slot: &PeSlot) -> Result<(), FslError> {
+        let tris = slot.tris as usize;
+        let rec_off = slot.len as usize;
+        let need = tris.checked_mul(K::RECORD_WORDS).and_then(|n| n.checked_add(rec_off));
+        if need.is_none_or(|n| n > self.cfg.pe_mem_words as usize) {
+            return Err(FslError::PeMemoryOverflow);
+        }
+        let frame = self.numerics.frame;
+        for i in 0..tris {
+            let src = base + slot.tri_off as usize + i * TRIANGLE_WORDS;
+            let words = self.mem.get(src..src + TRIANGLE_WORDS).and_then(|w| <&[u32; TRIANGLE_WORDS]>::try_from(w).ok());
+            let tri = record(words.ok_or(FslError::PeImageMalformed)?);
+            let dst = base + rec_off + i * K::RECORD_WORDS;
+            let out = self.mem.get_mut(dst..dst + K::RECORD_WORDS).ok_or(FslError::PeMemoryOverflow)?;
+            match K::precompute(&tri, &frame, out) {
+                RecordStatus::Ok => {}
+                RecordStatus::Degenerate => self.stats.degenerate_records += 1,
+                RecordStatus::Overflow => self.stats.overflow_records += 1,
+            }
+        }
         Ok(())
     }
 
@@ -420,10 +572,11 @@ impl Core<'_> {
 
     /// The timed path: validation, functional search, PE timeline, statistics.
     fn trace_timed(&mut self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> Result<RayResult, (FslError, u16)> {
-        let view = View { cfg: &self.cfg, mem: self.mem, pes: &self.pes, loaded_pes: self.loaded_pes, rule: self.rule };
+        let numerics = self.numerics;
+        let view = View { cfg: &self.cfg, mem: self.mem, pes: &self.pes, loaded_pes: self.loaded_pes, rule: self.rule, numerics };
         view.validate(ray, t_max, list)?;
-        let (found, _) = view.search_dyn(kind, ray, t_max, list);
-        let mut result = view.result_of(list, found);
+        let (found, info) = view.search_dyn(kind, ray, t_max, list);
+        let mut result = view.result_of(list, found, ray);
 
         // Timeline (module doc of `timing`): pass 1 finds the completion time T of entries
         // 0..=w, pass 2 charges the tests every entry had started by T.
@@ -466,6 +619,7 @@ impl Core<'_> {
         self.stats.hits += result.hit as u64;
         self.stats.tests += tests;
         self.stats.cycles += cycles;
+        self.stats.overflows += info.overflows;
         Ok(result)
     }
 }
@@ -524,6 +678,7 @@ impl<'m> Coprocessor<'m> {
                 pes: [PeSlot::default(); MAX_PES],
                 loaded_pes: 0,
                 rule: ArbitrationRule::default(),
+                numerics: Numerics::default(),
                 clocks: [0; MAX_PES],
                 stats: CoprocStats::default(),
             },
@@ -548,6 +703,24 @@ impl<'m> Coprocessor<'m> {
     /// Switches the arbitration rule (GridRT's original rule is for comparisons only).
     pub fn set_arbitration(&mut self, rule: ArbitrationRule) {
         self.core.rule = rule;
+    }
+
+    /// The number format the PEs compute in (default [`NumberFormat::F32`]).
+    pub fn number_format(&self) -> NumberFormat {
+        self.core.numerics.format
+    }
+
+    /// The fixed-point frame in force.
+    pub fn fixed_frame(&self) -> FixedFrame {
+        self.core.numerics.frame
+    }
+
+    /// Selects the number format of every PE and, for the fixed-point formats, the frame that
+    /// maps the scene into the format's box (`FixedFrame::for_box` of the grid box). Records
+    /// depend on both, so this empties every PE like CLEAR: call it before loading.
+    pub fn set_number_format(&mut self, format: NumberFormat, frame: FixedFrame) {
+        self.core.numerics = Numerics { format, frame };
+        self.core.clear();
     }
 
     /// Counters.
@@ -627,12 +800,24 @@ impl<'m> Coprocessor<'m> {
     /// native benchmark. `tests` counts the tests performed (entries up to the winner);
     /// `cycles` is 0. Takes `&self`, so one loaded model can serve several threads.
     pub fn trace_untimed(&self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> Result<RayResult, FslError> {
+        self.trace_untimed_with_info(kind, ray, t_max, list).map(|(r, _)| r)
+    }
+
+    /// [`Coprocessor::trace_untimed`] that also returns the unsaturated test count and the
+    /// tests whose fixed-point arithmetic overflowed (the bench's native path reports them).
+    pub fn trace_untimed_with_info(
+        &self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+    ) -> Result<(RayResult, TraceInfo), FslError> {
         let view = self.core.view();
         view.validate(ray, t_max, list).map_err(|(e, _)| e)?;
-        let (found, tests) = view.search_dyn(kind, ray, t_max, list);
-        let mut r = view.result_of(list, found);
-        r.tests = tests.min(u16::MAX as u64) as u16;
-        Ok(r)
+        let (found, info) = view.search_dyn(kind, ray, t_max, list);
+        let mut r = view.result_of(list, found, ray);
+        r.tests = info.tests.min(u16::MAX as u64) as u16;
+        Ok((r, info))
     }
 
     // ---------------------------------------------------------------- word interface

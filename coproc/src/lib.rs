@@ -9,7 +9,12 @@
 //!   protocol violations become ERROR words, never guesses ([`coproc`] module doc).
 //! - [`timing`]: cycle accounting with the [`TimingProfile::GRIDRT`] (648 cycles/test at
 //!   50 MHz) and [`TimingProfile::PIPELINED`] profiles.
-//! - [`isect`]: intersection kernels (watertight — default —, Möller–Trumbore, Cramer).
+//! - [`isect`]: intersection kernels (watertight — default —, Möller–Trumbore, Wald,
+//!   Hanika–Keller, Cramer), each in every [`NumberFormat`] of [`numeric`] (f32 and two
+//!   checked fixed-point formats); [`Intersector`] selects one at run time.
+//! - [`probe`]: watertightness probes (rays at shared edges and vertices, settled exactly).
+//! - [`exact`]: the exact reference: f64 intersection with exact orientation predicates
+//!   (Shewchuk-style expansion arithmetic) that settle hit/miss at edges and vertices.
 //!
 //! Links into the host and into the emulated-board firmware image: no allocation, fixed
 //! capacities ([`LIST_CAPACITY`], [`OUT_QUEUE_WORDS`]), no panics on link data.
@@ -20,15 +25,19 @@
 
 pub mod config;
 pub mod coproc;
+pub mod exact;
 pub mod isect;
+pub mod numeric;
+pub mod probe;
 pub mod timing;
 
 #[cfg(test)]
 mod tests;
 
 pub use config::{ArbitrationRule, ConfigError, CoprocConfig, LIST_CAPACITY, OUT_QUEUE_WORDS};
-pub use coproc::{load_ack, CoprocStats, Coprocessor, CLEAR_ACK, T_EXIT_REL_TOL};
+pub use coproc::{load_ack, CoprocStats, Coprocessor, TraceInfo, CLEAR_ACK, T_EXIT_REL_TOL};
 pub use gridrt_shared::fsl::{FslError, FslWord, ListEntry, RayKind, RayResult};
 pub use gridrt_shared::math::Ray;
-pub use isect::{Kernel, KernelKind};
-pub use timing::TimingProfile;
+pub use isect::{Intersector, Kernel, KernelKind, Record, RecordStatus};
+pub use numeric::{FixedFrame, NumberFormat, OpCount, Overflow};
+pub use timing::{test_cycles, OpCycles, TimingProfile};

@@ -9,7 +9,10 @@
 //!
 //! The linker contract is documented in the repo-root `memory.x` and in README.md.
 
-use std::{env, fs, path::PathBuf};
+use std::{
+    env, fs,
+    path::{Path, PathBuf},
+};
 
 /// (cargo feature env var, board name, standalone app map, bootloaded app map,
 /// bootloader map), relative to this crate.
@@ -30,23 +33,18 @@ const BOARDS: &[(&str, &str, &str, &str, &str)] = &[
     ),
 ];
 
-fn copy(manifest_dir: &PathBuf, out_dir: &PathBuf, from: &str, to: &str) {
+fn copy(manifest_dir: &Path, out_dir: &Path, from: &str, to: &str) {
     let src = manifest_dir.join(from);
-    let text =
-        fs::read_to_string(&src).unwrap_or_else(|e| panic!("reading {}: {e}", src.display()));
+    let text = fs::read_to_string(&src).unwrap_or_else(|e| panic!("reading {}: {e}", src.display()));
     fs::write(out_dir.join(to), text).unwrap_or_else(|e| panic!("writing {to} to OUT_DIR: {e}"));
     println!("cargo:rerun-if-changed={}", src.display());
 }
 
 fn main() {
-    let manifest_dir =
-        PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    let manifest_dir = PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
     let out_dir = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
 
-    let selected: Vec<_> = BOARDS
-        .iter()
-        .filter(|(feature, ..)| env::var_os(feature).is_some())
-        .collect();
+    let selected: Vec<_> = BOARDS.iter().filter(|(feature, ..)| env::var_os(feature).is_some()).collect();
     let &&(_, board, standalone, bootloaded, bootloader) = match selected.as_slice() {
         [one] => one,
         _ => panic!(
@@ -69,8 +67,5 @@ fn main() {
         println!("cargo:rustc-link-arg-bin={bin}=-Tlink.x");
     }
     println!("cargo:rustc-env=GRIDRT_BOARD={board}");
-    println!(
-        "cargo:rustc-env=GRIDRT_APP_LAYOUT={}",
-        if layout_bootloaded { "bootloaded" } else { "standalone" }
-    );
+    println!("cargo:rustc-env=GRIDRT_APP_LAYOUT={}", if layout_bootloaded { "bootloaded" } else { "standalone" });
 }

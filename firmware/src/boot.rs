@@ -167,7 +167,12 @@ impl<'m> Bootloader<'m> {
             Msg::Error { .. } => {}
             other => {
                 let k = other.kind() as u8;
-                self.error(ErrorCode::UnexpectedMessage, k as u32, "this is the bootloader: only Hello and Flash* messages", out);
+                self.error(
+                    ErrorCode::UnexpectedMessage,
+                    k as u32,
+                    "this is the bootloader: only Hello and Flash* messages",
+                    out,
+                );
             }
         }
         None
@@ -187,15 +192,16 @@ impl<'m> Bootloader<'m> {
             return self.reject(FlashError::TooLarge, &t, out);
         }
         let start = load_addr.wrapping_sub(base) as usize;
-        if load_addr % 4 != 0 || load_addr < base || start.checked_add(len).is_none_or(|end| end > size) {
+        if !load_addr.is_multiple_of(4) || load_addr < base || start.checked_add(len).is_none_or(|end| end > size) {
             let _ = write!(
                 t,
                 "image {load_addr:#010x}+{total_len:#x} not inside the application region {base:#010x}+{size:#x} (or misaligned)"
             );
             return self.reject(FlashError::BadAddress, &t, out);
         }
-        if entry % 2 != 0 || entry < load_addr || entry - load_addr >= total_len {
-            let _ = write!(t, "entry {entry:#010x} not inside the image {load_addr:#010x}+{total_len:#x} (or misaligned)");
+        if !entry.is_multiple_of(2) || entry < load_addr || entry - load_addr >= total_len {
+            let _ =
+                write!(t, "entry {entry:#010x} not inside the image {load_addr:#010x}+{total_len:#x} (or misaligned)");
             return self.reject(FlashError::BadEntry, &t, out);
         }
         self.xfer = Some(Transfer { start, total_len, crc, entry, next: 0, verified: false });
@@ -232,7 +238,8 @@ impl<'m> Bootloader<'m> {
         if got != x.crc {
             self.xfer = None;
             let mut t = Text::new();
-            let _ = write!(t, "image CRC-32 read back from memory is {got:#010x}, FlashBegin announced {:#010x}", x.crc);
+            let _ =
+                write!(t, "image CRC-32 read back from memory is {got:#010x}, FlashBegin announced {:#010x}", x.crc);
             return self.reject(FlashError::BadCrc, &t, out);
         }
         x.verified = true;
@@ -263,8 +270,8 @@ impl<'m> Bootloader<'m> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use gridrt_shared::msg::MsgType;
     use gridrt_shared::frame::{encode_frame, MAX_ENCODED, MAX_PAYLOAD};
+    use gridrt_shared::msg::MsgType;
 
     struct Out(Vec<u8>);
     impl ByteSink for Out {
@@ -341,7 +348,13 @@ mod tests {
     }
 
     fn begin(img: &[u8], load_addr: u32, entry: u32) -> Msg<'_> {
-        Msg::FlashBegin { version: FLASH_FORMAT_VERSION, total_len: img.len() as u32, crc: crc32(img), load_addr, entry }
+        Msg::FlashBegin {
+            version: FLASH_FORMAT_VERSION,
+            total_len: img.len() as u32,
+            crc: crc32(img),
+            load_addr,
+            entry,
+        }
     }
 
     #[test]

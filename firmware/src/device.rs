@@ -24,10 +24,13 @@ use gridrt_shared::frame::{Crc32Digest, FeedResult, FrameAccumulator, FrameError
 use gridrt_shared::fsl::{self as wire, op, FslError, RayKind, RayResult, RESULT_WORDS};
 use gridrt_shared::math::{Ray, Vec3};
 use gridrt_shared::msg::{
-    feature, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, PixelEncoding, RenderRequest, SceneStatus, MAX_ERROR_TEXT,
-    STAT_ENTRY_LEN,
+    feature, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, Region, RenderRequest, SceneStatus,
+    MAX_ERROR_TEXT, STAT_ENTRY_LEN,
 };
-use gridrt_shared::scene::{Material, SceneError, SceneHeader, SceneSink, SceneStream, EMPTY_VOXEL};
+use gridrt_shared::scene::{
+    HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream, EMPTY_VOXEL,
+    VERSION_2,
+};
 
 /// Blocking byte output (the UART transmitter).
 pub trait ByteSink {
@@ -147,10 +150,27 @@ pub struct FrameStats {
     pub pixels: u64,
     /// Per-stage counters, indexed by [`Stage::index`].
     pub stages: [StageCount; 5],
+    /// Mirror-reflection rays generated (scene image v2).
+    pub reflection_rays: u64,
+    /// Pixels filled by row interpolation.
+    pub interpolated_pixels: u64,
+    /// Centre pixels traced after a failed interpolation test.
+    pub interp_retraces: u64,
+    /// The pipeline plan followed (`render_flags` bits).
+    pub plan: u64,
+    /// FSL words (both directions) of primary rays.
+    pub fsl_words_primary: u64,
+    /// FSL words (both directions) of shadow rays.
+    pub fsl_words_shadow: u64,
+    /// FSL words (both directions) of reflection rays.
+    pub fsl_words_reflection: u64,
 }
 
+/// Stats entries of the pipeline plan (SPEC.md §3.13), after the per-stage counters.
+const PLAN_STATS: usize = 7;
+
 /// Number of entries in a `Msg::Stats`.
-pub const STAT_COUNT: usize = 10 + 2 * Stage::ALL.len();
+pub const STAT_COUNT: usize = 10 + 2 * Stage::ALL.len() + PLAN_STATS;
 
 impl FrameStats {
     /// (key, value) pairs in the order they are sent.
@@ -180,6 +200,18 @@ impl FrameStats {
                 *slot = (s.cycles_key(), c.cycles);
             }
         }
+        let plan = [
+            (stat::REFLECTION_RAYS, self.reflection_rays),
+            (stat::INTERPOLATED_PIXELS, self.interpolated_pixels),
+            (stat::INTERP_RETRACES, self.interp_retraces),
+            (stat::PLAN, self.plan),
+            (stat::FSL_WORDS_PRIMARY, self.fsl_words_primary),
+            (stat::FSL_WORDS_SHADOW, self.fsl_words_shadow),
+            (stat::FSL_WORDS_REFLECTION, self.fsl_words_reflection),
+        ];
+        for (slot, v) in e.iter_mut().skip(10 + 2 * Stage::ALL.len()).zip(plan) {
+            *slot = v;
+        }
         e
     }
 }
@@ -200,7 +232,7 @@ const DRAIN_WORDS: u32 = 4096;
 /// Feature bits of this build.
 pub const fn compiled_features() -> u32 {
     let shadows = if cfg!(feature = "shadows") { feature::SHADOWS } else { 0 };
-    shadows | feature::PRIM_IDS
+    shadows | feature::PRIM_IDS | feature::RENDER_REGION | feature::RGB565 | feature::RLE | pipeline::pipeline_features()
 }
 
 /// `Msg::Error` detail of a link timeout (distinct from any ERROR word, whose top nibble is 0xE).
@@ -222,6 +254,10 @@ mod field {
     pub const LIGHT_INTENSITY: u32 = 60;
     pub const AMBIENT: u32 = 64;
     pub const ENCODING: u32 = 68;
+    /// `RenderRegion`: region fields, then the embedded request at [`REGION_REQUEST`].
+    pub const REGION_X0: u32 = 0;
+    pub const REGION_Y0: u32 = 2;
+    pub const REGION_REQUEST: u32 = 12;
 }
 
 /// Error text buffer (formatted details, ≤ `MAX_ERROR_TEXT`).
@@ -297,7 +333,18 @@ struct SceneStore<const N: usize> {
     voxels: usize,
     voxel_pe: [u8; N],
     materials: heapless::Vec<Material, MAX_MATERIALS>,
+    /// Scene image version 2 (ViRAY shading path).
+    v2: bool,
+    /// v2: extended materials, parallel to `materials`.
+    material_ext: heapless::Vec<MaterialExt, MAX_MATERIALS>,
+    /// v2: object table (prim id ranges, texture spaces).
+    objects: heapless::Vec<ObjectRecord, MAX_OBJECTS>,
+    /// v2: lighting record.
+    lighting: LightingRecord,
 }
+
+/// Largest object table the device holds.
+pub const MAX_OBJECTS: usize = 64;
 
 /// An upload in progress.
 struct Upload {
@@ -380,6 +427,30 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
 
     fn material(&mut self, _index: u16, m: Material) -> Result<(), SceneError> {
         self.store.materials.push(m).map_err(|_| SceneError::TooManyMaterials)
+    }
+
+    fn header_ext(&mut self, ext: &HeaderExt) -> Result<(), SceneError> {
+        if ext.object_count as usize > MAX_OBJECTS {
+            return Err(SceneError::BadHeader);
+        }
+        self.store.v2 = ext.version == VERSION_2;
+        self.store.material_ext.clear();
+        self.store.objects.clear();
+        self.store.lighting = LightingRecord::default();
+        Ok(())
+    }
+
+    fn material_ext(&mut self, _index: u16, m: MaterialExt) -> Result<(), SceneError> {
+        self.store.material_ext.push(m).map_err(|_| SceneError::TooManyMaterials)
+    }
+
+    fn object(&mut self, _index: u16, o: ObjectRecord) -> Result<(), SceneError> {
+        self.store.objects.push(o).map_err(|_| SceneError::BadHeader)
+    }
+
+    fn lighting(&mut self, l: LightingRecord) -> Result<(), SceneError> {
+        self.store.lighting = l;
+        Ok(())
     }
 
     fn pe_begin(&mut self, pe: u8, words: u32) -> Result<(), SceneError> {
@@ -514,6 +585,8 @@ struct Core<L, C, const N: usize> {
     spans: SpanEncoder,
     scene: SceneStore<N>,
     upload: Option<Upload>,
+    /// Row buffer of the row interpolation.
+    row: [crate::interp::Sample; pipeline::MAX_INTERP_WIDTH],
 }
 
 /// The device: feed it UART bytes, it answers through a [`ByteSink`].
@@ -548,7 +621,12 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
                     voxels: 0,
                     voxel_pe: [EMPTY_VOXEL; MAX_VOXELS],
                     materials: heapless::Vec::new(),
+                    v2: false,
+                    material_ext: heapless::Vec::new(),
+                    objects: heapless::Vec::new(),
+                    lighting: LightingRecord::default(),
                 },
+                row: [crate::interp::Sample::default(); pipeline::MAX_INTERP_WIDTH],
                 upload: None,
             },
         }
@@ -579,6 +657,15 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
                 return;
             }
         }
+    }
+
+    /// The boot banner (SPEC.md §3.12): a lone `0x00` (flushes whatever the host's receiver
+    /// holds) and an unsolicited `Version`. Call once after every reset, before the first
+    /// [`feed`](Self::feed); a host that sees it mid-session knows the device lost its scene.
+    pub fn announce(&mut self, out: &mut impl ByteSink) {
+        out.write_bytes(&[0]);
+        let info = self.core.info;
+        self.core.send(&Msg::Version(info), out);
     }
 
     /// The co-processor link.
@@ -666,6 +753,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             }
             Msg::SceneChunk { offset, data } => self.scene_chunk(offset, data, out),
             Msg::RenderRequest(req) => self.render(&req, out),
+            Msg::RenderRegion { region, max_span, request } => self.render_region(&request, region, max_span, out),
             other => {
                 let k = other.kind() as u8;
                 self.error(ErrorCode::UnexpectedMessage, k as u32, "message not accepted by the device", out);
@@ -741,8 +829,8 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
     }
 
     /// Validates a request; returns the camera and light.
-    fn validate(&self, r: &RenderRequest) -> Result<(Camera, Light), Fail> {
-        let bad = |f: u32, t: &'static str| Fail::Plain(ErrorCode::BadRequest, f, t);
+    fn validate(&self, r: &RenderRequest, base: u32) -> Result<(Camera, Light), Fail> {
+        let bad = |f: u32, t: &'static str| Fail::Plain(ErrorCode::BadRequest, base + f, t);
         if !self.scene.loaded {
             return Err(Fail::Plain(ErrorCode::NoScene, 0, "no scene loaded"));
         }
@@ -770,8 +858,8 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         if !r.ambient.is_finite() {
             return Err(bad(field::AMBIENT, "ambient not finite"));
         }
-        if r.encoding != PixelEncoding::Rgb888 {
-            return Err(bad(field::ENCODING, "only RGB888 frames are supported"));
+        if !r.encoding.is_colour() {
+            return Err(bad(field::ENCODING, "encoding is not a colour encoding"));
         }
         let v = Vec3::from_array;
         let cam =
@@ -785,16 +873,54 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
     }
 
     fn render(&mut self, req: &RenderRequest, out: &mut impl ByteSink) {
-        let (cam, light) = match self.validate(req) {
+        let (cam, light) = match self.validate(req, 0) {
             Ok(v) => v,
             Err(f) => return self.abort(f, out),
         };
-        self.path.stats = FrameStats::default();
-        self.spans.begin(req.frame, req.flags & render_flags::PRIM_IDS != 0);
-        if let Err(f) = self.render_pixels(req, &cam, &light, out) {
-            return self.abort(f, out);
+        let region = Region::full(req.width, req.height);
+        if let Some((spans, image_crc)) = self.render_rect(req, region, 0, &cam, &light, out) {
+            self.send(&Msg::FrameEnd { frame: req.frame, spans, image_crc }, out);
         }
-        let (spans, image_crc) = self.spans.finish();
+    }
+
+    /// `RenderRegion` (SPEC.md §3.12): the pixels of `region`, exactly as a full render of
+    /// `req` would produce them, then `Stats` and `RegionEnd`.
+    fn render_region(&mut self, req: &RenderRequest, region: Region, max_span: u16, out: &mut impl ByteSink) {
+        let (cam, light) = match self.validate(req, field::REGION_REQUEST) {
+            Ok(v) => v,
+            Err(f) => return self.abort(f, out),
+        };
+        if !region.fits(req.width, req.height) {
+            let (f, t) = if region.cols == 0 || region.x0 as u32 + region.cols as u32 > req.width as u32 {
+                (field::REGION_X0, "region columns outside the image")
+            } else {
+                (field::REGION_Y0, "region rows outside the image")
+            };
+            return self.abort(Fail::Plain(ErrorCode::BadRequest, f, t), out);
+        }
+        if let Some((spans, crc)) = self.render_rect(req, region, max_span, &cam, &light, out) {
+            self.send(&Msg::RegionEnd { frame: req.frame, region, spans, crc }, out);
+        }
+    }
+
+    /// Renders `region` and sends its spans and `Stats`; returns (spans, CRC of the decoded
+    /// pixels), or `None` when the frame was aborted (the error is already sent).
+    fn render_rect(
+        &mut self,
+        req: &RenderRequest,
+        region: Region,
+        max_span: u16,
+        cam: &Camera,
+        light: &Light,
+        out: &mut impl ByteSink,
+    ) -> Option<(u32, u32)> {
+        self.path.stats = FrameStats::default();
+        self.spans.begin_with(req.frame, req.flags & render_flags::PRIM_IDS != 0, req.encoding, max_span);
+        if let Err(f) = self.render_pixels(req, region, cam, light, out) {
+            self.abort(f, out);
+            return None;
+        }
+        let (spans, crc) = self.spans.finish();
         let mut buf = [0u8; STAT_COUNT * STAT_ENTRY_LEN];
         for (chunk, (k, v)) in buf.chunks_exact_mut(STAT_ENTRY_LEN).zip(self.path.stats.entries()) {
             if let Some((key, val)) = chunk.split_first_mut() {
@@ -803,71 +929,24 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             }
         }
         self.send(&Msg::Stats { frame: req.frame, entries: &buf }, out);
-        self.send(&Msg::FrameEnd { frame: req.frame, spans, image_crc }, out);
+        Some((spans, crc))
     }
 
-    /// Row-major render loop; returns early (frame aborted) on any co-processor failure.
-    fn render_pixels(&mut self, req: &RenderRequest, cam: &Camera, light: &Light, out: &mut impl ByteSink) -> Result<(), Fail> {
-        #[cfg(feature = "shadows")]
-        let shadows = req.flags & render_flags::SHADOWS != 0;
-        #[cfg(feature = "shadows")]
-        let diag = self.scene.grid.aabb().diagonal().length();
-        let mut sw = Stopwatch { last: self.clock.now() };
-        let enc_err = |_| Fail::Plain(ErrorCode::BadRequest, 0, "frame encoder failure");
-        for y in 0..req.height {
-            for x in 0..req.width {
-                let ray = cam.primary_ray(x as u32, y as u32);
-                self.path.stats.primary_rays += 1;
-                sw.lap(&self.clock, &mut self.path.stats, Stage::RayGen);
-                let hit = self.path.trace(&self.scene, &ray, RayKind::Closest, f32::INFINITY, &self.clock, &mut sw)?;
-                let (colour, prim) = match hit {
-                    Some(r) if r.hit => {
-                        let albedo = self.scene.materials.get(r.material as usize).map_or(DEFAULT_ALBEDO, |m| m.diffuse);
-                        let p = shade::hit_point(&ray, r.t);
-                        let colour = match shade::facing_normal(r.normal, ray.dir) {
-                            // Degenerate normal: no direction to light it from; ambient only.
-                            None => shade::lambert(albedo, light, 0.0, false),
-                            Some(n) => {
-                                let ndotl = shade::n_dot_l(p, n, light.pos);
-                                #[cfg(feature = "shadows")]
-                                let visible = if shadows && ndotl > 0.0 {
-                                    self.path.stats.shadow_rays += 1;
-                                    let sr = shade::shadow_ray(p, n, light.pos, diag);
-                                    sw.lap(&self.clock, &mut self.path.stats, Stage::Shade);
-                                    let blocker = self.path.trace(
-                                        &self.scene,
-                                        &sr,
-                                        RayKind::Any,
-                                        shade::SHADOW_T_MAX,
-                                        &self.clock,
-                                        &mut sw,
-                                    )?;
-                                    !blocker.is_some_and(|b| b.hit)
-                                } else {
-                                    true
-                                };
-                                #[cfg(not(feature = "shadows"))]
-                                let visible = true;
-                                shade::lambert(albedo, light, ndotl, visible)
-                            }
-                        };
-                        (colour, r.prim)
-                    }
-                    _ => (BACKGROUND, u32::MAX),
-                };
-                let rgb = shade::to_rgb8(colour);
-                sw.lap(&self.clock, &mut self.path.stats, Stage::Shade);
-                self.spans.push(x, y, rgb, prim, &mut self.tx, out).map_err(enc_err)?;
-                self.path.stats.pixels += 1;
-                sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
-            }
-            // Flush per row so the host sees progress while the next row renders.
-            self.spans.flush(&mut self.tx, out).map_err(enc_err)?;
-            sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
-        }
-        Ok(())
+    /// Row-major render loop; returns early (frame aborted) on any co-processor failure
+    /// (the pixel pipeline, plan and interpolation are in `device/pipeline.rs`).
+    fn render_pixels(
+        &mut self,
+        req: &RenderRequest,
+        region: Region,
+        cam: &Camera,
+        light: &Light,
+        out: &mut impl ByteSink,
+    ) -> Result<(), Fail> {
+        self.render_pipeline(req, region, cam, light, out)
     }
 }
+
+mod pipeline;
 
 #[cfg(test)]
 mod tests;

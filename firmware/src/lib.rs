@@ -7,6 +7,9 @@
 //! | [`camera`] | pinhole camera (CONTRACTS.md) |
 //! | [`dda`] | 3D-DDA grid traversal and traversal lists (Amanatides & Woo 1987) |
 //! | [`shade`] | ambient + Lambert + shadow-ray shading (CONTRACTS.md) |
+//! | [`viray`] | ViRAY shading of scene image v2: Oren–Nayar, Blinn–Phong, Torrance–Sparrow, Fresnel, spotlight |
+//! | [`texture`](mod@texture) | procedural textures, mappings, bilinear filtering (feature `textures`) |
+//! | [`interp`] | row interpolation (seed 003) |
 //! | [`pixels`] | frame encoder, pixel spans, running image CRC |
 //! | [`device`] | the device state machine (UART frames ↔ FSL link) |
 //! | [`fsl`] | the co-processor link trait |
@@ -22,5 +25,9 @@ pub mod camera;
 pub mod dda;
 pub mod device;
 pub mod fsl;
+pub mod interp;
 pub mod pixels;
 pub mod shade;
+#[cfg(feature = "textures")]
+pub mod texture;
+pub mod viray;

@@ -9,6 +9,7 @@
 use crate::device::ByteSink;
 use gridrt_shared::frame::{encode_frame, Crc32Digest, FrameError, MAX_ENCODED, MAX_PAYLOAD};
 use gridrt_shared::msg::{Msg, MsgError, PixelEncoding};
+use gridrt_shared::pixel::{self, RleEncoder, RLE_MAX_FINISH_BYTES, RLE_MAX_PUSH_BYTES};
 
 /// Bytes of a `PixelSpan` payload before the pixel data.
 pub const SPAN_HEADER_LEN: usize = 10;
@@ -70,16 +71,33 @@ impl FrameTx {
     }
 }
 
-/// Packs pixels into row-segment spans (plus `PrimId32` spans when asked) and keeps the
-/// running CRC-32 of the RGB888 image. Pixels must be pushed in row-major order.
+/// Bytes of pixel data a `PixelSpan` can carry.
+pub const MAX_SPAN_DATA: usize = MAX_PAYLOAD - SPAN_HEADER_LEN;
+
+/// Pixels per `Rle` span when only colour is sent: a whole row of the largest image.
+pub const MAX_RLE_SPAN_PIXELS: usize = 4096;
+
+const _: () = assert!(3 * MAX_SPAN_PIXELS <= MAX_SPAN_DATA);
+
+/// Packs pixels into row-segment spans (plus `PrimId32` spans when asked) in the requested
+/// encoding (SPEC.md §3.7.1) and keeps the running CRC-32 of the pixels as the host decodes
+/// them (RGB888; for `Rgb565` the bit-replicated expansion). Pixels must be pushed in
+/// row-major order.
+///
+/// Memory is fixed: one span of encoded data ([`MAX_SPAN_DATA`] bytes), one span of
+/// primitive ids, and the 4-byte `Rle` encoder state. A span ends at a row end, a gap, the
+/// pixel limit, or when the next pixel might not fit the data buffer.
 pub struct SpanEncoder {
     frame: u16,
     prim_ids: bool,
+    encoding: PixelEncoding,
     span_len: usize,
     y: u16,
     x0: u16,
     count: usize,
-    rgb: [u8; 3 * MAX_SPAN_PIXELS],
+    data: [u8; MAX_SPAN_DATA],
+    len: usize,
+    rle: RleEncoder,
     ids: [u8; 4 * MAX_SPAN_PIXELS_WITH_IDS],
     crc: Crc32Digest,
     spans: u32,
@@ -97,30 +115,59 @@ impl SpanEncoder {
         Self {
             frame: 0,
             prim_ids: false,
+            encoding: PixelEncoding::Rgb888,
             span_len: MAX_SPAN_PIXELS,
             y: 0,
             x0: 0,
             count: 0,
-            rgb: [0; 3 * MAX_SPAN_PIXELS],
+            data: [0; MAX_SPAN_DATA],
+            len: 0,
+            rle: RleEncoder::new(),
             ids: [0; 4 * MAX_SPAN_PIXELS_WITH_IDS],
             crc: Crc32Digest::default(),
             spans: 0,
         }
     }
 
-    /// Starts frame `frame`; with `prim_ids` every colour span is followed by a `PrimId32`
-    /// span of the same pixels.
+    /// Starts frame `frame` in `Rgb888` with the default span length; with `prim_ids` every
+    /// colour span is followed by a `PrimId32` span of the same pixels.
     pub fn begin(&mut self, frame: u16, prim_ids: bool) {
+        self.begin_with(frame, prim_ids, PixelEncoding::Rgb888, 0);
+    }
+
+    /// Starts frame (or region) `frame` in `encoding` with at most `max_span` pixels per span
+    /// (0 = the default: [`MAX_SPAN_PIXELS`], [`MAX_RLE_SPAN_PIXELS`] for `Rle`,
+    /// [`MAX_SPAN_PIXELS_WITH_IDS`] with `prim_ids`). `encoding` must be a colour encoding
+    /// (`PrimId32` is sent as `Rgb888`).
+    pub fn begin_with(&mut self, frame: u16, prim_ids: bool, encoding: PixelEncoding, max_span: u16) {
+        let encoding = if encoding.is_colour() { encoding } else { PixelEncoding::Rgb888 };
+        let default = match (prim_ids, encoding) {
+            (true, _) => MAX_SPAN_PIXELS_WITH_IDS,
+            (false, PixelEncoding::Rle) => MAX_RLE_SPAN_PIXELS,
+            (false, _) => MAX_SPAN_PIXELS,
+        };
         self.frame = frame;
         self.prim_ids = prim_ids;
-        self.span_len = if prim_ids { MAX_SPAN_PIXELS_WITH_IDS } else { MAX_SPAN_PIXELS };
+        self.encoding = encoding;
+        self.span_len = if max_span == 0 { default } else { default.min(max_span as usize) };
         self.count = 0;
+        self.len = 0;
+        self.rle = RleEncoder::new();
         self.crc = Crc32Digest::default();
         self.spans = 0;
     }
 
-    /// Adds pixel (x, y). A pixel that does not continue the pending span (other row, gap) or
-    /// a full span flushes the pending span first.
+    /// True when one more pixel surely fits the data buffer.
+    fn has_room(&self) -> bool {
+        let need = match self.encoding.fixed_bytes_per_pixel() {
+            Some(bpp) => bpp,
+            None => RLE_MAX_PUSH_BYTES + RLE_MAX_FINISH_BYTES,
+        };
+        self.len + need <= MAX_SPAN_DATA
+    }
+
+    /// Adds pixel (x, y). A pixel that does not continue the pending span (other row, gap), a
+    /// full span or a full data buffer flushes the pending span first.
     #[inline]
     pub fn push<S: ByteSink + ?Sized>(
         &mut self,
@@ -132,18 +179,39 @@ impl SpanEncoder {
         out: &mut S,
     ) -> Result<(), TxError> {
         let continues = self.count > 0 && y == self.y && x as usize == self.x0 as usize + self.count;
-        if self.count > 0 && (!continues || self.count >= self.span_len) {
+        if self.count > 0 && (!continues || self.count >= self.span_len || !self.has_room()) {
             self.flush(tx, out)?;
         }
         if self.count == 0 {
             self.y = y;
             self.x0 = x;
         }
-        let i = self.count;
-        if let Some(dst) = self.rgb.get_mut(3 * i..3 * i + 3) {
-            dst.copy_from_slice(&rgb);
-        }
+        let at = self.len;
+        let written = match self.encoding {
+            PixelEncoding::Rgb565 => {
+                let v = pixel::rgb565_pack(rgb);
+                if let Some(dst) = self.data.get_mut(at..at + 2) {
+                    dst.copy_from_slice(&v.to_le_bytes());
+                }
+                self.crc.update(&pixel::rgb565_unpack(v));
+                2
+            }
+            PixelEncoding::Rle => {
+                self.crc.update(&rgb);
+                let dst = self.data.get_mut(at..).unwrap_or(&mut []);
+                self.rle.push(rgb, dst).map_err(|_| TxError::Msg(MsgError::EncodeBufferTooSmall))?
+            }
+            _ => {
+                // Rgb888: the CRC is taken over the whole span at flush time.
+                if let Some(dst) = self.data.get_mut(at..at + 3) {
+                    dst.copy_from_slice(&rgb);
+                }
+                3
+            }
+        };
+        self.len += written;
         if self.prim_ids {
+            let i = self.count;
             if let Some(dst) = self.ids.get_mut(4 * i..4 * i + 4) {
                 dst.copy_from_slice(&prim.to_le_bytes());
             }
@@ -158,13 +226,21 @@ impl SpanEncoder {
         if n == 0 {
             return Ok(());
         }
-        let rgb = self.rgb.get(..3 * n).unwrap_or(&[]);
-        self.crc.update(rgb);
-        let span = |encoding, data| Msg::PixelSpan { frame: self.frame, y: self.y, x0: self.x0, count: n as u16, encoding, data };
-        tx.send(&span(PixelEncoding::Rgb888, rgb), out)?;
+        if self.encoding == PixelEncoding::Rle {
+            let dst = self.data.get_mut(self.len..).unwrap_or(&mut []);
+            self.len += self.rle.finish(dst).map_err(|_| TxError::Msg(MsgError::EncodeBufferTooSmall))?;
+        }
+        let len = core::mem::take(&mut self.len);
+        let data = self.data.get(..len).unwrap_or(&[]);
+        if self.encoding == PixelEncoding::Rgb888 {
+            self.crc.update(data);
+        }
+        let (frame, y, x0, count) = (self.frame, self.y, self.x0, n as u16);
+        tx.send(&Msg::PixelSpan { frame, y, x0, count, encoding: self.encoding, data }, out)?;
         self.spans += 1;
         if self.prim_ids {
-            tx.send(&span(PixelEncoding::PrimId32, self.ids.get(..4 * n).unwrap_or(&[])), out)?;
+            let ids = self.ids.get(..4 * n).unwrap_or(&[]);
+            tx.send(&Msg::PixelSpan { frame, y, x0, count, encoding: PixelEncoding::PrimId32, data: ids }, out)?;
             self.spans += 1;
         }
         Ok(())
@@ -175,8 +251,8 @@ impl SpanEncoder {
         self.spans
     }
 
-    /// Ends the frame: returns (spans sent, CRC-32 of the RGB888 image). Call after the last
-    /// [`flush`](Self::flush).
+    /// Ends the frame: returns (spans sent, CRC-32 of the decoded RGB888 pixels). Call after
+    /// the last [`flush`](Self::flush).
     pub fn finish(&mut self) -> (u32, u32) {
         (self.spans, core::mem::take(&mut self.crc).finalize())
     }

@@ -37,10 +37,21 @@
 //! Exactly [`gridrt_shared::scene::PeImage`]: counts, voxel table sorted by voxel id, ref
 //! table, then each of the PE's triangles once (sorted by primitive id), referenced by local
 //! index from every voxel that holds it.
+//!
+//! # Analytic primitives (scene image v2)
+//! [`build_with_prims`] also bins ViRAY's analytic primitives (global ids `T + i` after the
+//! `T` triangles) by conservative bounds: a primitive is listed in every voxel whose padded
+//! box overlaps its world AABB ([`AnalyticPrim::bounds`]: the image of the canonical box, for
+//! a sphere the ellipsoid's exact box); disks and squares must in addition meet the padded
+//! box with their plane (`|n·(c − p)| ≤ Σ|n_a|·h_a`). A scene-file *plane* is a square of
+//! finite extent (docs/SCENE-FILE.md), so the grid box always contains every primitive and a
+//! ray that misses the grid box misses the scene. With at least one analytic primitive the PE
+//! images use the v2 layout (`PE_V2_TAG`, T, V, R, P; refs ≥ T name primitives).
 
-use gridrt_shared::scene::{TriangleRecord, EMPTY_VOXEL, MAX_PES, PE_HEADER_WORDS, TRIANGLE_WORDS, VOXEL_ENTRY_WORDS};
+use gridrt_shared::scene::{PrimRecord, TriangleRecord, EMPTY_VOXEL, MAX_PES, PE_HEADER_WORDS, PE_V2_HEADER_WORDS, PE_V2_TAG, PRIM_WORDS, TRIANGLE_WORDS, VOXEL_ENTRY_WORDS};
 
 use crate::scene::{Bounds, Mesh};
+use crate::world::AnalyticPrim;
 
 /// Largest resolution per axis.
 pub const MAX_DIM: u16 = 255;
@@ -168,6 +179,8 @@ pub struct Grid {
     pub pe_triangles: Vec<u32>,
     /// Total triangles of the mesh.
     pub triangle_count: u32,
+    /// Analytic primitives (global ids `triangle_count..triangle_count + prim_count`).
+    pub prim_count: u32,
 }
 
 impl Grid {
@@ -228,16 +241,36 @@ fn pad_bounds(b: &Bounds) -> Bounds {
 
 /// Builds the grid, bins the triangles, maps voxels to PEs and lays out the PE images.
 pub fn build(mesh: &Mesh, params: &GridParams) -> Result<Grid, GridError> {
+    build_with_prims(mesh, &[], params)
+}
+
+/// [`build`] for triangles plus analytic primitives (module doc).
+pub fn build_with_prims(mesh: &Mesh, prims: &[AnalyticPrim], params: &GridParams) -> Result<Grid, GridError> {
     if params.pe_count == 0 || params.pe_count as usize > MAX_PES {
         return Err(GridError::BadPeCount(params.pe_count as u32));
     }
     if !(params.m > 0.0 && params.m.is_finite()) {
         return Err(GridError::BadMultiplier(params.m));
     }
-    let mesh_bounds = mesh.bounds().ok_or(GridError::EmptyMesh)?;
+    let mut mesh_bounds = mesh.bounds();
+    for p in prims {
+        let b = p.bounds();
+        mesh_bounds = Some(match mesh_bounds {
+            None => b,
+            Some(mut a) => {
+                for i in 0..3 {
+                    a.min[i] = a.min[i].min(b.min[i]);
+                    a.max[i] = a.max[i].max(b.max[i]);
+                }
+                a
+            }
+        });
+    }
+    let mesh_bounds = mesh_bounds.ok_or(GridError::EmptyMesh)?;
+    let n_prims = mesh.triangles.len() + prims.len();
     let dims = match params.dims_override {
         Some(d) => d.map(|v| v.clamp(1, MAX_DIM)),
-        None => resolution(mesh_bounds.extent(), mesh.triangles.len(), params.m),
+        None => resolution(mesh_bounds.extent(), n_prims, params.m),
     };
     let bounds = pad_bounds(&mesh_bounds);
     let gmin = bounds.min.map(|v| v as f64);
@@ -278,6 +311,40 @@ pub fn build(mesh: &Mesh, params: &GridParams) -> Result<Grid, GridError> {
             }
         }
     }
+    let t_total = mesh.triangles.len() as u32;
+    for (i, p) in prims.iter().enumerate() {
+        let b = p.bounds();
+        let plane = p.plane();
+        let mut range = [(0u32, 0u32); 3];
+        for a in 0..3 {
+            let (lo, hi) = (b.min[a] as f64, b.max[a] as f64);
+            let pad = cell[a] * VOXEL_PAD_REL + VOXEL_PAD_ABS_REL * (lo.abs().max(hi.abs()));
+            let to_idx = |x: f64| (((x - gmin[a]) / cell[a]).floor().max(0.0) as u32).min(dims[a] as u32 - 1);
+            range[a] = (to_idx(lo - pad), to_idx(hi + pad));
+        }
+        for iz in range[2].0..=range[2].1 {
+            for iy in range[1].0..=range[1].1 {
+                for ix in range[0].0..=range[0].1 {
+                    if let Some((q, n)) = plane {
+                        let idx = [ix, iy, iz];
+                        let mut dist = 0.0;
+                        let mut reach = 0.0;
+                        for a in 0..3 {
+                            let lo = gmin[a] + idx[a] as f64 * cell[a];
+                            let hi = gmin[a] + (idx[a] + 1) as f64 * cell[a];
+                            let pad = cell[a] * VOXEL_PAD_REL + VOXEL_PAD_ABS_REL * lo.abs().max(hi.abs());
+                            dist += n[a] * (0.5 * (lo + hi) - q[a]);
+                            reach += n[a].abs() * (0.5 * (hi - lo) + pad);
+                        }
+                        if dist.abs() > reach {
+                            continue;
+                        }
+                    }
+                    pairs.push((ix + nx * (iy + ny * iz), t_total + i as u32));
+                }
+            }
+        }
+    }
     pairs.sort_unstable();
     let mut voxels = Vec::new();
     let mut voxel_offsets = Vec::new();
@@ -307,7 +374,9 @@ pub fn build(mesh: &Mesh, params: &GridParams) -> Result<Grid, GridError> {
     // Lay out PE images.
     let mut pe_images = Vec::with_capacity(per_pe.len());
     let mut pe_triangles = Vec::with_capacity(per_pe.len());
-    let mut local = vec![u32::MAX; mesh.triangles.len()];
+    let mut local = vec![u32::MAX; mesh.triangles.len() + prims.len()];
+    let v2 = !prims.is_empty();
+    let analytic = prims;
     for cells in &per_pe {
         let mut prims: Vec<u32> = cells
             .iter()
@@ -315,13 +384,22 @@ pub fn build(mesh: &Mesh, params: &GridParams) -> Result<Grid, GridError> {
             .collect();
         prims.sort_unstable();
         prims.dedup();
+        // Sorted ids put the triangles (< T) first, so local index i < T_local is a triangle
+        // and T_local + j the j-th analytic primitive, as the v2 ref table requires.
         for (i, &p) in prims.iter().enumerate() {
             local[p as usize] = i as u32;
         }
+        let n_tris = prims.iter().filter(|&&p| p < t_total).count();
+        let n_analytic = prims.len() - n_tris;
         let refs: usize = cells.iter().map(|&k| (voxel_offsets[k + 1] - voxel_offsets[k]) as usize).sum();
-        let needed = PE_HEADER_WORDS + cells.len() * VOXEL_ENTRY_WORDS + refs + prims.len() * TRIANGLE_WORDS;
+        let header = if v2 { PE_V2_HEADER_WORDS } else { PE_HEADER_WORDS };
+        let needed = header + cells.len() * VOXEL_ENTRY_WORDS + refs + n_tris * TRIANGLE_WORDS + n_analytic * PRIM_WORDS;
         let mut words = Vec::with_capacity(needed);
-        words.extend_from_slice(&[prims.len() as u32, cells.len() as u32, refs as u32]);
+        if v2 {
+            words.extend_from_slice(&[PE_V2_TAG, n_tris as u32, cells.len() as u32, refs as u32, n_analytic as u32]);
+        } else {
+            words.extend_from_slice(&[prims.len() as u32, cells.len() as u32, refs as u32]);
+        }
         let mut first = 0u32;
         for &k in cells {
             let count = voxel_offsets[k + 1] - voxel_offsets[k];
@@ -334,8 +412,14 @@ pub fn build(mesh: &Mesh, params: &GridParams) -> Result<Grid, GridError> {
             }
         }
         for &p in &prims {
-            let t = &mesh.triangles[p as usize];
-            words.extend_from_slice(&TriangleRecord { vertices: t.v, prim: p, material: t.material }.to_words());
+            if p < t_total {
+                let t = &mesh.triangles[p as usize];
+                words.extend_from_slice(&TriangleRecord { vertices: t.v, prim: p, material: t.material }.to_words());
+            } else {
+                let a = &analytic[(p - t_total) as usize];
+                let rec = PrimRecord { kind: a.kind, prim: p, material: a.material, world_to_object: a.to_object };
+                words.extend_from_slice(&rec.to_words());
+            }
         }
         debug_assert_eq!(words.len(), needed);
         pe_triangles.push(prims.len() as u32);
@@ -377,6 +461,7 @@ pub fn build(mesh: &Mesh, params: &GridParams) -> Result<Grid, GridError> {
         pe_images,
         pe_triangles,
         triangle_count: mesh.triangles.len() as u32,
+        prim_count: analytic.len() as u32,
     })
 }
 

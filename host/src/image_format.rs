@@ -8,7 +8,7 @@
 //! ```
 
 use gridrt_shared::frame::crc32;
-use gridrt_shared::scene::{Material, SceneHeader, HEADER_LEN};
+use gridrt_shared::scene::{HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, SceneHeader, HEADER_LEN, VERSION_2};
 
 use crate::grid::Grid;
 
@@ -18,6 +18,28 @@ use crate::grid::Grid;
 /// Never on a grid built by [`crate::grid::build`]; the sizes it checks are asserted in
 /// debug builds only.
 pub fn scene_image(grid: &Grid, materials: &[Material]) -> Vec<u8> {
+    assemble(grid, materials, None)
+}
+
+/// The version-2 sections of a scene image (SPEC.md §5.8).
+#[derive(Debug, Clone, Copy)]
+pub struct V2Sections<'a> {
+    /// Extended material records, one per material.
+    pub material_ext: &'a [MaterialExt],
+    /// Object table.
+    pub objects: &'a [ObjectRecord],
+    /// Lighting record.
+    pub lighting: &'a LightingRecord,
+}
+
+/// Builds a version-2 scene image: the v1 sections, then the material ext records, the
+/// object table and the lighting record, then the PE blocks (v2 PE images when the grid
+/// holds analytic primitives).
+pub fn scene_image_v2(grid: &Grid, materials: &[Material], v2: &V2Sections<'_>) -> Vec<u8> {
+    assemble(grid, materials, Some(v2))
+}
+
+fn assemble(grid: &Grid, materials: &[Material], v2: Option<&V2Sections<'_>>) -> Vec<u8> {
     let mut body = Vec::new();
     body.extend_from_slice(&grid.owners);
     while body.len() % 4 != 0 {
@@ -25,6 +47,16 @@ pub fn scene_image(grid: &Grid, materials: &[Material]) -> Vec<u8> {
     }
     for m in materials {
         body.extend_from_slice(&m.to_bytes());
+    }
+    if let Some(v2) = v2 {
+        debug_assert_eq!(v2.material_ext.len(), materials.len());
+        for m in v2.material_ext {
+            body.extend_from_slice(&m.to_bytes());
+        }
+        for o in v2.objects {
+            body.extend_from_slice(&o.to_bytes());
+        }
+        body.extend_from_slice(&v2.lighting.to_bytes());
     }
     for (pe, words) in grid.pe_images.iter().enumerate() {
         body.extend_from_slice(&(pe as u16).to_le_bytes());
@@ -41,13 +73,17 @@ pub fn scene_image(grid: &Grid, materials: &[Material]) -> Vec<u8> {
         bounds_max: grid.bounds.max,
         material_count: materials.len() as u16,
         flags: 0,
-        triangle_count: grid.triangle_count,
+        triangle_count: grid.triangle_count + grid.prim_count,
         pe_mem_words: grid.pe_mem_words,
         total_len: (HEADER_LEN + body.len()) as u32,
         body_crc: crc32(&body),
     };
+    let ext = match v2 {
+        None => HeaderExt::V1,
+        Some(v2) => HeaderExt { version: VERSION_2, object_count: v2.objects.len() as u16 },
+    };
     let mut out = Vec::with_capacity(HEADER_LEN + body.len());
-    out.extend_from_slice(&header.to_bytes());
+    out.extend_from_slice(&header.to_bytes_ext(&ext));
     out.extend_from_slice(&body);
     out
 }

@@ -9,8 +9,12 @@
 //! | [`camera`] | default camera/light and [`camera::RenderSettings`] (docs/CONTRACTS.md) |
 //! | [`reference`](mod@reference) | independent f64 reference renderer (BVH + watertight test) |
 //! | [`compare`] | PSNR and pixel/hit differences |
+//! | [`flash`] | ELF → flash image, flashing through the bootloader (SPEC.md §3.11), progress events |
+//! | [`serial`] | opening serial ports (no flush on open) and listing them |
 //! | [`session`] | protocol client over any `Read + Write` byte transport, progress events |
 //! | [`stats`] | JSON statistics |
+//! | [`scene_file`] | TOML scene files (docs/SCENE-FILE.md) → [`world::World`] |
+//! | [`world`] | analytic primitives, extended materials and lighting (scene image v2) |
 //!
 //! Errors are typed (`thiserror`); the library never prints. Progress is reported through
 //! [`session::ProgressEvent`] callbacks, which only the binary draws.
@@ -18,10 +22,14 @@
 
 pub mod camera;
 pub mod compare;
+pub mod flash;
 pub mod grid;
 pub mod image_format;
 pub mod pipeline;
 pub mod reference;
 pub mod scene;
+pub mod scene_file;
+pub mod serial;
 pub mod session;
 pub mod stats;
+pub mod world;

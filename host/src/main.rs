@@ -27,12 +27,21 @@ enum Command {
     Render(cmd::render::Cmd),
     /// Benchmarks (`gridrt bench rays`: the native primary-ray path, single-threaded).
     Bench(cmd::bench::Cmd),
+    /// Flash an application ELF through the device's bootloader, verify it and start it.
+    Flash(cmd::flash::Cmd),
+    /// List serial ports.
+    Ports(cmd::ports::Cmd),
+    /// Run the simulated board on a serial port (try `render --port` over a socat pty pair).
+    Device(cmd::device::Cmd),
 }
 
 fn main() -> anyhow::Result<()> {
     match Cli::parse().command {
         Command::Render(cmd) => cmd.run(),
         Command::Bench(cmd) => cmd.run(),
+        Command::Flash(cmd) => cmd.run(),
+        Command::Ports(cmd) => cmd.run(),
+        Command::Device(cmd) => cmd.run(),
     }
 }
 

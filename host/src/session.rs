@@ -26,17 +26,24 @@
 
 use std::collections::BTreeMap;
 use std::io::{ErrorKind, Read, Write};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use gridrt_shared::frame::{crc32, encode_frame, FeedResult, FrameAccumulator, MAX_ENCODED, MAX_PAYLOAD};
+use gridrt_shared::frame::{crc32, encode_frame, FeedResult, FrameAccumulator, FrameError, MAX_ENCODED, MAX_PAYLOAD};
 use gridrt_shared::msg::{
-    render_flags, stat_entries, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, PixelEncoding, RenderRequest,
-    SceneStatus,
+    feature, render_flags, stat_entries, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, PixelEncoding, Region,
+    RenderRequest, SceneStatus,
 };
 use gridrt_shared::PROTOCOL_VERSION;
 
+mod region;
+pub use region::{decode_colour, BandReport, Canvas, LinkStats};
+
 /// Largest scene chunk the host sends.
 pub const MAX_CHUNK: usize = 1024;
+
+/// Smallest scene chunk the upload shrinks to on a noisy line.
+pub const MIN_CHUNK: usize = 64;
 
 /// Which part of the protocol a session was in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -107,6 +114,19 @@ pub enum ProgressEvent {
     },
     /// The frame arrived complete and verified.
     Finished,
+    /// Row `y` of a band is verified ([`Session::render_band`]; `render` turns these into
+    /// `RowReceived`).
+    RowVerified {
+        /// The row.
+        y: u16,
+    },
+    /// Pixels of `region` are requested again (selective repeat).
+    Resend {
+        /// What is requested.
+        region: Region,
+    },
+    /// The device reset; the scene is uploaded again and the render resumes.
+    DeviceReset,
 }
 
 /// Why a session operation failed.
@@ -114,7 +134,7 @@ pub enum ProgressEvent {
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
     /// Nothing useful arrived for too long.
-    #[error("{port}: timed out during {stage} after {}ms without progress (last sequence number received: {})", waited.as_millis(), fmt_seq(*last_seq))]
+    #[error("{port}: timed out during {stage} after {}ms without progress{}{} (last sequence number received: {}, sent: {sent_seq})", waited.as_millis(), if what.is_empty() { "" } else { ": " }, what, fmt_seq(*last_seq))]
     Timeout {
         /// Port name.
         port: String,
@@ -124,6 +144,10 @@ pub enum SessionError {
         waited: Duration,
         /// Sequence number of the last valid frame received, if any.
         last_seq: Option<u16>,
+        /// Sequence number of the last frame the host sent.
+        sent_seq: u16,
+        /// What was being waited for (may be empty).
+        what: String,
     },
     /// The transport failed.
     #[error("{port}: I/O error during {stage}: {source}")]
@@ -249,8 +273,15 @@ pub struct SessionConfig {
     pub chunk_size: usize,
     /// Chunks in flight.
     pub window: usize,
-    /// Rewinds allowed per upload before giving up.
+    /// Rewinds allowed in a row without any new byte acknowledged before the upload gives up.
     pub max_rewinds: u32,
+    /// Render with `RenderRegion` (selective repeat, reset recovery) when the device
+    /// supports it; `false` uses the single `RenderRequest` of protocol v1.
+    pub regions: bool,
+    /// Rows per region when a frame is rendered with regions (0 = the whole frame).
+    pub band_rows: u16,
+    /// Requests per band before it fails.
+    pub max_requests_per_band: u32,
 }
 
 impl SessionConfig {
@@ -266,7 +297,34 @@ impl SessionConfig {
             chunk_size: MAX_CHUNK,
             window: 4,
             max_rewinds: 64,
+            regions: true,
+            band_rows: 0,
+            max_requests_per_band: 10_000,
         }
+    }
+    /// Chooses regions or the v1 `RenderRequest` (see [`Self::regions`]).
+    #[must_use]
+    pub fn regions(mut self, on: bool) -> Self {
+        self.regions = on;
+        self
+    }
+    /// Sets the rows per region (0 = whole frame).
+    #[must_use]
+    pub fn band_rows(mut self, rows: u16) -> Self {
+        self.band_rows = rows;
+        self
+    }
+    /// Sets the request budget per band.
+    #[must_use]
+    pub fn max_requests_per_band(mut self, n: u32) -> Self {
+        self.max_requests_per_band = n.max(1);
+        self
+    }
+    /// Sets the consecutive rewinds without progress allowed during an upload.
+    #[must_use]
+    pub fn max_rewinds(mut self, n: u32) -> Self {
+        self.max_rewinds = n;
+        self
     }
     /// Sets the hello timeout.
     #[must_use]
@@ -333,6 +391,8 @@ pub struct RenderedFrame {
     pub bytes_rx: u64,
     /// From sending the request to `FrameEnd`.
     pub elapsed: Duration,
+    /// Retransmissions and line errors during the render.
+    pub link: LinkStats,
 }
 
 /// Owned form of the device → host messages.
@@ -342,6 +402,7 @@ enum Incoming {
     SceneAck { next_offset: u32, status: SceneStatus },
     PixelSpan { frame: u16, y: u16, x0: u16, count: u16, encoding: PixelEncoding, data: Vec<u8> },
     FrameEnd { frame: u16, spans: u32, image_crc: u32 },
+    RegionEnd { frame: u16, region: Region, spans: u32, crc: u32 },
     Stats { frame: u16, entries: Vec<(u8, u64)> },
     Error { code: ErrorCode, detail: u32, text: String },
     Other,
@@ -356,6 +417,7 @@ impl Incoming {
                 Self::PixelSpan { frame, y, x0, count, encoding, data: data.to_vec() }
             }
             Msg::FrameEnd { frame, spans, image_crc } => Self::FrameEnd { frame, spans, image_crc },
+            Msg::RegionEnd { frame, region, spans, crc } => Self::RegionEnd { frame, region, spans, crc },
             Msg::Stats { frame, entries } => Self::Stats { frame, entries: stat_entries(entries).collect() },
             Msg::Error { code, detail, text } => Self::Error { code, detail, text: text.to_string() },
             _ => Self::Other,
@@ -377,6 +439,14 @@ pub struct Session<T> {
     bytes_rx: u64,
     bad_frames: u64,
     device: Option<DeviceInfo>,
+    /// Valid frames received.
+    rx_frames: u64,
+    /// Retransmission counters.
+    link: LinkStats,
+    /// The last scene uploaded (uploaded again after a device reset).
+    scene: Option<Arc<[u8]>>,
+    /// Line-quality estimate carried from band to band.
+    sizer: Option<region::SpanSizer>,
 }
 
 impl<T: Read + Write> Session<T> {
@@ -394,7 +464,16 @@ impl<T: Read + Write> Session<T> {
             bytes_rx: 0,
             bad_frames: 0,
             device: None,
+            rx_frames: 0,
+            link: LinkStats::default(),
+            scene: None,
+            sizer: None,
         }
+    }
+
+    /// Retransmission and line-error counters since the session started.
+    pub fn link_stats(&self) -> &LinkStats {
+        &self.link
     }
 
     /// The configuration.
@@ -431,7 +510,14 @@ impl<T: Read + Write> Session<T> {
     }
 
     fn timeout(&self, stage: Stage, waited: Duration) -> SessionError {
-        SessionError::Timeout { port: self.cfg.port_name.clone(), stage, waited, last_seq: self.last_rx_seq }
+        SessionError::Timeout {
+            port: self.cfg.port_name.clone(),
+            stage,
+            waited,
+            last_seq: self.last_rx_seq,
+            sent_seq: self.tx_seq.wrapping_sub(1),
+            what: String::new(),
+        }
     }
 
     fn protocol(&self, stage: Stage, what: impl Into<String>) -> SessionError {
@@ -474,8 +560,18 @@ impl<T: Read + Write> Session<T> {
                         self.rx_pos = total;
                         None
                     }
-                    FeedResult::Overflow { rest } | FeedResult::BadFrame { rest, .. } => {
+                    FeedResult::Overflow { rest } => {
                         self.bad_frames += 1;
+                        self.link.resyncs += 1;
+                        self.rx_pos = total - rest.len();
+                        None
+                    }
+                    FeedResult::BadFrame { error, rest } => {
+                        self.bad_frames += 1;
+                        self.link.resyncs += 1;
+                        if error == FrameError::DecodeBadCrc {
+                            self.link.crc_errors += 1;
+                        }
                         self.rx_pos = total - rest.len();
                         None
                     }
@@ -492,6 +588,14 @@ impl<T: Read + Write> Session<T> {
                 };
                 if let Some((pos, seq, msg)) = decoded {
                     self.rx_pos = pos;
+                    // Frames lost in between, by sequence number (a device restarts at 0).
+                    if let Some(last) = self.last_rx_seq {
+                        let gap = seq.wrapping_sub(last).wrapping_sub(1);
+                        if seq != 0 && gap < 0x8000 {
+                            self.link.seq_gaps += gap as u64;
+                        }
+                    }
+                    self.rx_frames += 1;
                     self.last_rx_seq = Some(seq);
                     return msg.map(Some).map_err(|w| self.protocol(stage, w));
                 }
@@ -589,24 +693,41 @@ impl<T: Read + Write> Session<T> {
             what: "scene image larger than 4 GiB".into(),
         })?;
         let device_cap = self.device.map_or(MAX_CHUNK, |d| (d.max_payload as usize).saturating_sub(4));
-        let chunk = self.cfg.chunk_size.min(MAX_CHUNK).min(device_cap).clamp(1, MAX_PAYLOAD - 4);
-        let window = (self.cfg.window.max(1) * chunk) as u32;
+        let mut chunk = self.cfg.chunk_size.min(MAX_CHUNK).min(device_cap).clamp(1, MAX_PAYLOAD - 4);
+        let min_chunk = MIN_CHUNK.min(chunk);
+        let begin = Msg::SceneBegin { total_len: total, crc: crc32(image) };
 
-        self.send(stage, &Msg::SceneBegin { total_len: total, crc: crc32(image) })?;
+        // A lone delimiter first: the device drops whatever noise it holds.
+        self.write_bytes(stage, &[0])?;
+        self.send(stage, &begin)?;
         progress(ProgressEvent::UploadStarted { total: total as u64 });
         let mut acked = 0u32;
         let mut next = 0u32;
-        let mut rewinds = 0u32;
+        let mut sent_hi = 0u32;
+        // Rewinds in a row without a new byte acknowledged.
+        let mut stalls = 0u32;
         let mut rewound_to: Option<u32> = None;
+        // Answers still expected to chunks sent before a restart (ignored).
+        let mut stale = 0usize;
         let mut last_progress = Instant::now();
         loop {
             // Fill the window.
+            let window = (self.cfg.window.max(1) * chunk) as u32;
             while next < total && next - acked.min(next) < window {
                 let end = (next as usize + chunk).min(image.len());
+                if next < sent_hi {
+                    self.link.upload_chunks_resent += 1;
+                }
                 self.send(stage, &Msg::SceneChunk { offset: next, data: &image[next as usize..end] })?;
                 next = end as u32;
+                sent_hi = sent_hi.max(next);
+            }
+            if stalls > self.cfg.max_rewinds {
+                return Err(SessionError::UploadStalled { port: self.cfg.port_name.clone(), offset: acked, rewinds: stalls });
             }
             let until = (Instant::now() + self.cfg.retransmit_after).min(last_progress + self.cfg.upload_timeout);
+            let in_flight = ((next - acked.min(next)) as usize).div_ceil(chunk.max(1));
+            let mut restart = false;
             match self.poll(stage, until)? {
                 Some(Incoming::SceneAck { next_offset, status }) => {
                     if next_offset > total {
@@ -615,16 +736,23 @@ impl<T: Read + Write> Session<T> {
                     }
                     if next_offset > acked {
                         acked = next_offset;
+                        stalls = 0;
+                        stale = 0;
                         last_progress = Instant::now();
                         if rewound_to.is_some_and(|r| acked > r) {
                             rewound_to = None;
                         }
+                        next = next.max(acked);
                         progress(ProgressEvent::Uploaded { bytes: acked as u64, total: total as u64 });
                     }
                     if status == SceneStatus::Loaded {
                         if next_offset != total {
                             return Err(self
                                 .protocol(stage, format!("device reports Loaded at offset {next_offset} of {total}")));
+                        }
+                        // Kept for re-uploads after a device reset (SPEC.md §3.12).
+                        if self.scene.as_deref() != Some(image) {
+                            self.scene = Some(Arc::from(image));
                         }
                         progress(ProgressEvent::UploadFinished { total: total as u64 });
                         return Ok(());
@@ -637,45 +765,82 @@ impl<T: Read + Write> Session<T> {
                             format!("device expects offset {detail} beyond the image ({total} bytes)"),
                         ));
                     }
-                    // An offset below what the device already acknowledged is a stale report;
-                    // the same offset twice means the rewind is already under way.
-                    if detail >= acked && rewound_to != Some(detail) {
-                        rewinds += 1;
-                        if rewinds > self.cfg.max_rewinds {
-                            return Err(SessionError::UploadStalled {
-                                port: self.cfg.port_name.clone(),
-                                offset: acked,
-                                rewinds,
-                            });
-                        }
+                    if stale > 0 {
+                        stale -= 1;
+                    } else if detail > sent_hi {
+                        // The device holds another upload (our SceneBegin was lost): start over.
+                        restart = true;
+                    } else if detail >= acked && rewound_to != Some(detail) {
+                        // An offset below what the device already acknowledged is a stale
+                        // report; the same offset twice means the rewind is already under way.
+                        stalls += 1;
                         rewound_to = Some(detail);
                         acked = detail;
                         next = detail;
                         progress(ProgressEvent::UploadRewound { offset: detail as u64 });
                     }
                 }
+                Some(Incoming::Error { code: ErrorCode::BadFrame, .. }) => {
+                    // The device dropped a corrupt frame, most likely one of our chunks: go
+                    // back to the last acknowledged offset with smaller chunks.
+                    self.link.device_bad_frames += 1;
+                    chunk = (chunk / 2).max(min_chunk);
+                    if rewound_to != Some(acked) && next > acked {
+                        stalls += 1;
+                        rewound_to = Some(acked);
+                        next = acked;
+                        progress(ProgressEvent::UploadRewound { offset: acked as u64 });
+                    }
+                }
+                Some(Incoming::Error { code: ErrorCode::UnexpectedMessage, detail, .. })
+                    if detail == MsgType::SceneChunk as u32 =>
+                {
+                    // A chunk without an upload: SceneBegin was lost, or the device reset.
+                    if stale > 0 {
+                        stale -= 1;
+                    } else {
+                        restart = true;
+                    }
+                }
+                Some(Incoming::Version(_)) if self.last_rx_seq == Some(0) => {
+                    // The device's reset banner: it forgot the upload.
+                    self.link.device_resets += 1;
+                    restart = true;
+                }
                 Some(Incoming::Error { code, detail, text }) => return Err(self.device_err(stage, code, detail, text)),
                 Some(_) => {}
                 None => {
                     let idle = last_progress.elapsed();
                     if idle >= self.cfg.upload_timeout {
-                        return Err(self.timeout(stage, idle));
+                        return Err(SessionError::Timeout {
+                            port: self.cfg.port_name.clone(),
+                            stage,
+                            waited: idle,
+                            last_seq: self.last_rx_seq,
+                            sent_seq: self.tx_seq.wrapping_sub(1),
+                            what: format!("acknowledgement of scene offset {acked} of {total}"),
+                        });
                     }
+                    self.link.timeouts += 1;
                     if next > acked {
-                        // Nothing acknowledged for a while: go back and resend.
-                        rewinds += 1;
-                        if rewinds > self.cfg.max_rewinds {
-                            return Err(SessionError::UploadStalled {
-                                port: self.cfg.port_name.clone(),
-                                offset: acked,
-                                rewinds,
-                            });
-                        }
+                        // Nothing acknowledged for a while: go back and resend, smaller.
+                        chunk = (chunk / 2).max(min_chunk);
+                        stalls += 1;
                         next = acked;
                         rewound_to = Some(acked);
                         progress(ProgressEvent::UploadRewound { offset: acked as u64 });
                     }
                 }
+            }
+            if restart {
+                stalls += 1;
+                stale = in_flight;
+                acked = 0;
+                next = 0;
+                rewound_to = None;
+                self.write_bytes(stage, &[0])?;
+                self.send(stage, &begin)?;
+                progress(ProgressEvent::UploadRewound { offset: 0 });
             }
         }
     }
@@ -695,8 +860,20 @@ impl<T: Read + Write> Session<T> {
                 what: "image size is zero".into(),
             });
         }
+        let features = self.device.map_or(0, |d| d.features);
+        if req.encoding.feature_bit() & !features != 0 {
+            return Err(SessionError::BadInput {
+                port: self.cfg.port_name.clone(),
+                stage,
+                what: format!("the device does not send {:?} spans (features {features:#x})", req.encoding),
+            });
+        }
+        if self.cfg.regions && features & feature::RENDER_REGION != 0 {
+            return self.render_regions(req, progress);
+        }
         let want_ids = req.flags & render_flags::PRIM_IDS != 0;
         let (tx0, rx0) = (self.bytes_tx, self.bytes_rx);
+        let link0 = self.link.clone();
         let start = Instant::now();
         self.send(stage, &Msg::RenderRequest(*req))?;
         progress(ProgressEvent::RenderStarted { width: req.width, height: req.height });
@@ -729,8 +906,9 @@ impl<T: Read + Write> Session<T> {
                     spans_received += 1;
                     let base = y * w + x0;
                     let newly = match encoding {
-                        PixelEncoding::Rgb888 => {
-                            rgb[3 * base..3 * (base + count)].copy_from_slice(&data);
+                        PixelEncoding::Rgb888 | PixelEncoding::Rgb565 | PixelEncoding::Rle => {
+                            decode_colour(encoding, count, &data, &mut rgb[3 * base..3 * (base + count)])
+                                .map_err(|w| self.protocol(stage, w))?;
                             got_rgb[base..base + count]
                                 .iter_mut()
                                 .map(|g| !std::mem::replace(g, true))
@@ -808,6 +986,7 @@ impl<T: Read + Write> Session<T> {
                         bytes_tx: self.bytes_tx - tx0,
                         bytes_rx: self.bytes_rx - rx0,
                         elapsed: start.elapsed(),
+                        link: self.link.since(&link0),
                     });
                 }
                 Incoming::Error { code, detail, text } => return Err(self.device_err(stage, code, detail, text)),

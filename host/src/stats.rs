@@ -14,6 +14,10 @@
 //!   `reference_ms`.
 //! - `device_counters`: every counter the device sent, by name (per-stage counters as
 //!   `stage_<stage>_instret` / `stage_<stage>_cycles`, unknown keys as `key_<n>`).
+//! - `device_instructions` (object by stage), `instructions_per_primary_ray` (all stages) and
+//!   `instructions_per_primary_ray_by_stage`: only when the device counts its instructions
+//!   (the firmware image on QEMU/a soft-core; under QEMU `-icount shift=0` they are exact and
+//!   exclude the co-processor model's own work).
 
 use std::collections::BTreeMap;
 
@@ -155,6 +159,48 @@ pub struct RenderStats {
     pub reference: Option<ReferenceStats>,
     /// Every device counter by name.
     pub device_counters: BTreeMap<String, u64>,
+    /// Instructions the device retired in each pipeline stage (`raygen`, `traverse`,
+    /// `fsl_io`, `shade`, `encode`), from its per-stage counters; only when the device
+    /// counts them (the firmware on a soft-core or QEMU; the loopback simulator does not).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub device_instructions: Option<BTreeMap<String, u64>>,
+    /// All device instructions of the frame divided by the primary rays.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub instructions_per_primary_ray: Option<f64>,
+    /// `device_instructions` of each stage divided by the primary rays.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub instructions_per_primary_ray_by_stage: Option<BTreeMap<String, f64>>,
+}
+
+/// Name of a device pipeline stage in the stats JSON.
+pub fn stage_name(stage: Stage) -> &'static str {
+    match stage {
+        Stage::RayGen => "raygen",
+        Stage::Traverse => "traverse",
+        Stage::FslIo => "fsl_io",
+        Stage::Shade => "shade",
+        Stage::Encode => "encode",
+    }
+}
+
+/// `(device_instructions, instructions_per_primary_ray, by stage)` when any stage counted.
+#[allow(clippy::type_complexity)]
+fn device_instructions(
+    stats: &BTreeMap<u8, u64>,
+    primary_rays: u64,
+) -> (Option<BTreeMap<String, u64>>, Option<f64>, Option<BTreeMap<String, f64>>) {
+    let by_stage: BTreeMap<String, u64> = Stage::ALL
+        .iter()
+        .map(|&s| (stage_name(s).to_string(), stats.get(&s.instret_key()).copied().unwrap_or(0)))
+        .collect();
+    if by_stage.values().all(|&v| v == 0) {
+        return (None, None, None);
+    }
+    let total: u64 = by_stage.values().sum();
+    let per_ray = (primary_rays > 0).then(|| total as f64 / primary_rays as f64);
+    let per_ray_by_stage = (primary_rays > 0)
+        .then(|| by_stage.iter().map(|(k, &v)| (k.clone(), v as f64 / primary_rays as f64)).collect());
+    (Some(by_stage), per_ray, per_ray_by_stage)
 }
 
 /// Scene-side facts for [`RenderStats::new`].
@@ -173,6 +219,8 @@ pub struct SceneFacts {
 impl RenderStats {
     /// Collects the statistics of `frame` rendered from `grid`.
     pub fn new(facts: &SceneFacts, grid: &Grid, frame: &RenderedFrame) -> Self {
+        let instructions =
+            device_instructions(&frame.stats, frame.stats.get(&stat::PRIMARY_RAYS).copied().unwrap_or(0));
         let get = |k: u8| frame.stats.get(&k).copied().unwrap_or(0);
         let (primary, shadow) = (get(stat::PRIMARY_RAYS), get(stat::SHADOW_RAYS));
         let (out, inn) = (get(stat::FSL_WORDS_OUT), get(stat::FSL_WORDS_IN));
@@ -207,6 +255,9 @@ impl RenderStats {
             wall_ms: frame.elapsed.as_secs_f64() * 1e3,
             reference: None,
             device_counters: frame.stats.iter().map(|(&k, &v)| (stat_name(k), v)).collect(),
+            device_instructions: instructions.0,
+            instructions_per_primary_ray: instructions.1,
+            instructions_per_primary_ray_by_stage: instructions.2,
         }
     }
 }
@@ -268,5 +319,29 @@ mod tests {
         assert_eq!(stat_name(stat::COPROC_CYCLES), "coproc_cycles");
         assert_eq!(stat_name(Stage::Traverse.cycles_key()), "stage_traverse_cycles");
         assert_eq!(stat_name(0x30), "key_48");
+    }
+}
+
+#[cfg(test)]
+mod device_instruction_tests {
+    use super::*;
+
+    #[test]
+    fn only_reported_when_the_device_counts() {
+        let mut stats = BTreeMap::new();
+        stats.insert(stat::PRIMARY_RAYS, 4);
+        for s in Stage::ALL {
+            stats.insert(s.instret_key(), 0);
+        }
+        assert_eq!(device_instructions(&stats, 4), (None, None, None));
+        stats.insert(Stage::Traverse.instret_key(), 100);
+        stats.insert(Stage::Shade.instret_key(), 20);
+        stats.insert(Stage::Shade.cycles_key(), 999);
+        let (by_stage, per_ray, per_ray_by_stage) = device_instructions(&stats, 4);
+        let by_stage = by_stage.unwrap();
+        assert_eq!(by_stage.len(), 5);
+        assert_eq!((by_stage["traverse"], by_stage["shade"], by_stage["raygen"]), (100, 20, 0));
+        assert_eq!(per_ray, Some(30.0));
+        assert_eq!(per_ray_by_stage.unwrap()["traverse"], 25.0);
     }
 }

@@ -29,6 +29,10 @@ pub enum MsgType {
     FrameEnd = 0x22,
     /// Device → host: counters of the frame.
     Stats = 0x23,
+    /// Host → device: render a rectangle of a frame (SPEC.md §3.12).
+    RenderRegion = 0x24,
+    /// Device → host: the rectangle is complete (SPEC.md §3.12).
+    RegionEnd = 0x25,
     /// Host → bootloader: an application image follows (SPEC.md §3.11).
     FlashBegin = 0x30,
     /// Host → bootloader: bytes of the application image.
@@ -54,6 +58,8 @@ impl MsgType {
             0x21 => Self::PixelSpan,
             0x22 => Self::FrameEnd,
             0x23 => Self::Stats,
+            0x24 => Self::RenderRegion,
+            0x25 => Self::RegionEnd,
             0x30 => Self::FlashBegin,
             0x31 => Self::FlashChunk,
             0x32 => Self::FlashAck,
@@ -134,6 +140,10 @@ impl From<Overflow> for MsgError {
 pub enum PixelEncoding {
     /// 3 bytes per pixel: R, G, B.
     Rgb888 = 0,
+    /// 2 bytes per pixel, LE `r5 << 11 | g6 << 5 | b5` (lossy; see [`crate::pixel`]).
+    Rgb565 = 1,
+    /// Lossless run-length + delta byte code, variable length ([`crate::pixel`]).
+    Rle = 2,
     /// Auxiliary: 4 bytes per pixel, the primitive id of the primary hit (LE), `u32::MAX` for
     /// a miss. Sent after the colour span of the same pixels when
     /// [`render_flags::PRIM_IDS`] is set; lets the host compare hits with a reference.
@@ -141,19 +151,44 @@ pub enum PixelEncoding {
 }
 
 impl PixelEncoding {
-    /// Bytes per pixel on the wire.
+    /// Bytes per pixel on the wire of a fixed-size encoding; 0 for the variable-size
+    /// [`Self::Rle`] (use [`Self::fixed_bytes_per_pixel`] to tell them apart).
     pub const fn bytes_per_pixel(self) -> usize {
-        match self {
-            Self::Rgb888 => 3,
-            Self::PrimId32 => 4,
+        match self.fixed_bytes_per_pixel() {
+            Some(n) => n,
+            None => 0,
         }
+    }
+    /// Bytes per pixel, `None` for a variable-size encoding.
+    pub const fn fixed_bytes_per_pixel(self) -> Option<usize> {
+        match self {
+            Self::Rgb888 => Some(3),
+            Self::Rgb565 => Some(2),
+            Self::Rle => None,
+            Self::PrimId32 => Some(4),
+        }
+    }
+    /// True for the colour encodings a render request may ask for.
+    pub const fn is_colour(self) -> bool {
+        !matches!(self, Self::PrimId32)
     }
     /// Encoding for a wire byte.
     pub fn from_u8(b: u8) -> Option<Self> {
         match b {
             0 => Some(Self::Rgb888),
+            1 => Some(Self::Rgb565),
+            2 => Some(Self::Rle),
             0x80 => Some(Self::PrimId32),
             _ => None,
+        }
+    }
+    /// The `Version.features` bit a device sets when it can send this encoding (0 for
+    /// encodings every device sends).
+    pub const fn feature_bit(self) -> u32 {
+        match self {
+            Self::Rgb565 => feature::RGB565,
+            Self::Rle => feature::RLE,
+            Self::Rgb888 | Self::PrimId32 => 0,
         }
     }
 }
@@ -185,6 +220,22 @@ pub mod feature {
     pub const SHADOWS: u32 = 1 << 0;
     /// The device can send primitive-id spans ([`super::render_flags::PRIM_IDS`]).
     pub const PRIM_IDS: u32 = 1 << 1;
+    /// Mirror-reflection rays ([`super::render_flags::REFLECTIONS`] is honoured; SPEC.md §3.13).
+    pub const REFLECTIONS: u32 = 1 << 16;
+    /// Procedural textures ([`super::render_flags::TEXTURES`] is honoured).
+    pub const TEXTURES: u32 = 1 << 17;
+    /// Specular highlights ([`super::render_flags::SPECULAR`] is honoured).
+    pub const SPECULAR: u32 = 1 << 18;
+    /// Row interpolation (seed 003; the `render_flags` interpolation fields are honoured).
+    pub const INTERP: u32 = 1 << 19;
+    /// Scene image version 2 (analytic primitives, ViRAY shading) is accepted.
+    pub const SCENE_V2: u32 = 1 << 20;
+    /// The device renders `RenderRegion` requests (SPEC.md §3.12).
+    pub const RENDER_REGION: u32 = 1 << 8;
+    /// The device sends `Rgb565` spans.
+    pub const RGB565: u32 = 1 << 9;
+    /// The device sends `Rle` spans.
+    pub const RLE: u32 = 1 << 10;
 }
 
 /// Render request options (bit flags in [`RenderRequest::flags`]).
@@ -193,6 +244,35 @@ pub mod render_flags {
     pub const SHADOWS: u16 = 1 << 0;
     /// Also send the primitive id of every primary hit ([`super::PixelEncoding::PrimId32`]).
     pub const PRIM_IDS: u16 = 1 << 1;
+    /// Pipeline plan (SPEC.md §3.13): trace mirror-reflection rays (v2 scenes).
+    pub const REFLECTIONS: u16 = 1 << 2;
+    /// Pipeline plan: run the texture stage (v2 scenes).
+    pub const TEXTURES: u16 = 1 << 3;
+    /// Pipeline plan: evaluate specular BRDFs (v2 scenes).
+    pub const SPECULAR: u16 = 1 << 4;
+    /// Row interpolation: adapt the step per row (seed 003 §3.5); else a fixed step.
+    pub const INTERP_ADAPTIVE: u16 = 1 << 5;
+    /// Row interpolation step l (trace every (l+1)-th pixel), bits 9..6; 0 = off.
+    pub const INTERP_STEP_SHIFT: u32 = 6;
+    /// Mask of the step field.
+    pub const INTERP_STEP_MASK: u16 = 0xF << INTERP_STEP_SHIFT;
+    /// Row interpolation colour threshold EPS (8-bit levels, 0..=31), bits 14..10.
+    pub const INTERP_EPS_SHIFT: u32 = 10;
+    /// Mask of the EPS field.
+    pub const INTERP_EPS_MASK: u16 = 0x1F << INTERP_EPS_SHIFT;
+
+    /// The interpolation bits for step `l` (0..=15) and threshold `eps` (0..=31).
+    pub const fn interp(step: u8, eps: u8, adaptive: bool) -> u16 {
+        (((step as u16) & 0xF) << INTERP_STEP_SHIFT) | (((eps as u16) & 0x1F) << INTERP_EPS_SHIFT) | if adaptive { INTERP_ADAPTIVE } else { 0 }
+    }
+    /// Interpolation step l of `flags` (0 = off).
+    pub const fn interp_step(flags: u16) -> u8 {
+        ((flags & INTERP_STEP_MASK) >> INTERP_STEP_SHIFT) as u8
+    }
+    /// Interpolation threshold EPS of `flags`.
+    pub const fn interp_eps(flags: u16) -> u8 {
+        ((flags & INTERP_EPS_MASK) >> INTERP_EPS_SHIFT) as u8
+    }
 }
 
 /// Camera, light and output settings of one frame.
@@ -226,6 +306,42 @@ pub struct RenderRequest {
 
 /// Payload size of a render request.
 pub const RENDER_REQUEST_LEN: usize = 72;
+
+/// A rectangle of a frame: columns `x0..x0+cols` of rows `y0..y0+rows` (SPEC.md §3.12).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub struct Region {
+    /// First column.
+    pub x0: u16,
+    /// First row.
+    pub y0: u16,
+    /// Columns.
+    pub cols: u16,
+    /// Rows.
+    pub rows: u16,
+}
+
+impl Region {
+    /// The whole `width`×`height` frame.
+    pub const fn full(width: u16, height: u16) -> Self {
+        Self { x0: 0, y0: 0, cols: width, rows: height }
+    }
+    /// Pixels in the region.
+    pub const fn pixels(&self) -> u64 {
+        self.cols as u64 * self.rows as u64
+    }
+    /// True when the region is non-empty and lies inside a `width`×`height` frame.
+    pub const fn fits(&self, width: u16, height: u16) -> bool {
+        self.cols > 0
+            && self.rows > 0
+            && self.x0 as u32 + self.cols as u32 <= width as u32
+            && self.y0 as u32 + self.rows as u32 <= height as u32
+    }
+}
+
+/// Payload size of a `RenderRegion`.
+pub const RENDER_REGION_LEN: usize = 12 + RENDER_REQUEST_LEN;
+/// Payload size of a `RegionEnd`.
+pub const REGION_END_LEN: usize = 20;
 
 /// Status of a [`Msg::SceneAck`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -403,6 +519,20 @@ pub mod stat {
     pub const LIST_ENTRIES: u8 = 10;
     /// First key of the per-stage device counters (instructions), see SPEC.md §3.8.
     pub const STAGE_BASE: u8 = 0x40;
+    /// Mirror-reflection rays generated (SPEC.md §3.13).
+    pub const REFLECTION_RAYS: u8 = 0x20;
+    /// Pixels filled by row interpolation instead of traced.
+    pub const INTERPOLATED_PIXELS: u8 = 0x21;
+    /// Centre pixels traced because a segment failed the interpolation test.
+    pub const INTERP_RETRACES: u8 = 0x22;
+    /// The pipeline plan the device followed (`render_flags` bits it honoured).
+    pub const PLAN: u8 = 0x23;
+    /// FSL words (both directions) of primary rays.
+    pub const FSL_WORDS_PRIMARY: u8 = 0x24;
+    /// FSL words (both directions) of shadow rays.
+    pub const FSL_WORDS_SHADOW: u8 = 0x25;
+    /// FSL words (both directions) of reflection rays.
+    pub const FSL_WORDS_REFLECTION: u8 = 0x26;
 }
 
 /// Bytes per stats entry: key u8, value u64.
@@ -464,6 +594,26 @@ pub enum Msg<'a> {
         spans: u32,
         /// CRC-32 of the whole image as RGB888, row-major.
         image_crc: u32,
+    },
+    /// Host → device: render `region` of the frame `request` describes (SPEC.md §3.12).
+    RenderRegion {
+        /// The rectangle.
+        region: Region,
+        /// Most pixels per colour span; 0 = the device's default.
+        max_span: u16,
+        /// Camera, light, size, flags and encoding of the frame.
+        request: RenderRequest,
+    },
+    /// Device → host: every span of `region` has been sent.
+    RegionEnd {
+        /// Frame id.
+        frame: u16,
+        /// The rectangle.
+        region: Region,
+        /// PixelSpan messages sent for it (both encodings).
+        spans: u32,
+        /// CRC-32 of the region's pixels as decoded RGB888, row-major.
+        crc: u32,
     },
     /// Device → host counters; `entries` is a list of (key u8, value u64).
     Stats {
@@ -544,6 +694,8 @@ impl<'a> Msg<'a> {
             Self::PixelSpan { .. } => MsgType::PixelSpan,
             Self::FrameEnd { .. } => MsgType::FrameEnd,
             Self::Stats { .. } => MsgType::Stats,
+            Self::RenderRegion { .. } => MsgType::RenderRegion,
+            Self::RegionEnd { .. } => MsgType::RegionEnd,
             Self::FlashBegin { .. } => MsgType::FlashBegin,
             Self::FlashChunk { .. } => MsgType::FlashChunk,
             Self::FlashAck { .. } => MsgType::FlashAck,
@@ -583,23 +735,22 @@ impl<'a> Msg<'a> {
                 w.u8(status as u8)?;
                 w.bytes(&[0; 3])?;
             }
-            Self::RenderRequest(r) => {
-                w.u16(r.frame)?;
-                w.u16(r.width)?;
-                w.u16(r.height)?;
-                w.u16(r.flags)?;
-                w.vec3(r.eye)?;
-                w.vec3(r.target)?;
-                w.vec3(r.up)?;
-                w.f32(r.fov_y_deg)?;
-                w.vec3(r.light_pos)?;
-                w.f32(r.light_intensity)?;
-                w.f32(r.ambient)?;
-                w.u8(r.encoding as u8)?;
-                w.bytes(&[0; 3])?;
+            Self::RenderRequest(r) => write_request(&mut w, &r)?,
+            Self::RenderRegion { region, max_span, request } => {
+                write_region(&mut w, region)?;
+                w.u16(max_span)?;
+                w.u16(0)?;
+                write_request(&mut w, &request)?;
+            }
+            Self::RegionEnd { frame, region, spans, crc } => {
+                w.u16(frame)?;
+                w.u16(0)?;
+                write_region(&mut w, region)?;
+                w.u32(spans)?;
+                w.u32(crc)?;
             }
             Self::PixelSpan { frame, y, x0, count, encoding, data } => {
-                if data.len() != count as usize * encoding.bytes_per_pixel() {
+                if !span_data_valid(encoding, count, data) {
                     return Err(MsgError::EncodeBadField);
                 }
                 w.u16(frame)?;
@@ -693,23 +844,17 @@ impl<'a> Msg<'a> {
                 let _ = r.take(3)?;
                 Self::SceneAck { next_offset, status }
             }
-            MsgType::RenderRequest => {
-                let req = RenderRequest {
-                    frame: r.u16()?,
-                    width: r.u16()?,
-                    height: r.u16()?,
-                    flags: r.u16()?,
-                    eye: r.vec3()?,
-                    target: r.vec3()?,
-                    up: r.vec3()?,
-                    fov_y_deg: r.f32()?,
-                    light_pos: r.vec3()?,
-                    light_intensity: r.f32()?,
-                    ambient: r.f32()?,
-                    encoding: PixelEncoding::from_u8(r.u8()?).ok_or(MsgError::DecodeBadField)?,
-                };
-                let _ = r.take(3)?;
-                Self::RenderRequest(req)
+            MsgType::RenderRequest => Self::RenderRequest(read_request(&mut r)?),
+            MsgType::RenderRegion => {
+                let region = read_region(&mut r)?;
+                let max_span = r.u16()?;
+                let _ = r.u16()?;
+                Self::RenderRegion { region, max_span, request: read_request(&mut r)? }
+            }
+            MsgType::RegionEnd => {
+                let frame = r.u16()?;
+                let _ = r.u16()?;
+                Self::RegionEnd { frame, region: read_region(&mut r)?, spans: r.u32()?, crc: r.u32()? }
             }
             MsgType::PixelSpan => {
                 let frame = r.u16()?;
@@ -719,8 +864,7 @@ impl<'a> Msg<'a> {
                 let encoding = PixelEncoding::from_u8(r.u8()?).ok_or(MsgError::DecodeBadField)?;
                 let _ = r.u8()?;
                 let data = r.rest();
-                let expected = count as usize * encoding.bytes_per_pixel();
-                if data.len() != expected {
+                if !span_data_valid(encoding, count, data) {
                     return Err(MsgError::DecodeBadField);
                 }
                 Self::PixelSpan { frame, y, x0, count, encoding, data }
@@ -769,5 +913,61 @@ impl<'a> Msg<'a> {
             return Err(MsgError::DecodeTrailingBytes);
         }
         Ok(msg)
+    }
+}
+
+fn write_request(w: &mut Writer<'_>, r: &RenderRequest) -> Result<(), MsgError> {
+    w.u16(r.frame)?;
+    w.u16(r.width)?;
+    w.u16(r.height)?;
+    w.u16(r.flags)?;
+    w.vec3(r.eye)?;
+    w.vec3(r.target)?;
+    w.vec3(r.up)?;
+    w.f32(r.fov_y_deg)?;
+    w.vec3(r.light_pos)?;
+    w.f32(r.light_intensity)?;
+    w.f32(r.ambient)?;
+    w.u8(r.encoding as u8)?;
+    w.bytes(&[0; 3])?;
+    Ok(())
+}
+
+fn read_request(r: &mut Reader<'_>) -> Result<RenderRequest, MsgError> {
+    let req = RenderRequest {
+        frame: r.u16()?,
+        width: r.u16()?,
+        height: r.u16()?,
+        flags: r.u16()?,
+        eye: r.vec3()?,
+        target: r.vec3()?,
+        up: r.vec3()?,
+        fov_y_deg: r.f32()?,
+        light_pos: r.vec3()?,
+        light_intensity: r.f32()?,
+        ambient: r.f32()?,
+        encoding: PixelEncoding::from_u8(r.u8()?).ok_or(MsgError::DecodeBadField)?,
+    };
+    let _ = r.take(3)?;
+    Ok(req)
+}
+
+fn write_region(w: &mut Writer<'_>, g: Region) -> Result<(), MsgError> {
+    w.u16(g.x0)?;
+    w.u16(g.y0)?;
+    w.u16(g.cols)?;
+    w.u16(g.rows)?;
+    Ok(())
+}
+
+fn read_region(r: &mut Reader<'_>) -> Result<Region, MsgError> {
+    Ok(Region { x0: r.u16()?, y0: r.u16()?, cols: r.u16()?, rows: r.u16()? })
+}
+
+/// `data` holds exactly `count` pixels of `encoding` (for `Rle`: decodes to exactly `count`).
+fn span_data_valid(encoding: PixelEncoding, count: u16, data: &[u8]) -> bool {
+    match encoding.fixed_bytes_per_pixel() {
+        Some(bpp) => data.len() == count as usize * bpp,
+        None => crate::pixel::rle_validate(count as usize, data).is_ok(),
     }
 }

@@ -11,6 +11,10 @@
 
 use crate::bytes::Reader;
 use crate::frame::Crc32Digest;
+pub use crate::scene_v2::{
+    HeaderExt, LightingRecord, MaterialExt, ObjectRecord, PrimRecord, LIGHTING_LEN, MATERIAL_EXT_LEN, OBJECT_LEN, PE_V2_HEADER_WORDS,
+    PE_V2_TAG, PRIM_WORDS, VERSION_2,
+};
 
 /// Magic bytes at offset 0.
 pub const MAGIC: [u8; 4] = *b"GRTS";
@@ -63,6 +67,9 @@ pub enum SceneError {
     NonFinite,
     /// The consumer of the stream refused a piece (e.g. the co-processor reported an error).
     Rejected,
+    /// A version-2 record (material ext, object, lighting, primitive) has an out-of-range
+    /// enum or value.
+    BadRecord,
 }
 
 impl SceneError {
@@ -82,6 +89,7 @@ impl SceneError {
             Self::TooManyMaterials => 11,
             Self::NonFinite => 12,
             Self::Rejected => 13,
+            Self::BadRecord => 14,
         }
     }
 }
@@ -102,6 +110,7 @@ impl core::fmt::Display for SceneError {
             Self::TooManyMaterials => "more materials than the device can hold",
             Self::NonFinite => "NaN or infinite value in scene image",
             Self::Rejected => "scene piece rejected by the loader",
+            Self::BadRecord => "scene record field out of range",
         })
     }
 }
@@ -148,12 +157,18 @@ impl SceneHeader {
 
     /// Serialises the header.
     pub fn to_bytes(&self) -> [u8; HEADER_LEN] {
+        self.to_bytes_ext(&HeaderExt::V1)
+    }
+
+    /// Serialises the header with the version-specific fields of `ext` (version at offset 4,
+    /// v2 object count at offset 60).
+    pub fn to_bytes_ext(&self, ext: &HeaderExt) -> [u8; HEADER_LEN] {
         let mut b = [0u8; HEADER_LEN];
         let mut w = crate::bytes::Writer::new(&mut b);
         // The buffer is exactly HEADER_LEN bytes, so none of these writes can overflow.
         let _ = (|| -> Result<(), crate::bytes::Overflow> {
             w.bytes(&MAGIC)?;
-            w.u16(VERSION)?;
+            w.u16(ext.version)?;
             w.u16(HEADER_LEN as u16)?;
             for d in self.dims {
                 w.u16(d)?;
@@ -167,19 +182,26 @@ impl SceneHeader {
             w.u32(self.pe_mem_words)?;
             w.u32(self.total_len)?;
             w.u32(self.body_crc)?;
-            w.u32(0)
+            w.u16(ext.object_count)?;
+            w.u16(0)
         })();
         b
     }
 
-    /// Parses and range-checks the header.
+    /// Parses and range-checks the header (version 1 or 2).
     pub fn parse(bytes: &[u8]) -> Result<Self, SceneError> {
+        Self::parse_ext(bytes).map(|(h, _)| h)
+    }
+
+    /// Parses the header and its version-specific fields.
+    pub fn parse_ext(bytes: &[u8]) -> Result<(Self, HeaderExt), SceneError> {
         let mut r = Reader::new(bytes);
         let t = |_| SceneError::Truncated;
         if r.take(4).map_err(t)? != MAGIC {
             return Err(SceneError::BadMagic);
         }
-        if r.u16().map_err(t)? != VERSION {
+        let version = r.u16().map_err(t)?;
+        if version != VERSION && version != VERSION_2 {
             return Err(SceneError::BadVersion);
         }
         if r.u16().map_err(t)? as usize != HEADER_LEN {
@@ -201,6 +223,8 @@ impl SceneHeader {
             total_len: r.u32().map_err(t)?,
             body_crc: r.u32().map_err(t)?,
         };
+        let object_count = r.u16().map_err(t)?;
+        let ext = HeaderExt { version, object_count: if version == VERSION_2 { object_count } else { 0 } };
         if bounds_min.iter().chain(bounds_max.iter()).any(|v| !v.is_finite()) {
             return Err(SceneError::NonFinite);
         }
@@ -209,7 +233,7 @@ impl SceneHeader {
         if voxels > MAX_VOXELS as u64 || dims.contains(&0) || pe_count == 0 || pe_count as usize > MAX_PES || !box_ok || (h.total_len as usize) < HEADER_LEN {
             return Err(SceneError::BadHeader);
         }
-        Ok(h)
+        Ok((h, ext))
     }
 }
 
@@ -260,6 +284,23 @@ pub trait SceneSink {
     fn pe_word(&mut self, word: u32) -> Result<(), SceneError>;
     /// End of the current PE's memory image.
     fn pe_end(&mut self) -> Result<(), SceneError>;
+    /// Version-specific header fields; called right after `header` for every image
+    /// (version 1: `HeaderExt::V1`).
+    fn header_ext(&mut self, _ext: &HeaderExt) -> Result<(), SceneError> {
+        Ok(())
+    }
+    /// v2: extended material record `index` (after all v1 material records).
+    fn material_ext(&mut self, _index: u16, _ext: MaterialExt) -> Result<(), SceneError> {
+        Ok(())
+    }
+    /// v2: object record `index` (after the material ext records).
+    fn object(&mut self, _index: u16, _object: ObjectRecord) -> Result<(), SceneError> {
+        Ok(())
+    }
+    /// v2: the lighting record (after the objects, before the PE blocks).
+    fn lighting(&mut self, _lighting: LightingRecord) -> Result<(), SceneError> {
+        Ok(())
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -267,19 +308,26 @@ enum Stage {
     Header,
     VoxelMap,
     Materials,
+    MaterialsExt,
+    Objects,
+    Lighting,
     PeBlockHead,
     PeWords,
     Done,
     Failed,
 }
 
-/// Streaming parser of a scene image with O(1) memory (plus one 64-byte staging buffer).
+/// Largest record the stream stages (the v2 material ext record).
+const STAGING_LEN: usize = if MATERIAL_EXT_LEN > HEADER_LEN { MATERIAL_EXT_LEN } else { HEADER_LEN };
+
+/// Streaming parser of a scene image with O(1) memory (plus one 96-byte staging buffer).
 #[derive(Debug)]
 pub struct SceneStream {
     stage: Stage,
-    staging: [u8; HEADER_LEN],
+    staging: [u8; STAGING_LEN],
     staged: usize,
     header: Option<SceneHeader>,
+    ext: HeaderExt,
     offset: u32,
     index: u32,
     next_pe: u16,
@@ -298,9 +346,10 @@ impl SceneStream {
     pub fn new() -> Self {
         Self {
             stage: Stage::Header,
-            staging: [0; HEADER_LEN],
+            staging: [0; STAGING_LEN],
             staged: 0,
             header: None,
+            ext: HeaderExt::V1,
             offset: 0,
             index: 0,
             next_pe: 0,
@@ -372,9 +421,11 @@ impl SceneStream {
         match self.stage {
             Stage::Header => {
                 if self.stage_bytes(bytes, HEADER_LEN) {
-                    let h = SceneHeader::parse(&self.staging)?;
+                    let (h, ext) = SceneHeader::parse_ext(self.staging.get(..HEADER_LEN).unwrap_or(&[]))?;
                     sink.header(&h)?;
+                    sink.header_ext(&ext)?;
                     self.header = Some(h);
+                    self.ext = ext;
                     self.staged = 0;
                     self.stage = Stage::VoxelMap;
                     self.index = 0;
@@ -400,7 +451,7 @@ impl SceneStream {
                 *bytes = tail;
                 if self.index == total {
                     self.index = 0;
-                    self.stage = if h.material_count == 0 { Stage::PeBlockHead } else { Stage::Materials };
+                    self.stage = if h.material_count == 0 { self.after_materials() } else { Stage::Materials };
                 }
             }
             Stage::Materials => {
@@ -411,8 +462,42 @@ impl SceneStream {
                     self.staged = 0;
                     self.index += 1;
                     if self.index == h.material_count as u32 {
-                        self.stage = Stage::PeBlockHead;
+                        self.index = 0;
+                        self.stage = self.after_materials();
                     }
+                }
+            }
+            Stage::MaterialsExt => {
+                let h = self.header.ok_or(SceneError::BadHeader)?;
+                if self.stage_bytes(bytes, MATERIAL_EXT_LEN) {
+                    let m = MaterialExt::parse(self.staging.get(..MATERIAL_EXT_LEN).unwrap_or(&[]))?;
+                    sink.material_ext(self.index as u16, m)?;
+                    self.staged = 0;
+                    self.index += 1;
+                    if self.index == h.material_count as u32 {
+                        self.index = 0;
+                        self.stage = if self.ext.object_count == 0 { Stage::Lighting } else { Stage::Objects };
+                    }
+                }
+            }
+            Stage::Objects => {
+                if self.stage_bytes(bytes, OBJECT_LEN) {
+                    let o = ObjectRecord::parse(self.staging.get(..OBJECT_LEN).unwrap_or(&[]))?;
+                    sink.object(self.index as u16, o)?;
+                    self.staged = 0;
+                    self.index += 1;
+                    if self.index == self.ext.object_count as u32 {
+                        self.index = 0;
+                        self.stage = Stage::Lighting;
+                    }
+                }
+            }
+            Stage::Lighting => {
+                if self.stage_bytes(bytes, LIGHTING_LEN) {
+                    let l = LightingRecord::parse(self.staging.get(..LIGHTING_LEN).unwrap_or(&[]))?;
+                    sink.lighting(l)?;
+                    self.staged = 0;
+                    self.stage = Stage::PeBlockHead;
                 }
             }
             Stage::PeBlockHead => {
@@ -455,6 +540,16 @@ impl SceneStream {
         Ok(())
     }
 
+    /// Stage after the v1 material records: the v2 sections, or the PE blocks.
+    fn after_materials(&self) -> Stage {
+        match (self.ext.version, self.header.map_or(0, |h| h.material_count)) {
+            (VERSION_2, 0) if self.ext.object_count == 0 => Stage::Lighting,
+            (VERSION_2, 0) => Stage::Objects,
+            (VERSION_2, _) => Stage::MaterialsExt,
+            _ => Stage::PeBlockHead,
+        }
+    }
+
     fn finish_pe<S: SceneSink>(&mut self, sink: &mut S, h: &SceneHeader) -> Result<(), SceneError> {
         sink.pe_end()?;
         self.next_pe += 1;
@@ -482,32 +577,51 @@ impl SceneStream {
 /// R × local triangle index
 /// T × (ax ay az bx by bz cx cy cz, prim id, material)
 /// ```
+///
+/// Version 2 (SPEC.md §5.8.2) starts with [`PE_V2_TAG`] and adds analytic primitives:
+///
+/// ```text
+/// word 0: PE_V2_TAG   word 1: T   word 2: V   word 3: R   word 4: P primitives
+/// V × (voxel id, first ref, ref count)
+/// R × ref: < T a local triangle index, T..T+P local primitive T + i
+/// T × triangle record (11 words)
+/// P × primitive record (16 words, PrimRecord)
+/// ```
 #[derive(Debug, Clone, Copy)]
 pub struct PeImage<'a> {
     words: &'a [u32],
+    header: usize,
     triangles: usize,
     voxels: usize,
     refs: usize,
+    prims: usize,
 }
 
 impl<'a> PeImage<'a> {
     /// Checks the counts, that every voxel's ref range lies inside the ref table and every ref
-    /// names a triangle, and that vertex coordinates are finite.
+    /// names a triangle (or, v2, a primitive), that vertex coordinates and primitive
+    /// transforms are finite and primitive kinds known.
     pub fn parse(words: &'a [u32]) -> Result<Self, SceneError> {
-        let &[t, v, r, ..] = words else {
-            return if words.is_empty() { Ok(Self { words, triangles: 0, voxels: 0, refs: 0 }) } else { Err(SceneError::BadPeBlock) };
+        let empty = Self { words, header: PE_HEADER_WORDS, triangles: 0, voxels: 0, refs: 0, prims: 0 };
+        let (header, t, v, r, p) = match words {
+            [] => return Ok(empty),
+            &[PE_V2_TAG, t, v, r, p, ..] => (PE_V2_HEADER_WORDS, t, v, r, p),
+            &[PE_V2_TAG, ..] => return Err(SceneError::BadPeBlock),
+            &[t, v, r, ..] => (PE_HEADER_WORDS, t, v, r, 0),
+            _ => return Err(SceneError::BadPeBlock),
         };
-        let (t, v, r) = (t as usize, v as usize, r as usize);
+        let (t, v, r, p) = (t as usize, v as usize, r as usize, p as usize);
         let need = v
             .checked_mul(VOXEL_ENTRY_WORDS)
             .and_then(|x| x.checked_add(r))
             .and_then(|x| t.checked_mul(TRIANGLE_WORDS).and_then(|y| x.checked_add(y)))
-            .and_then(|x| x.checked_add(PE_HEADER_WORDS))
+            .and_then(|x| p.checked_mul(PRIM_WORDS).and_then(|y| x.checked_add(y)))
+            .and_then(|x| x.checked_add(header))
             .ok_or(SceneError::BadPeBlock)?;
         if need != words.len() {
             return Err(SceneError::BadPeBlock);
         }
-        let img = Self { words, triangles: t, voxels: v, refs: r };
+        let img = Self { words, header, triangles: t, voxels: v, refs: r, prims: p };
         let mut previous: Option<u32> = None;
         for i in 0..v {
             let (voxel, first, count) = img.voxel_entry(i).ok_or(SceneError::BadPeBlock)?;
@@ -521,7 +635,7 @@ impl<'a> PeImage<'a> {
                 return Err(SceneError::BadPeBlock);
             }
         }
-        if img.ref_table().iter().any(|&x| x as usize >= t) {
+        if img.ref_table().iter().any(|&x| x as usize >= t + p) {
             return Err(SceneError::BadPeBlock);
         }
         for i in 0..t {
@@ -530,7 +644,42 @@ impl<'a> PeImage<'a> {
                 return Err(SceneError::NonFinite);
             }
         }
+        for i in 0..p {
+            let prim = img.primitive(i).ok_or(SceneError::BadPeBlock)?;
+            if prim.world_to_object.iter().any(|c| !c.is_finite()) {
+                return Err(SceneError::NonFinite);
+            }
+        }
         Ok(img)
+    }
+
+    /// True for a version-2 image (starts with [`PE_V2_TAG`]).
+    pub fn is_v2(&self) -> bool {
+        self.header == PE_V2_HEADER_WORDS
+    }
+    /// Words before the voxel table (3 in v1, 5 in v2).
+    pub fn header_words(&self) -> usize {
+        self.header
+    }
+    /// Number of analytic primitives (0 in v1).
+    pub fn primitive_count(&self) -> usize {
+        self.prims
+    }
+    /// Word offset of the triangle records.
+    pub fn triangle_offset(&self) -> usize {
+        self.header + self.voxels * VOXEL_ENTRY_WORDS + self.refs
+    }
+    /// Word offset of the primitive records.
+    pub fn primitive_offset(&self) -> usize {
+        self.triangle_offset() + self.triangles * TRIANGLE_WORDS
+    }
+    /// Local primitive `i` (v2).
+    pub fn primitive(&self, i: usize) -> Option<PrimRecord> {
+        if i >= self.prims {
+            return None;
+        }
+        let base = self.primitive_offset() + i * PRIM_WORDS;
+        PrimRecord::from_words(self.words.get(base..base + PRIM_WORDS)?)
     }
 
     /// Number of triangles.
@@ -546,7 +695,7 @@ impl<'a> PeImage<'a> {
         if i >= self.voxels {
             return None;
         }
-        let base = PE_HEADER_WORDS + i * VOXEL_ENTRY_WORDS;
+        let base = self.header + i * VOXEL_ENTRY_WORDS;
         match self.words.get(base..base + VOXEL_ENTRY_WORDS)? {
             &[a, b, c] => Some((a, b, c)),
             _ => None,
@@ -554,12 +703,15 @@ impl<'a> PeImage<'a> {
     }
     /// The reference table (local triangle indices).
     pub fn ref_table(&self) -> &'a [u32] {
-        let base = PE_HEADER_WORDS + self.voxels * VOXEL_ENTRY_WORDS;
+        let base = self.header + self.voxels * VOXEL_ENTRY_WORDS;
         self.words.get(base..base + self.refs).unwrap_or(&[])
     }
     /// Local triangle `i`.
     pub fn triangle(&self, i: usize) -> Option<TriangleRecord> {
-        let base = PE_HEADER_WORDS + self.voxels * VOXEL_ENTRY_WORDS + self.refs + i * TRIANGLE_WORDS;
+        if i >= self.triangles {
+            return None;
+        }
+        let base = self.triangle_offset() + i * TRIANGLE_WORDS;
         let w = self.words.get(base..base + TRIANGLE_WORDS)?;
         let f = |k: usize| f32::from_bits(w.get(k).copied().unwrap_or(0));
         Some(TriangleRecord {

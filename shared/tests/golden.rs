@@ -8,8 +8,8 @@ use common::*;
 use gridrt_shared::frame::{self, FeedResult, FrameAccumulator, FrameError};
 use gridrt_shared::fsl::{self, op, FslError, FslWord, ListEntry, RayKind, RayResult};
 use gridrt_shared::msg::{
-    self, render_flags, stat, DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgType, PixelEncoding, RenderRequest,
-    SceneStatus,
+    self, render_flags, stat, DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgType, PixelEncoding,
+    RenderRequest, SceneStatus,
 };
 use gridrt_shared::scene::{self, Material, PeImage, SceneHeader, SceneStream, TriangleRecord};
 use gridrt_shared::PROTOCOL_VERSION;
@@ -163,6 +163,8 @@ fn msg_type_table() {
         (0x21, MsgType::PixelSpan),
         (0x22, MsgType::FrameEnd),
         (0x23, MsgType::Stats),
+        (0x24, MsgType::RenderRegion),
+        (0x25, MsgType::RegionEnd),
         (0x30, MsgType::FlashBegin),
         (0x31, MsgType::FlashChunk),
         (0x32, MsgType::FlashAck),
@@ -383,6 +385,8 @@ fn msg_pixel_span_primid32() {
     for b in 0..=255u8 {
         let expected = match b {
             0 => Some(PixelEncoding::Rgb888),
+            1 => Some(PixelEncoding::Rgb565),
+            2 => Some(PixelEncoding::Rle),
             0x80 => Some(PixelEncoding::PrimId32),
             _ => None,
         };
@@ -558,8 +562,8 @@ fn msg_flash_begin() {
         Msg::FlashBegin { version: 1, total_len: 0x1234, crc: 0xDEAD_BEEF, load_addr: 0x8010_0000, entry: 0x8010_0000 },
         1,
         &[
-            0x01, 0x00, 0x00, 0x00, 0x34, 0x12, 0x00, 0x00, 0xEF, 0xBE, 0xAD, 0xDE, 0x00, 0x00, 0x10, 0x80, 0x00, 0x00, 0x10,
-            0x80,
+            0x01, 0x00, 0x00, 0x00, 0x34, 0x12, 0x00, 0x00, 0xEF, 0xBE, 0xAD, 0xDE, 0x00, 0x00, 0x10, 0x80, 0x00, 0x00,
+            0x10, 0x80,
         ],
         &[
             0x04, 0x30, 0x01, 0x01, 0x02, 0x14, 0x02, 0x01, 0x01, 0x01, 0x03, 0x34, 0x12, 0x01, 0x05, 0xEF, 0xBE, 0xAD,

@@ -380,3 +380,88 @@ proptest! {
 fn w_payload() -> Vec<u8> {
     vec![1, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0]
 }
+
+// ---------------------------------------------------------------- link additions (§3.7.1, §3.12)
+
+fn colour_encoding() -> impl Strategy<Value = PixelEncoding> {
+    prop_oneof![Just(PixelEncoding::Rgb888), Just(PixelEncoding::Rgb565), Just(PixelEncoding::Rle)]
+}
+
+fn request() -> impl Strategy<Value = RenderRequest> {
+    (any::<(u16, u16, u16, u16)>(), (vec3(), vec3(), vec3(), f32_any()), (vec3(), f32_any(), f32_any()), colour_encoding())
+        .prop_map(|((frame, width, height, flags), (eye, target, up, fov_y_deg), (light_pos, light_intensity, ambient), encoding)| {
+            RenderRequest { frame, width, height, flags, eye, target, up, fov_y_deg, light_pos, light_intensity, ambient, encoding }
+        })
+}
+
+/// Pixels with long runs, small steps and jumps (what shaded frames look like).
+fn pixels(max: usize) -> impl Strategy<Value = Vec<[u8; 3]>> {
+    vec((0u8..4, any::<[u8; 3]>(), 1usize..100), 0..max).prop_map(|ops| {
+        let mut px: Vec<[u8; 3]> = Vec::new();
+        let mut cur = [0u8; 3];
+        for (kind, v, n) in ops {
+            match kind {
+                0 => px.extend(std::iter::repeat_n(cur, n)),
+                1 => {
+                    cur = [cur[0].wrapping_add(v[0] % 3), cur[1].wrapping_sub(v[1] % 3), cur[2].wrapping_add(v[2] % 2)];
+                    px.push(cur);
+                }
+                2 => {
+                    cur = [cur[0].wrapping_add(v[0] % 20), cur[1].wrapping_add(v[0] % 20), cur[2].wrapping_sub(v[2] % 9)];
+                    px.push(cur);
+                }
+                _ => {
+                    cur = v;
+                    px.push(cur);
+                }
+            }
+        }
+        px
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+
+    #[test]
+    fn rt_render_region(x0: u16, y0: u16, cols: u16, rows: u16, max_span: u16, req in request(),
+                        seq: u16, n in noise(), chunk in 1usize..100) {
+        let region = msg::Region { x0, y0, cols, rows };
+        round_trip(Msg::RenderRegion { region, max_span, request: req }, seq, &n, chunk)?;
+    }
+
+    #[test]
+    fn rt_region_end(frame: u16, x0: u16, y0: u16, cols: u16, rows: u16, spans: u32, crc: u32,
+                     seq: u16, n in noise(), chunk in 1usize..40) {
+        round_trip(Msg::RegionEnd { frame, region: msg::Region { x0, y0, cols, rows }, spans, crc }, seq, &n, chunk)?;
+    }
+
+    #[test]
+    fn rt_pixel_span_rle(frame: u16, y: u16, x0: u16, px in pixels(60), seq: u16, n in noise(), chunk in 1usize..600) {
+        prop_assume!(px.len() <= u16::MAX as usize);
+        let mut data = vec![0u8; 4 * px.len() + 2];
+        let len = gridrt_shared::pixel::rle_encode(&px, &mut data).unwrap();
+        prop_assume!(len <= frame::MAX_PAYLOAD - 10);
+        let data = &data[..len];
+        let count = px.len() as u16;
+        round_trip(Msg::PixelSpan { frame, y, x0, count, encoding: PixelEncoding::Rle, data }, seq, &n, chunk)?;
+        let mut out = vec![0u8; 3 * px.len()];
+        gridrt_shared::pixel::rle_decode(px.len(), data, &mut out).unwrap();
+        prop_assert_eq!(out, px.iter().flatten().copied().collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn rt_pixel_span_rgb565(frame: u16, y: u16, x0: u16, words in vec(any::<u16>(), 0..=1019), seq: u16, n in noise(), chunk in 1usize..600) {
+        let data: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let count = words.len() as u16;
+        round_trip(Msg::PixelSpan { frame, y, x0, count, encoding: PixelEncoding::Rgb565, data: &data }, seq, &n, chunk)?;
+    }
+
+    #[test]
+    fn rle_compresses_runs_to_a_few_bytes(len in 1usize..4096, colour: [u8; 3]) {
+        let px = vec![colour; len];
+        let mut data = vec![0u8; 16];
+        let n = gridrt_shared::pixel::rle_encode(&px, &mut data).unwrap();
+        prop_assert!(n <= 4 + 2, "{len} pixels of one colour in {n} bytes");
+    }
+}

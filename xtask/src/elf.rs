@@ -8,8 +8,7 @@ use std::path::Path;
 /// (`text` = code + read-only data, `data` = initialised RAM, `bss` = zeroed RAM).
 pub fn print_sections(path: &Path) -> Result<()> {
     let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    let file =
-        object::File::parse(&*bytes).with_context(|| format!("parsing {}", path.display()))?;
+    let file = object::File::parse(&*bytes).with_context(|| format!("parsing {}", path.display()))?;
 
     println!("{:<14} {:>10} {:>10}", "section", "address", "size");
     let (mut text, mut data, mut bss) = (0u64, 0u64, 0u64);
@@ -28,19 +27,14 @@ pub fn print_sections(path: &Path) -> Result<()> {
             continue;
         }
         match section.kind() {
-            SectionKind::Text | SectionKind::ReadOnlyData | SectionKind::ReadOnlyString => {
-                text += size
-            }
+            SectionKind::Text | SectionKind::ReadOnlyData | SectionKind::ReadOnlyString => text += size,
             SectionKind::UninitializedData | SectionKind::UninitializedTls => bss += size,
             SectionKind::Data | SectionKind::Tls => data += size,
             // e.g. .eh_frame: loaded, read-only.
             _ => text += size,
         }
     }
-    println!(
-        "text {text} B, data {data} B, bss {bss} B; loaded image {} B",
-        text + data
-    );
+    println!("text {text} B, data {data} B, bss {bss} B; loaded image {} B", text + data);
     Ok(())
 }
 

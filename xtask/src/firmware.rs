@@ -40,6 +40,16 @@ impl Bin {
     }
 }
 
+/// Where the app is linked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Layout {
+    /// At the start of RAM, booted directly (QEMU `-kernel`, or a debugger/bitstream).
+    Standalone,
+    /// In the application region above the bootloader, for `gridrt flash`
+    /// (boards/<board>-bootloaded.x). Ignored for the bootloader binary.
+    Bootloaded,
+}
+
 /// Build options shared by `firmware` and `qemu`.
 #[derive(Args, Clone, Debug)]
 pub struct BuildOpts {
@@ -52,6 +62,12 @@ pub struct BuildOpts {
     /// Binary to build.
     #[arg(long, value_enum, default_value_t = Bin::App)]
     pub bin: Bin,
+    /// Memory layout of the app: standalone, or loaded by the bootloader.
+    #[arg(long, value_enum, default_value_t = Layout::Standalone)]
+    pub layout: Layout,
+    /// Leave out the optional pipeline stages (shadow rays): the minimal feature set.
+    #[arg(long)]
+    pub minimal: bool,
     /// Optimised build (the default).
     #[arg(long, conflicts_with = "debug")]
     pub release: bool,
@@ -81,6 +97,13 @@ impl BuildOpts {
             tc.describe()
         );
         let mut features = vec![board.feature().to_string()];
+        // --no-default-features below drops the image's default stages too; put them back.
+        if !self.minimal {
+            features.push("shadows".to_string());
+        }
+        if self.layout == Layout::Bootloaded && self.bin == Bin::App {
+            features.push("layout-bootloaded".to_string());
+        }
         features.extend(self.features.iter().cloned());
 
         let image = toolchain::image_dir();
@@ -103,10 +126,30 @@ impl BuildOpts {
         }
         toolchain::run_echoed(&mut cmd)?;
 
-        Ok(toolchain::image_target_dir()
+        let built = toolchain::image_target_dir()
             .join(self.target.triple())
             .join(if self.debug { "debug" } else { "release" })
-            .join(self.bin.name()))
+            .join(self.bin.name());
+        // Feature sets share one output path; keep a copy per variant so that several
+        // variants (e.g. the bootloaded app and the bootloader for a flash test) coexist.
+        let variant = built.with_file_name(format!(
+            "{}-{}{}{}",
+            self.bin.name(),
+            match board {
+                Board::QemuVirt => "qemu-virt",
+                Board::FpgaSoc => "fpga-soc",
+            },
+            if self.layout == Layout::Bootloaded && self.bin == Bin::App { "-bootloaded" } else { "" },
+            if self.minimal { "-minimal" } else { "" },
+        ));
+        let variant = if self.features.is_empty() {
+            std::fs::copy(&built, &variant)
+                .map_err(|e| anyhow::anyhow!("copying {} to {}: {e}", built.display(), variant.display()))?;
+            variant
+        } else {
+            built
+        };
+        Ok(variant)
     }
 }
 

@@ -64,33 +64,27 @@ impl Cmd {
         if !elf.is_file() {
             bail!("no ELF at {}", elf.display());
         }
-        if Command::new("qemu-system-riscv32")
-            .arg("--version")
-            .output()
-            .is_err()
-        {
+        if Command::new("qemu-system-riscv32").arg("--version").output().is_err() {
             eprintln!("xtask: qemu-system-riscv32 not found; running scripts/setup-qemu.sh");
             toolchain::run_script("setup-qemu.sh", None)?;
         }
 
         let mut cmd = Command::new("qemu-system-riscv32");
         let hold = self.serial == Serial::Pty && !self.no_hold;
-        cmd.args([
-            "-machine", "virt", "-bios", "none", "-m", "128M", "-smp", "1",
-        ])
-        .args(["-display", "none", "-monitor", "none"])
-        // One instruction per virtual ns: exact, repeatable mcycle/minstret.
-        .args(["-icount", "shift=0"])
-        .args([
-            "-serial",
-            match self.serial {
-                Serial::Pty => "pty",
-                Serial::Stdio => "stdio",
-            },
-        ])
-        .arg("-kernel")
-        .arg(&elf)
-        .args(&self.qemu_args);
+        cmd.args(["-machine", "virt", "-bios", "none", "-m", "128M", "-smp", "1"])
+            .args(["-display", "none", "-monitor", "none"])
+            // One instruction per virtual ns: exact, repeatable mcycle/minstret.
+            .args(["-icount", "shift=0"])
+            .args([
+                "-serial",
+                match self.serial {
+                    Serial::Pty => "pty",
+                    Serial::Stdio => "stdio",
+                },
+            ])
+            .arg("-kernel")
+            .arg(&elf)
+            .args(&self.qemu_args);
         if hold {
             cmd.args(["-S", "-qmp", "stdio"]).stdin(Stdio::piped());
         }
@@ -140,8 +134,7 @@ impl Cmd {
                 );
                 // QMP stays on the open stdin pipe until QEMU exits.
                 let qmp = child.stdin.as_mut().context("QEMU QMP pipe")?;
-                qmp.write_all(QMP_RESUME)
-                    .context("resuming QEMU through QMP")?;
+                qmp.write_all(QMP_RESUME).context("resuming QEMU through QMP")?;
                 qmp.flush()?;
             }
             println!("serial: {pty}");
@@ -159,10 +152,7 @@ impl Cmd {
             if deadline.is_some_and(|d| Instant::now() >= d) {
                 child.kill()?;
                 child.wait()?;
-                eprintln!(
-                    "xtask: stopped QEMU after {:.1} s (--timeout-s)",
-                    started.elapsed().as_secs_f64()
-                );
+                eprintln!("xtask: stopped QEMU after {:.1} s (--timeout-s)", started.elapsed().as_secs_f64());
                 return Ok(());
             }
             std::thread::sleep(Duration::from_millis(50));
@@ -172,18 +162,10 @@ impl Cmd {
 
 /// Reads `stream` line by line on a thread: sends the pty path of a [`PTY_MARKER`] line
 /// to `tx`, hands every other line to `forward`.
-fn forward_lines<R: std::io::Read + Send + 'static>(
-    stream: R,
-    tx: mpsc::Sender<String>,
-    forward: fn(&str),
-) {
+fn forward_lines<R: std::io::Read + Send + 'static>(stream: R, tx: mpsc::Sender<String>, forward: fn(&str)) {
     std::thread::spawn(move || {
         for line in BufReader::new(stream).lines().map_while(Result::ok) {
-            match line
-                .split(PTY_MARKER)
-                .nth(1)
-                .and_then(|rest| rest.split_whitespace().next())
-            {
+            match line.split(PTY_MARKER).nth(1).and_then(|rest| rest.split_whitespace().next()) {
                 Some(path) => {
                     let _ = tx.send(path.to_string());
                 }

@@ -16,10 +16,7 @@ pub struct Cmd {
 
 impl Cmd {
     pub fn run(self) -> Result<()> {
-        run_script(
-            "setup-riscv-toolchain.sh",
-            self.debian.then_some("--debian"),
-        )?;
+        run_script("setup-riscv-toolchain.sh", self.debian.then_some("--debian"))?;
         if !self.no_qemu {
             run_script("setup-qemu.sh", None)?;
         }

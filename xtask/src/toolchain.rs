@@ -78,17 +78,10 @@ impl Toolchain {
             ToolchainChoice::Rustup => Some("--rustup-only"),
             ToolchainChoice::Debian => Some("--debian"),
         };
-        eprintln!(
-            "xtask: no toolchain for {} yet; running the setup script",
-            target.triple()
-        );
+        eprintln!("xtask: no toolchain for {} yet; running the setup script", target.triple());
         run_script("setup-riscv-toolchain.sh", flag)?;
-        Self::find(choice, target).with_context(|| {
-            format!(
-                "the setup script ran but no toolchain for {} is usable",
-                target.triple()
-            )
-        })
+        Self::find(choice, target)
+            .with_context(|| format!("the setup script ran but no toolchain for {} is usable", target.triple()))
     }
 
     fn find(choice: ToolchainChoice, target: Target) -> Option<Self> {
@@ -126,10 +119,7 @@ impl Toolchain {
                 }
                 _ => lib.into_os_string(),
             };
-            let linker_var = format!(
-                "CARGO_TARGET_{}_LINKER",
-                target.triple().to_uppercase().replace('-', "_")
-            );
+            let linker_var = format!("CARGO_TARGET_{}_LINKER", target.triple().to_uppercase().replace('-', "_"));
             cmd.env("RUSTC", root.join("usr/bin/rustc"))
                 // -Zbuild-std is unstable; Debian's rustc is a stable release.
                 .env("RUSTC_BOOTSTRAP", "1")
@@ -145,14 +135,11 @@ impl Toolchain {
 }
 
 fn rustup_has_target(target: Target) -> bool {
-    let out = Command::new("rustup")
-        .args(["target", "list", "--installed"])
-        .current_dir(image_dir())
-        .output();
+    let out = Command::new("rustup").args(["target", "list", "--installed"]).current_dir(image_dir()).output();
     match out {
-        Ok(out) if out.status.success() => String::from_utf8_lossy(&out.stdout)
-            .lines()
-            .any(|l| l.trim() == target.triple()),
+        Ok(out) if out.status.success() => {
+            String::from_utf8_lossy(&out.stdout).lines().any(|l| l.trim() == target.triple())
+        }
         _ => false,
     }
 }
@@ -160,14 +147,9 @@ fn rustup_has_target(target: Target) -> bool {
 fn debian_ready() -> bool {
     let root = debian_dir();
     let stamped = std::fs::read_dir(&root)
-        .map(|dir| {
-            dir.filter_map(|e| e.ok())
-                .any(|e| e.file_name().to_string_lossy().starts_with(".installed-"))
-        })
+        .map(|dir| dir.filter_map(|e| e.ok()).any(|e| e.file_name().to_string_lossy().starts_with(".installed-")))
         .unwrap_or(false);
-    stamped
-        && root.join("usr/bin/rustc").is_file()
-        && root.join("usr/lib/llvm-22/bin/ld.lld").exists()
+    stamped && root.join("usr/bin/rustc").is_file() && root.join("usr/lib/llvm-22/bin/ld.lld").exists()
 }
 
 /// Runs `scripts/<name>` with bash, failing if it fails.
@@ -175,9 +157,7 @@ pub fn run_script(name: &str, arg: Option<&str>) -> Result<()> {
     let path = repo_root().join("scripts").join(name);
     let mut cmd = Command::new("bash");
     cmd.arg(&path).args(arg);
-    let status = cmd
-        .status()
-        .with_context(|| format!("running {}", path.display()))?;
+    let status = cmd.status().with_context(|| format!("running {}", path.display()))?;
     if !status.success() {
         bail!("{} failed ({status})", path.display());
     }
@@ -187,9 +167,7 @@ pub fn run_script(name: &str, arg: Option<&str>) -> Result<()> {
 /// Runs a command, echoing it first, failing on a non-zero exit.
 pub fn run_echoed(cmd: &mut Command) -> Result<()> {
     eprintln!("xtask: {}", display_command(cmd));
-    let status = cmd
-        .status()
-        .with_context(|| format!("starting {:?}", cmd.get_program()))?;
+    let status = cmd.status().with_context(|| format!("starting {:?}", cmd.get_program()))?;
     if !status.success() {
         bail!("{:?} failed ({status})", cmd.get_program());
     }

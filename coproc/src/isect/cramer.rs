@@ -22,11 +22,30 @@
 //! - NaN never passes a test (every comparison is written so NaN rejects);
 //! - inclusive edges (β ≥ 0, γ ≥ 0, β + γ ≤ 1) and a strict `t > 0`.
 //!
-//! Storage: the 9 vertex words of the PE image (the PE stored exactly these 9 words per
-//! triangle, 288 bits). Cost of one full test: 57 FP instructions in the PE program
-//! (24 add/sub, 27 mul, 5 cmp, 1 div; see `timing::gridrt_pe`) + 8 for the det tolerance → 65.
+//! Storage: the 9 vertex words (36 B; the PE stored exactly these 9 words per triangle,
+//! 288 bits). f32 reads them from the scene image, fixed point from the load-time table.
+//!
+//! Cost of one full f32 test ([`Cramer::OPS`]). The PE program has 57 FP instructions
+//! (24 add/sub, 27 mul, 5 cmp, 1 div; `timing::gridrt_pe`); the robustness fixes add Kahan's
+//! error terms and the det tolerance: entries (add 9), cofactors (3 × DifferenceOfProducts:
+//! mul 9, add 9), det (mul 3, add 2), tolerance (mul 1, add 2, cmp 1), reciprocal (div 1,
+//! cmp 1), β (mul 4, add 2, cmp 1), γ cofactors (mul 9, add 9), γ (mul 4, add 2, cmp 1),
+//! β + γ (add 1, cmp 1), t (mul 4, add 2, cmp 2) → add 38, mul 34, div 1, cmp 7.
+//!
+//! # Fixed point ([`CramerFx`])
+//!
+//! The PE program's arithmetic in checked fixed point: plain rounded products (no Kahan
+//! term: a fixed-point difference of two rounded products is already exact to one rounding
+//! each), det tested for exactly zero, numerators tested against the sign-normalised det
+//! (β ≥ 0, γ ≥ 0, β + γ ≤ det, 0 < t ≤ bound·det), one division for t. Cost: entries (add 9),
+//! cofactors (mul 6, add 3), det (mul 3, add 2, cmp 2), β (mul 3, add 2, cmp 1), γ cofactors
+//! (mul 6, add 3), γ (mul 3, add 2, cmp 1), β + γ (add 1, cmp 1), t (mul 3, add 2, cmp 1),
+//! range (mul 1, cmp 1), division (div 1) → add 24, mul 25, div 1, cmp 7.
 
-use super::{Kernel, KernelKind, Triangle};
+use core::marker::PhantomData;
+
+use super::{f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute, Kernel, KernelKind, RecordStatus, Triangle};
+use crate::numeric::{beyond, FixedFormat, FixedFrame, Fx, FxRay, NumberFormat, OpCount, Overflow};
 use gridrt_shared::math::{difference_of_products, gamma, Ray, Vec3};
 
 /// Rounding bound of the 3-term cofactor expansion, evaluated at compile time.
@@ -45,56 +64,131 @@ pub struct CramerRay {
 
 impl Kernel for Cramer {
     const KIND: KernelKind = KernelKind::Cramer;
-    const TRIANGLE_WORDS: usize = 9;
-    const FLOPS_PER_TEST: u32 = 65;
+    const FORMAT: NumberFormat = NumberFormat::F32;
+    const RECORD_WORDS: usize = 9;
+    const USES_IMAGE: bool = true;
+    const OPS: OpCount = OpCount { add: 38, mul: 34, div: 1, cmp: 7 };
     type RayData = CramerRay;
 
     #[inline]
-    fn prepare(ray: &Ray) -> CramerRay {
-        CramerRay { origin: ray.origin, dir: ray.dir }
+    fn prepare(ray: &Ray, _frame: &FixedFrame) -> Result<CramerRay, Overflow> {
+        Ok(CramerRay { origin: ray.origin, dir: ray.dir })
+    }
+
+    fn precompute(tri: &Triangle, _frame: &FixedFrame, out: &mut [u32]) -> RecordStatus {
+        f32_vertices_precompute(tri, out)
     }
 
     #[inline]
-    fn intersect(r: &CramerRay, tri: &Triangle, t_bound: f32) -> Option<f32> {
-        let [va, vb, vc] = *tri;
-        // Shirley's matrix entries (PE instr. 58–66).
-        let (a, b, c) = (va.x - vb.x, va.y - vb.y, va.z - vb.z);
-        let (d, e, f) = (va.x - vc.x, va.y - vc.y, va.z - vc.z);
-        let (g, h, i) = (r.dir.x, r.dir.y, r.dir.z);
-        let (j, k, l) = (va.x - r.origin.x, va.y - r.origin.y, va.z - r.origin.z);
-        // Cofactors (PE instr. 67–81).
-        let ei_hf = difference_of_products(e, i, h, f);
-        let gf_di = difference_of_products(g, f, d, i);
-        let dh_eg = difference_of_products(d, h, e, g);
-        // |A| (PE instr. 82–86) with its rounding-level tolerance.
-        let (m0, m1, m2) = (a * ei_hf, b * gf_di, c * dh_eg);
-        let det = m0 + m1 + m2;
-        if !(det.abs() > GAMMA4 * (m0.abs() + m1.abs() + m2.abs())) {
-            return None;
+    fn intersect(r: &CramerRay, rec: &[u32], t_bound: f32) -> Result<Option<f32>, Overflow> {
+        Ok(f32_vertices(rec).and_then(|tri| intersect_f32(r, &tri, t_bound)))
+    }
+}
+
+/// The f32 test on a vertex triangle.
+#[inline(always)]
+fn intersect_f32(r: &CramerRay, tri: &Triangle, t_bound: f32) -> Option<f32> {
+    let [va, vb, vc] = *tri;
+    // Shirley's matrix entries (PE instr. 58–66).
+    let (a, b, c) = (va.x - vb.x, va.y - vb.y, va.z - vb.z);
+    let (d, e, f) = (va.x - vc.x, va.y - vc.y, va.z - vc.z);
+    let (g, h, i) = (r.dir.x, r.dir.y, r.dir.z);
+    let (j, k, l) = (va.x - r.origin.x, va.y - r.origin.y, va.z - r.origin.z);
+    // Cofactors (PE instr. 67–81).
+    let ei_hf = difference_of_products(e, i, h, f);
+    let gf_di = difference_of_products(g, f, d, i);
+    let dh_eg = difference_of_products(d, h, e, g);
+    // |A| (PE instr. 82–86) with its rounding-level tolerance.
+    let (m0, m1, m2) = (a * ei_hf, b * gf_di, c * dh_eg);
+    let det = m0 + m1 + m2;
+    if !(det.abs() > GAMMA4 * (m0.abs() + m1.abs() + m2.abs())) {
+        return None;
+    }
+    let inv = 1.0 / det; // PE instr. 87: the only divide
+    if !inv.is_finite() {
+        return None;
+    }
+    // β (PE instr. 88–95).
+    let beta = (j * ei_hf + k * gf_di + l * dh_eg) * inv;
+    if !(beta >= 0.0) {
+        return None;
+    }
+    // γ (PE instr. 96–106).
+    let ak_jb = difference_of_products(a, k, j, b);
+    let jc_al = difference_of_products(j, c, a, l);
+    let bl_kc = difference_of_products(b, l, k, c);
+    let gam = (i * ak_jb + h * jc_al + g * bl_kc) * inv;
+    if !(gam >= 0.0 && beta + gam <= 1.0) {
+        return None;
+    }
+    // t (PE instr. 110–119).
+    let t = -(f * ak_jb + e * jc_al + d * bl_kc) * inv;
+    if !(t > 0.0) || t > t_bound || t == f32::INFINITY {
+        return None;
+    }
+    Some(t)
+}
+
+/// The PE program's Cramer test in fixed point (module doc).
+#[derive(Debug, Clone, Copy)]
+pub struct CramerFx<Q>(PhantomData<Q>);
+
+impl<Q: FixedFormat> Kernel for CramerFx<Q> {
+    const KIND: KernelKind = KernelKind::Cramer;
+    const FORMAT: NumberFormat = Q::FORMAT;
+    const RECORD_WORDS: usize = 9;
+    const USES_IMAGE: bool = false;
+    const OPS: OpCount = OpCount { add: 24, mul: 25, div: 1, cmp: 7 };
+    type RayData = FxRay<Q>;
+
+    #[inline]
+    fn prepare(ray: &Ray, frame: &FixedFrame) -> Result<FxRay<Q>, Overflow> {
+        FxRay::new(frame, ray.origin.to_array(), ray.dir.to_array())
+    }
+
+    fn precompute(tri: &Triangle, frame: &FixedFrame, out: &mut [u32]) -> RecordStatus {
+        fx_vertices_precompute::<Q>(tri, frame, out)
+    }
+
+    #[inline]
+    fn intersect(r: &FxRay<Q>, rec: &[u32], t_bound: f32) -> Result<Option<f32>, Overflow> {
+        let Some([va, vb, vc]) = fx_vertices::<Q>(rec) else { return Ok(None) };
+        // Shirley's matrix entries.
+        let (a, b, c) = (va[0] - vb[0], va[1] - vb[1], va[2] - vb[2]);
+        let (d, e, f) = (va[0] - vc[0], va[1] - vc[1], va[2] - vc[2]);
+        let (g, h, i) = (r.d[0], r.d[1], r.d[2]);
+        let (j, k, l) = (va[0] - r.o[0], va[1] - r.o[1], va[2] - r.o[2]);
+        // Cofactors and |A|, sign-normalised to |A| > 0.
+        let ei_hf = e * i - h * f;
+        let gf_di = g * f - d * i;
+        let dh_eg = d * h - e * g;
+        let det = (a * ei_hf + b * gf_di + c * dh_eg).ok()?;
+        if det.is_zero() {
+            return Ok(None);
         }
-        let inv = 1.0 / det; // PE instr. 87: the only divide
-        if !inv.is_finite() {
-            return None;
+        let neg = det.is_neg();
+        let sgn = |x: Fx<Q>| if neg { -x } else { x };
+        let det = sgn(det);
+        let beta = sgn(j * ei_hf + k * gf_di + l * dh_eg).ok()?;
+        if beta.is_neg() {
+            return Ok(None);
         }
-        // β (PE instr. 88–95).
-        let beta = (j * ei_hf + k * gf_di + l * dh_eg) * inv;
-        if !(beta >= 0.0) {
-            return None;
+        let ak_jb = a * k - j * b;
+        let jc_al = j * c - a * l;
+        let bl_kc = b * l - k * c;
+        let gam = sgn(i * ak_jb + h * jc_al + g * bl_kc).ok()?;
+        if gam.is_neg() || (beta + gam).ok()? > det {
+            return Ok(None);
         }
-        // γ (PE instr. 96–106).
-        let ak_jb = difference_of_products(a, k, j, b);
-        let jc_al = difference_of_products(j, c, a, l);
-        let bl_kc = difference_of_products(b, l, k, c);
-        let gam = (i * ak_jb + h * jc_al + g * bl_kc) * inv;
-        if !(gam >= 0.0 && beta + gam <= 1.0) {
-            return None;
+        let t_num = sgn(-(f * ak_jb + e * jc_al + d * bl_kc)).ok()?;
+        if !t_num.is_pos() || beyond(t_num, det, r.bound(t_bound)) {
+            return Ok(None);
         }
-        // t (PE instr. 110–119).
-        let t = -(f * ak_jb + e * jc_al + d * bl_kc) * inv;
-        if !(t > 0.0) || t > t_bound {
-            return None;
+        let t = (t_num / det).ok()?;
+        if !t.is_pos() {
+            return Ok(None);
         }
-        Some(t)
+        Ok(r.world_t(t))
     }
 }
 
@@ -108,7 +202,7 @@ mod tests {
     fn cramer_rejects_zero_determinant_of_parallel_ray() {
         let tri = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
         let ray = Ray { origin: Vec3::new(0.2, 0.2, 1e-30), dir: Vec3::new(1.0, 0.0, 0.0) };
-        assert_eq!(Cramer::intersect(&Cramer::prepare(&ray), &tri, f32::INFINITY), None);
+        assert_eq!(intersect_f32(&Cramer::prepare(&ray, &FixedFrame::IDENTITY).unwrap(), &tri, f32::INFINITY), None);
     }
 
     /// No absolute epsilon: a 10⁻⁴-sized triangle far from the origin is still hit (an
@@ -120,7 +214,7 @@ mod tests {
         let tri = [c, c + Vec3::new(s, 0.0, 0.0), c + Vec3::new(0.0, s, 0.0)];
         let target = c + Vec3::new(s * 0.25, s * 0.25, 0.0);
         let ray = Ray { origin: Vec3::new(0.0, 0.0, -10.0), dir: target - Vec3::new(0.0, 0.0, -10.0) };
-        let t = Cramer::intersect(&Cramer::prepare(&ray), &tri, f32::INFINITY);
+        let t = intersect_f32(&Cramer::prepare(&ray, &FixedFrame::IDENTITY).unwrap(), &tri, f32::INFINITY);
         assert!(t.is_some_and(|t| (t - 1.0).abs() < 1e-5), "{t:?}");
     }
 }

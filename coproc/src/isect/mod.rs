@@ -1,56 +1,110 @@
-//! Ray–triangle intersection kernels run by the PEs.
+//! Ray–triangle intersection kernels run by the PEs, in every number format.
 //!
-//! Every kernel implements the small [`Kernel`] trait: a per-ray [`Kernel::prepare`] step
-//! (hoisted out of the triangle loop, like the PE's ray registers R26–R31 in GridRT) and a
-//! per-triangle [`Kernel::intersect`] step. The co-processor is generic over the trait and
-//! [`KernelKind`] picks the monomorphised instance at run time, so adding a kernel (Wald's
-//! projection test, Hanika–Keller, fixed-point formats from seed 002) is one module, one
-//! `impl Kernel` and one enum variant.
+//! | kernel (`--isect NAME`) | module | source | record (bytes/triangle) |
+//! |---|---|---|---|
+//! | `watertight` (default) | [`watertight`] | Woop, Benthin, Wald, JCGT 2013; pbrt-v4 | the 9 vertex words: 36 |
+//! | `moller-trumbore` | [`moller_trumbore`] | Möller, Trumbore, JGT 1997 | the 9 vertex words: 36 |
+//! | `wald` | [`wald`] | Wald, PhD thesis 2004, §7.1 ("TriAccel") | 1 axis word + 9 precomputed: 40 |
+//! | `hanika-keller` | [`hanika_keller`] | Hanika, Keller, RT 2007 | 1 axis word + 9 precomputed: 40 |
+//! | `cramer` | [`cramer`] | Shirley, as GridRT's PE program | the 9 vertex words: 36 |
 //!
-//! Contract shared by all kernels:
+//! Every kernel runs in every [`NumberFormat`]: `f32` (the `impl Kernel` on the plain type)
+//! and the fixed-point formats (`impl Kernel` on the `…Fx<Q>` type, generic over
+//! [`FixedFormat`]). Bytes per triangle are the kernel's record; every kernel additionally has
+//! the prim id and material words of the scene image (8 B), used only for the result.
+//!
+//! # Where the per-triangle records live (PE memory accounting)
+//!
+//! The scene image format (SPEC §5.4) is the same for every kernel: 11 words per triangle,
+//! the 9 vertex floats first. A kernel whose record *is* those 9 floats (`f32` watertight,
+//! Möller–Trumbore, Cramer: [`Kernel::USES_IMAGE`]) reads the image directly. Every other
+//! (kernel, format) pair reads a record table that the co-processor model precomputes at
+//! LOAD time with [`Kernel::precompute`] and stores in the same PE memory, right after the
+//! image. The table is charged against `pe_mem_words`: a LOAD fails with `PeMemoryOverflow`
+//! unless `image words + T · RECORD_WORDS ≤ pe_mem_words` (see
+//! [`KernelKind::pe_words_needed`]). A hardware design would have the host precompute and
+//! stream the same records; the memory cost is the same, and the scene image stays stable.
+//!
+//! # Contract shared by all kernels
+//!
 //! - a returned `t` is strictly above the kernel's own conservative lower bound (at least
 //!   `t > 0`), so a hit never lies behind the origin;
 //! - `t_bound` is only an early-out: the kernel rejects hits clearly beyond it but may return
 //!   a `t` slightly above it. The caller applies the exact acceptance rule on the returned
 //!   `t` (`coproc::accept`), which keeps every kernel's answer independent of the bound it
 //!   was given (needed for the brute-force equivalence test).
-//! - degenerate triangles and rays parallel to the triangle plane return `None`;
-//!   no kernel panics, whatever the input bits.
+//! - degenerate triangles and rays parallel to the triangle plane are misses;
+//!   no kernel panics, whatever the input bits;
+//! - a fixed-point range overflow is returned as `Err(Overflow)`, never as a wrong hit or a
+//!   silent miss (the co-processor counts it).
 
 // The kernels write `!(x > y)` on purpose: it rejects NaN, which `x <= y` would let through.
+// Analytic primitives of scene image v2 (sphere, cylinder, cone, disk, square).
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+pub mod analytic;
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod cramer;
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
+pub mod hanika_keller;
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod moller_trumbore;
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+pub mod wald;
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod watertight;
 
+use crate::numeric::{fx_point, FixedFormat, FixedFrame, Fx, Fx3, NumberFormat, OpCount, Overflow};
 use gridrt_shared::math::{Ray, Vec3};
 
 /// Triangle vertices `a, b, c` as stored in PE memory (words 0..9 of a triangle record).
 pub type Triangle = [Vec3; 3];
 
-/// A ray–triangle intersection kernel.
+/// Largest record of any kernel, in words.
+pub const MAX_RECORD_WORDS: usize = 10;
+
+/// What precomputing one triangle's record found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum RecordStatus {
+    /// A usable record.
+    Ok,
+    /// Zero-area (or, in f32, so thin that a coefficient is not finite): the record never hits.
+    Degenerate,
+    /// A value does not fit the format's 32-bit storage: every test of it reports
+    /// [`Overflow`].
+    Overflow,
+}
+
+/// A ray–triangle intersection kernel in one number format.
 pub trait Kernel {
     /// The selector of this kernel.
     const KIND: KernelKind;
-    /// 32-bit words of per-triangle geometry the kernel reads from PE memory.
-    const TRIANGLE_WORDS: usize;
-    /// Floating-point operations of one full test (no early exit), for cost models.
-    const FLOPS_PER_TEST: u32;
+    /// The number format it computes in.
+    const FORMAT: NumberFormat;
+    /// 32-bit words of the per-triangle record it reads.
+    const RECORD_WORDS: usize;
+    /// True when the record is the 9 vertex words at the start of the scene image's triangle
+    /// record, so no load-time table is needed.
+    const USES_IMAGE: bool;
+    /// Operations of one full test (no early exit), for the cycle model.
+    const OPS: OpCount;
     /// Per-ray data computed once by [`Kernel::prepare`].
     type RayData: Copy;
 
-    /// Per-ray setup. `ray` has passed [`Ray::is_valid`].
-    fn prepare(ray: &Ray) -> Self::RayData;
+    /// Per-ray setup. `ray` has passed [`Ray::is_valid`]. Fixed point: `Err` when the ray
+    /// cannot be represented in `frame` (origin out of range).
+    fn prepare(ray: &Ray, frame: &FixedFrame) -> Result<Self::RayData, Overflow>;
 
-    /// Tests one triangle; returns the hit distance `t` (see the module contract).
-    fn intersect(ray: &Self::RayData, tri: &Triangle, t_bound: f32) -> Option<f32>;
+    /// Writes the record of `tri` into `out[..RECORD_WORDS]` (load time).
+    fn precompute(tri: &Triangle, frame: &FixedFrame, out: &mut [u32]) -> RecordStatus;
+
+    /// Tests one record (`rec.len() >= RECORD_WORDS`); returns the hit distance `t` in world
+    /// units (see the module contract).
+    fn intersect(ray: &Self::RayData, rec: &[u32], t_bound: f32) -> Result<Option<f32>, Overflow>;
 }
 
 /// Run-time selection of the intersection kernel every PE runs.
 #[non_exhaustive]
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum KernelKind {
     /// Woop, Benthin, Wald 2013 with pbrt-v4's conservative `t` bound (the default).
     #[default]
@@ -59,18 +113,95 @@ pub enum KernelKind {
     MollerTrumbore,
     /// GridRT's PE program: Shirley's Cramer's-rule barycentric test (seed 004 §2.4).
     Cramer,
+    /// Wald's projection test with precomputed per-triangle data (TriAccel, 2004).
+    Wald,
+    /// Hanika and Keller's fixed-point-friendly projection test (2007).
+    HanikaKeller,
 }
+
+/// Runs `$body` with `$K` bound to the kernel type of (`$kind`, `$format`).
+macro_rules! with_kernel {
+    ($kind:expr, $format:expr, $K:ident => $body:expr) => {{
+        use $crate::isect::{cramer, hanika_keller, moller_trumbore, wald, watertight, KernelKind};
+        use $crate::numeric::{NumberFormat, Q16, Q23};
+        match ($kind, $format) {
+            (KernelKind::Watertight, NumberFormat::F32) => {
+                type $K = watertight::Watertight;
+                $body
+            }
+            (KernelKind::Watertight, NumberFormat::Fixed64Q23) => {
+                type $K = watertight::WatertightFx<Q23>;
+                $body
+            }
+            (KernelKind::Watertight, NumberFormat::Fixed32Q16) => {
+                type $K = watertight::WatertightFx<Q16>;
+                $body
+            }
+            (KernelKind::MollerTrumbore, NumberFormat::F32) => {
+                type $K = moller_trumbore::MollerTrumbore;
+                $body
+            }
+            (KernelKind::MollerTrumbore, NumberFormat::Fixed64Q23) => {
+                type $K = moller_trumbore::MollerTrumboreFx<Q23>;
+                $body
+            }
+            (KernelKind::MollerTrumbore, NumberFormat::Fixed32Q16) => {
+                type $K = moller_trumbore::MollerTrumboreFx<Q16>;
+                $body
+            }
+            (KernelKind::Cramer, NumberFormat::F32) => {
+                type $K = cramer::Cramer;
+                $body
+            }
+            (KernelKind::Cramer, NumberFormat::Fixed64Q23) => {
+                type $K = cramer::CramerFx<Q23>;
+                $body
+            }
+            (KernelKind::Cramer, NumberFormat::Fixed32Q16) => {
+                type $K = cramer::CramerFx<Q16>;
+                $body
+            }
+            (KernelKind::Wald, NumberFormat::F32) => {
+                type $K = wald::Wald;
+                $body
+            }
+            (KernelKind::Wald, NumberFormat::Fixed64Q23) => {
+                type $K = wald::WaldFx<Q23>;
+                $body
+            }
+            (KernelKind::Wald, NumberFormat::Fixed32Q16) => {
+                type $K = wald::WaldFx<Q16>;
+                $body
+            }
+            (KernelKind::HanikaKeller, NumberFormat::F32) => {
+                type $K = hanika_keller::HanikaKeller;
+                $body
+            }
+            (KernelKind::HanikaKeller, NumberFormat::Fixed64Q23) => {
+                type $K = hanika_keller::HanikaKellerFx<Q23>;
+                $body
+            }
+            (KernelKind::HanikaKeller, NumberFormat::Fixed32Q16) => {
+                type $K = hanika_keller::HanikaKellerFx<Q16>;
+                $body
+            }
+        }
+    }};
+}
+pub(crate) use with_kernel;
 
 impl KernelKind {
     /// Every kernel, in a stable order.
-    pub const ALL: [KernelKind; 3] = [Self::Watertight, Self::MollerTrumbore, Self::Cramer];
+    pub const ALL: [KernelKind; 5] = [Self::Watertight, Self::MollerTrumbore, Self::Wald, Self::HanikaKeller, Self::Cramer];
 
-    /// Short name (for CLIs and reports).
+    /// Short name (for CLIs and reports: `--isect NAME`).
     pub const fn name(self) -> &'static str {
         match self {
             Self::Watertight => "watertight",
             Self::MollerTrumbore => "moller-trumbore",
             Self::Cramer => "cramer",
+            Self::Wald => "wald",
+            Self::HanikaKeller => "hanika-keller",
         }
     }
 
@@ -79,35 +210,102 @@ impl KernelKind {
         Self::ALL.into_iter().find(|k| k.name() == name)
     }
 
-    /// Per-triangle geometry words of the kernel.
-    pub const fn triangle_words(self) -> usize {
-        match self {
-            Self::Watertight => watertight::Watertight::TRIANGLE_WORDS,
-            Self::MollerTrumbore => moller_trumbore::MollerTrumbore::TRIANGLE_WORDS,
-            Self::Cramer => cramer::Cramer::TRIANGLE_WORDS,
+    /// Per-triangle record words of the kernel in f32.
+    pub fn triangle_words(self) -> usize {
+        self.record_words(NumberFormat::F32)
+    }
+
+    /// Operations of one full f32 test.
+    pub fn flops_per_test(self) -> u32 {
+        self.ops(NumberFormat::F32).total()
+    }
+
+    /// Per-triangle record words in `format`.
+    pub fn record_words(self, format: NumberFormat) -> usize {
+        with_kernel!(self, format, K => K::RECORD_WORDS)
+    }
+
+    /// Per-triangle record bytes in `format` (the documented storage size; the scene image's
+    /// prim id and material words come on top, see the module doc).
+    pub fn bytes_per_triangle(self, format: NumberFormat) -> usize {
+        4 * self.record_words(format)
+    }
+
+    /// True when the kernel reads the scene image's vertex words directly (no table).
+    pub fn uses_image(self, format: NumberFormat) -> bool {
+        with_kernel!(self, format, K => K::USES_IMAGE)
+    }
+
+    /// Operations of one full test in `format`.
+    pub fn ops(self, format: NumberFormat) -> OpCount {
+        with_kernel!(self, format, K => K::OPS)
+    }
+
+    /// PE memory words a PE image of `image_words` words holding `triangles` triangles needs
+    /// with this kernel and format: the image plus the load-time record table.
+    pub fn pe_words_needed(self, format: NumberFormat, image_words: usize, triangles: usize) -> usize {
+        if self.uses_image(format) {
+            image_words
+        } else {
+            image_words.saturating_add(triangles.saturating_mul(self.record_words(format)))
         }
     }
 
-    /// Floating-point operations of one full test.
-    pub const fn flops_per_test(self) -> u32 {
-        match self {
-            Self::Watertight => watertight::Watertight::FLOPS_PER_TEST,
-            Self::MollerTrumbore => moller_trumbore::MollerTrumbore::FLOPS_PER_TEST,
-            Self::Cramer => cramer::Cramer::FLOPS_PER_TEST,
-        }
-    }
-
-    /// Tests one triangle with this kernel, preparing the ray on the spot (convenience for
-    /// references and tests; the co-processor hoists `prepare` out of its loops).
+    /// Tests one triangle with this kernel in f32, preparing the ray and the record on the
+    /// spot (convenience for references and tests; the co-processor hoists both).
     pub fn intersect_once(self, ray: &Ray, tri: &Triangle, t_bound: f32) -> Option<f32> {
-        fn go<K: Kernel>(ray: &Ray, tri: &Triangle, t_bound: f32) -> Option<f32> {
-            K::intersect(&K::prepare(ray), tri, t_bound)
+        Intersector::new(self, NumberFormat::F32, FixedFrame::IDENTITY).intersect_tri(ray, tri, t_bound).ok().flatten()
+    }
+}
+
+/// One triangle's record as an [`Intersector`] stores it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Record {
+    /// The record words (the first `record_words` are used).
+    pub words: [u32; MAX_RECORD_WORDS],
+    /// What the precomputation found.
+    pub status: RecordStatus,
+}
+
+/// A kernel, a number format and a fixed-point frame chosen at run time: the dynamic entry
+/// point for references, tests and benches (the co-processor monomorphises instead).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Intersector {
+    /// Kernel.
+    pub kind: KernelKind,
+    /// Number format.
+    pub format: NumberFormat,
+    /// Frame of the fixed-point formats (ignored by f32).
+    pub frame: FixedFrame,
+}
+
+impl Intersector {
+    /// A kernel in a format and frame.
+    pub fn new(kind: KernelKind, format: NumberFormat, frame: FixedFrame) -> Self {
+        Self { kind, format, frame }
+    }
+
+    /// The record of `tri` (what the co-processor would store at load time).
+    pub fn precompute(&self, tri: &Triangle) -> Record {
+        let mut words = [0u32; MAX_RECORD_WORDS];
+        let status = with_kernel!(self.kind, self.format, K => K::precompute(tri, &self.frame, &mut words));
+        Record { words, status }
+    }
+
+    /// Tests a precomputed record.
+    pub fn intersect(&self, ray: &Ray, rec: &Record, t_bound: f32) -> Result<Option<f32>, Overflow> {
+        if !ray.is_valid() {
+            return Ok(None);
         }
-        match self {
-            Self::Watertight => go::<watertight::Watertight>(ray, tri, t_bound),
-            Self::MollerTrumbore => go::<moller_trumbore::MollerTrumbore>(ray, tri, t_bound),
-            Self::Cramer => go::<cramer::Cramer>(ray, tri, t_bound),
-        }
+        with_kernel!(self.kind, self.format, K => {
+            let pre = K::prepare(ray, &self.frame)?;
+            K::intersect(&pre, &rec.words, t_bound)
+        })
+    }
+
+    /// Precomputes and tests in one go.
+    pub fn intersect_tri(&self, ray: &Ray, tri: &Triangle, t_bound: f32) -> Result<Option<f32>, Overflow> {
+        self.intersect(ray, &self.precompute(tri), t_bound)
     }
 }
 
@@ -116,6 +314,78 @@ impl KernelKind {
 pub fn geometric_normal(tri: &Triangle) -> Vec3 {
     (tri[1] - tri[0]).cross(tri[2] - tri[0])
 }
+
+// ------------------------------------------------------------ record helpers
+
+/// The 9 vertex floats of an f32 vertex record.
+#[inline(always)]
+pub(crate) fn f32_vertices(rec: &[u32]) -> Option<Triangle> {
+    let w: &[u32; 9] = rec.get(..9)?.try_into().ok()?;
+    let f = f32::from_bits;
+    Some([
+        Vec3::new(f(w[0]), f(w[1]), f(w[2])),
+        Vec3::new(f(w[3]), f(w[4]), f(w[5])),
+        Vec3::new(f(w[6]), f(w[7]), f(w[8])),
+    ])
+}
+
+/// Writes the 9 vertex floats (the f32 vertex record, identical to the image's words).
+pub(crate) fn f32_vertices_precompute(tri: &Triangle, out: &mut [u32]) -> RecordStatus {
+    for (i, v) in tri.iter().enumerate() {
+        for (a, c) in v.to_array().into_iter().enumerate() {
+            if let Some(w) = out.get_mut(3 * i + a) {
+                *w = c.to_bits();
+            }
+        }
+    }
+    RecordStatus::Ok
+}
+
+/// Writes the 9 frame coordinates of the vertices as fixed-point words (fixed vertex
+/// record); coordinates that do not fit are stored as poison and reported. A triangle whose
+/// *quantised* vertices are collinear (checked exactly on the integers) is stored as a point
+/// at the frame origin and reported degenerate: with per-product rounding, the sheared or
+/// projected copies of collinear points need not stay collinear, but every kernel rejects a
+/// point triangle exactly (all its edges are zero).
+pub(crate) fn fx_vertices_precompute<Q: FixedFormat>(tri: &Triangle, frame: &FixedFrame, out: &mut [u32]) -> RecordStatus {
+    let p = tri.map(|v| fx_point::<Q>(frame, v.to_array()));
+    let mut words = [0u32; 9];
+    let mut status = RecordStatus::Ok;
+    for (i, c) in p.iter().flatten().enumerate() {
+        words[i] = c.to_word().unwrap_or_else(|_| {
+            status = RecordStatus::Overflow;
+            i32::MIN as u32
+        });
+    }
+    if status == RecordStatus::Ok {
+        // Exact cross product of the integer edges (|raw| < 2^31: products fit i128).
+        let r = p.map(|v| v.map(|c| c.raw() as i128));
+        let e1 = [r[1][0] - r[0][0], r[1][1] - r[0][1], r[1][2] - r[0][2]];
+        let e2 = [r[2][0] - r[0][0], r[2][1] - r[0][1], r[2][2] - r[0][2]];
+        let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+        if n == [0, 0, 0] {
+            words = [0; 9];
+            status = RecordStatus::Degenerate;
+        }
+    }
+    for (o, w) in out.iter_mut().zip(words) {
+        *o = w;
+    }
+    status
+}
+
+/// The vertices of a fixed vertex record (poison components for overflowed words).
+#[inline(always)]
+pub(crate) fn fx_vertices<Q: FixedFormat>(rec: &[u32]) -> Option<[Fx3<Q>; 3]> {
+    let w: &[u32; 9] = rec.get(..9)?.try_into().ok()?;
+    let f = Fx::<Q>::from_word;
+    Some([[f(w[0]), f(w[1]), f(w[2])], [f(w[3]), f(w[4]), f(w[5])], [f(w[6]), f(w[7]), f(w[8])]])
+}
+
+/// Axis word of a projection record (Wald, Hanika–Keller): 0..=2 the projection axis.
+pub(crate) const AXIS_DEGENERATE: u32 = 3;
+/// Axis word of a record whose precomputed values overflowed the format.
+pub(crate) const AXIS_OVERFLOW: u32 = 4;
 
 #[cfg(test)]
 mod tests {
@@ -127,40 +397,59 @@ mod tests {
         Vec3::new(x, y, z)
     }
 
+    /// Every (kernel, format) with the frame of the box [−4, 4]³.
+    fn all() -> impl Iterator<Item = Intersector> {
+        KernelKind::ALL.into_iter().flat_map(|k| {
+            NumberFormat::ALL.into_iter().map(move |f| {
+                let frame = FixedFrame::for_box([-4.0; 3], [4.0; 3], f).unwrap();
+                Intersector::new(k, f, frame)
+            })
+        })
+    }
+
     /// Literal regression: axis-aligned ray onto the unit right triangle at z = 0.
     #[test]
-    fn every_kernel_hits_unit_triangle_at_t_one() {
+    fn every_kernel_and_format_hits_unit_triangle_at_t_one() {
         let tri = [v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
         let ray = Ray { origin: v(0.25, 0.25, -1.0), dir: v(0.0, 0.0, 1.0) };
         for k in KernelKind::ALL {
             assert_eq!(k.intersect_once(&ray, &tri, f32::INFINITY), Some(1.0), "{k:?}");
+        }
+        for is in all() {
+            assert_eq!(is.intersect_tri(&ray, &tri, f32::INFINITY), Ok(Some(1.0)), "{is:?}");
             // Reversed winding (det < 0) must hit too: all kernels are two-sided.
             let rev = [tri[0], tri[2], tri[1]];
-            assert_eq!(k.intersect_once(&ray, &rev, f32::INFINITY), Some(1.0), "{k:?} reversed");
+            assert_eq!(is.intersect_tri(&ray, &rev, f32::INFINITY), Ok(Some(1.0)), "{is:?} reversed");
         }
     }
 
     #[test]
-    fn every_kernel_rejects_behind_parallel_degenerate_and_beyond_bound() {
+    fn every_kernel_and_format_rejects_behind_parallel_degenerate_and_beyond_bound() {
         let tri = [v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
         let behind = Ray { origin: v(0.25, 0.25, 1.0), dir: v(0.0, 0.0, 1.0) };
         let parallel = Ray { origin: v(0.25, 0.25, 0.0), dir: v(1.0, 0.0, 0.0) };
         let degenerate = [v(0.0, 0.0, 0.0), v(1.0, 1.0, 0.0), v(2.0, 2.0, 0.0)];
         let towards = Ray { origin: v(0.25, 0.25, -1.0), dir: v(0.0, 0.0, 1.0) };
         let outside = Ray { origin: v(0.75, 0.75, -1.0), dir: v(0.0, 0.0, 1.0) };
-        for k in KernelKind::ALL {
-            assert_eq!(k.intersect_once(&behind, &tri, f32::INFINITY), None, "{k:?} behind");
-            assert_eq!(k.intersect_once(&parallel, &tri, f32::INFINITY), None, "{k:?} parallel");
-            assert_eq!(k.intersect_once(&towards, &degenerate, f32::INFINITY), None, "{k:?} degenerate");
-            assert_eq!(k.intersect_once(&outside, &tri, f32::INFINITY), None, "{k:?} outside");
-            assert_eq!(k.intersect_once(&towards, &tri, 0.5), None, "{k:?} bound");
+        for is in all() {
+            assert_eq!(is.intersect_tri(&behind, &tri, f32::INFINITY), Ok(None), "{is:?} behind");
+            assert_eq!(is.intersect_tri(&parallel, &tri, f32::INFINITY), Ok(None), "{is:?} parallel");
+            assert_eq!(is.intersect_tri(&towards, &degenerate, f32::INFINITY), Ok(None), "{is:?} degenerate");
+            assert_eq!(is.intersect_tri(&outside, &tri, f32::INFINITY), Ok(None), "{is:?} outside");
+            assert_eq!(is.intersect_tri(&towards, &tri, 0.5), Ok(None), "{is:?} bound");
+            let rec = is.precompute(&degenerate);
+            if is.kind == KernelKind::Wald || is.kind == KernelKind::HanikaKeller {
+                assert_eq!(rec.status, RecordStatus::Degenerate, "{is:?}");
+            }
         }
     }
 
-    /// Random interior hits: every kernel agrees with an f64 plane intersection to a few ulp.
+    /// Random interior hits: every kernel in every format agrees with an f64 plane
+    /// intersection (f32: to a few ulp; fixed point: to its resolution in the frame).
     #[test]
-    fn every_kernel_matches_f64_reference_on_interior_hits() {
+    fn every_kernel_and_format_matches_f64_reference_on_interior_hits() {
         let mut rng = ChaCha8Rng::seed_from_u64(0x15EC7);
+        let mut checked = 0;
         for _ in 0..2000 {
             let mut p = || v(rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0));
             let tri = [p(), p(), p()];
@@ -178,20 +467,67 @@ mod tests {
                 continue;
             }
             let ray = Ray { origin: o, dir };
-            // f64 reference: t = n·(a − o) / n·d with n computed in f64.
-            let d64 = |x: Vec3| [x.x as f64, x.y as f64, x.z as f64];
-            let (a, b, c, o64, dd) = (d64(tri[0]), d64(tri[1]), d64(tri[2]), d64(o), d64(dir));
-            let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-            let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-            let nn = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
-            let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
-            let t_ref = dot(nn, [a[0] - o64[0], a[1] - o64[1], a[2] - o64[2]]) / dot(nn, dd);
-            for k in KernelKind::ALL {
-                let t = k.intersect_once(&ray, &tri, f32::INFINITY);
-                let t = t.unwrap_or_else(|| panic!("{k:?} missed an interior hit"));
+            let t_ref = crate::exact::t_f64(&ray, &tri);
+            assert!(crate::exact::intersect(&ray, &tri).is_some());
+            for is in all() {
+                let t = is.intersect_tri(&ray, &tri, f32::INFINITY);
+                let t = t.unwrap_or_else(|e| panic!("{is:?}: {e}")).unwrap_or_else(|| panic!("{is:?} missed an interior hit"));
                 let rel = ((t as f64 - t_ref) / t_ref).abs();
-                assert!(rel < 1e-4, "{k:?}: t {t} vs {t_ref} (rel {rel:e}, cos {cos})");
+                let tol = match is.format {
+                    NumberFormat::F32 => 1e-4,
+                    NumberFormat::Fixed64Q23 => 1e-4,
+                    _ => 2e-2,
+                };
+                assert!(rel < tol, "{is:?}: t {t} vs {t_ref} (rel {rel:e}, cos {cos})");
+            }
+            checked += 1;
+        }
+        assert!(checked > 1000, "{checked}");
+    }
+
+    /// Fixed-point range: a ray from far outside the frame overflows and is *reported*
+    /// (`Err(Overflow)`), never turned into a wrong hit or a silent miss.
+    #[test]
+    fn fixed_point_overflow_is_reported_not_wrapped() {
+        let tri = [v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
+        for is in all().filter(|is| is.format.is_fixed()) {
+            // Just inside the format's range the hit is exact; beyond it, overflow.
+            let (inside, beyond) = match is.format {
+                NumberFormat::Fixed32Q16 => (1.0e4, 1.0e5),
+                _ => (1.0e5, 1.0e13),
+            };
+            let ok = Ray { origin: v(0.25, 0.25, -inside), dir: v(0.0, 0.0, 1.0) };
+            let far = Ray { origin: v(0.25, 0.25, -beyond), dir: v(0.0, 0.0, 1.0) };
+            assert_eq!(is.intersect_tri(&ok, &tri, f32::INFINITY), Ok(Some(inside)), "{is:?}");
+            assert_eq!(is.intersect_tri(&far, &tri, f32::INFINITY), Err(Overflow), "{is:?}");
+        }
+        // A triangle that does not fit the storage: its record is flagged and every test of
+        // it reports the overflow.
+        let far_tri = [v(1.0e6, 1.0e6, 1.0e6), v(1.0e6 + 1.0, 1.0e6, 1.0e6), v(1.0e6, 1.0e6 + 1.0, 1.0e6)];
+        let near = Ray { origin: v(0.25, 0.25, -1.0), dir: v(0.0, 0.0, 1.0) };
+        for is in all().filter(|is| is.format.is_fixed()) {
+            let rec = is.precompute(&far_tri);
+            assert_eq!(rec.status, RecordStatus::Overflow, "{is:?}");
+            assert_eq!(is.intersect(&near, &rec, f32::INFINITY), Err(Overflow), "{is:?}");
+        }
+    }
+
+    #[test]
+    fn names_and_storage_sizes_are_documented_values() {
+        let names: Vec<_> = KernelKind::ALL.iter().map(|k| k.name()).collect();
+        assert_eq!(names, ["watertight", "moller-trumbore", "wald", "hanika-keller", "cramer"]);
+        for k in KernelKind::ALL {
+            assert_eq!(KernelKind::from_name(k.name()), Some(k));
+            for f in NumberFormat::ALL {
+                let bytes = k.bytes_per_triangle(f);
+                let want = if matches!(k, KernelKind::Wald | KernelKind::HanikaKeller) { 40 } else { 36 };
+                assert_eq!(bytes, want, "{k:?} {f:?}");
+                assert!(k.record_words(f) <= MAX_RECORD_WORDS);
+                assert_eq!(k.uses_image(f), f == NumberFormat::F32 && want == 36);
+                assert_eq!(k.pe_words_needed(f, 100, 10), if k.uses_image(f) { 100 } else { 100 + 10 * k.record_words(f) });
             }
         }
+        assert_eq!(NumberFormat::from_name("fixed64-q23"), Some(NumberFormat::Fixed64Q23));
+        assert_eq!(NumberFormat::from_name("fixed32-q16"), Some(NumberFormat::Fixed32Q16));
     }
 }

@@ -12,10 +12,29 @@
 //! u + v ≤ 1) and the kernel's lower bound is `t > 0`. Not watertight: a ray through a
 //! shared edge may miss both triangles by rounding (seed 002 compares this trade-off).
 //!
-//! Storage: the 9 vertex words of the PE image. Cost of one full test: edges 6,
-//! P 9, det 5, reciprocal 1, s 3, u 6, Q 9, v 6, t 6, compares 6 → 57.
+//! Storage: the 9 vertex words (36 B; "minimum storage" is the paper's point). f32 reads
+//! them from the scene image, fixed point from the load-time table.
+//!
+//! Cost of one full f32 test ([`MollerTrumbore::OPS`]): edges (add 6), P (mul 6, add 3),
+//! det (mul 3, add 2, cmp 1), reciprocal (div 1, cmp 1 finite), s (add 3), u (mul 4, add 2,
+//! cmp 2), Q (mul 6, add 3), v (mul 4, add 2, cmp 1), u + v (add 1, cmp 1), t (mul 4, add 2,
+//! cmp 2) → add 24, mul 27, div 1, cmp 8.
+//!
+//! # Fixed point ([`MollerTrumboreFx`])
+//!
+//! Seed 002 found the reciprocal of det "the most problematic part" of a fixed-point MT and
+//! kept it in f32. Here the division is deferred instead: the signs and ranges of the
+//! numerators are tested against det (sign-normalised so det > 0: 0 ≤ u·det ≤ det,
+//! v·det ≥ 0, (u + v)·det ≤ det, t·det > 0 and t·det ≤ bound·det), and the only division is
+//! t = t_num / det for a hit, in the fixed-point format itself (no float anywhere).
+//! Cost: edges (add 6), T (add 3), P (mul 6, add 3), det (mul 3, add 2, cmp 2), u_num (mul 3,
+//! add 2, cmp 2), Q (mul 6, add 3), v_num (mul 3, add 2, cmp 1), u + v (add 1, cmp 1), t_num
+//! (mul 3, add 2, cmp 1), range (mul 1, cmp 1), division (div 1) → add 24, mul 25, div 1, cmp 8.
 
-use super::{Kernel, KernelKind, Triangle};
+use core::marker::PhantomData;
+
+use super::{f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute, Kernel, KernelKind, RecordStatus, Triangle};
+use crate::numeric::{beyond, fx_cross, fx_dot, fx_sub, FixedFormat, FixedFrame, Fx, FxRay, NumberFormat, OpCount, Overflow};
 use gridrt_shared::math::{Ray, Vec3};
 
 /// The Möller–Trumbore kernel.
@@ -31,44 +50,113 @@ pub struct MtRay {
 
 impl Kernel for MollerTrumbore {
     const KIND: KernelKind = KernelKind::MollerTrumbore;
-    const TRIANGLE_WORDS: usize = 9;
-    const FLOPS_PER_TEST: u32 = 57;
+    const FORMAT: NumberFormat = NumberFormat::F32;
+    const RECORD_WORDS: usize = 9;
+    const USES_IMAGE: bool = true;
+    const OPS: OpCount = OpCount { add: 24, mul: 27, div: 1, cmp: 8 };
     type RayData = MtRay;
 
     #[inline]
-    fn prepare(ray: &Ray) -> MtRay {
-        MtRay { origin: ray.origin, dir: ray.dir }
+    fn prepare(ray: &Ray, _frame: &FixedFrame) -> Result<MtRay, Overflow> {
+        Ok(MtRay { origin: ray.origin, dir: ray.dir })
+    }
+
+    fn precompute(tri: &Triangle, _frame: &FixedFrame, out: &mut [u32]) -> RecordStatus {
+        f32_vertices_precompute(tri, out)
     }
 
     #[inline]
-    fn intersect(r: &MtRay, tri: &Triangle, t_bound: f32) -> Option<f32> {
-        let [a, b, c] = *tri;
-        let e1 = b - a;
-        let e2 = c - a;
-        let p = r.dir.cross(e2);
-        let det = e1.dot(p);
-        if det == 0.0 {
-            return None;
+    fn intersect(r: &MtRay, rec: &[u32], t_bound: f32) -> Result<Option<f32>, Overflow> {
+        Ok(f32_vertices(rec).and_then(|tri| intersect_f32(r, &tri, t_bound)))
+    }
+}
+
+/// The f32 test on a vertex triangle.
+#[inline(always)]
+fn intersect_f32(r: &MtRay, tri: &Triangle, t_bound: f32) -> Option<f32> {
+    let [a, b, c] = *tri;
+    let e1 = b - a;
+    let e2 = c - a;
+    let p = r.dir.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let inv_det = 1.0 / det;
+    if !inv_det.is_finite() {
+        return None;
+    }
+    let s = r.origin - a;
+    let u = s.dot(p) * inv_det;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = r.dir.dot(q) * inv_det;
+    if !(v >= 0.0 && u + v <= 1.0) {
+        return None;
+    }
+    let t = e2.dot(q) * inv_det;
+    // `!(t > 0)` also rejects NaN.
+    if !(t > 0.0) || t > t_bound || t == f32::INFINITY {
+        return None;
+    }
+    Some(t)
+}
+
+/// Möller–Trumbore in fixed point with the division deferred (module doc).
+#[derive(Debug, Clone, Copy)]
+pub struct MollerTrumboreFx<Q>(PhantomData<Q>);
+
+impl<Q: FixedFormat> Kernel for MollerTrumboreFx<Q> {
+    const KIND: KernelKind = KernelKind::MollerTrumbore;
+    const FORMAT: NumberFormat = Q::FORMAT;
+    const RECORD_WORDS: usize = 9;
+    const USES_IMAGE: bool = false;
+    const OPS: OpCount = OpCount { add: 24, mul: 25, div: 1, cmp: 8 };
+    type RayData = FxRay<Q>;
+
+    #[inline]
+    fn prepare(ray: &Ray, frame: &FixedFrame) -> Result<FxRay<Q>, Overflow> {
+        FxRay::new(frame, ray.origin.to_array(), ray.dir.to_array())
+    }
+
+    fn precompute(tri: &Triangle, frame: &FixedFrame, out: &mut [u32]) -> RecordStatus {
+        fx_vertices_precompute::<Q>(tri, frame, out)
+    }
+
+    #[inline]
+    fn intersect(r: &FxRay<Q>, rec: &[u32], t_bound: f32) -> Result<Option<f32>, Overflow> {
+        let Some([a, b, c]) = fx_vertices::<Q>(rec) else { return Ok(None) };
+        let e1 = fx_sub(b, a);
+        let e2 = fx_sub(c, a);
+        let p = fx_cross(r.d, e2);
+        let mut det = fx_dot(e1, p).ok()?;
+        if det.is_zero() {
+            return Ok(None);
         }
-        let inv_det = 1.0 / det;
-        if !inv_det.is_finite() {
-            return None;
+        // Sign-normalise so det > 0; every numerator is negated with it.
+        let neg = det.is_neg();
+        let sgn = |x: Fx<Q>| if neg { -x } else { x };
+        det = sgn(det);
+        let s = fx_sub(r.o, a);
+        let u = sgn(fx_dot(s, p)).ok()?;
+        if u.is_neg() || u > det {
+            return Ok(None);
         }
-        let s = r.origin - a;
-        let u = s.dot(p) * inv_det;
-        if !(0.0..=1.0).contains(&u) {
-            return None;
+        let q = fx_cross(s, e1);
+        let v = sgn(fx_dot(r.d, q)).ok()?;
+        if v.is_neg() || (u + v).ok()? > det {
+            return Ok(None);
         }
-        let q = s.cross(e1);
-        let v = r.dir.dot(q) * inv_det;
-        if !(v >= 0.0 && u + v <= 1.0) {
-            return None;
+        let t_num = sgn(fx_dot(e2, q)).ok()?;
+        if !t_num.is_pos() || beyond(t_num, det, r.bound(t_bound)) {
+            return Ok(None);
         }
-        let t = e2.dot(q) * inv_det;
-        // `!(t > 0)` also rejects NaN.
-        if !(t > 0.0) || t > t_bound {
-            return None;
+        let t = (t_num / det).ok()?;
+        if !t.is_pos() {
+            return Ok(None);
         }
-        Some(t)
+        Ok(r.world_t(t))
     }
 }

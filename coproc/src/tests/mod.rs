@@ -175,6 +175,21 @@ impl GridScene {
         l.into_iter().map(|(_, e)| e).collect()
     }
 
+    /// Brute-force nearest hit over all triangles with the same kernel and number format
+    /// (fixed-point overflows count as misses, as in the co-processor): (t, prim).
+    pub fn brute_force_with(&self, is: &Intersector, ray: &Ray, t_max: f32) -> Option<(f32, u32)> {
+        let mut best: Option<(f32, u32)> = None;
+        for t in &self.tris {
+            let verts = t.vertices.map(Vec3::from_array);
+            if let Ok(Some(h)) = is.intersect_tri(ray, &verts, f32::INFINITY) {
+                if h > 0.0 && h < t_max && best.is_none_or(|(bt, bp)| h < bt || (h == bt && t.prim < bp)) {
+                    best = Some((h, t.prim));
+                }
+            }
+        }
+        best
+    }
+
     /// Brute-force nearest hit over all triangles with the same kernel: (t, prim).
     pub fn brute_force(&self, kernel: KernelKind, ray: &Ray, t_max: f32) -> Option<(f32, u32)> {
         let mut best: Option<(f32, u32)> = None;

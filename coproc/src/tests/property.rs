@@ -74,3 +74,82 @@ fn answers_are_independent_of_the_pe_count() {
     assert_eq!(answers[0], answers[1]);
     assert_eq!(answers[0], answers[2]);
 }
+
+/// The same equivalence for every kernel in every fixed-point format, with the frame of the
+/// grid box [0, 2]³; no test of this scene may overflow (the frame keeps it in range).
+#[test]
+fn trace_equals_brute_force_in_every_fixed_point_format() {
+    let scene = GridScene::random(0x2223, 40);
+    let map = |id: u32| (id % 4) as u8;
+    let images = scene.images(4, map);
+    for format in [NumberFormat::Fixed64Q23, NumberFormat::Fixed32Q16] {
+        let frame = FixedFrame::for_box([0.0; 3], [2.0; 3], format).unwrap();
+        for kernel in KernelKind::ALL {
+            let cfg = CoprocConfig { kernel, ..config(4, 4096) };
+            let mut backing = vec![0; cfg.required_backing_words()];
+            let mut cp = Coprocessor::new(cfg, &mut backing).unwrap();
+            cp.set_number_format(format, frame);
+            for (pe, img) in images.iter().enumerate() {
+                cp.load_pe(pe as u8, img).unwrap();
+            }
+            let is = Intersector::new(kernel, format, frame);
+            let mut rng = ChaCha8Rng::seed_from_u64(0xF1C5 + kernel as u64);
+            let (mut hits, mut near_ties) = (0, 0);
+            for i in 0..3_000 {
+                let (ray, t_max) = random_ray(&mut rng);
+                let list = scene.list(&ray, map);
+                let r = cp.trace(RayKind::Closest, &ray, t_max, &list).unwrap();
+                let (u, info) = cp.trace_untimed_with_info(RayKind::Closest, &ray, t_max, &list).unwrap();
+                assert_eq!((r.hit, r.t.to_bits(), r.prim), (u.hit, u.t.to_bits(), u.prim));
+                assert_eq!(info.overflows, 0);
+                match scene.brute_force_with(&is, &ray, t_max) {
+                    None => assert!(!r.hit, "{kernel:?} {format:?} ray {i}: spurious hit {r:?}"),
+                    Some((t, prim)) => {
+                        hits += 1;
+                        assert!(r.hit, "{kernel:?} {format:?} ray {i}: missed t={t} prim={prim}");
+                        assert!(r.t >= t, "{kernel:?} {format:?} ray {i}: nearer than brute force");
+                        if r.prim != prim && r.t != t {
+                            assert!(r.t <= t * (1.0 + 2.0 * T_EXIT_REL_TOL), "{kernel:?} {format:?} ray {i}");
+                            near_ties += 1;
+                        }
+                    }
+                }
+            }
+            assert_eq!(cp.stats().overflows, 0, "{kernel:?} {format:?}");
+            assert!(hits > 800, "{kernel:?} {format:?}: {hits}");
+            assert!(near_ties * 100 < hits, "{kernel:?} {format:?}: {near_ties} near-ties in {hits}");
+        }
+    }
+}
+
+/// The record table is charged against PE memory: an image that fits for the f32
+/// watertight kernel (which reads the image itself) fails to load for a kernel that needs a
+/// table unless the table fits too, and `pe_words_needed` says exactly how much is needed.
+#[test]
+fn record_tables_are_charged_against_pe_memory() {
+    let scene = GridScene::random(0x7AB, 30);
+    let images = scene.images(1, |_| 0);
+    let img = &images[0];
+    let tris = img[0] as usize;
+    for kernel in KernelKind::ALL {
+        for format in NumberFormat::ALL {
+            let need = kernel.pe_words_needed(format, img.len(), tris);
+            let frame = FixedFrame::for_box([0.0; 3], [2.0; 3], format).unwrap();
+            for (words, ok) in [(need, true), (need - 1, false)] {
+                if words < img.len() {
+                    continue;
+                }
+                let cfg = CoprocConfig { kernel, ..config(1, words as u32) };
+                let mut backing = vec![0; cfg.required_backing_words()];
+                let mut cp = Coprocessor::new(cfg, &mut backing).unwrap();
+                cp.set_number_format(format, frame);
+                let r = cp.load_pe(0, img);
+                assert_eq!(r.is_ok(), ok, "{kernel:?} {format:?} with {words} words: {r:?}");
+                if !ok {
+                    assert_eq!(r, Err(FslError::PeMemoryOverflow));
+                    assert!(!cp.is_pe_loaded(0));
+                }
+            }
+        }
+    }
+}

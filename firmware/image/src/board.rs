@@ -85,8 +85,9 @@ mod imp {
     }
     /// Board id in `Msg::Version` (SPEC.md §3.2).
     pub const BOARD_ID: u8 = 2;
-    /// Largest grid the app accepts (voxels), sized for 128 KiB of BRAM.
-    pub const MAX_VOXELS: usize = 1 << 14;
+    /// Largest grid the app accepts (voxels, e.g. 20³), sized for 128 KiB of BRAM: the
+    /// voxel map lives on the stack with the rest of the device state (boards/fpga-soc.x).
+    pub const MAX_VOXELS: usize = 1 << 13;
     /// PEs of the co-processor in the block design (GridRT: 4).
     pub const PE_COUNT: u16 = 4;
     /// Words per PE memory in the block design (GridRT: 8192).
@@ -106,13 +107,8 @@ pub fn app_region() -> (usize, usize) {
         static _gridrt_app_start: u8;
         static _gridrt_app_end: u8;
     }
-    // SAFETY: only the addresses of the linker symbols are taken, never their contents.
-    unsafe {
-        (
-            core::ptr::addr_of!(_gridrt_app_start) as usize,
-            core::ptr::addr_of!(_gridrt_app_end) as usize,
-        )
-    }
+    // Only the addresses of the linker symbols are taken, never their contents.
+    (core::ptr::addr_of!(_gridrt_app_start) as usize, core::ptr::addr_of!(_gridrt_app_end) as usize)
 }
 
 /// Takes the console at start-up and initialises it.

@@ -92,6 +92,34 @@ impl<L: FslLink, K: CycleCounter> FslLink for TimedLink<'_, L, K> {
     }
 }
 
+/// Instructions per word that [`TimedLink`] leaves in the firmware's count (its call, the
+/// counter reads, the bookkeeping, and `FslLink::put`'s poll loop), measured around 64
+/// `put`s into a link that does nothing. The app prints it in its banner; BENCHMARKS.md
+/// uses it to bound the FSL I/O stage.
+pub fn wrapper_overhead<K: CycleCounter + Copy>(counter: K) -> u64 {
+    struct Null;
+    impl FslLink for Null {
+        type Error = core::convert::Infallible;
+        fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
+            core::hint::black_box(word);
+            Ok(())
+        }
+        fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+            Ok(FslWord { data: 0, control: false })
+        }
+    }
+    const N: u32 = 64;
+    let excluded = Excluded::new();
+    let mut link = TimedLink::new(Null, counter, &excluded);
+    let clock = ModelFreeClock::new(counter, &excluded);
+    let t0 = clock.now();
+    for i in 0..N {
+        let _ = core::hint::black_box(&mut link).put(FslWord { data: i, control: false }, 1);
+    }
+    let t1 = clock.now();
+    t1.instret.wrapping_sub(t0.instret) / u64::from(N)
+}
+
 /// `mcycle`/`minstret` minus the time [`TimedLink`] excluded: the firmware's own counts.
 pub struct ModelFreeClock<'e, K> {
     counter: K,
@@ -110,10 +138,7 @@ impl<K: CycleCounter> StageClock for ModelFreeClock<'_, K> {
     fn now(&self) -> StageCount {
         let raw = read(&self.counter);
         let ex = self.excluded.get();
-        StageCount {
-            cycles: raw.cycles.wrapping_sub(ex.cycles),
-            instret: raw.instret.wrapping_sub(ex.instret),
-        }
+        StageCount { cycles: raw.cycles.wrapping_sub(ex.cycles), instret: raw.instret.wrapping_sub(ex.instret) }
     }
 }
 
@@ -143,9 +168,7 @@ mod axis {
         type Error = AxisLinkError;
 
         fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
-            self.0
-                .nput_word(word.data, word.control)
-                .map_err(|e| e.map(AxisLinkError))
+            self.0.nput_word(word.data, word.control).map_err(|e| e.map(AxisLinkError))
         }
 
         fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {

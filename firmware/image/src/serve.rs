@@ -42,19 +42,12 @@ pub fn read_available(console: &mut Console, buf: &mut [u8]) -> usize {
 /// Firmware version as `[major, minor, patch]` for `Msg::Version`.
 pub fn firmware_version() -> [u8; 3] {
     let v = |s: &str| s.parse::<u8>().unwrap_or(0);
-    [
-        v(env!("CARGO_PKG_VERSION_MAJOR")),
-        v(env!("CARGO_PKG_VERSION_MINOR")),
-        v(env!("CARGO_PKG_VERSION_PATCH")),
-    ]
+    [v(env!("CARGO_PKG_VERSION_MAJOR")), v(env!("CARGO_PKG_VERSION_MINOR")), v(env!("CARGO_PKG_VERSION_PATCH"))]
 }
 
 /// The device loop: poll the UART, feed what arrived to the device, which answers through
 /// blocking console writes (a render runs to completion inside one `feed`). Never returns.
-pub fn serve<L: FslLink, C: StageClock, const N: usize>(
-    device: &mut Device<L, C, N>,
-    console: &mut Console,
-) -> ! {
+pub fn serve<L: FslLink, C: StageClock, const N: usize>(device: &mut Device<L, C, N>, console: &mut Console) -> ! {
     let mut buf = [0u8; RX_BATCH];
     loop {
         let n = read_available(console, &mut buf);

@@ -36,11 +36,7 @@ fn report(kind: &str) -> ! {
     // SAFETY: the interrupted code never runs again, so aliasing its console is harmless.
     // The UART is not re-initialised: that could cut a byte being sent.
     let mut console = unsafe { board::console_unchecked() };
-    let name = if cause.is_interrupt() {
-        "interrupt"
-    } else {
-        exception_name(cause.code())
-    };
+    let name = if cause.is_interrupt() { "interrupt" } else { exception_name(cause.code()) };
     // Best effort: nothing is left to report a console error to.
     let _ = writeln!(
         UartWriter(&mut console),

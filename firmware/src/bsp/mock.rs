@@ -23,17 +23,9 @@ pub enum Width {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Access {
     /// A read at `off` that returned `value`.
-    Read {
-        off: usize,
-        width: Width,
-        value: u32,
-    },
+    Read { off: usize, width: Width, value: u32 },
     /// A write of `value` at `off`.
-    Write {
-        off: usize,
-        width: Width,
-        value: u32,
-    },
+    Write { off: usize, width: Width, value: u32 },
 }
 
 #[derive(Default)]
@@ -66,12 +58,7 @@ impl MockMmio {
 
     /// The next reads at `off` return `values` in order, then the sticky value.
     pub fn queue(&self, off: usize, values: &[u32]) {
-        self.state
-            .borrow_mut()
-            .queued
-            .entry(off)
-            .or_default()
-            .extend(values.iter().copied());
+        self.state.borrow_mut().queued.entry(off).or_default().extend(values.iter().copied());
     }
 
     /// Every access so far, in order.
@@ -112,12 +99,7 @@ impl MockMmio {
 
     /// How many reads hit `off`.
     pub fn reads_at(&self, off: usize) -> usize {
-        self.state
-            .borrow()
-            .log
-            .iter()
-            .filter(|a| matches!(a, Access::Read { off: o, .. } if *o == off))
-            .count()
+        self.state.borrow().log.iter().filter(|a| matches!(a, Access::Read { off: o, .. } if *o == off)).count()
     }
 
     fn read(&self, off: usize, width: Width) -> u32 {
@@ -129,10 +111,7 @@ impl MockMmio {
     }
 
     fn write(&self, off: usize, width: Width, value: u32) {
-        self.state
-            .borrow_mut()
-            .log
-            .push(Access::Write { off, width, value });
+        self.state.borrow_mut().log.push(Access::Write { off, width, value });
     }
 }
 

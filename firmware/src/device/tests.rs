@@ -4,7 +4,7 @@
 use super::*;
 use gridrt_shared::frame::{crc32, encode_frame, FrameAccumulator, MAX_ENCODED};
 use gridrt_shared::fsl::{entry_from_words, ListEntry};
-use gridrt_shared::msg::stat_entries;
+use gridrt_shared::msg::{stat_entries, PixelEncoding};
 use gridrt_shared::scene::{TriangleRecord, HEADER_LEN};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -755,3 +755,5 @@ fn stage_counters_are_reported_under_stage_keys() {
     assert_eq!(Stage::RayGen.instret_key(), stat::STAGE_BASE);
     assert_eq!(Stage::Encode.cycles_key(), stat::STAGE_BASE + 9);
 }
+
+mod link;

@@ -2,5 +2,8 @@
 
 pub mod bench;
 pub mod common;
+pub mod device;
+pub mod flash;
+pub mod ports;
 pub mod progress;
 pub mod render;

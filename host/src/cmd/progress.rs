@@ -46,6 +46,17 @@ impl CliProgress {
                     b.set_position(rows_done as u64);
                 }
             }
+            ProgressEvent::Resend { region } => {
+                if let Some(b) = &self.bar {
+                    b.set_message(format!("(re-requesting rows {}..{})", region.y0, region.y0 + region.rows));
+                }
+            }
+            ProgressEvent::DeviceReset => {
+                if let Some(b) = &self.bar {
+                    b.set_message("(device reset: uploading the scene again)");
+                }
+            }
+            ProgressEvent::RowVerified { .. } => {}
             ProgressEvent::UploadFinished { .. } | ProgressEvent::Finished => self.finish(),
         }
     }

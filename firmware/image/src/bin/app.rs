@@ -1,14 +1,22 @@
-//! The application image: banner, counter readings, then a byte echo over the console.
+//! The application image: the firmware device loop of `gridrt-firmware` on the board's UART.
 //!
-//! Phase 1 of "Real soft-core firmware": the device loop of `gridrt-firmware` (frames in,
-//! pixels out over the FSL link) replaces the echo once it is wired in.
+//! Banner (text, then a `0x00` frame delimiter so a host's frame decoder drops it as noise),
+//! then [`serve`]: UART bytes in → `Device::feed` → frames out. The co-processor is
+//! - qemu-virt: the co-processor model linked in as a virtual co-processor, its PE memories
+//!   a static array in .bss (`board::PE_COUNT` × `board::PE_MEM_WORDS`), with the model's own
+//!   work excluded from the per-stage counters (`link::TimedLink`);
+//! - fpga-soc: the real one behind the AXI4-Stream FIFO.
+//!
+//! Stage counters come from `mcycle`/`minstret` (exact under QEMU's `-icount shift=0`).
 #![no_std]
 #![no_main]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use core::fmt::Write as _;
 use gridrt_firmware::bsp::{ByteUart, CycleCounter, UartWriter};
+use gridrt_firmware_image::serve::{self, serve};
 use gridrt_firmware_image::{board, counters::CsrCounters, VERSION};
+use gridrt_shared::msg::DeviceInfo;
 
 #[riscv_rt::entry]
 fn main() -> ! {
@@ -20,8 +28,10 @@ fn main() -> ! {
     // Console output is best effort: a UART transmit cannot fail on these boards.
     let _ = writeln!(
         UartWriter(&mut console),
-        "gridrt firmware {VERSION} on {}\r",
-        board::NAME
+        "gridrt firmware {VERSION} on {} ({} layout, shadows {})\r",
+        board::NAME,
+        env!("GRIDRT_APP_LAYOUT"),
+        if cfg!(feature = "shadows") { "on" } else { "off" },
     );
     let (cycles1, instret1) = (counters.cycles(), counters.instret());
     let _ = writeln!(
@@ -33,10 +43,7 @@ fn main() -> ! {
 
     #[cfg(feature = "trap-test")]
     {
-        let _ = writeln!(
-            UartWriter(&mut console),
-            "trap-test: executing an illegal instruction\r"
-        );
+        let _ = writeln!(UartWriter(&mut console), "trap-test: executing an illegal instruction\r");
         // SAFETY: deliberately traps; the exception handler reports and halts.
         // 0xc0001073 is `csrrw x0, cycle, x0` (a write to a read-only CSR), the 32-bit
         // canonical illegal instruction; mtval then shows its bits.
@@ -47,16 +54,84 @@ fn main() -> ! {
         panic!("panic-test feature");
     }
 
-    let _ = writeln!(UartWriter(&mut console), "echo: ready\r");
-    loop {
-        match console.read_byte() {
-            Ok(byte) => {
-                let _ = console.write_all(&[byte]);
-            }
-            Err(nb::Error::WouldBlock) => {}
-            Err(nb::Error::Other(e)) => {
-                let _ = writeln!(UartWriter(&mut console), "\r\necho: receive error: {e}\r");
-            }
+    let info = DeviceInfo {
+        protocol: 0, // filled in by Device::new, like max_payload, voxel_capacity, features
+        firmware: serve::firmware_version(),
+        board: board::BOARD_ID,
+        max_payload: 0,
+        pe_count: board::PE_COUNT,
+        voxel_capacity: 0,
+        pe_mem_words: board::PE_MEM_WORDS,
+        features: 0,
+    };
+    let _ = write!(
+        UartWriter(&mut console),
+        "device: {} PEs x {} words, up to {} voxels; speak SPEC.md frames now\r\n",
+        board::PE_COUNT,
+        board::PE_MEM_WORDS,
+        board::MAX_VOXELS,
+    );
+    run(&mut console, info)
+}
+
+#[cfg(feature = "board-qemu-virt")]
+fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
+    use gridrt_coproc::{CoprocConfig, Coprocessor, KernelKind, TimingProfile, LIST_CAPACITY};
+    use gridrt_firmware::device::Device;
+    use gridrt_firmware::fsl::VirtualCoproc;
+    use gridrt_firmware_image::link::{Excluded, ModelFreeClock, TimedLink};
+
+    const WORDS: usize = board::PE_COUNT as usize * board::PE_MEM_WORDS as usize;
+    /// The PE memories of the virtual co-processor (zeroed .bss).
+    static mut PE_MEMORY: [u32; WORDS] = [0; WORDS];
+
+    // The same model configuration as the loopback simulator's default (`render --sim`),
+    // so both render the same image.
+    let config = CoprocConfig {
+        pe_count: board::PE_COUNT,
+        pe_mem_words: board::PE_MEM_WORDS,
+        max_list: LIST_CAPACITY as u16,
+        timing: TimingProfile::GRIDRT,
+        kernel: KernelKind::default(),
+    };
+    // SAFETY: `run` is called once and never returns: this is the only reference ever made.
+    let backing: &'static mut [u32] = unsafe { &mut *core::ptr::addr_of_mut!(PE_MEMORY) };
+    let model = match Coprocessor::new(config, backing) {
+        Ok(m) => m,
+        Err(e) => {
+            let _ = writeln!(UartWriter(console), "\r\nFATAL: co-processor model configuration refused: {e}; halted\r");
+            let _ = nb::block!(console.flush());
+            board::exit_failure(3);
+            gridrt_firmware_image::halt()
         }
-    }
+    };
+    let _ = writeln!(
+        UartWriter(console),
+        "timed link: {} instructions per FSL word stay in fsl_io (a hardware put/get is 1)\r",
+        gridrt_firmware_image::link::wrapper_overhead(CsrCounters),
+    );
+    // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
+    let _ = console.write_all(&[0]);
+    let excluded = Excluded::new();
+    let link = TimedLink::new(VirtualCoproc { model }, CsrCounters, &excluded);
+    let clock = ModelFreeClock::new(CsrCounters, &excluded);
+    // On the stack, which is most of RAM here (memory.x).
+    let mut device: Device<_, _, { board::MAX_VOXELS }> = Device::new(link, clock, info);
+    serve(&mut device, console)
+}
+
+#[cfg(feature = "board-fpga-soc")]
+fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
+    use gridrt_firmware::bsp::axis_fifo::AxisFifo;
+    use gridrt_firmware::bsp::VolatileMmio;
+    use gridrt_firmware::device::{CounterClock, Device};
+    use gridrt_firmware_image::link::AxisLink;
+
+    // SAFETY: STREAM_FIFO_BASE is the AXI4-Stream FIFO of this block design; owned here only.
+    let mut fifo = AxisFifo::new(unsafe { VolatileMmio::new(board::STREAM_FIFO_BASE) });
+    fifo.init();
+    // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
+    let _ = console.write_all(&[0]);
+    let mut device: Device<_, _, { board::MAX_VOXELS }> = Device::new(AxisLink(fifo), CounterClock(CsrCounters), info);
+    serve(&mut device, console)
 }

@@ -57,10 +57,7 @@ impl core::fmt::Display for AxisFifoError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::TxPacketTooLong { capacity_words } => {
-                write!(
-                    f,
-                    "stream packet longer than the TX FIFO ({capacity_words} words)"
-                )
+                write!(f, "stream packet longer than the TX FIFO ({capacity_words} words)")
             }
             Self::RxEmptyPacket => f.write_str("stream packet of length 0 received"),
             Self::RxCutThrough => f.write_str("stream FIFO in cut-through receive mode"),
@@ -87,14 +84,7 @@ pub struct AxisFifo<M: Mmio> {
 impl<M: Mmio> AxisFifo<M> {
     /// Wraps the register block; call [`AxisFifo::init`] before use.
     pub const fn new(mmio: M) -> Self {
-        Self {
-            mmio,
-            tx_pending: 0,
-            tx_vacancy: 0,
-            tx_capacity: 0,
-            rx_remaining: 0,
-            rx_occupancy: 0,
-        }
+        Self { mmio, tx_pending: 0, tx_vacancy: 0, tx_capacity: 0, rx_remaining: 0, rx_occupancy: 0 }
     }
 
     /// Empties both FIFOs (dropping any half-sent or half-read packet), turns interrupts
@@ -145,9 +135,7 @@ impl<M: Mmio> AxisFifo<M> {
             if self.tx_vacancy == 0 {
                 // Our own open packet filling the FIFO can never drain: fail, don't spin.
                 if self.tx_capacity != 0 && self.tx_pending >= self.tx_capacity {
-                    return Err(nb::Error::Other(AxisFifoError::TxPacketTooLong {
-                        capacity_words: self.tx_capacity,
-                    }));
+                    return Err(nb::Error::Other(AxisFifoError::TxPacketTooLong { capacity_words: self.tx_capacity }));
                 }
                 return Err(nb::Error::WouldBlock);
             }
@@ -218,20 +206,9 @@ mod tests {
     fn init_resets_fifos_clears_isr_and_measures_depth() {
         let mock = MockMmio::new();
         let fifo = fifo_with_depth(&mock, 512);
-        assert_eq!(
-            mock.writes(),
-            vec![
-                (IER, 0),
-                (TDFR, RESET_KEY),
-                (RDFR, RESET_KEY),
-                (ISR, ISR_CLEAR_ALL)
-            ]
-        );
+        assert_eq!(mock.writes(), vec![(IER, 0), (TDFR, RESET_KEY), (RDFR, RESET_KEY), (ISR, ISR_CLEAR_ALL)]);
         assert_eq!(fifo.tx_capacity_words(), 512);
-        assert!(
-            mock.writes_at(SRR).is_empty(),
-            "init must not reset the co-processor"
-        );
+        assert!(mock.writes_at(SRR).is_empty(), "init must not reset the co-processor");
     }
 
     #[test]
@@ -242,10 +219,7 @@ mod tests {
         for (i, w) in [10, 20, 30].into_iter().enumerate() {
             assert_eq!(fifo.nput_word(w, i == 2), Ok(()));
         }
-        assert_eq!(
-            mock.writes()[before..],
-            [(TDFD, 10), (TDFD, 20), (TDFD, 30), (TLR, 12)]
-        );
+        assert_eq!(mock.writes()[before..], [(TDFD, 10), (TDFD, 20), (TDFD, 30), (TLR, 12)]);
         // Vacancy was cached from init: no TDFV re-read per word.
         assert_eq!(mock.reads_at(TDFV), 1);
     }
@@ -261,11 +235,7 @@ mod tests {
         assert_eq!(fifo.nput_word(2, true), Ok(()));
         assert_eq!(mock.writes_at(TDFD), vec![1, 2]);
         assert_eq!(mock.writes_at(TLR), vec![4, 4]);
-        assert_eq!(
-            fifo.tx_capacity_words(),
-            4,
-            "vacancy with no open packet refines the depth"
-        );
+        assert_eq!(fifo.tx_capacity_words(), 4, "vacancy with no open packet refines the depth");
     }
 
     #[test]
@@ -276,9 +246,7 @@ mod tests {
         assert_eq!(fifo.nput_word(2, false), Ok(()));
         assert_eq!(
             fifo.nput_word(3, false),
-            Err(nb::Error::Other(AxisFifoError::TxPacketTooLong {
-                capacity_words: 2
-            }))
+            Err(nb::Error::Other(AxisFifoError::TxPacketTooLong { capacity_words: 2 }))
         );
         assert!(mock.writes_at(TLR).is_empty());
     }
@@ -288,10 +256,7 @@ mod tests {
         let mock = MockMmio::new();
         let mut fifo = fifo_with_depth(&mock, 8);
         mock.queue(ISR, &[ISR_TSE | ISR_TC]);
-        assert_eq!(
-            fifo.nput_word(5, true),
-            Err(nb::Error::Other(AxisFifoError::Core { isr: ISR_TSE }))
-        );
+        assert_eq!(fifo.nput_word(5, true), Err(nb::Error::Other(AxisFifoError::Core { isr: ISR_TSE })));
         assert_eq!(mock.writes().last(), Some(&(ISR, ISR_TSE)));
     }
 
@@ -300,11 +265,7 @@ mod tests {
         let mock = MockMmio::new();
         let mut fifo = fifo_with_depth(&mock, 8);
         assert_eq!(fifo.nget_word(), Err(nb::Error::WouldBlock));
-        assert_eq!(
-            mock.reads_at(RLR),
-            0,
-            "RLR must not be read with an empty FIFO"
-        );
+        assert_eq!(mock.reads_at(RLR), 0, "RLR must not be read with an empty FIFO");
         mock.queue(RDFO, &[3]);
         mock.queue(RLR, &[12]);
         mock.queue(RDFD, &[0xA, 0xB, 0xC]);
@@ -314,11 +275,7 @@ mod tests {
         assert_eq!(fifo.nget_word(), Ok((0xC, true)));
         assert!(!fifo.rx_in_packet());
         assert_eq!(mock.reads_at(RLR), 1);
-        assert_eq!(
-            mock.reads_at(RDFO),
-            2,
-            "occupancy is cached within the packet"
-        );
+        assert_eq!(mock.reads_at(RDFO), 2, "occupancy is cached within the packet");
     }
 
     #[test]
@@ -331,11 +288,7 @@ mod tests {
         assert_eq!(fifo.nget_word(), Ok((1, false)));
         assert_eq!(fifo.nget_word(), Err(nb::Error::WouldBlock));
         assert_eq!(fifo.nget_word(), Ok((2, true)));
-        assert_eq!(
-            mock.reads_at(RDFD),
-            2,
-            "RDFD is never read while empty (RPUE)"
-        );
+        assert_eq!(mock.reads_at(RDFD), 2, "RDFD is never read while empty (RPUE)");
     }
 
     #[test]
@@ -344,14 +297,8 @@ mod tests {
         let mut fifo = fifo_with_depth(&mock, 8);
         mock.set(RDFO, 1);
         mock.queue(RLR, &[0, RLR_PARTIAL | 4]);
-        assert_eq!(
-            fifo.nget_word(),
-            Err(nb::Error::Other(AxisFifoError::RxEmptyPacket))
-        );
-        assert_eq!(
-            fifo.nget_word(),
-            Err(nb::Error::Other(AxisFifoError::RxCutThrough))
-        );
+        assert_eq!(fifo.nget_word(), Err(nb::Error::Other(AxisFifoError::RxEmptyPacket)));
+        assert_eq!(fifo.nget_word(), Err(nb::Error::Other(AxisFifoError::RxCutThrough)));
         assert_eq!(mock.reads_at(RDFD), 0);
     }
 
@@ -363,10 +310,7 @@ mod tests {
         mock.queue(ISR, &[ISR_RPUE | ISR_RC]);
         mock.set(RLR, 4);
         mock.set(RDFD, 9);
-        assert_eq!(
-            fifo.nget_word(),
-            Err(nb::Error::Other(AxisFifoError::Core { isr: ISR_RPUE }))
-        );
+        assert_eq!(fifo.nget_word(), Err(nb::Error::Other(AxisFifoError::Core { isr: ISR_RPUE })));
         assert_eq!(fifo.nget_word(), Ok((9, true)));
     }
 

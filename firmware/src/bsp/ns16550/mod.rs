@@ -59,7 +59,8 @@ impl<M: Mmio> Ns16550<M> {
         self.mmio.write8(reg << self.reg_shift, value)
     }
 
-    /// Puts the UART in polled 8N1 mode with FIFOs on and cleared.
+    /// Puts the UART in polled 8N1 mode with FIFOs on and cleared (receive trigger level 14,
+    /// see [`regs::FCR_RX_TRIGGER_14`]).
     ///
     /// `divisor` is `input clock / (16 × baud)`; `None` keeps the current one (what the
     /// boot ROM or QEMU set, which ignores it anyway).
@@ -73,10 +74,7 @@ impl<M: Mmio> Ns16550<M> {
         }
         // Writing LCR also clears DLAB, which RBR/THR access needs.
         self.write(regs::LCR, regs::LCR_8N1);
-        self.write(
-            regs::FCR,
-            regs::FCR_ENABLE | regs::FCR_CLEAR_RX | regs::FCR_CLEAR_TX,
-        );
+        self.write(regs::FCR, regs::FCR_ENABLE | regs::FCR_CLEAR_RX | regs::FCR_CLEAR_TX | regs::FCR_RX_TRIGGER_14);
     }
 
     /// Gives back the register block.
@@ -148,7 +146,7 @@ mod tests {
                 (DLL, 0x02),
                 (DLM, 0x01),
                 (LCR, u32::from(LCR_8N1)),
-                (FCR, u32::from(FCR_ENABLE | FCR_CLEAR_RX | FCR_CLEAR_TX)),
+                (FCR, u32::from(FCR_ENABLE | FCR_CLEAR_RX | FCR_CLEAR_TX | FCR_RX_TRIGGER_14)),
             ]
         );
     }
@@ -157,10 +155,7 @@ mod tests {
     fn init_without_divisor_leaves_dlab_alone() {
         let mock = MockMmio::new();
         Ns16550::new(&mock).init(None);
-        assert!(!mock
-            .writes()
-            .iter()
-            .any(|&(o, v)| o == LCR && v & u32::from(LCR_DLAB) != 0));
+        assert!(!mock.writes().iter().any(|&(o, v)| o == LCR && v & u32::from(LCR_DLAB) != 0));
     }
 
     #[test]
@@ -200,11 +195,7 @@ mod tests {
         let mock = MockMmio::new();
         let mut uart = Ns16550::new(&mock);
         assert_eq!(uart.read_byte(), Err(nb::Error::WouldBlock));
-        assert_eq!(
-            mock.reads_at(RBR),
-            0,
-            "RBR must not be popped when DR is clear"
-        );
+        assert_eq!(mock.reads_at(RBR), 0, "RBR must not be popped when DR is clear");
         mock.queue(LSR, &[u32::from(LSR_DR)]);
         mock.queue(RBR, &[0x5A]);
         assert_eq!(uart.read_byte(), Ok(0x5A));
@@ -220,16 +211,8 @@ mod tests {
         assert_eq!(
             mock.log(),
             vec![
-                Access::Read {
-                    off: LSR,
-                    width: Width::W8,
-                    value: u32::from(LSR_DR)
-                },
-                Access::Read {
-                    off: RBR,
-                    width: Width::W8,
-                    value: u32::from(b'r')
-                },
+                Access::Read { off: LSR, width: Width::W8, value: u32::from(LSR_DR) },
+                Access::Read { off: RBR, width: Width::W8, value: u32::from(b'r') },
             ]
         );
     }
@@ -240,10 +223,7 @@ mod tests {
         mock.queue(LSR, &[u32::from(LSR_OE | LSR_DR), u32::from(LSR_DR)]);
         mock.queue(RBR, &[7]);
         let mut uart = Ns16550::new(&mock);
-        assert_eq!(
-            uart.read_byte(),
-            Err(nb::Error::Other(Ns16550Error::RxOverrun))
-        );
+        assert_eq!(uart.read_byte(), Err(nb::Error::Other(Ns16550Error::RxOverrun)));
         assert_eq!(uart.read_byte(), Ok(7));
     }
 
@@ -253,10 +233,7 @@ mod tests {
         mock.queue(LSR, &[u32::from(LSR_FE | LSR_DR), u32::from(LSR_DR)]);
         mock.queue(RBR, &[0xFF, b'k'.into()]);
         let mut uart = Ns16550::new(&mock);
-        assert_eq!(
-            uart.read_byte(),
-            Err(nb::Error::Other(Ns16550Error::RxFraming))
-        );
+        assert_eq!(uart.read_byte(), Err(nb::Error::Other(Ns16550Error::RxFraming)));
         assert_eq!(uart.read_byte(), Ok(b'k'));
     }
 

@@ -43,8 +43,7 @@ impl<M: Mmio> UartLite<M> {
 
     /// Empties both FIFOs and disables the interrupt output.
     pub fn init(&mut self) {
-        self.mmio
-            .write32(regs::CTRL, regs::CTRL_RST_TX | regs::CTRL_RST_RX);
+        self.mmio.write32(regs::CTRL, regs::CTRL_RST_TX | regs::CTRL_RST_RX);
         // Clear stale error bits (a STAT read clears them).
         let _ = self.mmio.read32(regs::STAT);
     }
@@ -144,29 +143,13 @@ mod tests {
     #[test]
     fn read_byte_reports_errors_once_then_continues() {
         let mock = MockMmio::new();
-        mock.queue(
-            STAT,
-            &[
-                STAT_RX_VALID | STAT_OVERRUN,
-                STAT_FRAME,
-                STAT_PARITY | STAT_RX_FULL,
-            ],
-        );
+        mock.queue(STAT, &[STAT_RX_VALID | STAT_OVERRUN, STAT_FRAME, STAT_PARITY | STAT_RX_FULL]);
         mock.set(STAT, STAT_RX_VALID);
         mock.set(RX_FIFO, u32::from(b'q'));
         let mut uart = UartLite::new(&mock);
-        assert_eq!(
-            uart.read_byte(),
-            Err(nb::Error::Other(UartLiteError::RxOverrun))
-        );
-        assert_eq!(
-            uart.read_byte(),
-            Err(nb::Error::Other(UartLiteError::RxFraming))
-        );
-        assert_eq!(
-            uart.read_byte(),
-            Err(nb::Error::Other(UartLiteError::RxParity))
-        );
+        assert_eq!(uart.read_byte(), Err(nb::Error::Other(UartLiteError::RxOverrun)));
+        assert_eq!(uart.read_byte(), Err(nb::Error::Other(UartLiteError::RxFraming)));
+        assert_eq!(uart.read_byte(), Err(nb::Error::Other(UartLiteError::RxParity)));
         assert_eq!(uart.read_byte(), Ok(b'q'));
     }
 

@@ -1,0 +1,358 @@
+//! The per-pixel pipeline of a frame: the v1 path (ambient + Lambert + shadow, CONTRACTS.md),
+//! the v2 path (ViRAY shading, reflections, textures; `crate::viray`) and row interpolation
+//! (`crate::interp`), following the pipeline plan of the request (SPEC.md §3.13).
+//!
+//! The plan decides what runs: no shadow rays without a light (or with `SHADOWS` clear), no
+//! reflection rays without `REFLECTIONS` (the host clears it when no material reflects), no
+//! texture stage without `TEXTURES`, no specular term without `SPECULAR`. Shadow rays are
+//! any-hit queries; a ray whose list is empty (it misses the grid box or meets only empty
+//! voxels) costs no FSL words. A plan bit whose stage is compiled out (cargo features
+//! `reflections`, `textures`, `specular`) is refused with `Error{BadRequest}`.
+
+use super::*;
+use crate::interp::{self, Counts, Sample, StepControl};
+use crate::viray;
+use gridrt_shared::scene_v2::ReflectMode;
+#[cfg(feature = "textures")]
+use gridrt_shared::scene_v2::{affine_point, TextureKind};
+
+/// Widest row the interpolation buffer holds.
+pub const MAX_INTERP_WIDTH: usize = 2048;
+
+/// Offset of `RenderRequest.flags` (the `Error{BadRequest}` detail of a refused plan).
+const FLAGS_FIELD: u32 = 6;
+
+/// Which counter an FSL exchange is charged to.
+#[derive(Clone, Copy)]
+enum RayClass {
+    Primary,
+    Shadow,
+    Reflection,
+}
+
+/// Per-frame constants of the pixel pipeline.
+pub(super) struct FrameCtx {
+    cam: Camera,
+    light: Light,
+    shadows: bool,
+    reflections: bool,
+    textures: bool,
+    specular: bool,
+    diag: f32,
+    v2: bool,
+}
+
+/// The plan bits this build honours.
+const fn compiled_plan() -> u16 {
+    let r = if cfg!(feature = "reflections") { render_flags::REFLECTIONS } else { 0 };
+    let t = if cfg!(feature = "textures") { render_flags::TEXTURES } else { 0 };
+    let s = if cfg!(feature = "specular") { render_flags::SPECULAR } else { 0 };
+    r | t | s
+}
+
+/// Feature bits of the stages in this module.
+pub const fn pipeline_features() -> u32 {
+    let r = if cfg!(feature = "reflections") { feature::REFLECTIONS } else { 0 };
+    let t = if cfg!(feature = "textures") { feature::TEXTURES } else { 0 };
+    let s = if cfg!(feature = "specular") { feature::SPECULAR } else { 0 };
+    r | t | s | feature::INTERP | feature::SCENE_V2
+}
+
+/// Traces one ray and charges its FSL words to `class`.
+#[allow(clippy::too_many_arguments)]
+fn trace_as<L: FslLink, C: StageClock, const N: usize>(
+    path: &mut RayPath<L>,
+    scene: &SceneStore<N>,
+    clock: &C,
+    sw: &mut Stopwatch,
+    ray: &Ray,
+    kind: RayKind,
+    t_max: f32,
+    class: RayClass,
+) -> Result<Option<RayResult>, Fail> {
+    let before = path.stats.fsl_words_out + path.stats.fsl_words_in;
+    let r = path.trace(scene, ray, kind, t_max, clock, sw);
+    let words = path.stats.fsl_words_out + path.stats.fsl_words_in - before;
+    match class {
+        RayClass::Primary => path.stats.fsl_words_primary += words,
+        RayClass::Shadow => path.stats.fsl_words_shadow += words,
+        RayClass::Reflection => path.stats.fsl_words_reflection += words,
+    }
+    r
+}
+
+/// One pixel of a v1 scene: exactly the CONTRACTS.md shading (byte-identical to the f64
+/// reference on the regression scenes).
+fn pixel_v1<L: FslLink, C: StageClock, const N: usize>(
+    path: &mut RayPath<L>,
+    scene: &SceneStore<N>,
+    clock: &C,
+    sw: &mut Stopwatch,
+    ctx: &FrameCtx,
+    x: u16,
+    y: u16,
+) -> Result<Sample, Fail> {
+    let light = &ctx.light;
+    let ray = ctx.cam.primary_ray(x as u32, y as u32);
+    path.stats.primary_rays += 1;
+    sw.lap(clock, &mut path.stats, Stage::RayGen);
+    let hit = trace_as(path, scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, RayClass::Primary)?;
+    let (colour, prim, t) = match hit {
+        Some(r) if r.hit => {
+            let albedo = scene.materials.get(r.material as usize).map_or(DEFAULT_ALBEDO, |m| m.diffuse);
+            let p = shade::hit_point(&ray, r.t);
+            let colour = match shade::facing_normal(r.normal, ray.dir) {
+                // Degenerate normal: no direction to light it from; ambient only.
+                None => shade::lambert(albedo, light, 0.0, false),
+                Some(n) => {
+                    let ndotl = shade::n_dot_l(p, n, light.pos);
+                    let visible = if ctx.shadows && ndotl > 0.0 {
+                        path.stats.shadow_rays += 1;
+                        let sr = shade::shadow_ray(p, n, light.pos, ctx.diag);
+                        sw.lap(clock, &mut path.stats, Stage::Shade);
+                        let blocker = trace_as(path, scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
+                        !blocker.is_some_and(|b| b.hit)
+                    } else {
+                        true
+                    };
+                    shade::lambert(albedo, light, ndotl, visible)
+                }
+            };
+            (colour, r.prim, r.t)
+        }
+        _ => (BACKGROUND, interp::MISS, f32::INFINITY),
+    };
+    let rgb = shade::to_rgb8(colour);
+    sw.lap(clock, &mut path.stats, Stage::Shade);
+    Ok(Sample { rgb, prim, t })
+}
+
+/// The texture-space point of a hit on primitive `prim` (the object table maps prim ids to
+/// objects), or `None` when no object holds it.
+#[cfg(feature = "textures")]
+fn object_point<const N: usize>(scene: &SceneStore<N>, prim: u32, p: Vec3) -> Option<[f32; 3]> {
+    let o = scene.objects.iter().find(|o| prim >= o.first_prim && prim - o.first_prim < o.prim_count)?;
+    Some(affine_point(&o.world_to_object, p.to_array()))
+}
+
+/// One pixel of a v2 scene: the ViRAY path (module doc).
+fn pixel_v2<L: FslLink, C: StageClock, const N: usize>(
+    path: &mut RayPath<L>,
+    scene: &SceneStore<N>,
+    clock: &C,
+    sw: &mut Stopwatch,
+    ctx: &FrameCtx,
+    x: u16,
+    y: u16,
+) -> Result<Sample, Fail> {
+    let lighting = &scene.lighting;
+    let mut ray = ctx.cam.primary_ray(x as u32, y as u32);
+    path.stats.primary_rays += 1;
+    sw.lap(clock, &mut path.stats, Stage::RayGen);
+    let la = lighting.ambient_colour.map(|c| c * ctx.light.ambient);
+    let dl = viray::DirectLight {
+        pos: ctx.light.pos,
+        radiance: lighting.light_colour.map(|c| c * ctx.light.intensity),
+        specular: ctx.specular,
+    };
+    let lit = lighting.light_count > 0 && dl.radiance.iter().any(|&c| c != 0.0);
+    let depth = if ctx.reflections { lighting.max_depth.max(1) } else { 1 };
+    let mut acc = [0f32; 3];
+    let mut throughput = 1f32;
+    let (mut first_prim, mut first_t) = (interp::MISS, f32::INFINITY);
+    for bounce in 0..depth {
+        let class = if bounce == 0 { RayClass::Primary } else { RayClass::Reflection };
+        let hit = trace_as(path, scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, class)?;
+        let r = match hit {
+            Some(r) if r.hit => r,
+            _ => {
+                for (a, b) in acc.iter_mut().zip(lighting.background) {
+                    *a += throughput * b;
+                }
+                break;
+            }
+        };
+        if bounce == 0 {
+            first_prim = r.prim;
+            first_t = r.t;
+        }
+        let p = shade::hit_point(&ray, r.t);
+        let m = scene.materials.get(r.material as usize).copied().unwrap_or(Material { diffuse: DEFAULT_ALBEDO, reflect: 0.0 });
+        let ext = scene.material_ext.get(r.material as usize).copied().unwrap_or_default();
+        #[allow(unused_mut)]
+        let mut cd = m.diffuse;
+        #[cfg(feature = "textures")]
+        if ctx.textures && ext.texture != TextureKind::None {
+            if let Some(po) = object_point(scene, r.prim, p) {
+                cd = crate::texture::sample(&ext, cd, po);
+            }
+        }
+        let mut l_o = [0, 1, 2].map(|k| ext.ka * cd[k] * la[k]);
+        let Some(n) = shade::facing_normal(r.normal, ray.dir) else {
+            for (a, b) in acc.iter_mut().zip(l_o) {
+                *a += throughput * b;
+            }
+            break;
+        };
+        let v = (-ray.dir).try_normalize().unwrap_or(n);
+        if lit {
+            let e = viray::irradiance(lighting, n, p, dl.pos);
+            let spot = if e > 0.0 { viray::spot_factor(lighting, dl.pos, p) } else { 0.0 };
+            if e > 0.0 && spot > 0.0 {
+                let visible = if ctx.shadows {
+                    path.stats.shadow_rays += 1;
+                    let sr = shade::shadow_ray(p, n, dl.pos, ctx.diag);
+                    sw.lap(clock, &mut path.stats, Stage::Shade);
+                    let blocker = trace_as(path, scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
+                    !blocker.is_some_and(|b| b.hit)
+                } else {
+                    true
+                };
+                if visible {
+                    let d = viray::direct(&ext, cd, n, v, p, &dl, e * spot);
+                    for (a, b) in l_o.iter_mut().zip(d) {
+                        *a += b;
+                    }
+                }
+            }
+        }
+        for (a, b) in acc.iter_mut().zip(l_o) {
+            *a += throughput * b;
+        }
+        sw.lap(clock, &mut path.stats, Stage::Shade);
+        if bounce + 1 == depth || ext.reflect_mode == ReflectMode::None {
+            break;
+        }
+        let refl = viray::reflectance(&ext, m.reflect, n.dot(v));
+        if refl.is_nan() || refl <= 0.0 {
+            break;
+        }
+        throughput *= refl;
+        path.stats.reflection_rays += 1;
+        let origin = p + n * shade::shadow_epsilon(ctx.diag, p);
+        ray = Ray { origin, dir: ray.dir - n * (2.0 * ray.dir.dot(n)) };
+    }
+    let rgb = shade::to_rgb8(acc);
+    sw.lap(clock, &mut path.stats, Stage::Shade);
+    Ok(Sample { rgb, prim: first_prim, t: first_t })
+}
+
+impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
+    /// The frame context and the plan the device follows, or the refusal of a plan bit whose
+    /// stage this build does not have.
+    fn frame_ctx(&self, req: &RenderRequest, cam: &Camera, light: &Light) -> Result<FrameCtx, Fail> {
+        let missing = req.flags & (render_flags::REFLECTIONS | render_flags::TEXTURES | render_flags::SPECULAR) & !compiled_plan();
+        if missing & render_flags::TEXTURES != 0 {
+            return Err(Fail::Plain(
+                ErrorCode::BadRequest,
+                FLAGS_FIELD,
+                "the scene needs textures but this firmware was built without the texture stage (feature `textures`)",
+            ));
+        }
+        if missing & render_flags::REFLECTIONS != 0 {
+            return Err(Fail::Plain(
+                ErrorCode::BadRequest,
+                FLAGS_FIELD,
+                "the scene needs reflections but this firmware was built without the reflection stage (feature `reflections`)",
+            ));
+        }
+        if missing & render_flags::SPECULAR != 0 {
+            return Err(Fail::Plain(
+                ErrorCode::BadRequest,
+                FLAGS_FIELD,
+                "the scene needs specular highlights but this firmware was built without the specular stage (feature `specular`)",
+            ));
+        }
+        let v2 = self.scene.v2;
+        let shadows = cfg!(feature = "shadows") && req.flags & render_flags::SHADOWS != 0 && (!v2 || self.scene.lighting.light_count > 0);
+        Ok(FrameCtx {
+            cam: *cam,
+            light: *light,
+            shadows,
+            reflections: v2 && req.flags & render_flags::REFLECTIONS != 0 && self.scene.lighting.max_depth > 1,
+            textures: v2 && req.flags & render_flags::TEXTURES != 0,
+            specular: v2 && req.flags & render_flags::SPECULAR != 0,
+            diag: self.scene.grid.aabb().diagonal().length(),
+            v2,
+        })
+    }
+
+    /// Row-major render loop of `region`; returns early (frame aborted) on any co-processor
+    /// failure.
+    pub(super) fn render_pipeline(
+        &mut self,
+        req: &RenderRequest,
+        region: Region,
+        cam: &Camera,
+        light: &Light,
+        out: &mut impl ByteSink,
+    ) -> Result<(), Fail> {
+        let ctx = self.frame_ctx(req, cam, light)?;
+        let step = render_flags::interp_step(req.flags);
+        let params = interp::Params { step, eps: render_flags::interp_eps(req.flags), adaptive: req.flags & render_flags::INTERP_ADAPTIVE != 0 };
+        let interpolate = step > 0;
+        if interpolate && region.cols as usize > MAX_INTERP_WIDTH {
+            return Err(Fail::Plain(ErrorCode::BadRequest, FLAGS_FIELD, "row interpolation supports rows of at most 2048 pixels"));
+        }
+        let mut plan = 0u16;
+        for (on, bit) in [
+            (ctx.shadows, render_flags::SHADOWS),
+            (ctx.reflections, render_flags::REFLECTIONS),
+            (ctx.textures, render_flags::TEXTURES),
+            (ctx.specular, render_flags::SPECULAR),
+        ] {
+            if on {
+                plan |= bit;
+            }
+        }
+        if interpolate {
+            plan |= req.flags & (render_flags::INTERP_STEP_MASK | render_flags::INTERP_EPS_MASK | render_flags::INTERP_ADAPTIVE);
+        }
+        self.path.stats.plan = plan as u64;
+        let mut sw = Stopwatch { last: self.clock.now() };
+        let enc_err = |_| Fail::Plain(ErrorCode::BadRequest, 0, "frame encoder failure");
+        let (x1, y1) = (region.x0.saturating_add(region.cols), region.y0.saturating_add(region.rows));
+        let mut counts = Counts::default();
+        let mut ctl = StepControl::new(&params);
+        for y in region.y0..y1 {
+            if interpolate {
+                let w = region.cols as usize;
+                let before = counts;
+                let (path, scene, clock) = (&mut self.path, &self.scene, &self.clock);
+                let row = self.row.get_mut(..w).unwrap_or(&mut []);
+                interp::fill_row(row, ctl.step, params.eps, &mut counts, |xi| {
+                    let x = region.x0 + xi as u16;
+                    if ctx.v2 {
+                        pixel_v2(path, scene, clock, &mut sw, &ctx, x, y)
+                    } else {
+                        pixel_v1(path, scene, clock, &mut sw, &ctx, x, y)
+                    }
+                })?;
+                ctl.after_row(&before, &counts);
+                for xi in 0..w {
+                    let s = self.row.get(xi).copied().unwrap_or_default();
+                    self.spans.push(region.x0 + xi as u16, y, s.rgb, s.prim, &mut self.tx, out).map_err(enc_err)?;
+                    self.path.stats.pixels += 1;
+                }
+                sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
+            } else {
+                for x in region.x0..x1 {
+                    let s = if ctx.v2 {
+                        pixel_v2(&mut self.path, &self.scene, &self.clock, &mut sw, &ctx, x, y)?
+                    } else {
+                        pixel_v1(&mut self.path, &self.scene, &self.clock, &mut sw, &ctx, x, y)?
+                    };
+                    self.spans.push(x, y, s.rgb, s.prim, &mut self.tx, out).map_err(enc_err)?;
+                    self.path.stats.pixels += 1;
+                    sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
+                }
+            }
+            // Flush per row so the host sees progress while the next row renders.
+            self.spans.flush(&mut self.tx, out).map_err(enc_err)?;
+            sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
+        }
+        self.path.stats.interpolated_pixels = counts.interpolated;
+        self.path.stats.interp_retraces = counts.retraces;
+        Ok(())
+    }
+}

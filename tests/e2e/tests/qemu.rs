@@ -1,0 +1,336 @@
+//! End to end on QEMU (issue 3): the soft-core firmware image runs on `qemu-system-riscv32`
+//! (`virt`, `-icount shift=0`) and the host reaches it only through the UART's pty, with the
+//! `gridrt` CLI, as a user would.
+//!
+//! - `qemu_render_matches_loopback`: `cargo xtask firmware` builds the app (the co-processor
+//!   model linked in as a virtual co-processor), `cargo xtask qemu` boots it, and
+//!   `gridrt render --port <pty>` of `bun_zipper_res4.obj` must equal `gridrt render --sim`
+//!   of the same scene and configuration. The requirement is PSNR ≥ 50 dB; we get (and
+//!   assert) byte-identical images: both sides run the same firmware and co-processor code
+//!   in IEEE-754 binary32, which Rust never contracts into FMAs, so soft-float (riscv32imac)
+//!   and the host's SSE produce the same bits. The device's per-stage instruction counts
+//!   must be in the stats JSON.
+//! - `qemu_flash_through_bootloader`: QEMU boots the bootloader; an image corrupted on the way
+//!   (CRC of the original announced) and an image linked outside the application region are
+//!   refused with their reasons while the bootloader stays alive; then `gridrt flash` writes
+//!   the app built with `--layout bootloaded`, verifies and starts it, and the app renders.
+//!
+//! - `socat_pty_device_renders`: `gridrt device --port` serves the simulated board on one end
+//!   of a `socat` pty pair and `gridrt render --port` on the other end gets the same image as
+//!   `render --sim`.
+//!
+//! They skip, saying why, only when `qemu-system-riscv32` (or `socat`) is not installed; with
+//! `CI` or `GRIDRT_REQUIRE_QEMU` set a missing tool fails instead (`.ci/run` installs both
+//! through `scripts/setup.sh`).
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::mpsc;
+use std::sync::{Mutex, OnceLock};
+use std::time::{Duration, Instant};
+
+use gridrt_host::compare::compare;
+use gridrt_host::flash::{flash, FlashConfig, FlashError, FlashImage};
+use gridrt_host::serial;
+use gridrt_shared::msg;
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().expect("repo root")
+}
+
+fn cargo() -> Command {
+    let mut c = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    c.current_dir(repo_root());
+    c
+}
+
+/// True when QEMU can run; otherwise prints why the test is skipped (or fails in CI).
+fn qemu_or_skip(test: &str) -> bool {
+    tool_or_skip(test, "qemu-system-riscv32", "--version")
+}
+
+/// True when `tool` runs; otherwise prints why the test is skipped (or fails in CI).
+fn tool_or_skip(test: &str, tool: &str, version_arg: &str) -> bool {
+    let ok = Command::new(tool).arg(version_arg).output().is_ok_and(|o| o.status.success());
+    if ok {
+        return true;
+    }
+    let why = format!("{test}: SKIPPED: {tool} is not installed (scripts/setup-qemu.sh installs it)");
+    if std::env::var_os("CI").is_some() || std::env::var_os("GRIDRT_REQUIRE_QEMU").is_some() {
+        panic!("{why}, but CI / GRIDRT_REQUIRE_QEMU requires it");
+    }
+    eprintln!("{why}");
+    false
+}
+
+fn check(out: Output, what: &str) -> String {
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{what} failed ({}):\n--- stdout\n{stdout}\n--- stderr\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// Firmware builds share one cargo output path per binary: one at a time.
+static BUILD: Mutex<()> = Mutex::new(());
+
+/// `cargo xtask firmware ARGS`; returns the ELF path it prints.
+fn build_firmware(args: &[&str]) -> PathBuf {
+    let _guard = BUILD.lock().unwrap_or_else(|e| e.into_inner());
+    let out = cargo()
+        .args(["run", "--quiet", "--package", "xtask", "--", "firmware", "--jobs", "2"])
+        .args(args)
+        .output()
+        .unwrap();
+    let stdout = check(out, &format!("cargo xtask firmware {}", args.join(" ")));
+    let elf = stdout.lines().find_map(|l| l.strip_prefix("ELF: ")).expect("xtask prints the ELF path");
+    PathBuf::from(elf.trim())
+}
+
+/// The `gridrt` binary (built once, dev profile).
+fn gridrt() -> &'static Path {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        let _guard = BUILD.lock().unwrap_or_else(|e| e.into_inner());
+        let out = cargo()
+            .args([
+                "build",
+                "--quiet",
+                "--package",
+                "gridrt-host",
+                "--bin",
+                "gridrt",
+                "--message-format=json-render-diagnostics",
+            ])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "cargo build --bin gridrt failed:\n{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter(|v| v["reason"] == "compiler-artifact" && v["target"]["name"] == "gridrt")
+            .find_map(|v| v["executable"].as_str().map(PathBuf::from))
+            .expect("cargo reports the gridrt executable")
+    })
+}
+
+fn run_gridrt(args: &[&str]) -> String {
+    let out = Command::new(gridrt()).args(args).current_dir(repo_root()).output().unwrap();
+    check(out, &format!("gridrt {}", args.join(" ")))
+}
+
+/// A QEMU `virt` machine started by `cargo xtask qemu`, its UART on a pty.
+struct Qemu {
+    child: Child,
+    pty: String,
+}
+
+impl Qemu {
+    fn boot(elf: &Path) -> Self {
+        let mut child = cargo()
+            .args(["run", "--quiet", "--package", "xtask", "--", "qemu", "--timeout-s", "170", "--elf"])
+            .arg(elf)
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let (tx, rx) = mpsc::channel();
+        let stdout = child.stdout.take().unwrap();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if let Some(p) = line.strip_prefix("serial: ") {
+                    let _ = tx.send(p.trim().to_string());
+                } else {
+                    eprintln!("qemu: {line}");
+                }
+            }
+        });
+        let pty = rx.recv_timeout(Duration::from_secs(60)).expect("cargo xtask qemu prints the pty within 60 s");
+        Self { child, pty }
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        // `cargo run` exec()s xtask, whose QEMU dies with it (PR_SET_PDEATHSIG).
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn scene() -> String {
+    repo_root().join("tests/scenes/bun_zipper_res4.obj").display().to_string()
+}
+
+fn read_rgb(path: &Path) -> Vec<u8> {
+    image::open(path).unwrap().to_rgb8().into_raw()
+}
+
+/// Renders on the device at `pty` (QEMU or `gridrt device`) and with the loopback simulator configured like the
+/// image (4 PEs × 524 288 words); returns the device's stats JSON.
+fn render_and_compare(pty: &str, dir: &Path, size: (u16, u16)) -> serde_json::Value {
+    let (w, h) = (size.0.to_string(), size.1.to_string());
+    let (q_png, q_json) = (dir.join("qemu.png"), dir.join("qemu.json"));
+    let (s_png, s_json) = (dir.join("sim.png"), dir.join("sim.json"));
+    let start = Instant::now();
+    let p = |p: &Path| p.display().to_string();
+    let q = [
+        "render",
+        "--port",
+        pty,
+        "--timeout",
+        "90",
+        "--scene",
+        &scene(),
+        "--width",
+        &w,
+        "--height",
+        &h,
+        "--out",
+        &p(&q_png),
+        "--stats",
+        &p(&q_json),
+    ];
+    eprintln!("{}", run_gridrt(&q));
+    eprintln!("device render: {:.1} s", start.elapsed().as_secs_f64());
+    let s = [
+        "render",
+        "--sim",
+        "--pe-mem-words",
+        "524288",
+        "--scene",
+        &scene(),
+        "--width",
+        &w,
+        "--height",
+        &h,
+        "--out",
+        &p(&s_png),
+        "--stats",
+        &p(&s_json),
+    ];
+    run_gridrt(&s);
+    let (qi, si) = (read_rgb(&q_png), read_rgb(&s_png));
+    let cmp = compare(&qi, &si, None, None).unwrap();
+    eprintln!(
+        "device vs loopback: identical {}, psnr_db {:?}, max diff {}",
+        cmp.identical, cmp.psnr_db, cmp.max_abs_diff
+    );
+    assert!(cmp.psnr_db.is_none_or(|p| p >= 50.0), "PSNR {:?} dB < 50", cmp.psnr_db);
+    assert!(cmp.identical, "expected byte-identical images (same f32 code on both sides): {cmp:?}");
+
+    let qs: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&q_json).unwrap()).unwrap();
+    let ss: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&s_json).unwrap()).unwrap();
+    // Same work on both sides.
+    for k in ["primary_rays", "shadow_rays", "coproc_rays", "list_entries", "intersection_tests", "coproc_cycles"] {
+        assert_eq!(qs[k], ss[k], "{k}");
+    }
+    qs
+}
+
+#[test]
+fn qemu_render_matches_loopback() {
+    if !qemu_or_skip("qemu_render_matches_loopback") {
+        return;
+    }
+    let elf = build_firmware(&["--bin", "app"]);
+    gridrt();
+    let dir = tempdir("render");
+    let qemu = Qemu::boot(&elf);
+    let stats = render_and_compare(&qemu.pty, &dir, (320, 240));
+
+    let by_stage = stats["device_instructions"].as_object().expect("device_instructions in the stats JSON");
+    for stage in ["raygen", "traverse", "fsl_io", "shade", "encode"] {
+        assert!(by_stage[stage].as_u64().is_some_and(|v| v > 0), "{stage}: {by_stage:?}");
+    }
+    let per_ray = stats["instructions_per_primary_ray"].as_f64().unwrap();
+    let total: u64 = by_stage.values().map(|v| v.as_u64().unwrap()).sum();
+    assert_eq!(per_ray, total as f64 / 76_800.0);
+    // Under -icount shift=0 a cycle is an instruction.
+    let counters = &stats["device_counters"];
+    assert_eq!(counters["stage_traverse_cycles"], counters["stage_traverse_instret"]);
+    eprintln!("instructions per primary ray: {per_ray:.0} {by_stage:?}");
+}
+
+#[test]
+fn qemu_flash_through_bootloader() {
+    if !qemu_or_skip("qemu_flash_through_bootloader") {
+        return;
+    }
+    let bootloader = build_firmware(&["--bin", "bootloader"]);
+    let app = build_firmware(&["--bin", "app", "--layout", "bootloaded"]);
+    let standalone = build_firmware(&["--bin", "app"]);
+    gridrt();
+    let qemu = Qemu::boot(&bootloader);
+
+    // Corrupted on the way: the bootloader reads the image back and refuses its CRC.
+    let good = FlashImage::from_elf(&std::fs::read(&app).unwrap()).unwrap();
+    let mut corrupted = good.clone();
+    corrupted.data[1000] ^= 0x10;
+    let cfg = FlashConfig { reply_timeout: Duration::from_secs(5), ..FlashConfig::new(qemu.pty.clone()) };
+    {
+        let mut port = serial::open(&qemu.pty, 115_200, serial::DEFAULT_READ_TIMEOUT).unwrap();
+        let e = flash(&mut port, &corrupted, &cfg, &mut |_| {}).unwrap_err();
+        eprintln!("corrupted image: {e}");
+        assert!(matches!(e, FlashError::Rejected { reason: Some(msg::FlashError::BadCrc), .. }), "{e}");
+        let mut big = good.clone();
+        big.data.resize(64 << 20, 0);
+        let e = flash(&mut port, &FlashImage::new(big.load_addr, big.entry, big.data), &cfg, &mut |_| {}).unwrap_err();
+        assert!(matches!(e, FlashError::Rejected { reason: Some(msg::FlashError::TooLarge), .. }), "{e}");
+    }
+    // Linked for the start of RAM, where the bootloader itself lives: refused by the CLI.
+    let out = Command::new(gridrt()).args(["flash", "--port", &qemu.pty]).arg(&standalone).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.contains("outside the application region"), "{stderr}");
+    eprintln!("standalone image: {}", stderr.trim());
+
+    // The bootloader is still alive: the right image goes through, starts, and renders.
+    let start = Instant::now();
+    let log = run_gridrt(&["flash", "--port", &qemu.pty, &app.display().to_string()]);
+    eprintln!("{log}flash: {:.1} s", start.elapsed().as_secs_f64());
+    assert!(log.contains("verified") && log.contains("running    application"), "{log}");
+    let dir = tempdir("flash");
+    render_and_compare(&qemu.pty, &dir, (96, 72));
+}
+
+/// Kills a helper process when the test ends, however it ends.
+struct KillOnDrop(Child);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn socat_pty_device_renders() {
+    if !tool_or_skip("socat_pty_device_renders", "socat", "-V") {
+        return;
+    }
+    gridrt();
+    let dir = tempdir("socat");
+    let (dev, host) = (dir.join("dev"), dir.join("host"));
+    let link = |p: &Path| format!("pty,raw,echo=0,link={}", p.display());
+    let _socat = KillOnDrop(Command::new("socat").arg(link(&dev)).arg(link(&host)).spawn().unwrap());
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !(dev.exists() && host.exists()) {
+        assert!(Instant::now() < deadline, "socat made no pty pair");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let dev_s = dev.display().to_string();
+    let _device = KillOnDrop(
+        Command::new(gridrt()).args(["device", "--port", &dev_s, "--pe-mem-words", "524288"]).spawn().unwrap(),
+    );
+    // Served from its first byte on: render needs no wait (Hello is retried anyway).
+    render_and_compare(&host.display().to_string(), &dir, (128, 96));
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gridrt-e2e-qemu-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
