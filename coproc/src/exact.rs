@@ -371,14 +371,14 @@ mod tests {
             }
             // Make ~half of the cases singular: row 2 = row 0 + row 1 (in differences).
             if rng.gen_bool(0.5) {
-                for j in 0..3 {
-                    let d0 = ints[0][j].0 - ints[0][j].1;
-                    let d1 = ints[1][j].0 - ints[1][j].1;
-                    ints[2][j] = (d0 + d1, 0);
+                let (r0, r1) = (ints[0], ints[1]);
+                for (j, e) in ints[2].iter_mut().enumerate() {
+                    *e = ((r0[j].0 - r0[j].1) + (r1[j].0 - r1[j].1), 0);
                 }
             }
             let d = ints.map(|row| row.map(|(a, b)| (a - b) as i128));
-            let det = d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1]) - d[0][1] * (d[1][0] * d[2][2] - d[1][2] * d[2][0])
+            let det = d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1])
+                - d[0][1] * (d[1][0] * d[2][2] - d[1][2] * d[2][0])
                 + d[0][2] * (d[1][0] * d[2][1] - d[1][1] * d[2][0]);
             let m = ints.map(|row| row.map(|(a, b)| (a as f64 * scale, b as f64 * scale)));
             assert_eq!(det3_sign(m) as i128, det.signum());

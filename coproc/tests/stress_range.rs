@@ -72,8 +72,17 @@ fn measure(mesh: &Mesh, is: &Intersector, seed: u64) -> Err {
 #[test]
 fn translation_and_scale_error_growth_is_reported_and_bounded() {
     let base = icosphere(3);
-    let kernels = [KernelKind::Watertight, KernelKind::MollerTrumbore, KernelKind::Wald, KernelKind::HanikaKeller, KernelKind::Cramer];
-    println!("{:<9} {:<8} {:<16} {:<12} {:>6} {:>5} {:>10} {:>10}", "offset", "scale", "kernel", "format", "misses", "ovf", "mean rel", "max rel");
+    let kernels = [
+        KernelKind::Watertight,
+        KernelKind::MollerTrumbore,
+        KernelKind::Wald,
+        KernelKind::HanikaKeller,
+        KernelKind::Cramer,
+    ];
+    println!(
+        "{:<9} {:<8} {:<16} {:<12} {:>6} {:>5} {:>10} {:>10}",
+        "offset", "scale", "kernel", "format", "misses", "ovf", "mean rel", "max rel"
+    );
     let mut table = Vec::new();
     for scale in [1e-3f32, 1.0, 1e3] {
         for offset in [0.0f32, 1e2, 1e3, 1e4, 1e5, 1e6] {
@@ -100,7 +109,11 @@ fn translation_and_scale_error_growth_is_reported_and_bounded() {
         }
     }
     let get = |scale: f32, offset: f32, kind: KernelKind, format: NumberFormat| {
-        table.iter().find(|r| r.0 == scale && r.1 == offset && r.2 == kind && r.3 == format).map(|r| (r.4, r.5)).unwrap()
+        table
+            .iter()
+            .find(|r| r.0 == scale && r.1 == offset && r.2 == kind && r.3 == format)
+            .map(|r| (r.4, r.5))
+            .unwrap()
     };
     for scale in [1e-3f32, 1.0, 1e3] {
         // Near the origin every kernel in every format hits every interior target, accurately

@@ -44,9 +44,18 @@ fn bunny() -> ProbeSet {
 fn watertight_f32_has_no_leaks_over_a_million_rays_on_sphere_and_bunny() {
     let mut total = ProbeStats::default();
     for (name, t, n) in [("sphere", sphere(), 600_000u64), ("bunny", bunny(), 400_000)] {
-        assert!(t.edge_count() > 500 && t.vertex_count() > 300, "{name}: {} edges, {} fans", t.edge_count(), t.vertex_count());
+        assert!(
+            t.edge_count() > 500 && t.vertex_count() > 300,
+            "{name}: {} edges, {} fans",
+            t.edge_count(),
+            t.vertex_count()
+        );
         let (lo, hi) = t.mesh.bounds();
-        let is = Intersector::new(KernelKind::Watertight, NumberFormat::F32, gridrt_coproc::FixedFrame::for_box(lo.to_array(), hi.to_array(), NumberFormat::F32).unwrap());
+        let is = Intersector::new(
+            KernelKind::Watertight,
+            NumberFormat::F32,
+            gridrt_coproc::FixedFrame::for_box(lo.to_array(), hi.to_array(), NumberFormat::F32).unwrap(),
+        );
         let s = run(&t, &is, n, 0x3A7E_0001);
         println!("{name}: watertight f32: {s:?}");
         assert_eq!(s.leaks, 0, "{name}: watertight f32 leaked: {s:?}");
@@ -64,7 +73,10 @@ fn watertight_f32_has_no_leaks_over_a_million_rays_on_sphere_and_bunny() {
 /// function is exactly negated in its neighbour, see `isect::watertight`).
 #[test]
 fn leaks_of_every_kernel_and_format_are_reported() {
-    println!("{:<8} {:<16} {:<12} {:>8} {:>7} {:>9} {:>10}", "mesh", "kernel", "format", "rays", "leaks", "overflows", "leak rate");
+    println!(
+        "{:<8} {:<16} {:<12} {:>8} {:>7} {:>9} {:>10}",
+        "mesh", "kernel", "format", "rays", "leaks", "overflows", "leak rate"
+    );
     for (name, t) in [("sphere", sphere()), ("bunny", bunny())] {
         let (lo, hi) = t.mesh.bounds();
         for is in intersectors(lo, hi) {

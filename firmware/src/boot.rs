@@ -394,7 +394,7 @@ mod tests {
             Msg::decode(rep[0].0, &rep[0].1).unwrap(),
             Msg::FlashAck { next_offset: 3000, status: FlashStatus::Booting, crc: crc32(&img) }
         );
-        drop(b);
+        let mem = b.region();
         assert_eq!(&mem[64..3064], &img[..]);
         assert!(mem[..64].iter().chain(&mem[3064..]).all(|&x| x == 0));
     }

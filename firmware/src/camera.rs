@@ -3,7 +3,23 @@
 //! The formulas are pinned in `docs/CONTRACTS.md` § Camera, because the host's f64 reference
 //! renderer re-implements them; keep both in step. Source: the Suffern-style pinhole camera
 //! GridRT's MicroBlaze program uses (seed 004 §2.1), with an explicit field of view.
+//!
+//! # Number formats of ray generation ([`RayFormat`])
+//!
+//! - `F32` (default): the contract's formula in f32 — 2 screen coordinates and 6 multiply-adds
+//!   per pixel, each rounded.
+//! - `Fixed` (feature `fixed-raygen`; both are always compiled and tested): per frame,
+//!   [`Camera::new`] quantises the basis to Q2.30 and the screen mapping to
+//!   `sx = sx0 + x·Δx` with `sx0, Δx` in Q(S+16), where S ≤ 29 is the largest number of
+//!   fractional bits with `max(half_w, half_h)·2^S < 2^29`. Per pixel everything is integer: `sx = (sx0 + x·Δx) >> 16` (error ≤ 2⁻ˢ·(1 + x·2⁻¹⁷)),
+//!   `dir = (fwd << S) + sx·right + sy·up` in i64 (exact: 32×32-bit products), and one exact
+//!   conversion to f32 (one rounding). The ray is the contract's ray to within that rounding
+//!   plus 2^(1−S) absolute (S = 29 while the screen half-extents are below 1, e.g. a 90°
+//!   field of view; S = 21 for a half-extent of 132): more accurate than the f32 formula,
+//!   whose `2(x + 0.5)/W − 1` cancels. Cameras whose screen extent does not fit (a field of
+//!   view within ~10⁻⁸ of 180°, or an aspect ratio over 2²⁹) fall back to f32.
 
+use crate::fixed::{f32_to_fixed, fixed_to_f32, RayFormat};
 use gridrt_shared::math::{Ray, Vec3};
 
 /// Why a camera could not be built. Bad inputs are refused here so that no NaN ray is ever
@@ -37,13 +53,73 @@ pub struct Camera {
     half_h: f32,
     width: f32,
     height: f32,
+    fixed: Option<FixedRayGen>,
+}
+
+/// Per-frame state of fixed-point ray generation (module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct FixedRayGen {
+    /// forward, right, cam_up in Q2.30.
+    basis: [[i64; 3]; 3],
+    /// `sx = (sx0 + x·dx) >> 16`, `sy = (sy0 + y·dy) >> 16`, in Q(S) after the shift.
+    sx0: i64,
+    dx: i64,
+    sy0: i64,
+    dy: i64,
+    /// Fractional bits S of the screen coordinates.
+    s: u32,
+}
+
+impl FixedRayGen {
+    /// Quantises a validated camera; `None` when its screen extent does not fit.
+    fn new(forward: Vec3, right: Vec3, cam_up: Vec3, half_w: f32, half_h: f32, w: u32, h: u32) -> Option<Self> {
+        let q30 = |v: Vec3| -> Option<[i64; 3]> {
+            Some([f32_to_fixed(v.x, 30)?, f32_to_fixed(v.y, 30)?, f32_to_fixed(v.z, 30)?])
+        };
+        let basis = [q30(forward)?, q30(right)?, q30(cam_up)?];
+        let m = half_w.max(half_h) as f64;
+        // Largest S ≤ 29 with m·2^S < 2^29 (so |sx|, |sy| < 2^29 raw).
+        let mut s = 29u32;
+        while s > 0 && m * (1u64 << s) as f64 >= (1u64 << 29) as f64 {
+            s -= 1;
+        }
+        if m * (1u64 << s) as f64 >= (1u64 << 29) as f64 {
+            return None;
+        }
+        let scale = (1u64 << (s + 16)) as f64;
+        let (hw, hh, wf, hf) = (half_w as f64, half_h as f64, w as f64, h as f64);
+        // sx = (2(x + 0.5)/W − 1)·half_w = x·(2·half_w/W) + (half_w/W − half_w);
+        // sy = (1 − 2(y + 0.5)/H)·half_h = y·(−2·half_h/H) + (half_h − half_h/H).
+        let q = |v: f64| libm::round(v * scale) as i64;
+        Some(Self { basis, sx0: q(hw / wf - hw), dx: q(2.0 * hw / wf), sy0: q(hh - hh / hf), dy: q(-2.0 * hh / hf), s })
+    }
+
+    /// The direction of pixel (x, y), integer arithmetic and one rounding per component.
+    #[inline]
+    fn direction(&self, x: u32, y: u32) -> Vec3 {
+        let sx = (self.sx0 + x as i64 * self.dx) >> 16;
+        let sy = (self.sy0 + y as i64 * self.dy) >> 16;
+        let [f, r, u] = self.basis;
+        let c = |i: usize| {
+            let v = (f[i] << self.s) + sx * r[i] + sy * u[i];
+            fixed_to_f32(v as i128, 30 + self.s as i32)
+        };
+        Vec3::new(c(0), c(1), c(2))
+    }
 }
 
 impl Camera {
     /// Builds the camera of CONTRACTS.md: forward = normalize(target − eye),
     /// right = normalize(forward × up), cam_up = right × forward, half_h = tan(fov/2),
     /// half_w = half_h · W / H.
-    pub fn new(eye: Vec3, target: Vec3, up: Vec3, fov_y_deg: f32, width: u32, height: u32) -> Result<Self, CameraError> {
+    pub fn new(
+        eye: Vec3,
+        target: Vec3,
+        up: Vec3,
+        fov_y_deg: f32,
+        width: u32,
+        height: u32,
+    ) -> Result<Self, CameraError> {
         if !(eye.is_finite() && target.is_finite() && up.is_finite() && fov_y_deg.is_finite()) {
             return Err(CameraError::NonFinite);
         }
@@ -71,7 +147,8 @@ impl Camera {
         if !(half_h.is_finite() && half_w.is_finite() && half_w > 0.0) {
             return Err(CameraError::BadFov);
         }
-        Ok(Self { eye, forward, right, cam_up, half_w, half_h, width: w, height: h })
+        let fixed = FixedRayGen::new(forward, right, cam_up, half_w, half_h, width, height);
+        Ok(Self { eye, forward, right, cam_up, half_w, half_h, width: w, height: h, fixed })
     }
 
     /// Ray through the centre of pixel (x, y), x to the right, y down:
@@ -79,8 +156,29 @@ impl Camera {
     /// dir = forward + sx·right + sy·cam_up (not normalised), origin = eye.
     ///
     /// Pixels outside the image extrapolate the same formula (no error, no panic).
+    /// Computed in the build's ray-generation format ([`RayFormat::DEFAULT`]).
     #[inline]
     pub fn primary_ray(&self, x: u32, y: u32) -> Ray {
+        self.primary_ray_in(RayFormat::DEFAULT, x, y)
+    }
+
+    /// [`Camera::primary_ray`] in an explicit format (fixed point falls back to f32 for a
+    /// camera whose screen extent does not fit, see the module doc).
+    #[inline]
+    pub fn primary_ray_in(&self, format: RayFormat, x: u32, y: u32) -> Ray {
+        match (format, &self.fixed) {
+            (RayFormat::Fixed, Some(f)) => Ray { origin: self.eye, dir: f.direction(x, y) },
+            _ => self.primary_ray_f32(x, y),
+        }
+    }
+
+    /// True when fixed-point ray generation is available for this camera.
+    pub fn has_fixed_raygen(&self) -> bool {
+        self.fixed.is_some()
+    }
+
+    #[inline]
+    fn primary_ray_f32(&self, x: u32, y: u32) -> Ray {
         let sx = (2.0 * (x as f32 + 0.5) / self.width - 1.0) * self.half_w;
         let sy = (1.0 - 2.0 * (y as f32 + 0.5) / self.height) * self.half_h;
         Ray { origin: self.eye, dir: self.forward + sx * self.right + sy * self.cam_up }
@@ -151,6 +249,66 @@ mod tests {
         assert_eq!(Camera::new(e, Vec3::ZERO, Vec3::Y, 45.0, 4, 0), Err(CameraError::BadSize));
     }
 
+    /// Fixed-point ray generation reproduces the contract's formula, evaluated in f64 from the
+    /// camera's own (f32) basis and screen extent, to within one rounding of the result plus
+    /// its screen quantisation 2^-S; the f32 formula's own error is over 10× larger (its
+    /// `2(x + 0.5)/W − 1` cancels). Seeded random cameras and pixels.
+    #[test]
+    fn fixed_raygen_matches_the_formula_to_one_rounding() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0xF1C5_CA3E);
+        let (mut worst_fixed, mut worst_f32, mut n) = (0.0f64, 0.0f64, 0);
+        for _ in 0..20_000 {
+            let v = |rng: &mut ChaCha8Rng| {
+                Vec3::new(rng.gen_range(-50.0..50.0), rng.gen_range(-50.0..50.0), rng.gen_range(-50.0..50.0))
+            };
+            let (eye, target, up) = (v(&mut rng), v(&mut rng), v(&mut rng));
+            let fov = rng.gen_range(1.0..170.0f32);
+            let (w, h) = (rng.gen_range(1..4097u32), rng.gen_range(1..4097u32));
+            let Ok(c) = Camera::new(eye, target, up, fov, w, h) else { continue };
+            assert!(c.has_fixed_raygen());
+            let (x, y) = (rng.gen_range(0..w), rng.gen_range(0..h));
+            let sx = (2.0 * (x as f64 + 0.5) / w as f64 - 1.0) * c.half_w as f64;
+            let sy = (1.0 - 2.0 * (y as f64 + 0.5) / h as f64) * c.half_h as f64;
+            let f = |a: Vec3| [a.x as f64, a.y as f64, a.z as f64];
+            let (fw, rt, cu) = (f(c.forward), f(c.right), f(c.cam_up));
+            let d: [f64; 3] = core::array::from_fn(|i| fw[i] + sx * rt[i] + sy * cu[i]);
+            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let fixed = c.primary_ray_in(RayFormat::Fixed, x, y);
+            let float = c.primary_ray_in(RayFormat::F32, x, y);
+            assert_eq!(fixed.origin, eye);
+            // One f32 rounding of the result (≤ 2^-24·len) plus the screen quantisation 2^-S
+            // of sx and sy (unit basis vectors), and the Q30 basis (2^-30 · (1 + |sx| + |sy|)).
+            let s_bits = c.fixed.map(|f| f.s).unwrap_or(0);
+            let bound = 1.2 * 2f64.powi(-24) * len + 2f64.powi(1 - s_bits as i32) + 2f64.powi(-29) * len;
+            for (i, &di) in d.iter().enumerate() {
+                let err = (fixed.dir[i] as f64 - di).abs();
+                assert!(err <= bound, "{i}: {} vs {di} (S = {s_bits})", fixed.dir[i]);
+                worst_fixed = worst_fixed.max(err / len);
+                worst_f32 = worst_f32.max((float.dir[i] as f64 - di).abs() / len);
+            }
+            n += 1;
+        }
+        assert!(n > 15_000, "{n}");
+        assert!(worst_f32 > 10.0 * worst_fixed, "f32 {worst_f32:e} vs fixed {worst_fixed:e}");
+    }
+
+    #[test]
+    fn fixed_raygen_hits_the_worked_pixels_exactly() {
+        // The literal cases of the f32 tests, in fixed point.
+        let c = cam(3, 3);
+        let r = c.primary_ray_in(RayFormat::Fixed, 1, 1);
+        assert_eq!(r.dir, Vec3::new(0.0, 0.0, -1.0));
+        let c = cam(2, 2);
+        assert!((c.primary_ray_in(RayFormat::Fixed, 0, 0).dir - Vec3::new(-0.5, 0.5, -1.0)).length() < 1e-7);
+        assert!((c.primary_ray_in(RayFormat::Fixed, 1, 1).dir - Vec3::new(0.5, -0.5, -1.0)).length() < 1e-7);
+        // Extreme but valid: fov 179.9° on a 1×4096 image still fits Q(S).
+        let wide = Camera::new(Vec3::ZERO, Vec3::Z, Vec3::Y, 179.9, 4096, 1).unwrap();
+        assert!(wide.has_fixed_raygen());
+        let r = wide.primary_ray_in(RayFormat::Fixed, 4095, 0);
+        assert!(r.dir.is_finite());
+        assert_eq!(RayFormat::DEFAULT, if cfg!(feature = "fixed-raygen") { RayFormat::Fixed } else { RayFormat::F32 });
+    }
+
     #[test]
     fn random_valid_cameras_give_finite_rays_matching_f64_formula() {
         let mut rng = ChaCha8Rng::seed_from_u64(0xCA3E_0001);
@@ -170,8 +328,9 @@ mod tests {
             let f = |a: Vec3| [a.x as f64, a.y as f64, a.z as f64];
             let (e, t, u) = (f(eye), f(target), f(up));
             let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-            let cross =
-                |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+            let cross = |a: [f64; 3], b: [f64; 3]| {
+                [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+            };
             let norm = |a: [f64; 3]| {
                 let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
                 [a[0] / l, a[1] / l, a[2] / l]

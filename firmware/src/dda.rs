@@ -23,6 +23,8 @@
 //! S the largest coordinate magnitude; only voxels touched within δ of their boundary (point,
 //! edge, face) may differ. Enter/exit distances are right to within δ along each axis.
 
+use crate::dda_fixed::{DdaOverflow, FixedTraversal};
+use crate::fixed::RayFormat;
 use gridrt_shared::fsl::ListEntry;
 use gridrt_shared::math::{Aabb, Ray, Vec3};
 use gridrt_shared::scene::EMPTY_VOXEL;
@@ -209,7 +211,8 @@ impl Iterator for Traversal {
         // min/max ignore NaN, so a NaN boundary ends the voxel at t_end.
         let t_exit = t_cross.min(self.t_end).max(self.t);
         let cell = [self.cell[0] as u32, self.cell[1] as u32, self.cell[2] as u32];
-        let item = VoxelStep { voxel: cell[0] + self.nx * (cell[1] + self.ny * cell[2]), cell, t_enter: self.t, t_exit };
+        let item =
+            VoxelStep { voxel: cell[0] + self.nx * (cell[1] + self.ny * cell[2]), cell, t_enter: self.t, t_exit };
         if t_cross.is_nan() || t_cross >= self.t_end {
             self.steps_left = 0;
             return Some(item);
@@ -230,12 +233,47 @@ impl Iterator for Traversal {
 /// with its owning PE (from `voxel_pe`, [`EMPTY_VOXEL`] = empty; ids past its end count as
 /// empty) and its exit distance. Returns the number of voxels walked (empty ones included).
 ///
-/// An empty list means the ray sends nothing to the co-processor.
+/// An empty list means the ray sends nothing to the co-processor. Uses the build's DDA
+/// format ([`RayFormat::DEFAULT`]: f32, or fixed point with feature `fixed-raygen`).
 #[inline]
-pub fn build_list(grid: &GridDesc, voxel_pe: &[u8], ray: &Ray, t_min: f32, t_max: f32, list: &mut TraversalList) -> u32 {
+pub fn build_list(
+    grid: &GridDesc,
+    voxel_pe: &[u8],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    list: &mut TraversalList,
+) -> u32 {
+    build_list_in(RayFormat::DEFAULT, grid, voxel_pe, ray, t_min, t_max, list).0
+}
+
+/// [`build_list`] with an explicit DDA format. Returns the voxels walked and whether the
+/// fixed-point DDA could not represent the ray ([`DdaOverflow`]) and the f32 DDA walked it
+/// instead (never silently: the flag is the report).
+#[inline]
+pub fn build_list_in(
+    format: RayFormat,
+    grid: &GridDesc,
+    voxel_pe: &[u8],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    list: &mut TraversalList,
+) -> (u32, bool) {
+    match format {
+        RayFormat::F32 => (fill_list(Traversal::new(grid, ray, t_min, t_max), voxel_pe, list), false),
+        RayFormat::Fixed => match FixedTraversal::new(grid, ray, t_min, t_max) {
+            Ok(walk) => (fill_list(walk, voxel_pe, list), false),
+            Err(DdaOverflow) => (fill_list(Traversal::new(grid, ray, t_min, t_max), voxel_pe, list), true),
+        },
+    }
+}
+
+#[inline(always)]
+fn fill_list(walk: impl Iterator<Item = VoxelStep>, voxel_pe: &[u8], list: &mut TraversalList) -> u32 {
     list.clear();
     let mut walked = 0;
-    for v in Traversal::new(grid, ray, t_min, t_max) {
+    for v in walk {
         walked += 1;
         let pe = voxel_pe.get(v.voxel as usize).copied().unwrap_or(EMPTY_VOXEL);
         if pe == EMPTY_VOXEL {
@@ -263,6 +301,16 @@ mod tests {
     //!   holds at δ = 2^-23 · S; it breaks at 2^-24 · S, half an ulp.)
     use super::*;
     use rand::{Rng, SeedableRng};
+
+    /// The walk of the DDA in `fmt` (the fixed-point one must represent every test ray).
+    fn trav(fmt: RayFormat, g: &GridDesc, r: &Ray, tmin: f32, tmax: f32) -> Vec<VoxelStep> {
+        match fmt {
+            RayFormat::F32 => Traversal::new(g, r, tmin, tmax).collect(),
+            RayFormat::Fixed => {
+                FixedTraversal::new(g, r, tmin, tmax).unwrap_or_else(|e| panic!("{e:?}: {g:?} {r:?}")).collect()
+            }
+        }
+    }
     use rand_chacha::ChaCha8Rng;
 
     type V64 = [f64; 3];
@@ -396,9 +444,9 @@ mod tests {
     }
 
     /// Checks the order invariants and returns the visited voxels.
-    fn walk(case: &Case) -> Vec<VoxelStep> {
+    fn walk(case: &Case, fmt: RayFormat) -> Vec<VoxelStep> {
         let g = &case.grid;
-        let steps: Vec<VoxelStep> = Traversal::new(g, &case.ray, case.tmin, case.tmax).collect();
+        let steps: Vec<VoxelStep> = trav(fmt, g, &case.ray, case.tmin, case.tmax);
         let bound = (g.dims[0] + g.dims[1] + g.dims[2]) as usize;
         assert!(steps.len() <= bound, "{} steps > {bound}", steps.len());
         for s in &steps {
@@ -417,10 +465,10 @@ mod tests {
 
     /// Compares a walk with the per-voxel f64 slab test (rule in the module comment).
     /// Returns the number of voxels that went either way.
-    fn check_exhaustive(case: &Case) -> u64 {
+    fn check_exhaustive(case: &Case, fmt: RayFormat) -> u64 {
         let mut ambiguous = 0;
         let g = &case.grid;
-        let steps = walk(case);
+        let steps = walk(case, fmt);
         let dl = delta(case);
         let (o, d) = (v64(case.ray.origin), v64(case.ray.dir));
         let (tmin, tmax) = (case.tmin as f64, case.tmax as f64);
@@ -446,7 +494,11 @@ mod tests {
                         let slack = 1e-6 * g1.abs().max(g0.abs()).min(1e30);
                         let ok_enter = s.t_enter as f64 >= g0 - slack && s.t_enter as f64 <= s0 + slack;
                         let ok_exit = s.t_exit as f64 >= s1 - slack && s.t_exit as f64 <= g1 + slack;
-                        assert!(ok_enter && ok_exit, "{s:?} vs shrunk ({s0}, {s1}) grown ({g0}, {g1}) ({g:?}, {:?})", case.ray);
+                        assert!(
+                            ok_enter && ok_exit,
+                            "{s:?} vs shrunk ({s0}, {s1}) grown ({g0}, {g1}) ({g:?}, {:?})",
+                            case.ray
+                        );
                     } else if !may {
                         assert!(
                             visited.is_none(),
@@ -463,21 +515,28 @@ mod tests {
     }
 
     #[test]
+    /// 10⁶ seeded random rays per number format (f32 and the fixed-point DDA of feature
+    /// `fixed-raygen`), each checked voxel by voxel against the exact f64 slab test.
     fn traversal_visits_exactly_the_voxels_the_ray_crosses() {
-        let mut rng = ChaCha8Rng::seed_from_u64(0xDDA_0001);
-        let (mut general, mut general_ambiguous) = (0u64, 0u64);
-        for _ in 0..100_000 {
-            let case = random_case(&mut rng, 7);
-            let ambiguous = check_exhaustive(&case);
-            if case.general {
-                general += 1;
-                general_ambiguous += (ambiguous > 0) as u64;
+        for fmt in RayFormat::ALL {
+            let mut rng = ChaCha8Rng::seed_from_u64(0xDDA_0001);
+            let (mut general, mut general_ambiguous) = (0u64, 0u64);
+            for _ in 0..1_000_000 {
+                let case = random_case(&mut rng, 7);
+                let ambiguous = check_exhaustive(&case, fmt);
+                if case.general {
+                    general += 1;
+                    general_ambiguous += (ambiguous > 0) as u64;
+                }
             }
+            // The δ band must stay thin: general-position rays almost never fall into it
+            // (degenerate rays lying in planes or through edges are ambiguous by design).
+            assert!(general > 200_000, "{fmt:?}: {general}");
+            assert!(
+                general_ambiguous * 1000 < general,
+                "{fmt:?}: {general_ambiguous} of {general} general rays ambiguous"
+            );
         }
-        // The δ band must stay thin: general-position rays almost never fall into it
-        // (degenerate rays lying in planes or through edges are ambiguous by design).
-        assert!(general > 20_000, "{general}");
-        assert!(general_ambiguous * 1000 < general, "{general_ambiguous} of {general} general rays ambiguous");
     }
 
     /// Large grids (up to 255³) cannot be checked voxel by voxel: check instead that every
@@ -485,40 +544,46 @@ mod tests {
     /// every visited voxel is touched (δ-grown) by the ray.
     #[test]
     fn traversal_on_large_grids_covers_the_segment_and_stays_on_it() {
-        let mut rng = ChaCha8Rng::seed_from_u64(0xDDA_0002);
-        for _ in 0..3_000 {
-            let case = random_case(&mut rng, MAX_GRID_DIM);
-            let g = &case.grid;
-            let steps = walk(&case);
-            let dl = delta(&case);
-            let (o, d) = (v64(case.ray.origin), v64(case.ray.dir));
-            let (tmin, tmax) = (case.tmin as f64, case.tmax as f64);
-            for s in &steps {
-                let (lo, hi) = cell_box(g, s.cell);
-                let grown = slab64(o, d, lo.map(|v| v - dl), hi.map(|v| v + dl), tmin, tmax);
-                assert!(matches!(grown, Some((t0, t1)) if t1 >= t0), "visited {s:?} off the ray");
-            }
-            let Some((t0, t1)) = slab64(o, d, v64(g.min), v64(g.max), tmin, tmax) else { continue };
-            if t1 <= t0 {
-                continue;
-            }
-            let samples = 4 * (g.dims[0] + g.dims[1] + g.dims[2]);
-            for k in 0..samples {
-                let t = t0 + (t1 - t0) * (k as f64 + 0.5) / samples as f64;
-                let p: V64 = core::array::from_fn(|a| o[a] + t * d[a]);
-                let mut c = [0u32; 3];
-                let mut clear = true;
-                for a in 0..3 {
-                    let (mn, mx) = (g.min[a] as f64, g.max[a] as f64);
-                    let n = g.dims[a] as f64;
-                    let rel = (p[a] - mn) / (mx - mn) * n;
-                    let i = rel.floor().clamp(0.0, n - 1.0);
-                    c[a] = i as u32;
-                    let (lo, hi) = (mn + (mx - mn) * i / n, mn + (mx - mn) * (i + 1.0) / n);
-                    clear &= p[a] > lo + dl && p[a] < hi - dl;
+        for fmt in RayFormat::ALL {
+            let mut rng = ChaCha8Rng::seed_from_u64(0xDDA_0002);
+            for _ in 0..3_000 {
+                let case = random_case(&mut rng, MAX_GRID_DIM);
+                let g = &case.grid;
+                let steps = walk(&case, fmt);
+                let dl = delta(&case);
+                let (o, d) = (v64(case.ray.origin), v64(case.ray.dir));
+                let (tmin, tmax) = (case.tmin as f64, case.tmax as f64);
+                for s in &steps {
+                    let (lo, hi) = cell_box(g, s.cell);
+                    let grown = slab64(o, d, lo.map(|v| v - dl), hi.map(|v| v + dl), tmin, tmax);
+                    assert!(matches!(grown, Some((t0, t1)) if t1 >= t0), "visited {s:?} off the ray");
                 }
-                if clear {
-                    assert!(steps.iter().any(|s| s.cell == c), "sample {p:?} in {c:?} not visited: {g:?} {:?}", case.ray);
+                let Some((t0, t1)) = slab64(o, d, v64(g.min), v64(g.max), tmin, tmax) else { continue };
+                if t1 <= t0 {
+                    continue;
+                }
+                let samples = 4 * (g.dims[0] + g.dims[1] + g.dims[2]);
+                for k in 0..samples {
+                    let t = t0 + (t1 - t0) * (k as f64 + 0.5) / samples as f64;
+                    let p: V64 = core::array::from_fn(|a| o[a] + t * d[a]);
+                    let mut c = [0u32; 3];
+                    let mut clear = true;
+                    for a in 0..3 {
+                        let (mn, mx) = (g.min[a] as f64, g.max[a] as f64);
+                        let n = g.dims[a] as f64;
+                        let rel = (p[a] - mn) / (mx - mn) * n;
+                        let i = rel.floor().clamp(0.0, n - 1.0);
+                        c[a] = i as u32;
+                        let (lo, hi) = (mn + (mx - mn) * i / n, mn + (mx - mn) * (i + 1.0) / n);
+                        clear &= p[a] > lo + dl && p[a] < hi - dl;
+                    }
+                    if clear {
+                        assert!(
+                            steps.iter().any(|s| s.cell == c),
+                            "sample {p:?} in {c:?} not visited: {g:?} {:?}",
+                            case.ray
+                        );
+                    }
                 }
             }
         }
@@ -526,88 +591,100 @@ mod tests {
 
     #[test]
     fn ray_missing_the_box_or_touching_it_visits_nothing() {
-        let g = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [4, 4, 4] };
-        let miss = Ray { origin: Vec3::new(2.0, 0.5, -1.0), dir: Vec3::Z };
-        assert_eq!(Traversal::new(&g, &miss, 0.0, f32::INFINITY).count(), 0);
-        // Pointing away.
-        let away = Ray { origin: Vec3::new(0.5, 0.5, -1.0), dir: -Vec3::Z };
-        assert_eq!(Traversal::new(&g, &away, 0.0, f32::INFINITY).count(), 0);
-        // On the z = 1 face, leaving the box.
-        let leaving = Ray { origin: Vec3::new(0.5, 0.5, 1.0), dir: Vec3::Z };
-        assert_eq!(Traversal::new(&g, &leaving, 0.0, f32::INFINITY).count(), 0);
-        // Stops before reaching the box.
-        let short = Ray { origin: Vec3::new(0.5, 0.5, -1.0), dir: Vec3::Z };
-        assert_eq!(Traversal::new(&g, &short, 0.0, 0.5).count(), 0);
-        // Invalid rays and grids.
-        let zero = Ray { origin: Vec3::splat(0.5), dir: Vec3::ZERO };
-        assert_eq!(Traversal::new(&g, &zero, 0.0, f32::INFINITY).count(), 0);
-        let nan = Ray { origin: Vec3::splat(f32::NAN), dir: Vec3::Z };
-        assert_eq!(Traversal::new(&g, &nan, 0.0, f32::INFINITY).count(), 0);
-        let bad = GridDesc { dims: [0, 4, 4], ..g };
-        assert_eq!(Traversal::new(&bad, &short, 0.0, f32::INFINITY).count(), 0);
-        let big = GridDesc { dims: [256, 1, 1], ..g };
-        assert_eq!(Traversal::new(&big, &short, 0.0, f32::INFINITY).count(), 0);
+        for fmt in RayFormat::ALL {
+            let g = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [4, 4, 4] };
+            let miss = Ray { origin: Vec3::new(2.0, 0.5, -1.0), dir: Vec3::Z };
+            assert_eq!(trav(fmt, &g, &miss, 0.0, f32::INFINITY).len(), 0);
+            // Pointing away.
+            let away = Ray { origin: Vec3::new(0.5, 0.5, -1.0), dir: -Vec3::Z };
+            assert_eq!(trav(fmt, &g, &away, 0.0, f32::INFINITY).len(), 0);
+            // On the z = 1 face, leaving the box.
+            let leaving = Ray { origin: Vec3::new(0.5, 0.5, 1.0), dir: Vec3::Z };
+            assert_eq!(trav(fmt, &g, &leaving, 0.0, f32::INFINITY).len(), 0);
+            // Stops before reaching the box.
+            let short = Ray { origin: Vec3::new(0.5, 0.5, -1.0), dir: Vec3::Z };
+            assert_eq!(trav(fmt, &g, &short, 0.0, 0.5).len(), 0);
+            // Invalid rays and grids.
+            let zero = Ray { origin: Vec3::splat(0.5), dir: Vec3::ZERO };
+            assert_eq!(trav(fmt, &g, &zero, 0.0, f32::INFINITY).len(), 0);
+            let nan = Ray { origin: Vec3::splat(f32::NAN), dir: Vec3::Z };
+            assert_eq!(trav(fmt, &g, &nan, 0.0, f32::INFINITY).len(), 0);
+            let bad = GridDesc { dims: [0, 4, 4], ..g };
+            assert_eq!(trav(fmt, &bad, &short, 0.0, f32::INFINITY).len(), 0);
+            let big = GridDesc { dims: [256, 1, 1], ..g };
+            assert_eq!(trav(fmt, &big, &short, 0.0, f32::INFINITY).len(), 0);
+        }
     }
 
     #[test]
     fn axis_aligned_ray_through_centres_visits_a_straight_row() {
-        let g = GridDesc { min: Vec3::ZERO, max: Vec3::new(4.0, 2.0, 2.0), dims: [4, 2, 2] };
-        let r = Ray { origin: Vec3::new(-1.0, 1.5, 0.5), dir: Vec3::X };
-        let s: Vec<_> = Traversal::new(&g, &r, 0.0, f32::INFINITY).collect();
-        let cells: Vec<_> = s.iter().map(|s| s.cell).collect();
-        assert_eq!(cells, [[0, 1, 0], [1, 1, 0], [2, 1, 0], [3, 1, 0]]);
-        let ids: Vec<_> = s.iter().map(|s| s.voxel).collect();
-        assert_eq!(ids, [4, 5, 6, 7]);
-        let t: Vec<_> = s.iter().map(|s| (s.t_enter, s.t_exit)).collect();
-        assert_eq!(t[0], (1.0, 2.0));
-        assert_eq!(t[3].0, 4.0);
-        assert!(t[3].1 >= 5.0 && t[3].1 < 5.0 + 1e-5);
-        // Reverse direction walks it backwards.
-        let back = Ray { origin: Vec3::new(5.0, 1.5, 0.5), dir: -Vec3::X };
-        let cells: Vec<_> = Traversal::new(&g, &back, 0.0, f32::INFINITY).map(|s| s.voxel).collect();
-        assert_eq!(cells, [7, 6, 5, 4]);
+        for fmt in RayFormat::ALL {
+            let g = GridDesc { min: Vec3::ZERO, max: Vec3::new(4.0, 2.0, 2.0), dims: [4, 2, 2] };
+            let r = Ray { origin: Vec3::new(-1.0, 1.5, 0.5), dir: Vec3::X };
+            let s: Vec<_> = trav(fmt, &g, &r, 0.0, f32::INFINITY);
+            let cells: Vec<_> = s.iter().map(|s| s.cell).collect();
+            assert_eq!(cells, [[0, 1, 0], [1, 1, 0], [2, 1, 0], [3, 1, 0]]);
+            let ids: Vec<_> = s.iter().map(|s| s.voxel).collect();
+            assert_eq!(ids, [4, 5, 6, 7]);
+            let t: Vec<_> = s.iter().map(|s| (s.t_enter, s.t_exit)).collect();
+            assert_eq!(t[0], (1.0, 2.0));
+            assert_eq!(t[3].0, 4.0);
+            assert!(t[3].1 >= 5.0 && t[3].1 < 5.0 + 1e-5);
+            // Reverse direction walks it backwards.
+            let back = Ray { origin: Vec3::new(5.0, 1.5, 0.5), dir: -Vec3::X };
+            let cells: Vec<_> = trav(fmt, &g, &back, 0.0, f32::INFINITY).iter().map(|s| s.voxel).collect();
+            assert_eq!(cells, [7, 6, 5, 4]);
+        }
     }
 
     #[test]
     fn ray_in_a_grid_plane_takes_the_cell_above_the_plane() {
-        // y = 1 is the plane between iy = 0 and iy = 1; floor puts the ray in iy = 1.
-        let g = GridDesc { min: Vec3::ZERO, max: Vec3::new(2.0, 2.0, 2.0), dims: [2, 2, 2] };
-        let r = Ray { origin: Vec3::new(-1.0, 1.0, 0.5), dir: Vec3::X };
-        let cells: Vec<_> = Traversal::new(&g, &r, 0.0, f32::INFINITY).map(|s| s.cell).collect();
-        assert_eq!(cells, [[0, 1, 0], [1, 1, 0]]);
-        // On the top face (y = max) the clamped cell is the last one.
-        let top = Ray { origin: Vec3::new(-1.0, 2.0, 0.5), dir: Vec3::X };
-        let cells: Vec<_> = Traversal::new(&g, &top, 0.0, f32::INFINITY).map(|s| s.cell).collect();
-        assert_eq!(cells, [[0, 1, 0], [1, 1, 0]]);
+        for fmt in RayFormat::ALL {
+            // y = 1 is the plane between iy = 0 and iy = 1; floor puts the ray in iy = 1.
+            let g = GridDesc { min: Vec3::ZERO, max: Vec3::new(2.0, 2.0, 2.0), dims: [2, 2, 2] };
+            let r = Ray { origin: Vec3::new(-1.0, 1.0, 0.5), dir: Vec3::X };
+            let cells: Vec<_> = trav(fmt, &g, &r, 0.0, f32::INFINITY).iter().map(|s| s.cell).collect();
+            assert_eq!(cells, [[0, 1, 0], [1, 1, 0]]);
+            // On the top face (y = max) the clamped cell is the last one.
+            let top = Ray { origin: Vec3::new(-1.0, 2.0, 0.5), dir: Vec3::X };
+            let cells: Vec<_> = trav(fmt, &g, &top, 0.0, f32::INFINITY).iter().map(|s| s.cell).collect();
+            assert_eq!(cells, [[0, 1, 0], [1, 1, 0]]);
+        }
     }
 
     #[test]
     fn diagonal_through_corners_steps_lowest_axis_first() {
-        let g = GridDesc { min: Vec3::ZERO, max: Vec3::new(2.0, 2.0, 1.0), dims: [2, 2, 1] };
-        let r = Ray { origin: Vec3::new(0.0, 0.0, 0.5), dir: Vec3::new(1.0, 1.0, 0.0) };
-        let s: Vec<_> = Traversal::new(&g, &r, 0.0, f32::INFINITY).collect();
-        let cells: Vec<_> = s.iter().map(|s| s.cell).collect();
-        assert_eq!(cells, [[0, 0, 0], [1, 0, 0], [1, 1, 0]]);
-        // The corner voxel in between is touched in one point only.
-        assert_eq!(s[1].t_enter, s[1].t_exit);
+        for fmt in RayFormat::ALL {
+            let g = GridDesc { min: Vec3::ZERO, max: Vec3::new(2.0, 2.0, 1.0), dims: [2, 2, 1] };
+            let r = Ray { origin: Vec3::new(0.0, 0.0, 0.5), dir: Vec3::new(1.0, 1.0, 0.0) };
+            let s: Vec<_> = trav(fmt, &g, &r, 0.0, f32::INFINITY);
+            let cells: Vec<_> = s.iter().map(|s| s.cell).collect();
+            assert_eq!(cells, [[0, 0, 0], [1, 0, 0], [1, 1, 0]]);
+            // The corner voxel in between is touched in one point only.
+            assert_eq!(s[1].t_enter, s[1].t_exit);
+        }
     }
 
     #[test]
     fn origin_inside_starts_in_its_own_voxel_at_t_min() {
-        let g = GridDesc { min: Vec3::ZERO, max: Vec3::splat(3.0), dims: [3, 3, 3] };
-        let r = Ray { origin: Vec3::new(1.5, 1.5, 1.5), dir: Vec3::new(0.0, 0.0, -2.0) };
-        let s: Vec<_> = Traversal::new(&g, &r, 0.0, f32::INFINITY).collect();
-        assert_eq!(s.iter().map(|s| s.cell).collect::<Vec<_>>(), [[1, 1, 1], [1, 1, 0]]);
-        assert_eq!((s[0].t_enter, s[0].t_exit), (0.0, 0.25));
-        assert!(s[1].t_exit >= 0.75);
+        for fmt in RayFormat::ALL {
+            let g = GridDesc { min: Vec3::ZERO, max: Vec3::splat(3.0), dims: [3, 3, 3] };
+            let r = Ray { origin: Vec3::new(1.5, 1.5, 1.5), dir: Vec3::new(0.0, 0.0, -2.0) };
+            let s: Vec<_> = trav(fmt, &g, &r, 0.0, f32::INFINITY);
+            assert_eq!(s.iter().map(|s| s.cell).collect::<Vec<_>>(), [[1, 1, 1], [1, 1, 0]]);
+            assert_eq!((s[0].t_enter, s[0].t_exit), (0.0, 0.25));
+            assert!(s[1].t_exit >= 0.75);
+        }
     }
 
     #[test]
     fn walk_is_bounded_by_sum_of_dims_on_a_max_size_grid() {
-        let g = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [MAX_GRID_DIM; 3] };
-        let r = Ray { origin: Vec3::new(-0.1, -0.2, -0.3), dir: Vec3::new(1.0, 1.01, 1.02) };
-        let n = Traversal::new(&g, &r, 0.0, f32::INFINITY).count();
-        assert!(n <= 3 * MAX_GRID_DIM as usize - 2 && n > 2 * MAX_GRID_DIM as usize, "{n}");
+        for fmt in RayFormat::ALL {
+            let g = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [MAX_GRID_DIM; 3] };
+            let r = Ray { origin: Vec3::new(-0.1, -0.2, -0.3), dir: Vec3::new(1.0, 1.01, 1.02) };
+            let n = trav(fmt, &g, &r, 0.0, f32::INFINITY).len();
+            assert!(n <= 3 * MAX_GRID_DIM as usize - 2 && n > 2 * MAX_GRID_DIM as usize, "{n}");
+        }
     }
 
     #[test]

@@ -6,6 +6,8 @@
 //! |---|---|
 //! | [`camera`] | pinhole camera (CONTRACTS.md) |
 //! | [`dda`] | 3D-DDA grid traversal and traversal lists (Amanatides & Woo 1987) |
+//! | [`dda_fixed`] | the same DDA in fixed point (used with feature `fixed-raygen`) |
+//! | [`fixed`] | exact f32 ↔ fixed-point conversions, the ray-generation/DDA format switch |
 //! | [`shade`] | ambient + Lambert + shadow-ray shading (CONTRACTS.md) |
 //! | [`viray`] | ViRAY shading of scene image v2: Oren–Nayar, Blinn–Phong, Torrance–Sparrow, Fresnel, spotlight |
 //! | [`texture`](mod@texture) | procedural textures, mappings, bilinear filtering (feature `textures`) |
@@ -23,7 +25,9 @@ pub mod boot;
 pub mod bsp;
 pub mod camera;
 pub mod dda;
+pub mod dda_fixed;
 pub mod device;
+pub mod fixed;
 pub mod fsl;
 pub mod interp;
 pub mod pixels;

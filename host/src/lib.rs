@@ -14,6 +14,8 @@
 //! | [`session`] | protocol client over any `Read + Write` byte transport, progress events |
 //! | [`stats`] | JSON statistics |
 //! | [`scene_file`] | TOML scene files (docs/SCENE-FILE.md) → [`world::World`] |
+//! | [`plan`] | the pipeline plan (which stages a scene needs) and `--interp` |
+//! | [`reference_v2`] | f64 reference of scene-file worlds (analytic primitives, ViRAY shading) |
 //! | [`world`] | analytic primitives, extended materials and lighting (scene image v2) |
 //!
 //! Errors are typed (`thiserror`); the library never prints. Progress is reported through
@@ -26,7 +28,9 @@ pub mod flash;
 pub mod grid;
 pub mod image_format;
 pub mod pipeline;
+pub mod plan;
 pub mod reference;
+pub mod reference_v2;
 pub mod scene;
 pub mod scene_file;
 pub mod serial;

@@ -42,6 +42,13 @@ pub fn stat_name(key: u8) -> String {
         stat::COPROC_CYCLES => "coproc_cycles".into(),
         stat::PIXELS => "pixels".into(),
         stat::LIST_ENTRIES => "list_entries".into(),
+        stat::REFLECTION_RAYS => "reflection_rays".into(),
+        stat::INTERPOLATED_PIXELS => "interpolated_pixels".into(),
+        stat::INTERP_RETRACES => "interp_retraces".into(),
+        stat::PLAN => "plan".into(),
+        stat::FSL_WORDS_PRIMARY => "fsl_words_primary".into(),
+        stat::FSL_WORDS_SHADOW => "fsl_words_shadow".into(),
+        stat::FSL_WORDS_REFLECTION => "fsl_words_reflection".into(),
         k => {
             // Per-stage counters, keyed as the firmware sends them (`device::Stage`).
             for s in Stage::ALL {
@@ -157,6 +164,9 @@ pub struct RenderStats {
     /// Comparison with the reference (only with `--reference`).
     #[serde(flatten)]
     pub reference: Option<ReferenceStats>,
+    /// Pipeline plan, rays of each kind, interpolation and FSL words per ray kind.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pipeline: Option<PipelineStats>,
     /// Every device counter by name.
     pub device_counters: BTreeMap<String, u64>,
     /// Instructions the device retired in each pipeline stage (`raygen`, `traverse`,
@@ -201,6 +211,55 @@ fn device_instructions(
     let per_ray_by_stage = (primary_rays > 0)
         .then(|| by_stage.iter().map(|(k, &v)| (k.clone(), v as f64 / primary_rays as f64)).collect());
     (Some(by_stage), per_ray, per_ray_by_stage)
+}
+
+/// The pipeline plan of a frame and what it cost (SPEC.md §3.13).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PipelineStats {
+    /// Stages the host asked for.
+    pub plan: Vec<String>,
+    /// `render_flags` bits the device reports it followed.
+    pub plan_followed: u64,
+    /// Row interpolation setting, if any.
+    pub interp: Option<crate::plan::Interp>,
+    /// Mirror-reflection rays.
+    pub reflection_rays: u64,
+    /// Pixels whose primary ray was traced.
+    pub traced_pixels: u64,
+    /// Pixels filled by interpolation.
+    pub interpolated_pixels: u64,
+    /// `traced_pixels / (traced + interpolated)`.
+    pub traced_fraction: f64,
+    /// Centre pixels traced after a failed interpolation test.
+    pub interp_retraces: u64,
+    /// FSL words (both directions) of primary rays.
+    pub fsl_words_primary: u64,
+    /// FSL words of shadow rays.
+    pub fsl_words_shadow: u64,
+    /// FSL words of reflection rays.
+    pub fsl_words_reflection: u64,
+}
+
+impl PipelineStats {
+    /// From the plan names, the interpolation setting and the device counters.
+    pub fn new(plan: &[&str], interp: Option<crate::plan::Interp>, frame: &RenderedFrame) -> Self {
+        let get = |k: u8| frame.stats.get(&k).copied().unwrap_or(0);
+        let traced = get(stat::PRIMARY_RAYS);
+        let interpolated = get(stat::INTERPOLATED_PIXELS);
+        Self {
+            plan: plan.iter().map(|s| s.to_string()).collect(),
+            plan_followed: get(stat::PLAN),
+            interp,
+            reflection_rays: get(stat::REFLECTION_RAYS),
+            traced_pixels: traced,
+            interpolated_pixels: interpolated,
+            traced_fraction: if traced + interpolated > 0 { traced as f64 / (traced + interpolated) as f64 } else { 0.0 },
+            interp_retraces: get(stat::INTERP_RETRACES),
+            fsl_words_primary: get(stat::FSL_WORDS_PRIMARY),
+            fsl_words_shadow: get(stat::FSL_WORDS_SHADOW),
+            fsl_words_reflection: get(stat::FSL_WORDS_REFLECTION),
+        }
+    }
 }
 
 /// Scene-side facts for [`RenderStats::new`].
@@ -254,6 +313,7 @@ impl RenderStats {
             upload_ms: facts.upload_ms,
             wall_ms: frame.elapsed.as_secs_f64() * 1e3,
             reference: None,
+            pipeline: None,
             device_counters: frame.stats.iter().map(|(&k, &v)| (stat_name(k), v)).collect(),
             device_instructions: instructions.0,
             instructions_per_primary_ray: instructions.1,

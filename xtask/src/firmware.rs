@@ -65,7 +65,8 @@ pub struct BuildOpts {
     /// Memory layout of the app: standalone, or loaded by the bootloader.
     #[arg(long, value_enum, default_value_t = Layout::Standalone)]
     pub layout: Layout,
-    /// Leave out the optional pipeline stages (shadow rays): the minimal feature set.
+    /// Leave out every optional pipeline stage (shadows, reflections, textures, specular):
+    /// the minimal feature set. Default: all stages (the image's `all-stages` feature).
     #[arg(long)]
     pub minimal: bool,
     /// Optimised build (the default).
@@ -99,7 +100,7 @@ impl BuildOpts {
         let mut features = vec![board.feature().to_string()];
         // --no-default-features below drops the image's default stages too; put them back.
         if !self.minimal {
-            features.push("shadows".to_string());
+            features.push("all-stages".to_string());
         }
         if self.layout == Layout::Bootloaded && self.bin == Bin::App {
             features.push("layout-bootloaded".to_string());

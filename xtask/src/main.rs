@@ -3,6 +3,7 @@
 //! - `cargo xtask setup`     install the RISC-V toolchain and QEMU (the scripts in scripts/)
 //! - `cargo xtask firmware`  build a soft-core image (firmware/image) and print its sections
 //! - `cargo xtask qemu`      boot an image on QEMU `virt` with its UART on a pseudo-terminal
+//!   (`--bin bootloader` boots the bootloader, `--elf PATH` any image; prints `serial: PTY`)
 //!
 //! One file per subcommand; `toolchain.rs` decides how to cross-compile.
 

@@ -30,7 +30,8 @@ pub struct PortOptions {
 #[derive(Debug, Clone, clap::Args)]
 #[command(next_help_heading = "Scene and grid")]
 pub struct SceneOptions {
-    /// Scene file: Wavefront .obj (with .mtl materials) or .ply.
+    /// Scene file: Wavefront .obj (with .mtl materials), .ply, or a .toml scene file with
+    /// analytic primitives, materials, textures and a light (docs/SCENE-FILE.md).
     #[arg(long, value_name = "PATH")]
     pub scene: PathBuf,
     /// Processing elements of the co-processor (1..=255).
@@ -60,6 +61,26 @@ impl SceneOptions {
     pub fn load(&self) -> anyhow::Result<Mesh> {
         gridrt_host::scene::load(&self.scene).with_context(|| format!("loading scene {}", self.scene.display()))
     }
+
+    /// Loads a mesh (.obj, .ply) or a scene file (.toml, docs/SCENE-FILE.md).
+    pub fn load_any(&self) -> anyhow::Result<Loaded> {
+        let is_toml = self.scene.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        if is_toml {
+            let world = gridrt_host::scene_file::load(&self.scene).with_context(|| format!("loading scene {}", self.scene.display()))?;
+            Ok(Loaded::World(Box::new(world)))
+        } else {
+            self.load().map(Loaded::Mesh)
+        }
+    }
+}
+
+/// A loaded scene: a triangle mesh (scene image v1) or a scene-file world (v2).
+#[derive(Debug)]
+pub enum Loaded {
+    /// .obj / .ply.
+    Mesh(Mesh),
+    /// .toml.
+    World(Box<gridrt_host::world::World>),
 }
 
 /// Voxel→PE mapping choices.

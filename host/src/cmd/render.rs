@@ -11,11 +11,12 @@ use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
 use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::reference::{render as reference_render, ReferenceScene};
-use gridrt_host::scene::Mesh;
+use gridrt_host::plan::{Interp, Plan};
+use gridrt_host::reference_v2::{self, Stages, WorldReference};
 use gridrt_host::session::{RenderedFrame, Session, SessionConfig};
-use gridrt_host::stats::{ReferenceStats, RenderStats, SceneFacts};
+use gridrt_host::stats::{PipelineStats, ReferenceStats, RenderStats, SceneFacts};
 
-use super::common::{ModelOptions, PortOptions, SceneOptions};
+use super::common::{Loaded, ModelOptions, PortOptions, SceneOptions};
 use super::progress::CliProgress;
 
 /// Transport read timeout: short, so the session's own stage timeouts stay responsive.
@@ -35,15 +36,25 @@ pub struct Cmd {
     scene: SceneOptions,
     #[clap(flatten)]
     model: ModelOptions,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 320, help_heading = "Frame")]
-    width: u16,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 240, help_heading = "Frame")]
-    height: u16,
+    /// Image width in pixels [default: the scene file's camera, else 320].
+    #[arg(long, help_heading = "Frame")]
+    width: Option<u16>,
+    /// Image height in pixels [default: the scene file's camera, else 240].
+    #[arg(long, help_heading = "Frame")]
+    height: Option<u16>,
     /// Do not trace shadow rays.
     #[arg(long, help_heading = "Frame")]
     no_shadows: bool,
+    /// Row interpolation (seed 003): trace every (l+1)-th pixel of a row, fill between two
+    /// traced pixels when their colours differ by less than EPS (8-bit levels) and they hit the
+    /// same primitive at a close depth, else refine through the centre pixel. `l,EPS` (fixed
+    /// step) or `l,EPS,adaptive`; l in 1..=15, EPS in 0..=31. BENCHMARKS.md recommends 3,8.
+    #[arg(long, value_name = "l,EPS", value_parser = Interp::parse, help_heading = "Frame")]
+    interp: Option<Interp>,
+    /// Run every pipeline stage even when the scene does not need it (no skipping; for
+    /// comparisons).
+    #[arg(long, help_heading = "Frame")]
+    no_skip: bool,
     /// Output PNG.
     #[arg(long, value_name = "PNG", help_heading = "Output")]
     out: PathBuf,
@@ -62,7 +73,7 @@ pub struct Cmd {
 impl Cmd {
     /// Runs the command.
     pub fn run(self) -> anyhow::Result<()> {
-        let mesh = self.scene.load()?;
+        let mesh = self.scene.load_any()?;
         if let Some(path) = &self.port.port {
             let port = serialport::new(path, self.port.baud)
                 .timeout(PORT_READ_TIMEOUT)
@@ -84,7 +95,7 @@ impl Cmd {
         }
     }
 
-    fn run_on<T: Read + Write>(&self, port: T, port_name: String, mesh: Mesh) -> anyhow::Result<()> {
+    fn run_on<T: Read + Write>(&self, port: T, port_name: String, loaded: Loaded) -> anyhow::Result<()> {
         let total_start = Instant::now();
         let cfg =
             SessionConfig::new(port_name.clone()).render_timeout(Duration::from_secs_f64(self.port.timeout.max(0.1)));
@@ -113,11 +124,16 @@ impl Cmd {
             mapping: self.scene.mapping.into(),
             dims_override: None,
         };
-        let dropped = mesh.stats.dropped_degenerate;
-        for w in &mesh.stats.warnings {
-            eprintln!("warning: {w}");
-        }
-        let prepared = PreparedScene::new(mesh, &params).context("building the grid")?;
+        let (prepared, world) = match loaded {
+            Loaded::Mesh(mesh) => {
+                for w in &mesh.stats.warnings {
+                    eprintln!("warning: {w}");
+                }
+                (PreparedScene::new(mesh, &params).context("building the grid")?, None)
+            }
+            Loaded::World(world) => (PreparedScene::from_world(&world, &params).context("building the grid")?, Some(world)),
+        };
+        let dropped = prepared.mesh.stats.dropped_degenerate;
         let voxels = prepared.grid.voxel_count();
         if voxels > info.voxel_capacity {
             let d = prepared.grid.dims;
@@ -139,11 +155,20 @@ impl Cmd {
         // Render.
         let bounds = prepared.grid.mesh_bounds;
         let want_reference = self.reference || self.reference_out.is_some();
-        let settings = RenderSettings::default_for(&bounds)
-            .with_size(self.width, self.height)
-            .with_shadows(!self.no_shadows)
+        let base = world.as_ref().map_or_else(|| RenderSettings::default_for(&bounds), |w| w.settings);
+        let plan = match &world {
+            Some(_) if self.no_skip => Plan::ALL,
+            Some(w) => Plan::derive(w),
+            None => Plan { shadows: true, reflections: false, textures: false, specular: false },
+        };
+        let plan = Plan { shadows: plan.shadows && !self.no_shadows, ..plan };
+        let settings = base
+            .with_size(self.width.unwrap_or(base.width), self.height.unwrap_or(base.height))
+            .with_shadows(plan.shadows)
             .with_prim_ids(want_reference);
-        let frame = session.render(&settings.to_request(1), &mut on_event).context("rendering")?;
+        let mut request = settings.to_request(1);
+        request.flags |= plan.flags() | self.interp.map_or(0, |i| i.flags());
+        let frame = session.render(&request, &mut on_event).context("rendering")?;
         drop(progress);
         write_png(&self.out, frame.width, frame.height, frame.rgb.clone())?;
 
@@ -154,13 +179,19 @@ impl Cmd {
             upload_ms,
         };
         let mut stats = RenderStats::new(&facts, &prepared.grid, &frame);
+        stats.pipeline = Some(PipelineStats::new(&plan.names(), self.interp, &frame));
 
         // Reference.
         if want_reference {
             let start = Instant::now();
-            let scene = ReferenceScene::new(&prepared.mesh, &prepared.grid.bounds);
             let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(2);
-            let reference = reference_render(&scene, &settings, threads);
+            let reference = match &world {
+                None => reference_render(&ReferenceScene::new(&prepared.mesh, &prepared.grid.bounds), &settings, threads),
+                Some(w) => {
+                    let stages = Stages { shadows: plan.shadows, reflections: plan.reflections, textures: plan.textures, specular: plan.specular };
+                    reference_v2::render(&WorldReference::new(w, &prepared.grid.bounds), &settings, stages, threads)
+                }
+            };
             let reference_ms = start.elapsed().as_secs_f64() * 1e3;
             let cmp = compare(&frame.rgb, &reference.rgb, frame.prim_ids.as_deref(), Some(&reference.prim_ids))?;
             stats.reference = Some(ReferenceStats::new(&cmp, reference_ms));
@@ -217,6 +248,19 @@ fn print_summary(s: &RenderStats, frame: &RenderedFrame, out: &std::path::Path, 
         si(s.uart_bytes),
         frame.spans_received
     );
+    if let Some(p) = &s.pipeline {
+        println!(
+            "pipeline   plan [{}], {} reflection rays, {} of {} pixels traced ({} interpolated), FSL words primary/shadow/reflection {}/{}/{}",
+            p.plan.join(", "),
+            si(p.reflection_rays),
+            si(p.traced_pixels),
+            si(p.traced_pixels + p.interpolated_pixels),
+            si(p.interpolated_pixels),
+            si(p.fsl_words_primary),
+            si(p.fsl_words_shadow),
+            si(p.fsl_words_reflection)
+        );
+    }
     if let Some(r) = &s.reference {
         let psnr = r.psnr_db.map_or_else(|| "∞ (identical)".to_string(), |p| format!("{p:.2} dB"));
         println!(

@@ -28,10 +28,13 @@ fn main() -> ! {
     // Console output is best effort: a UART transmit cannot fail on these boards.
     let _ = writeln!(
         UartWriter(&mut console),
-        "gridrt firmware {VERSION} on {} ({} layout, shadows {})\r",
+        "gridrt firmware {VERSION} on {} ({} layout; stages:{}{}{}{})\r",
         board::NAME,
         env!("GRIDRT_APP_LAYOUT"),
-        if cfg!(feature = "shadows") { "on" } else { "off" },
+        if cfg!(feature = "shadows") { " shadows" } else { "" },
+        if cfg!(feature = "reflections") { " reflections" } else { "" },
+        if cfg!(feature = "textures") { " textures" } else { "" },
+        if cfg!(feature = "specular") { " specular" } else { "" },
     );
     let (cycles1, instret1) = (counters.cycles(), counters.instret());
     let _ = writeln!(
