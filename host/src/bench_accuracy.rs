@@ -11,8 +11,12 @@
 //!    untimed path as the intersector (`Coprocessor::trace_untimed_with_info`), single
 //!    threaded. `native_ns_per_ray` = best wall time of `runs` frames / rays traced (primary
 //!    and shadow rays sent to the model). The image is compared with the reference:
-//!    `psnr_db` (empty when identical), `max_pixel_error` (largest channel difference, 0–255)
-//!    and `hit_mismatch_rate` (pixels whose primary primitive id differs).
+//!    `psnr_db` (`inf` when identical), `max_pixel_error` (largest channel difference,
+//!    0–255) and `hit_mismatch_rate` (pixels whose primary primitive id differs). Because an
+//!    8-bit image often cannot tell the formats apart, the geometric error is reported too:
+//!    `t_rel_err_mean` / `t_rel_err_max`, the relative error of the primary hit distance
+//!    against the exact reference (`gridrt_coproc::exact`, f64) on the same f32 ray, over the
+//!    pixels that hit the reference's primitive.
 //! 2. **Timed model.** The same frame through the timed path with the GridRT profile costed
 //!    for this kernel and format (`TimingProfile::for_kernel`): `model_cycles_per_ray` and
 //!    `model_tests_per_ray`. `model_cycles_per_test` is the static per-test cost
@@ -27,14 +31,16 @@
 //! not from this native run. `overflows` counts fixed-point range overflows (tests reported
 //! by the model, plus records flagged at load): they are reported, never wrapped.
 //!
-//! The plot (`write_plot`, SVG) shows, per (kernel, format), the error against the native
-//! run time and against the modelled co-processor cycles, with the Pareto front marked.
+//! The plot (`write_plot`, SVG) shows, per (kernel, format), the error (top: worst-scene
+//! image MSE; bottom: worst-scene mean relative t error) against the native run time (left)
+//! and against the modelled co-processor cycles per test (right), Pareto fronts marked.
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use gridrt_coproc::exact;
 use gridrt_coproc::isect::Triangle as KTriangle;
 use gridrt_coproc::probe::{probe, ProbeStats};
 use gridrt_coproc::{
@@ -93,7 +99,7 @@ pub struct AccuracyOptions {
 
 impl AccuracyOptions {
     /// The defaults: the bundled scenes at 160×120, every kernel in every format, f32 ray
-    /// generation, 3 timed runs, 20 000 probes, 4 PEs, m = 1.
+    /// generation, 5 timed runs, 20 000 probes, 4 PEs, m = 1.
     pub fn new() -> Self {
         Self {
             scenes: DEFAULT_SCENES.iter().map(|s| scenes_dir().join(s)).collect(),
@@ -102,7 +108,7 @@ impl AccuracyOptions {
             kernels: KernelKind::ALL.to_vec(),
             formats: NumberFormat::ALL.to_vec(),
             raygen: RayFormat::F32,
-            runs: 3,
+            runs: 5,
             probes: 20_000,
             pes: 4,
             grid_m: 1.0,
@@ -153,6 +159,10 @@ pub struct AccuracyRow {
     pub max_pixel_error: u8,
     /// Pixels whose primary primitive differs from the reference's, per pixel.
     pub hit_mismatch_rate: f64,
+    /// Mean relative error of the primary hit distance against the exact reference.
+    pub t_rel_err_mean: f64,
+    /// Largest relative error of the primary hit distance against the exact reference.
+    pub t_rel_err_max: f64,
     /// Probes that leaked, per probe crossing its disk.
     pub leak_rate: f64,
     /// Leaking probes.
@@ -244,14 +254,18 @@ pub enum AccuracyEvent<'a> {
 }
 
 /// Runs the bench (module doc). Deterministic except for the timings.
-pub fn run(opts: &AccuracyOptions, progress: &mut dyn FnMut(AccuracyEvent<'_>)) -> Result<Vec<AccuracyRow>, AccuracyError> {
+pub fn run(
+    opts: &AccuracyOptions,
+    progress: &mut dyn FnMut(AccuracyEvent<'_>),
+) -> Result<Vec<AccuracyRow>, AccuracyError> {
     let mut rows = Vec::new();
     for path in &opts.scenes {
         let mesh = scene::load(path).map_err(|source| AccuracyError::Scene { path: path.clone(), source })?;
         let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
         let params = GridParams { m: opts.grid_m, pe_count: opts.pes, pe_mem_words: u32::MAX, ..GridParams::default() };
         let grid = build(&mesh, &params).map_err(|source| AccuracyError::Grid { scene: name.clone(), source })?;
-        let settings = RenderSettings::default_for(&grid.mesh_bounds).with_size(opts.width, opts.height).with_prim_ids(true);
+        let settings =
+            RenderSettings::default_for(&grid.mesh_bounds).with_size(opts.width, opts.height).with_prim_ids(true);
         let start = Instant::now();
         let reference = reference_render(&ReferenceScene::new(&mesh, &grid.bounds), &settings, opts.threads);
         let reference_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -272,6 +286,7 @@ pub fn run(opts: &AccuracyOptions, progress: &mut dyn FnMut(AccuracyEvent<'_>)) 
 /// Everything a scene's configurations share.
 struct SceneRun<'a> {
     name: &'a str,
+    mesh: &'a Mesh,
     grid: &'a Grid,
     materials: &'a [Material],
     camera: Camera,
@@ -283,10 +298,16 @@ struct SceneRun<'a> {
     height: u16,
 }
 
+/// The co-processor as the frame renderer sees it: a query, its result and its fixed-point
+/// overflows.
+type TraceFn<'t> = dyn FnMut(RayKind, &Ray, f32, &[ListEntry]) -> Result<(RayResult, u64), FslError> + 't;
+
 /// One rendered native frame.
 struct Frame {
     rgb: Vec<u8>,
     ids: Vec<u32>,
+    /// Pixel index, primary ray and hit distance of every pixel that hit.
+    hits: Vec<(usize, Ray, f32)>,
     rays: u64,
     overflows: u64,
 }
@@ -306,6 +327,7 @@ impl<'a> SceneRun<'a> {
         let desc = GridDesc { min: v(grid.bounds.min), max: v(grid.bounds.max), dims: grid.dims.map(|d| d as u32) };
         Ok(Self {
             name,
+            mesh,
             grid,
             materials: &mesh.materials,
             camera,
@@ -360,13 +382,15 @@ impl<'a> SceneRun<'a> {
 
     /// Renders the frame the way the device does (firmware camera, DDA and shading), with
     /// `trace` as the co-processor.
-    fn render(
-        &self,
-        raygen: RayFormat,
-        trace: &mut dyn FnMut(RayKind, &Ray, f32, &[ListEntry]) -> Result<(RayResult, u64), FslError>,
-    ) -> Result<Frame, FslError> {
+    fn render(&self, raygen: RayFormat, trace: &mut TraceFn<'_>) -> Result<Frame, FslError> {
         let (w, h) = (self.width as usize, self.height as usize);
-        let mut f = Frame { rgb: Vec::with_capacity(3 * w * h), ids: Vec::with_capacity(w * h), rays: 0, overflows: 0 };
+        let mut f = Frame {
+            rgb: Vec::with_capacity(3 * w * h),
+            ids: Vec::with_capacity(w * h),
+            hits: Vec::with_capacity(w * h),
+            rays: 0,
+            overflows: 0,
+        };
         let mut list = TraversalList::new();
         let owners = &self.grid.owners;
         for y in 0..h as u32 {
@@ -375,12 +399,14 @@ impl<'a> SceneRun<'a> {
                 build_list_in(raygen, &self.desc, owners, &ray, 0.0, f32::INFINITY, &mut list);
                 let mut colour = BACKGROUND;
                 let mut id = MISS_ID;
+                let mut hit_t = None;
                 if !list.is_empty() {
                     f.rays += 1;
                     let (r, o) = trace(RayKind::Closest, &ray, f32::INFINITY, &list)?;
                     f.overflows += o;
                     if r.hit {
                         id = r.prim;
+                        hit_t = Some(r.t);
                         let albedo = self.materials.get(r.material as usize).map_or(DEFAULT_ALBEDO, |m| m.diffuse);
                         let p = shade::hit_point(&ray, r.t);
                         colour = match shade::facing_normal(r.normal, ray.dir) {
@@ -405,9 +431,34 @@ impl<'a> SceneRun<'a> {
                 }
                 f.rgb.extend_from_slice(&shade::to_rgb8(colour));
                 f.ids.push(id);
+                if let Some(t) = hit_t {
+                    f.hits.push((f.ids.len() - 1, ray, t));
+                }
             }
         }
         Ok(f)
+    }
+
+    /// Mean and largest relative error of the primary hit distances against the exact
+    /// reference, over the pixels that hit the reference's primitive.
+    fn t_errors(&self, frame: &Frame, reference: &ReferenceImage) -> (f64, f64) {
+        let (mut sum, mut max, mut n) = (0.0f64, 0.0f64, 0u64);
+        for &(px, ray, t) in &frame.hits {
+            let prim = frame.ids[px];
+            if reference.prim_ids.get(px) != Some(&prim) {
+                continue;
+            }
+            let Some(tri) = self.mesh.triangles.get(prim as usize) else { continue };
+            let t_ref = exact::t_f64(&ray, &tri.v.map(Vec3::from_array));
+            if !(t_ref.is_finite() && t_ref > 0.0) {
+                continue;
+            }
+            let e = ((t as f64 - t_ref) / t_ref).abs();
+            sum += e;
+            max = max.max(e);
+            n += 1;
+        }
+        (sum / n.max(1) as f64, max)
     }
 
     fn row(
@@ -428,7 +479,9 @@ impl<'a> SceneRun<'a> {
         for _ in 0..opts.runs.max(1) {
             let start = Instant::now();
             let f = self
-                .render(opts.raygen, &mut |k, r, t, l| cp.trace_untimed_with_info(k, r, t, l).map(|(r, i)| (r, i.overflows)))
+                .render(opts.raygen, &mut |k, r, t, l| {
+                    cp.trace_untimed_with_info(k, r, t, l).map(|(r, i)| (r, i.overflows))
+                })
                 .map_err(fail)?;
             best = best.min(start.elapsed().as_secs_f64());
             frame = Some(std::hint::black_box(f));
@@ -452,6 +505,7 @@ impl<'a> SceneRun<'a> {
         let cmp = compare(&frame.rgb, &reference.rgb, Some(&frame.ids), Some(&reference.prim_ids))
             .map_err(|e| self.err(kind, format, e.to_string()))?;
         let pixels = (self.width as u64 * self.height as u64).max(1);
+        let (t_mean, t_max) = self.t_errors(&frame, reference);
 
         // 4. Watertightness probes.
         let frame_box = FixedFrame::for_box(self.grid.bounds.min, self.grid.bounds.max, format)
@@ -477,6 +531,8 @@ impl<'a> SceneRun<'a> {
             psnr_db: cmp.psnr_db,
             max_pixel_error: cmp.max_abs_diff,
             hit_mismatch_rate: cmp.hit_mismatches.unwrap_or(0) as f64 / pixels as f64,
+            t_rel_err_mean: t_mean,
+            t_rel_err_max: t_max,
             leak_rate: leaks.leak_rate(),
             leaks: leaks.leaks,
             probes: leaks.rays,
@@ -591,7 +647,8 @@ impl ProbeSet {
             return None;
         }
         for _ in 0..1000 {
-            let (target, mut disk) = if !self.edges.is_empty() && (self.fan_verts.is_empty() || rng.f32(0.0, 1.0) < 0.7) {
+            let (target, mut disk) = if !self.edges.is_empty() && (self.fan_verts.is_empty() || rng.f32(0.0, 1.0) < 0.7)
+            {
                 let (a, b) = self.edges[rng.below(self.edges.len())];
                 let (pa, pb) = (self.verts[a as usize], self.verts[b as usize]);
                 let mut disk = self.stars[a as usize].clone();
@@ -647,10 +704,10 @@ impl ProbeSet {
 /// CSV header of [`write_csv`].
 pub const CSV_HEADER: &str = "scene,triangles,kernel,format,raygen,width,height,rays,native_ns_per_ray,\
 model_cycles_per_test,model_cycles_per_ray,model_tests_per_ray,fw_instructions_per_ray,psnr_db,max_pixel_error,\
-hit_mismatch_rate,leak_rate,leaks,probes,overflows,bytes_per_triangle,ops_per_test";
+hit_mismatch_rate,t_rel_err_mean,t_rel_err_max,leak_rate,leaks,probes,overflows,bytes_per_triangle,ops_per_test";
 
 /// The rows as CSV text (one header line, one line per row; empty fields for unknown values;
-/// `psnr_db` is empty for an image identical to the reference).
+/// `psnr_db` is `inf` for an image identical to the reference).
 pub fn to_csv(rows: &[AccuracyRow]) -> String {
     let mut s = String::from(CSV_HEADER);
     s.push('\n');
@@ -658,7 +715,7 @@ pub fn to_csv(rows: &[AccuracyRow]) -> String {
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{:.1},{:.1},{:.1},{:.2},{},{},{},{:.6},{:.6},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{:.1},{:.1},{:.1},{:.2},{},{},{},{:.6},{:.3e},{:.3e},{:.6},{},{},{},{},{}",
             r.scene,
             r.triangles,
             r.kernel,
@@ -672,9 +729,11 @@ pub fn to_csv(rows: &[AccuracyRow]) -> String {
             r.model_cycles_per_ray,
             r.model_tests_per_ray,
             opt(r.fw_instructions_per_ray, 1),
-            opt(r.psnr_db, 2),
+            r.psnr_db.map_or("inf".into(), |p| format!("{p:.2}")),
             r.max_pixel_error,
             r.hit_mismatch_rate,
+            r.t_rel_err_mean,
+            r.t_rel_err_max,
             r.leak_rate,
             r.leaks,
             r.probes,
@@ -710,10 +769,14 @@ pub struct Summary {
     pub worst_mse: f64,
     /// Total leaks over the scenes, per probe.
     pub leak_rate: f64,
+    /// Worst scene's mean relative t error (floored at 10⁻¹⁰ for the log axis).
+    pub worst_t_err: f64,
 }
 
 /// MSE floor for identical images on the plot's log axis.
 const MSE_FLOOR: f64 = 1e-4;
+/// Floor of the t error on the plot's log axis.
+const T_ERR_FLOOR: f64 = 1e-10;
 
 /// Summaries per (kernel, format), in first-seen order.
 pub fn summarize(rows: &[AccuracyRow]) -> Vec<Summary> {
@@ -724,6 +787,7 @@ pub fn summarize(rows: &[AccuracyRow]) -> Vec<Summary> {
             Some((s, n, leaks, probes)) => {
                 s.ns_per_ray += r.native_ns_per_ray;
                 s.worst_mse = s.worst_mse.max(mse);
+                s.worst_t_err = s.worst_t_err.max(r.t_rel_err_mean.max(T_ERR_FLOOR));
                 s.worst_psnr_db = match (s.worst_psnr_db, r.psnr_db) {
                     (Some(a), Some(b)) => Some(a.min(b)),
                     (a, b) => a.or(b),
@@ -741,6 +805,7 @@ pub fn summarize(rows: &[AccuracyRow]) -> Vec<Summary> {
                     worst_psnr_db: r.psnr_db,
                     worst_mse: mse,
                     leak_rate: 0.0,
+                    worst_t_err: r.t_rel_err_mean.max(T_ERR_FLOOR),
                 },
                 1,
                 r.leaks,
@@ -770,9 +835,11 @@ pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
     front
 }
 
-/// Draws the run-time/error plot (SVG): left, worst-scene MSE against native ns per ray;
-/// right, against modelled co-processor cycles per test; one point per (kernel, format)
-/// (colour: kernel; marker: format), Pareto front drawn and its points ringed.
+/// Draws the run-time/error plot (SVG), one point per (kernel, format) (colour: kernel;
+/// marker: ● f32, ▲ fixed64-q23, ✕ fixed32-q16), Pareto front drawn and its points ringed:
+/// top row the worst scene's image MSE against the reference, bottom row the worst scene's
+/// mean relative t error; left column against native ns per ray, right column against the
+/// modelled GridRT PE cycles per test.
 pub fn write_plot(rows: &[AccuracyRow], path: &Path) -> Result<(), AccuracyError> {
     use plotters::prelude::*;
     let perr = |e: &dyn std::fmt::Display| AccuracyError::Plot { path: path.into(), what: e.to_string() };
@@ -780,11 +847,18 @@ pub fn write_plot(rows: &[AccuracyRow], path: &Path) -> Result<(), AccuracyError
     if sums.is_empty() {
         return Err(perr(&"no rows"));
     }
-    let root = SVGBackend::new(path, (1400, 640)).into_drawing_area();
+    let root = SVGBackend::new(path, (1400, 1200)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| perr(&e))?;
-    let (left, right) = root.split_horizontally(700);
-    let palette = [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(148, 103, 189), RGBColor(255, 127, 14)];
-    let colour = |k: &str| KernelKind::ALL.iter().position(|x| x.name() == k).map_or(BLACK, |i| palette[i % palette.len()]);
+    let areas = root.split_evenly((2, 2));
+    let palette = [
+        RGBColor(31, 119, 180),
+        RGBColor(214, 39, 40),
+        RGBColor(44, 160, 44),
+        RGBColor(148, 103, 189),
+        RGBColor(255, 127, 14),
+    ];
+    let colour =
+        |k: &str| KernelKind::ALL.iter().position(|x| x.name() == k).map_or(BLACK, |i| palette[i % palette.len()]);
     let short = |s: &Summary| {
         let k = match s.kernel {
             "watertight" => "WT",
@@ -802,51 +876,93 @@ pub fn write_plot(rows: &[AccuracyRow], path: &Path) -> Result<(), AccuracyError
         };
         format!("{k}/{f}")
     };
-    let ymin = sums.iter().map(|s| s.worst_mse).fold(f64::INFINITY, f64::min) / 2.0;
-    let ymax = sums.iter().map(|s| s.worst_mse).fold(0.0, f64::max) * 2.0;
-    for (area, title, xlabel, x_of) in [
-        (&left, "Error vs native run time", "native ns per ray (single thread, log)", (|s: &Summary| s.ns_per_ray) as fn(&Summary) -> f64),
-        (&right, "Error vs modelled co-processor cost", "modelled GridRT PE cycles per test (log)", |s: &Summary| s.cycles_per_test),
-    ] {
-        let xs: Vec<f64> = sums.iter().map(x_of).collect();
-        let xmin = xs.iter().copied().fold(f64::INFINITY, f64::min) / 1.3;
-        let xmax = xs.iter().copied().fold(0.0, f64::max) * 1.3;
+    type Axis = fn(&Summary) -> f64;
+    let x_ns: Axis = |s| s.ns_per_ray;
+    let x_cyc: Axis = |s| s.cycles_per_test;
+    let y_mse: Axis = |s| s.worst_mse;
+    let y_t: Axis = |s| s.worst_t_err;
+    let panels: [(Axis, Axis, &str, &str, &str); 4] = [
+        (
+            x_ns,
+            y_mse,
+            "Image error vs native run time",
+            "native ns per ray (single thread, log)",
+            "worst-scene MSE vs f64 reference (log; 1e-4 = identical)",
+        ),
+        (
+            x_cyc,
+            y_mse,
+            "Image error vs modelled co-processor cost",
+            "modelled GridRT PE cycles per test (log)",
+            "worst-scene MSE vs f64 reference (log; 1e-4 = identical)",
+        ),
+        (
+            x_ns,
+            y_t,
+            "Hit-distance error vs native run time",
+            "native ns per ray (single thread, log)",
+            "worst-scene mean relative t error vs exact (log)",
+        ),
+        (
+            x_cyc,
+            y_t,
+            "Hit-distance error vs modelled co-processor cost",
+            "modelled GridRT PE cycles per test (log)",
+            "worst-scene mean relative t error vs exact (log)",
+        ),
+    ];
+    for (area, (x_of, y_of, title, xlabel, ylabel)) in areas.iter().zip(panels) {
+        let pts: Vec<(f64, f64)> = sums.iter().map(|s| (x_of(s), y_of(s))).collect();
+        let range = |v: &mut dyn Iterator<Item = f64>| {
+            let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| (lo.min(x), hi.max(x)));
+            (lo / 1.5, (hi * 1.5).max(lo * 3.0))
+        };
+        let (x0, x1) = range(&mut pts.iter().map(|p| p.0));
+        let (y0, y1) = range(&mut pts.iter().map(|p| p.1));
+        // Head room above the highest point for the legend.
+        let y1 = y1 * 4.0;
         let mut chart = ChartBuilder::on(area)
-            .caption(title, ("sans-serif", 20))
+            .caption(title, ("sans-serif", 18))
             .margin(15)
             .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d((xmin..xmax).log_scale(), (ymin..ymax).log_scale())
+            .y_label_area_size(75)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
             .map_err(|e| perr(&e))?;
         chart
             .configure_mesh()
             .x_desc(xlabel)
-            .y_desc("worst-scene MSE vs f64 reference (log, lower is better)")
+            .y_desc(ylabel)
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
             .draw()
             .map_err(|e| perr(&e))?;
-        let pts: Vec<(f64, f64)> = sums.iter().map(|s| (x_of(s), s.worst_mse)).collect();
         let front = pareto_front(&pts);
         chart
             .draw_series(LineSeries::new(front.iter().map(|&i| pts[i]), BLACK.stroke_width(2)))
             .map_err(|e| perr(&e))?
-            .label("Pareto front")
+            .label("Pareto front (lower-left is better)")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-        for &i in &front {
-            chart.draw_series(std::iter::once(Circle::new(pts[i], 10, BLACK.stroke_width(1)))).map_err(|e| perr(&e))?;
-        }
+        chart
+            .draw_series(front.iter().map(|&i| Circle::new(pts[i], 11, BLACK.stroke_width(1))))
+            .map_err(|e| perr(&e))?;
         for (s, &p) in sums.iter().zip(&pts) {
             let c = colour(s.kernel);
             let marker: DynElement<_, _> = match s.format {
                 "f32" => Circle::new(p, 5, c.filled()).into_dyn(),
-                "fixed64-q23" => TriangleMarker::new(p, 6, c.filled()).into_dyn(),
-                _ => Rectangle::new([(p.0, p.1), (p.0, p.1)], c.stroke_width(9)).into_dyn(),
+                "fixed64-q23" => TriangleMarker::new(p, 7, c.filled()).into_dyn(),
+                _ => Cross::new(p, 6, c.stroke_width(3)).into_dyn(),
             };
             chart.draw_series(std::iter::once(marker)).map_err(|e| perr(&e))?;
-            chart
-                .draw_series(std::iter::once(Text::new(short(s), p, ("sans-serif", 11).into_font().color(&c))))
-                .map_err(|e| perr(&e))?;
+            let label = EmptyElement::at(p) + Text::new(short(s), (8, -4), ("sans-serif", 11).into_font().color(&c));
+            chart.draw_series(std::iter::once(label)).map_err(|e| perr(&e))?;
         }
-        chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw().map_err(|e| perr(&e))?;
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .border_style(BLACK)
+            .background_style(WHITE)
+            .draw()
+            .map_err(|e| perr(&e))?;
     }
     root.present().map_err(|e| perr(&e))?;
     Ok(())

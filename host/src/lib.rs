@@ -22,6 +22,7 @@
 //! [`session::ProgressEvent`] callbacks, which only the binary draws.
 #![warn(missing_docs)]
 
+pub mod bench_accuracy;
 pub mod camera;
 pub mod compare;
 pub mod flash;
@@ -35,5 +36,6 @@ pub mod scene;
 pub mod scene_file;
 pub mod serial;
 pub mod session;
+pub mod simrun;
 pub mod stats;
 pub mod world;

@@ -84,3 +84,14 @@ fn malformed_scene_is_a_clear_error_not_a_panic() {
     assert!(err.contains("line 2"), "error names the line: {err}");
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// Issue 4: the default configuration (watertight f32) reaches ≥ 50 dB on every bundled scene.
+#[test]
+fn default_configuration_matches_the_reference_on_every_bundled_scene() {
+    for scene in ["bun_zipper_res3.obj", "bun_zipper_res2.obj", "teapot.obj", "suzanne.obj", "cornell_box.obj", "bun_zipper_res4.ply"] {
+        let stats = render_sim(scene, &[]);
+        let identical = stats["identical"].as_bool().unwrap();
+        let psnr = stats["psnr_db"].as_f64();
+        assert!(identical || psnr.is_some_and(|p| p >= 50.0), "{scene}: psnr {psnr:?}");
+    }
+}

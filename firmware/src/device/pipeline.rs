@@ -237,32 +237,26 @@ fn pixel_v2<L: FslLink, C: StageClock, const N: usize>(
     Ok(Sample { rgb, prim: first_prim, t: first_t })
 }
 
+/// Refuses a plan that names a stage missing from `compiled` (the build's plan bits).
+pub(super) fn check_plan(flags: u16, compiled: u16) -> Result<(), &'static str> {
+    let missing = flags & (render_flags::REFLECTIONS | render_flags::TEXTURES | render_flags::SPECULAR) & !compiled;
+    if missing & render_flags::TEXTURES != 0 {
+        return Err("the scene needs textures but this firmware was built without the texture stage (feature `textures`)");
+    }
+    if missing & render_flags::REFLECTIONS != 0 {
+        return Err("the scene needs reflections but this firmware was built without the reflection stage (feature `reflections`)");
+    }
+    if missing & render_flags::SPECULAR != 0 {
+        return Err("the scene needs specular highlights but this firmware was built without the specular stage (feature `specular`)");
+    }
+    Ok(())
+}
+
 impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
     /// The frame context and the plan the device follows, or the refusal of a plan bit whose
     /// stage this build does not have.
     fn frame_ctx(&self, req: &RenderRequest, cam: &Camera, light: &Light) -> Result<FrameCtx, Fail> {
-        let missing = req.flags & (render_flags::REFLECTIONS | render_flags::TEXTURES | render_flags::SPECULAR) & !compiled_plan();
-        if missing & render_flags::TEXTURES != 0 {
-            return Err(Fail::Plain(
-                ErrorCode::BadRequest,
-                FLAGS_FIELD,
-                "the scene needs textures but this firmware was built without the texture stage (feature `textures`)",
-            ));
-        }
-        if missing & render_flags::REFLECTIONS != 0 {
-            return Err(Fail::Plain(
-                ErrorCode::BadRequest,
-                FLAGS_FIELD,
-                "the scene needs reflections but this firmware was built without the reflection stage (feature `reflections`)",
-            ));
-        }
-        if missing & render_flags::SPECULAR != 0 {
-            return Err(Fail::Plain(
-                ErrorCode::BadRequest,
-                FLAGS_FIELD,
-                "the scene needs specular highlights but this firmware was built without the specular stage (feature `specular`)",
-            ));
-        }
+        check_plan(req.flags, compiled_plan()).map_err(|t| Fail::Plain(ErrorCode::BadRequest, FLAGS_FIELD, t))?;
         let v2 = self.scene.v2;
         let shadows = cfg!(feature = "shadows") && req.flags & render_flags::SHADOWS != 0 && (!v2 || self.scene.lighting.light_count > 0);
         Ok(FrameCtx {
@@ -354,5 +348,24 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         self.path.stats.interpolated_pixels = counts.interpolated;
         self.path.stats.interp_retraces = counts.retraces;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_build_without_a_stage_refuses_plans_that_need_it() {
+        let all = render_flags::REFLECTIONS | render_flags::TEXTURES | render_flags::SPECULAR;
+        let no_textures = all & !render_flags::TEXTURES;
+        let e = check_plan(render_flags::TEXTURES | render_flags::SHADOWS, no_textures).unwrap_err();
+        assert!(e.contains("without the texture stage"), "{e}");
+        assert!(check_plan(render_flags::REFLECTIONS | render_flags::SHADOWS, no_textures).is_ok());
+        assert!(check_plan(render_flags::REFLECTIONS, 0).unwrap_err().contains("reflection"));
+        assert!(check_plan(render_flags::SPECULAR, 0).unwrap_err().contains("specular"));
+        // This build: whatever its features, it refuses exactly what it lacks.
+        assert_eq!(check_plan(render_flags::TEXTURES, compiled_plan()).is_ok(), cfg!(feature = "textures"));
+        assert_eq!(pipeline_features() & feature::TEXTURES != 0, cfg!(feature = "textures"));
     }
 }

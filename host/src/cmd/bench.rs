@@ -27,6 +27,8 @@ enum What {
     /// 3D-DDA list → co-processor model `trace_untimed` on the loaded PE images (no cycle
     /// model, no UART, no shading). Reports the best of --runs after --warmup runs.
     Rays(RaysArgs),
+    /// Accuracy against run time of every intersection kernel and number format.
+    Accuracy(super::bench_accuracy::Args),
 }
 
 #[derive(Debug, clap::Args)]
@@ -58,6 +60,7 @@ impl Cmd {
     pub fn run(self) -> anyhow::Result<()> {
         match self.what {
             What::Rays(args) => args.run(),
+            What::Accuracy(a) => a.run(),
         }
     }
 }

@@ -36,7 +36,7 @@ pub struct Args {
     #[arg(long, default_value_t = 120)]
     height: u16,
     /// Timed native frames per configuration (the best counts).
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
     runs: u32,
     /// Watertightness probes per configuration.
     #[arg(long, default_value_t = 20_000)]

@@ -1,6 +1,7 @@
 //! Subcommands (one file each) and the option groups and progress display they share.
 
 pub mod bench;
+pub mod bench_accuracy;
 pub mod common;
 pub mod device;
 pub mod flash;
