@@ -105,8 +105,9 @@ impl From<Mapping> for PeMapping {
 #[derive(Debug, Clone, clap::Args)]
 #[command(next_help_heading = "Co-processor model")]
 pub struct ModelOptions {
-    /// Intersection kernel every PE runs.
-    #[arg(long, value_enum, default_value_t = Kernel::Watertight)]
+    /// Intersection kernel every PE runs (f32; `gridrt bench accuracy` compares the
+    /// fixed-point formats).
+    #[arg(long, alias = "isect", value_enum, default_value_t = Kernel::Watertight)]
     pub kernel: Kernel,
     /// Cycle model of the simulator (does not affect the image).
     #[arg(long, value_enum, default_value_t = Timing::Gridrt)]
@@ -120,6 +121,10 @@ pub enum Kernel {
     Watertight,
     /// Möller–Trumbore.
     MollerTrumbore,
+    /// Wald's projection test with precomputed per-triangle data (TriAccel).
+    Wald,
+    /// Hanika–Keller's projection test with pre-divided edges.
+    HanikaKeller,
     /// GridRT's Cramer's-rule test.
     Cramer,
 }
@@ -129,6 +134,8 @@ impl From<Kernel> for KernelKind {
         match k {
             Kernel::Watertight => KernelKind::Watertight,
             Kernel::MollerTrumbore => KernelKind::MollerTrumbore,
+            Kernel::Wald => KernelKind::Wald,
+            Kernel::HanikaKeller => KernelKind::HanikaKeller,
             Kernel::Cramer => KernelKind::Cramer,
         }
     }
