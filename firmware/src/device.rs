@@ -24,7 +24,7 @@ use gridrt_shared::frame::{Crc32Digest, FeedResult, FrameAccumulator, FrameError
 use gridrt_shared::fsl::{self as wire, op, FslError, RayKind, RayResult, RESULT_WORDS};
 use gridrt_shared::math::{Ray, Vec3};
 use gridrt_shared::msg::{
-    feature, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, Region, RenderRequest, SceneStatus,
+    feature, region_options, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, Region, RenderRequest, SceneStatus,
     MAX_ERROR_TEXT, STAT_ENTRY_LEN,
 };
 use gridrt_shared::scene::{
@@ -753,7 +753,9 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             }
             Msg::SceneChunk { offset, data } => self.scene_chunk(offset, data, out),
             Msg::RenderRequest(req) => self.render(&req, out),
-            Msg::RenderRegion { region, max_span, request } => self.render_region(&request, region, max_span, out),
+            Msg::RenderRegion { region, max_span, options, request } => {
+                self.render_region(&request, region, max_span, options, out)
+            }
             other => {
                 let k = other.kind() as u8;
                 self.error(ErrorCode::UnexpectedMessage, k as u32, "message not accepted by the device", out);
@@ -878,14 +880,14 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             Err(f) => return self.abort(f, out),
         };
         let region = Region::full(req.width, req.height);
-        if let Some((spans, image_crc)) = self.render_rect(req, region, 0, &cam, &light, out) {
+        if let Some((spans, image_crc)) = self.render_rect(req, region, 0, false, &cam, &light, out) {
             self.send(&Msg::FrameEnd { frame: req.frame, spans, image_crc }, out);
         }
     }
 
     /// `RenderRegion` (SPEC.md §3.12): the pixels of `region`, exactly as a full render of
     /// `req` would produce them, then `Stats` and `RegionEnd`.
-    fn render_region(&mut self, req: &RenderRequest, region: Region, max_span: u16, out: &mut impl ByteSink) {
+    fn render_region(&mut self, req: &RenderRequest, region: Region, max_span: u16, options: u16, out: &mut impl ByteSink) {
         let (cam, light) = match self.validate(req, field::REGION_REQUEST) {
             Ok(v) => v,
             Err(f) => return self.abort(f, out),
@@ -898,7 +900,8 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             };
             return self.abort(Fail::Plain(ErrorCode::BadRequest, f, t), out);
         }
-        if let Some((spans, crc)) = self.render_rect(req, region, max_span, &cam, &light, out) {
+        let crc_only = options & region_options::CRC_ONLY != 0;
+        if let Some((spans, crc)) = self.render_rect(req, region, max_span, crc_only, &cam, &light, out) {
             self.send(&Msg::RegionEnd { frame: req.frame, region, spans, crc }, out);
         }
     }
@@ -910,12 +913,15 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         req: &RenderRequest,
         region: Region,
         max_span: u16,
+        crc_only: bool,
         cam: &Camera,
         light: &Light,
         out: &mut impl ByteSink,
     ) -> Option<(u32, u32)> {
         self.path.stats = FrameStats::default();
-        self.spans.begin_with(req.frame, req.flags & render_flags::PRIM_IDS != 0, req.encoding, max_span);
+        let prim_ids = req.flags & render_flags::PRIM_IDS != 0 && !crc_only;
+        self.spans.begin_with(req.frame, prim_ids, req.encoding, max_span);
+        self.spans.set_silent(crc_only);
         if let Err(f) = self.render_pixels(req, region, cam, light, out) {
             self.abort(f, out);
             return None;

@@ -26,6 +26,9 @@ pub const DEPTH_REL: f32 = 1.0 / 32.0;
 /// Largest step l (the request carries 4 bits).
 pub const MAX_STEP: u8 = 15;
 
+/// Adaptive mode: largest step it grows to (seed 003 §3.5's S_MAX).
+pub const ADAPTIVE_MAX: u8 = 8;
+
 /// Adaptive mode: grow the step after this share of successful segments (percent).
 pub const P_HI: u32 = 90;
 /// Adaptive mode: shrink the step below this share (percent).
@@ -221,7 +224,7 @@ pub struct StepControl {
 impl StepControl {
     /// Starts at `p.step` (the fixed step, or S0 of the adaptive mode).
     pub fn new(p: &Params) -> Self {
-        Self { step: p.step.clamp(1, MAX_STEP), max: MAX_STEP, adaptive: p.adaptive }
+        Self { step: p.step.clamp(1, MAX_STEP), max: ADAPTIVE_MAX.max(p.step), adaptive: p.adaptive }
     }
 
     /// Updates the step after a row whose counts went from `before` to `after`.

@@ -101,6 +101,7 @@ pub struct SpanEncoder {
     ids: [u8; 4 * MAX_SPAN_PIXELS_WITH_IDS],
     crc: Crc32Digest,
     spans: u32,
+    silent: bool,
 }
 
 impl Default for SpanEncoder {
@@ -126,6 +127,7 @@ impl SpanEncoder {
             ids: [0; 4 * MAX_SPAN_PIXELS_WITH_IDS],
             crc: Crc32Digest::default(),
             spans: 0,
+            silent: false,
         }
     }
 
@@ -155,6 +157,13 @@ impl SpanEncoder {
         self.rle = RleEncoder::new();
         self.crc = Crc32Digest::default();
         self.spans = 0;
+        self.silent = false;
+    }
+
+    /// With `silent` the encoder keeps the CRC but sends no spans (`RenderRegion` option
+    /// `CRC_ONLY`). Call after `begin_with`.
+    pub fn set_silent(&mut self, silent: bool) {
+        self.silent = silent;
     }
 
     /// True when one more pixel surely fits the data buffer.
@@ -234,6 +243,9 @@ impl SpanEncoder {
         let data = self.data.get(..len).unwrap_or(&[]);
         if self.encoding == PixelEncoding::Rgb888 {
             self.crc.update(data);
+        }
+        if self.silent {
+            return Ok(());
         }
         let (frame, y, x0, count) = (self.frame, self.y, self.x0, n as u16);
         tx.send(&Msg::PixelSpan { frame, y, x0, count, encoding: self.encoding, data }, out)?;

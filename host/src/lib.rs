@@ -12,6 +12,8 @@
 //! | [`flash`] | ELF → flash image, flashing through the bootloader (SPEC.md §3.11), progress events |
 //! | [`serial`] | opening serial ports (no flush on open) and listing them |
 //! | [`session`] | protocol client over any `Read + Write` byte transport, progress events |
+//! | [`multi`] | one frame on several boards: work queue of row bands, merged result |
+//! | [`link_bench`] | `gridrt bench link`: wire bytes, efficiency, compression, modelled frame time |
 //! | [`stats`] | JSON statistics |
 //! | [`scene_file`] | TOML scene files (docs/SCENE-FILE.md) → [`world::World`] |
 //! | [`plan`] | the pipeline plan (which stages a scene needs) and `--interp` |
@@ -28,6 +30,8 @@ pub mod compare;
 pub mod flash;
 pub mod grid;
 pub mod image_format;
+pub mod link_bench;
+pub mod multi;
 pub mod pipeline;
 pub mod plan;
 pub mod reference;

@@ -165,7 +165,7 @@ fn texel(e: &MaterialExt, c1: [f64; 3], i: u32, j: u32) -> [f64; 3] {
         TextureKind::None => c1,
         TextureKind::Checker => {
             let cs = (n / (e.tex_param as u32).clamp(1, n)).max(1);
-            if ((i / cs) + (j / cs)) % 2 == 0 {
+            if ((i / cs) + (j / cs)).is_multiple_of(2) {
                 c1
             } else {
                 c2

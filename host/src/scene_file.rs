@@ -66,7 +66,7 @@ pub enum SceneFileError {
         table: String,
         /// The loader error.
         #[source]
-        source: crate::scene::SceneLoadError,
+        source: Box<crate::scene::SceneLoadError>,
     },
 }
 
@@ -317,6 +317,9 @@ enum ObjectType {
     Cone,
 }
 
+/// A plane waiting for the default extent: (object index, transform, material, extent, span).
+type PendingPlane = (usize, crate::world::Affine64, u32, Option<f64>, std::ops::Range<usize>);
+
 /// Line (1-based) of byte offset `at` in `text`.
 fn line_of(text: &str, at: usize) -> usize {
     text.as_bytes().get(..at.min(text.len())).map_or(0, |b| b.iter().filter(|&&c| c == b'\n').count()) + 1
@@ -514,7 +517,7 @@ pub fn parse(
     let mut triangles: Vec<Triangle> = Vec::new();
     let mut prims: Vec<(AnalyticPrim, ObjectKind, usize)> = Vec::new();
     let mut mesh_objects: Vec<ObjectRecord> = Vec::new();
-    let mut planes: Vec<(usize, crate::world::Affine64, u32, Option<f64>, std::ops::Range<usize>)> = Vec::new();
+    let mut planes: Vec<PendingPlane> = Vec::new();
     if def.objects.is_empty() {
         return Err(SceneFileError::Syntax { path: path.to_path_buf(), message: "the scene has no [[objects]]".into() });
     }
@@ -555,7 +558,7 @@ pub fn parse(
                     path: path.to_path_buf(),
                     line: line_of(text, span.start),
                     table: table.clone(),
-                    source,
+                    source: Box::new(source),
                 })?;
                 // The mesh's own MTL materials follow the file's materials.
                 let base = materials.len() as u32;
@@ -721,7 +724,7 @@ pub fn parse(
                         return Err(cx.field(span, "light", "spot_direction", "must be finite and non-zero"));
                     }
                     let inner = l.spot_inner_deg.unwrap_or(outer);
-                    if !(0.0 < outer && outer <= 180.0) || !(0.0..=outer).contains(&inner) {
+                    if !(0.0 < outer && outer <= 180.0 && (0.0..=outer).contains(&inner)) {
                         return Err(cx.field(span, "light", "spot_inner_deg", "need 0 ≤ spot_inner_deg ≤ spot_outer_deg ≤ 180"));
                     }
                     world.lighting.spot_dir = f3(d);

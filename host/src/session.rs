@@ -37,7 +37,7 @@ use gridrt_shared::msg::{
 use gridrt_shared::PROTOCOL_VERSION;
 
 mod region;
-pub use region::{decode_colour, BandReport, Canvas, LinkStats};
+pub use region::{decode_colour, merge_stat, BandReport, Canvas, LinkStats};
 
 /// Largest scene chunk the host sends.
 pub const MAX_CHUNK: usize = 1024;

@@ -27,7 +27,8 @@ use serde::Serialize;
 
 use crate::compare::Comparison;
 use crate::grid::Grid;
-use crate::session::RenderedFrame;
+use crate::multi::DeviceShare;
+use crate::session::{LinkStats, RenderedFrame};
 
 /// Name of a device statistics key.
 pub fn stat_name(key: u8) -> String {
@@ -167,6 +168,12 @@ pub struct RenderStats {
     /// Pipeline plan, rays of each kind, interpolation and FSL words per ray kind.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pipeline: Option<PipelineStats>,
+    /// UART link: encoding, retransmissions and line errors of the render (issue 6).
+    pub link: LinkReport,
+    /// Per board, when the frame was split across several (`--port A --port B`,
+    /// `--sim-devices N`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub devices: Vec<DeviceShare>,
     /// Every device counter by name.
     pub device_counters: BTreeMap<String, u64>,
     /// Instructions the device retired in each pipeline stage (`raygen`, `traverse`,
@@ -314,12 +321,29 @@ impl RenderStats {
             wall_ms: frame.elapsed.as_secs_f64() * 1e3,
             reference: None,
             pipeline: None,
+            link: LinkReport { encoding: String::new(), baud: 0, modelled_link_s: 0.0, counters: frame.link.clone() },
+            devices: Vec::new(),
             device_counters: frame.stats.iter().map(|(&k, &v)| (stat_name(k), v)).collect(),
             device_instructions: instructions.0,
             instructions_per_primary_ray: instructions.1,
             instructions_per_primary_ray_by_stage: instructions.2,
         }
     }
+}
+
+/// The `link` object of [`RenderStats`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LinkReport {
+    /// Pixel encoding of the colour spans (`rgb888`, `rgb565`, `rle`).
+    pub encoding: String,
+    /// Line rate the modelled time is computed for (`--baud`).
+    pub baud: u32,
+    /// Wire bytes of the render (both directions; with several boards, the busiest one) ×
+    /// 10 bit times / baud.
+    pub modelled_link_s: f64,
+    /// Retransmissions and line errors (`frames resent`, bytes, CRC errors, resyncs, …).
+    #[serde(flatten)]
+    pub counters: LinkStats,
 }
 
 /// Result of `gridrt bench rays`.

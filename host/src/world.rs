@@ -36,7 +36,7 @@ pub fn invert(m: &Affine64) -> Option<Affine64> {
     let a = |i: usize, j: usize| m[i][j];
     let det = a(0, 0) * (a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1)) - a(0, 1) * (a(1, 0) * a(2, 2) - a(1, 2) * a(2, 0))
         + a(0, 2) * (a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0));
-    if !(det.abs() > 1e-300) || !det.is_finite() {
+    if det.is_nan() || det.abs() <= 1e-300 || !det.is_finite() {
         return None;
     }
     let inv = [

@@ -338,6 +338,13 @@ impl Region {
     }
 }
 
+/// Option bits of a `RenderRegion` (SPEC.md §3.12).
+pub mod region_options {
+    /// Render the region but send no spans: only `Stats` and `RegionEnd` (its CRC lets the
+    /// host verify pixels it already holds when an earlier `RegionEnd` was lost).
+    pub const CRC_ONLY: u16 = 1 << 0;
+}
+
 /// Payload size of a `RenderRegion`.
 pub const RENDER_REGION_LEN: usize = 12 + RENDER_REQUEST_LEN;
 /// Payload size of a `RegionEnd`.
@@ -601,6 +608,8 @@ pub enum Msg<'a> {
         region: Region,
         /// Most pixels per colour span; 0 = the device's default.
         max_span: u16,
+        /// Option bits, see [`region_options`].
+        options: u16,
         /// Camera, light, size, flags and encoding of the frame.
         request: RenderRequest,
     },
@@ -736,10 +745,10 @@ impl<'a> Msg<'a> {
                 w.bytes(&[0; 3])?;
             }
             Self::RenderRequest(r) => write_request(&mut w, &r)?,
-            Self::RenderRegion { region, max_span, request } => {
+            Self::RenderRegion { region, max_span, options, request } => {
                 write_region(&mut w, region)?;
                 w.u16(max_span)?;
-                w.u16(0)?;
+                w.u16(options)?;
                 write_request(&mut w, &request)?;
             }
             Self::RegionEnd { frame, region, spans, crc } => {
@@ -848,8 +857,8 @@ impl<'a> Msg<'a> {
             MsgType::RenderRegion => {
                 let region = read_region(&mut r)?;
                 let max_span = r.u16()?;
-                let _ = r.u16()?;
-                Self::RenderRegion { region, max_span, request: read_request(&mut r)? }
+                let options = r.u16()?;
+                Self::RenderRegion { region, max_span, options, request: read_request(&mut r)? }
             }
             MsgType::RegionEnd => {
                 let frame = r.u16()?;

@@ -130,7 +130,7 @@ fn rle_op_table() {
 #[test]
 fn msg_render_region_worked_example() {
     assert_eq!(msg::RENDER_REGION_LEN, 84);
-    let m = Msg::RenderRegion { region: Region { x0: 0, y0: 16, cols: 320, rows: 16 }, max_span: 64, request: example_request() };
+    let m = Msg::RenderRegion { region: Region { x0: 0, y0: 16, cols: 320, rows: 16 }, max_span: 64, options: 0, request: example_request() };
     check_msg(
         m,
         17,
@@ -181,7 +181,7 @@ fn region_geometry() {
 
 #[test]
 fn region_messages_check_exact_lengths() {
-    let rr = encode_payload(&Msg::RenderRegion { region: Region::full(4, 4), max_span: 0, request: example_request() });
+    let rr = encode_payload(&Msg::RenderRegion { region: Region::full(4, 4), max_span: 0, options: 1, request: example_request() });
     let re = encode_payload(&Msg::RegionEnd { frame: 1, region: Region::full(4, 4), spans: 1, crc: 2 });
     for (kind, p) in [(0x24u8, &rr), (0x25, &re)] {
         for n in 0..p.len() {

@@ -424,10 +424,10 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
 
     #[test]
-    fn rt_render_region(x0: u16, y0: u16, cols: u16, rows: u16, max_span: u16, req in request(),
+    fn rt_render_region(x0: u16, y0: u16, cols: u16, rows: u16, max_span: u16, options: u16, req in request(),
                         seq: u16, n in noise(), chunk in 1usize..100) {
         let region = msg::Region { x0, y0, cols, rows };
-        round_trip(Msg::RenderRegion { region, max_span, request: req }, seq, &n, chunk)?;
+        round_trip(Msg::RenderRegion { region, max_span, options, request: req }, seq, &n, chunk)?;
     }
 
     #[test]

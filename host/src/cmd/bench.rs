@@ -29,6 +29,10 @@ enum What {
     Rays(RaysArgs),
     /// Accuracy against run time of every intersection kernel and number format.
     Accuracy(super::bench_accuracy::Args),
+    /// What the pipeline plan and row interpolation save: rays, FSL words and modeled time
+    /// with and without each skip, traced pixels vs PSNR over (l, EPS), and the ViRAY-like
+    /// demo at 1920×1080 (CSV, SVG plot and JSON in --out).
+    Skip(super::bench_skip::Args),
 }
 
 #[derive(Debug, clap::Args)]
@@ -61,6 +65,7 @@ impl Cmd {
         match self.what {
             What::Rays(args) => args.run(),
             What::Accuracy(a) => a.run(),
+            What::Skip(a) => a.run(),
         }
     }
 }

@@ -13,12 +13,22 @@ use gridrt_host::scene::Mesh;
 pub struct PortOptions {
     /// Use the in-process loopback simulator (firmware device loop + co-processor model),
     /// reached only through an in-memory UART byte stream.
-    #[arg(long, required_unless_present = "port", conflicts_with = "port")]
+    #[arg(long, required_unless_present_any = ["port", "sim_devices"], conflicts_with = "port")]
     pub sim: bool,
-    /// Serial port of a board or of QEMU's pty (e.g. /dev/ttyUSB0, /dev/pts/3).
+    /// Serial port of a board or of QEMU's pty (e.g. /dev/ttyUSB0, /dev/pts/3). Repeat it for
+    /// several boards: the frame is split into row bands that the boards take from a shared
+    /// queue as they finish, and merged.
     #[arg(long, value_name = "PATH")]
-    pub port: Option<String>,
-    /// Baud rate for --port.
+    pub port: Vec<String>,
+    /// Render on N simulated boards at once (implies --sim), splitting the frame as with
+    /// several --port.
+    #[arg(long, value_name = "N", conflicts_with = "port", value_parser = clap::value_parser!(u16).range(1..=64))]
+    pub sim_devices: Option<u16>,
+    /// Deliver the simulated boards' output no faster than --baud (8N1), so wall time and
+    /// load balancing follow the modelled line rate.
+    #[arg(long)]
+    pub sim_paced: bool,
+    /// Baud rate for --port (and the line rate of the modelled link time).
     #[arg(long, default_value_t = 115_200, value_name = "BAUD")]
     pub baud: u32,
     /// Seconds the render may go without any message from the device before it fails.

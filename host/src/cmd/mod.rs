@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod bench_accuracy;
+pub mod bench_skip;
 pub mod common;
 pub mod device;
 pub mod flash;

@@ -13,8 +13,10 @@ use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::reference::{render as reference_render, ReferenceScene};
 use gridrt_host::plan::{Interp, Plan};
 use gridrt_host::reference_v2::{self, Stages, WorldReference};
-use gridrt_host::session::{RenderedFrame, Session, SessionConfig};
-use gridrt_host::stats::{PipelineStats, ReferenceStats, RenderStats, SceneFacts};
+use gridrt_host::multi::{render_multi, DeviceShare};
+use gridrt_host::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
+use gridrt_host::stats::{LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
+use gridrt_shared::msg::PixelEncoding;
 
 use super::common::{Loaded, ModelOptions, PortOptions, SceneOptions};
 use super::progress::CliProgress;
@@ -55,6 +57,14 @@ pub struct Cmd {
     /// comparisons).
     #[arg(long, help_heading = "Frame")]
     no_skip: bool,
+    /// Pixel encoding on the UART (SPEC.md §3.7.1): `rle` is lossless and several times
+    /// smaller on typical frames, `rgb565` is lossy.
+    #[arg(long, value_enum, default_value_t = Encoding::Rgb888, help_heading = "Link")]
+    encoding: Encoding,
+    /// Rows per request (0 = the whole frame on one board; about eight bands per board
+    /// with several boards). Smaller bands cost less when a device resets.
+    #[arg(long, default_value_t = 0, value_name = "ROWS", help_heading = "Link")]
+    band_rows: u16,
     /// Output PNG.
     #[arg(long, value_name = "PNG", help_heading = "Output")]
     out: PathBuf,
@@ -70,16 +80,41 @@ pub struct Cmd {
     reference_out: Option<PathBuf>,
 }
 
+/// `--encoding` choices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Encoding {
+    /// 3 bytes per pixel.
+    Rgb888,
+    /// 2 bytes per pixel, lossy.
+    Rgb565,
+    /// Lossless run-length + delta code.
+    Rle,
+}
+
+impl From<Encoding> for PixelEncoding {
+    fn from(e: Encoding) -> Self {
+        match e {
+            Encoding::Rgb888 => PixelEncoding::Rgb888,
+            Encoding::Rgb565 => PixelEncoding::Rgb565,
+            Encoding::Rle => PixelEncoding::Rle,
+        }
+    }
+}
+
 impl Cmd {
     /// Runs the command.
     pub fn run(self) -> anyhow::Result<()> {
         let mesh = self.scene.load_any()?;
-        if let Some(path) = &self.port.port {
-            let port = serialport::new(path, self.port.baud)
-                .timeout(PORT_READ_TIMEOUT)
-                .open()
-                .with_context(|| format!("opening serial port {path}"))?;
-            self.run_on(port, path.clone(), mesh)
+        if !self.port.port.is_empty() {
+            let mut ports = Vec::new();
+            for path in &self.port.port {
+                let port = serialport::new(path, self.port.baud)
+                    .timeout(PORT_READ_TIMEOUT)
+                    .open()
+                    .with_context(|| format!("opening serial port {path}"))?;
+                ports.push((port, path.clone()));
+            }
+            self.run_on(ports, mesh)
         } else {
             let defaults = gridrt_loopback::SimConfig::default();
             let config = gridrt_loopback::SimConfig {
@@ -89,23 +124,55 @@ impl Cmd {
                 kernel: self.model.kernel.into(),
                 ..defaults
             };
-            let mut port = gridrt_loopback::spawn(config);
-            port.set_timeout(PORT_READ_TIMEOUT);
-            self.run_on(port, "sim".to_string(), mesh)
+            let n = self.port.sim_devices.unwrap_or(1);
+            let ports = (0..n)
+                .map(|i| {
+                    let mut port = gridrt_loopback::spawn(config);
+                    port.set_timeout(PORT_READ_TIMEOUT);
+                    if self.port.sim_paced {
+                        port.set_line_rate(Some(self.port.baud));
+                    }
+                    (port, if n == 1 { "sim".to_string() } else { format!("sim{i}") })
+                })
+                .collect();
+            self.run_on(ports, mesh)
         }
     }
 
-    fn run_on<T: Read + Write>(&self, port: T, port_name: String, loaded: Loaded) -> anyhow::Result<()> {
+    fn run_on<T: Read + Write + Send>(&self, ports: Vec<(T, String)>, loaded: Loaded) -> anyhow::Result<()> {
         let total_start = Instant::now();
-        let cfg =
-            SessionConfig::new(port_name.clone()).render_timeout(Duration::from_secs_f64(self.port.timeout.max(0.1)));
-        let mut session = Session::new(port, cfg);
+        let mut sessions: Vec<Session<T>> = ports
+            .into_iter()
+            .map(|(port, name)| {
+                let cfg = SessionConfig::new(name)
+                    .render_timeout(Duration::from_secs_f64(self.port.timeout.max(0.1)))
+                    .band_rows(self.band_rows);
+                Session::new(port, cfg)
+            })
+            .collect();
         let mut progress = CliProgress::default();
         let mut on_event = |e| progress.handle(e);
 
-        // Hello: the device tells us its PEs and memories.
-        let info = session.hello(&mut on_event).with_context(|| format!("connecting to {port_name}"))?;
-        if self.port.port.is_some() && info.pe_count != self.scene.pes {
+        // Hello: the devices tell us their PEs and memories (they must agree).
+        let mut info = None;
+        for s in &mut sessions {
+            let name = s.config().port_name.clone();
+            let i = s.hello(&mut on_event).with_context(|| format!("connecting to {name}"))?;
+            match info {
+                None => info = Some(i),
+                Some(first) if (first.pe_count, first.pe_mem_words) != (i.pe_count, i.pe_mem_words) => bail!(
+                    "{name} has {} PEs of {} words, {} has {} of {}: all boards must match",
+                    i.pe_count,
+                    i.pe_mem_words,
+                    sessions.first().map_or("", |f| f.config().port_name.as_str()),
+                    first.pe_count,
+                    first.pe_mem_words
+                ),
+                Some(_) => {}
+            }
+        }
+        let Some(info) = info else { bail!("no device") };
+        if !self.port.port.is_empty() && info.pe_count != self.scene.pes {
             eprintln!("note: the device has {} PEs; using that instead of --pes {}", info.pe_count, self.scene.pes);
         }
         let pe_mem_words = match self.scene.pe_mem_words {
@@ -147,9 +214,21 @@ impl Cmd {
             );
         }
 
-        // Upload.
+        // Upload (to every board at once).
         let upload_start = Instant::now();
-        session.upload_scene(&prepared.image, &mut on_event).context("uploading the scene")?;
+        if let [session] = &mut sessions[..] {
+            session.upload_scene(&prepared.image, &mut on_event).context("uploading the scene")?;
+        } else {
+            let image = &prepared.image;
+            std::thread::scope(|sc| {
+                let jobs: Vec<_> = sessions
+                    .iter_mut()
+                    .map(|s| sc.spawn(move || s.upload_scene(image, &mut |_| {}).map_err(anyhow::Error::from)))
+                    .collect();
+                jobs.into_iter().try_for_each(|j| j.join().unwrap_or_else(|_| Err(anyhow::anyhow!("upload thread panicked"))))
+            })
+            .context("uploading the scene")?;
+        }
         let upload_ms = upload_start.elapsed().as_secs_f64() * 1e3;
 
         // Render.
@@ -168,7 +247,24 @@ impl Cmd {
             .with_prim_ids(want_reference);
         let mut request = settings.to_request(1);
         request.flags |= plan.flags() | self.interp.map_or(0, |i| i.flags());
-        let frame = session.render(&request, &mut on_event).context("rendering")?;
+        request.encoding = self.encoding.into();
+        let (frame, devices) = if let [session] = &mut sessions[..] {
+            (session.render(&request, &mut on_event).context("rendering")?, Vec::new())
+        } else {
+            on_event(ProgressEvent::RenderStarted { width: request.width, height: request.height });
+            let shared = std::sync::Mutex::new((0u32, &mut on_event));
+            let (multi, _) = render_multi(sessions, &request, self.band_rows, &|_, e| {
+                if let ProgressEvent::RowVerified { y } = e {
+                    let mut g = shared.lock().unwrap_or_else(|p| p.into_inner());
+                    g.0 += 1;
+                    let rows_done = g.0;
+                    (g.1)(ProgressEvent::RowReceived { y, rows_done });
+                }
+            })
+            .context("rendering on several boards")?;
+            on_event(ProgressEvent::Finished);
+            (multi.frame, multi.devices)
+        };
         drop(progress);
         write_png(&self.out, frame.width, frame.height, frame.rgb.clone())?;
 
@@ -180,6 +276,15 @@ impl Cmd {
         };
         let mut stats = RenderStats::new(&facts, &prepared.grid, &frame);
         stats.pipeline = Some(PipelineStats::new(&plan.names(), self.interp, &frame));
+        let baud = self.port.baud;
+        let modelled_link_s = if devices.is_empty() {
+            (frame.bytes_tx + frame.bytes_rx) as f64 * 10.0 / baud as f64
+        } else {
+            devices.iter().map(|d: &DeviceShare| d.link_seconds(baud)).fold(0.0, f64::max)
+        };
+        let encoding = format!("{:?}", self.encoding).to_lowercase();
+        stats.link = LinkReport { encoding, baud, modelled_link_s, counters: frame.link.clone() };
+        stats.devices = devices;
 
         // Reference.
         if want_reference {
@@ -243,11 +348,33 @@ fn print_summary(s: &RenderStats, frame: &RenderedFrame, out: &std::path::Path, 
         si(s.coproc_cycles)
     );
     println!(
-        "link       {} FSL words, {} UART bytes ({} spans)",
+        "link       {} FSL words, {} UART bytes ({} spans, {}), {:.2} s modelled at {} baud",
         si(s.fsl_words),
         si(s.uart_bytes),
-        frame.spans_received
+        frame.spans_received,
+        s.link.encoding,
+        s.link.modelled_link_s,
+        s.link.baud
     );
+    let l = &s.link.counters;
+    if l.regions_resent + l.resyncs + l.device_resets + l.device_bad_frames > 0 {
+        println!(
+            "retransmit {} regions re-requested ({} pixels, {} B), {} CRC errors, {} resyncs, {} frames lost, {} device resets",
+            l.regions_resent, l.pixels_resent, l.bytes_resent, l.crc_errors, l.resyncs, l.seq_gaps, l.device_resets
+        );
+    }
+    for d in &s.devices {
+        println!(
+            "board      {}: {} bands ({} rows), {} B, {:.2} s link, {} co-processor cycles{}",
+            d.port,
+            d.bands,
+            d.rows,
+            si(d.bytes_tx + d.bytes_rx),
+            d.link_seconds(s.link.baud),
+            si(d.coproc_cycles),
+            d.error.as_deref().map_or_else(String::new, |e| format!(" (dropped out: {e})"))
+        );
+    }
     if let Some(p) = &s.pipeline {
         println!(
             "pipeline   plan [{}], {} reflection rays, {} of {} pixels traced ({} interpolated), FSL words primary/shadow/reflection {}/{}/{}",

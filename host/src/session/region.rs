@@ -31,7 +31,7 @@ use std::io::{Read, Write};
 use std::time::Instant;
 
 use gridrt_shared::frame::crc32;
-use gridrt_shared::msg::{render_flags, ErrorCode, Msg, PixelEncoding, Region, RenderRequest};
+use gridrt_shared::msg::{region_options, render_flags, ErrorCode, Msg, MsgType, PixelEncoding, Region, RenderRequest};
 use gridrt_shared::pixel;
 use serde::Serialize;
 
@@ -277,6 +277,33 @@ impl Canvas {
     }
 }
 
+/// Row interpolation (seed 003) makes a pixel depend on its row's traced neighbours and, in
+/// the adaptive mode, on the step chosen for the rows before: re-requested pixels only come
+/// out as in the first render when the request covers whole rows (fixed step), or the band
+/// from its first row (adaptive).
+fn widen_for_interpolation(gap: Region, band: Region, flags: u16) -> Region {
+    if render_flags::interp_step(flags) == 0 {
+        return gap;
+    }
+    let (y0, rows) = if flags & render_flags::INTERP_ADAPTIVE != 0 {
+        (band.y0, gap.y0 + gap.rows - band.y0)
+    } else {
+        (gap.y0, gap.rows)
+    };
+    Region { x0: band.x0, y0, cols: band.cols, rows }
+}
+
+/// Adds one device counter of a region to the counters of a frame: counts add up; the
+/// `PLAN` bit set is OR-ed (every region of a frame follows the same plan).
+pub fn merge_stat(into: &mut BTreeMap<u8, u64>, key: u8, value: u64) {
+    let slot = into.entry(key).or_insert(0);
+    if key == gridrt_shared::msg::stat::PLAN {
+        *slot |= value;
+    } else {
+        *slot += value;
+    }
+}
+
 /// Decodes `count` colour pixels into RGB888.
 pub fn decode_colour(enc: PixelEncoding, count: usize, data: &[u8], dst: &mut [u8]) -> Result<(), String> {
     match enc {
@@ -399,6 +426,7 @@ impl<T: Read + Write> Session<T> {
                 self.sizer = Some(sizer);
                 return Ok(report);
             };
+            let gap = widen_for_interpolation(gap, band, req.flags);
             if report.requests >= self.cfg.max_requests_per_band || last_progress.elapsed() >= self.cfg.render_timeout {
                 self.sizer = Some(sizer);
                 let waited = last_progress.elapsed();
@@ -432,9 +460,12 @@ impl<T: Read + Write> Session<T> {
             if max_span != 0 && (self.link.min_max_span == 0 || max_span < self.link.min_max_span) {
                 self.link.min_max_span = max_span;
             }
+            // Pixels all here but unverified (their RegionEnd was lost or did not match yet):
+            // ask only for the CRC, the device re-renders without sending the pixels.
+            let options = if canvas.complete(gap) { region_options::CRC_ONLY } else { 0 };
             // A lone delimiter first: the device drops whatever noise it holds.
             self.write_bytes(stage, &[0])?;
-            self.send(stage, &Msg::RenderRegion { region: gap, max_span, request: *req })?;
+            self.send(stage, &Msg::RenderRegion { region: gap, max_span, options, request: *req })?;
             self.link.regions_requested += 1;
             let outcome = self.wait_region(req, gap, canvas, &mut claims, &mut report, &mut att, resend)?;
             let (dtx, drx) = (self.bytes_tx - tx0, self.bytes_rx - rx0);
@@ -516,7 +547,7 @@ impl<T: Read + Write> Session<T> {
                 }
                 Incoming::Stats { frame, entries } if frame == req.frame => {
                     for (k, v) in entries {
-                        *report.stats.entry(k).or_insert(0) += v;
+                        merge_stat(&mut report.stats, k, v);
                     }
                     att.got_any = true;
                     deadline = Instant::now() + idle;
@@ -541,6 +572,10 @@ impl<T: Read + Write> Session<T> {
                         deadline = deadline.min(Instant::now() + idle / 4);
                     }
                 }
+                // Late answers to scene chunks retransmitted during the upload.
+                Incoming::Error { code: ErrorCode::BadOffset, .. } => {}
+                Incoming::Error { code: ErrorCode::UnexpectedMessage, detail, .. }
+                    if detail != MsgType::RenderRegion as u32 => {}
                 Incoming::Error { code, detail, text } => return Err(self.device_err(stage, code, detail, text)),
                 _ => {} // stale traffic of other frames, late Versions
             }
@@ -589,7 +624,7 @@ impl<T: Read + Write> Session<T> {
             };
             let r = self.render_band(req, band, &mut canvas, &mut on)?;
             for (k, v) in r.stats {
-                *stats.entry(k).or_insert(0) += v;
+                merge_stat(&mut stats, k, v);
             }
             spans_reported += r.spans_reported;
             y0 += rows;

@@ -89,6 +89,8 @@ enum Input {
     Bytes(Vec<u8>),
     /// Wakes the device thread so it notices a reset request.
     Reset,
+    /// The port was dropped: the device thread ends (reset handles may still hold senders).
+    Shutdown,
 }
 
 /// Output of the device thread; drops everything while a reset is pending (the board is
@@ -144,7 +146,7 @@ fn run_device(config: SimConfig, input: Receiver<Input>, output: Sender<(u32, Ve
             match input.recv() {
                 Ok(Input::Bytes(bytes)) => device.feed(&bytes, &mut sink),
                 Ok(Input::Reset) => {}
-                Err(_) => return,
+                Ok(Input::Shutdown) | Err(_) => return,
             }
         }
     }
@@ -399,8 +401,10 @@ impl io::Write for SimPort {
 
 impl Drop for SimPort {
     fn drop(&mut self) {
-        // Closing the input ends the device loop; wait so no thread outlives the port.
-        self.to_device = None;
+        // Ending the input ends the device loop; wait so no thread outlives the port.
+        if let Some(tx) = self.to_device.take() {
+            let _ = tx.send(Input::Shutdown);
+        }
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }

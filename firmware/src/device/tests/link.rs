@@ -76,7 +76,7 @@ fn regions_reproduce_the_full_frame_pixel_for_pixel() {
         (Region { x0: 0, y0: 8, cols: 23, rows: 9 }, 7, PixelEncoding::Rgb888),
     ] {
         let rq = RenderRequest { encoding: enc, ..req };
-        let r = send(&mut dev, &Msg::RenderRegion { region, max_span, request: rq });
+        let r = send(&mut dev, &Msg::RenderRegion { region, max_span, options: 0, request: rq });
         let (img, seen, end) = canvas(&r, 23, 17);
         let Some(Msg::RegionEnd { frame, region: got, spans, crc }) = end else { panic!("{end:?}") };
         assert_eq!((frame, got), (9, region));
@@ -115,16 +115,16 @@ fn regions_outside_the_image_name_the_field() {
         (Region { x0: 0, y0: 0, cols: 1, rows: 0 }, 2),
         (Region { x0: u16::MAX, y0: 0, cols: 2, rows: 1 }, 0),
     ] {
-        let r = send(&mut dev, &Msg::RenderRegion { region, max_span: 0, request: req });
+        let r = send(&mut dev, &Msg::RenderRegion { region, max_span: 0, options: 0, request: req });
         assert_eq!(r.len(), 1, "{region:?}");
         assert_eq!(error_of(&r[0]), (ErrorCode::BadRequest, detail), "{region:?}");
     }
     // A bad field of the embedded request is reported at its offset in RenderRegion (12 + 2).
-    let r = send(&mut dev, &Msg::RenderRegion { region: Region::full(1, 1), max_span: 0, request: request(0, 6, 0) });
+    let r = send(&mut dev, &Msg::RenderRegion { region: Region::full(1, 1), max_span: 0, options: 0, request: request(0, 6, 0) });
     assert_eq!(error_of(&r[0]), (ErrorCode::BadRequest, 14));
     // Without a scene: NoScene, as for RenderRequest.
     let mut fresh = device();
-    let r = send(&mut fresh, &Msg::RenderRegion { region: Region::full(8, 6), max_span: 0, request: req });
+    let r = send(&mut fresh, &Msg::RenderRegion { region: Region::full(8, 6), max_span: 0, options: 0, request: req });
     assert_eq!(error_of(&r[0]).0, ErrorCode::NoScene);
 }
 
@@ -164,4 +164,22 @@ fn announce_sends_a_delimiter_and_an_unsolicited_version() {
     assert_eq!(r[0].0, 0, "the first frame after a reset has sequence number 0");
     let want = feature::RENDER_REGION | feature::RGB565 | feature::RLE | feature::PRIM_IDS;
     assert_eq!(v.features & want, want);
+}
+
+#[test]
+fn crc_only_regions_send_no_spans_but_the_same_crc() {
+    let mut dev = loaded_device();
+    let req = request(16, 9, render_flags::SHADOWS | render_flags::PRIM_IDS);
+    let region = Region { x0: 3, y0: 2, cols: 10, rows: 5 };
+    let full = send(&mut dev, &Msg::RenderRegion { region, max_span: 0, options: 0, request: req });
+    let quiet = send(
+        &mut dev,
+        &Msg::RenderRegion { region, max_span: 0, options: gridrt_shared::msg::region_options::CRC_ONLY, request: req },
+    );
+    assert_eq!(quiet.len(), 2, "Stats and RegionEnd only: {quiet:?}");
+    let (Msg::RegionEnd { crc: a, .. }, Msg::RegionEnd { crc: b, spans, .. }) = (full.last().unwrap().msg(), quiet[1].msg())
+    else {
+        panic!()
+    };
+    assert_eq!((a, spans), (b, 0));
 }
