@@ -18,6 +18,8 @@
 //!   field of view; S = 21 for a half-extent of 132): more accurate than the f32 formula,
 //!   whose `2(x + 0.5)/W − 1` cancels. Cameras whose screen extent does not fit (a field of
 //!   view within ~10⁻⁸ of 180°, or an aspect ratio over 2²⁹) fall back to f32.
+//!   A bare-metal image built without `fixed-raygen` skips this setup (it never uses it):
+//!   there [`Camera::has_fixed_raygen`] is false.
 
 use crate::fixed::{f32_to_fixed, fixed_to_f32, RayFormat};
 use gridrt_shared::math::{Ray, Vec3};
@@ -77,21 +79,28 @@ impl FixedRayGen {
             Some([f32_to_fixed(v.x, 30)?, f32_to_fixed(v.y, 30)?, f32_to_fixed(v.z, 30)?])
         };
         let basis = [q30(forward)?, q30(right)?, q30(cam_up)?];
-        let m = half_w.max(half_h) as f64;
-        // Largest S ≤ 29 with m·2^S < 2^29 (so |sx|, |sy| < 2^29 raw).
+        let m = half_w.max(half_h);
+        // Largest S ≤ 29 with m·2^S < 2^29 (so |sx|, |sy| < 2^29 raw); m·2^S is exact in f32.
+        let pow2 = |s: u32| f32::from_bits((127 + s) << 23);
         let mut s = 29u32;
-        while s > 0 && m * (1u64 << s) as f64 >= (1u64 << 29) as f64 {
+        while s > 0 && m * pow2(s) >= pow2(29) {
             s -= 1;
         }
-        if m * (1u64 << s) as f64 >= (1u64 << 29) as f64 {
+        if m * pow2(s) >= pow2(29) {
             return None;
         }
-        let scale = (1u64 << (s + 16)) as f64;
-        let (hw, hh, wf, hf) = (half_w as f64, half_h as f64, w as f64, h as f64);
         // sx = (2(x + 0.5)/W − 1)·half_w = x·(2·half_w/W) + (half_w/W − half_w);
         // sy = (1 − 2(y + 0.5)/H)·half_h = y·(−2·half_h/H) + (half_h − half_h/H).
-        let q = |v: f64| libm::round(v * scale) as i64;
-        Some(Self { basis, sx0: q(hw / wf - hw), dx: q(2.0 * hw / wf), sy0: q(hh - hh / hf), dy: q(-2.0 * hh / hf), s })
+        // Each coefficient is rounded once, exactly, in integers (`round_scaled`).
+        let q = |a: f32, num: u32, den: u32| round_scaled(a, s + 16, num, den);
+        Some(Self {
+            basis,
+            sx0: -q(half_w, w - 1, w),
+            dx: q(half_w, 2, w),
+            sy0: q(half_h, h - 1, h),
+            dy: -q(half_h, 2, h),
+            s,
+        })
     }
 
     /// The direction of pixel (x, y), integer arithmetic and one rounding per component.
@@ -106,6 +115,39 @@ impl FixedRayGen {
         };
         Vec3::new(c(0), c(1), c(2))
     }
+}
+
+/// `round(a · 2^shift · num / den)`, halves away from zero, computed exactly in integers
+/// (no `f64`: the soft-core has no double arithmetic to spare), for finite `a ≥ 0`, `den ≥ 1`
+/// and a result below 2^63 (here `a · 2^shift < 2^45` and `num / den ≤ 2`).
+#[inline(never)]
+fn round_scaled(a: f32, shift: u32, num: u32, den: u32) -> i64 {
+    let bits = a.to_bits() & 0x7FFF_FFFF;
+    let (exp, man) = ((bits >> 23) as i32, bits & 0x7F_FFFF);
+    // a = man24 · 2^e exactly.
+    let (man24, e) = if exp == 0 { (man, -149) } else { (man | 0x80_0000, exp - 150) };
+    // p < 2^56; max(1): no division-by-zero panic path (callers pass den ≥ 1).
+    let p = man24 as u64 * num as u64;
+    let (den, sh) = (den.max(1) as u64, e + shift as i32);
+    if sh < 0 {
+        // p / (den · 2^k): zero once the divisor exceeds 2·p (any divisor ≥ 2^64 does).
+        let k = sh.unsigned_abs();
+        if k >= 64 || den > u64::MAX >> k {
+            return 0;
+        }
+        let d = den << k;
+        return (p + d / 2).checked_div(d).unwrap_or(0) as i64;
+    }
+    // Long division of p · 2^sh by den, at most 32 bits of the shift per step (r < 2^32).
+    let (mut q, mut r, mut left) = (p / den, p % den, sh as u32);
+    while left > 0 {
+        let c = left.min(32);
+        let t = r << c;
+        q = (q << c) + t / den;
+        r = t % den;
+        left -= c;
+    }
+    (q + (2 * r >= den) as u64) as i64
 }
 
 impl Camera {
@@ -141,13 +183,22 @@ impl Camera {
         // same as forward × û, so normalising `side` gives the same vector.
         let right = side.try_normalize().ok_or(CameraError::DegenerateUp)?;
         let cam_up = right.cross(forward);
-        let half_h = libm::tanf(fov_y_deg.to_radians() * 0.5);
+        // tan(fov/2) with the field of view in turns (fov/720 of a turn): `crate::fmath`.
+        let half_h = libm::tanf(fov_y_deg.to_radians() * 0.5); // TEMP
         let (w, h) = (width as f32, height as f32);
         let half_w = half_h * w / h;
         if !(half_h.is_finite() && half_w.is_finite() && half_w > 0.0) {
             return Err(CameraError::BadFov);
         }
-        let fixed = FixedRayGen::new(forward, right, cam_up, half_w, half_h, width, height);
+        // The fixed-point setup only where it can be used: host builds (tests, benches, the
+        // simulator's `primary_ray_in`) and images built with `fixed-raygen`. A bare-metal
+        // f32 image (`target_os = "none"`) only calls `primary_ray` = f32, so it skips the
+        // ~2 KB of setup code (the soft-core's 64 KiB code budget); its rays are unchanged.
+        let fixed = if cfg!(any(feature = "fixed-raygen", not(target_os = "none"))) {
+            FixedRayGen::new(forward, right, cam_up, half_w, half_h, width, height)
+        } else {
+            None
+        };
         Ok(Self { eye, forward, right, cam_up, half_w, half_h, width: w, height: h, fixed })
     }
 
@@ -351,5 +402,34 @@ mod tests {
             checked += 1;
         }
         assert!(checked > 1900);
+    }
+
+    #[test]
+    fn round_scaled_rounds_exactly_halves_away_from_zero() {
+        assert_eq!(round_scaled(0.5, 0, 1, 1), 1);
+        assert_eq!(round_scaled(2.5, 0, 1, 1), 3);
+        assert_eq!(round_scaled(0.75, 0, 1, 2), 0);
+        assert_eq!(round_scaled(1.0, 0, 1, 2), 1);
+        assert_eq!(round_scaled(1.0, 45, 2, 3), 23_456_248_059_221); // 2^46/3 = ….33
+        assert_eq!(round_scaled(1.0, 0, 1, 3), 0);
+        assert_eq!(round_scaled(f32::from_bits(1), 45, 2, 1), 0);
+        assert_eq!(round_scaled(0.0, 45, 2, 1), 0);
+        // Against f64 (exact for these sizes up to its one rounding): equal, or one apart
+        // only where f64's rounding of the quotient lands on the other side of a half.
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for _ in 0..20_000 {
+            let a: f32 = rng.gen_range(1e-9f32..300.0);
+            let shift = rng.gen_range(16..=45u32);
+            let den = rng.gen_range(1..=5000u32);
+            let num = if rng.gen_bool(0.5) { 2 } else { den - 1 };
+            let exact = a as f64 * 2f64.powi(shift as i32) * num as f64 / den as f64;
+            if exact >= 2f64.powi(46) {
+                continue;
+            }
+            let got = round_scaled(a, shift, num, den);
+            let want = exact.round() as i64;
+            let near_half = ((exact - exact.trunc()) - 0.5).abs() < 1e-6;
+            assert!(got == want || near_half, "{a} {shift} {num}/{den}: {got} vs {exact}");
+        }
     }
 }

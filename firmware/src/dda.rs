@@ -148,7 +148,9 @@ impl Traversal {
             tr.cell_size[a] = size;
             // floor + clamp: rounding may put the entry point just outside the box.
             let rel = (entry[a] - grid.min[a]) / extent * n as f32;
-            let c = (libm::floorf(rel) as i32).clamp(0, n - 1);
+            // max/min, not clamp: n ≥ 1 (is_valid), and clamp's min ≤ max assert would link
+            // a formatted panic into the soft-core image.
+            let c = (libm::floorf(rel) as i32).max(0).min(n - 1);
             tr.cell[a] = c;
             let d = ray.dir[a];
             if d > 0.0 {

@@ -13,7 +13,7 @@
 //! link error, an ERROR word or a malformed answer aborts the frame with `Msg::Error` and the
 //! device goes back to waiting for frames. Nothing allocates.
 
-use core::fmt::Write as _;
+use crate::text::TextOut;
 
 use crate::camera::{Camera, CameraError};
 use crate::dda::{build_list, GridDesc, TraversalList, MAX_GRID_DIM};
@@ -24,8 +24,8 @@ use gridrt_shared::frame::{Crc32Digest, FeedResult, FrameAccumulator, FrameError
 use gridrt_shared::fsl::{self as wire, op, FslError, RayKind, RayResult, RESULT_WORDS};
 use gridrt_shared::math::{Ray, Vec3};
 use gridrt_shared::msg::{
-    feature, region_options, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, Region, RenderRequest, SceneStatus,
-    MAX_ERROR_TEXT, STAT_ENTRY_LEN,
+    feature, region_options, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, Region, RenderRequest,
+    SceneStatus, MAX_ERROR_TEXT, STAT_ENTRY_LEN,
 };
 use gridrt_shared::scene::{
     HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream, EMPTY_VOXEL,
@@ -232,7 +232,12 @@ const DRAIN_WORDS: u32 = 4096;
 /// Feature bits of this build.
 pub const fn compiled_features() -> u32 {
     let shadows = if cfg!(feature = "shadows") { feature::SHADOWS } else { 0 };
-    shadows | feature::PRIM_IDS | feature::RENDER_REGION | feature::RGB565 | feature::RLE | pipeline::pipeline_features()
+    shadows
+        | feature::PRIM_IDS
+        | feature::RENDER_REGION
+        | feature::RGB565
+        | feature::RLE
+        | pipeline::pipeline_features()
 }
 
 /// `Msg::Error` detail of a link timeout (distinct from any ERROR word, whose top nibble is 0xE).
@@ -263,18 +268,19 @@ mod field {
 /// Error text buffer (formatted details, ≤ `MAX_ERROR_TEXT`).
 type Text = heapless::String<MAX_ERROR_TEXT>;
 
-/// `fmt::Write` into a [`Text`] that keeps what fits (whole characters) instead of failing,
-/// so a long detail never loses the whole message.
+/// [`TextOut`] into a [`Text`] that keeps what fits (whole characters) instead of failing,
+/// so a long detail never loses the whole message. (No `core::fmt` on the device: its
+/// `write!` machinery costs KBs of the soft-core's code budget; `crate::text`.)
 struct Trunc<'a>(&'a mut Text);
 
-impl core::fmt::Write for Trunc<'_> {
-    fn write_str(&mut self, s: &str) -> core::fmt::Result {
-        for c in s.chars() {
-            if self.0.push(c).is_err() {
-                break;
-            }
+impl TextOut for Trunc<'_> {
+    fn put(&mut self, s: &str) {
+        // The longest prefix that fits and ends on a character boundary.
+        let mut end = s.len().min(self.0.capacity() - self.0.len());
+        while !s.is_char_boundary(end) {
+            end -= 1;
         }
-        Ok(())
+        let _ = self.0.push_str(s.get(..end).unwrap_or(""));
     }
 }
 
@@ -307,22 +313,33 @@ impl Fail {
 
     fn describe(self, t: &mut Text) {
         let mut w = Trunc(t);
-        let _ = match self {
+        match self {
             Self::Link(kind, what) => {
                 let why = match kind {
                     LinkErrorKind::Timeout => "timeout",
                     LinkErrorKind::Hardware => "hardware error",
                     _ => "error",
                 };
-                write!(w, "FSL link {why} on {what}")
+                for s in ["FSL link ", why, " on ", what] {
+                    w.put(s);
+                }
             }
             Self::Word(word, what) if wire::opcode(word) == op::ERROR => {
                 let (e, detail) = FslError::from_word(word);
-                write!(w, "co-processor error on {what}: {e} (detail {detail})")
+                for s in ["co-processor error on ", what, ": ", e.as_str(), " (detail "] {
+                    w.put(s);
+                }
+                w.put_dec(detail as u64);
+                w.put(")");
             }
-            Self::Word(word, what) => write!(w, "unexpected word {word:#010x} on {what}"),
-            Self::Plain(_, _, text) => w.write_str(text),
-        };
+            Self::Word(word, what) => {
+                w.put("unexpected word ");
+                w.put_hex(word, 8);
+                w.put(" on ");
+                w.put(what);
+            }
+            Self::Plain(_, _, text) => w.put(text),
+        }
     }
 }
 
@@ -718,7 +735,8 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
 
     fn bad_frame(&mut self, e: FrameError, out: &mut impl ByteSink) {
         let mut t = Text::new();
-        let _ = write!(Trunc(&mut t), "bad frame: {e}");
+        Trunc(&mut t).put("bad frame: ");
+        Trunc(&mut t).put(e.as_str());
         self.error(ErrorCode::BadFrame, e.code(), t.as_str(), out);
     }
 
@@ -730,7 +748,11 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             }
             Err(e) => {
                 let mut t = Text::new();
-                let _ = write!(Trunc(&mut t), "malformed payload of message {kind:#04x}: {e}");
+                let mut w = Trunc(&mut t);
+                w.put("malformed payload of message ");
+                w.put_hex(kind as u32, 2);
+                w.put(": ");
+                w.put(e.as_str());
                 return self.error(ErrorCode::BadRequest, kind as u32, t.as_str(), out);
             }
         };
@@ -795,9 +817,10 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
                 self.upload = None;
                 self.scene.loaded = false;
                 let mut t = Text::new();
-                let _ = write!(Trunc(&mut t), "scene rejected: {e}");
+                Trunc(&mut t).put("scene rejected: ");
+                Trunc(&mut t).put(e.as_str());
                 if let Some(f) = failure {
-                    let _ = Trunc(&mut t).write_str("; ");
+                    Trunc(&mut t).put("; ");
                     f.describe(&mut t);
                 }
                 self.error(ErrorCode::SceneRejected, e.code(), t.as_str(), out);
@@ -887,7 +910,14 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
 
     /// `RenderRegion` (SPEC.md §3.12): the pixels of `region`, exactly as a full render of
     /// `req` would produce them, then `Stats` and `RegionEnd`.
-    fn render_region(&mut self, req: &RenderRequest, region: Region, max_span: u16, options: u16, out: &mut impl ByteSink) {
+    fn render_region(
+        &mut self,
+        req: &RenderRequest,
+        region: Region,
+        max_span: u16,
+        options: u16,
+        out: &mut impl ByteSink,
+    ) {
         let (cam, light) = match self.validate(req, field::REGION_REQUEST) {
             Ok(v) => v,
             Err(f) => return self.abort(f, out),
@@ -908,6 +938,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
 
     /// Renders `region` and sends its spans and `Stats`; returns (spans, CRC of the decoded
     /// pixels), or `None` when the frame was aborted (the error is already sent).
+    #[allow(clippy::too_many_arguments)]
     fn render_rect(
         &mut self,
         req: &RenderRequest,

@@ -8,11 +8,13 @@
 //! | [`dda`] | 3D-DDA grid traversal and traversal lists (Amanatides & Woo 1987) |
 //! | [`dda_fixed`] | the same DDA in fixed point (used with feature `fixed-raygen`) |
 //! | [`fixed`] | exact f32 ↔ fixed-point conversions, the ray-generation/DDA format switch |
+//! | [`fmath`] | `f32` polynomial sin/cos/tan/atan2/acos/pow (no libm trigonometry, no `f64`) |
 //! | [`shade`] | ambient + Lambert + shadow-ray shading (CONTRACTS.md) |
 //! | [`viray`] | ViRAY shading of scene image v2: Oren–Nayar, Blinn–Phong, Torrance–Sparrow, Fresnel, spotlight |
 //! | [`texture`](mod@texture) | procedural textures, mappings, bilinear filtering (feature `textures`) |
 //! | [`interp`] | row interpolation (seed 003) |
 //! | [`pixels`] | frame encoder, pixel spans, running image CRC |
+//! | [`text`] | text output without `core::fmt` (error texts, banner, reports) |
 //! | [`device`] | the device state machine (UART frames ↔ FSL link) |
 //! | [`fsl`] | the co-processor link trait |
 //! | [`boot`] | the flash bootloader's protocol (SPEC.md §3.11) |
@@ -28,10 +30,12 @@ pub mod dda;
 pub mod dda_fixed;
 pub mod device;
 pub mod fixed;
+pub mod fmath;
 pub mod fsl;
 pub mod interp;
 pub mod pixels;
 pub mod shade;
+pub mod text;
 #[cfg(feature = "textures")]
 pub mod texture;
 pub mod viray;

@@ -7,9 +7,11 @@
 //! (`host/src/reference_v2.rs`) evaluates the same texels. Checker, XOR and dots are integer
 //! exact; marble and wood use a value noise whose lattice values come from an integer hash.
 //! Addressing wraps (tiling); filtering is bilinear between texel centres or nearest.
-//! `atan2`/`acos` are libm's, not ViRAY's polynomial/LUT approximations (their 0.005 and
-//! 0.06 rad errors would cost PSNR for no gain on a soft-core with an FPU).
+//! `sin`/`cos`/`atan2`/`acos` are `crate::fmath`'s f32 polynomials (errors ≤ 3e-7 rad, no
+//! `f64`), not ViRAY's polynomial/LUT approximations (their 0.005 and 0.06 rad errors would
+//! cost PSNR).
 
+use crate::fmath;
 use gridrt_shared::scene_v2::{Mapping, MaterialExt, TextureKind};
 
 const TAU: f32 = core::f32::consts::TAU;
@@ -75,14 +77,14 @@ pub fn texel(ext: &MaterialExt, c1: [f32; 3], i: u32, j: u32) -> [f32; 3] {
         }
         TextureKind::Marble => {
             let x = i as f32 / n as f32;
-            let m = 0.5 + 0.5 * libm::sinf(TAU * (4.0 * x + ext.tex_param * noise(i, j, n, ext.tex_seed)));
+            let m = 0.5 + 0.5 * fmath::sin_turns(4.0 * x + ext.tex_param * noise(i, j, n, ext.tex_seed));
             mix(c1, c2, m)
         }
         TextureKind::Wood => {
             let x = i as f32 / n as f32 - 0.5;
             let y = j as f32 / n as f32 - 0.5;
             let r = libm::sqrtf(x * x + y * y);
-            let m = 0.5 + 0.5 * libm::cosf(TAU * (ext.tex_param * r + 0.5 * noise(i, j, n, ext.tex_seed)));
+            let m = 0.5 + 0.5 * fmath::cos_turns(ext.tex_param * r + 0.5 * noise(i, j, n, ext.tex_seed));
             mix(c1, c2, m * m)
         }
         TextureKind::RgbDots => {
@@ -108,7 +110,7 @@ pub fn texel(ext: &MaterialExt, c1: [f32; 3], i: u32, j: u32) -> [f32; 3] {
 /// Texture coordinates (u, v) of the object-space point `p` (before scale and offset).
 pub fn map_uv(mapping: Mapping, p: [f32; 3]) -> (f32, f32) {
     let around = || {
-        let u = libm::atan2f(p[0], p[2]) / TAU;
+        let u = fmath::atan2(p[0], p[2]) / TAU;
         if u < 0.0 {
             u + 1.0
         } else {
@@ -121,14 +123,16 @@ pub fn map_uv(mapping: Mapping, p: [f32; 3]) -> (f32, f32) {
         Mapping::Spherical => {
             let len = libm::sqrtf(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
             let c = if len > 0.0 { (p[1] / len).clamp(-1.0, 1.0) } else { 0.0 };
-            (around(), 1.0 - libm::acosf(c) / PI)
+            (around(), 1.0 - fmath::acos(c) / PI)
         }
     }
 }
 
+/// `i mod n` for the power of two `n` (two's complement keeps the low bits: no 64-bit
+/// division on the soft-core).
 #[inline]
-fn wrap(i: i64, n: u32) -> u32 {
-    i.rem_euclid(n as i64) as u32
+fn wrap(i: i32, n: u32) -> u32 {
+    i as u32 & (n - 1)
 }
 
 /// The filtered texture colour at object-space point `p`.
@@ -144,15 +148,16 @@ pub fn sample(ext: &MaterialExt, c1: [f32; 3], p: [f32; 3]) -> [f32; 3] {
     // Reduce to [0, 1) first so large coordinates keep their texel precision.
     let (u, v) = (u - libm::floorf(u), v - libm::floorf(v));
     if !ext.bilinear {
-        let i = wrap(libm::floorf(u * nf) as i64, n);
-        let j = wrap(libm::floorf(v * nf) as i64, n);
+        // u, v ∈ [0, 1]: the texel indices are in 0..=n, well inside i32.
+        let i = wrap(libm::floorf(u * nf) as i32, n);
+        let j = wrap(libm::floorf(v * nf) as i32, n);
         return texel(ext, c1, i, j);
     }
     let x = u * nf - 0.5;
     let y = v * nf - 0.5;
     let (x0, y0) = (libm::floorf(x), libm::floorf(y));
     let (fx, fy) = (x - x0, y - y0);
-    let (i0, j0) = (x0 as i64, y0 as i64);
+    let (i0, j0) = (x0 as i32, y0 as i32);
     let t00 = texel(ext, c1, wrap(i0, n), wrap(j0, n));
     let t10 = texel(ext, c1, wrap(i0 + 1, n), wrap(j0, n));
     let t01 = texel(ext, c1, wrap(i0, n), wrap(j0 + 1, n));

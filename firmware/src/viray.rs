@@ -13,7 +13,7 @@
 //! the spotlight factor uses the spot axis, `clamp((a·(p−light)/|p−light| − cos_o)/(cos_i −
 //! cos_o), 0, 1)`, not n, and is a step function when `cos_i = cos_o` (no division by zero);
 //! Fresnel uses the correct complex denominator (pbrt's exact conductor formula); exponents
-//! are real (`powf`), not limited to 10 squarings; the mirror reflectance in Torrance–Sparrow
+//! are real (`fmath::pow`), not limited to 10 squarings; the mirror reflectance in Torrance–Sparrow
 //! mode uses ∠(n, v) (for the mirror direction the half vector *is* n).
 
 use gridrt_shared::scene_v2::{DiffuseModel, Falloff, LightingRecord, MaterialExt, ReflectMode};
@@ -150,7 +150,7 @@ pub fn diffuse_brdf(ext: &MaterialExt, n: Vec3, l: Vec3, v: Vec3) -> f32 {
 pub fn specular_brdf(ext: &MaterialExt, n: Vec3, l: Vec3, v: Vec3) -> f32 {
     let Some(h) = (l + v).try_normalize() else { return 0.0 };
     let nh = n.dot(h).max(0.0);
-    let d = (ext.exponent + 2.0) / TAU * libm::powf(nh, ext.exponent);
+    let d = (ext.exponent + 2.0) / TAU * crate::fmath::pow(nh, ext.exponent);
     match ext.specular_model {
         SpecularModel::None => 0.0,
         SpecularModel::BlinnPhong => d,

@@ -88,4 +88,17 @@ mod tests {
         ])
         .is_ok());
     }
+
+    #[test]
+    fn render_takes_several_boards_and_link_options() {
+        let parse = |args: &[&str]| {
+            Cli::try_parse_from(["gridrt", "render", "--scene", "a.obj", "--out", "a.png"].iter().chain(args))
+        };
+        assert!(parse(&["--port", "/dev/ttyUSB0", "--port", "/dev/ttyUSB1", "--encoding", "rle"]).is_ok());
+        assert!(parse(&["--sim-devices", "2", "--sim-paced", "--baud", "921600", "--band-rows", "8"]).is_ok());
+        assert!(parse(&["--sim-devices", "0"]).is_err());
+        assert!(parse(&["--sim-devices", "2", "--port", "x"]).is_err());
+        assert!(parse(&["--sim", "--encoding", "jpeg"]).is_err());
+        assert!(Cli::try_parse_from(["gridrt", "bench", "link", "--out", "o", "--devices", "1,2"]).is_ok());
+    }
 }

@@ -82,6 +82,10 @@ pub fn default_band_rows(height: u16, devices: usize) -> u16 {
     (height as u32).div_ceil(bands).clamp(1, 16) as u16
 }
 
+/// What a worker thread hands back: its session, its share, its counters, the spans its
+/// `RegionEnd`s reported, and the error that made it drop out.
+type WorkerResult<T> = (Session<T>, DeviceShare, BTreeMap<u8, u64>, u32, Option<SessionError>);
+
 struct Queue {
     bands: VecDeque<Region>,
     in_flight: usize,
@@ -110,7 +114,7 @@ pub fn render_multi<T: Read + Write + Send>(
     let merged = Mutex::new((Canvas::new(w, h, want_ids), 0usize));
     let n = sessions.len();
 
-    let results: Vec<(Session<T>, DeviceShare, BTreeMap<u8, u64>, u32, Option<SessionError>)> = std::thread::scope(|sc| {
+    let results: Vec<WorkerResult<T>> = std::thread::scope(|sc| {
         let handles: Vec<_> = sessions
             .into_iter()
             .enumerate()
@@ -135,7 +139,10 @@ pub fn render_multi<T: Read + Write + Send>(
                                 if q.in_flight == 0 {
                                     break None;
                                 }
-                                q = wake.wait_timeout(q, Duration::from_millis(50)).map(|r| r.0).unwrap_or_else(|e| e.into_inner().0);
+                                q = wake
+                                    .wait_timeout(q, Duration::from_millis(50))
+                                    .map(|r| r.0)
+                                    .unwrap_or_else(|e| e.into_inner().0);
                             }
                         };
                         let Some(band) = band else { break };

@@ -723,7 +723,11 @@ impl<T: Read + Write> Session<T> {
                 sent_hi = sent_hi.max(next);
             }
             if stalls > self.cfg.max_rewinds {
-                return Err(SessionError::UploadStalled { port: self.cfg.port_name.clone(), offset: acked, rewinds: stalls });
+                return Err(SessionError::UploadStalled {
+                    port: self.cfg.port_name.clone(),
+                    offset: acked,
+                    rewinds: stalls,
+                });
             }
             let until = (Instant::now() + self.cfg.retransmit_after).min(last_progress + self.cfg.upload_timeout);
             let in_flight = ((next - acked.min(next)) as usize).div_ceil(chunk.max(1));

@@ -12,6 +12,12 @@
 //! - With `--reference`: `psnr_db` (`null` when the images are identical, see
 //!   [`crate::compare`]), `identical`, `max_abs_diff`, `differing_pixels`, `hit_mismatches`,
 //!   `reference_ms`.
+//! - `link`: the pixel encoding, the modelled link time at `--baud` (wire bytes × 10 / baud;
+//!   with several boards the busiest one) and the retransmission counters
+//!   ([`crate::session::LinkStats`]: regions re-requested, pixels and bytes resent, CRC errors,
+//!   resyncs, frames lost by sequence number, timeouts, device resets, scene re-uploads).
+//! - `devices` (several boards only): per board, bands and rows rendered, bytes, link time,
+//!   co-processor cycles, and why it dropped out if it did.
 //! - `device_counters`: every counter the device sent, by name (per-stage counters as
 //!   `stage_<stage>_instret` / `stage_<stage>_cycles`, unknown keys as `key_<n>`).
 //! - `device_instructions` (object by stage), `instructions_per_primary_ray` (all stages) and

@@ -98,9 +98,10 @@ impl FrameError {
     }
 }
 
-impl core::fmt::Display for FrameError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
+impl FrameError {
+    /// The error's text (what `Display` prints), for output without `core::fmt`.
+    pub const fn as_str(&self) -> &'static str {
+        match self {
             Self::EncodePayloadTooLarge => "payload larger than MAX_PAYLOAD",
             Self::EncodeBufferTooSmall => "output buffer too small for the encoded frame",
             Self::DecodeBadCobs => "invalid COBS encoding",
@@ -109,7 +110,13 @@ impl core::fmt::Display for FrameError {
             Self::DecodeBadCrc => "CRC mismatch",
             Self::DecodeBadVersion => "unsupported protocol version",
             Self::DecodeOversize => "frame larger than the receive buffer",
-        })
+        }
+    }
+}
+
+impl core::fmt::Display for FrameError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.as_str())
     }
 }
 

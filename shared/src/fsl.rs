@@ -289,9 +289,10 @@ impl FslError {
     }
 }
 
-impl core::fmt::Display for FslError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
+impl FslError {
+    /// The error's text (what `Display` prints), for output without `core::fmt`.
+    pub const fn as_str(&self) -> &'static str {
+        match self {
             Self::UnknownOpcode => "unknown opcode",
             Self::PacketTooShort => "control bit before the end of the packet",
             Self::MissingControl => "last word of the packet lacks the control bit",
@@ -304,7 +305,13 @@ impl core::fmt::Display for FslError {
             Self::SceneNotLoaded => "no scene loaded",
             Self::NonFiniteRay => "ray has NaN/inf components or a zero direction",
             Self::UnknownError => "unknown error code",
-        })
+        }
+    }
+}
+
+impl core::fmt::Display for FslError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.as_str())
     }
 }
 

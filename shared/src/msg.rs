@@ -90,9 +90,10 @@ pub enum MsgError {
     EncodeBadField,
 }
 
-impl core::fmt::Display for MsgError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
+impl MsgError {
+    /// The error's text (what `Display` prints), for output without `core::fmt`.
+    pub const fn as_str(&self) -> &'static str {
+        match self {
             Self::DecodeUnknownType => "unknown message type",
             Self::DecodeTruncated => "payload truncated",
             Self::DecodeTrailingBytes => "payload has trailing bytes",
@@ -100,7 +101,13 @@ impl core::fmt::Display for MsgError {
             Self::DecodeBadText => "error text is not UTF-8",
             Self::EncodeBufferTooSmall => "output buffer too small",
             Self::EncodeBadField => "field cannot be encoded as given",
-        })
+        }
+    }
+}
+
+impl core::fmt::Display for MsgError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.as_str())
     }
 }
 

@@ -94,9 +94,10 @@ impl SceneError {
     }
 }
 
-impl core::fmt::Display for SceneError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
+impl SceneError {
+    /// The error's text (what `Display` prints), for output without `core::fmt`.
+    pub const fn as_str(&self) -> &'static str {
+        match self {
             Self::BadMagic => "not a scene image (bad magic)",
             Self::BadVersion => "unsupported scene image version",
             Self::Truncated => "scene image truncated",
@@ -111,7 +112,13 @@ impl core::fmt::Display for SceneError {
             Self::NonFinite => "NaN or infinite value in scene image",
             Self::Rejected => "scene piece rejected by the loader",
             Self::BadRecord => "scene record field out of range",
-        })
+        }
+    }
+}
+
+impl core::fmt::Display for SceneError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.as_str())
     }
 }
 

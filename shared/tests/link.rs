@@ -69,7 +69,14 @@ fn msg_pixel_span_rgb565_worked_example() {
     assert_eq!(pixel::rgb565_unpack(0xF810), [255, 0, 132]);
     assert_eq!(pixel::rgb565_unpack(0x1106), [16, 32, 49]);
     check_msg(
-        Msg::PixelSpan { frame: 1, y: 2, x0: 3, count: 2, encoding: PixelEncoding::Rgb565, data: &[0x10, 0xF8, 0x06, 0x11] },
+        Msg::PixelSpan {
+            frame: 1,
+            y: 2,
+            x0: 3,
+            count: 2,
+            encoding: PixelEncoding::Rgb565,
+            data: &[0x10, 0xF8, 0x06, 0x11],
+        },
         19,
         &[0x01, 0x00, 0x02, 0x00, 0x03, 0x00, 0x02, 0x00, 0x01, 0x00, 0x10, 0xF8, 0x06, 0x11],
         &[
@@ -130,7 +137,12 @@ fn rle_op_table() {
 #[test]
 fn msg_render_region_worked_example() {
     assert_eq!(msg::RENDER_REGION_LEN, 84);
-    let m = Msg::RenderRegion { region: Region { x0: 0, y0: 16, cols: 320, rows: 16 }, max_span: 64, options: 0, request: example_request() };
+    let m = Msg::RenderRegion {
+        region: Region { x0: 0, y0: 16, cols: 320, rows: 16 },
+        max_span: 64,
+        options: 0,
+        request: example_request(),
+    };
     check_msg(
         m,
         17,
@@ -158,7 +170,10 @@ fn msg_region_end_worked_example() {
     check_msg(
         Msg::RegionEnd { frame: 1, region: Region { x0: 0, y0: 16, cols: 320, rows: 16 }, spans: 20, crc: 0xCAFE_F00D },
         18,
-        &[0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x10, 0x00, 0x40, 0x01, 0x10, 0x00, 0x14, 0x00, 0x00, 0x00, 0x0D, 0xF0, 0xFE, 0xCA],
+        &[
+            0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x10, 0x00, 0x40, 0x01, 0x10, 0x00, 0x14, 0x00, 0x00, 0x00, 0x0D, 0xF0,
+            0xFE, 0xCA,
+        ],
         &[
             0x04, 0x25, 0x01, 0x12, 0x02, 0x14, 0x02, 0x01, 0x01, 0x01, 0x01, 0x01, 0x02, 0x10, 0x04, 0x40, 0x01, 0x10,
             0x02, 0x14, 0x01, 0x01, 0x09, 0x0D, 0xF0, 0xFE, 0xCA, 0x04, 0x59, 0x7A, 0x80, 0x00,
@@ -181,7 +196,12 @@ fn region_geometry() {
 
 #[test]
 fn region_messages_check_exact_lengths() {
-    let rr = encode_payload(&Msg::RenderRegion { region: Region::full(4, 4), max_span: 0, options: 1, request: example_request() });
+    let rr = encode_payload(&Msg::RenderRegion {
+        region: Region::full(4, 4),
+        max_span: 0,
+        options: 1,
+        request: example_request(),
+    });
     let re = encode_payload(&Msg::RegionEnd { frame: 1, region: Region::full(4, 4), spans: 1, crc: 2 });
     for (kind, p) in [(0x24u8, &rr), (0x25, &re)] {
         for n in 0..p.len() {
@@ -253,12 +273,11 @@ fn sequence_numbers_are_in_every_frame_and_checked_by_crc() {
     // §2.1: seq is covered by the CRC; a receiver sees gaps (frames lost) by subtraction.
     let mut stream = Vec::new();
     for seq in [65534u16, 65535, 0, 2] {
-        stream.extend_from_slice(&wire(0x25, seq, &encode_payload(&Msg::RegionEnd {
-            frame: 1,
-            region: Region::full(1, 1),
-            spans: 0,
-            crc: 0,
-        })));
+        stream.extend_from_slice(&wire(
+            0x25,
+            seq,
+            &encode_payload(&Msg::RegionEnd { frame: 1, region: Region::full(1, 1), spans: 0, crc: 0 }),
+        ));
     }
     let mut acc = FrameAccumulator::<{ frame::MAX_ENCODED }>::new();
     let seqs: Vec<u16> = feed_all(&mut acc, &stream, 9)
@@ -301,14 +320,18 @@ fn accumulator_never_returns_a_corrupt_span() {
         rng ^= rng << 5;
         rng
     };
-    let good = wire(0x21, 20, &encode_payload(&Msg::PixelSpan {
-        frame: 1,
-        y: 2,
-        x0: 0,
-        count: 108,
-        encoding: PixelEncoding::Rle,
-        data: &RLE_EXAMPLE,
-    }));
+    let good = wire(
+        0x21,
+        20,
+        &encode_payload(&Msg::PixelSpan {
+            frame: 1,
+            y: 2,
+            x0: 0,
+            count: 108,
+            encoding: PixelEncoding::Rle,
+            data: &RLE_EXAMPLE,
+        }),
+    );
     let mut stream = Vec::new();
     for i in 0..200 {
         if i % 3 == 0 {

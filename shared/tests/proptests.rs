@@ -388,10 +388,23 @@ fn colour_encoding() -> impl Strategy<Value = PixelEncoding> {
 }
 
 fn request() -> impl Strategy<Value = RenderRequest> {
-    (any::<(u16, u16, u16, u16)>(), (vec3(), vec3(), vec3(), f32_any()), (vec3(), f32_any(), f32_any()), colour_encoding())
-        .prop_map(|((frame, width, height, flags), (eye, target, up, fov_y_deg), (light_pos, light_intensity, ambient), encoding)| {
-            RenderRequest { frame, width, height, flags, eye, target, up, fov_y_deg, light_pos, light_intensity, ambient, encoding }
-        })
+    let ints = any::<(u16, u16, u16, u16)>();
+    let cam = (vec3(), vec3(), vec3(), f32_any());
+    let light = (vec3(), f32_any(), f32_any());
+    (ints, cam, light, colour_encoding()).prop_map(|(i, c, l, encoding)| RenderRequest {
+        frame: i.0,
+        width: i.1,
+        height: i.2,
+        flags: i.3,
+        eye: c.0,
+        target: c.1,
+        up: c.2,
+        fov_y_deg: c.3,
+        light_pos: l.0,
+        light_intensity: l.1,
+        ambient: l.2,
+        encoding,
+    })
 }
 
 /// Pixels with long runs, small steps and jumps (what shaded frames look like).
@@ -407,7 +420,8 @@ fn pixels(max: usize) -> impl Strategy<Value = Vec<[u8; 3]>> {
                     px.push(cur);
                 }
                 2 => {
-                    cur = [cur[0].wrapping_add(v[0] % 20), cur[1].wrapping_add(v[0] % 20), cur[2].wrapping_sub(v[2] % 9)];
+                    let d = v[0] % 20;
+                    cur = [cur[0].wrapping_add(d), cur[1].wrapping_add(d), cur[2].wrapping_sub(v[2] % 9)];
                     px.push(cur);
                 }
                 _ => {
@@ -463,5 +477,32 @@ proptest! {
         let mut data = vec![0u8; 16];
         let n = gridrt_shared::pixel::rle_encode(&px, &mut data).unwrap();
         prop_assert!(n <= 4 + 2, "{len} pixels of one colour in {n} bytes");
+    }
+}
+
+// ---------------------------------------------------------------- §3.11 flashing messages
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+
+    #[test]
+    fn rt_flash_begin(version: u16, total_len: u32, crc: u32, load_addr: u32, entry: u32, seq: u16, n in noise(), chunk in 1usize..40) {
+        round_trip(Msg::FlashBegin { version, total_len, crc, load_addr, entry }, seq, &n, chunk)?;
+    }
+
+    #[test]
+    fn rt_flash_chunk(offset: u32, data in vec(any::<u8>(), 0..=2044), seq: u16, n in noise(), chunk in 1usize..600) {
+        round_trip(Msg::FlashChunk { offset, data: &data }, seq, &n, chunk)?;
+    }
+
+    #[test]
+    fn rt_flash_ack(next_offset: u32, s in 0u8..3, crc: u32, seq: u16, n in noise(), chunk in 1usize..40) {
+        let status = [msg::FlashStatus::Receiving, msg::FlashStatus::Verified, msg::FlashStatus::Booting][s as usize];
+        round_trip(Msg::FlashAck { next_offset, status, crc }, seq, &n, chunk)?;
+    }
+
+    #[test]
+    fn rt_flash_boot(crc: u32, seq: u16, n in noise(), chunk in 1usize..40) {
+        round_trip(Msg::FlashBoot { crc }, seq, &n, chunk)?;
     }
 }

@@ -6,8 +6,8 @@
 //! The report lines start with `PANIC:` / `TRAP:` so host tools can spot them.
 
 use crate::{board, halt};
-use core::fmt::Write as _;
 use gridrt_firmware::bsp::{ByteUart, UartWriter};
+use gridrt_firmware::text::TextOut;
 use riscv::register::{mcause, mepc, mtval};
 
 /// Names of the standard exception codes (privileged spec, table "mcause values").
@@ -37,14 +37,21 @@ fn report(kind: &str) -> ! {
     // The UART is not re-initialised: that could cut a byte being sent.
     let mut console = unsafe { board::console_unchecked() };
     let name = if cause.is_interrupt() { "interrupt" } else { exception_name(cause.code()) };
-    // Best effort: nothing is left to report a console error to.
-    let _ = writeln!(
-        UartWriter(&mut console),
-        "\r\nTRAP: {kind} mcause={:#010x} ({name}) mepc={:#010x} mtval={:#010x}; halted",
-        cause.bits(),
-        mepc::read(),
-        mtval::read(),
-    );
+    // Best effort: nothing is left to report a console error to. Formatted as
+    // "\r\nTRAP: {kind} mcause={:#010x} ({name}) mepc={:#010x} mtval={:#010x}; halted\n"
+    // without core::fmt (`TextOut`: the soft-core's code budget).
+    let mut w = UartWriter(&mut console);
+    for s in ["\r\nTRAP: ", kind, " mcause="] {
+        w.put(s);
+    }
+    w.put_hex(cause.bits() as u32, 8);
+    for s in [" (", name, ") mepc="] {
+        w.put(s);
+    }
+    w.put_hex(mepc::read() as u32, 8);
+    w.put(" mtval=");
+    w.put_hex(mtval::read() as u32, 8);
+    w.put("; halted\n");
     let _ = nb::block!(console.flush());
     board::exit_failure(1);
     halt()
@@ -69,7 +76,21 @@ extern "C" fn default_handler() -> ! {
 fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
     // SAFETY: as in `report`: the panicking code never resumes.
     let mut console = unsafe { board::console_unchecked() };
-    let _ = writeln!(UartWriter(&mut console), "\r\nPANIC: {info}; halted");
+    // "\r\nPANIC: {info}; halted\n" without core::fmt (`TextOut`: the soft-core's code
+    // budget): the location, and the message when it is a plain string (`panic!("text")`); a
+    // message with arguments (e.g. an index out of bounds) is not formatted.
+    let mut w = UartWriter(&mut console);
+    w.put("\r\nPANIC: panicked at ");
+    if let Some(loc) = info.location() {
+        w.put(loc.file());
+        w.put(":");
+        w.put_dec(loc.line() as u64);
+        w.put(":");
+        w.put_dec(loc.column() as u64);
+    }
+    w.put(":\n");
+    w.put(info.message().as_str().unwrap_or("(message with arguments, not formatted on the device)"));
+    w.put("; halted\n");
     let _ = nb::block!(console.flush());
     board::exit_failure(2);
     halt()

@@ -61,7 +61,7 @@ pub trait ByteUart {
     }
 }
 
-/// `core::fmt::Write` over any [`ByteUart`], for `write!`-style console output.
+/// `core::fmt::Write` (and [`crate::text::TextOut`]) over any [`ByteUart`], for console output.
 ///
 /// A transmit error becomes `core::fmt::Error` (its detail is lost, as fmt allows no more).
 pub struct UartWriter<'a, U: ByteUart + ?Sized>(pub &'a mut U);
@@ -69,6 +69,14 @@ pub struct UartWriter<'a, U: ByteUart + ?Sized>(pub &'a mut U);
 impl<U: ByteUart + ?Sized> core::fmt::Write for UartWriter<'_, U> {
     fn write_str(&mut self, s: &str) -> core::fmt::Result {
         self.0.write_all(s.as_bytes()).map_err(|_| core::fmt::Error)
+    }
+}
+
+/// The same console output without `core::fmt` (`crate::text`): the images' banner and
+/// reports. Best effort: a transmit error drops the piece.
+impl<U: ByteUart + ?Sized> crate::text::TextOut for UartWriter<'_, U> {
+    fn put(&mut self, s: &str) {
+        let _ = self.0.write_all(s.as_bytes());
     }
 }
 

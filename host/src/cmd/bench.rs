@@ -33,6 +33,11 @@ enum What {
     /// with and without each skip, traced pixels vs PSNR over (l, EPS), and the ViRAY-like
     /// demo at 1920×1080 (CSV, SVG plot and JSON in --out).
     Skip(super::bench_skip::Args),
+    /// The UART link (issue 6): wire bytes per frame, payload efficiency against the line
+    /// rate and compression per pixel encoding on the bundled scenes, modelled frame time
+    /// with transmission overlapped with ray work at 115 200 / 921 600 / 3 000 000 baud, on
+    /// 1, 2 and 4 boards (CSV, SVG plot and JSON in --out).
+    Link(super::bench_link::Args),
 }
 
 #[derive(Debug, clap::Args)]
@@ -66,6 +71,7 @@ impl Cmd {
             What::Rays(args) => args.run(),
             What::Accuracy(a) => a.run(),
             What::Skip(a) => a.run(),
+            What::Link(a) => a.run(),
         }
     }
 }

@@ -9,11 +9,11 @@ use anyhow::{bail, Context};
 use gridrt_host::camera::RenderSettings;
 use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
+use gridrt_host::multi::{render_multi, DeviceShare};
 use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::reference::{render as reference_render, ReferenceScene};
 use gridrt_host::plan::{Interp, Plan};
 use gridrt_host::reference_v2::{self, Stages, WorldReference};
-use gridrt_host::multi::{render_multi, DeviceShare};
 use gridrt_host::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
 use gridrt_host::stats::{LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
 use gridrt_shared::msg::PixelEncoding;
@@ -225,7 +225,8 @@ impl Cmd {
                     .iter_mut()
                     .map(|s| sc.spawn(move || s.upload_scene(image, &mut |_| {}).map_err(anyhow::Error::from)))
                     .collect();
-                jobs.into_iter().try_for_each(|j| j.join().unwrap_or_else(|_| Err(anyhow::anyhow!("upload thread panicked"))))
+                jobs.into_iter()
+                    .try_for_each(|j| j.join().unwrap_or_else(|_| Err(anyhow::anyhow!("upload thread panicked"))))
             })
             .context("uploading the scene")?;
         }

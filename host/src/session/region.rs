@@ -148,13 +148,7 @@ impl Canvas {
     /// An empty `width`×`height` canvas; `prim_ids` also collects primitive ids.
     pub fn new(width: u16, height: u16, prim_ids: bool) -> Self {
         let n = width as usize * height as usize;
-        Self {
-            width,
-            height,
-            rgb: vec![0; 3 * n],
-            prim_ids: prim_ids.then(|| vec![u32::MAX; n]),
-            state: vec![0; n],
-        }
+        Self { width, height, rgb: vec![0; 3 * n], prim_ids: prim_ids.then(|| vec![u32::MAX; n]), state: vec![0; n] }
     }
 
     fn need(&self) -> u8 {
@@ -167,7 +161,8 @@ impl Canvas {
 
     fn rows(&self, r: Region) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
         let w = self.width as usize;
-        (r.y0 as usize..r.y0 as usize + r.rows as usize).map(move |y| y * w + r.x0 as usize..y * w + (r.x0 + r.cols) as usize)
+        (r.y0 as usize..r.y0 as usize + r.rows as usize)
+            .map(move |y| y * w + r.x0 as usize..y * w + (r.x0 + r.cols) as usize)
     }
 
     /// True when every pixel of `r` has arrived (colour, and id when collected).
@@ -404,7 +399,9 @@ impl<T: Read + Write> Session<T> {
     ) -> Result<BandReport, SessionError> {
         let stage = Stage::Render;
         if !band.fits(req.width, req.height) || canvas.width != req.width || canvas.height != req.height {
-            return Err(self.bad_input(stage, format!("band {band:?} does not fit the {}×{} frame", req.width, req.height)));
+            return Err(
+                self.bad_input(stage, format!("band {band:?} does not fit the {}×{} frame", req.width, req.height))
+            );
         }
         let mut report = BandReport::default();
         let mut claims: Vec<(Region, u32)> = Vec::new();
@@ -533,7 +530,8 @@ impl<T: Read + Write> Session<T> {
             match m {
                 Incoming::PixelSpan { frame, y, x0, count, encoding, data } if frame == req.frame => {
                     let wire = data.len() as u64 + 22;
-                    att.new_pixels += canvas.place(y, x0, count, encoding, &data).map_err(|w| self.protocol(stage, w))?;
+                    att.new_pixels +=
+                        canvas.place(y, x0, count, encoding, &data).map_err(|w| self.protocol(stage, w))?;
                     if encoding.is_colour() {
                         self.link.spans_received += 1;
                         if resend {

@@ -12,7 +12,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 use std::time::Duration;
 
-use fault_relay::{FaultyPort, Faults};
+use fault_relay::{Faults, FaultyPort};
 use gridrt_host::camera::RenderSettings;
 use gridrt_host::grid::GridParams;
 use gridrt_host::pipeline::PreparedScene;
@@ -26,7 +26,8 @@ struct Scene {
 
 fn prepare(name: &str, w: u16, h: u16) -> Scene {
     let mesh = gridrt_host::scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(name)).unwrap();
-    let prepared = PreparedScene::new(mesh, &GridParams { pe_count: 4, pe_mem_words: 1 << 20, ..Default::default() }).unwrap();
+    let prepared =
+        PreparedScene::new(mesh, &GridParams { pe_count: 4, pe_mem_words: 1 << 20, ..Default::default() }).unwrap();
     Scene { image: prepared.image, settings: RenderSettings::default_for(&prepared.grid.mesh_bounds).with_size(w, h) }
 }
 
@@ -108,7 +109,11 @@ fn fault_free_run_has_no_retransmissions() {
     let s = cornell();
     let f = clean(s, &request(s, PixelEncoding::Rle, true));
     let l = &f.link;
-    assert_eq!((l.regions_requested, l.regions_resent, l.crc_errors, l.resyncs, l.seq_gaps, l.timeouts), (1, 0, 0, 0, 0, 0), "{l:?}");
+    assert_eq!(
+        (l.regions_requested, l.regions_resent, l.crc_errors, l.resyncs, l.seq_gaps, l.timeouts),
+        (1, 0, 0, 0, 0, 0),
+        "{l:?}"
+    );
 }
 
 #[test]
@@ -187,4 +192,25 @@ fn full_size_bunny_frame_survives_every_fault_at_once() {
     eprintln!("320×240: {inj:?}\n  {:?}", got.link);
     assert_identical(&got, &want, "320×240 bunny");
     assert!(got.link.device_resets >= 1 && got.link.regions_resent > 0, "{:?}", got.link);
+}
+
+#[test]
+fn a_dead_line_times_out_naming_port_stage_and_sequence_numbers() {
+    let s = cornell();
+    let mut sim = gridrt_loopback::spawn(gridrt_loopback::SimConfig::default());
+    sim.set_timeout(Duration::from_millis(5));
+    // Everything from the device is lost once the faults are switched on.
+    let mut port = FaultyPort::new(sim, Faults::default(), Faults { drop: 1.0, ..Faults::default() }, 7);
+    port.active = false;
+    let cfg = config().retransmit_after(Duration::from_millis(20)).render_timeout(Duration::from_millis(300));
+    let mut session = Session::new(port, cfg);
+    session.hello(&mut |_| {}).unwrap();
+    session.upload_scene(&s.image, &mut |_| {}).unwrap();
+    session.port_mut().active = true;
+    let err = session.render(&request(s, PixelEncoding::Rle, false), &mut |_| {}).unwrap_err();
+    let text = err.to_string();
+    assert!(matches!(err, gridrt_host::session::SessionError::Timeout { .. }), "{text}");
+    for part in ["sim+faults", "render", "frame 1", "last sequence number received", "sent:"] {
+        assert!(text.contains(part), "`{part}` missing from: {text}");
+    }
 }

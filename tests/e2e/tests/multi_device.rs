@@ -26,7 +26,9 @@ fn boards(n: usize, p: &PreparedScene, baud: Option<u32>) -> Vec<Session<SimPort
             let mut port = gridrt_loopback::spawn(gridrt_loopback::SimConfig::default());
             port.set_timeout(Duration::from_millis(5));
             port.set_line_rate(baud);
-            let cfg = SessionConfig::new(format!("sim{i}")).retransmit_after(Duration::from_millis(300)).render_timeout(Duration::from_secs(5));
+            let cfg = SessionConfig::new(format!("sim{i}"))
+                .retransmit_after(Duration::from_millis(300))
+                .render_timeout(Duration::from_secs(5));
             let mut s = Session::new(port, cfg);
             s.hello(&mut |_| {}).unwrap();
             s.upload_scene(&p.image, &mut |_| {}).unwrap();
@@ -36,7 +38,10 @@ fn boards(n: usize, p: &PreparedScene, baud: Option<u32>) -> Vec<Session<SimPort
 }
 
 fn request(p: &PreparedScene, w: u16, h: u16, enc: PixelEncoding) -> RenderRequest {
-    RenderRequest { encoding: enc, ..RenderSettings::default_for(&p.grid.mesh_bounds).with_size(w, h).with_prim_ids(true).to_request(4) }
+    RenderRequest {
+        encoding: enc,
+        ..RenderSettings::default_for(&p.grid.mesh_bounds).with_size(w, h).with_prim_ids(true).to_request(4)
+    }
 }
 
 #[test]
@@ -77,12 +82,15 @@ fn a_board_that_dies_mid_frame_costs_its_band_not_the_frame() {
     let p = prepared("cornell_box.obj");
     let req = request(&p, 64, 48, PixelEncoding::Rgb888);
     let single = boards(1, &p, None).remove(0).render(&req, &mut |_| {}).unwrap();
-    let mut b = boards(3, &p, None);
+    // The healthy boards are paced (a real line rate), so the dead one surely gets a band.
+    let mut b = boards(3, &p, Some(460_800));
     // Board 1 loses its scene right away (reset) and its session cannot recover it quickly
     // enough: a short request budget makes it give up, and the others take its band.
     let dead = {
         let port = gridrt_loopback::spawn(gridrt_loopback::SimConfig::default());
-        let cfg = SessionConfig::new("dead").retransmit_after(Duration::from_millis(20)).render_timeout(Duration::from_millis(200));
+        let cfg = SessionConfig::new("dead")
+            .retransmit_after(Duration::from_millis(20))
+            .render_timeout(Duration::from_millis(200));
         let mut s = Session::new(port, cfg.max_requests_per_band(2));
         s.port_mut().set_timeout(Duration::from_millis(5));
         s.hello(&mut |_| {}).unwrap();

@@ -12,8 +12,8 @@
 #![no_main]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use core::fmt::Write as _;
 use gridrt_firmware::bsp::{ByteUart, CycleCounter, UartWriter};
+use gridrt_firmware::text::TextOut;
 use gridrt_firmware_image::serve::{self, serve};
 use gridrt_firmware_image::{board, counters::CsrCounters, VERSION};
 use gridrt_shared::msg::DeviceInfo;
@@ -25,28 +25,32 @@ fn main() -> ! {
     // SAFETY: the only console owner; trap/panic reports alias it only once we stop.
     let mut console = unsafe { board::take_console() };
 
-    // Console output is best effort: a UART transmit cannot fail on these boards.
-    let _ = writeln!(
-        UartWriter(&mut console),
-        "gridrt firmware {VERSION} on {} ({} layout; stages:{}{}{}{})\r",
-        board::NAME,
-        env!("GRIDRT_APP_LAYOUT"),
-        if cfg!(feature = "shadows") { " shadows" } else { "" },
-        if cfg!(feature = "reflections") { " reflections" } else { "" },
-        if cfg!(feature = "textures") { " textures" } else { "" },
-        if cfg!(feature = "specular") { " specular" } else { "" },
-    );
+    // Console output is best effort: a UART transmit cannot fail on these boards. Text
+    // without core::fmt (`TextOut`: its `write!` machinery costs KBs of the soft-core's code
+    // budget); the lines are what the `{}` formats printed before.
+    let mut w = UartWriter(&mut console);
+    for s in ["gridrt firmware ", VERSION, " on ", board::NAME, " (", env!("GRIDRT_APP_LAYOUT"), " layout; stages:"] {
+        w.put(s);
+    }
+    w.put(if cfg!(feature = "shadows") { " shadows" } else { "" });
+    w.put(if cfg!(feature = "reflections") { " reflections" } else { "" });
+    w.put(if cfg!(feature = "textures") { " textures" } else { "" });
+    w.put(if cfg!(feature = "specular") { " specular" } else { "" });
+    w.put(")\r\n");
     let (cycles1, instret1) = (counters.cycles(), counters.instret());
-    let _ = writeln!(
-        UartWriter(&mut console),
-        "mcycle={cycles1} minstret={instret1} (banner: {} cycles, {} instructions)\r",
-        cycles1.wrapping_sub(cycles0),
-        instret1.wrapping_sub(instret0),
-    );
+    w.put("mcycle=");
+    w.put_dec(cycles1);
+    w.put(" minstret=");
+    w.put_dec(instret1);
+    w.put(" (banner: ");
+    w.put_dec(cycles1.wrapping_sub(cycles0));
+    w.put(" cycles, ");
+    w.put_dec(instret1.wrapping_sub(instret0));
+    w.put(" instructions)\r\n");
 
     #[cfg(feature = "trap-test")]
     {
-        let _ = writeln!(UartWriter(&mut console), "trap-test: executing an illegal instruction\r");
+        UartWriter(&mut console).put("trap-test: executing an illegal instruction\r\n");
         // SAFETY: deliberately traps; the exception handler reports and halts.
         // 0xc0001073 is `csrrw x0, cycle, x0` (a write to a read-only CSR), the 32-bit
         // canonical illegal instruction; mtval then shows its bits.
@@ -67,18 +71,20 @@ fn main() -> ! {
         pe_mem_words: board::PE_MEM_WORDS,
         features: 0,
     };
-    let _ = write!(
-        UartWriter(&mut console),
-        "device: {} PEs x {} words, up to {} voxels; speak SPEC.md frames now\r\n",
-        board::PE_COUNT,
-        board::PE_MEM_WORDS,
-        board::MAX_VOXELS,
-    );
+    let mut w = UartWriter(&mut console);
+    w.put("device: ");
+    w.put_dec(board::PE_COUNT as u64);
+    w.put(" PEs x ");
+    w.put_dec(board::PE_MEM_WORDS as u64);
+    w.put(" words, up to ");
+    w.put_dec(board::MAX_VOXELS as u64);
+    w.put(" voxels; speak SPEC.md frames now\r\n");
     run(&mut console, info)
 }
 
 #[cfg(feature = "board-qemu-virt")]
 fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
+    use core::fmt::Write as _;
     use gridrt_coproc::{CoprocConfig, Coprocessor, KernelKind, TimingProfile, LIST_CAPACITY};
     use gridrt_firmware::device::Device;
     use gridrt_firmware::fsl::VirtualCoproc;
@@ -108,11 +114,10 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
             gridrt_firmware_image::halt()
         }
     };
-    let _ = writeln!(
-        UartWriter(console),
-        "timed link: {} instructions per FSL word stay in fsl_io (a hardware put/get is 1)\r",
-        gridrt_firmware_image::link::wrapper_overhead(CsrCounters),
-    );
+    let mut w = UartWriter(console);
+    w.put("timed link: ");
+    w.put_dec(gridrt_firmware_image::link::wrapper_overhead(CsrCounters));
+    w.put(" instructions per FSL word stay in fsl_io (a hardware put/get is 1)\r\n");
     // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
     let _ = console.write_all(&[0]);
     let excluded = Excluded::new();

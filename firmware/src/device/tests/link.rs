@@ -91,7 +91,8 @@ fn regions_reproduce_the_full_frame_pixel_for_pixel() {
         }
         assert_eq!(seen.iter().filter(|&&s| s).count() as u64, region.pixels(), "nothing outside the region");
         assert_eq!(crc, crc32(&expect));
-        let colour_spans = r.iter().filter(|x| matches!(x.msg(), Msg::PixelSpan { encoding, .. } if encoding.is_colour())).count();
+        let colour_spans =
+            r.iter().filter(|x| matches!(x.msg(), Msg::PixelSpan { encoding, .. } if encoding.is_colour())).count();
         assert_eq!(spans as usize, 2 * colour_spans, "with PRIM_IDS every colour span has an id span");
         if max_span > 0 {
             let per_row = region.cols.div_ceil(max_span) as usize;
@@ -120,7 +121,10 @@ fn regions_outside_the_image_name_the_field() {
         assert_eq!(error_of(&r[0]), (ErrorCode::BadRequest, detail), "{region:?}");
     }
     // A bad field of the embedded request is reported at its offset in RenderRegion (12 + 2).
-    let r = send(&mut dev, &Msg::RenderRegion { region: Region::full(1, 1), max_span: 0, options: 0, request: request(0, 6, 0) });
+    let r = send(
+        &mut dev,
+        &Msg::RenderRegion { region: Region::full(1, 1), max_span: 0, options: 0, request: request(0, 6, 0) },
+    );
     assert_eq!(error_of(&r[0]), (ErrorCode::BadRequest, 14));
     // Without a scene: NoScene, as for RenderRequest.
     let mut fresh = device();
@@ -137,7 +141,11 @@ fn rle_spans_fit_a_frame_even_for_incompressible_rows() {
     enc.begin_with(1, false, PixelEncoding::Rle, 0);
     let mut image = Vec::new();
     for x in 0..4096u16 {
-        let p = [x.wrapping_mul(97) as u8, x.wrapping_mul(31).wrapping_add(7) as u8, x.wrapping_mul(13).wrapping_add(200) as u8];
+        let p = [
+            x.wrapping_mul(97) as u8,
+            x.wrapping_mul(31).wrapping_add(7) as u8,
+            x.wrapping_mul(13).wrapping_add(200) as u8,
+        ];
         image.extend_from_slice(&p);
         enc.push(x, 0, p, 0, &mut tx, &mut wire).unwrap();
     }
@@ -177,7 +185,8 @@ fn crc_only_regions_send_no_spans_but_the_same_crc() {
         &Msg::RenderRegion { region, max_span: 0, options: gridrt_shared::msg::region_options::CRC_ONLY, request: req },
     );
     assert_eq!(quiet.len(), 2, "Stats and RegionEnd only: {quiet:?}");
-    let (Msg::RegionEnd { crc: a, .. }, Msg::RegionEnd { crc: b, spans, .. }) = (full.last().unwrap().msg(), quiet[1].msg())
+    let (Msg::RegionEnd { crc: a, .. }, Msg::RegionEnd { crc: b, spans, .. }) =
+        (full.last().unwrap().msg(), quiet[1].msg())
     else {
         panic!()
     };

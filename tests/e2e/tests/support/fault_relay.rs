@@ -133,7 +133,18 @@ impl FaultyPort {
         let up = Channel::new(up, &mut rng);
         let down = Channel::new(down, &mut rng);
         let reset = inner.reset_handle();
-        Self { inner, rng, up, down, reset, reset_at: Vec::new(), pending: Vec::new(), pos: 0, active: true, injected: Injected::default() }
+        Self {
+            inner,
+            rng,
+            up,
+            down,
+            reset,
+            reset_at: Vec::new(),
+            pending: Vec::new(),
+            pos: 0,
+            active: true,
+            injected: Injected::default(),
+        }
     }
 
     /// Resets the board when the device → host byte count reaches each of `at`.

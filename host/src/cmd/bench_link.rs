@@ -1,0 +1,233 @@
+//! `gridrt bench link`: the UART link per pixel encoding on the bundled scenes, at 115 200,
+//! 921 600 and 3 000 000 baud (model: [`gridrt_host::link_bench`]).
+//!
+//! Outputs in `--out DIR`: `link.csv` (scene × encoding × baud: wire bytes per frame,
+//! payload efficiency against the line rate, pixel rate against raw RGB888, link time, ray
+//! work, modelled frame time with and without overlap), `link_multi.csv` (bunny frames on
+//! 1, 2 and 4 boards: modelled frame time, speed-up, busiest board's co-processor cycles),
+//! `link.svg` (modelled frame time against baud) and `link.json` (the headline numbers).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, ensure, Context};
+use gridrt_host::camera::RenderSettings;
+use gridrt_host::grid::GridParams;
+use gridrt_host::link_bench::{link_rows, measure, multi_seconds, FirmwareModel, LinkRow, Measured, BAUDS, ENCODINGS};
+use gridrt_host::multi::default_band_rows;
+use gridrt_host::pipeline::PreparedScene;
+use gridrt_shared::msg::{PixelEncoding, RenderRequest};
+
+/// The bundled scenes, in report order.
+const SCENES: [&str; 5] = ["bun_zipper_res4.obj", "stanford-bunny.obj", "teapot.obj", "suzanne.obj", "cornell_box.obj"];
+
+/// Arguments.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Output directory (created).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Directory of the bundled scenes.
+    #[arg(long, value_name = "DIR", default_value = "tests/scenes")]
+    scenes: PathBuf,
+    /// Frame width.
+    #[arg(long, default_value_t = 320)]
+    width: u16,
+    /// Frame height.
+    #[arg(long, default_value_t = 240)]
+    height: u16,
+    /// Board counts of the several-boards model.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,4")]
+    devices: Vec<usize>,
+}
+
+impl Args {
+    /// Runs the bench.
+    pub fn run(self) -> anyhow::Result<()> {
+        std::fs::create_dir_all(&self.out).with_context(|| format!("creating {}", self.out.display()))?;
+        let fw = FirmwareModel::RV32IMAFC;
+        let mut rows: Vec<LinkRow> = Vec::new();
+        let mut measured: Vec<Measured> = Vec::new();
+        for name in SCENES {
+            let path = self.scenes.join(name);
+            let mesh = gridrt_host::scene::load(&path).with_context(|| format!("loading {}", path.display()))?;
+            let params = GridParams { pe_count: 4, pe_mem_words: 1 << 20, ..Default::default() };
+            let prepared = PreparedScene::new(mesh, &params).with_context(|| format!("building the grid of {name}"))?;
+            let base = RenderSettings::default_for(&prepared.grid.mesh_bounds)
+                .with_size(self.width, self.height)
+                .to_request(1);
+            let mut raw_wire = 0;
+            let mut reference: Option<Vec<u8>> = None;
+            for enc in ENCODINGS {
+                let req = RenderRequest { encoding: enc, ..base };
+                let m = measure(name, &prepared, &req, &fw).map_err(|e| anyhow!("{name} {enc:?}: {e}"))?;
+                if enc == PixelEncoding::Rgb888 {
+                    raw_wire = m.wire_rx;
+                    reference = Some(m.rgb.clone());
+                }
+                if enc == PixelEncoding::Rle {
+                    ensure!(
+                        reference.as_ref() == Some(&m.rgb),
+                        "{name}: Rle frame differs from Rgb888 (must be lossless)"
+                    );
+                }
+                rows.extend(link_rows(&m, raw_wire));
+                eprintln!("{name} {enc:?}: {} wire bytes", m.wire_rx);
+                measured.push(m);
+            }
+        }
+        write_csv(&self.out.join("link.csv"), &rows)?;
+
+        // Several boards: the bunny frames.
+        let mut multi = String::from("scene,encoding,baud,devices,band_rows,frame_s,speedup,busiest_coproc_cycles\n");
+        let mut multi_pts: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+        let mut headline_multi = Vec::new();
+        for m in measured.iter().filter(|m| m.scene.contains("bun")) {
+            for &baud in &BAUDS {
+                let (one, _) = multi_seconds(m, 1, self.height, baud);
+                for &n in &self.devices {
+                    let band = if n == 1 { self.height } else { default_band_rows(self.height, n) };
+                    let (t, cycles) = multi_seconds(m, n, band, baud);
+                    writeln!(multi, "{},{},{baud},{n},{band},{t:.4},{:.3},{cycles}", m.scene, m.encoding, one / t)?;
+                    if m.scene == SCENES[0] {
+                        headline_multi.push(serde_json::json!({
+                            "encoding": m.encoding, "baud": baud, "devices": n, "frame_s": t, "speedup": one / t,
+                            "busiest_coproc_cycles": cycles }));
+                        if m.encoding == "rle" && n > 1 {
+                            match multi_pts.iter_mut().find(|(k, _)| k.starts_with(&format!("rle, {n} boards"))) {
+                                Some((_, v)) => v.push((baud as f64, t)),
+                                None => multi_pts.push((format!("rle, {n} boards"), vec![(baud as f64, t)])),
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        std::fs::write(self.out.join("link_multi.csv"), multi)?;
+
+        // Plot: bunny res4, frame time against baud.
+        let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+        for enc in ["rgb888", "rgb565", "rle"] {
+            let pts = rows
+                .iter()
+                .filter(|r| r.scene == SCENES[0] && r.encoding == enc)
+                .map(|r| (r.baud as f64, r.frame_s))
+                .collect();
+            series.push((format!("{enc}, 1 board"), pts));
+        }
+        series.extend(multi_pts);
+        plot(&self.out.join("link.svg"), &series, self.width, self.height)?;
+
+        // Headlines and checks.
+        let pick =
+            |scene: &str, enc: &str| rows.iter().find(|r| r.scene == scene && r.encoding == enc && r.baud == BAUDS[0]);
+        let mut json = serde_json::Map::new();
+        println!("scene                encoding  wire B/frame  efficiency  × raw rate  frame s @115200 / 921600 / 3M");
+        for r in rows.iter().filter(|r| r.baud == BAUDS[0]) {
+            let t: Vec<String> = rows
+                .iter()
+                .filter(|x| x.scene == r.scene && x.encoding == r.encoding)
+                .map(|x| format!("{:.2}", x.frame_s))
+                .collect();
+            println!(
+                "{:<20} {:<9} {:>12}  {:>9.1} %  {:>9.2}  {}",
+                r.scene,
+                r.encoding,
+                r.wire_bytes_rx,
+                100.0 * r.payload_efficiency,
+                r.pixel_rate_vs_raw,
+                t.join(" / ")
+            );
+        }
+        for scene in SCENES {
+            for enc in ["rgb888", "rgb565", "rle"] {
+                if let Some(r) = pick(scene, enc) {
+                    json.insert(format!("{scene}/{enc}/payload_efficiency"), r.payload_efficiency.into());
+                    json.insert(format!("{scene}/{enc}/pixel_rate_vs_raw"), r.pixel_rate_vs_raw.into());
+                }
+            }
+        }
+        json.insert("multi_bun_zipper_res4".into(), headline_multi.into());
+        json.insert("firmware_model".into(), serde_json::to_value(fw)?);
+        std::fs::write(self.out.join("link.json"), serde_json::to_string_pretty(&json)? + "\n")?;
+        for scene in ["bun_zipper_res4.obj", "stanford-bunny.obj"] {
+            let raw = pick(scene, "rgb888").ok_or_else(|| anyhow!("no {scene} row"))?;
+            let rle = pick(scene, "rle").ok_or_else(|| anyhow!("no {scene} row"))?;
+            ensure!(
+                raw.payload_efficiency >= 0.95,
+                "{scene}: raw payload efficiency {:.3} < 95 %",
+                raw.payload_efficiency
+            );
+            ensure!(
+                rle.pixel_rate_vs_raw >= 2.5,
+                "{scene}: Rle gives {:.2}× the raw pixel rate (< 2.5)",
+                rle.pixel_rate_vs_raw
+            );
+        }
+        println!("wrote {}/{{link.csv, link_multi.csv, link.svg, link.json}}", self.out.display());
+        Ok(())
+    }
+}
+
+fn write_csv(path: &Path, rows: &[LinkRow]) -> anyhow::Result<()> {
+    let mut s = String::from(
+        "scene,encoding,baud,width,height,wire_bytes_rx,wire_bytes_tx,raw_pixel_bytes,payload_efficiency,pixel_rate_vs_raw,link_pixels_per_s,link_s,work_s,frame_s,frame_serial_s,bound\n",
+    );
+    for r in rows {
+        writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{:.4},{:.3},{:.0},{:.4},{:.4},{:.4},{:.4},{}",
+            r.scene,
+            r.encoding,
+            r.baud,
+            r.width,
+            r.height,
+            r.wire_bytes_rx,
+            r.wire_bytes_tx,
+            r.raw_pixel_bytes,
+            r.payload_efficiency,
+            r.pixel_rate_vs_raw,
+            r.link_pixels_per_s,
+            r.link_s,
+            r.work_s,
+            r.frame_s,
+            r.frame_serial_s,
+            r.bound
+        )?;
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], w: u16, h: u16) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    let root = SVGBackend::new(path, (860, 560)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+    let ymax = series.iter().flat_map(|s| s.1.iter().map(|p| p.1)).fold(0.1, f64::max) * 1.5;
+    let ymin = series.iter().flat_map(|s| s.1.iter().map(|p| p.1)).fold(f64::INFINITY, f64::min).min(ymax) / 1.5;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("Modelled frame time, bunny res4 {w}×{h} (UART overlapped with ray work)"), ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((80_000f64..4_000_000f64).log_scale(), (ymin..ymax).log_scale())
+        .map_err(|e| anyhow!("{e}"))?;
+    chart.configure_mesh().x_desc("baud (8N1)").y_desc("frame time (s)").draw().map_err(|e| anyhow!("{e}"))?;
+    let colours = [RED, BLUE, GREEN, MAGENTA, CYAN, BLACK];
+    for (k, (name, pts)) in series.iter().enumerate() {
+        let c = colours[k % colours.len()];
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
+            .map_err(|e| anyhow!("{e}"))?
+            .label(name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+        chart.draw_series(pts.iter().map(|&(x, y)| Circle::new((x, y), 4, c.filled()))).map_err(|e| anyhow!("{e}"))?;
+    }
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()
+        .map_err(|e| anyhow!("{e}"))?;
+    root.present().map_err(|e| anyhow!("{e}"))?;
+    Ok(())
+}
