@@ -91,7 +91,9 @@ impl core::fmt::Display for ConfigError {
             Self::PeMemWords => f.write_str("pe_mem_words must be non-zero and pe_count*pe_mem_words must fit usize"),
             Self::MaxList => write!(f, "max_list must be 1..={LIST_CAPACITY}"),
             Self::Timing => f.write_str("timing.test_issue_cycles must be at least 1"),
-            Self::BackingTooSmall { need, have } => write!(f, "backing memory too small: need {need} words, have {have}"),
+            Self::BackingTooSmall { need, have } => {
+                write!(f, "backing memory too small: need {need} words, have {have}")
+            }
         }
     }
 }

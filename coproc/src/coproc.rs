@@ -425,7 +425,13 @@ impl View<'_> {
     /// Returns the winner, the tests performed and the tests that overflowed. Assumes
     /// `validate` passed. A ray the fixed-point frame cannot represent overflows every test
     /// it would have made (reported, and a miss).
-    fn search<K: Kernel>(&self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> (Option<Found>, TraceInfo) {
+    fn search<K: Kernel>(
+        &self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+    ) -> (Option<Found>, TraceInfo) {
         let mut info = TraceInfo::default();
         let pre = match K::prepare(ray, &self.numerics.frame) {
             Ok(pre) => pre,
@@ -552,7 +558,8 @@ impl Core<'_> {
         let frame = self.numerics.frame;
         for i in 0..tris {
             let src = base + slot.tri_off as usize + i * TRIANGLE_WORDS;
-            let words = self.mem.get(src..src + TRIANGLE_WORDS).and_then(|w| <&[u32; TRIANGLE_WORDS]>::try_from(w).ok());
+            let words =
+                self.mem.get(src..src + TRIANGLE_WORDS).and_then(|w| <&[u32; TRIANGLE_WORDS]>::try_from(w).ok());
             let tri = record(words.ok_or(FslError::PeImageMalformed)?);
             let dst = base + rec_off + i * K::RECORD_WORDS;
             let out = self.mem.get_mut(dst..dst + K::RECORD_WORDS).ok_or(FslError::PeMemoryOverflow)?;
@@ -571,9 +578,22 @@ impl Core<'_> {
     }
 
     /// The timed path: validation, functional search, PE timeline, statistics.
-    fn trace_timed(&mut self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> Result<RayResult, (FslError, u16)> {
+    fn trace_timed(
+        &mut self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+    ) -> Result<RayResult, (FslError, u16)> {
         let numerics = self.numerics;
-        let view = View { cfg: &self.cfg, mem: self.mem, pes: &self.pes, loaded_pes: self.loaded_pes, rule: self.rule, numerics };
+        let view = View {
+            cfg: &self.cfg,
+            mem: self.mem,
+            pes: &self.pes,
+            loaded_pes: self.loaded_pes,
+            rule: self.rule,
+            numerics,
+        };
         view.validate(ray, t_max, list)?;
         let (found, info) = view.search_dyn(kind, ray, t_max, list);
         let mut result = view.result_of(list, found, ray);
@@ -799,7 +819,13 @@ impl<'m> Coprocessor<'m> {
     /// validation and intersection code as [`Coprocessor::trace`] (so the same hit), for the
     /// native benchmark. `tests` counts the tests performed (entries up to the winner);
     /// `cycles` is 0. Takes `&self`, so one loaded model can serve several threads.
-    pub fn trace_untimed(&self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> Result<RayResult, FslError> {
+    pub fn trace_untimed(
+        &self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+    ) -> Result<RayResult, FslError> {
         self.trace_untimed_with_info(kind, ray, t_max, list).map(|(r, _)| r)
     }
 

@@ -218,7 +218,9 @@ impl OpCycles {
     /// The operation costs of `format` (see the type doc).
     pub fn of(format: NumberFormat) -> OpCycles {
         let (add, mul, div) = match format {
-            NumberFormat::F32 => (gridrt_pe::CYCLES_FP as f64, gridrt_pe::CYCLES_FP as f64, gridrt_pe::CYCLES_FP_DIV as f64),
+            NumberFormat::F32 => {
+                (gridrt_pe::CYCLES_FP as f64, gridrt_pe::CYCLES_FP as f64, gridrt_pe::CYCLES_FP_DIV as f64)
+            }
             NumberFormat::Fixed32Q16 => (3.0, 4.0, 34.0),
             NumberFormat::Fixed64Q23 => (4.0, 8.0, 66.0),
         };
@@ -337,7 +339,8 @@ mod tests {
     fn kernel_cycle_model_is_calibrated_on_the_pe_program() {
         use gridrt_pe::*;
         let c = OpCycles::of(NumberFormat::F32);
-        let pe = (FP_ADD_SUB + FP_MUL + FP_CMP) as f64 * c.add + FP_DIV as f64 * c.div + LOADS as f64 * c.load + c.overhead;
+        let pe =
+            (FP_ADD_SUB + FP_MUL + FP_CMP) as f64 * c.add + FP_DIV as f64 * c.div + LOADS as f64 * c.load + c.overhead;
         assert!((pe - REPORTED_TEST_CYCLES as f64).abs() < 1e-9, "{pe}");
         assert!((c.add - 9.158).abs() < 1e-3);
         for f in NumberFormat::ALL {

@@ -184,7 +184,7 @@ impl Camera {
         let right = side.try_normalize().ok_or(CameraError::DegenerateUp)?;
         let cam_up = right.cross(forward);
         // tan(fov/2) with the field of view in turns (fov/720 of a turn): `crate::fmath`.
-        let half_h = libm::tanf(fov_y_deg.to_radians() * 0.5); // TEMP
+        let half_h = crate::fmath::tan_turns(fov_y_deg / 720.0);
         let (w, h) = (width as f32, height as f32);
         let half_w = half_h * w / h;
         if !(half_h.is_finite() && half_w.is_finite() && half_w > 0.0) {

@@ -28,8 +28,8 @@ use gridrt_shared::msg::{
     SceneStatus, MAX_ERROR_TEXT, STAT_ENTRY_LEN,
 };
 use gridrt_shared::scene::{
-    HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream, EMPTY_VOXEL,
-    VERSION_2,
+    HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream,
+    EMPTY_VOXEL, VERSION_2,
 };
 
 /// Blocking byte output (the UART transmitter).
@@ -787,7 +787,12 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
 
     fn scene_chunk(&mut self, offset: u32, data: &[u8], out: &mut impl ByteSink) {
         let Some(up) = self.upload.as_mut() else {
-            return self.error(ErrorCode::UnexpectedMessage, MsgType::SceneChunk as u32, "scene chunk without SceneBegin", out);
+            return self.error(
+                ErrorCode::UnexpectedMessage,
+                MsgType::SceneChunk as u32,
+                "scene chunk without SceneBegin",
+                out,
+            );
         };
         if offset != up.next {
             let expected = up.next;
@@ -888,11 +893,13 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         }
         let v = Vec3::from_array;
         let cam =
-            Camera::new(v(r.eye), v(r.target), v(r.up), r.fov_y_deg, r.width as u32, r.height as u32).map_err(|e| match e {
-                CameraError::EyeIsTarget => bad(field::TARGET, "eye equals target"),
-                CameraError::DegenerateUp => bad(field::UP, "up is zero or parallel to the view direction"),
-                CameraError::BadSize => bad(field::WIDTH, "empty image"),
-                CameraError::BadFov | CameraError::NonFinite => bad(field::FOV, "fov not in (0, 180) degrees"),
+            Camera::new(v(r.eye), v(r.target), v(r.up), r.fov_y_deg, r.width as u32, r.height as u32).map_err(|e| {
+                match e {
+                    CameraError::EyeIsTarget => bad(field::TARGET, "eye equals target"),
+                    CameraError::DegenerateUp => bad(field::UP, "up is zero or parallel to the view direction"),
+                    CameraError::BadSize => bad(field::WIDTH, "empty image"),
+                    CameraError::BadFov | CameraError::NonFinite => bad(field::FOV, "fov not in (0, 180) degrees"),
+                }
             })?;
         Ok((cam, Light { pos: v(r.light_pos), intensity: r.light_intensity, ambient: r.ambient }))
     }

@@ -268,7 +268,9 @@ mod tests {
                         let want = (exact + 0.5).floor() as u8;
                         // Integer division rounds ties of odd n toward the formula's floor.
                         let got = lerp_channel(a as u8, b as u8, k, n);
-                        assert!((got as i32 - want as i32).abs() <= 1 && got == ((a * (n - k) + b * k + n / 2) / n) as u8);
+                        assert!(
+                            (got as i32 - want as i32).abs() <= 1 && got == ((a * (n - k) + b * k + n / 2) / n) as u8
+                        );
                         assert!(got >= a.min(b) as u8 && got <= a.max(b) as u8);
                     }
                 }
@@ -290,7 +292,10 @@ mod tests {
         .unwrap();
         assert_eq!(traced, vec![0, 4, 8, 12, 16]);
         assert_eq!(row, truth);
-        assert_eq!((counts.traced, counts.interpolated, counts.retraces, counts.segments, counts.segments_ok), (5, 12, 0, 4, 4));
+        assert_eq!(
+            (counts.traced, counts.interpolated, counts.retraces, counts.segments, counts.segments_ok),
+            (5, 12, 0, 4, 4)
+        );
     }
 
     #[test]

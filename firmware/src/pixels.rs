@@ -337,7 +337,8 @@ mod tests {
             let mut got = Vec::new();
             let mut next_x = 0;
             for (_, kind, payload) in &frames {
-                let Msg::PixelSpan { frame, y, x0, count, encoding, data } = Msg::decode(*kind, payload).unwrap() else {
+                let Msg::PixelSpan { frame, y, x0, count, encoding, data } = Msg::decode(*kind, payload).unwrap()
+                else {
                     panic!()
                 };
                 assert_eq!(frame, 7);

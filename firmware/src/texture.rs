@@ -188,7 +188,9 @@ mod tests {
 
     #[test]
     fn every_kind_stays_in_range_and_bilinear_is_continuous() {
-        for kind in [TextureKind::Checker, TextureKind::Xor, TextureKind::Marble, TextureKind::Wood, TextureKind::RgbDots] {
+        for kind in
+            [TextureKind::Checker, TextureKind::Xor, TextureKind::Marble, TextureKind::Wood, TextureKind::RgbDots]
+        {
             let e = ext(kind);
             for i in 0..16 {
                 for j in 0..16 {

@@ -16,10 +16,10 @@
 //! are real (`fmath::pow`), not limited to 10 squarings; the mirror reflectance in Torrance–Sparrow
 //! mode uses ∠(n, v) (for the mirror direction the half vector *is* n).
 
-use gridrt_shared::scene_v2::{DiffuseModel, Falloff, LightingRecord, MaterialExt, ReflectMode};
+use gridrt_shared::math::Vec3;
 #[cfg(feature = "specular")]
 use gridrt_shared::scene_v2::SpecularModel;
-use gridrt_shared::math::Vec3;
+use gridrt_shared::scene_v2::{DiffuseModel, Falloff, LightingRecord, MaterialExt, ReflectMode};
 
 const INV_PI: f32 = core::f32::consts::FRAC_1_PI;
 #[cfg(feature = "specular")]
@@ -179,7 +179,15 @@ pub struct DirectLight {
 
 /// Direct term `spot · E · c_L ∘ (k_d·c_d·f_d + k_s·c_s·f_s)` for a visible light (the caller
 /// multiplies by visibility and checks E > 0 and spot > 0 before tracing the shadow ray).
-pub fn direct(ext: &MaterialExt, cd: [f32; 3], n: Vec3, v: Vec3, p: Vec3, light: &DirectLight, e_spot: f32) -> [f32; 3] {
+pub fn direct(
+    ext: &MaterialExt,
+    cd: [f32; 3],
+    n: Vec3,
+    v: Vec3,
+    p: Vec3,
+    light: &DirectLight,
+    e_spot: f32,
+) -> [f32; 3] {
     let Some(l) = (light.pos - p).try_normalize() else { return [0.0; 3] };
     let fd = ext.kd * diffuse_brdf(ext, n, l, v);
     #[cfg(feature = "specular")]
@@ -211,7 +219,8 @@ mod tests {
 
     #[test]
     fn spot_cone_edges_and_step() {
-        let mut l = LightingRecord { spot_dir: [0.0, -1.0, 0.0], cos_outer: 0.7, cos_inner: 0.85, ..LightingRecord::default() };
+        let mut l =
+            LightingRecord { spot_dir: [0.0, -1.0, 0.0], cos_outer: 0.7, cos_inner: 0.85, ..LightingRecord::default() };
         let at = |x: f32| Vec3::new(x, -1.0, 0.0);
         assert_eq!(spot_factor(&l, Vec3::ZERO, at(0.0)), 1.0);
         assert_eq!(spot_factor(&l, Vec3::ZERO, at(5.0)), 0.0);
@@ -235,7 +244,8 @@ mod tests {
         // Blinn–Phong peak at the mirror configuration: (e+2)/(2π).
         let e = MaterialExt { specular_model: SpecularModel::BlinnPhong, exponent: 16.0, ..MaterialExt::default() };
         assert!((specular_brdf(&e, n, n, n) - 18.0 / TAU).abs() < 1e-4);
-        let ts = MaterialExt { specular_model: SpecularModel::TorranceSparrow, exponent: 16.0, ..MaterialExt::default() };
+        let ts =
+            MaterialExt { specular_model: SpecularModel::TorranceSparrow, exponent: 16.0, ..MaterialExt::default() };
         assert!(specular_brdf(&ts, n, l, v) >= 0.0);
     }
 }

@@ -48,7 +48,10 @@
 //! ray that misses the grid box misses the scene. With at least one analytic primitive the PE
 //! images use the v2 layout (`PE_V2_TAG`, T, V, R, P; refs ≥ T name primitives).
 
-use gridrt_shared::scene::{PrimRecord, TriangleRecord, EMPTY_VOXEL, MAX_PES, PE_HEADER_WORDS, PE_V2_HEADER_WORDS, PE_V2_TAG, PRIM_WORDS, TRIANGLE_WORDS, VOXEL_ENTRY_WORDS};
+use gridrt_shared::scene::{
+    PrimRecord, TriangleRecord, EMPTY_VOXEL, MAX_PES, PE_HEADER_WORDS, PE_V2_HEADER_WORDS, PE_V2_TAG, PRIM_WORDS,
+    TRIANGLE_WORDS, VOXEL_ENTRY_WORDS,
+};
 
 use crate::scene::{Bounds, Mesh};
 use crate::world::AnalyticPrim;
@@ -393,7 +396,8 @@ pub fn build_with_prims(mesh: &Mesh, prims: &[AnalyticPrim], params: &GridParams
         let n_analytic = prims.len() - n_tris;
         let refs: usize = cells.iter().map(|&k| (voxel_offsets[k + 1] - voxel_offsets[k]) as usize).sum();
         let header = if v2 { PE_V2_HEADER_WORDS } else { PE_HEADER_WORDS };
-        let needed = header + cells.len() * VOXEL_ENTRY_WORDS + refs + n_tris * TRIANGLE_WORDS + n_analytic * PRIM_WORDS;
+        let needed =
+            header + cells.len() * VOXEL_ENTRY_WORDS + refs + n_tris * TRIANGLE_WORDS + n_analytic * PRIM_WORDS;
         let mut words = Vec::with_capacity(needed);
         if v2 {
             words.extend_from_slice(&[PE_V2_TAG, n_tris as u32, cells.len() as u32, refs as u32, n_analytic as u32]);

@@ -8,7 +8,9 @@
 //! ```
 
 use gridrt_shared::frame::crc32;
-use gridrt_shared::scene::{HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, SceneHeader, HEADER_LEN, VERSION_2};
+use gridrt_shared::scene::{
+    HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, SceneHeader, HEADER_LEN, VERSION_2,
+};
 
 use crate::grid::Grid;
 

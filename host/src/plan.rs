@@ -32,12 +32,15 @@ impl Plan {
 
     /// The stages `world` needs.
     pub fn derive(world: &World) -> Self {
-        let used: Vec<u32> = world.mesh.triangles.iter().map(|t| t.material).chain(world.prims.iter().map(|p| p.material)).collect();
+        let used: Vec<u32> =
+            world.mesh.triangles.iter().map(|t| t.material).chain(world.prims.iter().map(|p| p.material)).collect();
         let any = |f: &dyn Fn(u32) -> bool| used.iter().any(|&m| f(m));
         let lone_convex = world.mesh.triangles.is_empty()
             && world.prims.len() == 1
             && matches!(world.prims[0].kind, PrimKind::Sphere | PrimKind::Disk | PrimKind::Square);
-        let light = world.lighting.light_count > 0 && world.settings.light.intensity > 0.0 && world.lighting.light_colour.iter().any(|&c| c > 0.0);
+        let light = world.lighting.light_count > 0
+            && world.settings.light.intensity > 0.0
+            && world.lighting.light_colour.iter().any(|&c| c > 0.0);
         Self {
             shadows: light && !lone_convex,
             reflections: world.lighting.max_depth > 1
@@ -50,10 +53,11 @@ impl Plan {
                     }
                 }),
             textures: any(&|m| world.material(m).1.texture != TextureKind::None),
-            specular: light && any(&|m| {
-                let e = world.material(m).1;
-                e.specular_model != SpecularModel::None && e.ks > 0.0
-            }),
+            specular: light
+                && any(&|m| {
+                    let e = world.material(m).1;
+                    e.specular_model != SpecularModel::None && e.ks > 0.0
+                }),
         }
     }
 
@@ -76,7 +80,12 @@ impl Plan {
     /// Names of the stages that run.
     pub fn names(&self) -> Vec<&'static str> {
         let mut v = Vec::new();
-        for (on, n) in [(self.shadows, "shadows"), (self.reflections, "reflections"), (self.textures, "textures"), (self.specular, "specular")] {
+        for (on, n) in [
+            (self.shadows, "shadows"),
+            (self.reflections, "reflections"),
+            (self.textures, "textures"),
+            (self.specular, "specular"),
+        ] {
             if on {
                 v.push(n);
             }
@@ -144,9 +153,15 @@ mod tests {
         };
         let p = Plan::derive(&scene("", "colour = [0.5, 0.5, 0.5]"));
         assert_eq!(p, Plan { shadows: false, reflections: false, textures: false, specular: false });
-        let p = Plan::derive(&scene("[light]\nposition = [0, 5, 0]\n[render]\nmax_depth = 2", "reflection = \"constant\"\nreflectivity = 0.5"));
+        let p = Plan::derive(&scene(
+            "[light]\nposition = [0, 5, 0]\n[render]\nmax_depth = 2",
+            "reflection = \"constant\"\nreflectivity = 0.5",
+        ));
         assert_eq!(p, Plan { shadows: true, reflections: true, textures: false, specular: false });
-        let p = Plan::derive(&scene("[light]\nposition = [0, 5, 0]", "reflection = \"dielectric\"\nspecular = \"blinn-phong\"\nks = 0.3"));
+        let p = Plan::derive(&scene(
+            "[light]\nposition = [0, 5, 0]",
+            "reflection = \"dielectric\"\nspecular = \"blinn-phong\"\nks = 0.3",
+        ));
         assert_eq!(p, Plan { shadows: true, reflections: false, textures: false, specular: true });
     }
 }

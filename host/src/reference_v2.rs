@@ -11,7 +11,9 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use gridrt_shared::scene_v2::{DiffuseModel, Falloff, Mapping, MaterialExt, PrimKind, ReflectMode, SpecularModel, TextureKind};
+use gridrt_shared::scene_v2::{
+    DiffuseModel, Falloff, Mapping, MaterialExt, PrimKind, ReflectMode, SpecularModel, TextureKind,
+};
 
 use crate::camera::{cross, dot, normalize, sub, CameraF64, RenderSettings};
 use crate::reference::{to_rgb8, ReferenceImage, ReferenceScene, MISS_ID, SHADOW_T_MAX};
@@ -75,7 +77,9 @@ impl Prim {
     fn hit(&self, o: [f64; 3], d: [f64; 3]) -> Option<f64> {
         let o = apply_point(&self.w2o, o);
         let d = apply_vector(&self.w2o, d);
-        let first = |r: Option<(f64, f64)>, ok: &dyn Fn(f64) -> bool| r.and_then(|(a, b)| [a, b].into_iter().find(|&t| t > 0.0 && ok(t)));
+        let first = |r: Option<(f64, f64)>, ok: &dyn Fn(f64) -> bool| {
+            r.and_then(|(a, b)| [a, b].into_iter().find(|&t| t > 0.0 && ok(t)))
+        };
         match self.kind {
             PrimKind::Sphere => first(quadratic(dot(d, d), dot(o, d), dot(o, o) - 1.0), &|_| true),
             PrimKind::Cylinder => first(
@@ -106,7 +110,8 @@ impl Prim {
                     return None;
                 }
                 let (x, z) = (o[0] + t * d[0], o[2] + t * d[2]);
-                let inside = if self.kind == PrimKind::Disk { x * x + z * z <= 1.0 } else { x.abs() <= 1.0 && z.abs() <= 1.0 };
+                let inside =
+                    if self.kind == PrimKind::Disk { x * x + z * z <= 1.0 } else { x.abs() <= 1.0 && z.abs() <= 1.0 };
                 inside.then_some(t)
             }
         }
@@ -179,7 +184,8 @@ fn texel(e: &MaterialExt, c1: [f64; 3], i: u32, j: u32) -> [f64; 3] {
         TextureKind::Wood => {
             let x = i as f64 / n as f64 - 0.5;
             let y = j as f64 / n as f64 - 0.5;
-            let m = 0.5 + 0.5 * (tau * (e.tex_param as f64 * (x * x + y * y).sqrt() + 0.5 * noise(i, j, n, e.tex_seed))).cos();
+            let m = 0.5
+                + 0.5 * (tau * (e.tex_param as f64 * (x * x + y * y).sqrt() + 0.5 * noise(i, j, n, e.tex_seed))).cos();
             mix(m * m)
         }
         TextureKind::RgbDots => {
@@ -295,7 +301,8 @@ impl<'w> WorldReference<'w> {
             .enumerate()
             .map(|(i, p)| Prim { kind: p.kind, w2o: from_wire(&p.to_object), material: p.material, id: t + i as u32 })
             .collect();
-        let objects = world.objects.iter().map(|o| (o.first_prim, o.prim_count, from_wire(&o.world_to_object))).collect();
+        let objects =
+            world.objects.iter().map(|o| (o.first_prim, o.prim_count, from_wire(&o.world_to_object))).collect();
         Self { world, tris, prims, objects, grid_diag: grid_bounds.diagonal_len() }
     }
 
@@ -305,7 +312,12 @@ impl<'w> WorldReference<'w> {
             if let Some(h) = tris.closest_hit(o, d, t_max) {
                 let tri = &self.world.mesh.triangles[h.prim as usize];
                 let v = tri.v.map(|p| p.map(|c| c as f64));
-                best = Some(WHit { t: h.t, prim: h.prim, material: tri.material, normal: cross(sub(v[1], v[0]), sub(v[2], v[0])) });
+                best = Some(WHit {
+                    t: h.t,
+                    prim: h.prim,
+                    material: tri.material,
+                    normal: cross(sub(v[1], v[0]), sub(v[2], v[0])),
+                });
             }
         }
         for p in &self.prims {
@@ -320,7 +332,8 @@ impl<'w> WorldReference<'w> {
     }
 
     fn occluded(&self, o: [f64; 3], d: [f64; 3], t_max: f64) -> bool {
-        self.prims.iter().any(|p| p.hit(o, d).is_some_and(|t| t < t_max)) || self.tris.as_ref().is_some_and(|s| s.any_hit(o, d, t_max))
+        self.prims.iter().any(|p| p.hit(o, d).is_some_and(|t| t < t_max))
+            || self.tris.as_ref().is_some_and(|s| s.any_hit(o, d, t_max))
     }
 
     fn eps(&self, p: [f64; 3]) -> f64 {
@@ -456,7 +469,11 @@ fn diffuse(e: &MaterialExt, n: [f64; 3], l: [f64; 3], v: [f64; 3]) -> f64 {
             let vp = sub(v, scale(n, co));
             let (ll, vl) = (dot(lp, lp).sqrt(), dot(vp, vp).sqrt());
             let cos_phi = if ll > 0.0 && vl > 0.0 { (dot(lp, vp) / (ll * vl)).max(0.0) } else { 0.0 };
-            let (sin_a, tan_b) = if ci < co { (si, if co > 0.0 { so / co } else { 0.0 }) } else { (so, if ci > 0.0 { si / ci } else { 0.0 }) };
+            let (sin_a, tan_b) = if ci < co {
+                (si, if co > 0.0 { so / co } else { 0.0 })
+            } else {
+                (so, if ci > 0.0 { si / ci } else { 0.0 })
+            };
             inv_pi * (a + b * cos_phi * sin_a * tan_b)
         }
     }

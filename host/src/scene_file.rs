@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 
 use gridrt_shared::scene::Material;
 use gridrt_shared::scene_v2::{
-    DiffuseModel, Falloff, LightingRecord, Mapping, MaterialExt, ObjectKind, ObjectRecord, PrimKind, ReflectMode, SpecularModel,
-    TextureKind, MAX_DEPTH,
+    DiffuseModel, Falloff, LightingRecord, Mapping, MaterialExt, ObjectKind, ObjectRecord, PrimKind, ReflectMode,
+    SpecularModel, TextureKind, MAX_DEPTH,
 };
 use serde::Deserialize;
 use toml::Spanned;
@@ -333,7 +333,13 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     /// An error at `field` of the table spanning `span`: the line of `field = …` inside the
     /// table if it is written there, else the table's first line.
-    fn field(&self, span: std::ops::Range<usize>, table: impl Into<String>, field: &str, reason: impl Into<String>) -> SceneFileError {
+    fn field(
+        &self,
+        span: std::ops::Range<usize>,
+        table: impl Into<String>,
+        field: &str,
+        reason: impl Into<String>,
+    ) -> SceneFileError {
         // The table runs from its span to the next table header.
         let body = self.text.get(span.start..).unwrap_or("");
         let mut at = span.start;
@@ -369,7 +375,8 @@ fn f3(v: [f64; 3]) -> [f32; 3] {
 
 /// Loads a scene file.
 pub fn load(path: &Path) -> Result<World, SceneFileError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneFileError::Io { path: path.to_path_buf(), source })?;
+    let text =
+        std::fs::read_to_string(path).map_err(|source| SceneFileError::Io { path: path.to_path_buf(), source })?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     parse(path, &text, &|p| crate::scene::load(&dir.join(p)))
 }
@@ -381,8 +388,10 @@ pub fn parse(
     text: &str,
     load_mesh: &dyn Fn(&Path) -> Result<Mesh, crate::scene::SceneLoadError>,
 ) -> Result<World, SceneFileError> {
-    let def: FileDef =
-        toml::from_str(text).map_err(|e| SceneFileError::Syntax { path: path.to_path_buf(), message: e.to_string().trim_end().to_string() })?;
+    let def: FileDef = toml::from_str(text).map_err(|e| SceneFileError::Syntax {
+        path: path.to_path_buf(),
+        message: e.to_string().trim_end().to_string(),
+    })?;
     let cx = Ctx { path, text };
 
     // Textures.
@@ -406,8 +415,15 @@ pub fn parse(
         if !(param.is_finite() && param > 0.0) {
             return Err(cx.field(span, table, "param", "must be a positive number"));
         }
-        if matches!(t.kind, TextureKindDef::Checker | TextureKindDef::RgbDots) && (param.fract() != 0.0 || param as u32 > t.size) {
-            return Err(cx.field(span, table, "param", format!("cells per side must be a whole number in 1..={}", t.size)));
+        if matches!(t.kind, TextureKindDef::Checker | TextureKindDef::RgbDots)
+            && (param.fract() != 0.0 || param as u32 > t.size)
+        {
+            return Err(cx.field(
+                span,
+                table,
+                "param",
+                format!("cells per side must be a whole number in 1..={}", t.size),
+            ));
         }
         let colour2 = t.colour2.unwrap_or([0.1; 3]);
         if !finite3(colour2) {
@@ -476,7 +492,9 @@ pub fn parse(
         }
         let mut ext = match &m.texture {
             None => MaterialExt::default(),
-            Some(t) => *textures.get(t).ok_or_else(|| err("texture", &format!("no texture named `{t}` (define it under [textures.{t}])")))?,
+            Some(t) => *textures
+                .get(t)
+                .ok_or_else(|| err("texture", &format!("no texture named `{t}` (define it under [textures.{t}])")))?,
         };
         ext.diffuse_model = match m.diffuse {
             DiffuseDef::Lambert => DiffuseModel::Lambert,
@@ -519,7 +537,10 @@ pub fn parse(
     let mut mesh_objects: Vec<ObjectRecord> = Vec::new();
     let mut planes: Vec<PendingPlane> = Vec::new();
     if def.objects.is_empty() {
-        return Err(SceneFileError::Syntax { path: path.to_path_buf(), message: "the scene has no [[objects]]".into() });
+        return Err(SceneFileError::Syntax {
+            path: path.to_path_buf(),
+            message: "the scene has no [[objects]]".into(),
+        });
     }
     for (i, o) in def.objects.iter().enumerate() {
         let span = o.span();
@@ -528,7 +549,9 @@ pub fn parse(
         let err = |field: &str, reason: String| cx.field(span.clone(), table.clone(), field, reason);
         let material = match &o.material {
             None => None,
-            Some(name) => Some(*index_of.get(name).ok_or_else(|| err("material", format!("no material named `{name}`")))?),
+            Some(name) => {
+                Some(*index_of.get(name).ok_or_else(|| err("material", format!("no material named `{name}`")))?)
+            }
         };
         let scale = match o.scale {
             None => [1.0; 3],
@@ -571,7 +594,11 @@ pub fn parse(
                 // Texture space: the mesh's own bounds mapped to [−1, 1]³, then the transform.
                 let c = b.center();
                 let e = b.extent().map(|v| (v * 0.5).max(1e-9));
-                let to_unit = [[1.0 / e[0], 0.0, 0.0, -c[0] / e[0]], [0.0, 1.0 / e[1], 0.0, -c[1] / e[1]], [0.0, 0.0, 1.0 / e[2], -c[2] / e[2]]];
+                let to_unit = [
+                    [1.0 / e[0], 0.0, 0.0, -c[0] / e[0]],
+                    [0.0, 1.0 / e[1], 0.0, -c[1] / e[1]],
+                    [0.0, 0.0, 1.0 / e[2], -c[2] / e[2]],
+                ];
                 let world_to_object = compose(&to_unit, &invert(&m).unwrap_or(IDENTITY));
                 let first = triangles.len() as u32;
                 for t in &mesh.triangles {
@@ -606,7 +633,8 @@ pub fn parse(
             ObjectType::Cylinder => PrimKind::Cylinder,
             ObjectType::Cone => PrimKind::Cone,
         };
-        let p = AnalyticPrim::new(kind, material.unwrap_or(0), m).ok_or_else(|| err("scale", "the transform is singular".into()))?;
+        let p = AnalyticPrim::new(kind, material.unwrap_or(0), m)
+            .ok_or_else(|| err("scale", "the transform is singular".into()))?;
         prims.push((p, World::object_kind(kind), i));
     }
 
@@ -652,7 +680,12 @@ pub fn parse(
         let span = r.span();
         let r = r.get_ref();
         if !(1..=MAX_DEPTH).contains(&r.max_depth) {
-            return Err(cx.field(span, "render", "max_depth", format!("must be in 1..={MAX_DEPTH} (1 = primary rays only)")));
+            return Err(cx.field(
+                span,
+                "render",
+                "max_depth",
+                format!("must be in 1..={MAX_DEPTH} (1 = primary rays only)"),
+            ));
         }
         lighting.max_depth = r.max_depth;
         if let Some(b) = r.background {
@@ -716,7 +749,12 @@ pub fn parse(
             match (l.spot_direction, l.spot_outer_deg) {
                 (None, None) => {
                     if l.spot_inner_deg.is_some() {
-                        return Err(cx.field(span, "light", "spot_inner_deg", "needs spot_direction and spot_outer_deg"));
+                        return Err(cx.field(
+                            span,
+                            "light",
+                            "spot_inner_deg",
+                            "needs spot_direction and spot_outer_deg",
+                        ));
                     }
                 }
                 (Some(d), Some(outer)) => {
@@ -725,13 +763,25 @@ pub fn parse(
                     }
                     let inner = l.spot_inner_deg.unwrap_or(outer);
                     if !(0.0 < outer && outer <= 180.0 && (0.0..=outer).contains(&inner)) {
-                        return Err(cx.field(span, "light", "spot_inner_deg", "need 0 ≤ spot_inner_deg ≤ spot_outer_deg ≤ 180"));
+                        return Err(cx.field(
+                            span,
+                            "light",
+                            "spot_inner_deg",
+                            "need 0 ≤ spot_inner_deg ≤ spot_outer_deg ≤ 180",
+                        ));
                     }
                     world.lighting.spot_dir = f3(d);
                     world.lighting.cos_outer = outer.to_radians().cos() as f32;
                     world.lighting.cos_inner = (inner.to_radians().cos() as f32).max(world.lighting.cos_outer);
                 }
-                _ => return Err(cx.field(span, "light", "spot_direction", "a spotlight needs both spot_direction and spot_outer_deg")),
+                _ => {
+                    return Err(cx.field(
+                        span,
+                        "light",
+                        "spot_direction",
+                        "a spotlight needs both spot_direction and spot_outer_deg",
+                    ))
+                }
             }
         }
     }

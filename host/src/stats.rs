@@ -266,7 +266,11 @@ impl PipelineStats {
             reflection_rays: get(stat::REFLECTION_RAYS),
             traced_pixels: traced,
             interpolated_pixels: interpolated,
-            traced_fraction: if traced + interpolated > 0 { traced as f64 / (traced + interpolated) as f64 } else { 0.0 },
+            traced_fraction: if traced + interpolated > 0 {
+                traced as f64 / (traced + interpolated) as f64
+            } else {
+                0.0
+            },
             interp_retraces: get(stat::INTERP_RETRACES),
             fsl_words_primary: get(stat::FSL_WORDS_PRIMARY),
             fsl_words_shadow: get(stat::FSL_WORDS_SHADOW),

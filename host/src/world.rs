@@ -164,7 +164,11 @@ impl AnalyticPrim {
                 let mut lo = [f64::INFINITY; 3];
                 let mut hi = [f64::NEG_INFINITY; 3];
                 for k in 0..8 {
-                    let p = [if k & 1 == 0 { a[0] } else { b[0] }, if k & 2 == 0 { a[1] } else { b[1] }, if k & 4 == 0 { a[2] } else { b[2] }];
+                    let p = [
+                        if k & 1 == 0 { a[0] } else { b[0] },
+                        if k & 2 == 0 { a[1] } else { b[1] },
+                        if k & 4 == 0 { a[2] } else { b[2] },
+                    ];
                     let q = apply_point(m, p);
                     for i in 0..3 {
                         lo[i] = lo[i].min(q[i]);
@@ -174,7 +178,10 @@ impl AnalyticPrim {
                 (lo, hi)
             }
         };
-        let size = (0..3).map(|i| hi[i] - lo[i]).fold(0.0f64, f64::max).max(lo.iter().chain(hi.iter()).fold(0.0f64, |a, b| a.max(b.abs())));
+        let size = (0..3)
+            .map(|i| hi[i] - lo[i])
+            .fold(0.0f64, f64::max)
+            .max(lo.iter().chain(hi.iter()).fold(0.0f64, |a, b| a.max(b.abs())));
         let pad = size / 65536.0;
         Bounds { min: lo.map(|v| (v - pad) as f32), max: hi.map(|v| (v + pad) as f32) }
     }

@@ -39,7 +39,16 @@ fn assert_matches_reference(stats: &serde_json::Value) {
     assert!(identical || psnr.is_some_and(|p| p >= 50.0), "psnr {psnr:?}");
     let mismatches = stats["hit_mismatches"].as_u64().unwrap();
     assert!(mismatches * 1000 <= primary, "{mismatches} hit mismatches of {primary} primary rays");
-    for key in ["rays", "fsl_words", "intersection_tests", "coproc_cycles", "uart_bytes", "wall_ms", "max_abs_diff", "differing_pixels"] {
+    for key in [
+        "rays",
+        "fsl_words",
+        "intersection_tests",
+        "coproc_cycles",
+        "uart_bytes",
+        "wall_ms",
+        "max_abs_diff",
+        "differing_pixels",
+    ] {
         assert!(!stats[key].is_null(), "stats has {key}");
     }
     assert!(stats["intersection_tests"].as_u64().unwrap() > 0);
@@ -88,7 +97,14 @@ fn malformed_scene_is_a_clear_error_not_a_panic() {
 /// Issue 4: the default configuration (watertight f32) reaches ≥ 50 dB on every bundled scene.
 #[test]
 fn default_configuration_matches_the_reference_on_every_bundled_scene() {
-    for scene in ["bun_zipper_res3.obj", "bun_zipper_res2.obj", "teapot.obj", "suzanne.obj", "cornell_box.obj", "bun_zipper_res4.ply"] {
+    for scene in [
+        "bun_zipper_res3.obj",
+        "bun_zipper_res2.obj",
+        "teapot.obj",
+        "suzanne.obj",
+        "cornell_box.obj",
+        "bun_zipper_res4.ply",
+    ] {
         let stats = render_sim(scene, &[]);
         let identical = stats["identical"].as_bool().unwrap();
         let psnr = stats["psnr_db"].as_f64();

@@ -113,7 +113,13 @@ pub const CLEAR_WORD: u32 = op::CLEAR << 28;
 ///
 /// The caller appends `entries` list entries with [`entry_words`]; the last word of the
 /// packet must carry the control bit.
-pub fn ray_request_head(kind: RayKind, origin: [f32; 3], dir: [f32; 3], t_max: f32, entries: u16) -> [u32; RAY_HEADER_WORDS] {
+pub fn ray_request_head(
+    kind: RayKind,
+    origin: [f32; 3],
+    dir: [f32; 3],
+    t_max: f32,
+    entries: u16,
+) -> [u32; RAY_HEADER_WORDS] {
     [
         ray_header(kind, entries),
         origin[0].to_bits(),

@@ -10,8 +10,8 @@
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod bytes;
-pub mod fsl;
 pub mod frame;
+pub mod fsl;
 pub mod math;
 pub mod msg;
 pub mod pixel;

@@ -270,7 +270,9 @@ pub mod render_flags {
 
     /// The interpolation bits for step `l` (0..=15) and threshold `eps` (0..=31).
     pub const fn interp(step: u8, eps: u8, adaptive: bool) -> u16 {
-        (((step as u16) & 0xF) << INTERP_STEP_SHIFT) | (((eps as u16) & 0x1F) << INTERP_EPS_SHIFT) | if adaptive { INTERP_ADAPTIVE } else { 0 }
+        (((step as u16) & 0xF) << INTERP_STEP_SHIFT)
+            | (((eps as u16) & 0x1F) << INTERP_EPS_SHIFT)
+            | if adaptive { INTERP_ADAPTIVE } else { 0 }
     }
     /// Interpolation step l of `flags` (0 = off).
     pub const fn interp_step(flags: u16) -> u8 {

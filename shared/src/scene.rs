@@ -12,8 +12,8 @@
 use crate::bytes::Reader;
 use crate::frame::Crc32Digest;
 pub use crate::scene_v2::{
-    HeaderExt, LightingRecord, MaterialExt, ObjectRecord, PrimRecord, LIGHTING_LEN, MATERIAL_EXT_LEN, OBJECT_LEN, PE_V2_HEADER_WORDS,
-    PE_V2_TAG, PRIM_WORDS, VERSION_2,
+    HeaderExt, LightingRecord, MaterialExt, ObjectRecord, PrimRecord, LIGHTING_LEN, MATERIAL_EXT_LEN, OBJECT_LEN,
+    PE_V2_HEADER_WORDS, PE_V2_TAG, PRIM_WORDS, VERSION_2,
 };
 
 /// Magic bytes at offset 0.
@@ -237,7 +237,13 @@ impl SceneHeader {
         }
         let box_ok = (0..3).all(|i| bounds_min[i] < bounds_max[i]);
         let voxels: u64 = dims.iter().map(|&d| d as u64).product();
-        if voxels > MAX_VOXELS as u64 || dims.contains(&0) || pe_count == 0 || pe_count as usize > MAX_PES || !box_ok || (h.total_len as usize) < HEADER_LEN {
+        if voxels > MAX_VOXELS as u64
+            || dims.contains(&0)
+            || pe_count == 0
+            || pe_count as usize > MAX_PES
+            || !box_ok
+            || (h.total_len as usize) < HEADER_LEN
+        {
             return Err(SceneError::BadHeader);
         }
         Ok((h, ext))

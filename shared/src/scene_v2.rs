@@ -412,7 +412,8 @@ impl ObjectRecord {
         let mut r = Reader::new(bytes);
         let t = |_| SceneError::Truncated;
         use ObjectKind as K;
-        let kind = enum_u8(r.u8().map_err(t)?, &[K::Mesh, K::Sphere, K::Cylinder, K::Cone, K::Disk, K::Square, K::Plane])?;
+        let kind =
+            enum_u8(r.u8().map_err(t)?, &[K::Mesh, K::Sphere, K::Cylinder, K::Cone, K::Disk, K::Square, K::Plane])?;
         let _ = r.u8().map_err(t)?;
         let material = r.u16().map_err(t)?;
         let first_prim = r.u32().map_err(t)?;
@@ -576,9 +577,21 @@ mod tests {
             ..MaterialExt::default()
         };
         assert_eq!(MaterialExt::parse(&m.to_bytes()), Ok(m));
-        let o = ObjectRecord { kind: ObjectKind::Cone, material: 3, first_prim: 9, prim_count: 1, world_to_object: [1.5; 12] };
+        let o = ObjectRecord {
+            kind: ObjectKind::Cone,
+            material: 3,
+            first_prim: 9,
+            prim_count: 1,
+            world_to_object: [1.5; 12],
+        };
         assert_eq!(ObjectRecord::parse(&o.to_bytes()), Ok(o));
-        let l = LightingRecord { max_depth: 2, falloff: Falloff::InverseSquare, cos_outer: 0.7, cos_inner: 0.85, ..LightingRecord::default() };
+        let l = LightingRecord {
+            max_depth: 2,
+            falloff: Falloff::InverseSquare,
+            cos_outer: 0.7,
+            cos_inner: 0.85,
+            ..LightingRecord::default()
+        };
         assert_eq!(LightingRecord::parse(&l.to_bytes()), Ok(l));
         let p = PrimRecord { kind: PrimKind::Cylinder, prim: 5, material: 2, world_to_object: [0.25; 12] };
         assert_eq!(PrimRecord::from_words(&p.to_words()), Some(p));

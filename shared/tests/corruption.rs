@@ -356,7 +356,7 @@ fn regression_pixel_span_encode_accepts_wrong_data_length() {
 /// RESULT carries `list_pos` in 12 bits, so requests are limited to 4095 entries.
 #[test]
 fn regression_result_list_pos_covers_every_allowed_list_position() {
-    assert!(fsl::MAX_LIST_ENTRIES <= 0x0FFF);
+    const { assert!(fsl::MAX_LIST_ENTRIES <= 0x0FFF) };
     let last = (fsl::MAX_LIST_ENTRIES - 1) as u16;
     let r = RayResult { hit: true, list_pos: last, t: 1.0, ..RayResult::MISS };
     assert_eq!(RayResult::from_words(&r.to_words()).map(|r| r.list_pos), Ok(last));

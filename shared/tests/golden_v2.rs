@@ -3,8 +3,8 @@
 
 use gridrt_shared::frame::crc32;
 use gridrt_shared::scene::{
-    HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, PeImage, PrimRecord, SceneError, SceneHeader, SceneSink,
-    SceneStream, PE_V2_TAG,
+    HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, PeImage, PrimRecord, SceneError, SceneHeader,
+    SceneSink, SceneStream, PE_V2_TAG,
 };
 use gridrt_shared::scene_v2::{Falloff, ObjectKind, PrimKind, TextureKind};
 
@@ -36,7 +36,10 @@ fn pe_image_v2_words() {
     let p = img.primitive(0).unwrap();
     assert_eq!(p.kind, PrimKind::Sphere);
     assert_eq!(p.world_to_object[0], 0.5);
-    assert_eq!(PrimRecord { kind: PrimKind::Sphere, prim: 0, material: 0, world_to_object: p.world_to_object }.to_words()[..], w[9..25]);
+    assert_eq!(
+        PrimRecord { kind: PrimKind::Sphere, prim: 0, material: 0, world_to_object: p.world_to_object }.to_words()[..],
+        w[9..25]
+    );
     // A ref past T + P, a count mismatch and an unknown kind are rejected.
     let mut bad = w.clone();
     bad[8] = 1;
@@ -103,7 +106,7 @@ impl SceneSink for Sink {
 fn scene_v2_worked_example() {
     let mut body = vec![0x00, 0, 0, 0]; // voxel 0 → PE 0, padding
     body.extend(le32(&[0x3F4C_CCCD, 0x3F4C_CCCD, 0x3F4C_CCCD, 0])); // material 0: 0.8 grey, reflect 0
-    // Material ext: Lambert, no specular, no reflection, checker, planar, bilinear, 2^4 texels.
+                                                                    // Material ext: Lambert, no specular, no reflection, checker, planar, bilinear, 2^4 texels.
     let mut ext = vec![0, 0, 0, 1, 0, 1, 4, 0];
     for f in [1.0f32, 1.0, 0.0, 0.0, 32.0, 1.0, 1.0, 1.0, 1.5, 0.0, 0.1, 0.1, 0.1, 1.0, 1.0, 0.0, 0.0, 8.0] {
         ext.extend(f.to_le_bytes());

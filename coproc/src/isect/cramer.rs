@@ -44,7 +44,10 @@
 
 use core::marker::PhantomData;
 
-use super::{f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute, Kernel, KernelKind, RecordStatus, Triangle};
+use super::{
+    f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute, Kernel, KernelKind, RecordStatus,
+    Triangle,
+};
 use crate::numeric::{beyond, FixedFormat, FixedFrame, Fx, FxRay, NumberFormat, OpCount, Overflow};
 use gridrt_shared::math::{difference_of_products, gamma, Ray, Vec3};
 

@@ -192,7 +192,8 @@ pub(crate) use with_kernel;
 
 impl KernelKind {
     /// Every kernel, in a stable order.
-    pub const ALL: [KernelKind; 5] = [Self::Watertight, Self::MollerTrumbore, Self::Wald, Self::HanikaKeller, Self::Cramer];
+    pub const ALL: [KernelKind; 5] =
+        [Self::Watertight, Self::MollerTrumbore, Self::Wald, Self::HanikaKeller, Self::Cramer];
 
     /// Short name (for CLIs and reports: `--isect NAME`).
     pub const fn name(self) -> &'static str {
@@ -347,7 +348,11 @@ pub(crate) fn f32_vertices_precompute(tri: &Triangle, out: &mut [u32]) -> Record
 /// at the frame origin and reported degenerate: with per-product rounding, the sheared or
 /// projected copies of collinear points need not stay collinear, but every kernel rejects a
 /// point triangle exactly (all its edges are zero).
-pub(crate) fn fx_vertices_precompute<Q: FixedFormat>(tri: &Triangle, frame: &FixedFrame, out: &mut [u32]) -> RecordStatus {
+pub(crate) fn fx_vertices_precompute<Q: FixedFormat>(
+    tri: &Triangle,
+    frame: &FixedFrame,
+    out: &mut [u32],
+) -> RecordStatus {
     let p = tri.map(|v| fx_point::<Q>(frame, v.to_array()));
     let mut words = [0u32; 9];
     let mut status = RecordStatus::Ok;
@@ -471,7 +476,9 @@ mod tests {
             assert!(crate::exact::intersect(&ray, &tri).is_some());
             for is in all() {
                 let t = is.intersect_tri(&ray, &tri, f32::INFINITY);
-                let t = t.unwrap_or_else(|e| panic!("{is:?}: {e}")).unwrap_or_else(|| panic!("{is:?} missed an interior hit"));
+                let t = t
+                    .unwrap_or_else(|e| panic!("{is:?}: {e}"))
+                    .unwrap_or_else(|| panic!("{is:?} missed an interior hit"));
                 let rel = ((t as f64 - t_ref) / t_ref).abs();
                 let tol = match is.format {
                     NumberFormat::F32 => 1e-4,
@@ -524,7 +531,10 @@ mod tests {
                 assert_eq!(bytes, want, "{k:?} {f:?}");
                 assert!(k.record_words(f) <= MAX_RECORD_WORDS);
                 assert_eq!(k.uses_image(f), f == NumberFormat::F32 && want == 36);
-                assert_eq!(k.pe_words_needed(f, 100, 10), if k.uses_image(f) { 100 } else { 100 + 10 * k.record_words(f) });
+                assert_eq!(
+                    k.pe_words_needed(f, 100, 10),
+                    if k.uses_image(f) { 100 } else { 100 + 10 * k.record_words(f) }
+                );
             }
         }
         assert_eq!(NumberFormat::from_name("fixed64-q23"), Some(NumberFormat::Fixed64Q23));

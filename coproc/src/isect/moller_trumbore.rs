@@ -33,8 +33,13 @@
 
 use core::marker::PhantomData;
 
-use super::{f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute, Kernel, KernelKind, RecordStatus, Triangle};
-use crate::numeric::{beyond, fx_cross, fx_dot, fx_sub, FixedFormat, FixedFrame, Fx, FxRay, NumberFormat, OpCount, Overflow};
+use super::{
+    f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute, Kernel, KernelKind, RecordStatus,
+    Triangle,
+};
+use crate::numeric::{
+    beyond, fx_cross, fx_dot, fx_sub, FixedFormat, FixedFrame, Fx, FxRay, NumberFormat, OpCount, Overflow,
+};
 use gridrt_shared::math::{Ray, Vec3};
 
 /// The Möller–Trumbore kernel.

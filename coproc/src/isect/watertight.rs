@@ -32,7 +32,10 @@
 
 use core::marker::PhantomData;
 
-use super::{f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute, Kernel, KernelKind, RecordStatus, Triangle};
+use super::{
+    f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute, Kernel, KernelKind, RecordStatus,
+    Triangle,
+};
 use crate::numeric::{beyond, fx_sub, FixedFormat, FixedFrame, Fx, FxRay, NumberFormat, OpCount, Overflow};
 use gridrt_shared::math::{difference_of_products, gamma, max_dimension, Ray, Vec3};
 
@@ -311,7 +314,10 @@ mod tests {
             let p = tri[0] + (tri[1] - tri[0]) * u + (tri[2] - tri[0]) * v;
             let dir = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
             let ray = Ray { origin: p, dir };
-            assert_eq!(intersect_f32(&Watertight::prepare(&ray, &FixedFrame::IDENTITY).unwrap(), &tri, f32::INFINITY), None);
+            assert_eq!(
+                intersect_f32(&Watertight::prepare(&ray, &FixedFrame::IDENTITY).unwrap(), &tri, f32::INFINITY),
+                None
+            );
         }
     }
 }

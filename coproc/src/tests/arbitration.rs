@@ -33,7 +33,11 @@ fn closer_hit_in_later_voxel_beats_spanning_triangle_hit_beyond_voxel_exit() {
 
         cp.set_arbitration(ArbitrationRule::GridRtOriginal);
         let naive = cp.trace(RayKind::Closest, &ray, f32::INFINITY, &list).unwrap();
-        assert_eq!((naive.prim, naive.pe, naive.list_pos), (7, 0, 0), "{kernel:?}: GridRT's rule picks the far triangle");
+        assert_eq!(
+            (naive.prim, naive.pe, naive.list_pos),
+            (7, 0, 0),
+            "{kernel:?}: GridRT's rule picks the far triangle"
+        );
         assert!((naive.t - 2.2).abs() < 1e-5);
     }
 }

@@ -57,7 +57,8 @@ pub(crate) fn entry(voxel: u32, pe: u8, t_exit: f32) -> ListEntry {
 
 /// The request packet for a ray, control bit on its last word.
 pub(crate) fn ray_packet(kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> Vec<FslWord> {
-    let mut w: Vec<u32> = ray_request_head(kind, ray.origin.to_array(), ray.dir.to_array(), t_max, list.len() as u16).to_vec();
+    let mut w: Vec<u32> =
+        ray_request_head(kind, ray.origin.to_array(), ray.dir.to_array(), t_max, list.len() as u16).to_vec();
     for e in list {
         w.extend(entry_words(*e));
     }

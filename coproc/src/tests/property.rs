@@ -22,7 +22,10 @@ fn trace_equals_brute_force_nearest_hit_on_2x2x2_scene() {
             let list = scene.list(&ray, map);
             let r = cp.trace(RayKind::Closest, &ray, t_max, &list).unwrap();
             let u = cp.trace_untimed(RayKind::Closest, &ray, t_max, &list).unwrap();
-            assert_eq!((r.hit, r.t.to_bits(), r.prim, r.list_pos, r.pe), (u.hit, u.t.to_bits(), u.prim, u.list_pos, u.pe));
+            assert_eq!(
+                (r.hit, r.t.to_bits(), r.prim, r.list_pos, r.pe),
+                (u.hit, u.t.to_bits(), u.prim, u.list_pos, u.pe)
+            );
             match scene.brute_force(kernel, &ray, t_max) {
                 None => assert!(!r.hit, "{kernel:?} ray {i}: spurious hit {r:?}"),
                 Some((t, prim)) => {
@@ -66,7 +69,17 @@ fn answers_are_independent_of_the_pe_count() {
                 let r = cp.trace(RayKind::Closest, ray, *t_max, &list).unwrap();
                 let u = cp.trace_untimed(RayKind::Closest, ray, *t_max, &list).unwrap();
                 let any = cp.trace(RayKind::Any, ray, *t_max, &list).unwrap();
-                (r.hit, r.t.to_bits(), r.prim, r.material, r.normal.map(f32::to_bits), r.list_pos, u.tests, any.hit, any.prim)
+                (
+                    r.hit,
+                    r.t.to_bits(),
+                    r.prim,
+                    r.material,
+                    r.normal.map(f32::to_bits),
+                    r.list_pos,
+                    u.tests,
+                    any.hit,
+                    any.prim,
+                )
             })
             .collect();
         answers.push(a);

@@ -43,7 +43,9 @@ fn ray_packet_reply_equals_direct_trace() {
 #[test]
 fn every_violation_is_answered_with_one_error_word_and_the_link_resynchronises() {
     let ray = probe_ray();
-    let head = |count: u16| ray_request_head(RayKind::Closest, ray.origin.to_array(), ray.dir.to_array(), f32::INFINITY, count);
+    let head = |count: u16| {
+        ray_request_head(RayKind::Closest, ray.origin.to_array(), ray.dir.to_array(), f32::INFINITY, count)
+    };
     let with_head = |count: u16, tail: &[u32]| {
         let mut w = head(count).to_vec();
         w.extend_from_slice(tail);
@@ -54,7 +56,11 @@ fn every_violation_is_answered_with_one_error_word_and_the_link_resynchronises()
     let junk_then_flush = |mut w: Vec<FslWord>| {
         // Words after an error without control bit are discarded up to the next control word,
         // even when they look like a valid packet.
-        w.extend(ray_packet(RayKind::Closest, &ray, f32::INFINITY, &good_list()).into_iter().map(|x| FslWord { control: false, ..x }));
+        w.extend(
+            ray_packet(RayKind::Closest, &ray, f32::INFINITY, &good_list())
+                .into_iter()
+                .map(|x| FslWord { control: false, ..x }),
+        );
         w.push(FslWord::last(0xDEAD_BEEF));
         w
     };
@@ -72,7 +78,12 @@ fn every_violation_is_answered_with_one_error_word_and_the_link_resynchronises()
         ("unknown opcode, one word", vec![FslWord::last(0x5000_0000)], FslError::UnknownOpcode, 5),
         ("unknown opcode, longer packet", framed(&[0x7000_0001, 1, 2]), FslError::UnknownOpcode, 7),
         ("control bit in the ray head", framed(&head(1)[..4]), FslError::PacketTooShort, 3),
-        ("control bit on ray header word", vec![FslWord::last(ray_header(RayKind::Any, 1))], FslError::PacketTooShort, 0),
+        (
+            "control bit on ray header word",
+            vec![FslWord::last(ray_header(RayKind::Any, 1))],
+            FslError::PacketTooShort,
+            0,
+        ),
         ("control bit inside the list", framed(&with_head(2, &[e0[0], e0[1], e0[0]])), FslError::PacketTooShort, 10),
         ("ray without control bit", junk_then_flush(unframed(&with_head(1, &e0))), FslError::MissingControl, 9),
         ("CLEAR without control bit", junk_then_flush(vec![FslWord::data(CLEAR_WORD)]), FslError::MissingControl, 0),
@@ -84,7 +95,12 @@ fn every_violation_is_answered_with_one_error_word_and_the_link_resynchronises()
             FslError::VoxelNotLoaded,
             1,
         ),
-        ("voxel owned by another PE", framed(&with_head(1, &entry_words(entry(4, 1, 5.0)))), FslError::VoxelNotLoaded, 0),
+        (
+            "voxel owned by another PE",
+            framed(&with_head(1, &entry_words(entry(4, 1, 5.0)))),
+            FslError::VoxelNotLoaded,
+            0,
+        ),
         ("list longer than max_list", framed(&with_head(65, &[0; 130])), FslError::ListTooLong, 64),
         ("LOAD longer than PE memory", framed(&[load_header(1), 257, 1, 2, 3]), FslError::PeMemoryOverflow, 1),
         ("LOAD of inconsistent image", framed(&[load_header(1), 4, 1, 0, 0, 0]), FslError::PeImageMalformed, 1),
@@ -113,7 +129,12 @@ fn every_violation_is_answered_with_one_error_word_and_the_link_resynchronises()
             1,
         ),
         ("LOAD of 3 words, control on the 2nd", framed(&[load_header(1), 3, 0, 0]), FslError::PacketTooShort, 3),
-        ("LOAD without control bit", junk_then_flush(unframed(&[load_header(1), 2, 0, 0])), FslError::MissingControl, 3),
+        (
+            "LOAD without control bit",
+            junk_then_flush(unframed(&[load_header(1), 2, 0, 0])),
+            FslError::MissingControl,
+            3,
+        ),
         ("NaN origin", framed(&[&bad_origin[..], &e0[..]].concat()), FslError::NonFiniteRay, 1),
         ("infinite direction", framed(&[&inf_dir[..], &e0[..]].concat()), FslError::NonFiniteRay, 5),
         ("zero direction", framed(&[&zero_dir[..], &e0[..]].concat()), FslError::NonFiniteRay, 4),
@@ -163,9 +184,9 @@ fn ray_before_any_load_and_after_clear_is_scene_not_loaded() {
 #[test]
 fn failed_load_leaves_the_pe_empty() {
     for bad in [
-        framed(&[load_header(0), 257]),                // overflow
-        framed(&[load_header(0), 3, 1, 0, 0]),         // malformed
-        vec![FslWord::last(load_header(0))],           // too short
+        framed(&[load_header(0), 257]),        // overflow
+        framed(&[load_header(0), 3, 1, 0, 0]), // malformed
+        vec![FslWord::last(load_header(0))],   // too short
     ] {
         let mut backing = Vec::new();
         let mut cp = loaded(config(2, 256), &mut backing, &images());
@@ -174,7 +195,10 @@ fn failed_load_leaves_the_pe_empty() {
         assert_eq!(drain(&mut cp).len(), 1);
         assert!(!cp.is_pe_loaded(0));
         assert_eq!(cp.loaded_pes(), 1);
-        assert_eq!(cp.trace(RayKind::Closest, &probe_ray(), f32::INFINITY, &good_list()), Err(FslError::VoxelNotLoaded));
+        assert_eq!(
+            cp.trace(RayKind::Closest, &probe_ray(), f32::INFINITY, &good_list()),
+            Err(FslError::VoxelNotLoaded)
+        );
     }
     let mut backing = Vec::new();
     let mut cp = loaded(config(2, 256), &mut backing, &images());
@@ -305,7 +329,10 @@ fn random_word_streams_never_panic() {
 fn configuration_is_validated() {
     let mut small = vec![0u32; 10];
     assert_eq!(config(2, 8).required_backing_words(), 16);
-    assert_eq!(Coprocessor::new(config(2, 8), &mut small).err(), Some(ConfigError::BackingTooSmall { need: 16, have: 10 }));
+    assert_eq!(
+        Coprocessor::new(config(2, 8), &mut small).err(),
+        Some(ConfigError::BackingTooSmall { need: 16, have: 10 })
+    );
     assert_eq!(Coprocessor::new(config(0, 8), &mut small).err(), Some(ConfigError::PeCount));
     assert_eq!(Coprocessor::new(config(256, 8), &mut small).err(), Some(ConfigError::PeCount));
     assert_eq!(Coprocessor::new(config(1, 0), &mut small).err(), Some(ConfigError::PeMemWords));
@@ -320,9 +347,26 @@ fn configuration_is_validated() {
 #[test]
 fn golden_spec_tiny_scene_load_and_ray() {
     let packet: [u32; 20] = [
-        0x1000_0000, 0x0000_0012, 0x0000_0001, 0x0000_0001, 0x0000_0001, 0x0000_0000, 0x0000_0000,
-        0x0000_0001, 0x0000_0000, 0x3E80_0000, 0x3E80_0000, 0x3F00_0000, 0x3F40_0000, 0x3E80_0000,
-        0x3F00_0000, 0x3E80_0000, 0x3F40_0000, 0x3F00_0000, 0x0000_0000, 0x0000_0000,
+        0x1000_0000,
+        0x0000_0012,
+        0x0000_0001,
+        0x0000_0001,
+        0x0000_0001,
+        0x0000_0000,
+        0x0000_0000,
+        0x0000_0001,
+        0x0000_0000,
+        0x3E80_0000,
+        0x3E80_0000,
+        0x3F00_0000,
+        0x3F40_0000,
+        0x3E80_0000,
+        0x3F00_0000,
+        0x3E80_0000,
+        0x3F40_0000,
+        0x3F00_0000,
+        0x0000_0000,
+        0x0000_0000,
     ];
     let cfg = CoprocConfig { timing: TimingProfile::GRIDRT, ..config(1, 64) };
     let mut backing = vec![0; cfg.required_backing_words()];

@@ -10,7 +10,13 @@ fn per_pe_scene(n: &[usize], hit: &[bool]) -> Vec<Vec<u32>> {
         .enumerate()
         .map(|(p, (&n, &h))| {
             let tris: Vec<_> = (0..n)
-                .map(|i| if h && i + 1 == n { hit_tri(1.0 + p as f32, 100 + p as u32) } else { miss_tri(i as f32, i as u32) })
+                .map(|i| {
+                    if h && i + 1 == n {
+                        hit_tri(1.0 + p as f32, 100 + p as u32)
+                    } else {
+                        miss_tri(i as f32, i as u32)
+                    }
+                })
                 .collect();
             image(&[(p as u32, (0..n as u32).collect())], &tris)
         })
@@ -100,7 +106,8 @@ fn later_winner_waits_for_done_from_earlier_pes() {
 #[test]
 fn entries_on_one_pe_run_sequentially_and_any_stops_early() {
     let p = TimingProfile::GRIDRT;
-    let tris = [miss_tri(0.0, 0), miss_tri(1.0, 1), miss_tri(2.0, 2), hit_tri(1.0, 3), hit_tri(0.5, 4), miss_tri(3.0, 5)];
+    let tris =
+        [miss_tri(0.0, 0), miss_tri(1.0, 1), miss_tri(2.0, 2), hit_tri(1.0, 3), hit_tri(0.5, 4), miss_tri(3.0, 5)];
     let img = image(&[(0, vec![0, 1, 2]), (1, vec![3, 4, 5])], &tris);
     let mut backing = Vec::new();
     let mut cp = loaded(cfg(1, p), &mut backing, &[img]);

@@ -110,7 +110,8 @@ fn pixel_v1<L: FslLink, C: StageClock, const N: usize>(
                         path.stats.shadow_rays += 1;
                         let sr = shade::shadow_ray(p, n, light.pos, ctx.diag);
                         sw.lap(clock, &mut path.stats, Stage::Shade);
-                        let blocker = trace_as(path, scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
+                        let blocker =
+                            trace_as(path, scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
                         !blocker.is_some_and(|b| b.hit)
                     } else {
                         true
@@ -177,7 +178,11 @@ fn pixel_v2<L: FslLink, C: StageClock, const N: usize>(
             first_t = r.t;
         }
         let p = shade::hit_point(&ray, r.t);
-        let m = scene.materials.get(r.material as usize).copied().unwrap_or(Material { diffuse: DEFAULT_ALBEDO, reflect: 0.0 });
+        let m = scene
+            .materials
+            .get(r.material as usize)
+            .copied()
+            .unwrap_or(Material { diffuse: DEFAULT_ALBEDO, reflect: 0.0 });
         let ext = scene.material_ext.get(r.material as usize).copied().unwrap_or_default();
         #[allow(unused_mut)]
         let mut cd = m.diffuse;
@@ -203,7 +208,8 @@ fn pixel_v2<L: FslLink, C: StageClock, const N: usize>(
                     path.stats.shadow_rays += 1;
                     let sr = shade::shadow_ray(p, n, dl.pos, ctx.diag);
                     sw.lap(clock, &mut path.stats, Stage::Shade);
-                    let blocker = trace_as(path, scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
+                    let blocker =
+                        trace_as(path, scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
                     !blocker.is_some_and(|b| b.hit)
                 } else {
                     true
@@ -241,7 +247,9 @@ fn pixel_v2<L: FslLink, C: StageClock, const N: usize>(
 pub(super) fn check_plan(flags: u16, compiled: u16) -> Result<(), &'static str> {
     let missing = flags & (render_flags::REFLECTIONS | render_flags::TEXTURES | render_flags::SPECULAR) & !compiled;
     if missing & render_flags::TEXTURES != 0 {
-        return Err("the scene needs textures but this firmware was built without the texture stage (feature `textures`)");
+        return Err(
+            "the scene needs textures but this firmware was built without the texture stage (feature `textures`)",
+        );
     }
     if missing & render_flags::REFLECTIONS != 0 {
         return Err("the scene needs reflections but this firmware was built without the reflection stage (feature `reflections`)");
@@ -258,7 +266,9 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
     fn frame_ctx(&self, req: &RenderRequest, cam: &Camera, light: &Light) -> Result<FrameCtx, Fail> {
         check_plan(req.flags, compiled_plan()).map_err(|t| Fail::Plain(ErrorCode::BadRequest, FLAGS_FIELD, t))?;
         let v2 = self.scene.v2;
-        let shadows = cfg!(feature = "shadows") && req.flags & render_flags::SHADOWS != 0 && (!v2 || self.scene.lighting.light_count > 0);
+        let shadows = cfg!(feature = "shadows")
+            && req.flags & render_flags::SHADOWS != 0
+            && (!v2 || self.scene.lighting.light_count > 0);
         Ok(FrameCtx {
             cam: *cam,
             light: *light,
@@ -283,10 +293,18 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
     ) -> Result<(), Fail> {
         let ctx = self.frame_ctx(req, cam, light)?;
         let step = render_flags::interp_step(req.flags);
-        let params = interp::Params { step, eps: render_flags::interp_eps(req.flags), adaptive: req.flags & render_flags::INTERP_ADAPTIVE != 0 };
+        let params = interp::Params {
+            step,
+            eps: render_flags::interp_eps(req.flags),
+            adaptive: req.flags & render_flags::INTERP_ADAPTIVE != 0,
+        };
         let interpolate = step > 0;
         if interpolate && region.cols as usize > MAX_INTERP_WIDTH {
-            return Err(Fail::Plain(ErrorCode::BadRequest, FLAGS_FIELD, "row interpolation supports rows of at most 2048 pixels"));
+            return Err(Fail::Plain(
+                ErrorCode::BadRequest,
+                FLAGS_FIELD,
+                "row interpolation supports rows of at most 2048 pixels",
+            ));
         }
         let mut plan = 0u16;
         for (on, bit) in [
@@ -300,7 +318,8 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             }
         }
         if interpolate {
-            plan |= req.flags & (render_flags::INTERP_STEP_MASK | render_flags::INTERP_EPS_MASK | render_flags::INTERP_ADAPTIVE);
+            plan |= req.flags
+                & (render_flags::INTERP_STEP_MASK | render_flags::INTERP_EPS_MASK | render_flags::INTERP_ADAPTIVE);
         }
         self.path.stats.plan = plan as u64;
         let mut sw = Stopwatch { last: self.clock.now() };

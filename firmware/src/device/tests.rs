@@ -97,8 +97,13 @@ impl FakeCoproc {
                 }
                 let f = |i: usize| f32::from_bits(p[i]);
                 let list: Vec<_> = p[RAY_HEADER..].chunks(2).map(|c| entry_from_words(c[0], c[1])).collect();
-                let req =
-                    RayReq { kind: wire::opcode(p[0]), origin: [f(1), f(2), f(3)], dir: [f(4), f(5), f(6)], t_max: f(7), list };
+                let req = RayReq {
+                    kind: wire::opcode(p[0]),
+                    origin: [f(1), f(2), f(3)],
+                    dir: [f(4), f(5), f(6)],
+                    t_max: f(7),
+                    list,
+                };
                 let first = req.list.first().copied();
                 let kind = req.kind;
                 self.rays.push(req);
@@ -244,7 +249,11 @@ fn scene_image(dims: [u16; 3], materials: &[Material]) -> Vec<u8> {
         body.extend_from_slice(&m.to_bytes());
     }
     for pe in 0..2u16 {
-        let tri = TriangleRecord { vertices: [[0.1, 0.1, 0.5], [0.9, 0.1, 0.5], [0.1, 0.9, 0.5]], prim: pe as u32, material: 0 };
+        let tri = TriangleRecord {
+            vertices: [[0.1, 0.1, 0.5], [0.9, 0.1, 0.5], [0.1, 0.9, 0.5]],
+            prim: pe as u32,
+            material: 0,
+        };
         let mut words = vec![1, 1, 1, pe as u32, 0, 1, 0];
         words.extend_from_slice(&tri.to_words());
         body.extend_from_slice(&pe.to_le_bytes());
@@ -540,7 +549,8 @@ fn rendered_pixels_follow_the_shading_contract() {
     let out = rendered(&r, 4, 3);
     assert_eq!(out.spans, 6, "a prim-id span after each colour span");
     assert_eq!(out.end.1, crc32(&out.rgb));
-    let cam = Camera::new(Vec3::from(req.eye), Vec3::from(req.target), Vec3::from(req.up), req.fov_y_deg, 4, 3).unwrap();
+    let cam =
+        Camera::new(Vec3::from(req.eye), Vec3::from(req.target), Vec3::from(req.up), req.fov_y_deg, 4, 3).unwrap();
     let light = Light { pos: Vec3::from(req.light_pos), intensity: 1.0, ambient: 0.15 };
     let mats = materials();
     let mut list = TraversalList::new();
@@ -556,7 +566,12 @@ fn rendered_pixels_follow_the_shading_contract() {
                     // The fake hits at 0.95 of the first entry's exit with normal +z.
                     let p = shade::hit_point(&ray, e.t_exit * 0.95);
                     let n = shade::facing_normal([0.0, 0.0, 2.0], ray.dir).unwrap();
-                    let c = shade::lambert(mats[(e.voxel % 2) as usize].diffuse, &light, shade::n_dot_l(p, n, light.pos), true);
+                    let c = shade::lambert(
+                        mats[(e.voxel % 2) as usize].diffuse,
+                        &light,
+                        shade::n_dot_l(p, n, light.pos),
+                        true,
+                    );
                     (shade::to_rgb8(c), e.voxel + 100)
                 }
             };
@@ -671,7 +686,10 @@ fn garbage_between_frames_is_survived() {
         assert!(matches!(last.msg(), Msg::Version(_)), "round {round}: {r:?}");
         for e in &r[..r.len() - 1] {
             let (code, _) = error_of(e);
-            assert!(matches!(code, ErrorCode::BadFrame | ErrorCode::UnexpectedMessage | ErrorCode::BadRequest), "{code:?}");
+            assert!(
+                matches!(code, ErrorCode::BadFrame | ErrorCode::UnexpectedMessage | ErrorCode::BadRequest),
+                "{code:?}"
+            );
         }
     }
 }
@@ -739,7 +757,8 @@ impl StageClock for TickClock {
 
 #[test]
 fn stage_counters_are_reported_under_stage_keys() {
-    let mut dev: Device<FakeCoproc, TickClock, VOXELS> = Device::new(FakeCoproc::new(), TickClock(Default::default()), info());
+    let mut dev: Device<FakeCoproc, TickClock, VOXELS> =
+        Device::new(FakeCoproc::new(), TickClock(Default::default()), info());
     let mut w = Wire::default();
     let img = scene_image([2, 2, 1], &materials());
     dev.feed(&frame(&Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) }, 0), &mut w);

@@ -134,10 +134,15 @@ impl Args {
         // plan (every bit set) the device still finds no light and no reflective material.
         let plain_text = std::fs::read_to_string(&demo_path)?;
         let plain_text = strip_for_plain(&plain_text);
-        let plain = gridrt_host::scene_file::parse(&demo_path, &plain_text, &|p| gridrt_host::scene::load(&scenes_dir().join(p)))?;
+        let plain = gridrt_host::scene_file::parse(&demo_path, &plain_text, &|p| {
+            gridrt_host::scene::load(&scenes_dir().join(p))
+        })?;
         let pp = PreparedScene::from_world(&plain, &params())?;
         let mut pboard = SimBoard::new(sim_config(), &pp)?;
-        for (name, flags) in [("plain: plan (nothing needed)", Plan::derive(&plain).flags()), ("plain: no skip (all plan bits)", Plan::ALL.flags())] {
+        for (name, flags) in [
+            ("plain: plan (nothing needed)", Plan::derive(&plain).flags()),
+            ("plain: no skip (all plan bits)", Plan::ALL.flags()),
+        ] {
             let mut req = plain.settings.with_size(w, h).to_request(1);
             req.flags = flags;
             let start = Instant::now();
@@ -180,7 +185,9 @@ impl Args {
         // ---------------------------------------------------------------- interpolation grid
         let steps = [1u8, 2, 3, 5, 7];
         let epss = [2u8, 4, 8, 16, 31];
-        let mut icsv = String::from("scene,l,eps,mode,traced_pixels,pixels,traced_fraction,rays,rays_saved_fraction,psnr_db_vs_full\n");
+        let mut icsv = String::from(
+            "scene,l,eps,mode,traced_pixels,pixels,traced_fraction,rays,rays_saved_fraction,psnr_db_vs_full\n",
+        );
         let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
         let meshes = [("bunny", "bun_zipper_res4.obj"), ("teapot", "teapot.obj")];
         let mut boards: Vec<(String, SimBoard, RenderSettings, Option<Plan>)> = Vec::new();
@@ -321,7 +328,12 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)]) -> anyhow::Result<()>
             .label(name.clone())
             .legend(move |(x, y)| Circle::new((x, y), 4, c.filled()));
     }
-    chart.configure_series_labels().border_style(BLACK).background_style(WHITE.mix(0.8)).draw().map_err(|e| anyhow!("{e}"))?;
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()
+        .map_err(|e| anyhow!("{e}"))?;
     root.present().map_err(|e| anyhow!("{e}"))?;
     Ok(())
 }

@@ -76,7 +76,8 @@ impl SceneOptions {
     pub fn load_any(&self) -> anyhow::Result<Loaded> {
         let is_toml = self.scene.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml"));
         if is_toml {
-            let world = gridrt_host::scene_file::load(&self.scene).with_context(|| format!("loading scene {}", self.scene.display()))?;
+            let world = gridrt_host::scene_file::load(&self.scene)
+                .with_context(|| format!("loading scene {}", self.scene.display()))?;
             Ok(Loaded::World(Box::new(world)))
         } else {
             self.load().map(Loaded::Mesh)

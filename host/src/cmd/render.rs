@@ -11,8 +11,8 @@ use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
 use gridrt_host::multi::{render_multi, DeviceShare};
 use gridrt_host::pipeline::PreparedScene;
-use gridrt_host::reference::{render as reference_render, ReferenceScene};
 use gridrt_host::plan::{Interp, Plan};
+use gridrt_host::reference::{render as reference_render, ReferenceScene};
 use gridrt_host::reference_v2::{self, Stages, WorldReference};
 use gridrt_host::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
 use gridrt_host::stats::{LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
@@ -198,7 +198,9 @@ impl Cmd {
                 }
                 (PreparedScene::new(mesh, &params).context("building the grid")?, None)
             }
-            Loaded::World(world) => (PreparedScene::from_world(&world, &params).context("building the grid")?, Some(world)),
+            Loaded::World(world) => {
+                (PreparedScene::from_world(&world, &params).context("building the grid")?, Some(world))
+            }
         };
         let dropped = prepared.mesh.stats.dropped_degenerate;
         let voxels = prepared.grid.voxel_count();
@@ -292,9 +294,16 @@ impl Cmd {
             let start = Instant::now();
             let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(2);
             let reference = match &world {
-                None => reference_render(&ReferenceScene::new(&prepared.mesh, &prepared.grid.bounds), &settings, threads),
+                None => {
+                    reference_render(&ReferenceScene::new(&prepared.mesh, &prepared.grid.bounds), &settings, threads)
+                }
                 Some(w) => {
-                    let stages = Stages { shadows: plan.shadows, reflections: plan.reflections, textures: plan.textures, specular: plan.specular };
+                    let stages = Stages {
+                        shadows: plan.shadows,
+                        reflections: plan.reflections,
+                        textures: plan.textures,
+                        specular: plan.specular,
+                    };
                     reference_v2::render(&WorldReference::new(w, &prepared.grid.bounds), &settings, stages, threads)
                 }
             };

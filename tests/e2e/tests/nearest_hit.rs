@@ -22,7 +22,12 @@ fn prepared(scene: &str, pe_count: u16) -> PreparedScene {
 }
 
 fn coprocessor<'m>(p: &PreparedScene, backing: &'m mut Vec<u32>) -> Coprocessor<'m> {
-    let config = CoprocConfig { pe_count: p.grid.pe_count, pe_mem_words: p.grid.pe_mem_words, max_list: 1024, ..CoprocConfig::GRIDRT };
+    let config = CoprocConfig {
+        pe_count: p.grid.pe_count,
+        pe_mem_words: p.grid.pe_mem_words,
+        max_list: 1024,
+        ..CoprocConfig::GRIDRT
+    };
     let config = CoprocConfig { kernel: KernelKind::default(), ..config };
     backing.resize(config.required_backing_words(), 0);
     let mut c = Coprocessor::new(config, backing).unwrap();
@@ -45,7 +50,9 @@ fn random_ray(rng: &mut ChaCha8Rng, p: &PreparedScene) -> Ray {
     let hi = Vec3::from(b.max);
     let size = hi - lo;
     let inside = |rng: &mut ChaCha8Rng| lo + size * Vec3::new(rng.gen(), rng.gen(), rng.gen());
-    let outside = |rng: &mut ChaCha8Rng| (lo + hi) * 0.5 + size * 1.5 * (Vec3::new(rng.gen(), rng.gen(), rng.gen()) - 0.5).normalize_or_zero() * 1.2;
+    let outside = |rng: &mut ChaCha8Rng| {
+        (lo + hi) * 0.5 + size * 1.5 * (Vec3::new(rng.gen(), rng.gen(), rng.gen()) - 0.5).normalize_or_zero() * 1.2
+    };
     match rng.gen_range(0..4) {
         0 => {
             let o = outside(rng);
@@ -68,7 +75,10 @@ fn random_ray(rng: &mut ChaCha8Rng, p: &PreparedScene) -> Ray {
             let dir = along + n * rng.gen_range(-1e-3..1e-3);
             Ray { origin: target - dir * size.max_element(), dir }
         }
-        _ => Ray { origin: inside(rng), dir: Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)) },
+        _ => Ray {
+            origin: inside(rng),
+            dir: Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)),
+        },
     }
 }
 
@@ -133,7 +143,10 @@ fn answers_do_not_depend_on_the_pe_count_for_a_scene_that_fits_one_pe() {
     assert!(base.iter().filter(|a| a.0).count() > 1000);
     for pes in [2u16, 3, 4, 8] {
         let p = prepared("bun_zipper_res4.obj", pes);
-        assert_eq!(p.grid.owners.iter().filter(|&&o| o != 0xFF).count(), one.grid.owners.iter().filter(|&&o| o != 0xFF).count());
+        assert_eq!(
+            p.grid.owners.iter().filter(|&&o| o != 0xFF).count(),
+            one.grid.owners.iter().filter(|&&o| o != 0xFF).count()
+        );
         let mut backing = Vec::new();
         let c = coprocessor(&p, &mut backing);
         assert_eq!(answers(&p, &c), base, "{pes} PEs");

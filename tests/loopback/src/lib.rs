@@ -72,7 +72,11 @@ impl SimConfig {
         let v = |s: &str| s.parse::<u8>().unwrap_or(0);
         DeviceInfo {
             protocol: gridrt_shared::PROTOCOL_VERSION as u16,
-            firmware: [v(env!("CARGO_PKG_VERSION_MAJOR")), v(env!("CARGO_PKG_VERSION_MINOR")), v(env!("CARGO_PKG_VERSION_PATCH"))],
+            firmware: [
+                v(env!("CARGO_PKG_VERSION_MAJOR")),
+                v(env!("CARGO_PKG_VERSION_MINOR")),
+                v(env!("CARGO_PKG_VERSION_PATCH")),
+            ],
             board: BOARD_LOOPBACK,
             max_payload: MAX_PAYLOAD as u16,
             pe_count: self.pe_count,
@@ -356,7 +360,10 @@ impl io::Read for SimPort {
                     self.pending_epoch = epoch;
                 }
                 Err(RecvTimeoutError::Timeout) => {
-                    return Err(io::Error::new(io::ErrorKind::TimedOut, "simulated device sent nothing before the timeout"))
+                    return Err(io::Error::new(
+                        io::ErrorKind::TimedOut,
+                        "simulated device sent nothing before the timeout",
+                    ))
                 }
                 Err(RecvTimeoutError::Disconnected) => {
                     return Err(io::Error::new(io::ErrorKind::ConnectionAborted, "simulated device stopped"))
