@@ -310,8 +310,18 @@ impl WatertightRay {
 
 /// Renders `settings` with `threads` worker threads (rows are handed out dynamically).
 pub fn render(scene: &ReferenceScene, settings: &RenderSettings, threads: usize) -> ReferenceImage {
-    let (w, h) = (settings.width as usize, settings.height as usize);
     let cam = CameraF64::new(settings);
+    render_pixels(settings, threads, |x, y| scene.shade_pixel(&cam, settings, x, y))
+}
+
+/// Runs `shade(x, y) -> (linear colour, primary prim id)` over every pixel of `settings`' frame
+/// on `threads` scoped worker threads that take rows from a shared counter.
+pub(crate) fn render_pixels(
+    settings: &RenderSettings,
+    threads: usize,
+    shade: impl Fn(u32, u32) -> ([f64; 3], u32) + Sync,
+) -> ReferenceImage {
+    let (w, h) = (settings.width as usize, settings.height as usize);
     let next = AtomicUsize::new(0);
     /// One rendered row: (y, RGB8, prim ids).
     type Row = (usize, Vec<u8>, Vec<u32>);
@@ -328,7 +338,7 @@ pub fn render(scene: &ReferenceScene, settings: &RenderSettings, threads: usize)
                         let mut rgb = Vec::with_capacity(3 * w);
                         let mut ids = Vec::with_capacity(w);
                         for x in 0..w {
-                            let (c, id) = scene.shade_pixel(&cam, settings, x as u32, y as u32);
+                            let (c, id) = shade(x as u32, y as u32);
                             rgb.extend_from_slice(&to_rgb8(c));
                             ids.push(id);
                         }

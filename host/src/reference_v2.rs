@@ -9,14 +9,12 @@
 //! to f64), so both sides render the same geometry. Hit rule: nearest `t > 0`, ties → lowest
 //! primitive id.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use gridrt_shared::scene_v2::{
     DiffuseModel, Falloff, Mapping, MaterialExt, PrimKind, ReflectMode, SpecularModel, TextureKind,
 };
 
 use crate::camera::{cross, dot, normalize, sub, CameraF64, RenderSettings};
-use crate::reference::{to_rgb8, ReferenceImage, ReferenceScene, MISS_ID, SHADOW_T_MAX};
+use crate::reference::{render_pixels, ReferenceImage, ReferenceScene, MISS_ID, SHADOW_T_MAX};
 use crate::scene::Bounds;
 use crate::world::{apply_point, apply_transpose, apply_vector, from_wire, Affine64, World};
 
@@ -508,40 +506,6 @@ fn specular(e: &MaterialExt, n: [f64; 3], l: [f64; 3], v: [f64; 3]) -> f64 {
 
 /// Renders a world with `threads` workers.
 pub fn render(scene: &WorldReference<'_>, settings: &RenderSettings, stages: Stages, threads: usize) -> ReferenceImage {
-    let (w, h) = (settings.width as usize, settings.height as usize);
     let cam = CameraF64::new(settings);
-    let next = AtomicUsize::new(0);
-    type Row = (usize, Vec<u8>, Vec<u32>);
-    let rows: Vec<Vec<Row>> = std::thread::scope(|sc| {
-        let workers: Vec<_> = (0..threads.max(1))
-            .map(|_| {
-                sc.spawn(|| {
-                    let mut out = Vec::new();
-                    loop {
-                        let y = next.fetch_add(1, Ordering::Relaxed);
-                        if y >= h {
-                            break;
-                        }
-                        let mut rgb = Vec::with_capacity(3 * w);
-                        let mut ids = Vec::with_capacity(w);
-                        for x in 0..w {
-                            let (c, id) = scene.shade_pixel(&cam, settings, stages, x as u32, y as u32);
-                            rgb.extend_from_slice(&to_rgb8(c));
-                            ids.push(id);
-                        }
-                        out.push((y, rgb, ids));
-                    }
-                    out
-                })
-            })
-            .collect();
-        workers.into_iter().map(|j| j.join().unwrap_or_default()).collect()
-    });
-    let mut rgb = vec![0u8; 3 * w * h];
-    let mut prim_ids = vec![MISS_ID; w * h];
-    for (y, row, ids) in rows.into_iter().flatten() {
-        rgb[3 * w * y..3 * w * (y + 1)].copy_from_slice(&row);
-        prim_ids[w * y..w * (y + 1)].copy_from_slice(&ids);
-    }
-    ReferenceImage { width: settings.width, height: settings.height, rgb, prim_ids }
+    render_pixels(settings, threads, |x, y| scene.shade_pixel(&cam, settings, stages, x, y))
 }
