@@ -9,9 +9,9 @@ fn scenes() -> PathBuf {
 
 fn render_sim(scene: &str, extra: &[&str]) -> serde_json::Value {
     let dir = std::env::temp_dir().join(format!("gridrt-cli-{}-{}", std::process::id(), scene.replace('.', "_")));
-    std::fs::create_dir_all(&dir).unwrap();
-    let png = dir.join("out.png");
-    let json = dir.join("stats.json");
+    // Output folders that do not exist yet: the CLI creates them before rendering.
+    let png = dir.join("images/out.png");
+    let json = dir.join("stats/stats.json");
     let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
         .args(["render", "--sim", "--scene"])
         .arg(scenes().join(scene))

@@ -211,6 +211,9 @@ impl RaysArgs {
             report.best_ms, report.median_ms, report.runs, report.mrays_per_s, report.ns_per_ray
         );
         if let Some(path) = &self.json {
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+            }
             std::fs::write(path, serde_json::to_string_pretty(&report)? + "\n")
                 .with_context(|| format!("writing {}", path.display()))?;
         }

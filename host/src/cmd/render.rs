@@ -104,6 +104,12 @@ impl From<Encoding> for PixelEncoding {
 impl Cmd {
     /// Runs the command.
     pub fn run(self) -> anyhow::Result<()> {
+        // Make the output folders first, so a finished frame is never lost to a missing folder.
+        for path in std::iter::once(&self.out).chain(self.stats.iter()).chain(self.reference_out.iter()) {
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).with_context(|| format!("creating output folder {}", dir.display()))?;
+            }
+        }
         let mesh = self.scene.load_any()?;
         if !self.port.port.is_empty() {
             let mut ports = Vec::new();
