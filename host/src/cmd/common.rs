@@ -118,7 +118,7 @@ impl From<Mapping> for PeMapping {
 pub struct ModelOptions {
     /// Intersection kernel every PE runs (f32; `gridrt bench accuracy` compares the
     /// fixed-point formats).
-    #[arg(long, alias = "isect", value_enum, default_value_t = Kernel::Watertight)]
+    #[arg(long, visible_alias = "isect", value_enum, default_value_t = Kernel::Watertight)]
     pub kernel: Kernel,
     /// Cycle model of the simulator (does not affect the image).
     #[arg(long, value_enum, default_value_t = Timing::Gridrt)]
