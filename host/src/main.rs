@@ -25,7 +25,8 @@ enum Command {
     /// simulator plays the board and is reached only through its UART byte stream. With
     /// --reference the frame is compared with the independent f64 reference renderer.
     Render(cmd::render::Cmd),
-    /// Benchmarks (`gridrt bench rays`: the native primary-ray path, single-threaded).
+    /// Benchmarks: `rays` (native primary-ray path, single thread), `accuracy` (kernels ×
+    /// number formats, time vs error), `skip` (pipeline skips, interpolation), `link` (UART).
     Bench(cmd::bench::Cmd),
     /// Flash an application ELF through the device's bootloader, verify it and start it.
     Flash(cmd::flash::Cmd),
