@@ -19,7 +19,7 @@ use crate::camera::{Camera, CameraError};
 use crate::dda::{build_list, GridDesc, TraversalList, MAX_GRID_DIM};
 use crate::fsl::{BoundedError, FslLink, FslWord, LinkError, LinkErrorKind};
 use crate::pixels::{FrameTx, SpanEncoder};
-use crate::shade::{self, Light, BACKGROUND, DEFAULT_ALBEDO};
+use crate::shade::{self, Light, DEFAULT_ALBEDO};
 use gridrt_shared::frame::{Crc32Digest, FeedResult, FrameAccumulator, FrameError, MAX_PAYLOAD};
 use gridrt_shared::fsl::{self as wire, op, FslError, RayKind, RayResult, RESULT_WORDS};
 use gridrt_shared::math::{Ray, Vec3};
@@ -28,8 +28,8 @@ use gridrt_shared::msg::{
     SceneStatus, MAX_ERROR_TEXT, STAT_ENTRY_LEN,
 };
 use gridrt_shared::scene::{
-    HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream,
-    EMPTY_VOXEL, VERSION_2,
+    LightingRecord, Material, MaterialModel, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream,
+    EMPTY_VOXEL,
 };
 
 /// Blocking byte output (the UART transmitter).
@@ -350,13 +350,11 @@ struct SceneStore<const N: usize> {
     voxels: usize,
     voxel_pe: [u8; N],
     materials: heapless::Vec<Material, MAX_MATERIALS>,
-    /// Scene image version 2 (ViRAY shading path).
-    v2: bool,
-    /// v2: extended materials, parallel to `materials`.
-    material_ext: heapless::Vec<MaterialExt, MAX_MATERIALS>,
-    /// v2: object table (prim id ranges, texture spaces).
+    /// Shading models, parallel to `materials`.
+    material_model: heapless::Vec<MaterialModel, MAX_MATERIALS>,
+    /// Object table (prim id ranges, texture spaces).
     objects: heapless::Vec<ObjectRecord, MAX_OBJECTS>,
-    /// v2: lighting record.
+    /// Lighting record.
     lighting: LightingRecord,
 }
 
@@ -426,10 +424,16 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
         if self.info.pe_mem_words != 0 && h.pe_mem_words > self.info.pe_mem_words {
             return Err(SceneError::PeMemoryOverflow);
         }
+        if h.object_count as usize > MAX_OBJECTS {
+            return Err(SceneError::BadHeader);
+        }
         self.store.grid = GridDesc { min: Vec3::from_array(h.bounds_min), max: Vec3::from_array(h.bounds_max), dims };
         self.store.voxels = h.voxel_count() as usize;
         self.store.voxel_pe.fill(EMPTY_VOXEL);
         self.store.materials.clear();
+        self.store.material_model.clear();
+        self.store.objects.clear();
+        self.store.lighting = LightingRecord::default();
         // The co-processor's old scene goes now: CLEAR, then one LOAD_PE per block.
         self.put(FslWord::last(wire::CLEAR_WORD), "CLEAR")?;
         self.expect_ack("CLEAR")
@@ -446,19 +450,8 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
         self.store.materials.push(m).map_err(|_| SceneError::TooManyMaterials)
     }
 
-    fn header_ext(&mut self, ext: &HeaderExt) -> Result<(), SceneError> {
-        if ext.object_count as usize > MAX_OBJECTS {
-            return Err(SceneError::BadHeader);
-        }
-        self.store.v2 = ext.version == VERSION_2;
-        self.store.material_ext.clear();
-        self.store.objects.clear();
-        self.store.lighting = LightingRecord::default();
-        Ok(())
-    }
-
-    fn material_ext(&mut self, _index: u16, m: MaterialExt) -> Result<(), SceneError> {
-        self.store.material_ext.push(m).map_err(|_| SceneError::TooManyMaterials)
+    fn material_model(&mut self, _index: u16, m: MaterialModel) -> Result<(), SceneError> {
+        self.store.material_model.push(m).map_err(|_| SceneError::TooManyMaterials)
     }
 
     fn object(&mut self, _index: u16, o: ObjectRecord) -> Result<(), SceneError> {
@@ -638,8 +631,7 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
                     voxels: 0,
                     voxel_pe: [EMPTY_VOXEL; MAX_VOXELS],
                     materials: heapless::Vec::new(),
-                    v2: false,
-                    material_ext: heapless::Vec::new(),
+                    material_model: heapless::Vec::new(),
                     objects: heapless::Vec::new(),
                     lighting: LightingRecord::default(),
                 },

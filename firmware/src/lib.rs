@@ -9,8 +9,7 @@
 //! | [`dda_fixed`] | the same DDA in fixed point (used with feature `fixed-raygen`) |
 //! | [`fixed`] | exact f32 ↔ fixed-point conversions, the ray-generation/DDA format switch |
 //! | [`fmath`] | `f32` polynomial sin/cos/tan/atan2/acos/pow (no libm trigonometry, no `f64`) |
-//! | [`shade`] | ambient + Lambert + shadow-ray shading (CONTRACTS.md) |
-//! | [`viray`] | ViRAY shading of scene image v2: Oren–Nayar, Blinn–Phong, Torrance–Sparrow, Fresnel, spotlight |
+//! | [`shade`] | shading of a hit: GridRT's matte surface, ViRAY's Lambert/Oren–Nayar/Blinn–Phong/Torrance–Sparrow, Fresnel, spotlight, shadow rays (CONTRACTS.md) |
 //! | [`texture`](mod@texture) | procedural textures, mappings, bilinear filtering (feature `textures`) |
 //! | [`interp`] | row interpolation (seed 003) |
 //! | [`pixels`] | frame encoder, pixel spans, running image CRC |
@@ -38,4 +37,3 @@ pub mod shade;
 pub mod text;
 #[cfg(feature = "textures")]
 pub mod texture;
-pub mod viray;

@@ -12,7 +12,7 @@
 //! cost PSNR).
 
 use crate::fmath;
-use gridrt_shared::scene_v2::{Mapping, MaterialExt, TextureKind};
+use gridrt_shared::scene::{Mapping, MaterialModel, TextureKind};
 
 const TAU: f32 = core::f32::consts::TAU;
 const PI: f32 = core::f32::consts::PI;
@@ -57,7 +57,7 @@ fn mix(c1: [f32; 3], c2: [f32; 3], m: f32) -> [f32; 3] {
 }
 
 /// Texel (i, j), both in `0..N`, of the material's texture; `c1` is the material colour.
-pub fn texel(ext: &MaterialExt, c1: [f32; 3], i: u32, j: u32) -> [f32; 3] {
+pub fn texel(ext: &MaterialModel, c1: [f32; 3], i: u32, j: u32) -> [f32; 3] {
     let n = 1u32 << ext.tex_log2.clamp(1, 12);
     let c2 = ext.colour2;
     match ext.texture {
@@ -136,7 +136,7 @@ fn wrap(i: i32, n: u32) -> u32 {
 }
 
 /// The filtered texture colour at object-space point `p`.
-pub fn sample(ext: &MaterialExt, c1: [f32; 3], p: [f32; 3]) -> [f32; 3] {
+pub fn sample(ext: &MaterialModel, c1: [f32; 3], p: [f32; 3]) -> [f32; 3] {
     let (u, v) = map_uv(ext.mapping, p);
     let u = u * ext.uv_scale[0] + ext.uv_offset[0];
     let v = v * ext.uv_scale[1] + ext.uv_offset[1];
@@ -173,8 +173,8 @@ pub fn sample(ext: &MaterialExt, c1: [f32; 3], p: [f32; 3]) -> [f32; 3] {
 mod tests {
     use super::*;
 
-    fn ext(kind: TextureKind) -> MaterialExt {
-        MaterialExt { texture: kind, tex_log2: 4, tex_param: 4.0, colour2: [0.0; 3], ..MaterialExt::default() }
+    fn ext(kind: TextureKind) -> MaterialModel {
+        MaterialModel { texture: kind, tex_log2: 4, tex_param: 4.0, colour2: [0.0; 3], ..MaterialModel::default() }
     }
 
     #[test]

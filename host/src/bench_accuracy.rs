@@ -52,12 +52,12 @@ use gridrt_firmware::dda::{build_list_in, GridDesc, TraversalList};
 use gridrt_firmware::fixed::RayFormat;
 use gridrt_firmware::shade::{self, Light, BACKGROUND, DEFAULT_ALBEDO};
 use gridrt_shared::math::{Ray, Vec3};
-use gridrt_shared::scene::Material;
+use gridrt_shared::scene::{LightingRecord, Material, MaterialModel};
 
 use crate::camera::RenderSettings;
 use crate::compare::compare;
 use crate::grid::{build, Grid, GridError, GridParams};
-use crate::reference::{render as reference_render, ReferenceImage, ReferenceScene, MISS_ID};
+use crate::reference::{render as reference_render, Reference, ReferenceImage, Stages, MISS_ID};
 use crate::scene::{self, Mesh, SceneLoadError};
 
 /// The bundled scenes the bench runs by default (in `tests/scenes/`).
@@ -260,14 +260,20 @@ pub fn run(
 ) -> Result<Vec<AccuracyRow>, AccuracyError> {
     let mut rows = Vec::new();
     for path in &opts.scenes {
-        let mesh = scene::load(path).map_err(|source| AccuracyError::Scene { path: path.clone(), source })?;
+        let mesh = scene::load_mesh(path).map_err(|source| AccuracyError::Scene { path: path.clone(), source })?;
         let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
         let params = GridParams { m: opts.grid_m, pe_count: opts.pes, pe_mem_words: u32::MAX, ..GridParams::default() };
         let grid = build(&mesh, &params).map_err(|source| AccuracyError::Grid { scene: name.clone(), source })?;
         let settings =
             RenderSettings::default_for(&grid.mesh_bounds).with_size(opts.width, opts.height).with_prim_ids(true);
         let start = Instant::now();
-        let reference = reference_render(&ReferenceScene::new(&mesh, &grid.bounds), &settings, opts.threads);
+        let shaded = scene::Scene::from_mesh(mesh.clone());
+        let reference = reference_render(
+            &Reference::new(&shaded, &grid.bounds),
+            &settings,
+            Stages { shadows: settings.shadows, reflections: false, textures: false, specular: false },
+            opts.threads,
+        );
         let reference_ms = start.elapsed().as_secs_f64() * 1e3;
         progress(AccuracyEvent::Scene { name: &name, triangles: grid.triangle_count, reference_ms });
         let scene = SceneRun::new(&name, &mesh, &grid, &settings, opts)?;
@@ -409,10 +415,13 @@ impl<'a> SceneRun<'a> {
                         hit_t = Some(r.t);
                         let albedo = self.materials.get(r.material as usize).map_or(DEFAULT_ALBEDO, |m| m.diffuse);
                         let p = shade::hit_point(&ray, r.t);
+                        // GridRT's matte surface, as a mesh scene's materials have (firmware `shade`).
+                        let matte = MaterialModel::MATTE;
+                        let la = [self.light.ambient; 3];
                         colour = match shade::facing_normal(r.normal, ray.dir) {
-                            None => shade::lambert(albedo, &self.light, 0.0, false),
+                            None => shade::outgoing(&matte, albedo, la, None),
                             Some(n) => {
-                                let ndotl = shade::n_dot_l(p, n, self.light.pos);
+                                let ndotl = shade::irradiance(&LightingRecord::DEFAULT, n, p, self.light.pos);
                                 let mut visible = true;
                                 if self.shadows && ndotl > 0.0 {
                                     let sr = shade::shadow_ray(p, n, self.light.pos, self.diag);
@@ -424,7 +433,16 @@ impl<'a> SceneRun<'a> {
                                         visible = !b.hit;
                                     }
                                 }
-                                shade::lambert(albedo, &self.light, ndotl, visible)
+                                let light = shade::DirectLight {
+                                    pos: self.light.pos,
+                                    radiance: [self.light.intensity; 3],
+                                    specular: false,
+                                };
+                                let v = (-ray.dir).try_normalize().unwrap_or(n);
+                                let direct = (visible && ndotl > 0.0)
+                                    .then(|| shade::direct(&matte, n, v, p, &light, ndotl))
+                                    .flatten();
+                                shade::outgoing(&matte, albedo, la, direct.as_ref())
                             }
                         };
                     }

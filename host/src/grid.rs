@@ -34,27 +34,25 @@
 //! comparison. Empty voxels map to [`EMPTY_VOXEL`].
 //!
 //! # PE memory image
-//! Exactly [`gridrt_shared::scene::PeImage`]: counts, voxel table sorted by voxel id, ref
-//! table, then each of the PE's triangles once (sorted by primitive id), referenced by local
-//! index from every voxel that holds it.
+//! Exactly [`gridrt_shared::scene::PeImage`]: tag and counts, voxel table sorted by voxel id,
+//! ref table, then each of the PE's triangles once (sorted by primitive id) and each of its
+//! analytic primitives once, referenced by local index from every voxel that holds it.
 //!
-//! # Analytic primitives (scene image v2)
+//! # Analytic primitives
 //! [`build_with_prims`] also bins ViRAY's analytic primitives (global ids `T + i` after the
 //! `T` triangles) by conservative bounds: a primitive is listed in every voxel whose padded
 //! box overlaps its world AABB ([`AnalyticPrim::bounds`]: the image of the canonical box, for
 //! a sphere the ellipsoid's exact box); disks and squares must in addition meet the padded
 //! box with their plane (`|n·(c − p)| ≤ Σ|n_a|·h_a`). A scene-file *plane* is a square of
 //! finite extent (docs/SCENE-FILE.md), so the grid box always contains every primitive and a
-//! ray that misses the grid box misses the scene. With at least one analytic primitive the PE
-//! images use the v2 layout (`PE_V2_TAG`, T, V, R, P; refs ≥ T name primitives).
+//! ray that misses the grid box misses the scene. Refs ≥ T name primitives.
 
 use gridrt_shared::scene::{
-    PrimRecord, TriangleRecord, EMPTY_VOXEL, MAX_PES, PE_HEADER_WORDS, PE_V2_HEADER_WORDS, PE_V2_TAG, PRIM_WORDS,
+    PrimRecord, TriangleRecord, EMPTY_VOXEL, MAX_PES, PE_HEADER_WORDS, PE_IMAGE_TAG, PRIM_WORDS,
     TRIANGLE_WORDS, VOXEL_ENTRY_WORDS,
 };
 
-use crate::scene::{Bounds, Mesh};
-use crate::world::AnalyticPrim;
+use crate::scene::{AnalyticPrim, Bounds, Mesh};
 
 /// Largest resolution per axis.
 pub const MAX_DIM: u16 = 255;
@@ -378,7 +376,6 @@ pub fn build_with_prims(mesh: &Mesh, prims: &[AnalyticPrim], params: &GridParams
     let mut pe_images = Vec::with_capacity(per_pe.len());
     let mut pe_triangles = Vec::with_capacity(per_pe.len());
     let mut local = vec![u32::MAX; mesh.triangles.len() + prims.len()];
-    let v2 = !prims.is_empty();
     let analytic = prims;
     for cells in &per_pe {
         let mut prims: Vec<u32> = cells
@@ -388,22 +385,20 @@ pub fn build_with_prims(mesh: &Mesh, prims: &[AnalyticPrim], params: &GridParams
         prims.sort_unstable();
         prims.dedup();
         // Sorted ids put the triangles (< T) first, so local index i < T_local is a triangle
-        // and T_local + j the j-th analytic primitive, as the v2 ref table requires.
+        // and T_local + j the j-th analytic primitive, as the ref table requires.
         for (i, &p) in prims.iter().enumerate() {
             local[p as usize] = i as u32;
         }
         let n_tris = prims.iter().filter(|&&p| p < t_total).count();
         let n_analytic = prims.len() - n_tris;
         let refs: usize = cells.iter().map(|&k| (voxel_offsets[k + 1] - voxel_offsets[k]) as usize).sum();
-        let header = if v2 { PE_V2_HEADER_WORDS } else { PE_HEADER_WORDS };
-        let needed =
-            header + cells.len() * VOXEL_ENTRY_WORDS + refs + n_tris * TRIANGLE_WORDS + n_analytic * PRIM_WORDS;
+        let needed = PE_HEADER_WORDS
+            + cells.len() * VOXEL_ENTRY_WORDS
+            + refs
+            + n_tris * TRIANGLE_WORDS
+            + n_analytic * PRIM_WORDS;
         let mut words = Vec::with_capacity(needed);
-        if v2 {
-            words.extend_from_slice(&[PE_V2_TAG, n_tris as u32, cells.len() as u32, refs as u32, n_analytic as u32]);
-        } else {
-            words.extend_from_slice(&[prims.len() as u32, cells.len() as u32, refs as u32]);
-        }
+        words.extend_from_slice(&[PE_IMAGE_TAG, n_tris as u32, cells.len() as u32, refs as u32, n_analytic as u32]);
         let mut first = 0u32;
         for &k in cells {
             let count = voxel_offsets[k + 1] - voxel_offsets[k];
@@ -534,7 +529,7 @@ mod tests {
 
     #[test]
     fn eq61_gives_45x45x35_for_the_full_bunny() {
-        let mesh = crate::scene::load(&scenes().join("stanford-bunny.obj")).unwrap();
+        let mesh = crate::scene::load_mesh(&scenes().join("stanford-bunny.obj")).unwrap();
         assert_eq!(mesh.triangles.len(), 69_451);
         let dims = resolution(mesh.bounds().unwrap().extent(), mesh.triangles.len(), 1.0);
         assert_eq!(dims, [45, 45, 35]);
@@ -639,7 +634,7 @@ mod tests {
 
     #[test]
     fn pe_images_parse_and_store_each_triangle_once() {
-        let mesh = crate::scene::load(&scenes().join("bun_zipper_res4.obj")).unwrap();
+        let mesh = crate::scene::load_mesh(&scenes().join("bun_zipper_res4.obj")).unwrap();
         let grid = build(&mesh, &GridParams { m: 2.0, ..Default::default() }).unwrap();
         assert_eq!(grid.pe_images.len(), 4);
         let mut seen_refs = 0;
@@ -685,7 +680,7 @@ mod tests {
 
     #[test]
     fn pe_memory_overflow_is_a_clear_error() {
-        let mesh = crate::scene::load(&scenes().join("bun_zipper_res4.obj")).unwrap();
+        let mesh = crate::scene::load_mesh(&scenes().join("bun_zipper_res4.obj")).unwrap();
         let err = build(&mesh, &GridParams { pe_count: 2, pe_mem_words: 1000, ..Default::default() }).unwrap_err();
         match &err {
             GridError::SceneTooLarge { pe, needed_words, limit_words, hint } => {

@@ -3,45 +3,20 @@
 //! ```text
 //! header (64 B, SceneHeader::to_bytes, body CRC over bytes 64..)
 //! voxel→PE map, nx·ny·nz bytes, padded to a multiple of 4 with 0x00 (SPEC.md §5.2; readers ignore it)
-//! materials, 16 B each
+//! material colours (16 B each), material models (96 B each), objects (64 B each), lighting (80 B)
 //! per PE in order: pe u16 ‖ reserved u16 (0) ‖ words u32 ‖ words × u32 (PeImage), all LE
 //! ```
 
 use gridrt_shared::frame::crc32;
-use gridrt_shared::scene::{
-    HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, SceneHeader, HEADER_LEN, VERSION_2,
-};
+use gridrt_shared::scene::{SceneHeader, HEADER_LEN};
 
 use crate::grid::Grid;
+use crate::scene::Scene;
 
-/// Builds the complete scene image for `grid` with material table `materials`.
-///
-/// # Panics
-/// Never on a grid built by [`crate::grid::build`]; the sizes it checks are asserted in
-/// debug builds only.
-pub fn scene_image(grid: &Grid, materials: &[Material]) -> Vec<u8> {
-    assemble(grid, materials, None)
-}
-
-/// The version-2 sections of a scene image (SPEC.md §5.8).
-#[derive(Debug, Clone, Copy)]
-pub struct V2Sections<'a> {
-    /// Extended material records, one per material.
-    pub material_ext: &'a [MaterialExt],
-    /// Object table.
-    pub objects: &'a [ObjectRecord],
-    /// Lighting record.
-    pub lighting: &'a LightingRecord,
-}
-
-/// Builds a version-2 scene image: the v1 sections, then the material ext records, the
-/// object table and the lighting record, then the PE blocks (v2 PE images when the grid
-/// holds analytic primitives).
-pub fn scene_image_v2(grid: &Grid, materials: &[Material], v2: &V2Sections<'_>) -> Vec<u8> {
-    assemble(grid, materials, Some(v2))
-}
-
-fn assemble(grid: &Grid, materials: &[Material], v2: Option<&V2Sections<'_>>) -> Vec<u8> {
+/// Builds the scene image of `scene` laid out on `grid` (built from the same scene).
+pub fn scene_image(grid: &Grid, scene: &Scene) -> Vec<u8> {
+    let materials = &scene.mesh.materials;
+    debug_assert_eq!(scene.material_model.len(), materials.len());
     let mut body = Vec::new();
     body.extend_from_slice(&grid.owners);
     while body.len() % 4 != 0 {
@@ -50,16 +25,13 @@ fn assemble(grid: &Grid, materials: &[Material], v2: Option<&V2Sections<'_>>) ->
     for m in materials {
         body.extend_from_slice(&m.to_bytes());
     }
-    if let Some(v2) = v2 {
-        debug_assert_eq!(v2.material_ext.len(), materials.len());
-        for m in v2.material_ext {
-            body.extend_from_slice(&m.to_bytes());
-        }
-        for o in v2.objects {
-            body.extend_from_slice(&o.to_bytes());
-        }
-        body.extend_from_slice(&v2.lighting.to_bytes());
+    for m in &scene.material_model {
+        body.extend_from_slice(&m.to_bytes());
     }
+    for o in &scene.objects {
+        body.extend_from_slice(&o.to_bytes());
+    }
+    body.extend_from_slice(&scene.lighting.to_bytes());
     for (pe, words) in grid.pe_images.iter().enumerate() {
         body.extend_from_slice(&(pe as u16).to_le_bytes());
         body.extend_from_slice(&0u16.to_le_bytes());
@@ -79,13 +51,10 @@ fn assemble(grid: &Grid, materials: &[Material], v2: Option<&V2Sections<'_>>) ->
         pe_mem_words: grid.pe_mem_words,
         total_len: (HEADER_LEN + body.len()) as u32,
         body_crc: crc32(&body),
-    };
-    let ext = match v2 {
-        None => HeaderExt::V1,
-        Some(v2) => HeaderExt { version: VERSION_2, object_count: v2.objects.len() as u16 },
+        object_count: scene.objects.len() as u16,
     };
     let mut out = Vec::with_capacity(HEADER_LEN + body.len());
-    out.extend_from_slice(&header.to_bytes_ext(&ext));
+    out.extend_from_slice(&header.to_bytes());
     out.extend_from_slice(&body);
     out
 }
@@ -94,7 +63,7 @@ fn assemble(grid: &Grid, materials: &[Material], v2: Option<&V2Sections<'_>>) ->
 mod tests {
     use super::*;
     use crate::grid::{build, GridParams};
-    use gridrt_shared::scene::{PeImage, SceneError, SceneSink, SceneStream};
+    use gridrt_shared::scene::{Material, PeImage, SceneError, SceneSink, SceneStream};
     use std::path::Path;
 
     #[derive(Default)]
@@ -135,17 +104,17 @@ mod tests {
         }
     }
 
-    fn cornell() -> (crate::scene::Mesh, Grid) {
+    fn cornell() -> (Scene, Grid) {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/cornell_box.obj");
-        let mesh = crate::scene::load(&path).unwrap();
-        let grid = build(&mesh, &GridParams { pe_count: 3, m: 3.0, ..Default::default() }).unwrap();
-        (mesh, grid)
+        let scene = crate::scene::load(&path).unwrap();
+        let grid = build(&scene.mesh, &GridParams { pe_count: 3, m: 3.0, ..Default::default() }).unwrap();
+        (scene, grid)
     }
 
     #[test]
     fn scene_image_round_trips_through_scene_stream() {
-        let (mesh, grid) = cornell();
-        let image = scene_image(&grid, &mesh.materials);
+        let (scene, grid) = cornell();
+        let image = scene_image(&grid, &scene);
         // Feed in awkward chunk sizes, as the UART would.
         let mut stream = SceneStream::new();
         let mut sink = Collect::default();
@@ -170,8 +139,8 @@ mod tests {
 
     #[test]
     fn corrupted_image_fails_its_crc() {
-        let (mesh, grid) = cornell();
-        let mut image = scene_image(&grid, &mesh.materials);
+        let (scene, grid) = cornell();
+        let mut image = scene_image(&grid, &scene);
         let last = image.len() - 1;
         image[last] ^= 0x40;
         let mut stream = SceneStream::new();

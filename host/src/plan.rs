@@ -8,10 +8,10 @@
 //! - specular: only when some used material has a specular model with `ks > 0`.
 
 use gridrt_shared::msg::render_flags;
-use gridrt_shared::scene_v2::{PrimKind, ReflectMode, SpecularModel, TextureKind};
+use gridrt_shared::scene::{PrimKind, ReflectMode, SpecularModel, TextureKind};
 use serde::Serialize;
 
-use crate::world::World;
+use crate::scene::Scene;
 
 /// Stages a frame runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -30,8 +30,8 @@ impl Plan {
     /// Every stage (what a build without skipping would run).
     pub const ALL: Self = Self { shadows: true, reflections: true, textures: true, specular: true };
 
-    /// The stages `world` needs.
-    pub fn derive(world: &World) -> Self {
+    /// The stages `scene` needs.
+    pub fn derive(world: &Scene) -> Self {
         let used: Vec<u32> =
             world.mesh.triangles.iter().map(|t| t.material).chain(world.prims.iter().map(|p| p.material)).collect();
         let any = |f: &dyn Fn(u32) -> bool| used.iter().any(|&m| f(m));

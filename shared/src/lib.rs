@@ -16,7 +16,6 @@ pub mod math;
 pub mod msg;
 pub mod pixel;
 pub mod scene;
-pub mod scene_v2;
 
 /// Version of the UART protocol (frame header byte 1). Bumped on any incompatible change.
 pub const PROTOCOL_VERSION: u8 = 1;

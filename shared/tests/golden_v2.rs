@@ -3,10 +3,10 @@
 
 use gridrt_shared::frame::crc32;
 use gridrt_shared::scene::{
-    HeaderExt, LightingRecord, Material, MaterialExt, ObjectRecord, PeImage, PrimRecord, SceneError, SceneHeader,
-    SceneSink, SceneStream, PE_V2_TAG,
+    HeaderExt, LightingRecord, Material, MaterialModel, ObjectRecord, PeImage, PrimRecord, SceneError, SceneHeader,
+    SceneSink, SceneStream, PE_IMAGE_TAG,
 };
-use gridrt_shared::scene_v2::{Falloff, ObjectKind, PrimKind, TextureKind};
+use gridrt_shared::scene::{Falloff, ObjectKind, PrimKind, TextureKind};
 
 fn le32(v: &[u32]) -> Vec<u8> {
     v.iter().flat_map(|w| w.to_le_bytes()).collect()
@@ -17,7 +17,7 @@ fn le32(v: &[u32]) -> Vec<u8> {
 fn pe_words() -> Vec<u32> {
     let half = 0x3F00_0000;
     vec![
-        PE_V2_TAG, 0, 1, 1, 1, // header
+        PE_IMAGE_TAG, 0, 1, 1, 1, // header
         0, 0, 1, // voxel table
         0, // ref → primitive 0
         1, 0, 0, // kind sphere, prim 0, material 0
@@ -56,7 +56,7 @@ fn pe_image_v2_words() {
 struct Sink {
     ext: Option<HeaderExt>,
     materials: Vec<Material>,
-    exts: Vec<MaterialExt>,
+    exts: Vec<MaterialModel>,
     objects: Vec<ObjectRecord>,
     lighting: Option<LightingRecord>,
     pe_words: Vec<u32>,
@@ -87,7 +87,7 @@ impl SceneSink for Sink {
         self.ext = Some(*e);
         Ok(())
     }
-    fn material_ext(&mut self, _: u16, m: MaterialExt) -> Result<(), SceneError> {
+    fn material_model(&mut self, _: u16, m: MaterialModel) -> Result<(), SceneError> {
         self.exts.push(m);
         Ok(())
     }
@@ -167,7 +167,7 @@ fn scene_v2_worked_example() {
     assert_eq!(sink.materials, vec![Material { diffuse: [0.8; 3], reflect: 0.0 }]);
     let e = sink.exts[0];
     assert_eq!((e.texture, e.tex_log2, e.bilinear, e.tex_param), (TextureKind::Checker, 4, true, 8.0));
-    assert_eq!(MaterialExt::parse(&ext).unwrap().to_bytes().to_vec(), ext);
+    assert_eq!(MaterialModel::parse(&ext).unwrap().to_bytes().to_vec(), ext);
     assert_eq!(sink.objects[0].kind, ObjectKind::Sphere);
     assert_eq!(sink.objects[0].to_bytes().to_vec(), obj);
     let l = sink.lighting.unwrap();

@@ -1,6 +1,6 @@
-//! The per-pixel pipeline of a frame: the v1 path (ambient + Lambert + shadow, CONTRACTS.md),
-//! the v2 path (ViRAY shading, reflections, textures; `crate::viray`) and row interpolation
-//! (`crate::interp`), following the pipeline plan of the request (SPEC.md §3.13).
+//! The per-pixel pipeline of a frame: primary ray, shading (`crate::shade`: matte, ViRAY's
+//! models, textures), shadow and reflection rays, and row interpolation (`crate::interp`),
+//! following the pipeline plan of the request (SPEC.md §3.13).
 //!
 //! The plan decides what runs: no shadow rays without a light (or with `SHADOWS` clear), no
 //! reflection rays without `REFLECTIONS` (the host clears it when no material reflects), no
@@ -11,10 +11,9 @@
 
 use super::*;
 use crate::interp::{self, Counts, Sample, StepControl};
-use crate::viray;
-use gridrt_shared::scene_v2::ReflectMode;
+use gridrt_shared::scene::{MaterialModel, ReflectMode};
 #[cfg(feature = "textures")]
-use gridrt_shared::scene_v2::{affine_point, TextureKind};
+use gridrt_shared::scene::{affine_point, TextureKind};
 
 /// Widest row the interpolation buffer holds.
 pub const MAX_INTERP_WIDTH: usize = 2048;
@@ -39,7 +38,6 @@ pub(super) struct FrameCtx {
     textures: bool,
     specular: bool,
     diag: f32,
-    v2: bool,
 }
 
 /// The plan bits this build honours.
@@ -81,53 +79,6 @@ fn trace_as<L: FslLink, C: StageClock, const N: usize>(
     r
 }
 
-/// One pixel of a v1 scene: exactly the CONTRACTS.md shading (byte-identical to the f64
-/// reference on the regression scenes).
-fn pixel_v1<L: FslLink, C: StageClock, const N: usize>(
-    path: &mut RayPath<L>,
-    scene: &SceneStore<N>,
-    clock: &C,
-    sw: &mut Stopwatch,
-    ctx: &FrameCtx,
-    x: u16,
-    y: u16,
-) -> Result<Sample, Fail> {
-    let light = &ctx.light;
-    let ray = ctx.cam.primary_ray(x as u32, y as u32);
-    path.stats.primary_rays += 1;
-    sw.lap(clock, &mut path.stats, Stage::RayGen);
-    let hit = trace_as(path, scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, RayClass::Primary)?;
-    let (colour, prim, t) = match hit {
-        Some(r) if r.hit => {
-            let albedo = scene.materials.get(r.material as usize).map_or(DEFAULT_ALBEDO, |m| m.diffuse);
-            let p = shade::hit_point(&ray, r.t);
-            let colour = match shade::facing_normal(r.normal, ray.dir) {
-                // Degenerate normal: no direction to light it from; ambient only.
-                None => shade::lambert(albedo, light, 0.0, false),
-                Some(n) => {
-                    let ndotl = shade::n_dot_l(p, n, light.pos);
-                    let visible = if ctx.shadows && ndotl > 0.0 {
-                        path.stats.shadow_rays += 1;
-                        let sr = shade::shadow_ray(p, n, light.pos, ctx.diag);
-                        sw.lap(clock, &mut path.stats, Stage::Shade);
-                        let blocker =
-                            trace_as(path, scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
-                        !blocker.is_some_and(|b| b.hit)
-                    } else {
-                        true
-                    };
-                    shade::lambert(albedo, light, ndotl, visible)
-                }
-            };
-            (colour, r.prim, r.t)
-        }
-        _ => (BACKGROUND, interp::MISS, f32::INFINITY),
-    };
-    let rgb = shade::to_rgb8(colour);
-    sw.lap(clock, &mut path.stats, Stage::Shade);
-    Ok(Sample { rgb, prim, t })
-}
-
 /// The texture-space point of a hit on primitive `prim` (the object table maps prim ids to
 /// objects), or `None` when no object holds it.
 #[cfg(feature = "textures")]
@@ -136,8 +87,9 @@ fn object_point<const N: usize>(scene: &SceneStore<N>, prim: u32, p: Vec3) -> Op
     Some(affine_point(&o.world_to_object, p.to_array()))
 }
 
-/// One pixel of a v2 scene: the ViRAY path (module doc).
-fn pixel_v2<L: FslLink, C: StageClock, const N: usize>(
+/// One pixel: the path of its primary ray through at most `max_depth` mirror bounces
+/// (module doc).
+fn pixel<L: FslLink, C: StageClock, const N: usize>(
     path: &mut RayPath<L>,
     scene: &SceneStore<N>,
     clock: &C,
@@ -151,7 +103,7 @@ fn pixel_v2<L: FslLink, C: StageClock, const N: usize>(
     path.stats.primary_rays += 1;
     sw.lap(clock, &mut path.stats, Stage::RayGen);
     let la = lighting.ambient_colour.map(|c| c * ctx.light.ambient);
-    let dl = viray::DirectLight {
+    let dl = shade::DirectLight {
         pos: ctx.light.pos,
         radiance: lighting.light_colour.map(|c| c * ctx.light.intensity),
         specular: ctx.specular,
@@ -183,7 +135,7 @@ fn pixel_v2<L: FslLink, C: StageClock, const N: usize>(
             .get(r.material as usize)
             .copied()
             .unwrap_or(Material { diffuse: DEFAULT_ALBEDO, reflect: 0.0 });
-        let ext = scene.material_ext.get(r.material as usize).copied().unwrap_or_default();
+        let ext = scene.material_model.get(r.material as usize).copied().unwrap_or(MaterialModel::MATTE);
         #[allow(unused_mut)]
         let mut cd = m.diffuse;
         #[cfg(feature = "textures")]
@@ -192,17 +144,18 @@ fn pixel_v2<L: FslLink, C: StageClock, const N: usize>(
                 cd = crate::texture::sample(&ext, cd, po);
             }
         }
-        let mut l_o = [0, 1, 2].map(|k| ext.ka * cd[k] * la[k]);
         let Some(n) = shade::facing_normal(r.normal, ray.dir) else {
-            for (a, b) in acc.iter_mut().zip(l_o) {
+            // Degenerate normal: no direction to light it from; ambient only.
+            for (a, b) in acc.iter_mut().zip(shade::outgoing(&ext, cd, la, None)) {
                 *a += throughput * b;
             }
             break;
         };
         let v = (-ray.dir).try_normalize().unwrap_or(n);
+        let mut direct = None;
         if lit {
-            let e = viray::irradiance(lighting, n, p, dl.pos);
-            let spot = if e > 0.0 { viray::spot_factor(lighting, dl.pos, p) } else { 0.0 };
+            let e = shade::irradiance(lighting, n, p, dl.pos);
+            let spot = if e > 0.0 { shade::spot_factor(lighting, dl.pos, p) } else { 0.0 };
             if e > 0.0 && spot > 0.0 {
                 let visible = if ctx.shadows {
                     path.stats.shadow_rays += 1;
@@ -215,21 +168,18 @@ fn pixel_v2<L: FslLink, C: StageClock, const N: usize>(
                     true
                 };
                 if visible {
-                    let d = viray::direct(&ext, cd, n, v, p, &dl, e * spot);
-                    for (a, b) in l_o.iter_mut().zip(d) {
-                        *a += b;
-                    }
+                    direct = shade::direct(&ext, n, v, p, &dl, e * spot);
                 }
             }
         }
-        for (a, b) in acc.iter_mut().zip(l_o) {
+        for (a, b) in acc.iter_mut().zip(shade::outgoing(&ext, cd, la, direct.as_ref())) {
             *a += throughput * b;
         }
         sw.lap(clock, &mut path.stats, Stage::Shade);
         if bounce + 1 == depth || ext.reflect_mode == ReflectMode::None {
             break;
         }
-        let refl = viray::reflectance(&ext, m.reflect, n.dot(v));
+        let refl = shade::reflectance(&ext, m.reflect, n.dot(v));
         if refl.is_nan() || refl <= 0.0 {
             break;
         }
@@ -265,19 +215,17 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
     /// stage this build does not have.
     fn frame_ctx(&self, req: &RenderRequest, cam: &Camera, light: &Light) -> Result<FrameCtx, Fail> {
         check_plan(req.flags, compiled_plan()).map_err(|t| Fail::Plain(ErrorCode::BadRequest, FLAGS_FIELD, t))?;
-        let v2 = self.scene.v2;
         let shadows = cfg!(feature = "shadows")
             && req.flags & render_flags::SHADOWS != 0
-            && (!v2 || self.scene.lighting.light_count > 0);
+            && self.scene.lighting.light_count > 0;
         Ok(FrameCtx {
             cam: *cam,
             light: *light,
             shadows,
-            reflections: v2 && req.flags & render_flags::REFLECTIONS != 0 && self.scene.lighting.max_depth > 1,
-            textures: v2 && req.flags & render_flags::TEXTURES != 0,
-            specular: v2 && req.flags & render_flags::SPECULAR != 0,
+            reflections: req.flags & render_flags::REFLECTIONS != 0 && self.scene.lighting.max_depth > 1,
+            textures: req.flags & render_flags::TEXTURES != 0,
+            specular: req.flags & render_flags::SPECULAR != 0,
             diag: self.scene.grid.aabb().diagonal().length(),
-            v2,
         })
     }
 
@@ -334,12 +282,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
                 let (path, scene, clock) = (&mut self.path, &self.scene, &self.clock);
                 let row = self.row.get_mut(..w).unwrap_or(&mut []);
                 interp::fill_row(row, ctl.step, params.eps, &mut counts, |xi| {
-                    let x = region.x0 + xi as u16;
-                    if ctx.v2 {
-                        pixel_v2(path, scene, clock, &mut sw, &ctx, x, y)
-                    } else {
-                        pixel_v1(path, scene, clock, &mut sw, &ctx, x, y)
-                    }
+                    pixel(path, scene, clock, &mut sw, &ctx, region.x0 + xi as u16, y)
                 })?;
                 ctl.after_row(&before, &counts);
                 for xi in 0..w {
@@ -350,11 +293,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
                 sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
             } else {
                 for x in region.x0..x1 {
-                    let s = if ctx.v2 {
-                        pixel_v2(&mut self.path, &self.scene, &self.clock, &mut sw, &ctx, x, y)?
-                    } else {
-                        pixel_v1(&mut self.path, &self.scene, &self.clock, &mut sw, &ctx, x, y)?
-                    };
+                    let s = pixel(&mut self.path, &self.scene, &self.clock, &mut sw, &ctx, x, y)?;
                     self.spans.push(x, y, s.rgb, s.prim, &mut self.tx, out).map_err(enc_err)?;
                     self.path.stats.pixels += 1;
                     sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);

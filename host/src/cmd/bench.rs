@@ -93,7 +93,7 @@ impl RaysArgs {
             mapping: self.scene.mapping.into(),
             dims_override: None,
         };
-        let grid = build(&mesh, &params).context("building the grid")?;
+        let grid = build(&mesh.mesh, &params).context("building the grid")?;
         let pe_mem_words = self.scene.pe_mem_words.unwrap_or(grid.max_pe_words().max(1) as u32);
         let config = CoprocConfig {
             pe_count: grid.pe_count,

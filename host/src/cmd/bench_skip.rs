@@ -24,7 +24,7 @@ use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
 use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::plan::{Interp, Plan};
-use gridrt_host::reference_v2::{render as reference_render, Stages, WorldReference};
+use gridrt_host::reference::{render as reference_render, Reference, Stages};
 use gridrt_host::session::RenderedFrame;
 use gridrt_host::simrun::SimBoard;
 use gridrt_shared::msg::{render_flags, stat};
@@ -106,12 +106,12 @@ impl Args {
 
         // ---------------------------------------------------------------- skip table
         let demo_path = scenes_dir().join("viray_demo.toml");
-        let demo = gridrt_host::scene_file::load(&demo_path)?;
-        let prepared = PreparedScene::from_world(&demo, &params())?;
+        let demo = gridrt_host::scene::load(&demo_path)?;
+        let prepared = PreparedScene::new(demo.clone(), &params())?;
         let mut board = SimBoard::new(sim_config(), &prepared)?;
         let settings = demo.settings.with_size(w, h);
         let plan = Plan::derive(&demo);
-        let reference = reference_render(&WorldReference::new(&demo, &prepared.grid.bounds), &settings, Stages::ALL, 2);
+        let reference = reference_render(&Reference::new(&demo, &prepared.grid.bounds), &settings, Stages::ALL, 2);
         let mut rows: Vec<Row> = Vec::new();
         let variants: [(&str, u16); 5] = [
             ("plan (all stages needed)", 0),
@@ -134,10 +134,10 @@ impl Args {
         // plan (every bit set) the device still finds no light and no reflective material.
         let plain_text = std::fs::read_to_string(&demo_path)?;
         let plain_text = strip_for_plain(&plain_text);
-        let plain = gridrt_host::scene_file::parse(&demo_path, &plain_text, &|p| {
-            gridrt_host::scene::load(&scenes_dir().join(p))
+        let plain = gridrt_host::scene::parse_scene_file(&demo_path, &plain_text, &|p| {
+            gridrt_host::scene::load_mesh(&scenes_dir().join(p))
         })?;
-        let pp = PreparedScene::from_world(&plain, &params())?;
+        let pp = PreparedScene::new(plain.clone(), &params())?;
         let mut pboard = SimBoard::new(sim_config(), &pp)?;
         for (name, flags) in [
             ("plain: plan (nothing needed)", Plan::derive(&plain).flags()),
@@ -192,8 +192,8 @@ impl Args {
         let meshes = [("bunny", "bun_zipper_res4.obj"), ("teapot", "teapot.obj")];
         let mut boards: Vec<(String, SimBoard, RenderSettings, Option<Plan>)> = Vec::new();
         for (name, file) in meshes {
-            let mesh = gridrt_host::scene::load(&scenes_dir().join(file))?;
-            let p = PreparedScene::new(mesh, &params())?;
+            let scene = gridrt_host::scene::load(&scenes_dir().join(file))?;
+            let p = PreparedScene::new(scene, &params())?;
             let s = RenderSettings::default_for(&p.grid.mesh_bounds).with_size(w, h);
             boards.push((name.into(), SimBoard::new(sim_config(), &p)?, s, None));
         }

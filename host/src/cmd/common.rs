@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use gridrt_coproc::{KernelKind, TimingProfile};
 use gridrt_host::grid::PeMapping;
-use gridrt_host::scene::Mesh;
+use gridrt_host::scene::Scene;
 
 /// Where the device is.
 #[derive(Debug, Clone, clap::Args)]
@@ -67,31 +67,11 @@ fn positive_f64(s: &str) -> Result<f64, String> {
 }
 
 impl SceneOptions {
-    /// Loads the scene file.
-    pub fn load(&self) -> anyhow::Result<Mesh> {
+    /// Loads the scene: a mesh (.obj, .ply) with defaults or a scene file (.toml,
+    /// docs/SCENE-FILE.md).
+    pub fn load(&self) -> anyhow::Result<Scene> {
         gridrt_host::scene::load(&self.scene).with_context(|| format!("loading scene {}", self.scene.display()))
     }
-
-    /// Loads a mesh (.obj, .ply) or a scene file (.toml, docs/SCENE-FILE.md).
-    pub fn load_any(&self) -> anyhow::Result<Loaded> {
-        let is_toml = self.scene.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-        if is_toml {
-            let world = gridrt_host::scene_file::load(&self.scene)
-                .with_context(|| format!("loading scene {}", self.scene.display()))?;
-            Ok(Loaded::World(Box::new(world)))
-        } else {
-            self.load().map(Loaded::Mesh)
-        }
-    }
-}
-
-/// A loaded scene: a triangle mesh (scene image v1) or a scene-file world (v2).
-#[derive(Debug)]
-pub enum Loaded {
-    /// .obj / .ply.
-    Mesh(Mesh),
-    /// .toml.
-    World(Box<gridrt_host::world::World>),
 }
 
 /// Voxel→PE mapping choices.

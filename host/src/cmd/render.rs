@@ -6,19 +6,18 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
-use gridrt_host::camera::RenderSettings;
 use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
 use gridrt_host::multi::{render_multi, DeviceShare};
 use gridrt_host::pipeline::PreparedScene;
+use gridrt_host::scene::Scene;
 use gridrt_host::plan::{Interp, Plan};
-use gridrt_host::reference::{render as reference_render, ReferenceScene};
-use gridrt_host::reference_v2::{self, Stages, WorldReference};
+use gridrt_host::reference::{self, Reference, Stages};
 use gridrt_host::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
 use gridrt_host::stats::{LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
 use gridrt_shared::msg::PixelEncoding;
 
-use super::common::{Loaded, ModelOptions, PortOptions, SceneOptions};
+use super::common::{ModelOptions, PortOptions, SceneOptions};
 use super::progress::CliProgress;
 
 /// Transport read timeout: short, so the session's own stage timeouts stay responsive.
@@ -110,7 +109,7 @@ impl Cmd {
                 std::fs::create_dir_all(dir).with_context(|| format!("creating output folder {}", dir.display()))?;
             }
         }
-        let mesh = self.scene.load_any()?;
+        let mesh = self.scene.load()?;
         if !self.port.port.is_empty() {
             let mut ports = Vec::new();
             for path in &self.port.port {
@@ -145,7 +144,7 @@ impl Cmd {
         }
     }
 
-    fn run_on<T: Read + Write + Send>(&self, ports: Vec<(T, String)>, loaded: Loaded) -> anyhow::Result<()> {
+    fn run_on<T: Read + Write + Send>(&self, ports: Vec<(T, String)>, loaded: Scene) -> anyhow::Result<()> {
         let total_start = Instant::now();
         let mut sessions: Vec<Session<T>> = ports
             .into_iter()
@@ -197,18 +196,11 @@ impl Cmd {
             mapping: self.scene.mapping.into(),
             dims_override: None,
         };
-        let (prepared, world) = match loaded {
-            Loaded::Mesh(mesh) => {
-                for w in &mesh.stats.warnings {
-                    eprintln!("warning: {w}");
-                }
-                (PreparedScene::new(mesh, &params).context("building the grid")?, None)
-            }
-            Loaded::World(world) => {
-                (PreparedScene::from_world(&world, &params).context("building the grid")?, Some(world))
-            }
-        };
-        let dropped = prepared.mesh.stats.dropped_degenerate;
+        for w in &loaded.mesh.stats.warnings {
+            eprintln!("warning: {w}");
+        }
+        let prepared = PreparedScene::new(loaded, &params).context("building the grid")?;
+        let dropped = prepared.scene.mesh.stats.dropped_degenerate;
         let voxels = prepared.grid.voxel_count();
         if voxels > info.voxel_capacity {
             let d = prepared.grid.dims;
@@ -241,14 +233,9 @@ impl Cmd {
         let upload_ms = upload_start.elapsed().as_secs_f64() * 1e3;
 
         // Render.
-        let bounds = prepared.grid.mesh_bounds;
         let want_reference = self.reference || self.reference_out.is_some();
-        let base = world.as_ref().map_or_else(|| RenderSettings::default_for(&bounds), |w| w.settings);
-        let plan = match &world {
-            Some(_) if self.no_skip => Plan::ALL,
-            Some(w) => Plan::derive(w),
-            None => Plan { shadows: true, reflections: false, textures: false, specular: false },
-        };
+        let base = prepared.scene.settings;
+        let plan = if self.no_skip { Plan::ALL } else { Plan::derive(&prepared.scene) };
         let plan = Plan { shadows: plan.shadows && !self.no_shadows, ..plan };
         let settings = base
             .with_size(self.width.unwrap_or(base.width), self.height.unwrap_or(base.height))
@@ -299,20 +286,18 @@ impl Cmd {
         if want_reference {
             let start = Instant::now();
             let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(2);
-            let reference = match &world {
-                None => {
-                    reference_render(&ReferenceScene::new(&prepared.mesh, &prepared.grid.bounds), &settings, threads)
-                }
-                Some(w) => {
-                    let stages = Stages {
-                        shadows: plan.shadows,
-                        reflections: plan.reflections,
-                        textures: plan.textures,
-                        specular: plan.specular,
-                    };
-                    reference_v2::render(&WorldReference::new(w, &prepared.grid.bounds), &settings, stages, threads)
-                }
+            let stages = Stages {
+                shadows: plan.shadows,
+                reflections: plan.reflections,
+                textures: plan.textures,
+                specular: plan.specular,
             };
+            let reference = reference::render(
+                &Reference::new(&prepared.scene, &prepared.grid.bounds),
+                &settings,
+                stages,
+                threads,
+            );
             let reference_ms = start.elapsed().as_secs_f64() * 1e3;
             let cmp = compare(&frame.rgb, &reference.rgb, frame.prim_ids.as_deref(), Some(&reference.prim_ids))?;
             stats.reference = Some(ReferenceStats::new(&cmp, reference_ms));

@@ -1,5 +1,5 @@
 //! The TOML scene file (docs/SCENE-FILE.md): camera, light, materials, textures and objects
-//! (OBJ meshes with MTL, or ViRAY's analytic primitives with transforms) → [`World`].
+//! (OBJ meshes with MTL, or ViRAY's analytic primitives with transforms) → [`Scene`].
 //!
 //! Errors name the file, the line and the field: syntax and type errors come from `toml`
 //! (line, column and the offending text); semantic errors (unknown material, zero scale, …)
@@ -9,16 +9,20 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use gridrt_shared::scene::Material;
-use gridrt_shared::scene_v2::{
-    DiffuseModel, Falloff, LightingRecord, Mapping, MaterialExt, ObjectKind, ObjectRecord, PrimKind, ReflectMode,
+use gridrt_shared::scene::{
+    DiffuseModel, Falloff, LightingRecord, Mapping, MaterialModel, ObjectKind, ObjectRecord, PrimKind, ReflectMode,
     SpecularModel, TextureKind, MAX_DEPTH,
 };
 use serde::Deserialize;
 use toml::Spanned;
 
 use crate::camera::{Camera, Light, RenderSettings, DEFAULT_HEIGHT, DEFAULT_WIDTH};
-use crate::scene::{Mesh, Triangle, DEFAULT_MATERIAL};
-use crate::world::{apply_point, compose, invert, to_wire, trs, AnalyticPrim, World, IDENTITY};
+use super::analytic::AnalyticPrim;
+use super::error::SceneLoadError;
+use super::mesh_file::load_mesh;
+use super::mesh::{Bounds, Mesh, Triangle, DEFAULT_MATERIAL};
+use super::model::Scene;
+use super::transform::{apply_point, compose, invert, to_wire, trs, Affine64, IDENTITY};
 
 /// Why a scene file was rejected.
 #[derive(Debug, thiserror::Error)]
@@ -66,7 +70,7 @@ pub enum SceneFileError {
         table: String,
         /// The loader error.
         #[source]
-        source: Box<crate::scene::SceneLoadError>,
+        source: Box<SceneLoadError>,
     },
 }
 
@@ -318,7 +322,7 @@ enum ObjectType {
 }
 
 /// A plane waiting for the default extent: (object index, transform, material, extent, span).
-type PendingPlane = (usize, crate::world::Affine64, u32, Option<f64>, std::ops::Range<usize>);
+type PendingPlane = (usize, Affine64, u32, Option<f64>, std::ops::Range<usize>);
 
 /// Line (1-based) of byte offset `at` in `text`.
 fn line_of(text: &str, at: usize) -> usize {
@@ -374,11 +378,11 @@ fn f3(v: [f64; 3]) -> [f32; 3] {
 }
 
 /// Loads a scene file.
-pub fn load(path: &Path) -> Result<World, SceneFileError> {
+pub fn load(path: &Path) -> Result<Scene, SceneFileError> {
     let text =
         std::fs::read_to_string(path).map_err(|source| SceneFileError::Io { path: path.to_path_buf(), source })?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    parse(path, &text, &|p| crate::scene::load(&dir.join(p)))
+    parse(path, &text, &|p| load_mesh(&dir.join(p)))
 }
 
 /// Parses scene-file text; `load_mesh` loads a mesh file named by an object (path relative
@@ -386,8 +390,8 @@ pub fn load(path: &Path) -> Result<World, SceneFileError> {
 pub fn parse(
     path: &Path,
     text: &str,
-    load_mesh: &dyn Fn(&Path) -> Result<Mesh, crate::scene::SceneLoadError>,
-) -> Result<World, SceneFileError> {
+    load_mesh: &dyn Fn(&Path) -> Result<Mesh, SceneLoadError>,
+) -> Result<Scene, SceneFileError> {
     let def: FileDef = toml::from_str(text).map_err(|e| SceneFileError::Syntax {
         path: path.to_path_buf(),
         message: e.to_string().trim_end().to_string(),
@@ -395,7 +399,7 @@ pub fn parse(
     let cx = Ctx { path, text };
 
     // Textures.
-    let mut textures: BTreeMap<String, MaterialExt> = BTreeMap::new();
+    let mut textures: BTreeMap<String, MaterialModel> = BTreeMap::new();
     for (name, t) in &def.textures {
         let span = t.span();
         let t = t.get_ref();
@@ -431,7 +435,7 @@ pub fn parse(
         }
         textures.insert(
             name.clone(),
-            MaterialExt {
+            MaterialModel {
                 texture: match t.kind {
                     TextureKindDef::Checker => TextureKind::Checker,
                     TextureKindDef::Xor => TextureKind::Xor,
@@ -451,14 +455,14 @@ pub fn parse(
                 uv_offset: t.offset.map(|v| v as f32),
                 tex_param: param as f32,
                 tex_seed: t.seed,
-                ..MaterialExt::default()
+                ..MaterialModel::default()
             },
         );
     }
 
     // Materials: index 0 is the default grey (OBJ faces without a material use it).
     let mut materials = vec![DEFAULT_MATERIAL];
-    let mut exts = vec![MaterialExt::default()];
+    let mut exts = vec![MaterialModel::default()];
     let mut names = vec!["(default)".to_string()];
     let mut index_of: BTreeMap<String, u32> = BTreeMap::new();
     for (name, m) in &def.materials {
@@ -491,7 +495,7 @@ pub fn parse(
             return Err(err("specular_colour", "must be finite"));
         }
         let mut ext = match &m.texture {
-            None => MaterialExt::default(),
+            None => MaterialModel::default(),
             Some(t) => *textures
                 .get(t)
                 .ok_or_else(|| err("texture", &format!("no texture named `{t}` (define it under [textures.{t}])")))?,
@@ -587,10 +591,10 @@ pub fn parse(
                 let base = materials.len() as u32;
                 for (k, mm) in mesh.materials.iter().enumerate().skip(1) {
                     materials.push(*mm);
-                    exts.push(MaterialExt::default());
+                    exts.push(MaterialModel::default());
                     names.push(format!("{}#{k}", file.display()));
                 }
-                let b = mesh.bounds().unwrap_or(crate::scene::Bounds { min: [-1.0; 3], max: [1.0; 3] });
+                let b = mesh.bounds().unwrap_or(Bounds { min: [-1.0; 3], max: [1.0; 3] });
                 // Texture space: the mesh's own bounds mapped to [−1, 1]³, then the transform.
                 let c = b.center();
                 let e = b.extent().map(|v| (v * 0.5).max(1e-9));
@@ -635,18 +639,18 @@ pub fn parse(
         };
         let p = AnalyticPrim::new(kind, material.unwrap_or(0), m)
             .ok_or_else(|| err("scale", "the transform is singular".into()))?;
-        prims.push((p, World::object_kind(kind), i));
+        prims.push((p, Scene::object_kind(kind), i));
     }
 
     // Planes become squares of half-size `extent` (default: twice the diagonal of the other
     // objects' bounds, at least 1) centred at `translate`.
-    let finite_world = World {
+    let finite_world = Scene {
         mesh: Mesh { triangles: triangles.clone(), materials: vec![DEFAULT_MATERIAL], stats: Default::default() },
-        material_ext: vec![],
+        material_model: vec![],
         prims: prims.iter().map(|p| p.0).collect(),
         objects: vec![],
         lighting: LightingRecord::default(),
-        settings: RenderSettings::default_for(&crate::scene::Bounds { min: [-1.0; 3], max: [1.0; 3] }),
+        settings: RenderSettings::default_for(&Bounds { min: [-1.0; 3], max: [1.0; 3] }),
         material_names: vec![],
     };
     let default_extent = finite_world.bounds().map_or(10.0, |b| (2.0 * b.diagonal_len()).max(1.0));
@@ -707,16 +711,16 @@ pub fn parse(
     }
 
     let mesh = Mesh { triangles, materials, stats: Default::default() };
-    let mut world = World {
+    let mut world = Scene {
         mesh,
-        material_ext: exts,
+        material_model: exts,
         prims: prims.into_iter().map(|p| p.0).collect(),
         objects,
         lighting,
-        settings: RenderSettings::default_for(&crate::scene::Bounds { min: [-1.0; 3], max: [1.0; 3] }),
+        settings: RenderSettings::default_for(&Bounds { min: [-1.0; 3], max: [1.0; 3] }),
         material_names: names,
     };
-    let bounds = world.bounds().unwrap_or(crate::scene::Bounds { min: [-1.0; 3], max: [1.0; 3] });
+    let bounds = world.bounds().unwrap_or(Bounds { min: [-1.0; 3], max: [1.0; 3] });
     let mut settings = RenderSettings::default_for(&bounds);
     settings.ambient = ambient as f32;
     match &def.light {
@@ -815,8 +819,8 @@ pub fn parse(
 mod tests {
     use super::*;
 
-    fn no_mesh(_: &Path) -> Result<Mesh, crate::scene::SceneLoadError> {
-        Err(crate::scene::SceneLoadError::UnsupportedFormat { path: PathBuf::from("x") })
+    fn no_mesh(_: &Path) -> Result<Mesh, SceneLoadError> {
+        Err(SceneLoadError::UnsupportedFormat { path: PathBuf::from("x") })
     }
 
     fn err(text: &str) -> String {
@@ -860,8 +864,8 @@ type = "plane"
         assert_eq!(w.objects.len(), 2);
         assert_eq!(w.objects[1].kind, ObjectKind::Plane);
         assert_eq!(w.objects[1].first_prim, 1);
-        assert_eq!(w.material_ext[1].texture, TextureKind::Checker);
-        assert_eq!(w.material_ext[1].reflect_mode, ReflectMode::Constant);
+        assert_eq!(w.material_model[1].texture, TextureKind::Checker);
+        assert_eq!(w.material_model[1].reflect_mode, ReflectMode::Constant);
         assert_eq!(w.mesh.materials[1].reflect, 0.5);
         assert_eq!(w.lighting.light_count, 1);
         assert_eq!(w.settings.light.intensity, 20.0);

@@ -1,25 +1,25 @@
-//! ViRAY's shading model (seed 000 §4.6) for scene image v2, with the errata of the seed
-//! summary corrected. Formulas are pinned in docs/CONTRACTS.md § "Shading, scene image v2";
-//! the host's f64 reference (`host/src/reference_v2.rs`) re-implements them.
+//! Surface response: the diffuse models (GridRT's matte surface, Lambert, Oren–Nayar), the
+//! specular models (normalised Blinn–Phong, Torrance–Sparrow), Fresnel, the mirror
+//! reflectance, and the radiance leaving a hit (docs/CONTRACTS.md § Shading).
 //!
 //! For one hit with unit normal n (facing the ray), unit view vector v = −d/|d| and unit
-//! light vector l = (light − p)/|light − p|:
+//! light vector l = (light − p)/|light − p|, with `D = spot·E·c_L` the light reaching p:
 //!
 //! ```text
-//! L_o = k_a·c_d∘L_a + vis · spot · E · c_L ∘ (k_d·c_d·f_d + k_s·c_s·f_s)
-//! E   = max(n·l, 0) · (1/r² with inverse-square falloff, else 1)
+//! Lambert, Oren–Nayar:  L_o = k_a·c_d∘L_a + vis·D∘(k_d·f_d·c_d + k_s·f_s·c_s)
+//! Matte (GridRT):       L_o = c_d∘(k_a·L_a + vis·D·k_d) + vis·D∘k_s·f_s·c_s
 //! ```
-//! Corrections (seed 000 §8.3): the cosine uses l = light − p (the thesis writes p − light);
-//! the spotlight factor uses the spot axis, `clamp((a·(p−light)/|p−light| − cos_o)/(cos_i −
-//! cos_o), 0, 1)`, not n, and is a step function when `cos_i = cos_o` (no division by zero);
-//! Fresnel uses the correct complex denominator (pbrt's exact conductor formula); exponents
-//! are real (`fmath::pow`), not limited to 10 squarings; the mirror reflectance in Torrance–Sparrow
-//! mode uses ∠(n, v) (for the mirror direction the half vector *is* n).
+//! The matte form factors c_d out, as docs/CONTRACTS.md has always written a mesh's shading, so
+//! OBJ/PLY scenes render bit for bit as before. ViRAY's model follows seed 000 §4.6 with the
+//! summary's errata corrected (§8.3): the cosine uses l = light − p; Fresnel uses the correct
+//! complex denominator (pbrt's exact conductor formula); exponents are real (`fmath::pow`),
+//! not limited to 10 squarings; the mirror reflectance in Torrance–Sparrow mode uses ∠(n, v)
+//! (for the mirror direction the half vector *is* n).
 
 use gridrt_shared::math::Vec3;
 #[cfg(feature = "specular")]
-use gridrt_shared::scene_v2::SpecularModel;
-use gridrt_shared::scene_v2::{DiffuseModel, Falloff, LightingRecord, MaterialExt, ReflectMode};
+use gridrt_shared::scene::SpecularModel;
+use gridrt_shared::scene::{DiffuseModel, MaterialModel, ReflectMode};
 
 const INV_PI: f32 = core::f32::consts::FRAC_1_PI;
 #[cfg(feature = "specular")]
@@ -65,7 +65,7 @@ pub fn fresnel_conductor(cos_i: f32, eta: f32, k: f32) -> f32 {
 
 /// Fresnel of a material at `cos_i` (conductor mode: complex index, else dielectric).
 #[cfg(feature = "specular")]
-pub fn fresnel(ext: &MaterialExt, cos_i: f32) -> f32 {
+pub fn fresnel(ext: &MaterialModel, cos_i: f32) -> f32 {
     match ext.reflect_mode {
         ReflectMode::Conductor => fresnel_conductor(cos_i, ext.eta, ext.kappa),
         _ => fresnel_dielectric(cos_i, ext.eta),
@@ -73,7 +73,7 @@ pub fn fresnel(ext: &MaterialExt, cos_i: f32) -> f32 {
 }
 
 /// Mirror reflectance r of the material at `cos_o = n·v`; 0 = no reflection ray.
-pub fn reflectance(ext: &MaterialExt, constant: f32, cos_o: f32) -> f32 {
+pub fn reflectance(ext: &MaterialModel, constant: f32, cos_o: f32) -> f32 {
     match ext.reflect_mode {
         ReflectMode::None => 0.0,
         ReflectMode::Constant => constant,
@@ -82,42 +82,10 @@ pub fn reflectance(ext: &MaterialExt, constant: f32, cos_o: f32) -> f32 {
     }
 }
 
-/// Spotlight factor at p (1 for an omnidirectional light).
-pub fn spot_factor(lighting: &LightingRecord, light_pos: Vec3, p: Vec3) -> f32 {
-    let Some(axis) = Vec3::from_array(lighting.spot_dir).try_normalize() else { return 1.0 };
-    let Some(dir) = (p - light_pos).try_normalize() else { return 0.0 };
-    let c = axis.dot(dir);
-    let (co, ci) = (lighting.cos_outer, lighting.cos_inner);
-    if ci > co {
-        ((c - co) / (ci - co)).clamp(0.0, 1.0)
-    } else if c >= co {
-        1.0
-    } else {
-        0.0
-    }
-}
-
-/// Irradiance factor E / |light colour|: `max(n·l, 0)` times the falloff.
-pub fn irradiance(lighting: &LightingRecord, n: Vec3, p: Vec3, light_pos: Vec3) -> f32 {
-    let d = light_pos - p;
-    let r2 = d.length_squared();
-    let Some(l) = d.try_normalize() else { return 0.0 };
-    let cos = n.dot(l).max(0.0);
-    match lighting.falloff {
-        Falloff::None => cos,
-        Falloff::InverseSquare => {
-            if r2 > 0.0 {
-                cos / r2
-            } else {
-                0.0
-            }
-        }
-    }
-}
-
-/// Diffuse BRDF value (Lambert 1/π, or simplified Oren–Nayar).
-pub fn diffuse_brdf(ext: &MaterialExt, n: Vec3, l: Vec3, v: Vec3) -> f32 {
+/// Diffuse BRDF value (matte 1, Lambert 1/π, or simplified Oren–Nayar).
+pub fn diffuse_brdf(ext: &MaterialModel, n: Vec3, l: Vec3, v: Vec3) -> f32 {
     match ext.diffuse_model {
+        DiffuseModel::Matte => 1.0,
         DiffuseModel::Lambert => INV_PI,
         DiffuseModel::OrenNayar => {
             let s2 = ext.sigma2;
@@ -147,7 +115,7 @@ pub fn diffuse_brdf(ext: &MaterialExt, n: Vec3, l: Vec3, v: Vec3) -> f32 {
 
 /// Specular BRDF value (0 without a specular model).
 #[cfg(feature = "specular")]
-pub fn specular_brdf(ext: &MaterialExt, n: Vec3, l: Vec3, v: Vec3) -> f32 {
+pub fn specular_brdf(ext: &MaterialModel, n: Vec3, l: Vec3, v: Vec3) -> f32 {
     let Some(h) = (l + v).try_normalize() else { return 0.0 };
     let nh = n.dot(h).max(0.0);
     let d = (ext.exponent + 2.0) / TAU * crate::fmath::pow(nh, ext.exponent);
@@ -177,31 +145,49 @@ pub struct DirectLight {
     pub specular: bool,
 }
 
-/// Direct term `spot · E · c_L ∘ (k_d·c_d·f_d + k_s·c_s·f_s)` for a visible light (the caller
-/// multiplies by visibility and checks E > 0 and spot > 0 before tracing the shadow ray).
-pub fn direct(
-    ext: &MaterialExt,
-    cd: [f32; 3],
-    n: Vec3,
-    v: Vec3,
-    p: Vec3,
-    light: &DirectLight,
-    e_spot: f32,
-) -> [f32; 3] {
-    let Some(l) = (light.pos - p).try_normalize() else { return [0.0; 3] };
-    let fd = ext.kd * diffuse_brdf(ext, n, l, v);
+/// The light a visible point light delivers to a surface: `D = spot·E·c_L` with the BRDF
+/// weights `k_d·f_d` and `k_s·f_s` for the light direction.
+#[derive(Debug, Clone, Copy)]
+pub struct DirectTerm {
+    /// `spot · E · c_L` per channel.
+    pub light: [f32; 3],
+    /// `k_d · f_d`.
+    pub diffuse: f32,
+    /// `k_s · f_s` (0 without the specular stage).
+    pub specular: f32,
+}
+
+/// The direct term at p for a light that reaches it with factor `e_spot = spot · E` (the
+/// caller checks E > 0 and spot > 0 and traces the shadow ray first). `None` when the light
+/// sits on p.
+pub fn direct(ext: &MaterialModel, n: Vec3, v: Vec3, p: Vec3, light: &DirectLight, e_spot: f32) -> Option<DirectTerm> {
+    let l = (light.pos - p).try_normalize()?;
+    let diffuse = ext.kd * diffuse_brdf(ext, n, l, v);
     #[cfg(feature = "specular")]
-    let fs = if light.specular { ext.ks * specular_brdf(ext, n, l, v) } else { 0.0 };
+    let specular = if light.specular { ext.ks * specular_brdf(ext, n, l, v) } else { 0.0 };
     #[cfg(not(feature = "specular"))]
-    let fs = 0.0;
-    [0, 1, 2].map(|k| e_spot * light.radiance[k] * (fd * cd[k] + fs * ext.specular[k]))
+    let specular = 0.0;
+    Some(DirectTerm { light: light.radiance.map(|c| e_spot * c), diffuse, specular })
+}
+
+/// Radiance leaving the surface towards the viewer (module doc): ambient `L_a` plus the
+/// direct term when the light is visible.
+pub fn outgoing(ext: &MaterialModel, cd: [f32; 3], la: [f32; 3], direct: Option<&DirectTerm>) -> [f32; 3] {
+    [0, 1, 2].map(|k| match (ext.diffuse_model, direct) {
+        (DiffuseModel::Matte, None) => cd[k] * (ext.ka * la[k]),
+        (DiffuseModel::Matte, Some(d)) => {
+            cd[k] * (ext.ka * la[k] + d.light[k] * d.diffuse) + d.light[k] * (d.specular * ext.specular[k])
+        }
+        (_, None) => ext.ka * cd[k] * la[k],
+        (_, Some(d)) => ext.ka * cd[k] * la[k] + d.light[k] * (d.diffuse * cd[k] + d.specular * ext.specular[k]),
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     #[cfg(feature = "specular")]
-    use gridrt_shared::scene_v2::SpecularModel;
+    use gridrt_shared::scene::SpecularModel;
 
     #[test]
     fn fresnel_limits() {
@@ -218,17 +204,26 @@ mod tests {
     }
 
     #[test]
-    fn spot_cone_edges_and_step() {
-        let mut l =
-            LightingRecord { spot_dir: [0.0, -1.0, 0.0], cos_outer: 0.7, cos_inner: 0.85, ..LightingRecord::default() };
-        let at = |x: f32| Vec3::new(x, -1.0, 0.0);
-        assert_eq!(spot_factor(&l, Vec3::ZERO, at(0.0)), 1.0);
-        assert_eq!(spot_factor(&l, Vec3::ZERO, at(5.0)), 0.0);
-        let mid = spot_factor(&l, Vec3::ZERO, at(0.8));
-        assert!(mid > 0.0 && mid < 1.0);
-        l.cos_inner = 0.7;
-        assert_eq!(spot_factor(&l, Vec3::ZERO, at(0.9)), 1.0);
-        assert_eq!(spot_factor(&l, Vec3::ZERO, at(1.1)), 0.0);
+    fn matte_is_the_contract_formula() {
+        // colour = albedo · (ambient + intensity · ndotl · visible), docs/CONTRACTS.md.
+        let m = MaterialModel { diffuse_model: DiffuseModel::Matte, ..MaterialModel::default() };
+        let light = DirectLight { pos: Vec3::new(0.0, 0.0, 10.0), radiance: [1.0; 3], specular: false };
+        let d = direct(&m, Vec3::Z, Vec3::Z, Vec3::ZERO, &light, 1.0);
+        let lit = outgoing(&m, [0.8; 3], [0.15; 3], d.as_ref());
+        assert_eq!(lit, [0.8 * (0.15 + 1.0); 3]);
+        // 0.92·255 + 0.5 = 235.1 → 235.
+        assert_eq!(super::super::colour::to_rgb8(lit), [235, 235, 235]);
+        let shadowed = outgoing(&m, [0.8, 0.4, 0.2], [0.15; 3], None);
+        assert_eq!(shadowed, [0.8 * 0.15, 0.4 * 0.15, 0.2 * 0.15]);
+    }
+
+    #[test]
+    fn lambert_divides_by_pi() {
+        let m = MaterialModel::default();
+        let light = DirectLight { pos: Vec3::new(0.0, 0.0, 10.0), radiance: [2.0; 3], specular: false };
+        let d = direct(&m, Vec3::Z, Vec3::Z, Vec3::ZERO, &light, 1.0);
+        let lit = outgoing(&m, [0.5; 3], [0.0; 3], d.as_ref());
+        assert!((lit[0] - 0.5 * 2.0 / core::f32::consts::PI).abs() < 1e-6, "{lit:?}");
     }
 
     #[test]
@@ -237,15 +232,15 @@ mod tests {
         let n = Vec3::Y;
         let l = Vec3::new(0.3, 1.0, 0.1).normalize();
         let v = Vec3::new(-0.2, 1.0, 0.4).normalize();
-        let mut e = MaterialExt { diffuse_model: DiffuseModel::OrenNayar, sigma2: 0.0, ..MaterialExt::default() };
+        let mut e = MaterialModel { diffuse_model: DiffuseModel::OrenNayar, sigma2: 0.0, ..MaterialModel::default() };
         assert!((diffuse_brdf(&e, n, l, v) - INV_PI).abs() < 1e-6);
         e.sigma2 = 1.0;
         assert!(diffuse_brdf(&e, n, l, v) != INV_PI);
         // Blinn–Phong peak at the mirror configuration: (e+2)/(2π).
-        let e = MaterialExt { specular_model: SpecularModel::BlinnPhong, exponent: 16.0, ..MaterialExt::default() };
+        let e = MaterialModel { specular_model: SpecularModel::BlinnPhong, exponent: 16.0, ..MaterialModel::default() };
         assert!((specular_brdf(&e, n, n, n) - 18.0 / TAU).abs() < 1e-4);
         let ts =
-            MaterialExt { specular_model: SpecularModel::TorranceSparrow, exponent: 16.0, ..MaterialExt::default() };
+            MaterialModel { specular_model: SpecularModel::TorranceSparrow, exponent: 16.0, ..MaterialModel::default() };
         assert!(specular_brdf(&ts, n, l, v) >= 0.0);
     }
 }

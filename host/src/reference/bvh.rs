@@ -1,24 +1,11 @@
-//! Independent f64 reference renderer.
-//!
-//! It shares no intersection or traversal code with the device path: an f64 BVH (median
-//! split) instead of the uniform grid, and the watertight ray–triangle test of Woop, Benthin
-//! and Wald ("Watertight Ray/Triangle Intersection", JCGT 2013) in f64 instead of the
-//! co-processor kernels. Camera, shading and the shadow rule are those of
-//! docs/CONTRACTS.md, evaluated in f64 from the same f32 inputs the device receives.
+//! The reference's triangle BVH (median split) and the watertight ray–triangle test of Woop,
+//! Benthin and Wald ("Watertight Ray/Triangle Intersection", JCGT 2013) in f64. It shares no
+//! intersection or traversal code with the device path (uniform grid, co-processor kernels).
 //!
 //! Hit rule: the nearest hit with `t > 0` wins; equal `t` → lowest primitive id.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-
-use crate::camera::{cross, dot, normalize, sub, CameraF64, RenderSettings};
-use crate::scene::{Bounds, Mesh};
-
-/// Background colour (linear RGB) of a pixel whose primary ray hits nothing.
-pub const BACKGROUND: [f64; 3] = [0.08, 0.08, 0.12];
-/// Shadow rays end at `1 − 2^-10` of the way to the light.
-pub const SHADOW_T_MAX: f64 = 1.0 - 1.0 / 1024.0;
-/// Primitive id of a pixel whose primary ray missed.
-pub const MISS_ID: u32 = u32::MAX;
+use crate::camera::sub;
+use crate::scene::Mesh;
 
 /// Largest triangle count of a BVH leaf.
 const LEAF_SIZE: usize = 4;
@@ -35,15 +22,13 @@ struct Node {
     axis: u8,
 }
 
-/// A scene prepared for the reference renderer.
+/// The triangles of a mesh in a BVH.
 #[derive(Debug, Clone)]
-pub struct ReferenceScene {
+pub struct TriangleBvh {
     tris: Vec<[[f64; 3]; 3]>,
-    albedo: Vec<[f64; 3]>,
     nodes: Vec<Node>,
     /// Primitive ids in BVH leaf order.
     order: Vec<u32>,
-    grid_diag: f64,
 }
 
 /// A closest hit.
@@ -53,19 +38,6 @@ pub struct Hit {
     pub t: f64,
     /// Primitive id.
     pub prim: u32,
-}
-
-/// Output of [`render`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct ReferenceImage {
-    /// Width in pixels.
-    pub width: u16,
-    /// Height in pixels.
-    pub height: u16,
-    /// RGB8, row-major.
-    pub rgb: Vec<u8>,
-    /// Primitive id of each pixel's primary hit, [`MISS_ID`] for a miss.
-    pub prim_ids: Vec<u32>,
 }
 
 fn bbox_of(tris: &[[[f64; 3]; 3]], ids: &[u32]) -> ([f64; 3], [f64; 3]) {
@@ -82,16 +54,10 @@ fn bbox_of(tris: &[[[f64; 3]; 3]], ids: &[u32]) -> ([f64; 3], [f64; 3]) {
     (lo, hi)
 }
 
-impl ReferenceScene {
-    /// Prepares `mesh`; `grid_bounds` is the grid box the device uses (the shadow-ray offset
-    /// scales with its diagonal).
-    pub fn new(mesh: &Mesh, grid_bounds: &Bounds) -> Self {
+impl TriangleBvh {
+    /// Builds the BVH of `mesh`'s triangles (widened to f64).
+    pub fn new(mesh: &Mesh) -> Self {
         let tris: Vec<[[f64; 3]; 3]> = mesh.triangles.iter().map(|t| t.v.map(|p| p.map(|c| c as f64))).collect();
-        let albedo = mesh
-            .triangles
-            .iter()
-            .map(|t| mesh.materials.get(t.material as usize).map_or([0.8; 3], |m| m.diffuse.map(|c| c as f64)))
-            .collect();
         let mut order: Vec<u32> = (0..tris.len() as u32).collect();
         let mut nodes = Vec::with_capacity(2 * tris.len() / LEAF_SIZE + 1);
         let centroid = |i: u32, a: usize| {
@@ -126,7 +92,7 @@ impl ReferenceScene {
             work.push((me, mid, hi));
             work.push((usize::MAX, lo, mid));
         }
-        Self { tris, albedo, nodes, order, grid_diag: grid_bounds.diagonal_len() }
+        Self { tris, nodes, order }
     }
 
     /// Number of triangles.
@@ -193,41 +159,6 @@ impl ReferenceScene {
         self.trace(o, d, t_max, true).is_some()
     }
 
-    /// Shades one pixel: `(linear RGB clamped to [0, 1], prim id)`.
-    pub fn shade_pixel(&self, cam: &CameraF64, s: &RenderSettings, x: u32, y: u32) -> ([f64; 3], u32) {
-        let (o, d) = cam.primary_ray(x, y);
-        let Some(hit) = self.closest_hit(o, d, f64::INFINITY) else {
-            return (BACKGROUND, MISS_ID);
-        };
-        let tri = &self.tris[hit.prim as usize];
-        let p = [0, 1, 2].map(|i| o[i] + hit.t * d[i]);
-        // Two-sided geometric normal.
-        let mut n = normalize(cross(sub(tri[1], tri[0]), sub(tri[2], tri[0])));
-        if dot(n, d) > 0.0 {
-            n = n.map(|c| -c);
-        }
-        let light = s.light.pos.map(|c| c as f64);
-        let l = normalize(sub(light, p));
-        let ndotl = dot(n, l).max(0.0);
-        // Shadow ray from the offset point toward the light (docs/CONTRACTS.md).
-        let mut visible = 1.0;
-        if s.shadows && ndotl > 0.0 {
-            let p_inf = p.iter().fold(0.0f64, |m, c| m.max(c.abs()));
-            let eps = 1e-4 * self.grid_diag + p_inf / 1_048_576.0;
-            let p2 = [0, 1, 2].map(|i| p[i] + n[i] * eps);
-            if self.any_hit(p2, sub(light, p2), SHADOW_T_MAX) {
-                visible = 0.0;
-            }
-        }
-        let k = s.ambient as f64 + s.light.intensity as f64 * ndotl * visible;
-        let albedo = self.albedo[hit.prim as usize];
-        (albedo.map(|a| (a * k).clamp(0.0, 1.0)), hit.prim)
-    }
-}
-
-/// Linear `[0, 1]` colour to 8 bits: `(c·255 + 0.5) as u8`.
-pub fn to_rgb8(c: [f64; 3]) -> [u8; 3] {
-    c.map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8)
 }
 
 /// Robust slab test (the far distance widened by `1 + 2γ(3)` in f64, pbrt-v4 style); NaN
@@ -257,14 +188,14 @@ fn slab_hit(node: &Node, o: [f64; 3], inv: [f64; 3], t_max: f64) -> bool {
 }
 
 /// Per-ray precomputation of the watertight test: axis permutation and shear.
-struct WatertightRay {
+pub(super) struct WatertightRay {
     o: [f64; 3],
     k: [usize; 3],
     s: [f64; 3],
 }
 
 impl WatertightRay {
-    fn new(o: [f64; 3], d: [f64; 3]) -> Self {
+    pub(super) fn new(o: [f64; 3], d: [f64; 3]) -> Self {
         // Permute so that z is the largest direction component; swap x/y to keep winding.
         let kz = if d[0].abs() >= d[1].abs() && d[0].abs() >= d[2].abs() {
             0
@@ -283,7 +214,7 @@ impl WatertightRay {
     }
 
     /// `t` of the hit with `t_min < t < t_max`, both sides counted.
-    fn intersect(&self, tri: &[[f64; 3]; 3], t_min: f64, t_max: f64) -> Option<f64> {
+    pub(super) fn intersect(&self, tri: &[[f64; 3]; 3], t_min: f64, t_max: f64) -> Option<f64> {
         let [kx, ky, kz] = self.k;
         // Translate to the ray origin and shear so the ray is the +z axis.
         let rel = tri.map(|p| sub(p, self.o));
@@ -308,61 +239,10 @@ impl WatertightRay {
     }
 }
 
-/// Renders `settings` with `threads` worker threads (rows are handed out dynamically).
-pub fn render(scene: &ReferenceScene, settings: &RenderSettings, threads: usize) -> ReferenceImage {
-    let cam = CameraF64::new(settings);
-    render_pixels(settings, threads, |x, y| scene.shade_pixel(&cam, settings, x, y))
-}
-
-/// Runs `shade(x, y) -> (linear colour, primary prim id)` over every pixel of `settings`' frame
-/// on `threads` scoped worker threads that take rows from a shared counter.
-pub(crate) fn render_pixels(
-    settings: &RenderSettings,
-    threads: usize,
-    shade: impl Fn(u32, u32) -> ([f64; 3], u32) + Sync,
-) -> ReferenceImage {
-    let (w, h) = (settings.width as usize, settings.height as usize);
-    let next = AtomicUsize::new(0);
-    /// One rendered row: (y, RGB8, prim ids).
-    type Row = (usize, Vec<u8>, Vec<u32>);
-    let rows: Vec<Vec<Row>> = std::thread::scope(|sc| {
-        let workers: Vec<_> = (0..threads.max(1))
-            .map(|_| {
-                sc.spawn(|| {
-                    let mut out = Vec::new();
-                    loop {
-                        let y = next.fetch_add(1, Ordering::Relaxed);
-                        if y >= h {
-                            break;
-                        }
-                        let mut rgb = Vec::with_capacity(3 * w);
-                        let mut ids = Vec::with_capacity(w);
-                        for x in 0..w {
-                            let (c, id) = shade(x as u32, y as u32);
-                            rgb.extend_from_slice(&to_rgb8(c));
-                            ids.push(id);
-                        }
-                        out.push((y, rgb, ids));
-                    }
-                    out
-                })
-            })
-            .collect();
-        workers.into_iter().map(|j| j.join().unwrap_or_default()).collect()
-    });
-    let mut rgb = vec![0u8; 3 * w * h];
-    let mut prim_ids = vec![MISS_ID; w * h];
-    for (y, row, ids) in rows.into_iter().flatten() {
-        rgb[3 * w * y..3 * w * (y + 1)].copy_from_slice(&row);
-        prim_ids[w * y..w * (y + 1)].copy_from_slice(&ids);
-    }
-    ReferenceImage { width: settings.width, height: settings.height, rgb, prim_ids }
-}
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Triangle, DEFAULT_MATERIAL};
     use rand::{Rng, SeedableRng};
     use std::path::Path;
 
@@ -382,10 +262,10 @@ mod tests {
     #[test]
     fn bvh_matches_brute_force_on_the_bunny() {
         let mesh =
-            crate::scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj"))
+            crate::scene::load_mesh(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj"))
                 .unwrap();
         let b = mesh.bounds().unwrap();
-        let scene = ReferenceScene::new(&mesh, &b);
+        let scene = TriangleBvh::new(&mesh);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(42);
         let c = b.center();
         let mut hits = 0;
@@ -412,64 +292,5 @@ mod tests {
             assert!(brute_force(&tris, o, [0.0, 0.0, -1.0]).is_some(), "lost hit at {s}");
             assert!(brute_force(&tris, o, [1e-3, -2e-3, -1.0]).is_some() || !(0.01..0.99).contains(&s));
         }
-    }
-
-    #[test]
-    fn shadow_and_shading_follow_the_contract() {
-        // Floor at y = 0, a square occluder at y = 0.5, light at (0.5, 1, 0): the shadow of the
-        // occluder falls on x ∈ [-0.9, -0.1], z ∈ [-0.4, 0.4], visible from the camera above.
-        let floor = [
-            [[-1.0f32, 0.0, -1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0]],
-            [[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0]],
-        ];
-        let occ = [
-            [[-0.2f32, 0.5, -0.2], [0.2, 0.5, 0.2], [0.2, 0.5, -0.2]],
-            [[-0.2, 0.5, -0.2], [-0.2, 0.5, 0.2], [0.2, 0.5, 0.2]],
-        ];
-        let tris: Vec<Triangle> = floor.iter().chain(occ.iter()).map(|&v| Triangle { v, material: 0 }).collect();
-        let mesh = Mesh::from_triangles(Path::new("t"), tris, vec![DEFAULT_MATERIAL]).unwrap();
-        let b = mesh.bounds().unwrap();
-        let scene = ReferenceScene::new(&mesh, &b);
-        let mut s = RenderSettings::default_for(&b).with_size(64, 64);
-        s.camera.eye = [0.0, 3.0, 0.001];
-        s.camera.target = [0.0, 0.0, 0.0];
-        s.light.pos = [0.5, 1.0, 0.0];
-        let img = render(&scene, &s, 2);
-        let px = |x: usize, y: usize| {
-            (
-                img.prim_ids[y * 64 + x],
-                [img.rgb[3 * (y * 64 + x)], img.rgb[3 * (y * 64 + x) + 1], img.rgb[3 * (y * 64 + x) + 2]],
-            )
-        };
-        // Occluder, lit.
-        let (id, occ_rgb) = px(34, 30);
-        assert!(id >= 2, "{id}");
-        // Floor in the occluder's shadow: ambient only, exactly.
-        let (id, shadow_rgb) = px(18, 31);
-        assert!(id < 2, "{id}");
-        assert_eq!(shadow_rgb, to_rgb8([0.8 * 0.15; 3]));
-        assert!(occ_rgb[0] > shadow_rgb[0]);
-        // Without shadow rays the same pixel is lit.
-        let (c, _) = scene.shade_pixel(&CameraF64::new(&s), &s.with_shadows(false), 18, 31);
-        assert!(to_rgb8(c)[0] > shadow_rgb[0]);
-        // Background.
-        let (id, bg) = px(0, 0);
-        assert_eq!((id, bg), (MISS_ID, to_rgb8(BACKGROUND)));
-        assert_eq!(to_rgb8(BACKGROUND), [20, 20, 31]);
-    }
-
-    #[test]
-    fn render_threads_agree() {
-        let mesh =
-            crate::scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj"))
-                .unwrap();
-        let b = mesh.bounds().unwrap();
-        let scene = ReferenceScene::new(&mesh, &b);
-        let s = RenderSettings::default_for(&b).with_size(40, 30);
-        let a = render(&scene, &s, 1);
-        let c = render(&scene, &s, 3);
-        assert_eq!(a, c);
-        assert!(a.prim_ids.iter().any(|&p| p != MISS_ID));
-        assert!(a.prim_ids.contains(&MISS_ID));
     }
 }

@@ -1,0 +1,79 @@
+//! The point light at a hit: the request's light (position, intensity, ambient), the
+//! irradiance factor with its falloff, and ViRAY's spotlight cone (seed 000 §4.6, with the
+//! summary's erratum: the cone uses the spot axis, not n).
+
+use gridrt_shared::math::Vec3;
+use gridrt_shared::scene::{Falloff, LightingRecord};
+
+/// Point light and ambient term of one frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Light {
+    /// Light position.
+    pub pos: Vec3,
+    /// Scale of the diffuse term.
+    pub intensity: f32,
+    /// Ambient term.
+    pub ambient: f32,
+}
+
+/// Spotlight factor at p (1 for an omnidirectional light).
+pub fn spot_factor(lighting: &LightingRecord, light_pos: Vec3, p: Vec3) -> f32 {
+    let Some(axis) = Vec3::from_array(lighting.spot_dir).try_normalize() else { return 1.0 };
+    let Some(dir) = (p - light_pos).try_normalize() else { return 0.0 };
+    let c = axis.dot(dir);
+    let (co, ci) = (lighting.cos_outer, lighting.cos_inner);
+    if ci > co {
+        ((c - co) / (ci - co)).clamp(0.0, 1.0)
+    } else if c >= co {
+        1.0
+    } else {
+        0.0
+    }
+}
+
+/// Irradiance factor E / |light colour|: `max(n·l, 0)` times the falloff.
+pub fn irradiance(lighting: &LightingRecord, n: Vec3, p: Vec3, light_pos: Vec3) -> f32 {
+    let d = light_pos - p;
+    let r2 = d.length_squared();
+    let Some(l) = d.try_normalize() else { return 0.0 };
+    let cos = n.dot(l).max(0.0);
+    match lighting.falloff {
+        Falloff::None => cos,
+        Falloff::InverseSquare => {
+            if r2 > 0.0 {
+                cos / r2
+            } else {
+                0.0
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn light_behind_surface_gives_zero_irradiance() {
+        let l = LightingRecord { falloff: Falloff::None, ..LightingRecord::default() };
+        assert_eq!(irradiance(&l, Vec3::Z, Vec3::ZERO, Vec3::new(0.0, 0.0, -3.0)), 0.0);
+        assert_eq!(irradiance(&l, Vec3::Z, Vec3::ZERO, Vec3::ZERO), 0.0);
+        assert_eq!(irradiance(&l, Vec3::Z, Vec3::ZERO, Vec3::new(0.0, 0.0, 10.0)), 1.0);
+        let sq = LightingRecord { falloff: Falloff::InverseSquare, ..l };
+        assert_eq!(irradiance(&sq, Vec3::Z, Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0)), 0.25);
+    }
+
+    #[test]
+    fn spot_cone_edges_and_step() {
+        let mut l =
+            LightingRecord { spot_dir: [0.0, -1.0, 0.0], cos_outer: 0.7, cos_inner: 0.85, ..LightingRecord::default() };
+        let at = |x: f32| Vec3::new(x, -1.0, 0.0);
+        assert_eq!(spot_factor(&l, Vec3::ZERO, at(0.0)), 1.0);
+        assert_eq!(spot_factor(&l, Vec3::ZERO, at(5.0)), 0.0);
+        let mid = spot_factor(&l, Vec3::ZERO, at(0.8));
+        assert!(mid > 0.0 && mid < 1.0);
+        l.cos_inner = 0.7;
+        assert_eq!(spot_factor(&l, Vec3::ZERO, at(0.9)), 1.0);
+        assert_eq!(spot_factor(&l, Vec3::ZERO, at(1.1)), 0.0);
+    }
+}

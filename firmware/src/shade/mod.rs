@@ -1,0 +1,34 @@
+//! Shading of a hit (docs/CONTRACTS.md § Shading): one module for every scene, meshes and
+//! ViRAY's analytic scenes alike. A material's model picks the formula: GridRT's matte
+//! surface (what OBJ/PLY materials get), Lambert or Oren–Nayar diffuse, optional Blinn–Phong
+//! or Torrance–Sparrow specular, and a constant or Fresnel mirror reflectance.
+//!
+//! Stages the scene does not need cost nothing: the device's pipeline plan skips shadow rays,
+//! reflection rays, textures and the specular term at run time, and the cargo features
+//! `shadows`, `reflections`, `specular` and `textures` remove them from the build (ViRAY's
+//! compile-time stage switches, seed 000).
+//!
+//! | file | what |
+//! |---|---|
+//! | `geometry` | hit point, facing normal, shadow-ray origin and extent |
+//! | `light` | the request's light, irradiance with falloff, spotlight cone |
+//! | `brdf` | diffuse/specular models, Fresnel, reflectance, the outgoing radiance |
+//! | `colour` | background, default albedo, the 8-bit rule |
+//!
+//! These are pure functions; the device (`crate::device`) calls them and owns the rays.
+
+mod brdf;
+mod colour;
+mod geometry;
+mod light;
+
+#[cfg(feature = "specular")]
+pub use brdf::{fresnel, specular_brdf};
+pub use brdf::{
+    diffuse_brdf, direct, fresnel_conductor, fresnel_dielectric, outgoing, reflectance, DirectLight, DirectTerm,
+};
+pub use colour::{clamp01, to_rgb8, to_u8, BACKGROUND, DEFAULT_ALBEDO};
+pub use geometry::{
+    facing_normal, hit_point, shadow_epsilon, shadow_ray, SHADOW_EPS_DIAG, SHADOW_EPS_POS, SHADOW_T_MAX,
+};
+pub use light::{irradiance, spot_factor, Light};
