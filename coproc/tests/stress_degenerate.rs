@@ -12,7 +12,7 @@ use gridrt_coproc::{
     RecordStatus, TimingProfile,
 };
 use gridrt_shared::math::{Ray, Vec3};
-use gridrt_shared::scene::TriangleRecord;
+use gridrt_shared::scene::{TriangleRecord, PE_IMAGE_TAG};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -179,7 +179,7 @@ fn coprocessor_rejects_non_finite_data_and_handles_degenerate_triangles() {
         material: 0,
     };
     let image = |tris: &[TriangleRecord]| {
-        let mut w = vec![tris.len() as u32, 1, tris.len() as u32, 0, 0, tris.len() as u32];
+        let mut w = vec![PE_IMAGE_TAG, tris.len() as u32, 1, tris.len() as u32, 0, 0, 0, tris.len() as u32];
         w.extend(0..tris.len() as u32);
         for t in tris {
             w.extend(t.to_words());

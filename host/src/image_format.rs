@@ -125,10 +125,10 @@ mod tests {
         let h = sink.header.unwrap();
         assert_eq!(h.dims, grid.dims);
         assert_eq!(h.pe_count, 3);
-        assert_eq!(h.triangle_count, mesh.triangles.len() as u32);
+        assert_eq!(h.triangle_count, scene.mesh.triangles.len() as u32);
         assert_eq!(h.total_len as usize, image.len());
         assert_eq!(sink.owners, grid.owners);
-        assert_eq!(sink.materials, mesh.materials);
+        assert_eq!(sink.materials, scene.mesh.materials);
         assert_eq!(sink.ended, 3);
         for (pe, (id, words)) in sink.pes.iter().enumerate() {
             assert_eq!(*id as usize, pe);

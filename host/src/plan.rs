@@ -149,7 +149,7 @@ mod tests {
         let no = |_: &Path| Err(crate::scene::SceneLoadError::UnsupportedFormat { path: "x".into() });
         let scene = |extra: &str, mat: &str| {
             let text = format!("{extra}\n[materials.m]\n{mat}\n[[objects]]\ntype = \"sphere\"\nmaterial = \"m\"\n[[objects]]\ntype = \"plane\"\ntranslate = [0, -1, 0]\n");
-            crate::scene_file::parse(Path::new("t.toml"), &text, &no).unwrap()
+            crate::scene::parse_scene_file(Path::new("t.toml"), &text, &no).unwrap()
         };
         let p = Plan::derive(&scene("", "colour = [0.5, 0.5, 0.5]"));
         assert_eq!(p, Plan { shadows: false, reflections: false, textures: false, specular: false });

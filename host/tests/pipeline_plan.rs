@@ -8,17 +8,17 @@ use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
 use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::plan::{Interp, Plan};
-use gridrt_host::reference_v2::{render as reference_render, Stages, WorldReference};
+use gridrt_host::reference::{render as reference_render, Reference, Stages};
 use gridrt_host::simrun::SimBoard;
-use gridrt_host::world::World;
+use gridrt_host::scene::Scene;
 use gridrt_shared::msg::{render_flags, stat, ErrorCode};
 
 fn scenes() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes")
 }
 
-fn world(text: &str) -> World {
-    gridrt_host::scene_file::parse(Path::new("t.toml"), text, &|p| gridrt_host::scene::load(&scenes().join(p))).unwrap()
+fn world(text: &str) -> Scene {
+    gridrt_host::scene::parse_scene_file(Path::new("t.toml"), text, &|p| gridrt_host::scene::load_mesh(&scenes().join(p))).unwrap()
 }
 
 fn params() -> GridParams {
@@ -26,8 +26,8 @@ fn params() -> GridParams {
 }
 
 /// Renders `w` on the simulator with the derived plan; returns (frame, plan).
-fn run(w: &World, size: (u16, u16), extra_flags: u16) -> (gridrt_host::session::RenderedFrame, Plan) {
-    let prepared = PreparedScene::from_world(w, &params()).unwrap();
+fn run(w: &Scene, size: (u16, u16), extra_flags: u16) -> (gridrt_host::session::RenderedFrame, Plan) {
+    let prepared = PreparedScene::new(w.clone(), &params()).unwrap();
     let mut board = SimBoard::new(gridrt_loopback::SimConfig::default(), &prepared).unwrap();
     let plan = Plan::derive(w);
     let settings = w.settings.with_size(size.0, size.1).with_shadows(plan.shadows);
@@ -88,18 +88,18 @@ fn scene_without_reflective_materials_issues_zero_reflection_rays() {
 
 #[test]
 fn viray_demo_matches_the_reference() {
-    let w = gridrt_host::scene_file::load(&scenes().join("viray_demo.toml")).unwrap();
+    let w = gridrt_host::scene::load(&scenes().join("viray_demo.toml")).unwrap();
     assert_eq!(w.prims.len(), 8);
     let plan = Plan::derive(&w);
     assert_eq!(plan, Plan::ALL, "the demo needs shadows, reflections, textures and specular");
-    let prepared = PreparedScene::from_world(&w, &params()).unwrap();
+    let prepared = PreparedScene::new(w.clone(), &params()).unwrap();
     let mut board = SimBoard::new(gridrt_loopback::SimConfig::default(), &prepared).unwrap();
     let settings = w.settings.with_size(160, 120).with_prim_ids(true);
     let mut req = settings.to_request(1);
     req.flags |= plan.flags();
     let frame = board.render(&req).unwrap();
     assert!(frame.stats[&stat::SHADOW_RAYS] > 0 && frame.stats[&stat::REFLECTION_RAYS] > 0);
-    let reference = reference_render(&WorldReference::new(&w, &prepared.grid.bounds), &settings, Stages::ALL, 2);
+    let reference = reference_render(&Reference::new(&w, &prepared.grid.bounds), &settings, Stages::ALL, 2);
     let cmp = compare(&frame.rgb, &reference.rgb, frame.prim_ids.as_deref(), Some(&reference.prim_ids)).unwrap();
     assert!(cmp.psnr_db.is_none_or(|p| p >= 45.0), "PSNR {:?}", cmp.psnr_db);
 }
@@ -130,7 +130,7 @@ fn firmware_without_a_stage_says_so() {
     // This workspace's firmware has every stage (default features), so the request renders;
     // the refusal of a compiled-out stage is tested in the firmware crate
     // (`device::pipeline::tests`) and by building without the feature.
-    let w = gridrt_host::scene_file::load(&scenes().join("viray_demo.toml")).unwrap();
+    let w = gridrt_host::scene::load(&scenes().join("viray_demo.toml")).unwrap();
     let (frame, _) = run(&w, (16, 12), 0);
     assert_eq!(frame.stats[&stat::PIXELS], 192);
     let _ = ErrorCode::BadRequest;

@@ -7,11 +7,11 @@ use gridrt_host::camera::RenderSettings;
 use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
 use gridrt_host::pipeline::PreparedScene;
-use gridrt_host::reference::{render, ReferenceScene};
+use gridrt_host::reference::{render, Reference, Stages};
 use gridrt_host::session::{ProgressEvent, Session, SessionConfig, SessionError, Stage};
 use gridrt_shared::msg::ErrorCode;
 
-fn scene(name: &str) -> gridrt_host::scene::Mesh {
+fn scene(name: &str) -> gridrt_host::scene::Scene {
     gridrt_host::scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes").join(name)).unwrap()
 }
 
@@ -37,7 +37,7 @@ fn sim_frame_matches_the_f64_reference() {
     let settings = RenderSettings::default_for(&prepared.grid.mesh_bounds).with_size(96, 72).with_prim_ids(true);
     let frame = s.render(&settings.to_request(9), &mut |_| {}).unwrap();
     assert!(frame.bytes_rx > 96 * 72 * 3);
-    let reference = render(&ReferenceScene::new(&prepared.mesh, &prepared.grid.bounds), &settings, 2);
+    let reference = render(&Reference::new(&prepared.scene, &prepared.grid.bounds), &settings, Stages::ALL, 2);
     let c = compare(&frame.rgb, &reference.rgb, frame.prim_ids.as_deref(), Some(&reference.prim_ids)).unwrap();
     assert!(c.psnr_db.is_none_or(|p| p > 40.0), "{c:?}");
     let hits = reference.prim_ids.iter().filter(|&&p| p != u32::MAX).count() as u64;

@@ -18,7 +18,7 @@
 //! mapped back with Wᵀ (the inverse transpose of the object → world map).
 
 use gridrt_shared::math::Ray;
-use gridrt_shared::scene_v2::{affine_point, affine_transpose_vector, affine_vector, PrimKind, PRIM_WORDS};
+use gridrt_shared::scene::{affine_point, affine_transpose_vector, affine_vector, PrimKind, PRIM_WORDS};
 
 /// Floating-point operations of one test (cost models): the transform plus a quadric.
 pub const FLOPS_PER_TEST: u32 = 45;
@@ -148,7 +148,7 @@ pub fn normal(w: &[u32; PRIM_WORDS], ray: &Ray, t: f32) -> [f32; 3] {
 mod tests {
     use super::*;
     use gridrt_shared::math::Vec3;
-    use gridrt_shared::scene_v2::PrimRecord;
+    use gridrt_shared::scene::PrimRecord;
 
     fn rec(kind: PrimKind, m: [f32; 12]) -> [u32; PRIM_WORDS] {
         PrimRecord { kind, prim: 0, material: 0, world_to_object: m }.to_words()

@@ -8,7 +8,7 @@ mod timing;
 use crate::*;
 use gridrt_shared::fsl::{entry_words, load_header, ray_request_head};
 use gridrt_shared::math::{Aabb, Vec3};
-use gridrt_shared::scene::TriangleRecord;
+use gridrt_shared::scene::{TriangleRecord, PE_IMAGE_TAG};
 
 pub(crate) fn v(x: f32, y: f32, z: f32) -> Vec3 {
     Vec3::new(x, y, z)
@@ -21,7 +21,7 @@ pub(crate) fn tri(a: Vec3, b: Vec3, c: Vec3, prim: u32, material: u32) -> Triang
 /// A PE image: `voxels` = (voxel id, local triangle indices), in the given order.
 pub(crate) fn image(voxels: &[(u32, Vec<u32>)], tris: &[TriangleRecord]) -> Vec<u32> {
     let refs: usize = voxels.iter().map(|(_, r)| r.len()).sum();
-    let mut w = vec![tris.len() as u32, voxels.len() as u32, refs as u32];
+    let mut w = vec![PE_IMAGE_TAG, tris.len() as u32, voxels.len() as u32, refs as u32, 0];
     let mut first = 0u32;
     for (id, r) in voxels {
         w.extend([*id, first, r.len() as u32]);

@@ -143,7 +143,7 @@ fn record_tables_are_charged_against_pe_memory() {
     let scene = GridScene::random(0x7AB, 30);
     let images = scene.images(1, |_| 0);
     let img = &images[0];
-    let tris = img[0] as usize;
+    let tris = img[1] as usize; // word 0 is the tag, word 1 the triangle count
     for kernel in KernelKind::ALL {
         for format in NumberFormat::ALL {
             let need = kernel.pe_words_needed(format, img.len(), tris);

@@ -212,7 +212,7 @@ fn failed_load_leaves_the_pe_empty() {
 /// is stored, by both interfaces.
 #[test]
 fn pe_memory_limit_is_exact_for_both_interfaces() {
-    let mem = 3 + 3 + 11 * 5; // header, 1 voxel, 0 refs, 5 triangles (unreferenced)
+    let mem = 5 + 3 + 11 * 5; // header, 1 voxel, 0 refs, 5 triangles (unreferenced)
     let tris: Vec<_> = (0..5).map(|i| miss_tri(i as f32, i)).collect();
     let fits = image(&[(0, vec![])], &tris);
     assert_eq!(fits.len(), mem);
@@ -346,12 +346,14 @@ fn configuration_is_validated() {
 /// PE 0 is acknowledged with `91000000`; a ray down onto its triangle returns these 8 words.
 #[test]
 fn golden_spec_tiny_scene_load_and_ray() {
-    let packet: [u32; 20] = [
+    let packet: [u32; 22] = [
         0x1000_0000,
-        0x0000_0012,
+        0x0000_0014,
+        0xFFFF_0002,
         0x0000_0001,
         0x0000_0001,
         0x0000_0001,
+        0x0000_0000,
         0x0000_0000,
         0x0000_0000,
         0x0000_0001,

@@ -5,7 +5,7 @@ use super::*;
 use gridrt_shared::frame::{crc32, encode_frame, FrameAccumulator, MAX_ENCODED};
 use gridrt_shared::fsl::{entry_from_words, ListEntry};
 use gridrt_shared::msg::{stat_entries, PixelEncoding};
-use gridrt_shared::scene::{TriangleRecord, HEADER_LEN};
+use gridrt_shared::scene::{TriangleRecord, HEADER_LEN, PE_IMAGE_TAG};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::VecDeque;
@@ -248,13 +248,17 @@ fn scene_image(dims: [u16; 3], materials: &[Material]) -> Vec<u8> {
     for m in materials {
         body.extend_from_slice(&m.to_bytes());
     }
+    for _ in materials {
+        body.extend_from_slice(&MaterialModel::MATTE.to_bytes());
+    }
+    body.extend_from_slice(&LightingRecord::DEFAULT.to_bytes());
     for pe in 0..2u16 {
         let tri = TriangleRecord {
             vertices: [[0.1, 0.1, 0.5], [0.9, 0.1, 0.5], [0.1, 0.9, 0.5]],
             prim: pe as u32,
             material: 0,
         };
-        let mut words = vec![1, 1, 1, pe as u32, 0, 1, 0];
+        let mut words = vec![PE_IMAGE_TAG, 1, 1, 1, 0, pe as u32, 0, 1, 0];
         words.extend_from_slice(&tri.to_words());
         body.extend_from_slice(&pe.to_le_bytes());
         body.extend_from_slice(&0u16.to_le_bytes());
@@ -274,6 +278,7 @@ fn scene_image(dims: [u16; 3], materials: &[Material]) -> Vec<u8> {
         pe_mem_words: 1024,
         total_len: (HEADER_LEN + body.len()) as u32,
         body_crc: crc32(&body),
+        object_count: 0,
     };
     let mut img = header.to_bytes().to_vec();
     img.extend_from_slice(&body);
@@ -561,17 +566,14 @@ fn rendered_pixels_follow_the_shading_contract() {
             let ray = cam.primary_ray(x, y);
             build_list(&grid, &[0, 1, EMPTY_VOXEL, 0], &ray, 0.0, f32::INFINITY, &mut list);
             let (want, id) = match list.first() {
-                None => (shade::to_rgb8(BACKGROUND), u32::MAX),
+                None => (shade::to_rgb8(shade::BACKGROUND), u32::MAX),
                 Some(e) => {
                     // The fake hits at 0.95 of the first entry's exit with normal +z.
                     let p = shade::hit_point(&ray, e.t_exit * 0.95);
                     let n = shade::facing_normal([0.0, 0.0, 2.0], ray.dir).unwrap();
-                    let c = shade::lambert(
-                        mats[(e.voxel % 2) as usize].diffuse,
-                        &light,
-                        shade::n_dot_l(p, n, light.pos),
-                        true,
-                    );
+                    // docs/CONTRACTS.md: albedo · (ambient + intensity · max(0, n·l)).
+                    let ndotl = n.dot((light.pos - p).normalize()).max(0.0);
+                    let c = mats[(e.voxel % 2) as usize].diffuse.map(|a| a * (light.ambient + light.intensity * ndotl));
                     (shade::to_rgb8(c), e.voxel + 100)
                 }
             };
@@ -630,7 +632,7 @@ fn ray_missing_the_grid_costs_zero_fsl_words() {
     assert_eq!(out.stats[&stat::FSL_WORDS_OUT], 0);
     assert_eq!(out.stats[&stat::FSL_WORDS_IN], 0);
     assert_eq!(out.stats[&stat::CULLED_RAYS], 12);
-    assert!(out.rgb.chunks(3).all(|p| p == shade::to_rgb8(BACKGROUND)));
+    assert!(out.rgb.chunks(3).all(|p| p == shade::to_rgb8(shade::BACKGROUND)));
     assert!(out.ids.iter().all(|&i| i == u32::MAX));
 }
 

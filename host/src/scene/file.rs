@@ -262,6 +262,7 @@ enum DiffuseDef {
     #[default]
     Lambert,
     OrenNayar,
+    Matte,
 }
 
 #[derive(Debug, Default, Deserialize, Clone, Copy)]
@@ -503,6 +504,7 @@ pub fn parse(
         ext.diffuse_model = match m.diffuse {
             DiffuseDef::Lambert => DiffuseModel::Lambert,
             DiffuseDef::OrenNayar => DiffuseModel::OrenNayar,
+            DiffuseDef::Matte => DiffuseModel::Matte,
         };
         ext.specular_model = match m.specular {
             SpecularDef::None => SpecularModel::None,

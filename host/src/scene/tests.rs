@@ -1,6 +1,8 @@
 //! Loader tests: OBJ, MTL and PLY parsing, malformed input, degenerate geometry.
 
 use super::*;
+use gridrt_shared::scene::Material;
+use std::path::PathBuf;
 
 
 fn scenes() -> PathBuf {
@@ -94,7 +96,7 @@ fn obj_malformed_mtl_names_mtl_line() {
 
 #[test]
 fn cornell_box_keeps_mtl_diffuse_colours() {
-    let m = load(&scenes().join("cornell_box.obj")).unwrap();
+    let m = load_mesh(&scenes().join("cornell_box.obj")).unwrap();
     // white, red, green, blue, light after the default.
     assert_eq!(m.materials.len(), 6);
     assert!(m.materials.contains(&Material { diffuse: [1.0, 0.0, 0.0], reflect: 0.0 }));
@@ -105,8 +107,8 @@ fn cornell_box_keeps_mtl_diffuse_colours() {
 
 #[test]
 fn bunny_res4_ply_and_obj_agree() {
-    let ply = load(&scenes().join("bun_zipper_res4.ply")).unwrap();
-    let obj = load(&scenes().join("bun_zipper_res4.obj")).unwrap();
+    let ply = load_mesh(&scenes().join("bun_zipper_res4.ply")).unwrap();
+    let obj = load_mesh(&scenes().join("bun_zipper_res4.obj")).unwrap();
     assert_eq!(ply.stats.triangles_read, 946);
     assert_eq!(ply.triangles.len(), obj.triangles.len());
     assert_eq!(ply.triangles[0].v, obj.triangles[0].v);
@@ -115,7 +117,7 @@ fn bunny_res4_ply_and_obj_agree() {
 
 #[test]
 fn suzanne_quads_are_triangulated() {
-    let m = load(&scenes().join("suzanne.obj")).unwrap();
+    let m = load_mesh(&scenes().join("suzanne.obj")).unwrap();
     assert!(m.triangles.len() > 500);
 }
 
@@ -180,6 +182,6 @@ fn ply_garbage_never_panics() {
 
 #[test]
 fn unknown_extension_is_rejected() {
-    assert!(matches!(load(Path::new("x.stl")), Err(SceneLoadError::UnsupportedFormat { .. })));
-    assert!(matches!(load(Path::new("/nonexistent/x.obj")), Err(SceneLoadError::Io { .. })));
+    assert!(matches!(load_mesh(Path::new("x.stl")), Err(SceneLoadError::UnsupportedFormat { .. })));
+    assert!(matches!(load_mesh(Path::new("/nonexistent/x.obj")), Err(SceneLoadError::Io { .. })));
 }

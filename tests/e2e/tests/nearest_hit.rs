@@ -65,7 +65,7 @@ fn random_ray(rng: &mut ChaCha8Rng, p: &PreparedScene) -> Ray {
             Ray { origin: o - d * size.max_element() * 2.0, dir: d }
         }
         2 => {
-            let t = &p.mesh.triangles[rng.gen_range(0..p.mesh.triangles.len())];
+            let t = &p.scene.mesh.triangles[rng.gen_range(0..p.scene.mesh.triangles.len())];
             let v = t.v.map(Vec3::from);
             let (u, w): (f32, f32) = (rng.gen(), rng.gen());
             let (u, w) = if u + w > 1.0 { (1.0 - u, 1.0 - w) } else { (u, w) };
@@ -88,7 +88,7 @@ fn grid_and_coprocessor_find_the_brute_force_nearest_triangle_for_1e5_random_ray
     let mut backing = Vec::new();
     let c = coprocessor(&p, &mut backing);
     let grid = grid_desc(&p);
-    let tris: Vec<[Vec3; 3]> = p.mesh.triangles.iter().map(|t| t.v.map(Vec3::from)).collect();
+    let tris: Vec<[Vec3; 3]> = p.scene.mesh.triangles.iter().map(|t| t.v.map(Vec3::from)).collect();
     let kernel = KernelKind::default();
     let mut rng = ChaCha8Rng::seed_from_u64(0x6d1d_2010);
     let mut list = TraversalList::new();
