@@ -420,8 +420,8 @@ fn scene_upload_clears_then_loads_every_pe_block_and_acks_every_chunk() {
     assert_eq!(fake.loads.len(), 2);
     for (pe, (hdr, words)) in fake.loads.iter().enumerate() {
         assert_eq!(*hdr, wire::load_header(pe as u8) as u8);
-        assert_eq!(words.len(), 7 + 11);
-        assert_eq!(words[3], pe as u32);
+        assert_eq!(words.len(), 9 + 11);
+        assert_eq!(words[5], pe as u32, "voxel id of the PE's one table entry");
     }
 }
 
