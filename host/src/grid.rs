@@ -253,21 +253,7 @@ pub fn build_with_prims(mesh: &Mesh, prims: &[AnalyticPrim], params: &GridParams
     if !(params.m > 0.0 && params.m.is_finite()) {
         return Err(GridError::BadMultiplier(params.m));
     }
-    let mut mesh_bounds = mesh.bounds();
-    for p in prims {
-        let b = p.bounds();
-        mesh_bounds = Some(match mesh_bounds {
-            None => b,
-            Some(mut a) => {
-                for i in 0..3 {
-                    a.min[i] = a.min[i].min(b.min[i]);
-                    a.max[i] = a.max[i].max(b.max[i]);
-                }
-                a
-            }
-        });
-    }
-    let mesh_bounds = mesh_bounds.ok_or(GridError::EmptyMesh)?;
+    let mesh_bounds = Bounds::of_geometry(mesh, prims).ok_or(GridError::EmptyMesh)?;
     let n_prims = mesh.triangles.len() + prims.len();
     let dims = match params.dims_override {
         Some(d) => d.map(|v| v.clamp(1, MAX_DIM)),

@@ -3,7 +3,7 @@
 
 use gridrt_shared::scene::{Affine, PrimKind};
 
-use super::mesh::Bounds;
+use super::mesh::{Bounds, Mesh};
 use super::transform::{apply_point, apply_transpose, from_wire, invert, to_wire, Affine64};
 
 /// One analytic primitive placed in the world.
@@ -85,6 +85,21 @@ impl AnalyticPrim {
             }
             _ => None,
         }
+    }
+}
+
+impl Bounds {
+    /// The smallest box holding both.
+    pub fn union(&self, other: &Bounds) -> Bounds {
+        Bounds {
+            min: [0, 1, 2].map(|i| self.min[i].min(other.min[i])),
+            max: [0, 1, 2].map(|i| self.max[i].max(other.max[i])),
+        }
+    }
+
+    /// Bounds of a mesh's triangles and analytic primitives; `None` when there are none.
+    pub fn of_geometry(mesh: &Mesh, prims: &[AnalyticPrim]) -> Option<Bounds> {
+        prims.iter().map(AnalyticPrim::bounds).fold(mesh.bounds(), |acc, b| Some(acc.map_or(b, |a| a.union(&b))))
     }
 }
 

@@ -33,21 +33,7 @@ pub struct Scene {
 impl Scene {
     /// Bounds of all geometry.
     pub fn bounds(&self) -> Option<Bounds> {
-        let mut b = self.mesh.bounds();
-        for p in &self.prims {
-            let pb = p.bounds();
-            b = Some(match b {
-                None => pb,
-                Some(mut a) => {
-                    for i in 0..3 {
-                        a.min[i] = a.min[i].min(pb.min[i]);
-                        a.max[i] = a.max[i].max(pb.max[i]);
-                    }
-                    a
-                }
-            });
-        }
-        b
+        Bounds::of_geometry(&self.mesh, &self.prims)
     }
 
     /// The material of index `i` (colour and shading model).
