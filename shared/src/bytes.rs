@@ -44,14 +44,14 @@ impl<'a> Reader<'a> {
         self.pos = self.buf.len();
         s
     }
-    fn array<const N: usize>(&mut self) -> Result<[u8; N], Truncated> {
-        let mut a = [0u8; N];
-        a.copy_from_slice(self.take(N)?);
-        Ok(a)
+    /// Reads the next `N` bytes.
+    pub fn array<const N: usize>(&mut self) -> Result<[u8; N], Truncated> {
+        self.take(N)?.try_into().map_err(|_| Truncated)
     }
     /// Reads a `u8`.
     pub fn u8(&mut self) -> Result<u8, Truncated> {
-        Ok(self.array::<1>()?[0])
+        let [b] = self.array::<1>()?;
+        Ok(b)
     }
     /// Reads a little-endian `u16`.
     pub fn u16(&mut self) -> Result<u16, Truncated> {
@@ -72,6 +72,14 @@ impl<'a> Reader<'a> {
     /// Reads three `f32` as `[x, y, z]`.
     pub fn vec3(&mut self) -> Result<[f32; 3], Truncated> {
         Ok([self.f32()?, self.f32()?, self.f32()?])
+    }
+    /// Reads `N` little-endian `f32`.
+    pub fn f32s<const N: usize>(&mut self) -> Result<[f32; N], Truncated> {
+        let mut out = [0f32; N];
+        for v in out.iter_mut() {
+            *v = self.f32()?;
+        }
+        Ok(out)
     }
 }
 
@@ -124,10 +132,25 @@ impl<'a> Writer<'a> {
     }
     /// Appends three `f32`.
     pub fn vec3(&mut self, v: [f32; 3]) -> Result<(), Overflow> {
-        self.f32(v[0])?;
-        self.f32(v[1])?;
-        self.f32(v[2])
+        let [x, y, z] = v;
+        self.f32(x)?;
+        self.f32(y)?;
+        self.f32(z)
     }
+    /// Appends `f32`s.
+    pub fn f32s(&mut self, v: &[f32]) -> Result<(), Overflow> {
+        v.iter().try_for_each(|&f| self.f32(f))
+    }
+}
+
+/// A fixed-size record written front to back by `write`, zero-filled after what it wrote.
+/// The record types' round-trip tests pin that `write` fits `N` bytes; a longer `write` is
+/// cut at `N` (debug builds assert).
+pub fn record<const N: usize>(write: impl FnOnce(&mut Writer<'_>) -> Result<(), Overflow>) -> [u8; N] {
+    let mut b = [0u8; N];
+    let fits = write(&mut Writer::new(&mut b));
+    debug_assert!(fits.is_ok(), "record longer than {N} bytes");
+    b
 }
 
 #[cfg(test)]

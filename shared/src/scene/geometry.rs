@@ -2,7 +2,7 @@
 //! (SPEC.md §5.4), the object table that groups primitives (§5.5), and the affine maps both use.
 
 use super::layout::{enum_u8, SceneError, OBJECT_LEN, PRIM_WORDS, TRIANGLE_WORDS};
-use crate::bytes::Reader;
+use crate::bytes::{record, Reader};
 
 /// Analytic primitive kinds, in canonical object space (SPEC.md §5.8.1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -40,20 +40,26 @@ pub type Affine = [f32; 12];
 /// Applies an affine map to a point.
 #[inline]
 pub fn affine_point(m: &Affine, p: [f32; 3]) -> [f32; 3] {
-    [0, 1, 2].map(|i| m[4 * i] * p[0] + m[4 * i + 1] * p[1] + m[4 * i + 2] * p[2] + m[4 * i + 3])
+    let [a, b, c, d, e, f, g, h, i, j, k, l] = *m;
+    let [x, y, z] = p;
+    [a * x + b * y + c * z + d, e * x + f * y + g * z + h, i * x + j * y + k * z + l]
 }
 
 /// Applies the linear part of an affine map to a vector.
 #[inline]
 pub fn affine_vector(m: &Affine, v: [f32; 3]) -> [f32; 3] {
-    [0, 1, 2].map(|i| m[4 * i] * v[0] + m[4 * i + 1] * v[1] + m[4 * i + 2] * v[2])
+    let [a, b, c, _, e, f, g, _, i, j, k, _] = *m;
+    let [x, y, z] = v;
+    [a * x + b * y + c * z, e * x + f * y + g * z, i * x + j * y + k * z]
 }
 
 /// Applies the transposed linear part (maps an object-space normal of a world→object map back
 /// to world space, not normalised).
 #[inline]
 pub fn affine_transpose_vector(m: &Affine, v: [f32; 3]) -> [f32; 3] {
-    [0, 1, 2].map(|j| m[j] * v[0] + m[4 + j] * v[1] + m[8 + j] * v[2])
+    let [a, b, c, _, e, f, g, _, i, j, k, _] = *m;
+    let [x, y, z] = v;
+    [a * x + e * y + i * z, b * x + f * y + j * z, c * x + g * y + k * z]
 }
 
 /// One analytic primitive as stored in a PE image (16 words).
@@ -72,24 +78,20 @@ pub struct PrimRecord {
 impl PrimRecord {
     /// The 16 words: kind, prim id, material, 12 affine coefficients, reserved 0.
     pub fn to_words(&self) -> [u32; PRIM_WORDS] {
-        let mut w = [0u32; PRIM_WORDS];
-        w[0] = self.kind as u32;
-        w[1] = self.prim;
-        w[2] = self.material;
-        for (d, s) in w[3..15].iter_mut().zip(self.world_to_object.iter()) {
-            *d = s.to_bits();
-        }
-        w
+        let head = [self.kind as u32, self.prim, self.material];
+        let affine = self.world_to_object.map(f32::to_bits);
+        let mut words = head.into_iter().chain(affine);
+        // Word 15 is reserved: the chain ends there and it stays 0.
+        core::array::from_fn(|_| words.next().unwrap_or(0))
     }
 
     /// Decodes 16 words; `None` for an unknown kind.
     pub fn from_words(w: &[u32]) -> Option<Self> {
-        let w: &[u32; PRIM_WORDS] = w.get(..PRIM_WORDS)?.try_into().ok()?;
-        let mut m = [0f32; 12];
-        for (d, s) in m.iter_mut().zip(w[3..15].iter()) {
-            *d = f32::from_bits(*s);
-        }
-        Some(Self { kind: PrimKind::from_u32(w[0])?, prim: w[1], material: w[2], world_to_object: m })
+        let &[kind, prim, material, a, b, c, d, e, f, g, h, i, j, k, l, _reserved] = w.get(..PRIM_WORDS)? else {
+            return None;
+        };
+        let world_to_object = [a, b, c, d, e, f, g, h, i, j, k, l].map(f32::from_bits);
+        Some(Self { kind: PrimKind::from_u32(kind)?, prim, material, world_to_object })
     }
 }
 
@@ -131,15 +133,14 @@ pub struct ObjectRecord {
 impl ObjectRecord {
     /// Serialises the 64-byte record.
     pub fn to_bytes(&self) -> [u8; OBJECT_LEN] {
-        let mut b = [0u8; OBJECT_LEN];
-        b[0] = self.kind as u8;
-        b[2..4].copy_from_slice(&self.material.to_le_bytes());
-        b[4..8].copy_from_slice(&self.first_prim.to_le_bytes());
-        b[8..12].copy_from_slice(&self.prim_count.to_le_bytes());
-        for (i, f) in self.world_to_object.iter().enumerate() {
-            b[16 + 4 * i..20 + 4 * i].copy_from_slice(&f.to_le_bytes());
-        }
-        b
+        record(|w| {
+            w.bytes(&[self.kind as u8, 0])?;
+            w.u16(self.material)?;
+            w.u32(self.first_prim)?;
+            w.u32(self.prim_count)?;
+            w.u32(0)?;
+            w.f32s(&self.world_to_object)
+        })
     }
 
     /// Parses a 64-byte record.
@@ -154,10 +155,7 @@ impl ObjectRecord {
         let first_prim = r.u32().map_err(t)?;
         let prim_count = r.u32().map_err(t)?;
         let _ = r.u32().map_err(t)?;
-        let mut m = [0f32; 12];
-        for v in m.iter_mut() {
-            *v = r.f32().map_err(t)?;
-        }
+        let m = r.f32s::<12>().map_err(t)?;
         if m.iter().any(|v| !v.is_finite()) {
             return Err(SceneError::NonFinite);
         }

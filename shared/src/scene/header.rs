@@ -39,7 +39,9 @@ impl SceneHeader {
 
     /// Bytes of the voxel map including padding to a multiple of 4.
     pub fn voxel_map_len(&self) -> usize {
-        (self.voxel_count() as usize).div_ceil(4) * 4
+        // voxel_count() ≤ u32::MAX, so rounding up to a multiple of 4 fits a usize ≥ 64 bits or
+        // saturates on a 32-bit target (and then never matches a real stream's length).
+        (self.voxel_count() as usize).div_ceil(4).saturating_mul(4)
     }
 
     /// Serialises the header.
@@ -102,7 +104,7 @@ impl SceneHeader {
         if bounds_min.iter().chain(bounds_max.iter()).any(|v| !v.is_finite()) {
             return Err(SceneError::NonFinite);
         }
-        let box_ok = (0..3).all(|i| bounds_min[i] < bounds_max[i]);
+        let box_ok = bounds_min.iter().zip(bounds_max.iter()).all(|(lo, hi)| lo < hi);
         let voxels: u64 = dims.iter().map(|&d| d as u64).product();
         if voxels > MAX_VOXELS as u64
             || dims.contains(&0)

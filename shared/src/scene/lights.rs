@@ -2,7 +2,7 @@
 //! background colours, and the ray depth of reflections.
 
 use super::layout::{enum_u8, SceneError, LIGHTING_LEN, MAX_DEPTH};
-use crate::bytes::Reader;
+use crate::bytes::{record, Reader};
 
 /// Distance falloff of the point light.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -64,30 +64,14 @@ impl LightingRecord {
 
     /// Serialises the 80-byte record.
     pub fn to_bytes(&self) -> [u8; LIGHTING_LEN] {
-        let mut b = [0u8; LIGHTING_LEN];
-        b[0] = self.light_count;
-        b[1] = self.max_depth;
-        b[2] = self.falloff as u8;
-        let floats = [
-            self.light_colour[0],
-            self.light_colour[1],
-            self.light_colour[2],
-            self.spot_dir[0],
-            self.spot_dir[1],
-            self.spot_dir[2],
-            self.cos_outer,
-            self.cos_inner,
-            self.ambient_colour[0],
-            self.ambient_colour[1],
-            self.ambient_colour[2],
-            self.background[0],
-            self.background[1],
-            self.background[2],
-        ];
-        for (i, f) in floats.iter().enumerate() {
-            b[4 + 4 * i..8 + 4 * i].copy_from_slice(&f.to_le_bytes());
-        }
-        b
+        record(|w| {
+            w.bytes(&[self.light_count, self.max_depth, self.falloff as u8, 0])?;
+            w.vec3(self.light_colour)?;
+            w.vec3(self.spot_dir)?;
+            w.f32s(&[self.cos_outer, self.cos_inner])?;
+            w.vec3(self.ambient_colour)?;
+            w.vec3(self.background)
+        })
     }
 
     /// Parses and range-checks the 80-byte record.
@@ -98,26 +82,24 @@ impl LightingRecord {
         let max_depth = r.u8().map_err(t)?;
         let falloff = enum_u8(r.u8().map_err(t)?, &[Falloff::None, Falloff::InverseSquare])?;
         let _ = r.u8().map_err(t)?;
-        let mut f = [0f32; 14];
-        for v in f.iter_mut() {
-            *v = r.f32().map_err(t)?;
-        }
+        let f = r.f32s::<14>().map_err(t)?;
         if f.iter().any(|v| !v.is_finite()) {
             return Err(SceneError::NonFinite);
         }
-        if light_count > 1 || !(1..=MAX_DEPTH).contains(&max_depth) || f[7] < f[6] {
+        let [l0, l1, l2, s0, s1, s2, cos_outer, cos_inner, a0, a1, a2, b0, b1, b2] = f;
+        if light_count > 1 || !(1..=MAX_DEPTH).contains(&max_depth) || cos_inner < cos_outer {
             return Err(SceneError::BadRecord);
         }
         Ok(Self {
             light_count,
             max_depth,
             falloff,
-            light_colour: [f[0], f[1], f[2]],
-            spot_dir: [f[3], f[4], f[5]],
-            cos_outer: f[6],
-            cos_inner: f[7],
-            ambient_colour: [f[8], f[9], f[10]],
-            background: [f[11], f[12], f[13]],
+            light_colour: [l0, l1, l2],
+            spot_dir: [s0, s1, s2],
+            cos_outer,
+            cos_inner,
+            ambient_colour: [a0, a1, a2],
+            background: [b0, b1, b2],
         })
     }
 }

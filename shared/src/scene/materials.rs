@@ -2,7 +2,7 @@
 //! material, the models being ViRAY's (seed 000 §4.6) plus GridRT's matte surface.
 
 use super::layout::{enum_u8, SceneError, MATERIAL_LEN, MATERIAL_MODEL_LEN};
-use crate::bytes::Reader;
+use crate::bytes::{record, Reader};
 
 /// Colour and mirror reflectance of a material.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -16,11 +16,10 @@ pub struct Material {
 impl Material {
     /// Serialises the 16-byte record.
     pub fn to_bytes(&self) -> [u8; MATERIAL_LEN] {
-        let mut b = [0u8; MATERIAL_LEN];
-        for (dst, v) in b.chunks_exact_mut(4).zip(self.diffuse.iter().chain(core::iter::once(&self.reflect))) {
-            dst.copy_from_slice(&v.to_le_bytes());
-        }
-        b
+        record(|w| {
+            w.vec3(self.diffuse)?;
+            w.f32(self.reflect)
+        })
     }
 
     /// Parses a 16-byte record.
@@ -192,66 +191,51 @@ impl MaterialModel {
 
     /// Serialises the 96-byte record.
     pub fn to_bytes(&self) -> [u8; MATERIAL_MODEL_LEN] {
-        let mut b = [0u8; MATERIAL_MODEL_LEN];
-        b[0] = self.diffuse_model as u8;
-        b[1] = self.specular_model as u8;
-        b[2] = self.reflect_mode as u8;
-        b[3] = self.texture as u8;
-        b[4] = self.mapping as u8;
-        b[5] = self.bilinear as u8;
-        b[6] = self.tex_log2;
-        let floats = [
-            self.ka,
-            self.kd,
-            self.ks,
-            self.sigma2,
-            self.exponent,
-            self.specular[0],
-            self.specular[1],
-            self.specular[2],
-            self.eta,
-            self.kappa,
-            self.colour2[0],
-            self.colour2[1],
-            self.colour2[2],
-            self.uv_scale[0],
-            self.uv_scale[1],
-            self.uv_offset[0],
-            self.uv_offset[1],
-            self.tex_param,
-        ];
-        for (i, f) in floats.iter().enumerate() {
-            b[8 + 4 * i..12 + 4 * i].copy_from_slice(&f.to_le_bytes());
-        }
-        b[80..84].copy_from_slice(&self.tex_seed.to_le_bytes());
-        b
+        record(|w| {
+            w.bytes(&[
+                self.diffuse_model as u8,
+                self.specular_model as u8,
+                self.reflect_mode as u8,
+                self.texture as u8,
+                self.mapping as u8,
+                self.bilinear as u8,
+                self.tex_log2,
+                0,
+            ])?;
+            w.f32s(&[self.ka, self.kd, self.ks, self.sigma2, self.exponent])?;
+            w.vec3(self.specular)?;
+            w.f32s(&[self.eta, self.kappa])?;
+            w.vec3(self.colour2)?;
+            w.f32s(&self.uv_scale)?;
+            w.f32s(&self.uv_offset)?;
+            w.f32(self.tex_param)?;
+            w.u32(self.tex_seed)
+        })
     }
 
     /// Parses and range-checks a 96-byte record.
     pub fn parse(bytes: &[u8]) -> Result<Self, SceneError> {
         let mut r = Reader::new(bytes);
         let t = |_| SceneError::Truncated;
-        let e = r.take(8).map_err(t)?;
+        let [diffuse, specular, reflect, texture, mapping, bilinear, tex_log2, _] = r.array::<8>().map_err(t)?;
         use DiffuseModel as D;
         use Mapping as M;
         use ReflectMode as R;
         use SpecularModel as S;
         use TextureKind as T;
-        let diffuse_model = enum_u8(e[0], &[D::Lambert, D::OrenNayar, D::Matte])?;
-        let specular_model = enum_u8(e[1], &[S::None, S::BlinnPhong, S::TorranceSparrow])?;
-        let reflect_mode = enum_u8(e[2], &[R::None, R::Constant, R::Dielectric, R::Conductor])?;
-        let texture = enum_u8(e[3], &[T::None, T::Checker, T::Xor, T::Marble, T::Wood, T::RgbDots])?;
-        let mapping = enum_u8(e[4], &[M::Planar, M::Cylindrical, M::Spherical])?;
-        if e[5] > 1 || !(1..=12).contains(&e[6]) {
+        let diffuse_model = enum_u8(diffuse, &[D::Lambert, D::OrenNayar, D::Matte])?;
+        let specular_model = enum_u8(specular, &[S::None, S::BlinnPhong, S::TorranceSparrow])?;
+        let reflect_mode = enum_u8(reflect, &[R::None, R::Constant, R::Dielectric, R::Conductor])?;
+        let texture = enum_u8(texture, &[T::None, T::Checker, T::Xor, T::Marble, T::Wood, T::RgbDots])?;
+        let mapping = enum_u8(mapping, &[M::Planar, M::Cylindrical, M::Spherical])?;
+        if bilinear > 1 || !(1..=12).contains(&tex_log2) {
             return Err(SceneError::BadRecord);
         }
-        let mut f = [0f32; 18];
-        for v in f.iter_mut() {
-            *v = r.f32().map_err(t)?;
-        }
+        let f = r.f32s::<18>().map_err(t)?;
         if f.iter().any(|v| !v.is_finite()) {
             return Err(SceneError::NonFinite);
         }
+        let [ka, kd, ks, sigma2, exponent, s0, s1, s2, eta, kappa, c0, c1, c2, su, sv, ou, ov, tex_param] = f;
         let tex_seed = r.u32().map_err(t)?;
         let m = Self {
             diffuse_model,
@@ -259,20 +243,20 @@ impl MaterialModel {
             reflect_mode,
             texture,
             mapping,
-            bilinear: e[5] == 1,
-            tex_log2: e[6],
-            ka: f[0],
-            kd: f[1],
-            ks: f[2],
-            sigma2: f[3],
-            exponent: f[4],
-            specular: [f[5], f[6], f[7]],
-            eta: f[8],
-            kappa: f[9],
-            colour2: [f[10], f[11], f[12]],
-            uv_scale: [f[13], f[14]],
-            uv_offset: [f[15], f[16]],
-            tex_param: f[17],
+            bilinear: bilinear == 1,
+            tex_log2,
+            ka,
+            kd,
+            ks,
+            sigma2,
+            exponent,
+            specular: [s0, s1, s2],
+            eta,
+            kappa,
+            colour2: [c0, c1, c2],
+            uv_scale: [su, sv],
+            uv_offset: [ou, ov],
+            tex_param,
             tex_seed,
         };
         if m.eta <= 0.0 || m.exponent < 0.0 || m.sigma2 < 0.0 || m.kappa < 0.0 {

@@ -18,6 +18,9 @@
 //! | `pe_image` | [`PeImage`], the PE memory image |
 //! | `stream` | [`SceneStream`], the streaming parser, and [`SceneSink`] |
 
+// Link-facing: every index and every sum on received values is checked (issue 9).
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
+
 mod geometry;
 mod header;
 mod layout;

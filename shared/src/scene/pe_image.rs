@@ -16,6 +16,8 @@ use super::layout::{SceneError, PE_HEADER_WORDS, PE_IMAGE_TAG, PRIM_WORDS, TRIAN
 /// An empty image (0 words) is an empty PE.
 #[derive(Debug, Clone, Copy)]
 pub struct PeImage<'a> {
+    // Invariant (checked by `parse`): header + 3V + R + 11T + 16P = words.len() without
+    // overflow, so every offset below the counts is a sum of terms of that total.
     words: &'a [u32],
     header: usize,
     triangles: usize,
@@ -24,6 +26,9 @@ pub struct PeImage<'a> {
     prims: usize,
 }
 
+// Offsets are sums and products of counts whose total `parse` checked against the slice
+// length (`checked_*`), so they cannot overflow; the slices are taken with `get`.
+#[allow(clippy::arithmetic_side_effects)]
 impl<'a> PeImage<'a> {
     /// Checks the counts, that every voxel's ref range lies inside the ref table and every ref
     /// names a triangle or a primitive, that vertex coordinates and primitive
@@ -60,7 +65,8 @@ impl<'a> PeImage<'a> {
                 return Err(SceneError::BadPeBlock);
             }
         }
-        if img.ref_table().iter().any(|&x| x as usize >= t + p) {
+        // t + p < need ≤ words.len(): no overflow.
+        if img.ref_table().iter().any(|&x| (x as usize) >= t.saturating_add(p)) {
             return Err(SceneError::BadPeBlock);
         }
         for i in 0..t {

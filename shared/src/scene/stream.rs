@@ -141,14 +141,16 @@ impl SceneStream {
         let need = want.saturating_sub(self.staged);
         let n = need.min(bytes.len());
         let (head, tail) = bytes.split_at(n);
-        if let Some(dst) = self.staging.get_mut(self.staged..self.staged + n) {
+        // staged + n ≤ want ≤ STAGING_LEN: the sums cannot overflow; `get_mut` checks the range.
+        if let Some(dst) = self.staging.get_mut(self.staged..self.staged.saturating_add(n)) {
             dst.copy_from_slice(head);
         }
         if self.stage != Stage::Header {
             self.crc.update(head);
         }
-        self.offset += n as u32;
-        self.staged += n;
+        // A stream longer than 4 GiB saturates and then fails the total-length check.
+        self.offset = self.offset.saturating_add(n as u32);
+        self.staged = self.staged.saturating_add(n);
         *bytes = tail;
         self.staged >= want
     }
@@ -168,7 +170,7 @@ impl SceneStream {
             Stage::VoxelMap => {
                 let h = self.header.ok_or(SceneError::BadHeader)?;
                 let total = h.voxel_map_len() as u32;
-                let n = (total - self.index).min(bytes.len() as u32) as usize;
+                let n = total.saturating_sub(self.index).min(bytes.len() as u32) as usize;
                 let (head, tail) = bytes.split_at(n);
                 let real = h.voxel_count();
                 let useful = (real.saturating_sub(self.index) as usize).min(n);
@@ -180,8 +182,8 @@ impl SceneStream {
                     sink.voxel_map(self.index, owners)?;
                 }
                 self.crc.update(head);
-                self.offset += n as u32;
-                self.index += n as u32;
+                self.offset = self.offset.saturating_add(n as u32);
+                self.index = self.index.saturating_add(n as u32);
                 *bytes = tail;
                 if self.index == total {
                     self.index = 0;
@@ -194,7 +196,7 @@ impl SceneStream {
                     let m = Material::parse(self.staging.get(..MATERIAL_LEN).unwrap_or(&[]))?;
                     sink.material(self.index as u16, m)?;
                     self.staged = 0;
-                    self.index += 1;
+                    self.index = self.index.saturating_add(1);
                     if self.index == h.material_count as u32 {
                         self.index = 0;
                         self.stage = Stage::MaterialModels;
@@ -207,7 +209,7 @@ impl SceneStream {
                     let m = MaterialModel::parse(self.staging.get(..MATERIAL_MODEL_LEN).unwrap_or(&[]))?;
                     sink.material_model(self.index as u16, m)?;
                     self.staged = 0;
-                    self.index += 1;
+                    self.index = self.index.saturating_add(1);
                     if self.index == h.material_count as u32 {
                         self.index = 0;
                         self.stage = Self::after_material_models(&h);
@@ -220,7 +222,7 @@ impl SceneStream {
                     let o = ObjectRecord::parse(self.staging.get(..OBJECT_LEN).unwrap_or(&[]))?;
                     sink.object(self.index as u16, o)?;
                     self.staged = 0;
-                    self.index += 1;
+                    self.index = self.index.saturating_add(1);
                     if self.index == h.object_count as u32 {
                         self.index = 0;
                         self.stage = Stage::Lighting;
@@ -260,10 +262,10 @@ impl SceneStream {
             Stage::PeWords => {
                 let h = self.header.ok_or(SceneError::BadHeader)?;
                 if self.stage_bytes(bytes, 4) {
-                    let w = u32::from_le_bytes([self.staging[0], self.staging[1], self.staging[2], self.staging[3]]);
-                    sink.pe_word(w)?;
+                    let [b0, b1, b2, b3, ..] = self.staging;
+                    sink.pe_word(u32::from_le_bytes([b0, b1, b2, b3]))?;
                     self.staged = 0;
-                    self.words_left -= 1;
+                    self.words_left = self.words_left.saturating_sub(1);
                     if self.words_left == 0 {
                         self.finish_pe(sink, &h)?;
                     }
@@ -286,7 +288,7 @@ impl SceneStream {
 
     fn finish_pe<S: SceneSink>(&mut self, sink: &mut S, h: &SceneHeader) -> Result<(), SceneError> {
         sink.pe_end()?;
-        self.next_pe += 1;
+        self.next_pe = self.next_pe.saturating_add(1);
         if self.next_pe < h.pe_count {
             self.stage = Stage::PeBlockHead;
             return Ok(());
