@@ -14,6 +14,10 @@
 //! Reassembly uses [`FrameAccumulator`], a fixed-capacity buffer that resynchronises at the
 //! next `0x00` after noise and reports every outcome through [`FeedResult`].
 
+// Link-facing: every index and every sum on received values is checked (issue 9).
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
+
+use crate::bytes::{Overflow, Reader, Writer};
 use crate::PROTOCOL_VERSION;
 
 /// Largest payload a frame may carry.
@@ -140,43 +144,49 @@ pub fn encode_frame(kind: u8, seq: u16, payload: &[u8], out: &mut [u8]) -> Resul
         return Err(FrameError::EncodePayloadTooLarge);
     }
     let mut raw = [0u8; MAX_RAW];
-    let raw_len = HEADER_LEN + payload.len() + CRC_LEN;
-    let (head, tail) = raw.split_at_mut(HEADER_LEN);
-    head[0] = kind;
-    head[1] = PROTOCOL_VERSION;
-    head[2..4].copy_from_slice(&seq.to_le_bytes());
-    head[4..6].copy_from_slice(&(payload.len() as u16).to_le_bytes());
-    tail[..payload.len()].copy_from_slice(payload);
-    let crc = crc32(&raw[..HEADER_LEN + payload.len()]);
-    raw[HEADER_LEN + payload.len()..raw_len].copy_from_slice(&crc.to_le_bytes());
-    if out.len() < cobs::max_encoding_length(raw_len) + 1 {
+    let mut w = Writer::new(&mut raw);
+    // MAX_RAW = header + MAX_PAYLOAD + CRC, so none of these writes can fail.
+    let body_len = (|| -> Result<usize, Overflow> {
+        w.bytes(&[kind, PROTOCOL_VERSION])?;
+        w.u16(seq)?;
+        w.u16(payload.len() as u16)?;
+        w.bytes(payload)?;
+        Ok(w.len())
+    })()
+    .map_err(|_| FrameError::EncodePayloadTooLarge)?;
+    let crc = crc32(raw.get(..body_len).unwrap_or(&[]));
+    let raw_len = body_len.saturating_add(CRC_LEN);
+    raw.get_mut(body_len..raw_len).ok_or(FrameError::EncodePayloadTooLarge)?.copy_from_slice(&crc.to_le_bytes());
+    let raw = raw.get(..raw_len).unwrap_or(&[]);
+    if out.len() <= cobs::max_encoding_length(raw_len) {
         return Err(FrameError::EncodeBufferTooSmall);
     }
-    let n = cobs::try_encode(&raw[..raw_len], out).map_err(|_| FrameError::EncodeBufferTooSmall)?;
+    let n = cobs::try_encode(raw, out).map_err(|_| FrameError::EncodeBufferTooSmall)?;
     *out.get_mut(n).ok_or(FrameError::EncodeBufferTooSmall)? = 0;
-    Ok(n + 1)
+    Ok(n.saturating_add(1))
 }
 
 /// Validates a COBS-decoded frame (header, length, CRC, version).
 pub fn parse_raw(raw: &[u8]) -> Result<Frame<'_>, FrameError> {
-    if raw.len() < HEADER_LEN + CRC_LEN {
-        return Err(FrameError::DecodeTruncated);
-    }
-    let body_len = raw.len() - CRC_LEN;
+    let body_len = raw.len().checked_sub(CRC_LEN).filter(|&n| n >= HEADER_LEN).ok_or(FrameError::DecodeTruncated)?;
     let (body, crc_bytes) = raw.split_at(body_len);
-    let mut crc = [0u8; 4];
-    crc.copy_from_slice(crc_bytes);
-    let len = u16::from_le_bytes([body[4], body[5]]) as usize;
-    if len > MAX_PAYLOAD || HEADER_LEN + len != body_len {
+    let mut r = Reader::new(body);
+    let t = |_| FrameError::DecodeTruncated;
+    let [kind, version] = r.array::<2>().map_err(t)?;
+    let seq = r.u16().map_err(t)?;
+    let len = r.u16().map_err(t)? as usize;
+    let payload = r.rest();
+    if len > MAX_PAYLOAD || len != payload.len() {
         return Err(FrameError::DecodeBadLength);
     }
-    if crc32(body) != u32::from_le_bytes(crc) {
+    let crc = Reader::new(crc_bytes).u32().map_err(t)?;
+    if crc32(body) != crc {
         return Err(FrameError::DecodeBadCrc);
     }
-    if body[1] != PROTOCOL_VERSION {
+    if version != PROTOCOL_VERSION {
         return Err(FrameError::DecodeBadVersion);
     }
-    Ok(Frame { kind: body[0], seq: u16::from_le_bytes([body[2], body[3]]), payload: &body[HEADER_LEN..] })
+    Ok(Frame { kind, seq, payload })
 }
 
 /// Outcome of [`FrameAccumulator::feed`]. Each variant hands back the unconsumed input.
@@ -246,13 +256,13 @@ impl<const N: usize> FrameAccumulator<N> {
                 match self.buf.get_mut(self.len) {
                     Some(slot) if !self.overflowed => {
                         *slot = b;
-                        self.len += 1;
+                        self.len = self.len.saturating_add(1); // < buf.len(): `get_mut` succeeded
                     }
                     _ => self.overflowed = true,
                 }
                 continue;
             }
-            let rest = input.get(i + 1..).unwrap_or(&[]);
+            let rest = input.get(i.saturating_add(1)..).unwrap_or(&[]);
             if self.overflowed {
                 self.reset();
                 return FeedResult::Overflow { rest };

@@ -4,6 +4,9 @@
 //! ends with the only word whose control bit is set; the receiver uses that bit to resynchronise
 //! after an error. The first word of each packet carries the opcode in bits 31..28.
 
+// Link-facing: every index and every sum on received values is checked (issue 9).
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
+
 /// One word on an FSL channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct FslWord {
@@ -338,8 +341,10 @@ pub fn pack_gridrt_list(ids: &[i8]) -> Option<u32> {
             return None;
         }
         let nibble = (id as u32) & 0xF;
-        word &= !(0xF << (4 * k));
-        word |= nibble << (4 * k);
+        // k < 8 (checked above), so the shift is below 32.
+        let shift = (k as u32).wrapping_mul(4);
+        word &= !(0xF << shift);
+        word |= nibble << shift;
     }
     Some(word)
 }

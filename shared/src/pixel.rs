@@ -25,6 +25,9 @@
 //! A span's data decodes to exactly `count` pixels and ends with the op that produced the last
 //! one; anything else is an error (never a guess, never a panic).
 
+// Link-facing: every index and every sum on received values is checked (issue 9).
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
+
 /// Longest `Rle` RUN count.
 pub const RUN_MAX: u16 = 64;
 /// Longest `Rle` RUN_LONG count.
@@ -122,7 +125,7 @@ impl RleEncoder {
         let mut next = *self;
         let n = if p == next.prev {
             if next.run < RUN_LONG_MAX {
-                next.run += 1;
+                next.run = next.run.saturating_add(1);
                 0
             } else {
                 let n = next.flush_run(&mut tmp)?;
@@ -133,7 +136,7 @@ impl RleEncoder {
             let n = next.flush_run(&mut tmp)?;
             let m = encode_change(next.prev, p, tmp.get_mut(n..).ok_or(PixelError::BufferTooSmall)?)?;
             next.prev = p;
-            n + m
+            n.saturating_add(m)
         };
         out.get_mut(..n).ok_or(PixelError::BufferTooSmall)?.copy_from_slice(tmp.get(..n).unwrap_or(&[]));
         *self = next;
@@ -155,11 +158,12 @@ impl RleEncoder {
         if run == 0 {
             return Ok(0);
         }
+        // run ≥ 1 here, so `run - 1` cannot wrap.
+        let n = run.saturating_sub(1);
         if run <= RUN_MAX {
-            *out.first_mut().ok_or(PixelError::BufferTooSmall)? = OP_RUN | (run - 1) as u8;
+            *out.first_mut().ok_or(PixelError::BufferTooSmall)? = OP_RUN | n as u8;
             return Ok(1);
         }
-        let n = run - 1;
         let dst = out.get_mut(..2).ok_or(PixelError::BufferTooSmall)?;
         dst.copy_from_slice(&[OP_RUN_LONG | (n >> 8) as u8, n as u8]);
         Ok(2)
@@ -168,21 +172,25 @@ impl RleEncoder {
 
 /// Encodes `p` after `prev` with the shortest of DIFF, LUMA, RGB.
 fn encode_change(prev: [u8; 3], p: [u8; 3], out: &mut [u8]) -> Result<usize, PixelError> {
-    let d = |i: usize| p[i].wrapping_sub(prev[i]) as i8;
-    let (dr, dg, db) = (d(0), d(1), d(2));
+    let ([r, g, b], [pr, pg, pb]) = (p, prev);
+    let (dr, dg, db) = (r.wrapping_sub(pr) as i8, g.wrapping_sub(pg) as i8, b.wrapping_sub(pb) as i8);
+    // The biases below are added only to differences already range-checked, so the wrapping
+    // adds never wrap.
     if (-2..=1).contains(&dr) && (-2..=1).contains(&dg) && (-2..=1).contains(&db) {
-        let b = OP_DIFF | (((dr + 2) as u8) << 4) | (((dg + 2) as u8) << 2) | (db + 2) as u8;
-        *out.first_mut().ok_or(PixelError::BufferTooSmall)? = b;
+        let bias = |d: i8| d.wrapping_add(2) as u8;
+        let byte = OP_DIFF | (bias(dr) << 4) | (bias(dg) << 2) | bias(db);
+        *out.first_mut().ok_or(PixelError::BufferTooSmall)? = byte;
         return Ok(1);
     }
     let (dr_dg, db_dg) = (dr.wrapping_sub(dg), db.wrapping_sub(dg));
     if (-32..=31).contains(&dg) && (-8..=7).contains(&dr_dg) && (-8..=7).contains(&db_dg) {
         let dst = out.get_mut(..2).ok_or(PixelError::BufferTooSmall)?;
-        dst.copy_from_slice(&[OP_LUMA | (dg + 32) as u8, (((dr_dg + 8) as u8) << 4) | (db_dg + 8) as u8]);
+        let (g8, rb) = (dg.wrapping_add(32) as u8, ((dr_dg.wrapping_add(8) as u8) << 4) | db_dg.wrapping_add(8) as u8);
+        dst.copy_from_slice(&[OP_LUMA | g8, rb]);
         return Ok(2);
     }
     let dst = out.get_mut(..4).ok_or(PixelError::BufferTooSmall)?;
-    dst.copy_from_slice(&[OP_RGB, p[0], p[1], p[2]]);
+    dst.copy_from_slice(&[OP_RGB, r, g, b]);
     Ok(4)
 }
 
@@ -191,39 +199,42 @@ fn rle_walk(count: usize, data: &[u8], mut emit: impl FnMut([u8; 3], usize)) -> 
     let mut prev = [0u8; 3];
     let mut done = 0usize;
     let mut i = 0usize;
-    // Every op consumes at least one byte, so the loop is bounded by the data length.
+    let byte = |at: usize| data.get(at).copied().ok_or(PixelError::DecodeTruncated);
+    // Every op consumes at least one byte, so the loop is bounded by the data length; `i` and
+    // `done` never exceed `data.len()` and `count`, so their sums cannot overflow.
     while done < count {
-        let tag = *data.get(i).ok_or(PixelError::DecodeTruncated)?;
+        let tag = byte(i)?;
+        let [pr, pg, pb] = prev;
         let (px, n, used) = match tag {
-            t if t & 0xC0 == OP_RUN => (prev, (t & 0x3F) as usize + 1, 1),
+            t if t & 0xC0 == OP_RUN => (prev, ((t & 0x3F) as usize).wrapping_add(1), 1),
             t if t & 0xC0 == OP_DIFF => {
                 let f = |s: u8| ((t >> s) & 3).wrapping_sub(2);
-                ([prev[0].wrapping_add(f(4)), prev[1].wrapping_add(f(2)), prev[2].wrapping_add(f(0))], 1, 1)
+                ([pr.wrapping_add(f(4)), pg.wrapping_add(f(2)), pb.wrapping_add(f(0))], 1, 1)
             }
             t if t & 0xC0 == OP_LUMA => {
-                let b = *data.get(i + 1).ok_or(PixelError::DecodeTruncated)?;
+                let b = byte(i.saturating_add(1))?;
                 let dg = (t & 0x3F).wrapping_sub(32);
                 let dr = dg.wrapping_add((b >> 4).wrapping_sub(8));
                 let db = dg.wrapping_add((b & 0x0F).wrapping_sub(8));
-                ([prev[0].wrapping_add(dr), prev[1].wrapping_add(dg), prev[2].wrapping_add(db)], 1, 2)
+                ([pr.wrapping_add(dr), pg.wrapping_add(dg), pb.wrapping_add(db)], 1, 2)
             }
             t if t & 0xE0 == OP_RUN_LONG => {
-                let b = *data.get(i + 1).ok_or(PixelError::DecodeTruncated)?;
-                (prev, ((((t & 0x1F) as usize) << 8) | b as usize) + 1, 2)
+                let b = byte(i.saturating_add(1))?;
+                (prev, ((((t & 0x1F) as usize) << 8) | b as usize).wrapping_add(1), 2)
             }
             OP_RGB => {
-                let c = data.get(i + 1..i + 4).ok_or(PixelError::DecodeTruncated)?;
-                ([c[0], c[1], c[2]], 1, 4)
+                let at = i.saturating_add(1);
+                ([byte(at)?, byte(at.saturating_add(1))?, byte(at.saturating_add(2))?], 1, 4)
             }
             _ => return Err(PixelError::DecodeBadOpcode),
         };
-        if n > count - done {
+        if n > count.saturating_sub(done) {
             return Err(PixelError::DecodeRunOverflow);
         }
         emit(px, n);
         prev = px;
-        done += n;
-        i += used;
+        done = done.saturating_add(n);
+        i = i.saturating_add(used);
     }
     if i != data.len() {
         return Err(PixelError::DecodeTrailingBytes);
@@ -238,14 +249,12 @@ pub fn rle_validate(count: usize, data: &[u8]) -> Result<(), PixelError> {
 
 /// Decodes `Rle` data of `count` pixels into `out` (RGB888, `3·count` bytes).
 pub fn rle_decode(count: usize, data: &[u8], out: &mut [u8]) -> Result<(), PixelError> {
-    let out = out.get_mut(..3 * count).ok_or(PixelError::BufferTooSmall)?;
-    let mut at = 0usize;
+    let out = out.get_mut(..count.checked_mul(3).ok_or(PixelError::BufferTooSmall)?).ok_or(PixelError::BufferTooSmall)?;
+    let mut pixels = out.chunks_exact_mut(3);
     rle_walk(count, data, |px, n| {
-        for _ in 0..n {
-            if let Some(dst) = out.get_mut(at..at + 3) {
-                dst.copy_from_slice(&px);
-            }
-            at += 3;
+        // rle_walk never emits more than `count` pixels in total.
+        for dst in pixels.by_ref().take(n) {
+            dst.copy_from_slice(&px);
         }
     })
 }
@@ -254,10 +263,11 @@ pub fn rle_decode(count: usize, data: &[u8], out: &mut [u8]) -> Result<(), Pixel
 pub fn rle_encode(pixels: &[[u8; 3]], out: &mut [u8]) -> Result<usize, PixelError> {
     let mut e = RleEncoder::new();
     let mut n = 0usize;
+    // Each push writes into the rest of `out`, so `n` stays ≤ out.len().
     for &p in pixels {
-        n += e.push(p, out.get_mut(n..).ok_or(PixelError::BufferTooSmall)?)?;
+        n = n.saturating_add(e.push(p, out.get_mut(n..).ok_or(PixelError::BufferTooSmall)?)?);
     }
-    n += e.finish(out.get_mut(n..).ok_or(PixelError::BufferTooSmall)?)?;
+    n = n.saturating_add(e.finish(out.get_mut(n..).ok_or(PixelError::BufferTooSmall)?)?);
     Ok(n)
 }
 
