@@ -7,11 +7,15 @@
 //! after the last byte) and, on `FlashBoot` with the verified CRC, returns the entry point
 //! from [`Bootloader::feed`]. The caller (the bootloader binary) then jumps there. Every
 //! refusal is an `Error` message and leaves the bootloader serving.
+//!
+//! Answers go to any [`embedded_io::Write`] (blocking `write_all`). An answer whose write
+//! fails is lost: it is counted ([`Bootloader::write_errors`]) and the bootloader goes on
+//! serving; the host, which waits for every answer, times out and sends its request again.
 
 use core::fmt::Write as _;
 
-use crate::device::ByteSink;
 use crate::pixels::FrameTx;
+use embedded_io::Write;
 use gridrt_shared::frame::{crc32, FeedResult, FrameAccumulator, FrameError};
 use gridrt_shared::msg::{
     DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgError, FEATURE_BOOTLOADER, FLASH_FORMAT_VERSION,
@@ -81,10 +85,15 @@ impl<'m> Bootloader<'m> {
         self.region
     }
 
+    /// Answers whose write failed so far (they were lost; see the module docs).
+    pub fn write_errors(&self) -> u32 {
+        self.tx.write_errors()
+    }
+
     /// Processes received bytes. Returns `Some(entry)` once a verified image was asked to
     /// boot (its `FlashAck{Booting}` has been written to `out`); bytes after that frame are
     /// ignored. Partial frames wait for the next call.
-    pub fn feed(&mut self, input: &[u8], out: &mut impl ByteSink) -> Option<u32> {
+    pub fn feed(&mut self, input: &[u8], out: &mut impl Write) -> Option<u32> {
         let mut input = input;
         // Each round consumes at least one byte, so the bound is never hit.
         for _ in 0..=input.len() {
@@ -120,26 +129,27 @@ impl<'m> Bootloader<'m> {
         None
     }
 
-    fn send(&mut self, msg: &Msg<'_>, out: &mut impl ByteSink) {
-        // Fails only on a firmware bug (message larger than a frame).
+    fn send(&mut self, msg: &Msg<'_>, out: &mut impl Write) {
+        // Fails on a write error (counted by `tx`; the host asks again, module docs) or on a
+        // firmware bug (message larger than a frame): nothing to report either with.
         let _ = self.tx.send(msg, out);
     }
 
-    fn error(&mut self, code: ErrorCode, detail: u32, text: &str, out: &mut impl ByteSink) {
+    fn error(&mut self, code: ErrorCode, detail: u32, text: &str, out: &mut impl Write) {
         self.send(&Msg::Error { code, detail, text }, out);
     }
 
-    fn reject(&mut self, e: FlashError, text: &str, out: &mut impl ByteSink) {
+    fn reject(&mut self, e: FlashError, text: &str, out: &mut impl Write) {
         self.error(ErrorCode::FlashRejected, e.code(), text, out);
     }
 
-    fn bad_frame(&mut self, e: FrameError, out: &mut impl ByteSink) {
+    fn bad_frame(&mut self, e: FrameError, out: &mut impl Write) {
         let mut t = Text::new();
         let _ = write!(t, "bad frame: {e}");
         self.error(ErrorCode::BadFrame, e.code(), &t, out);
     }
 
-    fn handle(&mut self, kind: u8, payload: &[u8], out: &mut impl ByteSink) -> Option<u32> {
+    fn handle(&mut self, kind: u8, payload: &[u8], out: &mut impl Write) -> Option<u32> {
         let msg = match Msg::decode(kind, payload) {
             Ok(m) => m,
             Err(MsgError::DecodeUnknownType) => {
@@ -178,7 +188,7 @@ impl<'m> Bootloader<'m> {
         None
     }
 
-    fn begin(&mut self, version: u16, total_len: u32, crc: u32, load_addr: u32, entry: u32, out: &mut impl ByteSink) {
+    fn begin(&mut self, version: u16, total_len: u32, crc: u32, load_addr: u32, entry: u32, out: &mut impl Write) {
         self.xfer = None;
         let mut t = Text::new();
         if version != FLASH_FORMAT_VERSION {
@@ -208,7 +218,7 @@ impl<'m> Bootloader<'m> {
         self.send(&Msg::FlashAck { next_offset: 0, status: FlashStatus::Receiving, crc: 0 }, out);
     }
 
-    fn chunk(&mut self, offset: u32, data: &[u8], out: &mut impl ByteSink) {
+    fn chunk(&mut self, offset: u32, data: &[u8], out: &mut impl Write) {
         let Some(mut x) = self.xfer else {
             return self.reject(FlashError::NotBegun, "flash chunk without FlashBegin", out);
         };
@@ -247,7 +257,7 @@ impl<'m> Bootloader<'m> {
         self.send(&Msg::FlashAck { next_offset: x.total_len, status: FlashStatus::Verified, crc: got }, out);
     }
 
-    fn boot(&mut self, crc: u32, out: &mut impl ByteSink) -> Option<u32> {
+    fn boot(&mut self, crc: u32, out: &mut impl Write) -> Option<u32> {
         match self.xfer {
             Some(x) if x.verified && x.crc == crc => {
                 self.send(&Msg::FlashAck { next_offset: x.total_len, status: FlashStatus::Booting, crc }, out);
@@ -272,13 +282,6 @@ mod tests {
     use super::*;
     use gridrt_shared::frame::{encode_frame, MAX_ENCODED, MAX_PAYLOAD};
     use gridrt_shared::msg::MsgType;
-
-    struct Out(Vec<u8>);
-    impl ByteSink for Out {
-        fn write_bytes(&mut self, bytes: &[u8]) {
-            self.0.extend_from_slice(bytes);
-        }
-    }
 
     fn frame(m: &Msg<'_>) -> Vec<u8> {
         let mut p = [0u8; MAX_PAYLOAD];
@@ -322,9 +325,9 @@ mod tests {
     }
 
     fn exchange(b: &mut Bootloader<'_>, m: &Msg<'_>) -> (Option<u32>, Vec<(u8, Vec<u8>)>) {
-        let mut out = Out(vec![]);
+        let mut out = Vec::new();
         let r = b.feed(&frame(m), &mut out);
-        (r, replies(&out.0))
+        (r, replies(&out))
     }
 
     fn one(b: &mut Bootloader<'_>, m: &Msg<'_>) -> Msg<'static> {
@@ -439,9 +442,9 @@ mod tests {
         assert!(matches!(m, Msg::Error { code: ErrorCode::UnexpectedMessage, detail: 0x10, .. }), "{m:?}");
         let (r, rep) = exchange(&mut b, &Msg::Error { code: ErrorCode::BadFrame, detail: 0, text: "" });
         assert_eq!((r, rep.len()), (None, 0));
-        let mut out = Out(vec![]);
+        let mut out = Vec::new();
         assert_eq!(b.feed(b"gridrt banner noise\r\n\0", &mut out), None);
-        assert_eq!(replies(&out.0)[0].0, MsgType::Error as u8);
+        assert_eq!(replies(&out)[0].0, MsgType::Error as u8);
 
         // Still alive: a good image goes through.
         one(&mut b, &begin(&img, BASE, BASE));
@@ -459,7 +462,7 @@ mod tests {
         bytes.extend(frame(&Msg::FlashChunk { offset: 0, data: &img }));
         bytes.extend(frame(&Msg::FlashBoot { crc: crc32(&img) }));
         bytes.extend(frame(&Msg::Hello { protocol: 1 }));
-        let mut out = Out(vec![]);
+        let mut out = Vec::new();
         let mut entry = None;
         for c in bytes.chunks(3) {
             if let Some(e) = b.feed(c, &mut out) {
@@ -468,7 +471,7 @@ mod tests {
             }
         }
         assert_eq!(entry, Some(BASE));
-        let kinds: Vec<u8> = replies(&out.0).iter().map(|r| r.0).collect();
+        let kinds: Vec<u8> = replies(&out).iter().map(|r| r.0).collect();
         assert_eq!(kinds, [0x32, 0x32, 0x32]);
     }
 }

@@ -1,6 +1,7 @@
 //! The device state machine: UART frames in → scene load over FSL → render → frames out.
 //!
-//! I/O agnostic: bytes arrive through [`Device::feed`], leave through a [`ByteSink`], the
+//! I/O agnostic: bytes arrive through [`Device::feed`], leave through an
+//! [`embedded_io::Write`] (blocking `write_all`, e.g. a `crate::bsp` UART), the
 //! co-processor is any [`FslLink`], and stage timing comes from a [`StageClock`]. The same code
 //! runs on the soft-core, in host tests and in the loopback simulator.
 //!
@@ -18,8 +19,9 @@ use crate::text::TextOut;
 use crate::camera::{Camera, CameraError};
 use crate::dda::{build_list, GridDesc, TraversalList, MAX_GRID_DIM};
 use crate::fsl::{BoundedError, FslLink, FslWord, LinkError, LinkErrorKind};
-use crate::pixels::{FrameTx, SpanEncoder};
+use crate::pixels::{FrameTx, SpanEncoder, TxError};
 use crate::shade::{self, Light, DEFAULT_ALBEDO};
+use embedded_io::Write;
 use gridrt_shared::frame::{Crc32Digest, FeedResult, FrameAccumulator, FrameError, MAX_PAYLOAD};
 use gridrt_shared::fsl::{self as wire, op, FslError, RayKind, RayResult, RESULT_WORDS};
 use gridrt_shared::math::{Ray, Vec3};
@@ -28,21 +30,8 @@ use gridrt_shared::msg::{
     SceneStatus, MAX_ERROR_TEXT, STAT_ENTRY_LEN,
 };
 use gridrt_shared::scene::{
-    LightingRecord, Material, MaterialModel, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream,
-    EMPTY_VOXEL,
+    LightingRecord, Material, MaterialModel, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream, EMPTY_VOXEL,
 };
-
-/// Blocking byte output (the UART transmitter).
-pub trait ByteSink {
-    /// Writes all of `bytes`, blocking until they are queued.
-    fn write_bytes(&mut self, bytes: &[u8]);
-}
-
-impl<T: ByteSink + ?Sized> ByteSink for &mut T {
-    fn write_bytes(&mut self, bytes: &[u8]) {
-        (**self).write_bytes(bytes)
-    }
-}
 
 /// A pair of free-running counters read at stage boundaries.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -294,11 +283,23 @@ enum Fail {
     Word(u32, &'static str),
     /// Anything else, reported as is.
     Plain(ErrorCode, u32, &'static str),
+    /// Writing to the output failed (already counted by the frame encoder): the frame
+    /// stops and nothing more is sent for it, not even an `Error`, which would need the
+    /// output that just failed.
+    Output,
 }
 
 impl Fail {
     fn link<E: LinkError>(e: BoundedError<E>, what: &'static str) -> Self {
         Self::Link(e.kind(), what)
+    }
+
+    /// The failure of a frame's span or `Stats` that could not be sent.
+    fn tx(e: TxError) -> Self {
+        match e {
+            TxError::Write(_) => Self::Output,
+            TxError::Msg(_) | TxError::Frame(_) => Self::Plain(ErrorCode::BadRequest, 0, "frame encoder failure"),
+        }
     }
 
     fn code_detail(self) -> (ErrorCode, u32) {
@@ -308,6 +309,7 @@ impl Fail {
             Self::Link(_, _) => (ErrorCode::Coprocessor, DETAIL_LINK_OTHER),
             Self::Word(w, _) => (ErrorCode::Coprocessor, w),
             Self::Plain(c, d, _) => (c, d),
+            Self::Output => (ErrorCode::BadRequest, 0),
         }
     }
 
@@ -339,6 +341,7 @@ impl Fail {
                 w.put(what);
             }
             Self::Plain(_, _, text) => w.put(text),
+            Self::Output => w.put("output write error"),
         }
     }
 }
@@ -643,7 +646,7 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
 
     /// Processes received bytes; every complete frame is handled before this returns (a
     /// render request renders the whole frame). Partial frames wait for the next call.
-    pub fn feed(&mut self, input: &[u8], out: &mut impl ByteSink) {
+    pub fn feed(&mut self, input: &[u8], out: &mut impl Write) {
         let mut input = input;
         // Each round consumes at least one byte (up to a delimiter), so this bound is never hit.
         for _ in 0..=input.len() {
@@ -671,8 +674,10 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
     /// The boot banner (SPEC.md §3.12): a lone `0x00` (flushes whatever the host's receiver
     /// holds) and an unsolicited `Version`. Call once after every reset, before the first
     /// [`feed`](Self::feed); a host that sees it mid-session knows the device lost its scene.
-    pub fn announce(&mut self, out: &mut impl ByteSink) {
-        out.write_bytes(&[0]);
+    pub fn announce(&mut self, out: &mut impl Write) {
+        // A failed write is counted (`write_errors`); the host, which waits for the banner,
+        // asks again with `Hello`.
+        let _ = self.core.tx.delimiter(out);
         let info = self.core.info;
         self.core.send(&Msg::Version(info), out);
     }
@@ -702,6 +707,14 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
         &self.core.path.stats
     }
 
+    /// Writes to the output that failed so far (saturating). A failed write stops the frame
+    /// it belonged to (nothing more is sent for it: no spans, `Stats`, end message or
+    /// `Error`); a failed answer outside a frame is lost. Either way the host, which waits
+    /// for every answer, times out and asks again.
+    pub fn write_errors(&self) -> u32 {
+        self.core.tx.write_errors()
+    }
+
     /// Sets the poll budget of every blocking FSL put/get (default [`DEFAULT_POLLS`]).
     pub fn set_poll_budget(&mut self, polls: u32) {
         self.core.path.polls = polls;
@@ -709,30 +722,34 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
 }
 
 impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
-    fn send(&mut self, msg: &Msg<'_>, out: &mut impl ByteSink) {
-        // Only fails on a firmware bug (message larger than a frame); nothing to report it with.
+    fn send(&mut self, msg: &Msg<'_>, out: &mut impl Write) {
+        // Fails on a write error (counted by `tx`, see `Device::write_errors`) or a firmware
+        // bug (message larger than a frame): nothing to report either with.
         let _ = self.tx.send(msg, out);
     }
 
-    fn error(&mut self, code: ErrorCode, detail: u32, text: &str, out: &mut impl ByteSink) {
+    fn error(&mut self, code: ErrorCode, detail: u32, text: &str, out: &mut impl Write) {
         self.send(&Msg::Error { code, detail, text }, out);
     }
 
-    fn abort(&mut self, f: Fail, out: &mut impl ByteSink) {
+    fn abort(&mut self, f: Fail, out: &mut impl Write) {
+        if let Fail::Output = f {
+            return;
+        }
         let (code, detail) = f.code_detail();
         let mut t = Text::new();
         f.describe(&mut t);
         self.error(code, detail, t.as_str(), out);
     }
 
-    fn bad_frame(&mut self, e: FrameError, out: &mut impl ByteSink) {
+    fn bad_frame(&mut self, e: FrameError, out: &mut impl Write) {
         let mut t = Text::new();
         Trunc(&mut t).put("bad frame: ");
         Trunc(&mut t).put(e.as_str());
         self.error(ErrorCode::BadFrame, e.code(), t.as_str(), out);
     }
 
-    fn handle(&mut self, kind: u8, payload: &[u8], out: &mut impl ByteSink) {
+    fn handle(&mut self, kind: u8, payload: &[u8], out: &mut impl Write) {
         let msg = match Msg::decode(kind, payload) {
             Ok(m) => m,
             Err(MsgError::DecodeUnknownType) => {
@@ -777,7 +794,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         }
     }
 
-    fn scene_chunk(&mut self, offset: u32, data: &[u8], out: &mut impl ByteSink) {
+    fn scene_chunk(&mut self, offset: u32, data: &[u8], out: &mut impl Write) {
         let Some(up) = self.upload.as_mut() else {
             return self.error(
                 ErrorCode::UnexpectedMessage,
@@ -896,7 +913,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         Ok((cam, Light { pos: v(r.light_pos), intensity: r.light_intensity, ambient: r.ambient }))
     }
 
-    fn render(&mut self, req: &RenderRequest, out: &mut impl ByteSink) {
+    fn render(&mut self, req: &RenderRequest, out: &mut impl Write) {
         let (cam, light) = match self.validate(req, 0) {
             Ok(v) => v,
             Err(f) => return self.abort(f, out),
@@ -915,7 +932,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         region: Region,
         max_span: u16,
         options: u16,
-        out: &mut impl ByteSink,
+        out: &mut impl Write,
     ) {
         let (cam, light) = match self.validate(req, field::REGION_REQUEST) {
             Ok(v) => v,
@@ -946,7 +963,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         crc_only: bool,
         cam: &Camera,
         light: &Light,
-        out: &mut impl ByteSink,
+        out: &mut impl Write,
     ) -> Option<(u32, u32)> {
         self.path.stats = FrameStats::default();
         let prim_ids = req.flags & render_flags::PRIM_IDS != 0 && !crc_only;
@@ -964,7 +981,9 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
                 val.copy_from_slice(&v.to_le_bytes());
             }
         }
-        self.send(&Msg::Stats { frame: req.frame, entries: &buf }, out);
+        if let Err(TxError::Write(_)) = self.tx.send(&Msg::Stats { frame: req.frame, entries: &buf }, out) {
+            return None; // the frame stops (`Fail::Output`)
+        }
         Some((spans, crc))
     }
 
@@ -976,7 +995,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         region: Region,
         cam: &Camera,
         light: &Light,
-        out: &mut impl ByteSink,
+        out: &mut impl Write,
     ) -> Result<(), Fail> {
         self.render_pipeline(req, region, cam, light, out)
     }

@@ -18,9 +18,15 @@
 //! | [`fsl`] | the co-processor link trait |
 //! | [`boot`] | the flash bootloader's protocol (SPEC.md §3.11) |
 //! | [`bsp`] | board drivers |
+//!
+//! Byte output and UART I/O use the ecosystem's blocking traits, [`embedded_io`] 0.6
+//! (re-exported, so dependents name the same version): the device loop and the bootloader
+//! write to any `embedded_io::Write`, and the `bsp` UARTs implement `Read`/`ReadReady`/`Write`.
 #![cfg_attr(not(test), no_std)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+pub use embedded_io;
 
 pub mod boot;
 pub mod bsp;

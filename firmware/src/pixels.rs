@@ -5,8 +5,13 @@
 //! A frame's pixels leave as `PixelSpan` messages of one row segment each, in row-major order,
 //! so the CRC-32 of the whole RGB888 image (sent in `FrameEnd`) can be computed on the fly
 //! without holding the image.
+//!
+//! Output goes to any [`embedded_io::Write`] (the UART drivers of `crate::bsp`, a test
+//! buffer, a channel). A write error has no one to be reported to: [`FrameTx`] counts it
+//! ([`FrameTx::write_errors`]) and returns [`TxError::Write`], and the caller stops what it
+//! was sending (the device stops the frame, see `crate::device`).
 
-use crate::device::ByteSink;
+use embedded_io::{Error as _, ErrorKind, Write};
 use gridrt_shared::frame::{encode_frame, Crc32Digest, FrameError, MAX_ENCODED, MAX_PAYLOAD};
 use gridrt_shared::msg::{Msg, MsgError, PixelEncoding};
 use gridrt_shared::pixel::{self, RleEncoder, RLE_MAX_FINISH_BYTES, RLE_MAX_PUSH_BYTES};
@@ -25,18 +30,22 @@ const _: () = assert!(SPAN_HEADER_LEN + 3 * MAX_SPAN_PIXELS <= MAX_PAYLOAD);
 const _: () = assert!(SPAN_HEADER_LEN + 4 * MAX_SPAN_PIXELS_WITH_IDS <= MAX_PAYLOAD);
 const _: () = assert!(MAX_SPAN_PIXELS_WITH_IDS <= MAX_SPAN_PIXELS);
 
-/// Why a message could not be sent (a firmware bug, never outside data).
+/// Why a message could not be sent: a firmware bug (never outside data), or the output.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TxError {
     /// The payload did not fit.
     Msg(MsgError),
     /// The frame did not fit.
     Frame(FrameError),
+    /// The output failed (counted in [`FrameTx::write_errors`]); part of the frame may
+    /// have gone out.
+    Write(ErrorKind),
 }
 
 /// Frame encoder: owns the outbound sequence number and the payload/wire buffers.
 pub struct FrameTx {
     seq: u16,
+    write_errors: u32,
     payload: [u8; MAX_PAYLOAD],
     wire: [u8; MAX_ENCODED],
 }
@@ -50,7 +59,7 @@ impl Default for FrameTx {
 impl FrameTx {
     /// Encoder whose first frame has sequence number 0.
     pub const fn new() -> Self {
-        Self { seq: 0, payload: [0; MAX_PAYLOAD], wire: [0; MAX_ENCODED] }
+        Self { seq: 0, write_errors: 0, payload: [0; MAX_PAYLOAD], wire: [0; MAX_ENCODED] }
     }
 
     /// Sequence number of the next frame.
@@ -58,16 +67,36 @@ impl FrameTx {
         self.seq
     }
 
-    /// Encodes `msg` as one frame and writes it; the sequence number advances (wrapping) only
-    /// when the frame was written.
-    pub fn send<S: ByteSink + ?Sized>(&mut self, msg: &Msg<'_>, out: &mut S) -> Result<(), TxError> {
+    /// Writes that failed so far (saturating): each failed [`send`](Self::send) or
+    /// [`delimiter`](Self::delimiter) counts once.
+    pub fn write_errors(&self) -> u32 {
+        self.write_errors
+    }
+
+    /// Encodes `msg` as one frame and writes it with `write_all` (blocking until the output
+    /// took every byte); the sequence number advances (wrapping) only when the frame was
+    /// written.
+    pub fn send<W: Write + ?Sized>(&mut self, msg: &Msg<'_>, out: &mut W) -> Result<(), TxError> {
         let n = msg.encode(&mut self.payload).map_err(TxError::Msg)?;
         let payload = self.payload.get(..n).ok_or(TxError::Msg(MsgError::EncodeBufferTooSmall))?;
         let len = encode_frame(msg.kind() as u8, self.seq, payload, &mut self.wire).map_err(TxError::Frame)?;
         let wire = self.wire.get(..len).ok_or(TxError::Frame(FrameError::EncodeBufferTooSmall))?;
-        out.write_bytes(wire);
+        Self::write(&mut self.write_errors, wire, out)?;
         self.seq = self.seq.wrapping_add(1);
         Ok(())
+    }
+
+    /// Writes a lone frame delimiter (`0x00`: the receiver drops whatever partial frame it
+    /// holds), blocking like [`send`](Self::send).
+    pub fn delimiter<W: Write + ?Sized>(&mut self, out: &mut W) -> Result<(), TxError> {
+        Self::write(&mut self.write_errors, &[0], out)
+    }
+
+    fn write<W: Write + ?Sized>(errors: &mut u32, bytes: &[u8], out: &mut W) -> Result<(), TxError> {
+        out.write_all(bytes).map_err(|e| {
+            *errors = errors.saturating_add(1);
+            TxError::Write(e.kind())
+        })
     }
 }
 
@@ -178,14 +207,14 @@ impl SpanEncoder {
     /// Adds pixel (x, y). A pixel that does not continue the pending span (other row, gap), a
     /// full span or a full data buffer flushes the pending span first.
     #[inline]
-    pub fn push<S: ByteSink + ?Sized>(
+    pub fn push<W: Write + ?Sized>(
         &mut self,
         x: u16,
         y: u16,
         rgb: [u8; 3],
         prim: u32,
         tx: &mut FrameTx,
-        out: &mut S,
+        out: &mut W,
     ) -> Result<(), TxError> {
         let continues = self.count > 0 && y == self.y && x as usize == self.x0 as usize + self.count;
         if self.count > 0 && (!continues || self.count >= self.span_len || !self.has_room()) {
@@ -230,7 +259,7 @@ impl SpanEncoder {
     }
 
     /// Sends the pending span (and its `PrimId32` span), if any.
-    pub fn flush<S: ByteSink + ?Sized>(&mut self, tx: &mut FrameTx, out: &mut S) -> Result<(), TxError> {
+    pub fn flush<W: Write + ?Sized>(&mut self, tx: &mut FrameTx, out: &mut W) -> Result<(), TxError> {
         let n = core::mem::take(&mut self.count);
         if n == 0 {
             return Ok(());
@@ -275,11 +304,26 @@ mod tests {
     use super::*;
     use gridrt_shared::frame::{crc32, FeedResult, FrameAccumulator};
 
-    #[derive(Default)]
-    struct Wire(Vec<u8>);
-    impl ByteSink for Wire {
-        fn write_bytes(&mut self, bytes: &[u8]) {
-            self.0.extend_from_slice(bytes);
+    /// Output that takes `room` bytes, then fails.
+    struct Full {
+        room: usize,
+        got: Vec<u8>,
+    }
+    impl embedded_io::ErrorType for Full {
+        type Error = ErrorKind;
+    }
+    impl Write for Full {
+        fn write(&mut self, buf: &[u8]) -> Result<usize, ErrorKind> {
+            let n = buf.len().min(self.room);
+            if n == 0 && !buf.is_empty() {
+                return Err(ErrorKind::WriteZero);
+            }
+            self.room -= n;
+            self.got.extend_from_slice(&buf[..n]);
+            Ok(n)
+        }
+        fn flush(&mut self) -> Result<(), ErrorKind> {
+            Ok(())
         }
     }
 
@@ -303,11 +347,11 @@ mod tests {
     #[test]
     fn sequence_numbers_count_up_per_frame_and_wrap() {
         let mut tx = FrameTx::new();
-        let mut w = Wire::default();
+        let mut w = Vec::new();
         tx.seq = u16::MAX;
         tx.send(&Msg::Hello { protocol: 1 }, &mut w).unwrap();
         tx.send(&Msg::Hello { protocol: 1 }, &mut w).unwrap();
-        let seqs: Vec<_> = frames(&w.0).iter().map(|f| f.0).collect();
+        let seqs: Vec<_> = frames(&w).iter().map(|f| f.0).collect();
         assert_eq!(seqs, [u16::MAX, 0]);
     }
 
@@ -317,7 +361,7 @@ mod tests {
             let (w, h) = (1100u16, 2u16);
             let mut tx = FrameTx::new();
             let mut enc = SpanEncoder::new();
-            let mut wire = Wire::default();
+            let mut wire = Vec::new();
             enc.begin(7, prim_ids);
             let mut image = Vec::new();
             for y in 0..h {
@@ -330,7 +374,7 @@ mod tests {
             }
             let (spans, crc) = enc.finish();
             assert_eq!(crc, crc32(&image));
-            let frames = frames(&wire.0);
+            let frames = frames(&wire);
             assert_eq!(frames.len() as u32, spans);
             let per_row = if prim_ids { 3 * 2 } else { 3 };
             assert_eq!(spans, per_row * h as u32);
@@ -367,7 +411,7 @@ mod tests {
     fn gap_or_row_change_flushes_pending_span() {
         let mut tx = FrameTx::new();
         let mut enc = SpanEncoder::new();
-        let mut wire = Wire::default();
+        let mut wire = Vec::new();
         enc.begin(1, false);
         enc.push(0, 0, [1; 3], 0, &mut tx, &mut wire).unwrap();
         enc.push(1, 0, [1; 3], 0, &mut tx, &mut wire).unwrap();
@@ -376,6 +420,21 @@ mod tests {
         enc.flush(&mut tx, &mut wire).unwrap();
         enc.flush(&mut tx, &mut wire).unwrap(); // nothing pending: no frame
         assert_eq!(enc.finish().0, 3);
-        assert_eq!(frames(&wire.0).len(), 3);
+        assert_eq!(frames(&wire).len(), 3);
+    }
+
+    #[test]
+    fn a_failed_write_is_counted_and_returned_and_keeps_the_sequence_number() {
+        let mut tx = FrameTx::new();
+        let mut out = Full { room: 5, got: Vec::new() };
+        let hello = Msg::Hello { protocol: 1 };
+        assert_eq!(tx.send(&hello, &mut out), Err(TxError::Write(ErrorKind::WriteZero)));
+        assert_eq!(tx.delimiter(&mut out), Err(TxError::Write(ErrorKind::WriteZero)));
+        assert_eq!((tx.write_errors(), tx.next_seq(), out.got.len()), (2, 0, 5));
+        let mut wire = Vec::new();
+        tx.send(&hello, &mut wire).unwrap();
+        tx.delimiter(&mut wire).unwrap();
+        assert_eq!(wire.last(), Some(&0));
+        assert_eq!((tx.write_errors(), tx.next_seq(), frames(&wire)[0].0), (2, 1, 0));
     }
 }

@@ -3,7 +3,8 @@
 //! must answer with well-formed frames only, never panic, never hang.
 #![no_main]
 
-use gridrt_firmware::device::{ByteSink, Device, NoClock};
+use gridrt_firmware::device::{Device, NoClock};
+use gridrt_firmware::embedded_io::{ErrorType, Write};
 use gridrt_firmware::fsl::{FslLink, FslWord};
 use gridrt_shared::frame::{FeedResult, FrameAccumulator, MAX_ENCODED};
 use gridrt_shared::fsl::{ack_word, op, opcode, RayResult};
@@ -45,8 +46,13 @@ impl FslLink for FakeLink {
 /// Checks that everything the device sends is a valid frame with a decodable message.
 struct Check(FrameAccumulator<MAX_ENCODED>);
 
-impl ByteSink for Check {
-    fn write_bytes(&mut self, bytes: &[u8]) {
+impl ErrorType for Check {
+    type Error = core::convert::Infallible;
+}
+
+/// Takes every byte at once (the device's `write_all` never waits).
+impl Write for Check {
+    fn write(&mut self, bytes: &[u8]) -> Result<usize, Self::Error> {
         let mut input = bytes;
         for _ in 0..=bytes.len() {
             match self.0.feed(input) {
@@ -58,6 +64,11 @@ impl ByteSink for Check {
                 other => panic!("device sent a bad frame: {other:?}"),
             }
         }
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        Ok(())
     }
 }
 
@@ -79,7 +90,16 @@ fn too_big(segment: &[u8]) -> bool {
 }
 
 fuzz_target!(|data: &[u8]| {
-    let info = DeviceInfo { protocol: 0, firmware: [0, 1, 0], board: 0, max_payload: 0, pe_count: 4, voxel_capacity: 0, pe_mem_words: 4096, features: 0 };
+    let info = DeviceInfo {
+        protocol: 0,
+        firmware: [0, 1, 0],
+        board: 0,
+        max_payload: 0,
+        pe_count: 4,
+        voxel_capacity: 0,
+        pe_mem_words: 4096,
+        features: 0,
+    };
     let mut dev: Box<Device<FakeLink, NoClock, 4096>> = Box::new(Device::new(FakeLink::default(), NoClock, info));
     dev.set_poll_budget(64);
     let mut out = Check(FrameAccumulator::new());

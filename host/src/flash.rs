@@ -487,17 +487,25 @@ pub fn flash<T: Read + Write>(
 mod tests {
     use super::*;
     use gridrt_firmware::boot::Bootloader;
-    use gridrt_firmware::device::ByteSink;
+    use gridrt_firmware::embedded_io;
     use std::collections::VecDeque;
 
     const BASE: u32 = 0x8010_0000;
 
+    /// The bootloader's UART: what it writes reaches the host unless `.1` drops it.
     struct Sink<'a>(&'a mut VecDeque<u8>, bool);
-    impl ByteSink for Sink<'_> {
-        fn write_bytes(&mut self, bytes: &[u8]) {
+    impl embedded_io::ErrorType for Sink<'_> {
+        type Error = core::convert::Infallible;
+    }
+    impl embedded_io::Write for Sink<'_> {
+        fn write(&mut self, bytes: &[u8]) -> Result<usize, Self::Error> {
             if !self.1 {
                 self.0.extend(bytes);
             }
+            Ok(bytes.len())
+        }
+        fn flush(&mut self) -> Result<(), Self::Error> {
+            Ok(())
         }
     }
 

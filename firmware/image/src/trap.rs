@@ -6,7 +6,8 @@
 //! The report lines start with `PANIC:` / `TRAP:` so host tools can spot them.
 
 use crate::{board, halt};
-use gridrt_firmware::bsp::{ByteUart, UartWriter};
+use embedded_io::Write as _;
+use gridrt_firmware::bsp::UartWriter;
 use gridrt_firmware::text::TextOut;
 use riscv::register::{mcause, mepc, mtval};
 
@@ -52,7 +53,7 @@ fn report(kind: &str) -> ! {
     w.put(" mtval=");
     w.put_hex(mtval::read() as u32, 8);
     w.put("; halted\n");
-    let _ = nb::block!(console.flush());
+    let _ = console.flush();
     board::exit_failure(1);
     halt()
 }
@@ -91,7 +92,7 @@ fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
     w.put(":\n");
     w.put(info.message().as_str().unwrap_or("(message with arguments, not formatted on the device)"));
     w.put("; halted\n");
-    let _ = nb::block!(console.flush());
+    let _ = console.flush();
     board::exit_failure(2);
     halt()
 }

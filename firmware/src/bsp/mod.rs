@@ -15,23 +15,29 @@
 //!
 //! # Execution model
 //!
-//! One model for every trait here, the one of the [`nb`] crate: the `n*`/`read_byte`/
-//! `write_byte` primitives never wait and return `Err(nb::Error::WouldBlock)` when the
-//! hardware is not ready; the blocking helpers spin on them (`nb::block!`) and return only
-//! once the operation happened or failed. Nothing here uses interrupts.
+//! Two layers. The drivers' primitives follow the [`nb`] crate: [`ByteUart`]'s
+//! `write_byte`/`read_byte`/`nflush` and the stream FIFO's `n*` calls never wait and return
+//! `Err(nb::Error::WouldBlock)` when the hardware is not ready. On top of them the UARTs
+//! implement the ecosystem's blocking byte-stream traits, [`embedded_io::Read`],
+//! [`embedded_io::ReadReady`] and [`embedded_io::Write`] (module [`uart_io`], which states
+//! exactly when each call blocks), so any embedded-io consumer (the device loop, the
+//! bootloader, the images' console) takes these drivers as they are. Nothing here uses
+//! interrupts.
 
 pub mod axis_fifo;
 pub mod mmio;
 #[cfg(test)]
 pub(crate) mod mock;
 pub mod ns16550;
+pub mod uart_io;
 pub mod uartlite;
 
 pub use mmio::{Mmio, VolatileMmio};
 
-/// A byte-oriented serial port (console or host link).
+/// The non-blocking primitives of a byte-oriented serial port (console or host link); the
+/// blocking API is [`embedded_io`]'s, implemented on each driver by [`uart_io`].
 ///
-/// `write_byte` and `read_byte` never block; `write_all` and `flush` block.
+/// None of these calls waits.
 pub trait ByteUart {
     /// Receive-side error (overrun, framing, parity, ...). Transmit never fails on
     /// the UARTs we have, but the type is shared.
@@ -47,34 +53,28 @@ pub trait ByteUart {
     /// reported once and are not sticky.
     fn read_byte(&mut self) -> nb::Result<u8, Self::Error>;
 
-    /// Blocks until the transmitter has sent everything queued (shift register empty),
-    /// e.g. before halting or resetting.
-    fn flush(&mut self) -> nb::Result<(), Self::Error>;
-
-    /// Blocks until every byte of `bytes` is queued in the transmitter (not until it
-    /// has left the wire: use [`ByteUart::flush`] for that).
-    fn write_all(&mut self, bytes: &[u8]) -> Result<(), Self::Error> {
-        for &b in bytes {
-            nb::block!(self.write_byte(b))?;
-        }
-        Ok(())
-    }
+    /// `Ok(())` once the transmitter has sent everything queued (shift register empty, or as
+    /// close as the IP tells), else `Err(WouldBlock)`: the step that
+    /// [`embedded_io::Write::flush`] spins on, e.g. before halting or resetting.
+    fn nflush(&mut self) -> nb::Result<(), Self::Error>;
 }
 
-/// `core::fmt::Write` (and [`crate::text::TextOut`]) over any [`ByteUart`], for console output.
+/// `core::fmt::Write` (and [`crate::text::TextOut`]) over any [`embedded_io::Write`], for
+/// console output.
 ///
 /// A transmit error becomes `core::fmt::Error` (its detail is lost, as fmt allows no more).
-pub struct UartWriter<'a, U: ByteUart + ?Sized>(pub &'a mut U);
+pub struct UartWriter<'a, U: embedded_io::Write + ?Sized>(pub &'a mut U);
 
-impl<U: ByteUart + ?Sized> core::fmt::Write for UartWriter<'_, U> {
+impl<U: embedded_io::Write + ?Sized> core::fmt::Write for UartWriter<'_, U> {
     fn write_str(&mut self, s: &str) -> core::fmt::Result {
         self.0.write_all(s.as_bytes()).map_err(|_| core::fmt::Error)
     }
 }
 
 /// The same console output without `core::fmt` (`crate::text`): the images' banner and
-/// reports. Best effort: a transmit error drops the piece.
-impl<U: ByteUart + ?Sized> crate::text::TextOut for UartWriter<'_, U> {
+/// reports. Best effort: a transmit error drops the piece (console text has no reader to
+/// tell; the frames the device sends count their write errors, see `crate::pixels::FrameTx`).
+impl<U: embedded_io::Write + ?Sized> crate::text::TextOut for UartWriter<'_, U> {
     fn put(&mut self, s: &str) {
         let _ = self.0.write_all(s.as_bytes());
     }

@@ -11,9 +11,9 @@
 
 use super::*;
 use crate::interp::{self, Counts, Sample, StepControl};
-use gridrt_shared::scene::{MaterialModel, ReflectMode};
 #[cfg(feature = "textures")]
 use gridrt_shared::scene::{affine_point, TextureKind};
+use gridrt_shared::scene::{MaterialModel, ReflectMode};
 
 /// Widest row the interpolation buffer holds.
 pub const MAX_INTERP_WIDTH: usize = 2048;
@@ -215,9 +215,8 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
     /// stage this build does not have.
     fn frame_ctx(&self, req: &RenderRequest, cam: &Camera, light: &Light) -> Result<FrameCtx, Fail> {
         check_plan(req.flags, compiled_plan()).map_err(|t| Fail::Plain(ErrorCode::BadRequest, FLAGS_FIELD, t))?;
-        let shadows = cfg!(feature = "shadows")
-            && req.flags & render_flags::SHADOWS != 0
-            && self.scene.lighting.light_count > 0;
+        let shadows =
+            cfg!(feature = "shadows") && req.flags & render_flags::SHADOWS != 0 && self.scene.lighting.light_count > 0;
         Ok(FrameCtx {
             cam: *cam,
             light: *light,
@@ -237,7 +236,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         region: Region,
         cam: &Camera,
         light: &Light,
-        out: &mut impl ByteSink,
+        out: &mut impl Write,
     ) -> Result<(), Fail> {
         let ctx = self.frame_ctx(req, cam, light)?;
         let step = render_flags::interp_step(req.flags);
@@ -271,7 +270,6 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         }
         self.path.stats.plan = plan as u64;
         let mut sw = Stopwatch { last: self.clock.now() };
-        let enc_err = |_| Fail::Plain(ErrorCode::BadRequest, 0, "frame encoder failure");
         let (x1, y1) = (region.x0.saturating_add(region.cols), region.y0.saturating_add(region.rows));
         let mut counts = Counts::default();
         let mut ctl = StepControl::new(&params);
@@ -287,20 +285,20 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
                 ctl.after_row(&before, &counts);
                 for xi in 0..w {
                     let s = self.row.get(xi).copied().unwrap_or_default();
-                    self.spans.push(region.x0 + xi as u16, y, s.rgb, s.prim, &mut self.tx, out).map_err(enc_err)?;
+                    self.spans.push(region.x0 + xi as u16, y, s.rgb, s.prim, &mut self.tx, out).map_err(Fail::tx)?;
                     self.path.stats.pixels += 1;
                 }
                 sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
             } else {
                 for x in region.x0..x1 {
                     let s = pixel(&mut self.path, &self.scene, &self.clock, &mut sw, &ctx, x, y)?;
-                    self.spans.push(x, y, s.rgb, s.prim, &mut self.tx, out).map_err(enc_err)?;
+                    self.spans.push(x, y, s.rgb, s.prim, &mut self.tx, out).map_err(Fail::tx)?;
                     self.path.stats.pixels += 1;
                     sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
                 }
             }
             // Flush per row so the host sees progress while the next row renders.
-            self.spans.flush(&mut self.tx, out).map_err(enc_err)?;
+            self.spans.flush(&mut self.tx, out).map_err(Fail::tx)?;
             sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
         }
         self.path.stats.interpolated_pixels = counts.interpolated;

@@ -156,13 +156,8 @@ impl FslLink for FakeCoproc {
 
 // ---------------------------------------------------------------- host side helpers
 
-#[derive(Default)]
-struct Wire(Vec<u8>);
-impl ByteSink for Wire {
-    fn write_bytes(&mut self, bytes: &[u8]) {
-        self.0.extend_from_slice(bytes);
-    }
-}
+/// What the device wrote to its UART.
+type Wire = Vec<u8>;
 
 /// One frame the device sent: (seq, kind, payload).
 #[derive(Debug, Clone)]
@@ -219,9 +214,9 @@ fn replies(wire: &[u8]) -> Vec<Reply> {
 }
 
 fn exchange(dev: &mut Dev, bytes: &[u8]) -> Vec<Reply> {
-    let mut w = Wire::default();
+    let mut w = Wire::new();
     dev.feed(bytes, &mut w);
-    replies(&w.0)
+    replies(&w)
 }
 
 fn send(dev: &mut Dev, msg: &Msg<'_>) -> Vec<Reply> {
@@ -676,14 +671,14 @@ fn garbage_between_frames_is_survived() {
         bytes.push(0); // the host's flush delimiter ends the noise
         bytes.extend_from_slice(&hello);
         // Feed in random pieces: reassembly must not depend on read boundaries.
-        let mut w = Wire::default();
+        let mut w = Wire::new();
         let mut rest = &bytes[..];
         while !rest.is_empty() {
             let k = rng.gen_range(1..=rest.len());
             dev.feed(&rest[..k], &mut w);
             rest = &rest[k..];
         }
-        let r = replies(&w.0);
+        let r = replies(&w);
         let last = r.last().unwrap_or_else(|| panic!("round {round}: no reply"));
         assert!(matches!(last.msg(), Msg::Version(_)), "round {round}: {r:?}");
         for e in &r[..r.len() - 1] {
@@ -761,13 +756,13 @@ impl StageClock for TickClock {
 fn stage_counters_are_reported_under_stage_keys() {
     let mut dev: Device<FakeCoproc, TickClock, VOXELS> =
         Device::new(FakeCoproc::new(), TickClock(Default::default()), info());
-    let mut w = Wire::default();
+    let mut w = Wire::new();
     let img = scene_image([2, 2, 1], &materials());
     dev.feed(&frame(&Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) }, 0), &mut w);
     dev.feed(&frame(&Msg::SceneChunk { offset: 0, data: &img }, 1), &mut w);
-    let mut w = Wire::default();
+    let mut w = Wire::new();
     dev.feed(&frame(&Msg::RenderRequest(request(4, 3, 0)), 2), &mut w);
-    let out = rendered(&replies(&w.0), 4, 3);
+    let out = rendered(&replies(&w), 4, 3);
     let s = &out.stats;
     for st in Stage::ALL {
         assert!(s[&st.cycles_key()] > 0, "{st:?}");

@@ -17,7 +17,8 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use gridrt_coproc::{CoprocConfig, Coprocessor, KernelKind, TimingProfile};
-use gridrt_firmware::device::{ByteSink, Device, NoClock};
+use gridrt_firmware::device::{Device, NoClock};
+use gridrt_firmware::embedded_io::{self, ErrorType};
 use gridrt_firmware::fsl::VirtualCoproc;
 use gridrt_shared::frame::MAX_PAYLOAD;
 use gridrt_shared::msg::DeviceInfo;
@@ -106,14 +107,23 @@ struct ChannelSink<'a> {
     epoch: u32,
 }
 
-impl ByteSink for ChannelSink<'_> {
-    fn write_bytes(&mut self, bytes: &[u8]) {
-        if self.muted.load(Ordering::Acquire) {
-            return;
+impl ErrorType for ChannelSink<'_> {
+    type Error = core::convert::Infallible;
+}
+
+/// Never blocks and never fails: every byte is taken at once.
+impl embedded_io::Write for ChannelSink<'_> {
+    fn write(&mut self, bytes: &[u8]) -> Result<usize, Self::Error> {
+        if !self.muted.load(Ordering::Acquire) {
+            // A closed channel means the host went away; the device keeps running until its
+            // input closes too, like a board whose UART cable was pulled.
+            let _ = self.out.send((self.epoch, bytes.to_vec()));
         }
-        // A closed channel means the host went away; the device keeps running until its
-        // input closes too, like a board whose UART cable was pulled.
-        let _ = self.out.send((self.epoch, bytes.to_vec()));
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        Ok(())
     }
 }
 
@@ -200,13 +210,29 @@ struct PortSink<'a, T: io::Write> {
     error: Option<io::Error>,
 }
 
-impl<T: io::Write> ByteSink for PortSink<'_, T> {
-    fn write_bytes(&mut self, bytes: &[u8]) {
-        if self.error.is_none() {
-            if let Err(e) = self.port.write_all(bytes).and_then(|()| self.port.flush()) {
+impl<T: io::Write> ErrorType for PortSink<'_, T> {
+    type Error = embedded_io::ErrorKind;
+}
+
+/// Blocks as the transport's `write_all` + `flush` do (every byte handed on at once). The
+/// first transport error is kept for [`run_on_port`] to return, and this and every later
+/// write fail (`ErrorKind::Other`), so the device stops the frame it was sending.
+impl<T: io::Write> embedded_io::Write for PortSink<'_, T> {
+    fn write(&mut self, bytes: &[u8]) -> Result<usize, Self::Error> {
+        if self.error.is_some() {
+            return Err(embedded_io::ErrorKind::Other);
+        }
+        match self.port.write_all(bytes).and_then(|()| self.port.flush()) {
+            Ok(()) => Ok(bytes.len()),
+            Err(e) => {
                 self.error = Some(e);
+                Err(embedded_io::ErrorKind::Other)
             }
         }
+    }
+
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        Ok(())
     }
 }
 

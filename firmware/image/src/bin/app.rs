@@ -12,7 +12,8 @@
 #![no_main]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-use gridrt_firmware::bsp::{ByteUart, CycleCounter, UartWriter};
+use embedded_io::Write as _;
+use gridrt_firmware::bsp::{CycleCounter, UartWriter};
 use gridrt_firmware::text::TextOut;
 use gridrt_firmware_image::serve::{self, serve};
 use gridrt_firmware_image::{board, counters::CsrCounters, VERSION};
@@ -109,7 +110,7 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
         Ok(m) => m,
         Err(e) => {
             let _ = writeln!(UartWriter(console), "\r\nFATAL: co-processor model configuration refused: {e}; halted\r");
-            let _ = nb::block!(console.flush());
+            let _ = console.flush();
             board::exit_failure(3);
             gridrt_firmware_image::halt()
         }

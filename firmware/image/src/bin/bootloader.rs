@@ -8,9 +8,10 @@
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use core::fmt::Write as _;
+use embedded_io::Write as _;
 use gridrt_firmware::boot::Bootloader;
-use gridrt_firmware::bsp::{ByteUart, UartWriter};
-use gridrt_firmware_image::serve::{self, read_available, ConsoleSink, RX_BATCH};
+use gridrt_firmware::bsp::UartWriter;
+use gridrt_firmware_image::serve::{self, read_available, RX_BATCH};
 use gridrt_firmware_image::{board, VERSION};
 use gridrt_shared::msg::DeviceInfo;
 
@@ -47,9 +48,9 @@ fn main() -> ! {
         let Some(bytes) = buf.get(..n).filter(|b| !b.is_empty()) else {
             continue;
         };
-        if let Some(entry) = boot.feed(bytes, &mut ConsoleSink(&mut console)) {
+        if let Some(entry) = boot.feed(bytes, &mut console) {
             // Let the Booting acknowledgement leave before the app re-initialises the UART.
-            let _ = nb::block!(console.flush());
+            let _ = console.flush();
             // SAFETY: the image at `entry` was written, read back and CRC-checked; it is a
             // riscv-rt image linked for this region, whose `_start` sets up everything.
             unsafe { jump(entry as usize) }

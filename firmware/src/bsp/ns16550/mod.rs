@@ -5,6 +5,7 @@
 
 pub mod regs;
 
+use super::uart_io::impl_uart_io;
 use super::{ByteUart, Mmio};
 
 /// A receive-side line error, as flagged in LSR.
@@ -32,11 +33,25 @@ impl core::fmt::Display for Ns16550Error {
     }
 }
 
-/// An NS16550A-compatible UART.
+impl embedded_io::Error for Ns16550Error {
+    fn kind(&self) -> embedded_io::ErrorKind {
+        match self {
+            Self::RxParity | Self::RxFraming => embedded_io::ErrorKind::InvalidData,
+            Self::RxOverrun | Self::RxBreak => embedded_io::ErrorKind::Other,
+        }
+    }
+}
+
+/// An NS16550A-compatible UART: [`ByteUart`] primitives, and the blocking
+/// [`embedded_io`] `Read`/`ReadReady`/`Write` with the blocking rules of
+/// [`super::uart_io`].
 pub struct Ns16550<M: Mmio> {
     mmio: M,
     /// log2 of the byte distance between consecutive registers.
     reg_shift: u32,
+    /// A byte or line error taken from the hardware but not handed out yet
+    /// ([`super::uart_io`]).
+    rx_held: Option<Result<u8, Ns16550Error>>,
 }
 
 impl<M: Mmio> Ns16550<M> {
@@ -48,14 +63,14 @@ impl<M: Mmio> Ns16550<M> {
     /// A UART whose registers are `1 << reg_shift` bytes apart (device tree `reg-shift`;
     /// 2 for Xilinx AXI UART16550 and most SoC integrations).
     pub const fn with_reg_shift(mmio: M, reg_shift: u32) -> Self {
-        Self { mmio, reg_shift }
+        Self { mmio, reg_shift, rx_held: None }
     }
 
-    fn read(&self, reg: usize) -> u8 {
+    fn reg_read(&self, reg: usize) -> u8 {
         self.mmio.read8(reg << self.reg_shift)
     }
 
-    fn write(&self, reg: usize, value: u8) {
+    fn reg_write(&self, reg: usize, value: u8) {
         self.mmio.write8(reg << self.reg_shift, value)
     }
 
@@ -65,16 +80,16 @@ impl<M: Mmio> Ns16550<M> {
     /// `divisor` is `input clock / (16 × baud)`; `None` keeps the current one (what the
     /// boot ROM or QEMU set, which ignores it anyway).
     pub fn init(&mut self, divisor: Option<u16>) {
-        self.write(regs::IER, regs::IER_NONE);
+        self.reg_write(regs::IER, regs::IER_NONE);
         if let Some(div) = divisor {
             let [lo, hi] = div.to_le_bytes();
-            self.write(regs::LCR, regs::LCR_DLAB);
-            self.write(regs::DLL, lo);
-            self.write(regs::DLM, hi);
+            self.reg_write(regs::LCR, regs::LCR_DLAB);
+            self.reg_write(regs::DLL, lo);
+            self.reg_write(regs::DLM, hi);
         }
         // Writing LCR also clears DLAB, which RBR/THR access needs.
-        self.write(regs::LCR, regs::LCR_8N1);
-        self.write(regs::FCR, regs::FCR_ENABLE | regs::FCR_CLEAR_RX | regs::FCR_CLEAR_TX | regs::FCR_RX_TRIGGER_14);
+        self.reg_write(regs::LCR, regs::LCR_8N1);
+        self.reg_write(regs::FCR, regs::FCR_ENABLE | regs::FCR_CLEAR_RX | regs::FCR_CLEAR_TX | regs::FCR_RX_TRIGGER_14);
     }
 
     /// Gives back the register block.
@@ -89,16 +104,19 @@ impl<M: Mmio> ByteUart for Ns16550<M> {
     fn write_byte(&mut self, byte: u8) -> nb::Result<(), Self::Error> {
         // THRE means the whole TX FIFO is empty; one byte per check keeps it simple
         // and never overfills, at a small cost in LSR reads.
-        if self.read(regs::LSR) & regs::LSR_THRE == 0 {
+        if self.reg_read(regs::LSR) & regs::LSR_THRE == 0 {
             return Err(nb::Error::WouldBlock);
         }
-        self.write(regs::THR, byte);
+        self.reg_write(regs::THR, byte);
         Ok(())
     }
 
     fn read_byte(&mut self) -> nb::Result<u8, Self::Error> {
+        if let Some(held) = self.rx_held.take() {
+            return held.map_err(nb::Error::Other);
+        }
         // One LSR read: it clears the error bits, so they are reported exactly once.
-        let lsr = self.read(regs::LSR);
+        let lsr = self.reg_read(regs::LSR);
         if lsr & regs::LSR_OE != 0 {
             // The lost byte is gone; the queued ones are fine and stay for the next call.
             return Err(nb::Error::Other(Ns16550Error::RxOverrun));
@@ -106,7 +124,7 @@ impl<M: Mmio> ByteUart for Ns16550<M> {
         if lsr & regs::LSR_DR == 0 {
             return Err(nb::Error::WouldBlock);
         }
-        let byte = self.read(regs::RBR);
+        let byte = self.reg_read(regs::RBR);
         // PE/FE/BI describe the byte at the head of the FIFO, i.e. the one just popped.
         if lsr & regs::LSR_BI != 0 {
             Err(nb::Error::Other(Ns16550Error::RxBreak))
@@ -119,19 +137,22 @@ impl<M: Mmio> ByteUart for Ns16550<M> {
         }
     }
 
-    fn flush(&mut self) -> nb::Result<(), Self::Error> {
-        if self.read(regs::LSR) & regs::LSR_TEMT == 0 {
+    fn nflush(&mut self) -> nb::Result<(), Self::Error> {
+        if self.reg_read(regs::LSR) & regs::LSR_TEMT == 0 {
             return Err(nb::Error::WouldBlock);
         }
         Ok(())
     }
 }
 
+impl_uart_io!(Ns16550, Ns16550Error);
+
 #[cfg(test)]
 mod tests {
     use super::regs::*;
     use super::*;
     use crate::bsp::mock::MockMmio;
+    use embedded_io::{Read, ReadReady, Write};
 
     #[test]
     fn init_sets_divisor_then_8n1_and_fifos() {
@@ -243,7 +264,44 @@ mod tests {
         mock.queue(LSR, &[u32::from(LSR_THRE)]);
         mock.set8(LSR, LSR_THRE | LSR_TEMT);
         let mut uart = Ns16550::new(&mock);
-        assert_eq!(uart.flush(), Err(nb::Error::WouldBlock));
-        assert_eq!(uart.flush(), Ok(()));
+        assert_eq!(uart.nflush(), Err(nb::Error::WouldBlock));
+        assert_eq!(uart.nflush(), Ok(()));
+        mock.queue(LSR, &[u32::from(LSR_THRE), u32::from(LSR_THRE)]);
+        assert_eq!(Write::flush(&mut uart), Ok(()));
+        assert_eq!(mock.reads_at(LSR), 5);
+    }
+
+    #[test]
+    fn write_waits_for_the_first_byte_only() {
+        let mock = MockMmio::new();
+        // Busy, then room for one byte, then busy again: `write` takes one byte and returns.
+        mock.queue(LSR, &[0, u32::from(LSR_THRE), 0]);
+        let mut uart = Ns16550::new(&mock);
+        assert_eq!(uart.write(b"xyz"), Ok(1));
+        assert_eq!(uart.write(b""), Ok(0));
+        assert_eq!(mock.writes8_at(THR), b"x".to_vec());
+    }
+
+    #[test]
+    fn read_returns_what_is_waiting_and_holds_a_later_line_error() {
+        let mock = MockMmio::new();
+        let dr = u32::from(LSR_DR);
+        // Nothing, then two bytes, then a framing error on the third, then nothing.
+        mock.queue(LSR, &[0, dr, dr, u32::from(LSR_FE | LSR_DR)]);
+        mock.queue(RBR, &[b'a'.into(), b'b'.into(), 0xFF]);
+        let mut uart = Ns16550::new(&mock);
+        assert_eq!(uart.read_ready(), Ok(false));
+        let mut buf = [0u8; 8];
+        assert_eq!(uart.read(&mut buf), Ok(2));
+        assert_eq!(&buf[..2], b"ab");
+        // The error met after "ab" is reported once, by the next call, without waiting.
+        assert_eq!(uart.read_ready(), Ok(true));
+        assert_eq!(uart.read(&mut buf), Err(Ns16550Error::RxFraming));
+        assert_eq!(uart.read(&mut []), Ok(0));
+        mock.queue(LSR, &[dr]);
+        mock.queue(RBR, &[b'c'.into()]);
+        assert_eq!(uart.read_ready(), Ok(true));
+        assert_eq!(uart.read(&mut buf[..1]), Ok(1));
+        assert_eq!(buf[0], b'c');
     }
 }

@@ -5,6 +5,7 @@
 
 pub mod regs;
 
+use super::uart_io::impl_uart_io;
 use super::{ByteUart, Mmio};
 
 /// A receive-side line error, as flagged in STAT. The IP does not say which byte was
@@ -30,15 +31,28 @@ impl core::fmt::Display for UartLiteError {
     }
 }
 
-/// An AXI UART Lite instance.
+impl embedded_io::Error for UartLiteError {
+    fn kind(&self) -> embedded_io::ErrorKind {
+        match self {
+            Self::RxParity | Self::RxFraming => embedded_io::ErrorKind::InvalidData,
+            Self::RxOverrun => embedded_io::ErrorKind::Other,
+        }
+    }
+}
+
+/// An AXI UART Lite instance: [`ByteUart`] primitives, and the blocking [`embedded_io`]
+/// `Read`/`ReadReady`/`Write` with the blocking rules of [`super::uart_io`].
 pub struct UartLite<M: Mmio> {
     mmio: M,
+    /// A byte or line error taken from the hardware but not handed out yet
+    /// ([`super::uart_io`]).
+    rx_held: Option<Result<u8, UartLiteError>>,
 }
 
 impl<M: Mmio> UartLite<M> {
     /// Wraps the register block; call [`UartLite::init`] before use.
     pub const fn new(mmio: M) -> Self {
-        Self { mmio }
+        Self { mmio, rx_held: None }
     }
 
     /// Empties both FIFOs and disables the interrupt output.
@@ -68,6 +82,9 @@ impl<M: Mmio> ByteUart for UartLite<M> {
     }
 
     fn read_byte(&mut self) -> nb::Result<u8, Self::Error> {
+        if let Some(held) = self.rx_held.take() {
+            return held.map_err(nb::Error::Other);
+        }
         let stat = self.mmio.read32(regs::STAT);
         if stat & regs::STAT_OVERRUN != 0 {
             return Err(nb::Error::Other(UartLiteError::RxOverrun));
@@ -84,7 +101,7 @@ impl<M: Mmio> ByteUart for UartLite<M> {
         Ok(self.mmio.read32(regs::RX_FIFO) as u8)
     }
 
-    fn flush(&mut self) -> nb::Result<(), Self::Error> {
+    fn nflush(&mut self) -> nb::Result<(), Self::Error> {
         // The IP has no "shift register empty" flag; TX FIFO empty is as close as it gets,
         // so the last byte may still be on the wire for one frame time.
         if self.mmio.read32(regs::STAT) & regs::STAT_TX_EMPTY == 0 {
@@ -94,11 +111,14 @@ impl<M: Mmio> ByteUart for UartLite<M> {
     }
 }
 
+impl_uart_io!(UartLite, UartLiteError);
+
 #[cfg(test)]
 mod tests {
     use super::regs::*;
     use super::*;
     use crate::bsp::mock::MockMmio;
+    use embedded_io::{Read, ReadReady, Write};
 
     #[test]
     fn init_resets_fifos_with_interrupts_off() {
@@ -159,7 +179,24 @@ mod tests {
         mock.queue(STAT, &[0]);
         mock.set(STAT, STAT_TX_EMPTY);
         let mut uart = UartLite::new(&mock);
-        assert_eq!(uart.flush(), Err(nb::Error::WouldBlock));
-        assert_eq!(uart.flush(), Ok(()));
+        assert_eq!(uart.nflush(), Err(nb::Error::WouldBlock));
+        assert_eq!(uart.nflush(), Ok(()));
+        assert_eq!(Write::flush(&mut uart), Ok(()));
+    }
+
+    #[test]
+    fn read_ready_holds_what_it_saw_for_the_next_read() {
+        let mock = MockMmio::new();
+        mock.queue(STAT, &[STAT_PARITY, STAT_RX_VALID, STAT_RX_VALID]);
+        mock.queue(RX_FIFO, &[u32::from(b'p'), u32::from(b'q')]);
+        let mut uart = UartLite::new(&mock);
+        // The STAT read that saw the parity error cleared it: the error is held, not lost.
+        assert_eq!(uart.read_ready(), Ok(true));
+        let mut buf = [0u8; 4];
+        assert_eq!(uart.read(&mut buf), Err(UartLiteError::RxParity));
+        assert_eq!(uart.read(&mut buf), Ok(2));
+        assert_eq!(&buf[..2], b"pq");
+        assert_eq!(uart.read_ready(), Ok(false));
+        assert_eq!(uart.write(b"ok"), Ok(2));
     }
 }

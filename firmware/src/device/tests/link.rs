@@ -137,7 +137,7 @@ fn rle_spans_fit_a_frame_even_for_incompressible_rows() {
     // Widest image, every pixel a literal: spans must split before the payload overflows.
     let mut tx = crate::pixels::FrameTx::new();
     let mut enc = crate::pixels::SpanEncoder::new();
-    let mut wire = Wire::default();
+    let mut wire = Wire::new();
     enc.begin_with(1, false, PixelEncoding::Rle, 0);
     let mut image = Vec::new();
     for x in 0..4096u16 {
@@ -152,7 +152,7 @@ fn rle_spans_fit_a_frame_even_for_incompressible_rows() {
     enc.flush(&mut tx, &mut wire).unwrap();
     let (spans, crc) = enc.finish();
     assert_eq!(crc, crc32(&image));
-    let r = replies(&wire.0);
+    let r = replies(&wire);
     assert_eq!(r.len() as u32, spans);
     assert!(spans >= 8, "4096 literals of 4 bytes need at least 8 spans: {spans}");
     let (img, seen, _) = canvas(&r, 4096, 1);
@@ -163,10 +163,10 @@ fn rle_spans_fit_a_frame_even_for_incompressible_rows() {
 #[test]
 fn announce_sends_a_delimiter_and_an_unsolicited_version() {
     let mut dev = device();
-    let mut w = Wire::default();
+    let mut w = Wire::new();
     dev.announce(&mut w);
-    assert_eq!(w.0[0], 0x00);
-    let r = replies(&w.0);
+    assert_eq!(w[0], 0x00);
+    let r = replies(&w);
     assert_eq!(r.len(), 1);
     let Msg::Version(v) = r[0].msg() else { panic!() };
     assert_eq!(r[0].0, 0, "the first frame after a reset has sequence number 0");
