@@ -52,7 +52,7 @@ macro_rules! impl_uart_io {
             }
 
             /// Spins until every byte of `buf` is queued in the transmitter (not until it has
-            /// left the wire: that is [`flush`](Self::flush)). Overrides the default, which
+            /// left the wire: that is `flush`). Overrides the default, which
             /// would add a panic path for `write` returning 0.
             fn write_all(&mut self, buf: &[u8]) -> Result<(), Self::Error> {
                 for &b in buf {

@@ -9,28 +9,31 @@
 //! voxels) costs no FSL words. A plan bit whose stage is compiled out (cargo features
 //! `reflections`, `textures`, `specular`) is refused with `Error{BadRequest}`.
 
-use super::*;
+use super::fail::Fail;
+use super::raypath::{RayClass, RayPath};
+use super::request::{field, Job};
+use super::scene::SceneStore;
+use super::stats::{FrameStats, Stage, StageClock, Stopwatch};
+use crate::camera::Camera;
+use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
+use crate::pixels::{FrameTx, SpanEncoder, TxError};
+use crate::shade::{self, Light, DEFAULT_ALBEDO};
+use embedded_io::Write;
+use gridrt_shared::fsl::RayKind;
+use gridrt_shared::math::Ray;
+#[cfg(feature = "textures")]
+use gridrt_shared::math::Vec3;
+use gridrt_shared::msg::{feature, render_flags, ErrorCode, Msg};
 #[cfg(feature = "textures")]
 use gridrt_shared::scene::{affine_point, TextureKind};
-use gridrt_shared::scene::{MaterialModel, ReflectMode};
+use gridrt_shared::scene::{Material, MaterialModel, ReflectMode};
 
 /// Widest row the interpolation buffer holds.
 pub const MAX_INTERP_WIDTH: usize = 2048;
 
-/// Offset of `RenderRequest.flags` (the `Error{BadRequest}` detail of a refused plan).
-const FLAGS_FIELD: u32 = 6;
-
-/// Which counter an FSL exchange is charged to.
-#[derive(Clone, Copy)]
-enum RayClass {
-    Primary,
-    Shadow,
-    Reflection,
-}
-
 /// Per-frame constants of the pixel pipeline.
-pub(super) struct FrameCtx {
+struct FrameCtx {
     cam: Camera,
     light: Light,
     shadows: bool,
@@ -54,29 +57,6 @@ pub const fn pipeline_features() -> u32 {
     let t = if cfg!(feature = "textures") { feature::TEXTURES } else { 0 };
     let s = if cfg!(feature = "specular") { feature::SPECULAR } else { 0 };
     r | t | s | feature::INTERP | feature::SCENE_V2
-}
-
-/// Traces one ray and charges its FSL words to `class`.
-#[allow(clippy::too_many_arguments)]
-fn trace_as<L: FslLink, C: StageClock, const N: usize>(
-    path: &mut RayPath<L>,
-    scene: &SceneStore<N>,
-    clock: &C,
-    sw: &mut Stopwatch,
-    ray: &Ray,
-    kind: RayKind,
-    t_max: f32,
-    class: RayClass,
-) -> Result<Option<RayResult>, Fail> {
-    let before = path.stats.fsl_words_out + path.stats.fsl_words_in;
-    let r = path.trace(scene, ray, kind, t_max, clock, sw);
-    let words = path.stats.fsl_words_out + path.stats.fsl_words_in - before;
-    match class {
-        RayClass::Primary => path.stats.fsl_words_primary += words,
-        RayClass::Shadow => path.stats.fsl_words_shadow += words,
-        RayClass::Reflection => path.stats.fsl_words_reflection += words,
-    }
-    r
 }
 
 /// The texture-space point of a hit on primitive `prim` (the object table maps prim ids to
@@ -115,7 +95,7 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
     let (mut first_prim, mut first_t) = (interp::MISS, f32::INFINITY);
     for bounce in 0..depth {
         let class = if bounce == 0 { RayClass::Primary } else { RayClass::Reflection };
-        let hit = trace_as(path, scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, class)?;
+        let hit = path.trace_as(scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, class)?;
         let r = match hit {
             Some(r) if r.hit => r,
             _ => {
@@ -162,7 +142,7 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
                     let sr = shade::shadow_ray(p, n, dl.pos, ctx.diag);
                     sw.lap(clock, &mut path.stats, Stage::Shade);
                     let blocker =
-                        trace_as(path, scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
+                        path.trace_as(scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
                     !blocker.is_some_and(|b| b.hit)
                 } else {
                     true
@@ -210,35 +190,78 @@ pub(super) fn check_plan(flags: u16, compiled: u16) -> Result<(), &'static str> 
     Ok(())
 }
 
-impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
+/// The frame-rendering half of the device: the ray path, the stage clock, the span encoder
+/// and the row buffer of the interpolation.
+pub(super) struct Renderer<L, C> {
+    /// The co-processor link, traversal list and frame counters.
+    pub(super) path: RayPath<L>,
+    clock: C,
+    spans: SpanEncoder,
+    /// Row buffer of the row interpolation.
+    row: [Sample; MAX_INTERP_WIDTH],
+}
+
+impl<L: FslLink, C: StageClock> Renderer<L, C> {
+    /// A renderer over `link`, timed by `clock`.
+    pub(super) fn new(link: L, clock: C) -> Self {
+        Self { path: RayPath::new(link), clock, spans: SpanEncoder::new(), row: [Sample::default(); MAX_INTERP_WIDTH] }
+    }
+
+    /// Renders `job` and sends its spans and `Stats` through `tx`; returns (spans, CRC of the
+    /// decoded pixels). On `Err` the frame stopped: nothing more is to be sent for it but the
+    /// report of the failure.
+    pub(super) fn frame<const N: usize>(
+        &mut self,
+        scene: &SceneStore<N>,
+        tx: &mut FrameTx,
+        job: &Job<'_>,
+        out: &mut impl Write,
+    ) -> Result<(u32, u32), Fail> {
+        let req = job.req;
+        self.path.stats = FrameStats::default();
+        let prim_ids = req.flags & render_flags::PRIM_IDS != 0 && !job.crc_only;
+        self.spans.begin_with(req.frame, prim_ids, req.encoding, job.max_span);
+        self.spans.set_silent(job.crc_only);
+        self.pixels(scene, tx, job, out)?;
+        let (spans, crc) = self.spans.finish();
+        let entries = self.path.stats.to_bytes();
+        // Only a write error stops the frame here (a `Stats` that does not fit a frame would be
+        // a firmware bug, and the frame's pixels are all out).
+        if let Err(TxError::Write(_)) = tx.send(&Msg::Stats { frame: req.frame, entries: &entries }, out) {
+            return Err(Fail::Output);
+        }
+        Ok((spans, crc))
+    }
+
     /// The frame context and the plan the device follows, or the refusal of a plan bit whose
     /// stage this build does not have.
-    fn frame_ctx(&self, req: &RenderRequest, cam: &Camera, light: &Light) -> Result<FrameCtx, Fail> {
-        check_plan(req.flags, compiled_plan()).map_err(|t| Fail::Plain(ErrorCode::BadRequest, FLAGS_FIELD, t))?;
+    fn frame_ctx<const N: usize>(scene: &SceneStore<N>, job: &Job<'_>) -> Result<FrameCtx, Fail> {
+        let req = job.req;
+        check_plan(req.flags, compiled_plan()).map_err(|t| Fail::Plain(ErrorCode::BadRequest, field::FLAGS, t))?;
         let shadows =
-            cfg!(feature = "shadows") && req.flags & render_flags::SHADOWS != 0 && self.scene.lighting.light_count > 0;
+            cfg!(feature = "shadows") && req.flags & render_flags::SHADOWS != 0 && scene.lighting.light_count > 0;
         Ok(FrameCtx {
-            cam: *cam,
-            light: *light,
+            cam: job.cam,
+            light: job.light,
             shadows,
-            reflections: req.flags & render_flags::REFLECTIONS != 0 && self.scene.lighting.max_depth > 1,
+            reflections: req.flags & render_flags::REFLECTIONS != 0 && scene.lighting.max_depth > 1,
             textures: req.flags & render_flags::TEXTURES != 0,
             specular: req.flags & render_flags::SPECULAR != 0,
-            diag: self.scene.grid.aabb().diagonal().length(),
+            diag: scene.grid.aabb().diagonal().length(),
         })
     }
 
     /// Row-major render loop of `region`; returns early (frame aborted) on any co-processor
     /// failure.
-    pub(super) fn render_pipeline(
+    fn pixels<const N: usize>(
         &mut self,
-        req: &RenderRequest,
-        region: Region,
-        cam: &Camera,
-        light: &Light,
+        scene: &SceneStore<N>,
+        tx: &mut FrameTx,
+        job: &Job<'_>,
         out: &mut impl Write,
     ) -> Result<(), Fail> {
-        let ctx = self.frame_ctx(req, cam, light)?;
+        let (req, region) = (job.req, job.region);
+        let ctx = Self::frame_ctx(scene, job)?;
         let step = render_flags::interp_step(req.flags);
         let params = interp::Params {
             step,
@@ -249,7 +272,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         if interpolate && region.cols as usize > MAX_INTERP_WIDTH {
             return Err(Fail::Plain(
                 ErrorCode::BadRequest,
-                FLAGS_FIELD,
+                field::FLAGS,
                 "row interpolation supports rows of at most 2048 pixels",
             ));
         }
@@ -269,7 +292,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
                 & (render_flags::INTERP_STEP_MASK | render_flags::INTERP_EPS_MASK | render_flags::INTERP_ADAPTIVE);
         }
         self.path.stats.plan = plan as u64;
-        let mut sw = Stopwatch { last: self.clock.now() };
+        let mut sw = Stopwatch::start(&self.clock);
         let (x1, y1) = (region.x0.saturating_add(region.cols), region.y0.saturating_add(region.rows));
         let mut counts = Counts::default();
         let mut ctl = StepControl::new(&params);
@@ -277,7 +300,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             if interpolate {
                 let w = region.cols as usize;
                 let before = counts;
-                let (path, scene, clock) = (&mut self.path, &self.scene, &self.clock);
+                let (path, clock) = (&mut self.path, &self.clock);
                 let row = self.row.get_mut(..w).unwrap_or(&mut []);
                 interp::fill_row(row, ctl.step, params.eps, &mut counts, |xi| {
                     pixel(path, scene, clock, &mut sw, &ctx, region.x0 + xi as u16, y)
@@ -285,20 +308,20 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
                 ctl.after_row(&before, &counts);
                 for xi in 0..w {
                     let s = self.row.get(xi).copied().unwrap_or_default();
-                    self.spans.push(region.x0 + xi as u16, y, s.rgb, s.prim, &mut self.tx, out).map_err(Fail::tx)?;
+                    self.spans.push(region.x0 + xi as u16, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
                     self.path.stats.pixels += 1;
                 }
                 sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
             } else {
                 for x in region.x0..x1 {
-                    let s = pixel(&mut self.path, &self.scene, &self.clock, &mut sw, &ctx, x, y)?;
-                    self.spans.push(x, y, s.rgb, s.prim, &mut self.tx, out).map_err(Fail::tx)?;
+                    let s = pixel(&mut self.path, scene, &self.clock, &mut sw, &ctx, x, y)?;
+                    self.spans.push(x, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
                     self.path.stats.pixels += 1;
                     sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
                 }
             }
             // Flush per row so the host sees progress while the next row renders.
-            self.spans.flush(&mut self.tx, out).map_err(Fail::tx)?;
+            self.spans.flush(tx, out).map_err(Fail::tx)?;
             sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
         }
         self.path.stats.interpolated_pixels = counts.interpolated;

@@ -2,9 +2,20 @@
 //! `gridrt-coproc` model: it checks packet framing strictly and answers with canned results.
 
 use super::*;
+use crate::camera::Camera;
+use crate::dda::{build_list, GridDesc, TraversalList};
+use crate::fsl::{FslLink, FslWord};
+use crate::shade::{self, Light};
 use gridrt_shared::frame::{crc32, encode_frame, FrameAccumulator, MAX_ENCODED};
+use gridrt_shared::frame::{FeedResult, FrameError, MAX_PAYLOAD};
+use gridrt_shared::fsl::{self as wire, op, FslError, RayResult};
 use gridrt_shared::fsl::{entry_from_words, ListEntry};
+use gridrt_shared::math::Vec3;
+use gridrt_shared::msg::{
+    feature, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgType, RenderRequest, SceneStatus,
+};
 use gridrt_shared::msg::{stat_entries, PixelEncoding};
+use gridrt_shared::scene::{LightingRecord, Material, MaterialModel, SceneError, SceneHeader, EMPTY_VOXEL};
 use gridrt_shared::scene::{TriangleRecord, HEADER_LEN, PE_IMAGE_TAG};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -1,0 +1,276 @@
+//! The device state machine: received frames are decoded and dispatched (`Hello`, scene
+//! upload, render requests), every answer leaves as a frame, and every refusal or failure
+//! as one `Msg::Error`. Scene storage, request checks, the ray path and the pixel pipeline
+//! are the sibling modules this one drives.
+
+use super::fail::{Fail, Text, Trunc};
+use super::pipeline::{self, Renderer};
+use super::request::{self, Target};
+use super::scene::{SceneStore, Upload};
+use super::stats::{FrameStats, StageClock};
+use crate::fsl::FslLink;
+use crate::pixels::FrameTx;
+use crate::text::TextOut;
+use embedded_io::Write;
+use gridrt_shared::frame::{FeedResult, FrameAccumulator, FrameError, MAX_PAYLOAD};
+use gridrt_shared::msg::{feature, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, RenderRequest, SceneStatus};
+
+/// Feature bits of this build.
+pub const fn compiled_features() -> u32 {
+    let shadows = if cfg!(feature = "shadows") { feature::SHADOWS } else { 0 };
+    shadows
+        | feature::PRIM_IDS
+        | feature::RENDER_REGION
+        | feature::RGB565
+        | feature::RLE
+        | pipeline::pipeline_features()
+}
+
+/// Everything but the receive buffer (split so a received frame can borrow that buffer
+/// while the handler mutates the rest).
+struct Core<L, C, const N: usize> {
+    render: Renderer<L, C>,
+    info: DeviceInfo,
+    tx: FrameTx,
+    scene: SceneStore<N>,
+    upload: Option<Upload>,
+}
+
+/// The device: feed it UART bytes, it answers through an [`embedded_io::Write`].
+///
+/// Output errors: a failed write is counted ([`write_errors`](Self::write_errors)) and
+/// stops the frame it belonged to: nothing more is sent for that frame (no spans, `Stats`,
+/// end message or `Error`, which would need the output that just failed). An answer outside
+/// a frame whose write failed is lost. Either way the host, which waits for every answer,
+/// times out and asks again.
+pub struct Device<L: FslLink, C: StageClock, const MAX_VOXELS: usize> {
+    rx: FrameAccumulator,
+    core: Core<L, C, MAX_VOXELS>,
+}
+
+impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS> {
+    /// A device with no scene. `info` supplies firmware version, board, PE count and PE memory
+    /// size (0 = unknown, not checked); protocol, max payload, voxel capacity (= MAX_VOXELS)
+    /// and feature bits are filled in here.
+    pub fn new(link: L, clock: C, info: DeviceInfo) -> Self {
+        let info = DeviceInfo {
+            protocol: gridrt_shared::PROTOCOL_VERSION as u16,
+            max_payload: MAX_PAYLOAD as u16,
+            voxel_capacity: u32::try_from(MAX_VOXELS).unwrap_or(u32::MAX),
+            features: compiled_features(),
+            ..info
+        };
+        Self {
+            rx: FrameAccumulator::new(),
+            core: Core {
+                render: Renderer::new(link, clock),
+                info,
+                tx: FrameTx::new(),
+                scene: SceneStore::new(),
+                upload: None,
+            },
+        }
+    }
+
+    /// Processes received bytes; every complete frame is handled before this returns (a
+    /// render request renders the whole frame). Partial frames wait for the next call.
+    /// Blocks as long as `out`'s `write_all` does for each answer.
+    pub fn feed(&mut self, input: &[u8], out: &mut impl Write) {
+        let mut input = input;
+        // Each round consumes at least one byte (up to a delimiter), so this bound is never hit.
+        for _ in 0..=input.len() {
+            match self.rx.feed(input) {
+                FeedResult::Consumed => return,
+                FeedResult::Overflow { rest } => {
+                    self.core.bad_frame(FrameError::DecodeOversize, out);
+                    input = rest;
+                }
+                FeedResult::BadFrame { error, rest } => {
+                    self.core.bad_frame(error, out);
+                    input = rest;
+                }
+                FeedResult::Frame { frame, rest } => {
+                    self.core.handle(frame.kind, frame.payload, out);
+                    input = rest;
+                }
+            }
+            if input.is_empty() {
+                return;
+            }
+        }
+    }
+
+    /// The boot banner (SPEC.md §3.12): a lone `0x00` (flushes whatever the host's receiver
+    /// holds) and an unsolicited `Version`. Call once after every reset, before the first
+    /// [`feed`](Self::feed); a host that sees it mid-session knows the device lost its scene.
+    pub fn announce(&mut self, out: &mut impl Write) {
+        // A failed write is counted (`write_errors`); the host, which waits for the banner,
+        // asks again with `Hello`.
+        let _ = self.core.tx.delimiter(out);
+        let info = self.core.info;
+        self.core.send(&Msg::Version(info), out);
+    }
+
+    /// The co-processor link.
+    pub fn link_mut(&mut self) -> &mut L {
+        &mut self.core.render.path.link
+    }
+
+    /// The co-processor link.
+    pub fn link(&self) -> &L {
+        &self.core.render.path.link
+    }
+
+    /// What the device reports in `Msg::Version`.
+    pub fn info(&self) -> &DeviceInfo {
+        &self.core.info
+    }
+
+    /// True when a scene is loaded and renders are accepted.
+    pub fn scene_loaded(&self) -> bool {
+        self.core.scene.loaded
+    }
+
+    /// Counters of the last (or current, if it was aborted) frame.
+    pub fn stats(&self) -> &FrameStats {
+        &self.core.render.path.stats
+    }
+
+    /// Writes to the output that failed so far (saturating; see [`Device`] for what a
+    /// failed write does).
+    pub fn write_errors(&self) -> u32 {
+        self.core.tx.write_errors()
+    }
+
+    /// Sets the poll budget of every blocking FSL put/get (default
+    /// [`DEFAULT_POLLS`](super::DEFAULT_POLLS)).
+    pub fn set_poll_budget(&mut self, polls: u32) {
+        self.core.render.path.polls = polls;
+    }
+}
+
+impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
+    fn send(&mut self, msg: &Msg<'_>, out: &mut impl Write) {
+        // Fails on a write error (counted by `tx`, see `Device::write_errors`) or a firmware
+        // bug (message larger than a frame): nothing to report either with.
+        let _ = self.tx.send(msg, out);
+    }
+
+    fn error(&mut self, code: ErrorCode, detail: u32, text: &str, out: &mut impl Write) {
+        self.send(&Msg::Error { code, detail, text }, out);
+    }
+
+    /// Reports `f` with one `Msg::Error`, except an output failure (module docs of `fail`).
+    fn abort(&mut self, f: Fail, out: &mut impl Write) {
+        if let Fail::Output = f {
+            return;
+        }
+        let (code, detail) = f.code_detail();
+        let mut t = Text::new();
+        f.describe(&mut t);
+        self.error(code, detail, t.as_str(), out);
+    }
+
+    fn bad_frame(&mut self, e: FrameError, out: &mut impl Write) {
+        let mut t = Text::new();
+        Trunc(&mut t).put("bad frame: ");
+        Trunc(&mut t).put(e.as_str());
+        self.error(ErrorCode::BadFrame, e.code(), t.as_str(), out);
+    }
+
+    fn handle(&mut self, kind: u8, payload: &[u8], out: &mut impl Write) {
+        let msg = match Msg::decode(kind, payload) {
+            Ok(m) => m,
+            Err(MsgError::DecodeUnknownType) => {
+                return self.error(ErrorCode::UnexpectedMessage, kind as u32, "unknown message type", out);
+            }
+            Err(e) => {
+                let mut t = Text::new();
+                let mut w = Trunc(&mut t);
+                w.put("malformed payload of message ");
+                w.put_hex(kind as u32, 2);
+                w.put(": ");
+                w.put(e.as_str());
+                return self.error(ErrorCode::BadRequest, kind as u32, t.as_str(), out);
+            }
+        };
+        match msg {
+            Msg::Hello { .. } => {
+                let info = self.info;
+                self.send(&Msg::Version(info), out);
+            }
+            Msg::SceneBegin { total_len, crc } => {
+                // A new upload invalidates the old scene (it will CLEAR the co-processor).
+                self.scene.loaded = false;
+                self.upload = Some(Upload::new(total_len, crc));
+            }
+            Msg::SceneChunk { offset, data } => self.scene_chunk(offset, data, out),
+            Msg::RenderRequest(req) => self.render(&req, Target::Frame, out),
+            Msg::RenderRegion { region, max_span, options, request } => {
+                self.render(&request, Target::Region { region, max_span, options }, out)
+            }
+            other => {
+                let k = other.kind() as u8;
+                self.error(ErrorCode::UnexpectedMessage, k as u32, "message not accepted by the device", out);
+            }
+        }
+    }
+
+    fn scene_chunk(&mut self, offset: u32, data: &[u8], out: &mut impl Write) {
+        let Some(up) = self.upload.as_mut() else {
+            return self.error(
+                ErrorCode::UnexpectedMessage,
+                MsgType::SceneChunk as u32,
+                "scene chunk without SceneBegin",
+                out,
+            );
+        };
+        if offset != up.next {
+            let expected = up.next;
+            return self.error(ErrorCode::BadOffset, expected, "scene chunk out of order", out);
+        }
+        let path = &mut self.render.path;
+        if let Err((e, failure)) = up.feed(data, &mut path.link, path.polls, &mut self.scene, &self.info) {
+            self.upload = None;
+            self.scene.loaded = false;
+            let mut t = Text::new();
+            Trunc(&mut t).put("scene rejected: ");
+            Trunc(&mut t).put(e.as_str());
+            if let Some(f) = failure {
+                Trunc(&mut t).put("; ");
+                f.describe(&mut t);
+            }
+            return self.error(ErrorCode::SceneRejected, e.code(), t.as_str(), out);
+        }
+        let next = up.next;
+        if !up.complete() {
+            return self.send(&Msg::SceneAck { next_offset: next, status: SceneStatus::Receiving }, out);
+        }
+        let result = up.finish();
+        self.upload = None;
+        match result {
+            Err((e, text)) => self.error(ErrorCode::SceneRejected, e.code(), text, out),
+            Ok(()) => {
+                self.scene.loaded = true;
+                self.send(&Msg::SceneAck { next_offset: next, status: SceneStatus::Loaded }, out);
+            }
+        }
+    }
+
+    /// `RenderRequest` or `RenderRegion`: checks the request, renders, sends the spans, `Stats`
+    /// and the end message (`FrameEnd` / `RegionEnd`), or one `Error` when it is refused or
+    /// the frame fails.
+    fn render(&mut self, req: &RenderRequest, target: Target, out: &mut impl Write) {
+        let result = request::job(self.scene.loaded, req, target)
+            .and_then(|job| self.render.frame(&self.scene, &mut self.tx, &job, out));
+        let (spans, crc) = match result {
+            Ok(v) => v,
+            Err(f) => return self.abort(f, out),
+        };
+        let end = match target {
+            Target::Frame => Msg::FrameEnd { frame: req.frame, spans, image_crc: crc },
+            Target::Region { region, .. } => Msg::RegionEnd { frame: req.frame, region, spans, crc },
+        };
+        self.send(&end, out);
+    }
+}

@@ -1,0 +1,236 @@
+//! The scene store and its loader: a `SceneBegin`/`SceneChunk` upload ([`Upload`]) streams
+//! the scene image (SPEC.md §5) through `shared::scene`'s parser into a [`SceneSink`] that
+//! keeps what rendering needs (grid, voxel → PE map, materials, objects, lighting:
+//! [`SceneStore`]) and forwards each PE block to the co-processor as a LOAD_PE packet after
+//! one CLEAR, checking every ACK.
+
+use super::fail::Fail;
+use crate::dda::{GridDesc, MAX_GRID_DIM};
+use crate::fsl::{FslLink, FslWord};
+use gridrt_shared::frame::Crc32Digest;
+use gridrt_shared::fsl::{self as wire, op};
+use gridrt_shared::math::Vec3;
+use gridrt_shared::msg::DeviceInfo;
+use gridrt_shared::scene::{
+    LightingRecord, Material, MaterialModel, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream, EMPTY_VOXEL,
+};
+
+/// Largest material table the device holds.
+pub const MAX_MATERIALS: usize = 64;
+
+/// The loaded scene as the device needs it for rendering.
+pub(super) struct SceneStore<const N: usize> {
+    /// A complete, verified scene is loaded (renders are accepted).
+    pub(super) loaded: bool,
+    /// Grid bounds and dimensions.
+    pub(super) grid: GridDesc,
+    /// Voxels of the grid (the used prefix of `voxel_pe`).
+    pub(super) voxels: usize,
+    /// Owning PE of each voxel, or `EMPTY_VOXEL`.
+    pub(super) voxel_pe: [u8; N],
+    /// Material table.
+    pub(super) materials: heapless::Vec<Material, MAX_MATERIALS>,
+    /// Shading models, parallel to `materials`.
+    pub(super) material_model: heapless::Vec<MaterialModel, MAX_MATERIALS>,
+    /// Object table (prim id ranges, texture spaces).
+    pub(super) objects: heapless::Vec<ObjectRecord, MAX_OBJECTS>,
+    /// Lighting record.
+    pub(super) lighting: LightingRecord,
+}
+
+impl<const N: usize> SceneStore<N> {
+    /// No scene.
+    pub(super) fn new() -> Self {
+        Self {
+            loaded: false,
+            grid: GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [1; 3] },
+            voxels: 0,
+            voxel_pe: [EMPTY_VOXEL; N],
+            materials: heapless::Vec::new(),
+            material_model: heapless::Vec::new(),
+            objects: heapless::Vec::new(),
+            lighting: LightingRecord::default(),
+        }
+    }
+}
+
+/// Largest object table the device holds.
+pub const MAX_OBJECTS: usize = 64;
+
+/// An upload in progress.
+pub(super) struct Upload {
+    stream: SceneStream,
+    total_len: u32,
+    crc: u32,
+    digest: Crc32Digest,
+    /// Offset of the next expected chunk.
+    pub(super) next: u32,
+    /// Words of the current PE block still to forward (a block spans chunks).
+    pe_words_left: u32,
+}
+
+impl Upload {
+    /// The upload `SceneBegin` announced: `total_len` bytes whose CRC-32 is `crc`.
+    pub(super) fn new(total_len: u32, crc: u32) -> Self {
+        Self { stream: SceneStream::new(), total_len, crc, digest: Crc32Digest::default(), next: 0, pe_words_left: 0 }
+    }
+
+    /// True once every announced byte has been fed.
+    pub(super) fn complete(&self) -> bool {
+        self.next >= self.total_len
+    }
+
+    /// Feeds the chunk at [`next`](Self::next) through the scene parser into `store`, forwarding
+    /// PE blocks to the co-processor over `link`. On failure returns the scene error and,
+    /// when the link or the co-processor caused it, that failure.
+    pub(super) fn feed<L: FslLink, const N: usize>(
+        &mut self,
+        data: &[u8],
+        link: &mut L,
+        polls: u32,
+        store: &mut SceneStore<N>,
+        info: &DeviceInfo,
+    ) -> Result<(), (SceneError, Option<Fail>)> {
+        let end = (self.next as u64) + data.len() as u64;
+        if end > self.total_len as u64 {
+            return Err((SceneError::TrailingBytes, None));
+        }
+        self.digest.update(data);
+        let total_len = self.total_len;
+        let mut loader =
+            Loader { link, store, info, polls, total_len, words_left: &mut self.pe_words_left, failure: None };
+        match self.stream.feed(data, &mut loader) {
+            Ok(()) => {
+                self.next = end as u32;
+                Ok(())
+            }
+            Err(e) => Err((e, loader.failure.take())),
+        }
+    }
+
+    /// After the last byte: the stream has checked the body CRC and every ACK; this checks
+    /// that the image ended where its header said and the whole-image CRC of `SceneBegin`.
+    pub(super) fn finish(&mut self) -> Result<(), (SceneError, &'static str)> {
+        let done = self.stream.is_done();
+        let crc_ok = core::mem::take(&mut self.digest).finalize() == self.crc;
+        if !done {
+            Err((SceneError::Truncated, "scene image ended early"))
+        } else if !crc_ok {
+            Err((SceneError::BadCrc, "scene CRC differs from SceneBegin"))
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// [`SceneSink`] that stores the header, voxel map and materials and forwards PE blocks to
+/// the co-processor as LOAD_PE packets.
+struct Loader<'a, L: FslLink, const N: usize> {
+    link: &'a mut L,
+    store: &'a mut SceneStore<N>,
+    info: &'a DeviceInfo,
+    polls: u32,
+    total_len: u32,
+    words_left: &'a mut u32,
+    /// Set when the co-processor or the link failed (the stream only sees `Rejected`).
+    failure: Option<Fail>,
+}
+
+impl<L: FslLink, const N: usize> Loader<'_, L, N> {
+    fn put(&mut self, word: FslWord, what: &'static str) -> Result<(), SceneError> {
+        self.link.put(word, self.polls).map_err(|e| {
+            self.failure = Some(Fail::link(e, what));
+            SceneError::Rejected
+        })
+    }
+
+    /// Reads the one-word answer to CLEAR / LOAD_PE: ACK, else the load fails.
+    fn expect_ack(&mut self, what: &'static str) -> Result<(), SceneError> {
+        match self.link.get(self.polls) {
+            Ok(w) if wire::opcode(w.data) == op::ACK => Ok(()),
+            Ok(w) => {
+                self.failure = Some(Fail::Word(w.data, what));
+                Err(SceneError::Rejected)
+            }
+            Err(e) => {
+                self.failure = Some(Fail::link(e, what));
+                Err(SceneError::Rejected)
+            }
+        }
+    }
+}
+
+impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
+    fn header(&mut self, h: &SceneHeader) -> Result<(), SceneError> {
+        let dims = h.dims.map(u32::from);
+        if dims.iter().any(|&d| d > MAX_GRID_DIM) || h.voxel_count() as usize > N {
+            return Err(SceneError::GridTooLarge);
+        }
+        if h.material_count as usize > MAX_MATERIALS {
+            return Err(SceneError::TooManyMaterials);
+        }
+        if h.total_len != self.total_len || (self.info.pe_count != 0 && h.pe_count > self.info.pe_count) {
+            return Err(SceneError::BadHeader);
+        }
+        if self.info.pe_mem_words != 0 && h.pe_mem_words > self.info.pe_mem_words {
+            return Err(SceneError::PeMemoryOverflow);
+        }
+        if h.object_count as usize > MAX_OBJECTS {
+            return Err(SceneError::BadHeader);
+        }
+        self.store.grid = GridDesc { min: Vec3::from_array(h.bounds_min), max: Vec3::from_array(h.bounds_max), dims };
+        self.store.voxels = h.voxel_count() as usize;
+        self.store.voxel_pe.fill(EMPTY_VOXEL);
+        self.store.materials.clear();
+        self.store.material_model.clear();
+        self.store.objects.clear();
+        self.store.lighting = LightingRecord::default();
+        // The co-processor's old scene goes now: CLEAR, then one LOAD_PE per block.
+        self.put(FslWord::last(wire::CLEAR_WORD), "CLEAR")?;
+        self.expect_ack("CLEAR")
+    }
+
+    fn voxel_map(&mut self, first: u32, owners: &[u8]) -> Result<(), SceneError> {
+        let start = first as usize;
+        let dst = self.store.voxel_pe.get_mut(start..start + owners.len()).ok_or(SceneError::GridTooLarge)?;
+        dst.copy_from_slice(owners);
+        Ok(())
+    }
+
+    fn material(&mut self, _index: u16, m: Material) -> Result<(), SceneError> {
+        self.store.materials.push(m).map_err(|_| SceneError::TooManyMaterials)
+    }
+
+    fn material_model(&mut self, _index: u16, m: MaterialModel) -> Result<(), SceneError> {
+        self.store.material_model.push(m).map_err(|_| SceneError::TooManyMaterials)
+    }
+
+    fn object(&mut self, _index: u16, o: ObjectRecord) -> Result<(), SceneError> {
+        self.store.objects.push(o).map_err(|_| SceneError::BadHeader)
+    }
+
+    fn lighting(&mut self, l: LightingRecord) -> Result<(), SceneError> {
+        self.store.lighting = l;
+        Ok(())
+    }
+
+    fn pe_begin(&mut self, pe: u8, words: u32) -> Result<(), SceneError> {
+        *self.words_left = words;
+        self.put(FslWord::data(wire::load_header(pe)), "LOAD_PE")?;
+        let count = if words == 0 { FslWord::last(words) } else { FslWord::data(words) };
+        self.put(count, "LOAD_PE")
+    }
+
+    fn pe_word(&mut self, word: u32) -> Result<(), SceneError> {
+        *self.words_left = self.words_left.checked_sub(1).ok_or(SceneError::BadPeBlock)?;
+        let w = if *self.words_left == 0 { FslWord::last(word) } else { FslWord::data(word) };
+        self.put(w, "LOAD_PE")
+    }
+
+    fn pe_end(&mut self) -> Result<(), SceneError> {
+        if *self.words_left != 0 {
+            return Err(SceneError::BadPeBlock);
+        }
+        self.expect_ack("LOAD_PE")
+    }
+}

@@ -1,0 +1,213 @@
+//! Frame statistics and stage timing: the counters a frame reports in `Msg::Stats`
+//! ([`FrameStats`], SPEC.md §3.9 and §3.13), the stages they are charged to ([`Stage`]), the
+//! clocks that time them ([`StageClock`]: `mcycle`/`minstret`, a board timer, or nothing)
+//! and the stopwatch the pixel loop laps.
+
+use gridrt_shared::msg::{stat, STAT_ENTRY_LEN};
+
+/// A pair of free-running counters read at stage boundaries.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StageCount {
+    /// Clock cycles (`mcycle`).
+    pub cycles: u64,
+    /// Instructions retired (`minstret`).
+    pub instret: u64,
+}
+
+impl StageCount {
+    fn since(self, earlier: Self) -> Self {
+        Self { cycles: self.cycles.wrapping_sub(earlier.cycles), instret: self.instret.wrapping_sub(earlier.instret) }
+    }
+    fn add(&mut self, d: Self) {
+        self.cycles = self.cycles.wrapping_add(d.cycles);
+        self.instret = self.instret.wrapping_add(d.instret);
+    }
+}
+
+/// Source of [`StageCount`]s (RISC-V `mcycle`/`minstret`, a board timer, or nothing).
+pub trait StageClock {
+    /// Current counter values.
+    fn now(&self) -> StageCount;
+}
+
+/// A clock that always reads zero: stage counters stay 0 and cost nothing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoClock;
+
+impl StageClock for NoClock {
+    #[inline(always)]
+    fn now(&self) -> StageCount {
+        StageCount::default()
+    }
+}
+
+/// Adapter from a board [`crate::bsp::CycleCounter`] to a [`StageClock`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CounterClock<T>(pub T);
+
+impl<T: crate::bsp::CycleCounter> StageClock for CounterClock<T> {
+    #[inline]
+    fn now(&self) -> StageCount {
+        StageCount { cycles: self.0.cycles(), instret: self.0.instret() }
+    }
+}
+
+/// Pipeline stages with their own cycle/instruction counters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// Camera ray generation.
+    RayGen,
+    /// 3D-DDA and list building.
+    Traverse,
+    /// FSL puts and gets (including waiting for the co-processor).
+    FslIo,
+    /// Shading (and building shadow rays).
+    Shade,
+    /// Span packing, frame encoding and UART writes.
+    Encode,
+}
+
+impl Stage {
+    /// All stages in key order.
+    pub const ALL: [Stage; 5] = [Stage::RayGen, Stage::Traverse, Stage::FslIo, Stage::Shade, Stage::Encode];
+
+    /// Index 0..5.
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+    /// Stats key of this stage's instruction count: `STAGE_BASE + 2·stage`.
+    pub const fn instret_key(self) -> u8 {
+        stat::STAGE_BASE + 2 * self as u8
+    }
+    /// Stats key of this stage's cycle count: `STAGE_BASE + 2·stage + 1`.
+    pub const fn cycles_key(self) -> u8 {
+        stat::STAGE_BASE + 2 * self as u8 + 1
+    }
+}
+
+/// Counters of the last rendered frame (sent as `Msg::Stats`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FrameStats {
+    /// Camera rays generated (one per pixel).
+    pub primary_rays: u64,
+    /// Shadow rays generated (lit hits with shadows on), culled ones included.
+    pub shadow_rays: u64,
+    /// Rays sent to the co-processor (all kinds).
+    pub coproc_rays: u64,
+    /// Rays whose list was empty (missed the grid box or crossed only empty voxels): sent
+    /// nothing. `primary_rays + shadow_rays == coproc_rays + culled_rays` on a full frame.
+    pub culled_rays: u64,
+    /// FSL words put (ray requests only; scene loads are not counted).
+    pub fsl_words_out: u64,
+    /// FSL words got.
+    pub fsl_words_in: u64,
+    /// Traversal-list entries sent.
+    pub list_entries: u64,
+    /// Sum of the `tests` field of every result.
+    pub intersection_tests: u64,
+    /// Sum of the `cycles` field of every result.
+    pub coproc_cycles: u64,
+    /// Pixels sent.
+    pub pixels: u64,
+    /// Per-stage counters, indexed by [`Stage::index`].
+    pub stages: [StageCount; 5],
+    /// Mirror-reflection rays generated (scene image v2).
+    pub reflection_rays: u64,
+    /// Pixels filled by row interpolation.
+    pub interpolated_pixels: u64,
+    /// Centre pixels traced after a failed interpolation test.
+    pub interp_retraces: u64,
+    /// The pipeline plan followed (`render_flags` bits).
+    pub plan: u64,
+    /// FSL words (both directions) of primary rays.
+    pub fsl_words_primary: u64,
+    /// FSL words (both directions) of shadow rays.
+    pub fsl_words_shadow: u64,
+    /// FSL words (both directions) of reflection rays.
+    pub fsl_words_reflection: u64,
+}
+
+/// Stats entries of the pipeline plan (SPEC.md §3.13), after the per-stage counters.
+const PLAN_STATS: usize = 7;
+
+/// Number of entries in a `Msg::Stats`.
+pub const STAT_COUNT: usize = 10 + 2 * Stage::ALL.len() + PLAN_STATS;
+
+impl FrameStats {
+    /// (key, value) pairs in the order they are sent.
+    pub fn entries(&self) -> [(u8, u64); STAT_COUNT] {
+        let mut e = [(0u8, 0u64); STAT_COUNT];
+        let base = [
+            (stat::PRIMARY_RAYS, self.primary_rays),
+            (stat::SHADOW_RAYS, self.shadow_rays),
+            (stat::COPROC_RAYS, self.coproc_rays),
+            (stat::CULLED_RAYS, self.culled_rays),
+            (stat::FSL_WORDS_OUT, self.fsl_words_out),
+            (stat::FSL_WORDS_IN, self.fsl_words_in),
+            (stat::INTERSECTION_TESTS, self.intersection_tests),
+            (stat::COPROC_CYCLES, self.coproc_cycles),
+            (stat::PIXELS, self.pixels),
+            (stat::LIST_ENTRIES, self.list_entries),
+        ];
+        for (slot, v) in e.iter_mut().zip(base) {
+            *slot = v;
+        }
+        for (i, s) in Stage::ALL.iter().enumerate() {
+            let c = self.stages[i];
+            if let Some(slot) = e.get_mut(10 + 2 * i) {
+                *slot = (s.instret_key(), c.instret);
+            }
+            if let Some(slot) = e.get_mut(11 + 2 * i) {
+                *slot = (s.cycles_key(), c.cycles);
+            }
+        }
+        let plan = [
+            (stat::REFLECTION_RAYS, self.reflection_rays),
+            (stat::INTERPOLATED_PIXELS, self.interpolated_pixels),
+            (stat::INTERP_RETRACES, self.interp_retraces),
+            (stat::PLAN, self.plan),
+            (stat::FSL_WORDS_PRIMARY, self.fsl_words_primary),
+            (stat::FSL_WORDS_SHADOW, self.fsl_words_shadow),
+            (stat::FSL_WORDS_REFLECTION, self.fsl_words_reflection),
+        ];
+        for (slot, v) in e.iter_mut().skip(10 + 2 * Stage::ALL.len()).zip(plan) {
+            *slot = v;
+        }
+        e
+    }
+
+    /// The `entries` of `Msg::Stats`: each pair as its key byte and the value in little
+    /// endian, in [`entries`](Self::entries) order.
+    pub fn to_bytes(&self) -> [u8; STAT_COUNT * STAT_ENTRY_LEN] {
+        let mut buf = [0u8; STAT_COUNT * STAT_ENTRY_LEN];
+        for (chunk, (k, v)) in buf.chunks_exact_mut(STAT_ENTRY_LEN).zip(self.entries()) {
+            if let Some((key, val)) = chunk.split_first_mut() {
+                *key = k;
+                val.copy_from_slice(&v.to_le_bytes());
+            }
+        }
+        buf
+    }
+}
+
+/// Stage stopwatch: each lap charges the time since the previous lap to one stage.
+pub(super) struct Stopwatch {
+    last: StageCount,
+}
+
+impl Stopwatch {
+    /// A stopwatch whose first lap starts now.
+    pub(super) fn start<C: StageClock>(clock: &C) -> Self {
+        Self { last: clock.now() }
+    }
+
+    /// Charges the time since the previous lap to `stage`.
+    #[inline(always)]
+    pub(super) fn lap<C: StageClock>(&mut self, clock: &C, stats: &mut FrameStats, stage: Stage) {
+        let now = clock.now();
+        if let Some(s) = stats.stages.get_mut(stage.index()) {
+            s.add(now.since(self.last));
+        }
+        self.last = now;
+    }
+}
