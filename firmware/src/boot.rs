@@ -280,33 +280,15 @@ impl<'m> Bootloader<'m> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use gridrt_shared::frame::{encode_frame, MAX_ENCODED, MAX_PAYLOAD};
     use gridrt_shared::msg::MsgType;
 
     fn frame(m: &Msg<'_>) -> Vec<u8> {
-        let mut p = [0u8; MAX_PAYLOAD];
-        let n = m.encode(&mut p).unwrap();
-        let mut w = [0u8; MAX_ENCODED];
-        let len = encode_frame(m.kind() as u8, 0, &p[..n], &mut w).unwrap();
-        w[..len].to_vec()
+        crate::pixels::tests::frame_of(m, 0)
     }
 
     /// Decoded replies: (type, payload).
     fn replies(bytes: &[u8]) -> Vec<(u8, Vec<u8>)> {
-        let mut acc = FrameAccumulator::<MAX_ENCODED>::new();
-        let mut out = vec![];
-        let mut input = bytes;
-        loop {
-            match acc.feed(input) {
-                FeedResult::Frame { frame, rest } => {
-                    out.push((frame.kind, frame.payload.to_vec()));
-                    input = rest;
-                }
-                FeedResult::Consumed => break,
-                other => panic!("{other:?}"),
-            }
-        }
-        out
+        crate::pixels::tests::frames(bytes).into_iter().map(|(_, kind, payload)| (kind, payload)).collect()
     }
 
     const BASE: u32 = 0x8010_0000;

@@ -299,8 +299,9 @@ impl SpanEncoder {
     }
 }
 
+/// Frame helpers shared by the tests of every module that writes frames.
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use gridrt_shared::frame::{crc32, FeedResult, FrameAccumulator};
 
@@ -327,8 +328,8 @@ mod tests {
         }
     }
 
-    /// Decodes every frame on the wire as (seq, kind, payload).
-    fn frames(wire: &[u8]) -> Vec<(u16, u8, Vec<u8>)> {
+    /// Decodes every frame on the wire as (seq, kind, payload); panics on a bad frame.
+    pub(crate) fn frames(wire: &[u8]) -> Vec<(u16, u8, Vec<u8>)> {
         let mut acc = FrameAccumulator::<{ MAX_ENCODED }>::new();
         let mut input = wire;
         let mut out = Vec::new();
@@ -339,9 +340,18 @@ mod tests {
                     input = rest;
                 }
                 FeedResult::Consumed => return out,
-                other => panic!("{other:?}"),
+                other => panic!("bad frame on the wire: {other:?}"),
             }
         }
+    }
+
+    /// `msg` as one frame with sequence number `seq`, as a host would send it.
+    pub(crate) fn frame_of(msg: &Msg<'_>, seq: u16) -> Vec<u8> {
+        let mut payload = [0u8; MAX_PAYLOAD];
+        let n = msg.encode(&mut payload).unwrap();
+        let mut out = [0u8; MAX_ENCODED];
+        let len = encode_frame(msg.kind() as u8, seq, &payload[..n], &mut out).unwrap();
+        out[..len].to_vec()
     }
 
     #[test]

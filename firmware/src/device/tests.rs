@@ -1,15 +1,17 @@
-//! Device tests against a small scripted co-processor (`FakeCoproc`), independent of the
-//! `gridrt-coproc` model: it checks packet framing strictly and answers with canned results.
+//! Device tests against a small scripted co-processor (`fake::FakeCoproc`), independent of
+//! the `gridrt-coproc` model: it checks packet framing strictly and answers with canned
+//! results.
+
+mod fake;
 
 use super::*;
 use crate::camera::Camera;
 use crate::dda::{build_list, GridDesc, TraversalList};
-use crate::fsl::{FslLink, FslWord};
 use crate::shade::{self, Light};
-use gridrt_shared::frame::{crc32, encode_frame, FrameAccumulator, MAX_ENCODED};
-use gridrt_shared::frame::{FeedResult, FrameError, MAX_PAYLOAD};
-use gridrt_shared::fsl::{self as wire, op, FslError, RayResult};
-use gridrt_shared::fsl::{entry_from_words, ListEntry};
+use fake::{FakeCoproc, Mode};
+use gridrt_shared::frame::{crc32, encode_frame, MAX_ENCODED};
+use gridrt_shared::frame::{FrameError, MAX_PAYLOAD};
+use gridrt_shared::fsl::{self as wire, op, FslError};
 use gridrt_shared::math::Vec3;
 use gridrt_shared::msg::{
     feature, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgType, RenderRequest, SceneStatus,
@@ -19,151 +21,7 @@ use gridrt_shared::scene::{LightingRecord, Material, MaterialModel, SceneError, 
 use gridrt_shared::scene::{TriangleRecord, HEADER_LEN, PE_IMAGE_TAG};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::VecDeque;
 use std::vec::Vec;
-
-// ---------------------------------------------------------------- fake co-processor
-
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Mode {
-    /// Answer everything.
-    Normal,
-    /// Answer ray packets with this ERROR word.
-    ErrorOnRay(u32),
-    /// Answer LOAD_PE packets with this ERROR word.
-    ErrorOnLoad(u32),
-    /// Never answer ray packets (the device must time out).
-    SilentOnRay,
-}
-
-#[derive(Debug, Clone, PartialEq)]
-struct RayReq {
-    kind: u32,
-    origin: [f32; 3],
-    dir: [f32; 3],
-    t_max: f32,
-    list: Vec<ListEntry>,
-}
-
-struct FakeCoproc {
-    mode: Mode,
-    /// Answer of any-hit queries.
-    shadow_hit: bool,
-    packet: Vec<u32>,
-    out: VecDeque<FslWord>,
-    words_in: usize,
-    clears: usize,
-    loads: Vec<(u8, Vec<u32>)>,
-    rays: Vec<RayReq>,
-    violations: Vec<&'static str>,
-}
-
-impl FakeCoproc {
-    fn new() -> Self {
-        Self {
-            mode: Mode::Normal,
-            shadow_hit: false,
-            packet: Vec::new(),
-            out: VecDeque::new(),
-            words_in: 0,
-            clears: 0,
-            loads: Vec::new(),
-            rays: Vec::new(),
-            violations: Vec::new(),
-        }
-    }
-
-    fn answer(&mut self, words: &[u32]) {
-        for (i, &w) in words.iter().enumerate() {
-            self.out.push_back(FslWord { data: w, control: i + 1 == words.len() });
-        }
-    }
-
-    fn packet_done(&mut self) {
-        let p = core::mem::take(&mut self.packet);
-        let ack = op::ACK << 28;
-        match wire::opcode(p[0]) {
-            op::CLEAR => {
-                if p.len() != 1 {
-                    self.violations.push("CLEAR length");
-                }
-                self.clears += 1;
-                self.answer(&[ack]);
-            }
-            op::LOAD_PE => {
-                let count = p.get(1).copied().unwrap_or(u32::MAX) as usize;
-                if p.len() != 2 + count {
-                    self.violations.push("LOAD_PE length");
-                }
-                self.loads.push((p[0] as u8, p[2..].to_vec()));
-                match self.mode {
-                    Mode::ErrorOnLoad(w) => self.answer(&[w]),
-                    _ => self.answer(&[ack]),
-                }
-            }
-            op::RAY_CLOSEST | op::RAY_ANY => {
-                let n = (p[0] & 0xFFFF) as usize;
-                if p.len() != RAY_HEADER + 2 * n || n == 0 {
-                    self.violations.push("ray length");
-                }
-                let f = |i: usize| f32::from_bits(p[i]);
-                let list: Vec<_> = p[RAY_HEADER..].chunks(2).map(|c| entry_from_words(c[0], c[1])).collect();
-                let req = RayReq {
-                    kind: wire::opcode(p[0]),
-                    origin: [f(1), f(2), f(3)],
-                    dir: [f(4), f(5), f(6)],
-                    t_max: f(7),
-                    list,
-                };
-                let first = req.list.first().copied();
-                let kind = req.kind;
-                self.rays.push(req);
-                match self.mode {
-                    Mode::ErrorOnRay(w) => return self.answer(&[w]),
-                    Mode::SilentOnRay => return,
-                    _ => {}
-                }
-                let hit = kind == op::RAY_CLOSEST || self.shadow_hit;
-                let r = match (hit, first) {
-                    (true, Some(e)) => RayResult {
-                        hit: true,
-                        pe: e.pe,
-                        list_pos: 0,
-                        t: e.t_exit * 0.95,
-                        prim: e.voxel + 100,
-                        material: (e.voxel % 2) as u16,
-                        tests: n as u16,
-                        normal: [0.0, 0.0, 2.0],
-                        cycles: 648 * n as u32,
-                    },
-                    _ => RayResult { tests: n as u16, cycles: 648 * n as u32, ..RayResult::MISS },
-                };
-                self.answer(&r.to_words());
-            }
-            _ => {
-                self.violations.push("unknown opcode");
-                self.answer(&[FslError::UnknownOpcode.to_word(0)]);
-            }
-        }
-    }
-}
-
-const RAY_HEADER: usize = wire::RAY_HEADER_WORDS;
-
-impl FslLink for FakeCoproc {
-    type Error = core::convert::Infallible;
-    fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
-        self.words_in += 1;
-        self.packet.push(word.data);
-        if word.control {
-            self.packet_done();
-        }
-        Ok(())
-    }
-    fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
-        self.out.pop_front().ok_or(nb::Error::WouldBlock)
-    }
-}
 
 // ---------------------------------------------------------------- host side helpers
 
@@ -200,28 +58,10 @@ fn device() -> Dev {
     Device::new(FakeCoproc::new(), NoClock, info())
 }
 
-fn frame(msg: &Msg<'_>, seq: u16) -> Vec<u8> {
-    let mut payload = [0u8; MAX_PAYLOAD];
-    let n = msg.encode(&mut payload).unwrap();
-    let mut out = [0u8; MAX_ENCODED];
-    let len = encode_frame(msg.kind() as u8, seq, &payload[..n], &mut out).unwrap();
-    out[..len].to_vec()
-}
+use crate::pixels::tests::frame_of as frame;
 
 fn replies(wire: &[u8]) -> Vec<Reply> {
-    let mut acc = FrameAccumulator::<{ MAX_ENCODED }>::new();
-    let mut input = wire;
-    let mut out = Vec::new();
-    loop {
-        match acc.feed(input) {
-            FeedResult::Frame { frame, rest } => {
-                out.push(Reply(frame.seq, frame.kind, frame.payload.to_vec()));
-                input = rest;
-            }
-            FeedResult::Consumed => return out,
-            other => panic!("device sent a bad frame: {other:?}"),
-        }
-    }
+    crate::pixels::tests::frames(wire).into_iter().map(|(seq, kind, payload)| Reply(seq, kind, payload)).collect()
 }
 
 fn exchange(dev: &mut Dev, bytes: &[u8]) -> Vec<Reply> {
@@ -668,6 +508,49 @@ fn link_timeout_aborts_the_frame_with_an_error_and_does_not_hang() {
     // The device still answers.
     let r = send(&mut dev, &Msg::Hello { protocol: 1 });
     assert!(matches!(r[0].msg(), Msg::Version(_)));
+}
+
+/// A UART that takes `room` bytes, then fails every write.
+struct BrokenUart {
+    room: usize,
+    got: Vec<u8>,
+}
+
+impl embedded_io::ErrorType for BrokenUart {
+    type Error = embedded_io::ErrorKind;
+}
+
+impl embedded_io::Write for BrokenUart {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
+        let n = buf.len().min(self.room);
+        if n == 0 && !buf.is_empty() {
+            return Err(embedded_io::ErrorKind::BrokenPipe);
+        }
+        self.room -= n;
+        self.got.extend_from_slice(&buf[..n]);
+        Ok(n)
+    }
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+#[test]
+fn a_write_error_stops_the_frame_is_counted_and_the_device_recovers() {
+    let mut dev = loaded_device();
+    let before = dev.write_errors();
+    let mut uart = BrokenUart { room: 200, got: Vec::new() };
+    dev.feed(&frame(&Msg::RenderRequest(request(16, 9, 0)), 0), &mut uart);
+    assert_eq!(dev.write_errors(), before + 1, "one failed write, then the frame stopped");
+    assert!(dev.stats().pixels < 16 * 9, "rendering stopped at the failed span");
+    // What got out before the failure: whole spans only (the cut frame is no frame); no
+    // Stats, FrameEnd or Error after it.
+    let r = replies(&uart.got);
+    assert!(!r.is_empty() && r.iter().all(|x| x.1 == MsgType::PixelSpan as u8), "{r:?}");
+    // The next request is answered in full.
+    let out = rendered(&send(&mut dev, &Msg::RenderRequest(request(4, 3, 0))), 4, 3);
+    assert_eq!(out.spans, 3);
+    assert_eq!(dev.write_errors(), before + 1);
 }
 
 #[test]

@@ -239,7 +239,10 @@ fn qemu_render_matches_loopback() {
     }
     let per_ray = stats["instructions_per_primary_ray"].as_f64().unwrap();
     let total: u64 = by_stage.values().map(|v| v.as_u64().unwrap()).sum();
-    assert_eq!(per_ray, total as f64 / 76_800.0);
+    // Within an ulp or two: serde_json's default float parsing is not correctly rounded, so
+    // the value read back from the JSON may differ from the host's in the last bit.
+    let want = total as f64 / 76_800.0;
+    assert!((per_ray - want).abs() <= 4.0 * f64::EPSILON * want, "{per_ray} vs {want}");
     // Under -icount shift=0 a cycle is an instruction: mcycle tracks minstret (QEMU may count
     // the CSR read itself on one side, so allow a few per ray).
     let counters = &stats["device_counters"];
