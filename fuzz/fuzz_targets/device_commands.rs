@@ -90,16 +90,7 @@ fn too_big(segment: &[u8]) -> bool {
 }
 
 fuzz_target!(|data: &[u8]| {
-    let info = DeviceInfo {
-        protocol: 0,
-        firmware: [0, 1, 0],
-        board: 0,
-        max_payload: 0,
-        pe_count: 4,
-        voxel_capacity: 0,
-        pe_mem_words: 4096,
-        features: 0,
-    };
+    let info = DeviceInfo { protocol: 0, firmware: [0, 1, 0], board: 0, max_payload: 0, pe_count: 4, voxel_capacity: 0, pe_mem_words: 4096, features: 0 };
     let mut dev: Box<Device<FakeLink, NoClock, 4096>> = Box::new(Device::new(FakeLink::default(), NoClock, info));
     dev.set_poll_budget(64);
     let mut out = Check(FrameAccumulator::new());

@@ -11,7 +11,7 @@ use core::fmt::Write as _;
 use embedded_io::Write as _;
 use gridrt_firmware::boot::Bootloader;
 use gridrt_firmware::bsp::UartWriter;
-use gridrt_firmware_image::serve::{self, read_available, RX_BATCH};
+use gridrt_firmware_image::serve::{self, read_some, RX_BATCH};
 use gridrt_firmware_image::{board, VERSION};
 use gridrt_shared::msg::DeviceInfo;
 
@@ -44,7 +44,7 @@ fn main() -> ! {
     let mut boot = Bootloader::new(start as u32, region, info);
     let mut buf = [0u8; RX_BATCH];
     loop {
-        let n = read_available(&mut console, &mut buf);
+        let n = read_some(&mut console, &mut buf);
         let Some(bytes) = buf.get(..n).filter(|b| !b.is_empty()) else {
             continue;
         };
