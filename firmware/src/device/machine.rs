@@ -143,7 +143,7 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
     }
 
     /// Sets the poll budget of every blocking FSL put/get (default
-    /// [`DEFAULT_POLLS`](super::DEFAULT_POLLS)).
+    /// [`DEFAULT_POLLS`](super::raypath::DEFAULT_POLLS)).
     pub fn set_poll_budget(&mut self, polls: u32) {
         self.core.render.path.polls = polls;
     }

@@ -332,7 +332,8 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use super::{check_plan, compiled_plan, pipeline_features};
+    use gridrt_shared::msg::{feature, render_flags};
 
     #[test]
     fn a_build_without_a_stage_refuses_plans_that_need_it() {

@@ -1,5 +1,5 @@
 //! Link features of the device (SPEC.md §3.7.1, §3.12): pixel encodings, `RenderRegion`,
-//! the boot banner.
+//! the boot banner, and what a failing UART does to a frame.
 
 use super::*;
 use gridrt_shared::msg::Region;
@@ -191,4 +191,47 @@ fn crc_only_regions_send_no_spans_but_the_same_crc() {
         panic!()
     };
     assert_eq!((a, spans), (b, 0));
+}
+
+/// A UART that takes `room` bytes, then fails every write.
+struct BrokenUart {
+    room: usize,
+    got: Vec<u8>,
+}
+
+impl embedded_io::ErrorType for BrokenUart {
+    type Error = embedded_io::ErrorKind;
+}
+
+impl embedded_io::Write for BrokenUart {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
+        let n = buf.len().min(self.room);
+        if n == 0 && !buf.is_empty() {
+            return Err(embedded_io::ErrorKind::BrokenPipe);
+        }
+        self.room -= n;
+        self.got.extend_from_slice(&buf[..n]);
+        Ok(n)
+    }
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+#[test]
+fn a_write_error_stops_the_frame_is_counted_and_the_device_recovers() {
+    let mut dev = loaded_device();
+    let before = dev.write_errors();
+    let mut uart = BrokenUart { room: 200, got: Vec::new() };
+    dev.feed(&frame(&Msg::RenderRequest(request(16, 9, 0)), 0), &mut uart);
+    assert_eq!(dev.write_errors(), before + 1, "one failed write, then the frame stopped");
+    assert!(dev.stats().pixels < 16 * 9, "rendering stopped at the failed span");
+    // What got out before the failure: whole spans only (the cut frame is no frame); no
+    // Stats, FrameEnd or Error after it.
+    let r = replies(&uart.got);
+    assert!(!r.is_empty() && r.iter().all(|x| x.1 == MsgType::PixelSpan as u8), "{r:?}");
+    // The next request is answered in full.
+    let out = rendered(&send(&mut dev, &Msg::RenderRequest(request(4, 3, 0))), 4, 3);
+    assert_eq!(out.spans, 3);
+    assert_eq!(dev.write_errors(), before + 1);
 }
