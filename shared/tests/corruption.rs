@@ -1,7 +1,7 @@
 //! Corruption tests: every decoder in the crate rejects damaged input with the error
 //! SPEC.md names, never panics, and the byte stream resynchronises.
 //!
-//! Tests named `bug_*` expose defects in `shared/src` and are ignored until they are fixed.
+//! Tests named `regression_*` pin defects that were fixed in `shared/src`.
 
 mod common;
 
@@ -386,6 +386,45 @@ fn err_of(spec: &ImageSpec) -> Result<(), SceneError> {
     r
 }
 
+/// The SPEC.md §5.7 worked example of the scene layout before the version-2 merge (version
+/// 1, no material models, objects or lighting, untagged PE image), as it was pinned then.
+#[rustfmt::skip]
+const PRE_MERGE_V1_IMAGE: [u8; 164] = [
+    0x47, 0x52, 0x54, 0x53, 0x01, 0x00, 0x40, 0x00, 0x02, 0x00, 0x01, 0x00, 0x01, 0x00, 0x01, 0x00, //
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x40, //
+    0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x80, 0x3F, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, //
+    0x40, 0x00, 0x00, 0x00, 0xA4, 0x00, 0x00, 0x00, 0x1B, 0x90, 0x0A, 0xE5, 0x00, 0x00, 0x00, 0x00, //
+    0x00, 0xFF, 0x00, 0x00, 0xCD, 0xCC, 0x4C, 0x3F, 0xCD, 0xCC, 0x4C, 0x3F, 0xCD, 0xCC, 0x4C, 0x3F, //
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x12, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, //
+    0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, //
+    0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x3E, 0x00, 0x00, 0x80, 0x3E, //
+    0x00, 0x00, 0x00, 0x3F, 0x00, 0x00, 0x40, 0x3F, 0x00, 0x00, 0x80, 0x3E, 0x00, 0x00, 0x00, 0x3F, //
+    0x00, 0x00, 0x80, 0x3E, 0x00, 0x00, 0x40, 0x3F, 0x00, 0x00, 0x00, 0x3F, 0x00, 0x00, 0x00, 0x00, //
+    0x00, 0x00, 0x00, 0x00,
+];
+
+/// The untagged PE memory image of [`PRE_MERGE_V1_IMAGE`] (T, V, R first).
+const PRE_MERGE_V1_PE_WORDS: [u32; 18] = [
+    1,
+    1,
+    1,
+    0,
+    0,
+    1,
+    0,
+    0x3E80_0000,
+    0x3E80_0000,
+    0x3F00_0000,
+    0x3F40_0000,
+    0x3E80_0000,
+    0x3F00_0000,
+    0x3E80_0000,
+    0x3F40_0000,
+    0x3F00_0000,
+    0,
+    0,
+];
+
 #[test]
 fn scene_bad_magic() {
     for i in 0..4 {
@@ -398,10 +437,25 @@ fn scene_bad_magic() {
 
 #[test]
 fn scene_bad_version() {
-    for v in [0u16, 3, 0x0100, 0xFFFF] {
+    for v in [0u16, 1, 3, 0x0100, 0x0200, 0xFFFF] {
         let spec = ImageSpec { version: v, ..ImageSpec::tiny() };
         assert_eq!(err_of(&spec), Err(SceneError::BadVersion), "version {v}");
     }
+}
+
+/// Readers accept exactly version 2 (§5.8): an image of the pre-merge version-1 layout is
+/// rejected at its header, before anything reaches a sink.
+#[test]
+fn scene_version_1_image_rejected() {
+    assert_eq!(frame::crc32(&PRE_MERGE_V1_IMAGE[64..]), 0xE50A_901B, "the image as pinned before the merge");
+    assert_eq!(SceneHeader::parse(&PRE_MERGE_V1_IMAGE[..64]), Err(SceneError::BadVersion));
+    for chunk in [1, 7, 164] {
+        let (r, sink, s) = stream_in_chunks(&PRE_MERGE_V1_IMAGE, chunk);
+        assert_eq!(r, Err(SceneError::BadVersion), "chunk {chunk}");
+        assert!(sink.events.is_empty() && !s.is_done());
+    }
+    // Its PE image, loaded on its own, is untagged and rejected too.
+    assert_eq!(PeImage::parse(&PRE_MERGE_V1_PE_WORDS).err(), Some(SceneError::BadPeBlock));
 }
 
 #[test]
@@ -418,10 +472,14 @@ fn scene_bad_header_fields() {
         ImageSpec { bounds_max: [0.0, 1.0, 1.0], ..t() },
         ImageSpec { bounds_min: [0.0, 2.0, 0.0], ..t() },
         ImageSpec { total_len_override: Some(63), ..t() },
+        ImageSpec { dims: [4096, 4096, 2], ..t() },
+        ImageSpec { dims: [65535, 65535, 65535], ..t() },
     ];
     for (i, spec) in cases.iter().enumerate() {
         assert_eq!(err_of(spec), Err(SceneError::BadHeader), "case {i}");
     }
+    // Flags and the reserved bytes 62..64 are ignored (and outside the body CRC).
+    assert_eq!(err_of(&ImageSpec { flags: 0xFFFF, reserved: 0xBEEF, ..t() }), Ok(()));
 }
 
 #[test]
@@ -432,18 +490,91 @@ fn scene_non_finite_values() {
         assert_eq!(err_of(&ImageSpec { bounds_max: [2.0, 1.0, v], ..t() }), Err(SceneError::NonFinite));
         assert_eq!(err_of(&ImageSpec { materials: vec![[0.8, v, 0.8, 0.0]], ..t() }), Err(SceneError::NonFinite));
         assert_eq!(err_of(&ImageSpec { materials: vec![[0.8, 0.8, 0.8, v]], ..t() }), Err(SceneError::NonFinite));
+        // Every float of the material model (offsets 8..80), object (16..64), lighting (4..60).
+        for k in 0..18 {
+            let mut floats = DEFAULT_MODEL_FLOATS;
+            floats[k] = v;
+            let spec = ImageSpec { models: vec![model_bytes([2, 0, 0, 0, 0, 1, 8, 0], floats, 0)], ..t() };
+            assert_eq!(err_of(&spec), Err(SceneError::NonFinite), "model float {k}");
+        }
+        for k in 0..12 {
+            let mut affine = HALF_SCALE;
+            affine[k] = v;
+            let mut spec = ImageSpec::sphere();
+            spec.objects[0] = object_bytes(1, 0, 0, 1, affine);
+            assert_eq!(err_of(&spec), Err(SceneError::NonFinite), "object float {k}");
+        }
+        for k in 0..14 {
+            let mut spec = t();
+            spec.lighting[4 + 4 * k..8 + 4 * k].copy_from_slice(&v.to_le_bytes());
+            assert_eq!(err_of(&spec), Err(SceneError::NonFinite), "lighting float {k}");
+        }
     }
+}
+
+/// Enum and range rules of the material model, object and lighting records (§5.7).
+#[test]
+fn scene_bad_records() {
+    let t = ImageSpec::tiny;
+    let with_model = |byte: usize, v: u8| {
+        let mut m = matte_model();
+        m[byte] = v;
+        ImageSpec { models: vec![m], ..t() }
+    };
+    for (byte, v) in [(0, 3), (1, 3), (2, 4), (3, 6), (4, 3), (5, 2), (6, 0), (6, 13), (0, 0xFF)] {
+        assert_eq!(err_of(&with_model(byte, v)), Err(SceneError::BadRecord), "model byte {byte} = {v}");
+    }
+    // η > 0, exponent ≥ 0, σ² ≥ 0, κ ≥ 0 (floats 8, 4, 3, 9).
+    for (k, v) in [(8, 0.0), (8, -1.5), (4, -1.0), (3, -0.1), (9, -0.5)] {
+        let mut floats = DEFAULT_MODEL_FLOATS;
+        floats[k] = v;
+        let spec = ImageSpec { models: vec![model_bytes([2, 0, 0, 0, 0, 1, 8, 0], floats, 0)], ..t() };
+        assert_eq!(err_of(&spec), Err(SceneError::BadRecord), "model float {k} = {v}");
+    }
+    for kind in [7u8, 0x80, 0xFF] {
+        let mut spec = ImageSpec::sphere();
+        spec.objects[0][0] = kind;
+        assert_eq!(err_of(&spec), Err(SceneError::BadRecord), "object kind {kind}");
+    }
+    for (byte, v) in [(0usize, 2u8), (1, 0), (1, 9), (2, 2)] {
+        let mut spec = t();
+        spec.lighting[byte] = v;
+        assert_eq!(err_of(&spec), Err(SceneError::BadRecord), "lighting byte {byte} = {v}");
+    }
+    // cos_inner < cos_outer.
+    let mut spec = t();
+    spec.lighting[28..32].copy_from_slice(&0.9f32.to_le_bytes());
+    spec.lighting[32..36].copy_from_slice(&0.8f32.to_le_bytes());
+    assert_eq!(err_of(&spec), Err(SceneError::BadRecord));
+    // A mesh scene with depth 8, no light and a spotlight cone is in range.
+    let mut spec = t();
+    spec.lighting[..3].copy_from_slice(&[0, 8, 1]);
+    spec.lighting[28..36].copy_from_slice(&[0.8f32.to_le_bytes(), 0.9f32.to_le_bytes()].concat());
+    assert_eq!(err_of(&spec), Ok(()));
 }
 
 #[test]
 fn scene_bad_body_crc() {
-    // Bytes the stream does not interpret (padding, vertices, prim, material) and the CRC field.
-    for i in (66..68).chain(120..164).chain(56..60) {
+    // Bytes the stream does not interpret: voxel-map padding, reserved bytes of the material
+    // model (7, 84..96), lighting (3, 60..80) and PE block head (2..4), the PE image words
+    // (checked by the loader, not the stream); and the CRC field itself.
+    let model_reserved = [91usize].into_iter().chain(168..180);
+    let lighting_reserved = [183usize].into_iter().chain(240..260);
+    let touched: Vec<usize> =
+        (66..68).chain(model_reserved).chain(lighting_reserved).chain(262..264).chain(268..348).chain(56..60).collect();
+    for i in touched {
         let mut img = TINY_IMAGE;
         img[i] ^= 0x01;
         let (r, _, s) = stream(&img);
         assert_eq!(r, Err(SceneError::BadCrc), "byte {i}");
         assert!(!s.is_done());
+    }
+    // Object reserved bytes (1, 12..16) of the sphere scene.
+    let image = ImageSpec::sphere().build();
+    for i in [181usize, 192, 193, 194, 195] {
+        let mut img = image.clone();
+        img[i] ^= 0x01;
+        assert_eq!(stream(&img).0, Err(SceneError::BadCrc), "sphere byte {i}");
     }
 }
 
@@ -460,18 +591,18 @@ fn is_prefix(partial: &[Event], full: &[Event]) -> bool {
         }
 }
 
-#[test]
-fn scene_truncated_at_every_section_boundary() {
-    let (_, full, _) = stream(&TINY_IMAGE);
-    // Coalesced sink calls seen at each boundary: header, map, material, pe_begin.
-    let cuts = [(0usize, 0usize), (1, 0), (63, 0), (64, 1), (68, 2), (84, 3), (92, 4)];
-    for (cut, calls) in cuts {
+/// Cuts `image` at and next to each (offset, coalesced sink calls seen there), and at every
+/// other offset: never done, never an error, the calls a prefix of the whole image's.
+fn check_truncations(image: &[u8], cuts: &[(usize, usize)]) {
+    let (_, full, _) = stream(image);
+    for &(cut, calls) in cuts {
         for near in [cut.saturating_sub(1), cut, cut + 1, cut + 2] {
             for chunk in [1usize, 7, 200] {
-                let (r, sink, s) = stream_in_chunks(&TINY_IMAGE[..near], chunk);
+                let (r, sink, s) = stream_in_chunks(&image[..near], chunk);
                 assert_eq!(r, Ok(()), "cut {near}");
                 assert!(!s.is_done(), "cut {near}");
                 assert_eq!(s.offset() as usize, near);
+                assert_eq!(s.finish(), Err(SceneError::Truncated), "cut {near}");
                 assert!(is_prefix(&sink.events, &full.events), "cut {near} chunk {chunk}: {:?}", sink.events);
                 if near == cut {
                     assert_eq!(coalesce(&sink.events).len(), calls, "cut {near}");
@@ -479,22 +610,54 @@ fn scene_truncated_at_every_section_boundary() {
             }
         }
     }
-    // Every other cut, too: never done, never an error.
-    for near in 0..TINY_IMAGE.len() {
-        let (r, sink, s) = stream_in_chunks(&TINY_IMAGE[..near], 5);
+    for near in 0..image.len() {
+        let (r, sink, s) = stream_in_chunks(&image[..near], 5);
         assert_eq!(r, Ok(()), "cut {near}");
         assert!(!s.is_done() && is_prefix(&sink.events, &full.events), "cut {near}");
     }
-    let (r, _, s) = stream(&TINY_IMAGE);
+    let (r, _, s) = stream(image);
     assert_eq!(r, Ok(()));
     assert!(s.is_done());
+    assert_eq!(s.finish(), Ok(()));
+}
+
+#[test]
+fn scene_truncated_at_every_section_boundary() {
+    // Coalesced sink calls seen at each section end: header, map, colour, model, lighting,
+    // pe_begin (the tiny image has no objects: its object section ends where it starts).
+    let [header, map, colours, models, lighting, block_head, _] = TINY_BOUNDARIES;
+    check_truncations(
+        &TINY_IMAGE,
+        &[(0, 0), (1, 0), (63, 0), (header, 1), (map, 2), (colours, 3), (models, 4), (lighting, 5), (block_head, 6)],
+    );
+    // The sphere image has an object record: ends 64, 68, 84, 180, 244 (object), 324, 332.
+    let sphere = ImageSpec::sphere().build();
+    check_truncations(&sphere, &[(64, 1), (68, 2), (84, 3), (180, 4), (244, 5), (324, 6), (332, 7)]);
 }
 
 #[test]
 fn scene_total_len_disagrees_with_sections() {
-    for total in [160u32, 165, 168, 1000] {
+    for total in [344u32, 347, 349, 352, 1000] {
         let spec = ImageSpec { total_len_override: Some(total), ..ImageSpec::tiny() };
         assert_eq!(err_of(&spec), Err(SceneError::BadHeader), "total_len {total}");
+    }
+}
+
+/// Header counts that disagree with the records that follow shift every later section: the
+/// stream fails (or waits for bytes that never come), never succeeds.
+#[test]
+fn scene_counts_disagree_with_records() {
+    let t = ImageSpec::tiny;
+    let cases = [
+        ImageSpec { object_count_override: Some(1), ..t() },
+        ImageSpec { material_count_override: Some(2), ..t() },
+        ImageSpec { material_count_override: Some(0), ..t() },
+        ImageSpec { models: vec![], ..t() },
+        ImageSpec { object_count_override: Some(0), ..ImageSpec::sphere() },
+    ];
+    for (i, spec) in cases.iter().enumerate() {
+        let (r, _, s) = stream(&spec.build());
+        assert!(r.is_err() || !s.is_done(), "case {i}: {r:?}");
     }
 }
 
@@ -506,6 +669,7 @@ fn scene_trailing_bytes() {
     assert_eq!(r, Err(SceneError::TrailingBytes));
     // Once failed, the stream stays failed.
     assert_eq!(s.feed(&[1], &mut RecordingSink::default()), Err(SceneError::Rejected));
+    assert_eq!(s.finish(), Err(SceneError::Rejected));
     // Trailing bytes in a later chunk.
     let mut sink = RecordingSink::default();
     let mut s = SceneStream::new();
@@ -553,15 +717,17 @@ fn scene_pe_blocks_out_of_order() {
 
 #[test]
 fn scene_pe_block_larger_than_pe_memory() {
-    assert_eq!(err_of(&ImageSpec { pe_mem_words: 17, ..ImageSpec::tiny() }), Err(SceneError::PeMemoryOverflow));
-    assert_eq!(err_of(&ImageSpec { pe_mem_words: 18, ..ImageSpec::tiny() }), Ok(()));
+    assert_eq!(err_of(&ImageSpec { pe_mem_words: 19, ..ImageSpec::tiny() }), Err(SceneError::PeMemoryOverflow));
+    assert_eq!(err_of(&ImageSpec { pe_mem_words: 20, ..ImageSpec::tiny() }), Ok(()));
     let spec = ImageSpec { words_override: Some((0, u32::MAX)), ..ImageSpec::tiny() };
     assert_eq!(err_of(&spec), Err(SceneError::PeMemoryOverflow));
 }
 
 #[test]
 fn scene_sink_refusal_aborts_the_stream() {
-    for at in [0usize, 1, 2, 3, 4, 10, 22] {
+    // Calls: 0 header, 1 voxel map, 2 colour, 3 model, 4 lighting, 5 pe_begin, 6..26 words,
+    // 26 pe_end.
+    for at in [0usize, 1, 2, 3, 4, 5, 6, 10, 26] {
         let mut sink = RecordingSink { fail_at: Some((at, SceneError::GridTooLarge)), ..Default::default() };
         let mut s = SceneStream::new();
         assert_eq!(s.feed(&TINY_IMAGE, &mut sink), Err(SceneError::GridTooLarge), "fail at call {at}");
@@ -569,20 +735,56 @@ fn scene_sink_refusal_aborts_the_stream() {
         assert_eq!(s.feed(&[], &mut sink), Err(SceneError::Rejected));
         assert!(!s.is_done());
     }
+    // The object call of the sphere scene (call 4).
+    let mut sink = RecordingSink { fail_at: Some((4, SceneError::Rejected)), ..Default::default() };
+    assert_eq!(SceneStream::new().feed(&ImageSpec::sphere().build(), &mut sink), Err(SceneError::Rejected));
+    assert!(matches!(sink.events.last(), Some(Event::MaterialModel(0, _))));
 }
 
 #[test]
 fn scene_empty_pe_and_no_materials() {
     let mut spec = ImageSpec::tiny();
     spec.materials.clear();
+    spec.models.clear();
     spec.pe_blocks[0].2.clear();
     spec.voxel_map = vec![0xFF, 0xFF];
     let image = spec.build();
-    assert_eq!(image.len(), 64 + 4 + 8);
+    assert_eq!(image.len(), 64 + 4 + 80 + 8);
     let (r, sink, s) = stream(&image);
     assert_eq!(r, Ok(()));
     assert!(s.is_done());
-    assert_eq!(sink.events[1..], [Event::VoxelMap(0, vec![0xFF, 0xFF]), Event::PeBegin(0, 0), Event::PeEnd]);
+    assert_eq!(
+        sink.events[1..],
+        [
+            Event::VoxelMap(0, vec![0xFF, 0xFF]),
+            Event::Lighting(gridrt_shared::scene::LightingRecord::DEFAULT),
+            Event::PeBegin(0, 0),
+            Event::PeEnd
+        ]
+    );
+}
+
+/// The PE image is always tagged (§5.4): an untagged (pre-merge) image, another tag or a
+/// header cut short is `BadPeBlock`, in the loader and inside a scene image.
+#[test]
+fn pe_image_untagged_rejected() {
+    assert_eq!(PeImage::parse(&PRE_MERGE_V1_PE_WORDS).err(), Some(SceneError::BadPeBlock));
+    for w in [&[0u32, 0, 0][..], &[0, 0, 0, 0, 0], &[0xFFFF_0001, 0, 0, 0, 0], &[0xFFFF_0003, 0, 0, 0, 0]] {
+        assert_eq!(PeImage::parse(w).err(), Some(SceneError::BadPeBlock), "{w:x?}");
+    }
+    for n in 1..5 {
+        assert_eq!(PeImage::parse(&TINY_PE_WORDS[..n]).err(), Some(SceneError::BadPeBlock), "{n} words");
+    }
+    // A tagged image with no voxels is well-formed (but an empty PE is normally 0 words).
+    assert!(PeImage::parse(&[0xFFFF_0002, 0, 0, 0, 0]).is_ok());
+    // The stream passes PE words through; the sink that loads them parses and rejects them.
+    let spec = ImageSpec { pe_blocks: vec![(0, 0, PRE_MERGE_V1_PE_WORDS.to_vec())], ..ImageSpec::tiny() };
+    let (r, sink, s) = stream(&spec.build());
+    assert_eq!(r, Ok(()));
+    assert!(s.is_done());
+    let words: Vec<u32> =
+        sink.events.iter().filter_map(|e| if let Event::PeWord(w) = e { Some(*w) } else { None }).collect();
+    assert_eq!(PeImage::parse(&words).err(), Some(SceneError::BadPeBlock));
 }
 
 #[test]
@@ -594,43 +796,59 @@ fn pe_image_malformed() {
         w[i] = v;
         w
     };
-    // Counts that disagree with the length.
-    for (i, v) in [(0, 2), (0, 0), (1, 2), (1, 0), (2, 2), (2, 0), (0, u32::MAX), (1, u32::MAX), (2, u32::MAX)] {
+    // Counts (T 1, V 2, R 3, P 4) that disagree with the length.
+    for (i, v) in
+        [(1, 2), (1, 0), (2, 2), (2, 0), (3, 2), (3, 0), (4, 1)].into_iter().chain((1..5).map(|i| (i, u32::MAX)))
+    {
         assert_eq!(PeImage::parse(&with(i, v)).err(), Some(SceneError::BadPeBlock), "word {i} = {v}");
     }
     let mut longer = good.to_vec();
     longer.push(0);
     assert_eq!(PeImage::parse(&longer).err(), Some(SceneError::BadPeBlock));
-    assert_eq!(PeImage::parse(&good[..17]).err(), Some(SceneError::BadPeBlock));
-    for n in 1..3 {
-        assert_eq!(PeImage::parse(&good[..n]).err(), Some(SceneError::BadPeBlock), "{n} words");
-    }
-    assert!(PeImage::parse(&[0, 0, 0]).is_ok());
-    // Ref out of range, voxel ref range outside the ref table.
+    assert_eq!(PeImage::parse(&good[..19]).err(), Some(SceneError::BadPeBlock));
+    // Ref out of range (≥ T + P), voxel ref range outside the ref table.
+    assert_eq!(PeImage::parse(&with(8, 1)).err(), Some(SceneError::BadPeBlock));
     assert_eq!(PeImage::parse(&with(6, 1)).err(), Some(SceneError::BadPeBlock));
-    assert_eq!(PeImage::parse(&with(4, 1)).err(), Some(SceneError::BadPeBlock));
-    assert_eq!(PeImage::parse(&with(5, 2)).err(), Some(SceneError::BadPeBlock));
-    assert_eq!(PeImage::parse(&with(4, u32::MAX)).err(), Some(SceneError::BadPeBlock));
-    assert!(PeImage::parse(&with(5, 0)).is_ok(), "a voxel with no refs is well-formed");
+    assert_eq!(PeImage::parse(&with(7, 2)).err(), Some(SceneError::BadPeBlock));
+    assert_eq!(PeImage::parse(&with(6, u32::MAX)).err(), Some(SceneError::BadPeBlock));
+    assert!(PeImage::parse(&with(7, 0)).is_ok(), "a voxel with no refs is well-formed");
     // Non-finite coordinates, in every vertex slot.
-    for slot in 7..16 {
+    for slot in 9..18 {
         for v in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
             assert_eq!(PeImage::parse(&with(slot, v.to_bits())).err(), Some(SceneError::NonFinite), "slot {slot}");
         }
     }
+    // Primitives: a ref past T + P, a count mismatch, unknown kinds, non-finite transforms.
+    let sphere = ImageSpec::sphere().pe_blocks[0].2.clone();
+    assert!(PeImage::parse(&sphere).is_ok());
+    let with = |i: usize, v: u32| {
+        let mut w = sphere.clone();
+        w[i] = v;
+        w
+    };
+    assert_eq!(PeImage::parse(&with(8, 1)).err(), Some(SceneError::BadPeBlock));
+    assert_eq!(PeImage::parse(&sphere[..sphere.len() - 1]).err(), Some(SceneError::BadPeBlock));
+    for kind in [0u32, 6, 9, u32::MAX] {
+        assert_eq!(PeImage::parse(&with(9, kind)).err(), Some(SceneError::BadPeBlock), "kind {kind}");
+    }
+    for slot in 12..24 {
+        assert_eq!(PeImage::parse(&with(slot, f32::NAN.to_bits())).err(), Some(SceneError::NonFinite), "slot {slot}");
+    }
 }
 
 /// SPEC.md §5.1 requires nx·ny·nz ≤ 2^24 (voxel ids are 24-bit on FSL); the header parser
-/// accepts any dims.
+/// accepted any dims.
 #[test]
 fn regression_grid_larger_than_24_bit_voxel_ids_accepted() {
     let mut h = SceneHeader::parse(&TINY_IMAGE[..64]).unwrap();
     h.dims = [4096, 4096, 2];
     assert_eq!(SceneHeader::parse(&h.to_bytes()), Err(SceneError::BadHeader));
+    h.dims = [4096, 4096, 1];
+    assert!(SceneHeader::parse(&h.to_bytes()).is_ok(), "exactly 2^24 voxels is allowed");
 }
 
-/// `SceneHeader::voxel_count` multiplies three u16 in u32: 65535³ overflows, which panics in
-/// debug builds (and wraps in release) as soon as the stream enters the voxel map.
+/// `SceneHeader::voxel_count` multiplied three u16 in u32: 65535³ overflowed, which panicked
+/// in debug builds (and wrapped in release) as soon as the stream entered the voxel map.
 #[test]
 fn regression_voxel_count_overflow_panics() {
     let mut h = SceneHeader::parse(&TINY_IMAGE[..64]).unwrap();
@@ -654,7 +872,7 @@ fn regression_pe_image_unsorted_voxel_table_accepted() {
     assert_eq!(PeImage::parse(&duplicate).err(), Some(SceneError::BadPeBlock));
 }
 
-/// `PeImage::voxel_entry(i)` for i ≥ V reads ref/triangle words as a voxel entry.
+/// `PeImage::voxel_entry(i)` for i ≥ V read ref/triangle words as a voxel entry.
 #[test]
 fn regression_pe_image_voxel_entry_past_table() {
     let img = PeImage::parse(&TINY_PE_WORDS).unwrap();

@@ -11,7 +11,11 @@ use gridrt_shared::msg::{
     self, render_flags, stat, DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgType, PixelEncoding,
     RenderRequest, SceneStatus,
 };
-use gridrt_shared::scene::{self, Material, PeImage, SceneHeader, SceneStream, TriangleRecord};
+use gridrt_shared::scene::{
+    self, DiffuseModel, Falloff, LightingRecord, Mapping, Material, MaterialModel, ObjectKind, ObjectRecord, PeImage,
+    PrimKind, PrimRecord, ReflectMode, SceneError, SceneHeader, SceneStream, SpecularModel, TextureKind,
+    TriangleRecord,
+};
 use gridrt_shared::PROTOCOL_VERSION;
 
 // ---------------------------------------------------------------- §1, §2 frame
@@ -19,7 +23,7 @@ use gridrt_shared::PROTOCOL_VERSION;
 #[test]
 fn versions_are_pinned() {
     assert_eq!(PROTOCOL_VERSION, 1);
-    assert_eq!(scene::VERSION, 1);
+    assert_eq!(scene::VERSION, 2);
 }
 
 /// §2.2 CRC parameter table: check value, residue, incremental digest.
@@ -234,7 +238,8 @@ fn msg_version_field_offsets() {
 
 #[test]
 fn msg_scene_begin() {
-    assert_eq!(frame::crc32(&TINY_IMAGE), 0x0134_40EF);
+    // Protocol-1 golden bytes, frozen (§1): the numbers are those of a 164-byte image of the
+    // scene layout before the version-2 merge; the message does not depend on the image.
     check_msg(
         Msg::SceneBegin { total_len: 164, crc: 0x0134_40EF },
         8,
@@ -249,7 +254,8 @@ fn msg_scene_begin() {
 #[test]
 fn msg_scene_chunk() {
     check_msg(
-        Msg::SceneChunk { offset: 0, data: &TINY_IMAGE[..8] },
+        // Protocol-1 golden bytes, frozen (§1): the first 8 bytes of a pre-merge image.
+        Msg::SceneChunk { offset: 0, data: b"GRTS\x01\x00\x40\x00" },
         9,
         &[0x00, 0x00, 0x00, 0x00, 0x47, 0x52, 0x54, 0x53, 0x01, 0x00, 0x40, 0x00],
         &[
@@ -800,40 +806,25 @@ fn fsl_result_worked_example() {
     assert_eq!(RayResult::from_words(&[0x8000_00FE, 0x7F80_0000, 0, 0, 0, 0, 0, 0]).map(|r| r.hit), Ok(false));
 }
 
-/// §4.4 worked example: LOAD_PE of the §5.7 image's PE 0, CLEAR and their ACK words.
+/// §4.4 worked example: LOAD_PE of the §5.9 image's PE 0, CLEAR and their ACK words.
 #[test]
 fn fsl_load_pe_worked_example() {
     assert_eq!(fsl::load_header(0), 0x1000_0000);
     assert_eq!(fsl::load_header(0xFE), 0x1000_00FE);
-    let image: Vec<u32> = TINY_IMAGE[92..].chunks(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let image: Vec<u32> = TINY_IMAGE[268..].chunks(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
     assert_eq!(image, TINY_PE_WORDS);
     let mut packet = vec![fsl::load_header(0), image.len() as u32];
     packet.extend_from_slice(&image);
-    assert_eq!(
-        packet,
-        [
-            0x1000_0000,
-            0x0000_0012,
-            0x0000_0001,
-            0x0000_0001,
-            0x0000_0001,
-            0x0000_0000,
-            0x0000_0000,
-            0x0000_0001,
-            0x0000_0000,
-            0x3E80_0000,
-            0x3E80_0000,
-            0x3F00_0000,
-            0x3F40_0000,
-            0x3E80_0000,
-            0x3F00_0000,
-            0x3E80_0000,
-            0x3F40_0000,
-            0x3F00_0000,
-            0x0000_0000,
-            0x0000_0000
-        ]
-    );
+    #[rustfmt::skip]
+    let expected = [
+        0x1000_0000, 0x0000_0014, // LOAD_PE to PE 0, 20 words
+        0xFFFF_0002, 0x0000_0001, 0x0000_0001, 0x0000_0001, 0x0000_0000, // tag, T, V, R, P
+        0x0000_0000, 0x0000_0000, 0x0000_0001, // voxel 0: first ref 0, 1 ref
+        0x0000_0000, // ref 0 -> triangle 0
+        0x3E80_0000, 0x3E80_0000, 0x3F00_0000, 0x3F40_0000, 0x3E80_0000, 0x3F00_0000,
+        0x3E80_0000, 0x3F40_0000, 0x3F00_0000, 0x0000_0000, 0x0000_0000,
+    ];
+    assert_eq!(packet, expected);
     assert_eq!(fsl::CLEAR_WORD, 0x4000_0000);
     // ACK layout (§4.4): opcode, acknowledged opcode in 27..24, PE id in 7..0.
     assert_eq!(fsl::ack_word(op::LOAD_PE, 0), 0x9100_0000);
@@ -872,14 +863,25 @@ fn fsl_error_worked_example() {
 
 // ---------------------------------------------------------------- §5 scene image
 
+/// §5.1 constants table.
 #[test]
 fn scene_constants_table() {
     assert_eq!(scene::MAGIC, [0x47, 0x52, 0x54, 0x53]);
+    assert_eq!(scene::VERSION, 2);
     assert_eq!(scene::HEADER_LEN, 64);
     assert_eq!(scene::MATERIAL_LEN, 16);
+    assert_eq!(scene::MATERIAL_MODEL_LEN, 96);
+    assert_eq!(scene::OBJECT_LEN, 64);
+    assert_eq!(scene::LIGHTING_LEN, 80);
     assert_eq!(scene::EMPTY_VOXEL, 0xFF);
     assert_eq!(scene::MAX_PES, 255);
-    assert_eq!((scene::PE_HEADER_WORDS, scene::VOXEL_ENTRY_WORDS, scene::TRIANGLE_WORDS), (3, 3, 11));
+    assert_eq!(scene::MAX_VOXELS, 1 << 24);
+    assert_eq!(scene::MAX_DEPTH, 8);
+    assert_eq!(scene::PE_IMAGE_TAG, 0xFFFF_0002);
+    assert_eq!(
+        (scene::PE_HEADER_WORDS, scene::VOXEL_ENTRY_WORDS, scene::TRIANGLE_WORDS, scene::PRIM_WORDS),
+        (5, 3, 11, 16)
+    );
 }
 
 /// §5.1 header table offsets, with a distinct value in every field.
@@ -896,11 +898,12 @@ fn scene_header_field_offsets() {
         pe_mem_words: 0x1413_1211,
         total_len: 0x1817_1615,
         body_crc: 0x1C1B_1A19,
+        object_count: 0x1E1D,
     };
     let b = h.to_bytes();
     let expected: Vec<u8> = [
         &b"GRTS"[..],
-        &[0x01, 0x00, 0x40, 0x00, 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x07, 0x08],
+        &[0x02, 0x00, 0x40, 0x00, 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x07, 0x08],
         &[0x11; 4],
         &[0x22; 4],
         &[0x33; 4],
@@ -909,10 +912,14 @@ fn scene_header_field_offsets() {
         &[0x66; 4],
         &[0x09, 0x0A, 0x0B, 0x0C],
         &[0x0D, 0x0E, 0x0F, 0x10, 0x11, 0x12, 0x13, 0x14, 0x15, 0x16, 0x17, 0x18, 0x19, 0x1A, 0x1B, 0x1C],
-        &[0, 0, 0, 0],
+        &[0x1D, 0x1E, 0x00, 0x00],
     ]
     .concat();
     assert_eq!(b.to_vec(), expected);
+    // Reserved bytes 62..64 are ignored by the reader.
+    let mut with_reserved = TINY_IMAGE[..64].to_vec();
+    with_reserved[62..64].copy_from_slice(&[0xAA, 0xBB]);
+    assert_eq!(SceneHeader::parse(&with_reserved), SceneHeader::parse(&TINY_IMAGE[..64]));
 }
 
 /// §5.2 padding rule.
@@ -932,15 +939,253 @@ fn scene_voxel_map_padding() {
     }
 }
 
-/// §5.7 worked example: every byte, every header field, the sink calls and the PE image.
+/// §5.3 material model table, with a distinct value in every field.
+#[test]
+fn scene_material_model_field_offsets() {
+    let f = |i: u32| f32::from_bits(0x4000_0000 | i);
+    let m = MaterialModel {
+        diffuse_model: DiffuseModel::Matte,
+        specular_model: SpecularModel::TorranceSparrow,
+        reflect_mode: ReflectMode::Conductor,
+        texture: TextureKind::RgbDots,
+        mapping: Mapping::Cylindrical,
+        bilinear: true,
+        tex_log2: 12,
+        ka: f(8),
+        kd: f(12),
+        ks: f(16),
+        sigma2: f(20),
+        exponent: f(24),
+        specular: [f(28), f(32), f(36)],
+        eta: f(40),
+        kappa: f(44),
+        colour2: [f(48), f(52), f(56)],
+        uv_scale: [f(60), f(64)],
+        uv_offset: [f(68), f(72)],
+        tex_param: f(76),
+        tex_seed: 0x8483_8281,
+    };
+    let b = m.to_bytes();
+    assert_eq!(b.len(), 96);
+    assert_eq!(b[..8], [2, 2, 3, 5, 1, 1, 12, 0]);
+    for off in (8..80).step_by(4) {
+        assert_eq!(b[off..off + 4], [off as u8, 0, 0, 0x40], "f32 at offset {off}");
+    }
+    assert_eq!(b[80..84], [0x81, 0x82, 0x83, 0x84]);
+    assert_eq!(b[84..], [0; 12]);
+    assert_eq!(MaterialModel::parse(&b), Ok(m));
+    // Reserved bytes (7, 84..96) are ignored by the reader.
+    let mut r = b;
+    r[7] = 0xAA;
+    r[84..].fill(0xBB);
+    assert_eq!(MaterialModel::parse(&r), Ok(m));
+}
+
+/// §5.3 enum tables of the material model; every other value is `BadRecord`.
+#[test]
+fn scene_material_model_enum_tables() {
+    assert_eq!([DiffuseModel::Lambert, DiffuseModel::OrenNayar, DiffuseModel::Matte].map(|d| d as u8), [0, 1, 2]);
+    assert_eq!(
+        [SpecularModel::None, SpecularModel::BlinnPhong, SpecularModel::TorranceSparrow].map(|s| s as u8),
+        [0, 1, 2]
+    );
+    assert_eq!(
+        [ReflectMode::None, ReflectMode::Constant, ReflectMode::Dielectric, ReflectMode::Conductor].map(|r| r as u8),
+        [0, 1, 2, 3]
+    );
+    assert_eq!(
+        [
+            TextureKind::None,
+            TextureKind::Checker,
+            TextureKind::Xor,
+            TextureKind::Marble,
+            TextureKind::Wood,
+            TextureKind::RgbDots
+        ]
+        .map(|t| t as u8),
+        [0, 1, 2, 3, 4, 5]
+    );
+    assert_eq!([Mapping::Planar, Mapping::Cylindrical, Mapping::Spherical].map(|m| m as u8), [0, 1, 2]);
+    // (byte, number of valid values).
+    for (byte, valid) in [(0usize, 3u8), (1, 3), (2, 4), (3, 6), (4, 3), (5, 2)] {
+        for v in 0..=255u8 {
+            let mut b = matte_model();
+            b[byte] = v;
+            let r = MaterialModel::parse(&b);
+            if v < valid {
+                assert!(r.is_ok(), "byte {byte} = {v}");
+            } else {
+                assert_eq!(r, Err(SceneError::BadRecord), "byte {byte} = {v}");
+            }
+        }
+    }
+    for v in 0..=255u8 {
+        let mut b = matte_model();
+        b[6] = v;
+        assert_eq!(MaterialModel::parse(&b).is_ok(), (1..=12).contains(&v), "tex_log2 {v}");
+    }
+    // The crate's presets are the records the test builder writes by hand.
+    assert_eq!(MaterialModel::MATTE.to_bytes(), matte_model());
+    assert_eq!(MaterialModel::DEFAULT.to_bytes(), model_bytes([0, 0, 0, 0, 0, 1, 8, 0], DEFAULT_MODEL_FLOATS, 0));
+}
+
+/// §5.5 object table, with a distinct value in every field, and the kind table.
+#[test]
+fn scene_object_field_offsets() {
+    let f = |i: u32| f32::from_bits(0x4000_0000 | i);
+    let o = ObjectRecord {
+        kind: ObjectKind::Plane,
+        material: 0x0302,
+        first_prim: 0x0706_0504,
+        prim_count: 0x0B0A_0908,
+        world_to_object: core::array::from_fn(|k| f(16 + 4 * k as u32)),
+    };
+    let b = o.to_bytes();
+    assert_eq!(b.len(), 64);
+    assert_eq!(b[..16], [6, 0, 0x02, 0x03, 0x04, 0x05, 0x06, 0x07, 0x08, 0x09, 0x0A, 0x0B, 0, 0, 0, 0]);
+    for off in (16..64).step_by(4) {
+        assert_eq!(b[off..off + 4], [off as u8, 0, 0, 0x40], "f32 at offset {off}");
+    }
+    assert_eq!(ObjectRecord::parse(&b), Ok(o));
+    let kinds = [
+        ObjectKind::Mesh,
+        ObjectKind::Sphere,
+        ObjectKind::Cylinder,
+        ObjectKind::Cone,
+        ObjectKind::Disk,
+        ObjectKind::Square,
+        ObjectKind::Plane,
+    ];
+    for v in 0..=255u8 {
+        let mut b = object_bytes(v, 0, 0, 1, HALF_SCALE);
+        match kinds.get(v as usize) {
+            Some(&k) => assert_eq!(ObjectRecord::parse(&b).map(|o| o.kind), Ok(k)),
+            None => assert_eq!(ObjectRecord::parse(&b), Err(SceneError::BadRecord), "kind {v}"),
+        }
+        // Reserved bytes 1 and 12..16 are ignored.
+        b[1] = 0xAA;
+        b[12..16].fill(0xBB);
+        assert_eq!(ObjectRecord::parse(&b).is_ok(), (v as usize) < kinds.len());
+    }
+}
+
+/// §5.6 lighting table, with a distinct value in every field, and its presets.
+#[test]
+fn scene_lighting_field_offsets() {
+    let f = |i: u32| f32::from_bits(0x4000_0000 | i);
+    let l = LightingRecord {
+        light_count: 1,
+        max_depth: 8,
+        falloff: Falloff::InverseSquare,
+        light_colour: [f(4), f(8), f(12)],
+        spot_dir: [f(16), f(20), f(24)],
+        cos_outer: f(28),
+        cos_inner: f(32),
+        ambient_colour: [f(36), f(40), f(44)],
+        background: [f(48), f(52), f(56)],
+    };
+    let b = l.to_bytes();
+    assert_eq!(b.len(), 80);
+    assert_eq!(b[..4], [1, 8, 1, 0]);
+    for off in (4..60).step_by(4) {
+        assert_eq!(b[off..off + 4], [off as u8, 0, 0, 0x40], "f32 at offset {off}");
+    }
+    assert_eq!(b[60..], [0; 20]);
+    assert_eq!(LightingRecord::parse(&b), Ok(l));
+    let mut r = b;
+    r[3] = 0xAA;
+    r[60..].fill(0xBB);
+    assert_eq!(LightingRecord::parse(&r), Ok(l), "reserved bytes are ignored");
+    assert_eq!((Falloff::None as u8, Falloff::InverseSquare as u8), (0, 1));
+    assert_eq!(LightingRecord::DEFAULT.to_bytes(), default_lighting());
+}
+
+/// §5.4 PE memory image words of the §5.9 example (triangles only, P = 0).
+#[test]
+fn scene_pe_image_words() {
+    let img = PeImage::parse(&TINY_PE_WORDS).unwrap();
+    assert_eq!(TINY_PE_WORDS[..5], [scene::PE_IMAGE_TAG, 1, 1, 1, 0]);
+    assert_eq!(img.header_words(), 5);
+    assert_eq!((img.triangle_count(), img.voxel_count(), img.primitive_count()), (1, 1, 0));
+    assert_eq!(img.voxel_entry(0), Some((0, 0, 1)));
+    assert_eq!(img.voxel_entry(1), None);
+    assert_eq!(img.ref_table(), &[0]);
+    assert_eq!((img.triangle_offset(), img.primitive_offset()), (9, 20));
+    let tri =
+        TriangleRecord { vertices: [[0.25, 0.25, 0.5], [0.75, 0.25, 0.5], [0.25, 0.75, 0.5]], prim: 0, material: 0 };
+    assert_eq!(img.triangle(0), Some(tri));
+    assert_eq!(tri.to_words(), TINY_PE_WORDS[9..]);
+    assert_eq!(img.triangle(1), None);
+    assert_eq!(img.primitive(0), None);
+    // An empty PE is 0 words.
+    let empty = PeImage::parse(&[]).unwrap();
+    assert_eq!(
+        (empty.triangle_count(), empty.voxel_count(), empty.primitive_count(), empty.ref_table().len()),
+        (0, 0, 0, 0)
+    );
+}
+
+/// §5.4 PE memory image with an analytic primitive: the sphere of [`ImageSpec::sphere`].
+#[test]
+fn scene_pe_image_words_with_primitive() {
+    let half = 0x3F00_0000;
+    #[rustfmt::skip]
+    let expected: [u32; 25] = [
+        0xFFFF_0002, 0, 1, 1, 1, // tag, T 0, V 1, R 1, P 1
+        0, 0, 1, // voxel 0: refs [0, 1)
+        0, // ref 0 = T + 0 → primitive 0
+        1, 0, 0, // kind sphere, prim 0, material 0
+        half, 0, 0, 0, 0, half, 0, 0, 0, 0, half, 0, // W = diag(1/2)
+        0, // reserved
+    ];
+    let spec = ImageSpec::sphere();
+    let words = &spec.pe_blocks[0].2;
+    assert_eq!(words[..], expected);
+    let img = PeImage::parse(words).unwrap();
+    assert_eq!((img.triangle_count(), img.voxel_count(), img.primitive_count()), (0, 1, 1));
+    assert_eq!((img.triangle_offset(), img.primitive_offset()), (9, 9));
+    let p = PrimRecord { kind: PrimKind::Sphere, prim: 0, material: 0, world_to_object: HALF_SCALE };
+    assert_eq!(img.primitive(0), Some(p));
+    assert_eq!(p.to_words()[..], expected[9..]);
+    assert_eq!(img.primitive(1), None);
+    // Kind table (§5.4).
+    for v in 0..=255u32 {
+        let kind = PrimKind::from_u32(v).map(|k| k as u32);
+        assert_eq!(kind, (1..=5).contains(&v).then_some(v), "kind {v}");
+    }
+}
+
+/// §5.4 PE memory image layout with several voxels, refs and triangles.
+#[test]
+fn scene_pe_image_layout() {
+    let spec = ImageSpec::two_pe();
+    let words = &spec.pe_blocks[0].2;
+    // Tag, T=2 V=3 R=3 P=0; table (0,0,1) (1,1,1) (4,2,1); refs 0 0 1; then 2 × 11 words.
+    assert_eq!(words[..14], [0xFFFF_0002, 2, 3, 3, 0, 0, 0, 1, 1, 1, 1, 4, 2, 1]);
+    assert_eq!(words[14..17], [0, 0, 1]);
+    assert_eq!(words.len(), 5 + 9 + 3 + 22);
+    let img = PeImage::parse(words).unwrap();
+    assert_eq!(img.voxel_entry(2), Some((4, 2, 1)));
+    assert_eq!(img.ref_table(), &[0, 0, 1]);
+    let t1 = img.triangle(1).unwrap();
+    assert_eq!((t1.prim, t1.material), (1, 1));
+    assert_eq!(t1.vertices[2], [1.3, 1.8, 0.4]);
+    assert_eq!(t1.to_words()[..], words[28..39]);
+}
+
+/// §5.9 worked example: every byte, both CRCs, every header field, every record, the sink
+/// calls and the PE image.
 #[test]
 fn scene_tiny_worked_example() {
-    // The test's own builder reproduces the literal.
+    // The test's own builder reproduces the literal, and the CRCs are pinned.
     assert_eq!(ImageSpec::tiny().build(), TINY_IMAGE);
-    assert_eq!(frame::crc32(&TINY_IMAGE[64..]), 0xE50A_901B);
-    assert_eq!(frame::crc32(&TINY_IMAGE), 0x0134_40EF);
+    assert_eq!(TINY_IMAGE.len(), 348);
+    assert_eq!(frame::crc32(&TINY_IMAGE[64..]), 0xEF03_A2D3);
+    assert_eq!(TINY_BODY_CRC, 0xEF03_A2D3);
+    assert_eq!(frame::crc32(&TINY_IMAGE), 0x2A96_82A2);
+    assert_eq!(TINY_IMAGE_CRC, 0x2A96_82A2);
 
-    // The crate's serialisers reproduce it too.
+    // The crate's serialisers reproduce it too, section by section.
     let h = SceneHeader {
         dims: [2, 1, 1],
         pe_count: 1,
@@ -950,59 +1195,85 @@ fn scene_tiny_worked_example() {
         flags: 0,
         triangle_count: 1,
         pe_mem_words: 64,
-        total_len: 164,
-        body_crc: 0xE50A_901B,
+        total_len: 348,
+        body_crc: 0xEF03_A2D3,
+        object_count: 0,
     };
-    assert_eq!(h.to_bytes(), TINY_IMAGE[..64]);
-    assert_eq!(SceneHeader::parse(&TINY_IMAGE[..64]), Ok(h));
+    let [header, map, colours, models, lighting, block_head, end] = TINY_BOUNDARIES;
+    assert_eq!(h.to_bytes(), TINY_IMAGE[..header]);
+    assert_eq!(SceneHeader::parse(&TINY_IMAGE[..header]), Ok(h));
+    assert_eq!(TINY_IMAGE[header..map], [0x00, 0xFF, 0x00, 0x00]);
     let m = Material { diffuse: [0.8; 3], reflect: 0.0 };
-    assert_eq!(m.to_bytes(), TINY_IMAGE[68..84]);
-    assert_eq!(Material::parse(&TINY_IMAGE[68..84]), Ok(m));
-    let tri =
-        TriangleRecord { vertices: [[0.25, 0.25, 0.5], [0.75, 0.25, 0.5], [0.25, 0.75, 0.5]], prim: 0, material: 0 };
-    assert_eq!(tri.to_words(), TINY_PE_WORDS[7..]);
+    assert_eq!(m.to_bytes(), TINY_IMAGE[map..colours]);
+    assert_eq!(Material::parse(&TINY_IMAGE[map..colours]), Ok(m));
+    assert_eq!(MaterialModel::MATTE.to_bytes(), TINY_IMAGE[colours..models]);
+    assert_eq!(MaterialModel::parse(&TINY_IMAGE[colours..models]), Ok(MaterialModel::MATTE));
+    assert_eq!(LightingRecord::DEFAULT.to_bytes(), TINY_IMAGE[models..lighting]);
+    assert_eq!(LightingRecord::parse(&TINY_IMAGE[models..lighting]), Ok(LightingRecord::DEFAULT));
+    assert_eq!(TINY_IMAGE[lighting..block_head], [0, 0, 0, 0, 20, 0, 0, 0]);
+    let words: Vec<u32> =
+        TINY_IMAGE[block_head..end].chunks(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    assert_eq!(words, TINY_PE_WORDS);
 
     // Streaming it gives exactly these sink calls.
     let (r, sink, s) = stream_in_chunks(&TINY_IMAGE, TINY_IMAGE.len());
     assert_eq!(r, Ok(()));
     assert!(s.is_done());
-    assert_eq!(s.offset(), 164);
+    assert_eq!(s.offset(), 348);
     assert_eq!(s.header(), Some(&h));
-    let mut expected =
-        vec![Event::Header(h), Event::VoxelMap(0, vec![0x00, 0xFF]), Event::Material(0, m), Event::PeBegin(0, 18)];
+    let mut expected = vec![
+        Event::Header(h),
+        Event::VoxelMap(0, vec![0x00, 0xFF]),
+        Event::Material(0, m),
+        Event::MaterialModel(0, MaterialModel::MATTE),
+        Event::Lighting(LightingRecord::DEFAULT),
+        Event::PeBegin(0, 20),
+    ];
     expected.extend(TINY_PE_WORDS.iter().map(|&w| Event::PeWord(w)));
     expected.push(Event::PeEnd);
     assert_eq!(sink.events, expected);
-
-    // §5.4 PE image accessors.
-    let img = PeImage::parse(&TINY_PE_WORDS).unwrap();
-    assert_eq!((img.triangle_count(), img.voxel_count()), (1, 1));
-    assert_eq!(img.voxel_entry(0), Some((0, 0, 1)));
-    assert_eq!(img.ref_table(), &[0]);
-    assert_eq!(img.triangle(0), Some(tri));
-    assert_eq!(img.triangle(1), None);
 }
 
-/// §5.4 PE memory image layout with several voxels, refs and triangles.
+/// The sphere scene (an analytic primitive, an object, a textured material, two-bounce
+/// lighting): section bytes, sink calls in SPEC.md §5.1 order, awkward chunking.
 #[test]
-fn scene_pe_image_layout() {
-    let spec = ImageSpec::two_pe();
-    let words = &spec.pe_blocks[0].2;
-    // T=2 V=3 R=3; table (0,0,1) (1,1,1) (4,2,1); refs 0 0 1; then 2 × 11 words.
-    assert_eq!(words[..12], [2, 3, 3, 0, 0, 1, 1, 1, 1, 4, 2, 1]);
-    assert_eq!(words[12..15], [0, 0, 1]);
-    assert_eq!(words.len(), 3 + 9 + 3 + 22);
-    let img = PeImage::parse(words).unwrap();
-    assert_eq!(img.voxel_entry(2), Some((4, 2, 1)));
-    assert_eq!(img.ref_table(), &[0, 0, 1]);
-    let t1 = img.triangle(1).unwrap();
-    assert_eq!((t1.prim, t1.material), (1, 1));
-    assert_eq!(t1.vertices[2], [1.3, 1.8, 0.4]);
-    assert_eq!(t1.to_words()[..], words[26..37]);
+fn scene_sphere_sections_and_sink_order() {
+    let image = ImageSpec::sphere().build();
+    assert_eq!(image.len(), 64 + 4 + 16 + 96 + 64 + 80 + 8 + 4 * 25);
+    assert_eq!(image[60..64], [1, 0, 0, 0], "object_count 1");
+    let model = MaterialModel { texture: TextureKind::Checker, tex_log2: 4, ..MaterialModel::DEFAULT };
+    assert_eq!(model.to_bytes(), image[84..180]);
+    let object = ObjectRecord {
+        kind: ObjectKind::Sphere,
+        material: 0,
+        first_prim: 0,
+        prim_count: 1,
+        world_to_object: HALF_SCALE,
+    };
+    assert_eq!(object.to_bytes(), image[180..244]);
+    let lighting = LightingRecord {
+        max_depth: 2,
+        falloff: Falloff::InverseSquare,
+        background: [0.0; 3],
+        ..LightingRecord::DEFAULT
+    };
+    assert_eq!(lighting.to_bytes(), image[244..324]);
+    let (r, sink, s) = stream_in_chunks(&image, 7);
+    assert_eq!(r, Ok(()));
+    assert!(s.is_done());
+    let calls = coalesce(&sink.events);
     assert_eq!(
-        PeImage::parse(&[]).map(|i| (i.triangle_count(), i.voxel_count(), i.ref_table().len())).unwrap(),
-        (0, 0, 0)
+        calls[1..6],
+        [
+            Event::VoxelMap(0, vec![0]),
+            Event::Material(0, Material { diffuse: [0.8; 3], reflect: 0.0 }),
+            Event::MaterialModel(0, model),
+            Event::Object(0, object),
+            Event::Lighting(lighting),
+        ]
     );
+    assert_eq!(calls[6], Event::PeBegin(0, 25));
+    assert_eq!(calls.last(), Some(&Event::PeEnd));
 }
 
 /// The scene stream drives a LOAD_PE per block; its words are the FSL payload verbatim.
@@ -1030,9 +1301,12 @@ fn scene_blocks_become_load_pe_packets() {
     }
 }
 
-/// SceneChunk / SceneAck of the session (§3.10) carrying the §5.7 image in 50-byte chunks.
+/// SceneBegin / SceneChunk / SceneAck of the session (§3.10) carrying the §5.9 image in
+/// 50-byte chunks.
 #[test]
 fn session_uploads_tiny_image() {
+    let begin = encode_payload(&Msg::SceneBegin { total_len: TINY_IMAGE.len() as u32, crc: TINY_IMAGE_CRC });
+    assert_eq!(begin, [0x5C, 0x01, 0x00, 0x00, 0xA2, 0x82, 0x96, 0x2A]);
     let mut s = SceneStream::new();
     let mut sink = RecordingSink::default();
     let mut next = 0u32;
@@ -1046,6 +1320,6 @@ fn session_uploads_tiny_image() {
         s.feed(data, &mut sink).unwrap();
         next = s.offset();
     }
-    assert_eq!(next, 164);
+    assert_eq!(next, 348);
     assert!(s.is_done());
 }

@@ -8,7 +8,10 @@ use common::*;
 use gridrt_shared::frame::{self, FrameAccumulator};
 use gridrt_shared::fsl::{self, FslError, ListEntry, RayKind, RayResult};
 use gridrt_shared::msg::{self, DeviceInfo, ErrorCode, Msg, PixelEncoding, RenderRequest, SceneStatus};
-use gridrt_shared::scene::{PeImage, SceneHeader, SceneStream};
+use gridrt_shared::scene::{
+    LightingRecord, Material, MaterialModel, ObjectRecord, PeImage, PrimRecord, SceneError, SceneHeader, SceneStream,
+    PE_IMAGE_TAG,
+};
 use proptest::collection::vec;
 use proptest::prelude::*;
 
@@ -217,7 +220,7 @@ proptest! {
 /// Streaming the image in every chunk size 1..=17 gives the same sink calls as one chunk.
 #[test]
 fn scene_stream_every_chunk_size_gives_same_calls() {
-    for image in [TINY_IMAGE.to_vec(), ImageSpec::two_pe().build()] {
+    for image in [TINY_IMAGE.to_vec(), ImageSpec::two_pe().build(), ImageSpec::sphere().build()] {
         let (r, whole, s) = stream_in_chunks(&image, image.len());
         assert_eq!(r, Ok(()));
         assert!(s.is_done());
@@ -233,17 +236,25 @@ fn scene_stream_every_chunk_size_gives_same_calls() {
     }
 }
 
-/// False when the bytes at 8..14 are dims whose product overflows u32: those inputs hit
-/// corruption::bug_voxel_count_overflow_panics and are skipped until it is fixed.
-fn dims_fit_u32(image: &[u8]) -> bool {
+/// nx·ny·nz of the dims at bytes 8..14 of `image` (missing bytes count as 1).
+fn voxels_of(image: &[u8]) -> u64 {
     let d = |i: usize| image.get(i..i + 2).map_or(1, |b| u16::from_le_bytes([b[0], b[1]]) as u64);
-    d(8) * d(10) * d(12) <= u32::MAX as u64
+    d(8) * d(10) * d(12)
+}
+
+/// One grid axis: small, near the 2^24-voxel limit (2^8, 2^12, 2^16 ± 1), or anything.
+fn axis() -> impl Strategy<Value = u16> {
+    prop_oneof![0u16..=300, prop::sample::select(vec![255u16, 256, 257, 4095, 4096, 4097, 65534, 65535]), any::<u16>(),]
 }
 
 proptest! {
     #[test]
-    fn scene_stream_any_split_gives_same_calls(cuts in vec(0usize..300, 0..12), two: bool) {
-        let image = if two { ImageSpec::two_pe().build() } else { TINY_IMAGE.to_vec() };
+    fn scene_stream_any_split_gives_same_calls(cuts in vec(0usize..500, 0..12), which in 0u8..3) {
+        let image = match which {
+            0 => TINY_IMAGE.to_vec(),
+            1 => ImageSpec::two_pe().build(),
+            _ => ImageSpec::sphere().build(),
+        };
         let (_, whole, _) = stream_in_chunks(&image, image.len());
         let mut cuts: Vec<usize> = cuts.into_iter().map(|c| c % (image.len() + 1)).collect();
         cuts.push(0);
@@ -258,56 +269,90 @@ proptest! {
         prop_assert_eq!(coalesce(&sink.events), coalesce(&whole.events));
     }
 
-    /// Random damage to a valid image: an error or a finished stream, never a panic.
+    /// Random damage to a valid image: an error or a finished stream, never a panic. Damage
+    /// to the dims that makes the grid larger than 2^24 voxels (up to 65535³, which overflows
+    /// u32) is `BadHeader`.
     #[test]
-    fn scene_stream_mutations_never_panic(flips in vec((0usize..164, 1u8..=255), 1..6), chunk in 1usize..40) {
+    fn scene_stream_mutations_never_panic(flips in vec((0usize..TINY_IMAGE.len(), 1u8..=255), 1..6),
+                                          chunk in 1usize..40) {
         let mut image = TINY_IMAGE;
         for (i, x) in &flips {
             image[*i] ^= x;
         }
-        prop_assume!(dims_fit_u32(&image));
         let (r, _, s) = stream_in_chunks(&image, chunk);
         // The body is CRC-protected; the header is protected by SceneBegin's whole-image CRC
         // (checked by the device), so only header damage may go unnoticed here.
         if r.is_ok() && s.is_done() {
             prop_assert_eq!(&image[64..], &TINY_IMAGE[64..]);
         }
+        if voxels_of(&image) > 1 << 24 {
+            prop_assert!(r.is_err() && !s.is_done());
+            if SceneHeader::parse(&image[..64]).is_err() {
+                prop_assert_eq!(r, SceneHeader::parse(&image[..64]).map(|_| ()));
+            }
+        }
     }
 
-    /// A valid header with arbitrary fields followed by soup. Dims stay ≤ 255 per axis so the
-    /// voxel count fits u32 (see corruption::bug_voxel_count_overflow_panics).
+    /// A valid header with arbitrary fields followed by soup: the header is judged exactly as
+    /// §5.7 says (in particular every grid over 2^24 voxels is `BadHeader`), then no panic.
     #[test]
-    fn scene_stream_header_and_soup_never_panic(dims in [1u16..=255, 1u16..=255, 1u16..=255], pe_count: u16,
-                                                  materials: u16, pe_mem_words: u32, total_len: u32,
+    fn scene_stream_header_and_soup_never_panic(dims in [axis(), axis(), axis()], pe_count: u16,
+                                                  materials: u16, objects: u16, pe_mem_words: u32, total_len: u32,
                                                   soup in vec(any::<u8>(), 0..600), chunk in 1usize..64) {
         let mut h = SceneHeader::parse(&TINY_IMAGE[..64]).unwrap();
         h.dims = dims;
         h.pe_count = pe_count;
         h.material_count = materials;
+        h.object_count = objects;
         h.pe_mem_words = pe_mem_words;
         h.total_len = total_len;
         let mut image = h.to_bytes().to_vec();
         image.extend_from_slice(&soup);
-        let _ = stream_in_chunks(&image, chunk);
+        let (r, _, s) = stream_in_chunks(&image, chunk);
+        let voxels: u64 = dims.iter().map(|&d| d as u64).product();
+        let header_ok = (1..=1u64 << 24).contains(&voxels) && (1..=255).contains(&pe_count) && total_len >= 64;
+        prop_assert_eq!(SceneHeader::parse(&image[..64]).is_ok(), header_ok);
+        if !header_ok {
+            prop_assert_eq!(r, Err(SceneError::BadHeader));
+            prop_assert!(!s.is_done());
+        }
+    }
+
+    /// The 2^24-voxel limit alone: every product of three u16 is judged without overflow.
+    #[test]
+    fn scene_header_voxel_limit(dims in [axis(), axis(), axis()]) {
+        let mut h = SceneHeader::parse(&TINY_IMAGE[..64]).unwrap();
+        h.dims = dims;
+        let voxels: u64 = dims.iter().map(|&d| d as u64).product();
+        let expected = if (1..=1u64 << 24).contains(&voxels) { Ok(h) } else { Err(SceneError::BadHeader) };
+        prop_assert_eq!(SceneHeader::parse(&h.to_bytes()), expected);
     }
 
     #[test]
     fn scene_decoders_never_panic_on_soup(soup in vec(any::<u8>(), 0..400), chunk in 1usize..64) {
         let _ = stream_in_chunks(&soup, chunk);
         let _ = SceneHeader::parse(&soup);
-        let _ = gridrt_shared::scene::Material::parse(&soup);
-        let mut with_magic = b"GRTS\x01\x00\x40\x00".to_vec();
+        let _ = Material::parse(&soup);
+        let _ = MaterialModel::parse(&soup);
+        let _ = ObjectRecord::parse(&soup);
+        let _ = LightingRecord::parse(&soup);
+        let words: Vec<u32> = soup.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let _ = PrimRecord::from_words(&words);
+        // Soup behind a valid magic and version reaches the header checks (any dims).
+        let mut with_magic = b"GRTS\x02\x00\x40\x00".to_vec();
         with_magic.extend_from_slice(&soup);
-        if dims_fit_u32(&with_magic) {
-            let _ = stream_in_chunks(&with_magic, chunk);
+        let (r, _, _) = stream_in_chunks(&with_magic, chunk);
+        if with_magic.len() >= 64 && voxels_of(&with_magic) > 1 << 24 {
+            prop_assert!(matches!(r, Err(SceneError::BadHeader | SceneError::NonFinite)), "{:?}", r);
         }
     }
 
     #[test]
-    fn pe_image_parse_never_panics(words in vec(any::<u32>(), 0..64), t in 0u32..4, v in 0u32..4, r in 0u32..6) {
+    fn pe_image_parse_never_panics(words in vec(any::<u32>(), 0..64), t in 0u32..4, v in 0u32..4, r in 0u32..6,
+                                   p in 0u32..3) {
         let _ = PeImage::parse(&words);
-        // Plausible counts so the deeper checks run too.
-        let mut w = vec![t, v, r];
+        // Tag and plausible counts so the deeper checks run too.
+        let mut w = vec![PE_IMAGE_TAG, t, v, r, p];
         w.extend_from_slice(&words);
         if let Ok(img) = PeImage::parse(&w) {
             for i in 0..img.voxel_count() {
@@ -315,10 +360,13 @@ proptest! {
                 prop_assert!((first + count) as usize <= img.ref_table().len());
             }
             for &x in img.ref_table() {
-                prop_assert!((x as usize) < img.triangle_count());
+                prop_assert!((x as usize) < img.triangle_count() + img.primitive_count());
             }
             for i in 0..img.triangle_count() {
                 prop_assert!(img.triangle(i).unwrap().vertices.iter().flatten().all(|c| c.is_finite()));
+            }
+            for i in 0..img.primitive_count() {
+                prop_assert!(img.primitive(i).unwrap().world_to_object.iter().all(|c| c.is_finite()));
             }
         }
     }

@@ -1,33 +1,52 @@
-//! Helpers shared by the integration tests: the SPEC.md §5.7 image as literal bytes, an
+//! Helpers shared by the integration tests: the SPEC.md §5.9 image as literal bytes, an
 //! independent scene-image builder (hand-written little-endian packing, not the crate's
 //! serialisers), a recording `SceneSink`, and accumulator drivers.
 #![allow(dead_code)]
 
 use gridrt_shared::frame::{self, FeedResult, FrameAccumulator, FrameError};
 use gridrt_shared::msg::Msg;
-use gridrt_shared::scene::{Material, SceneError, SceneHeader, SceneSink, SceneStream};
+use gridrt_shared::scene::{
+    LightingRecord, Material, MaterialModel, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream,
+};
 
-/// SPEC.md §5.7: the 2×1×1 grid, 1 PE, 1 material, 1 triangle image. Computed independently
+/// SPEC.md §5.9: the 2×1×1 grid, 1 PE, 1 material, 1 triangle image (a mesh scene: matte
+/// material model, no objects, default lighting, tagged PE image). Computed independently
 /// (Python `struct` + `zlib.crc32`), not copied from the crate's output.
 #[rustfmt::skip]
-pub const TINY_IMAGE: [u8; 164] = [
-    0x47, 0x52, 0x54, 0x53, 0x01, 0x00, 0x40, 0x00, 0x02, 0x00, 0x01, 0x00, 0x01, 0x00, 0x01, 0x00, //
+pub const TINY_IMAGE: [u8; 348] = [
+    0x47, 0x52, 0x54, 0x53, 0x02, 0x00, 0x40, 0x00, 0x02, 0x00, 0x01, 0x00, 0x01, 0x00, 0x01, 0x00, //
     0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x40, //
     0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x80, 0x3F, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, //
-    0x40, 0x00, 0x00, 0x00, 0xA4, 0x00, 0x00, 0x00, 0x1B, 0x90, 0x0A, 0xE5, 0x00, 0x00, 0x00, 0x00, //
+    0x40, 0x00, 0x00, 0x00, 0x5C, 0x01, 0x00, 0x00, 0xD3, 0xA2, 0x03, 0xEF, 0x00, 0x00, 0x00, 0x00, //
     0x00, 0xFF, 0x00, 0x00, 0xCD, 0xCC, 0x4C, 0x3F, 0xCD, 0xCC, 0x4C, 0x3F, 0xCD, 0xCC, 0x4C, 0x3F, //
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x12, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, //
-    0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, //
-    0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x3E, 0x00, 0x00, 0x80, 0x3E, //
-    0x00, 0x00, 0x00, 0x3F, 0x00, 0x00, 0x40, 0x3F, 0x00, 0x00, 0x80, 0x3E, 0x00, 0x00, 0x00, 0x3F, //
-    0x00, 0x00, 0x80, 0x3E, 0x00, 0x00, 0x40, 0x3F, 0x00, 0x00, 0x00, 0x3F, 0x00, 0x00, 0x00, 0x00, //
-    0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00, 0x01, 0x08, 0x00, 0x00, 0x00, 0x80, 0x3F, //
+    0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x42, //
+    0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0xC0, 0x3F, //
+    0x00, 0x00, 0x00, 0x00, 0xCD, 0xCC, 0xCC, 0x3D, 0xCD, 0xCC, 0xCC, 0x3D, 0xCD, 0xCC, 0xCC, 0x3D, //
+    0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, //
+    0x00, 0x00, 0x00, 0x41, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, //
+    0x00, 0x00, 0x00, 0x00, 0x01, 0x01, 0x00, 0x00, 0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x80, 0x3F, //
+    0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, //
+    0x00, 0x00, 0x80, 0xBF, 0x00, 0x00, 0x80, 0xBF, 0x00, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x80, 0x3F, //
+    0x00, 0x00, 0x80, 0x3F, 0x0A, 0xD7, 0xA3, 0x3D, 0x0A, 0xD7, 0xA3, 0x3D, 0x8F, 0xC2, 0xF5, 0x3D, //
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, //
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x14, 0x00, 0x00, 0x00, 0x02, 0x00, 0xFF, 0xFF, //
+    0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, //
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, //
+    0x00, 0x00, 0x80, 0x3E, 0x00, 0x00, 0x80, 0x3E, 0x00, 0x00, 0x00, 0x3F, 0x00, 0x00, 0x40, 0x3F, //
+    0x00, 0x00, 0x80, 0x3E, 0x00, 0x00, 0x00, 0x3F, 0x00, 0x00, 0x80, 0x3E, 0x00, 0x00, 0x40, 0x3F, //
+    0x00, 0x00, 0x00, 0x3F, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, //
 ];
 
-/// The PE 0 memory image inside [`TINY_IMAGE`] (bytes 92..164).
+/// Body CRC of [`TINY_IMAGE`] (bytes 64..348), header bytes 56..60.
+pub const TINY_BODY_CRC: u32 = 0xEF03_A2D3;
+/// CRC of all of [`TINY_IMAGE`] (what `SceneBegin.crc` carries).
+pub const TINY_IMAGE_CRC: u32 = 0x2A96_82A2;
+
+/// The PE 0 memory image inside [`TINY_IMAGE`] (bytes 268..348).
 #[rustfmt::skip]
-pub const TINY_PE_WORDS: [u32; 18] = [
-    1, 1, 1, // T, V, R
+pub const TINY_PE_WORDS: [u32; 20] = [
+    0xFFFF_0002, 1, 1, 1, 0, // tag, T, V, R, P
     0, 0, 1, // voxel 0: first ref 0, 1 ref
     0, // ref 0 -> triangle 0
     0x3E80_0000, 0x3E80_0000, 0x3F00_0000, // a
@@ -36,8 +55,9 @@ pub const TINY_PE_WORDS: [u32; 18] = [
     0, 0, // prim 0, material 0
 ];
 
-/// Section boundaries of [`TINY_IMAGE`] (SPEC.md §5.7).
-pub const TINY_BOUNDARIES: [usize; 5] = [64, 68, 84, 92, 164];
+/// Section ends of [`TINY_IMAGE`] (SPEC.md §5.9): header, voxel map + padding, material
+/// colours, material models (= objects: there are none), lighting, PE block head, end.
+pub const TINY_BOUNDARIES: [usize; 7] = [64, 68, 84, 180, 260, 268, 348];
 
 /// Everything a scene image is made of, written by hand so tests can corrupt any field.
 #[derive(Debug, Clone)]
@@ -52,17 +72,28 @@ pub struct ImageSpec {
     pub flags: u16,
     pub triangle_count: u32,
     pub pe_mem_words: u32,
-    pub reserved: u32,
+    /// Header bytes 62..64.
+    pub reserved: u16,
     /// One byte per voxel.
     pub voxel_map: Vec<u8>,
     /// Value of the voxel-map padding bytes.
     pub pad: u8,
     /// diffuse r, g, b, reflect.
     pub materials: Vec<[f32; 4]>,
+    /// Material model records (96 B each), normally one per material.
+    pub models: Vec<[u8; 96]>,
+    /// Object records (64 B each).
+    pub objects: Vec<[u8; 64]>,
+    /// The lighting record.
+    pub lighting: [u8; 80],
     /// (pe field, reserved field, words).
     pub pe_blocks: Vec<(u16, u16, Vec<u32>)>,
     /// Overrides the declared `words` of a block (index, value).
     pub words_override: Option<(usize, u32)>,
+    /// Overrides the header's `material_count` (else `materials.len()`).
+    pub material_count_override: Option<u16>,
+    /// Overrides the header's `object_count` (else `objects.len()`).
+    pub object_count_override: Option<u16>,
     pub total_len_override: Option<u32>,
     pub crc_override: Option<u32>,
 }
@@ -71,12 +102,72 @@ fn push_f32(out: &mut Vec<u8>, v: f32) {
     out.extend_from_slice(&v.to_bits().to_le_bytes());
 }
 
+fn f32s(out: &mut Vec<u8>, v: &[f32]) {
+    for x in v {
+        push_f32(out, *x);
+    }
+}
+
+fn fixed<const N: usize>(v: Vec<u8>) -> [u8; N] {
+    assert!(v.len() <= N, "record of {} bytes > {N}", v.len());
+    let mut b = [0u8; N];
+    b[..v.len()].copy_from_slice(&v);
+    b
+}
+
+/// A material model record (SPEC.md §5.3): the 8 enum/flag bytes (diffuse, specular, reflect,
+/// texture, mapping, bilinear, tex_log2, reserved), the 18 floats, the seed, 12 reserved.
+pub fn model_bytes(head: [u8; 8], floats: [f32; 18], seed: u32) -> [u8; 96] {
+    let mut b = head.to_vec();
+    f32s(&mut b, &floats);
+    b.extend_from_slice(&seed.to_le_bytes());
+    fixed(b)
+}
+
+/// The 18 floats of `MaterialModel::DEFAULT`: ka kd ks σ² e, specular, η κ, colour2, uv
+/// scale, uv offset, texture param.
+pub const DEFAULT_MODEL_FLOATS: [f32; 18] =
+    [1.0, 1.0, 0.0, 0.0, 32.0, 1.0, 1.0, 1.0, 1.5, 0.0, 0.1, 0.1, 0.1, 1.0, 1.0, 0.0, 0.0, 8.0];
+
+/// `MaterialModel::MATTE`, what a mesh file's materials get: diffuse model 2, bilinear, 2^8.
+pub fn matte_model() -> [u8; 96] {
+    model_bytes([2, 0, 0, 0, 0, 1, 8, 0], DEFAULT_MODEL_FLOATS, 0)
+}
+
+/// A lighting record (SPEC.md §5.6): light count, max depth, falloff, reserved, then light
+/// colour, spot axis, cos outer, cos inner, ambient colour, background; 20 reserved bytes.
+pub fn lighting_bytes(head: [u8; 4], floats: [f32; 14]) -> [u8; 80] {
+    let mut b = head.to_vec();
+    f32s(&mut b, &floats);
+    fixed(b)
+}
+
+/// `LightingRecord::DEFAULT`: one white omni light, no falloff, depth 1, white ambient, the
+/// contract's background (0.08, 0.08, 0.12).
+pub fn default_lighting() -> [u8; 80] {
+    lighting_bytes([1, 1, 0, 0], [1.0, 1.0, 1.0, 0.0, 0.0, 0.0, -1.0, -1.0, 1.0, 1.0, 1.0, 0.08, 0.08, 0.12])
+}
+
+/// An object record (SPEC.md §5.5).
+pub fn object_bytes(kind: u8, material: u16, first_prim: u32, prim_count: u32, affine: [f32; 12]) -> [u8; 64] {
+    let mut b = vec![kind, 0];
+    b.extend_from_slice(&material.to_le_bytes());
+    b.extend_from_slice(&first_prim.to_le_bytes());
+    b.extend_from_slice(&prim_count.to_le_bytes());
+    b.extend_from_slice(&[0; 4]);
+    f32s(&mut b, &affine);
+    fixed(b)
+}
+
+/// World → object map of a sphere of radius 2 at the origin: W = diag(1/2).
+pub const HALF_SCALE: [f32; 12] = [0.5, 0.0, 0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.5, 0.0];
+
 impl ImageSpec {
-    /// The SPEC.md §5.7 image.
+    /// The SPEC.md §5.9 image.
     pub fn tiny() -> Self {
         Self {
             magic: *b"GRTS",
-            version: 1,
+            version: 2,
             header_len: 64,
             dims: [2, 1, 1],
             pe_count: 1,
@@ -89,8 +180,13 @@ impl ImageSpec {
             voxel_map: vec![0x00, 0xFF],
             pad: 0,
             materials: vec![[0.8, 0.8, 0.8, 0.0]],
+            models: vec![matte_model()],
+            objects: vec![],
+            lighting: default_lighting(),
             pe_blocks: vec![(0, 0, TINY_PE_WORDS.to_vec())],
             words_override: None,
+            material_count_override: None,
+            object_count_override: None,
             total_len_override: None,
             crc_override: None,
         }
@@ -111,24 +207,36 @@ impl ImageSpec {
             &[(2, vec![0]), (5, vec![0]), (8, vec![0])],
         );
         Self {
-            magic: *b"GRTS",
-            version: 1,
-            header_len: 64,
             dims: [3, 3, 1],
             pe_count: 2,
-            bounds_min: [0.0; 3],
             bounds_max: [3.0, 3.0, 1.0],
-            flags: 0,
             triangle_count: 3,
             pe_mem_words: 256,
-            reserved: 0,
             voxel_map: vec![0, 0, 1, 0xFF, 0, 1, 0xFF, 0xFF, 1],
-            pad: 0,
             materials: vec![[0.8, 0.8, 0.8, 0.0], [0.9, 0.1, 0.1, 0.5]],
+            models: vec![matte_model(), matte_model()],
             pe_blocks: vec![(0, 0, pe0), (1, 0, pe1)],
-            words_override: None,
-            total_len_override: None,
-            crc_override: None,
+            ..Self::tiny()
+        }
+    }
+
+    /// A 1×1×1 grid in (−2, −2, −2)–(2, 2, 2) with one sphere of radius 2 (prim 0, material 0):
+    /// a checker material, one object, depth-2 inverse-square lighting, a PE image with an
+    /// analytic primitive. Section ends: 64, 68, 84, 180, 244, 324, 332, 432.
+    pub fn sphere() -> Self {
+        Self {
+            dims: [1, 1, 1],
+            bounds_min: [-2.0; 3],
+            bounds_max: [2.0; 3],
+            voxel_map: vec![0x00],
+            models: vec![model_bytes([0, 0, 0, 1, 0, 1, 4, 0], DEFAULT_MODEL_FLOATS, 0)],
+            objects: vec![object_bytes(1, 0, 0, 1, HALF_SCALE)],
+            lighting: lighting_bytes(
+                [1, 2, 1, 0],
+                [1.0, 1.0, 1.0, 0.0, 0.0, 0.0, -1.0, -1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0],
+            ),
+            pe_blocks: vec![(0, 0, pe_image_with_prims(&[], &[(1, 0, 0, HALF_SCALE)], &[(0, vec![0])]))],
+            ..Self::tiny()
         }
     }
 
@@ -140,10 +248,15 @@ impl ImageSpec {
             body.push(self.pad);
         }
         for m in &self.materials {
-            for v in m {
-                push_f32(&mut body, *v);
-            }
+            f32s(&mut body, m);
         }
+        for m in &self.models {
+            body.extend_from_slice(m);
+        }
+        for o in &self.objects {
+            body.extend_from_slice(o);
+        }
+        body.extend_from_slice(&self.lighting);
         for (i, (pe, reserved, words)) in self.pe_blocks.iter().enumerate() {
             body.extend_from_slice(&pe.to_le_bytes());
             body.extend_from_slice(&reserved.to_le_bytes());
@@ -158,6 +271,8 @@ impl ImageSpec {
         }
         let total = self.total_len_override.unwrap_or(64 + body.len() as u32);
         let crc = self.crc_override.unwrap_or_else(|| frame::crc32(&body));
+        let materials = self.material_count_override.unwrap_or(self.materials.len() as u16);
+        let objects = self.object_count_override.unwrap_or(self.objects.len() as u16);
         let mut out = Vec::new();
         out.extend_from_slice(&self.magic);
         out.extend_from_slice(&self.version.to_le_bytes());
@@ -166,15 +281,15 @@ impl ImageSpec {
             out.extend_from_slice(&d.to_le_bytes());
         }
         out.extend_from_slice(&self.pe_count.to_le_bytes());
-        for v in self.bounds_min.iter().chain(self.bounds_max.iter()) {
-            push_f32(&mut out, *v);
-        }
-        out.extend_from_slice(&(self.materials.len() as u16).to_le_bytes());
+        f32s(&mut out, &self.bounds_min);
+        f32s(&mut out, &self.bounds_max);
+        out.extend_from_slice(&materials.to_le_bytes());
         out.extend_from_slice(&self.flags.to_le_bytes());
         out.extend_from_slice(&self.triangle_count.to_le_bytes());
         out.extend_from_slice(&self.pe_mem_words.to_le_bytes());
         out.extend_from_slice(&total.to_le_bytes());
         out.extend_from_slice(&crc.to_le_bytes());
+        out.extend_from_slice(&objects.to_le_bytes());
         out.extend_from_slice(&self.reserved.to_le_bytes());
         assert_eq!(out.len(), 64);
         out.extend_from_slice(&body);
@@ -182,11 +297,21 @@ impl ImageSpec {
     }
 }
 
-/// Builds a PE memory image (SPEC.md §5.4) from triangles and (voxel id, local triangle
-/// indices) in the given order.
-pub fn pe_image(tris: &[([[f32; 3]; 3], u32, u32)], voxels: &[(u32, Vec<u32>)]) -> Vec<u32> {
+/// A triangle of a hand-built PE image: vertices, prim id, material.
+pub type Tri = ([[f32; 3]; 3], u32, u32);
+/// An analytic primitive of a hand-built PE image: kind, prim id, material, world → object.
+pub type Prim = (u32, u32, u32, [f32; 12]);
+
+/// Builds a tagged PE memory image (SPEC.md §5.4) from triangles and (voxel id, local
+/// triangle indices) in the given order.
+pub fn pe_image(tris: &[Tri], voxels: &[(u32, Vec<u32>)]) -> Vec<u32> {
+    pe_image_with_prims(tris, &[], voxels)
+}
+
+/// Builds a tagged PE memory image with analytic primitives; a ref `T + i` names primitive i.
+pub fn pe_image_with_prims(tris: &[Tri], prims: &[Prim], voxels: &[(u32, Vec<u32>)]) -> Vec<u32> {
     let refs: usize = voxels.iter().map(|v| v.1.len()).sum();
-    let mut w = vec![tris.len() as u32, voxels.len() as u32, refs as u32];
+    let mut w = vec![0xFFFF_0002, tris.len() as u32, voxels.len() as u32, refs as u32, prims.len() as u32];
     let mut first = 0u32;
     for (id, r) in voxels {
         w.extend_from_slice(&[*id, first, r.len() as u32]);
@@ -202,6 +327,11 @@ pub fn pe_image(tris: &[([[f32; 3]; 3], u32, u32)], voxels: &[(u32, Vec<u32>)]) 
         w.push(*prim);
         w.push(*mat);
     }
+    for (kind, prim, mat, affine) in prims {
+        w.extend_from_slice(&[*kind, *prim, *mat]);
+        w.extend(affine.iter().map(|c| c.to_bits()));
+        w.push(0);
+    }
     w
 }
 
@@ -211,6 +341,9 @@ pub enum Event {
     Header(SceneHeader),
     VoxelMap(u32, Vec<u8>),
     Material(u16, Material),
+    MaterialModel(u16, MaterialModel),
+    Object(u16, ObjectRecord),
+    Lighting(LightingRecord),
     PeBegin(u8, u32),
     PeWord(u32),
     PeEnd,
@@ -244,6 +377,15 @@ impl SceneSink for RecordingSink {
     }
     fn material(&mut self, index: u16, material: Material) -> Result<(), SceneError> {
         self.push(Event::Material(index, material))
+    }
+    fn material_model(&mut self, index: u16, model: MaterialModel) -> Result<(), SceneError> {
+        self.push(Event::MaterialModel(index, model))
+    }
+    fn object(&mut self, index: u16, object: ObjectRecord) -> Result<(), SceneError> {
+        self.push(Event::Object(index, object))
+    }
+    fn lighting(&mut self, lighting: LightingRecord) -> Result<(), SceneError> {
+        self.push(Event::Lighting(lighting))
     }
     fn pe_begin(&mut self, pe: u8, words: u32) -> Result<(), SceneError> {
         self.push(Event::PeBegin(pe, words))
