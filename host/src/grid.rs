@@ -48,8 +48,8 @@
 //! ray that misses the grid box misses the scene. Refs ≥ T name primitives.
 
 use gridrt_shared::scene::{
-    PrimRecord, TriangleRecord, EMPTY_VOXEL, MAX_PES, PE_HEADER_WORDS, PE_IMAGE_TAG, PRIM_WORDS,
-    TRIANGLE_WORDS, VOXEL_ENTRY_WORDS,
+    PrimRecord, TriangleRecord, EMPTY_VOXEL, MAX_PES, PE_HEADER_WORDS, PE_IMAGE_TAG, PRIM_WORDS, TRIANGLE_WORDS,
+    VOXEL_ENTRY_WORDS,
 };
 
 use crate::scene::{AnalyticPrim, Bounds, Mesh};

@@ -9,8 +9,8 @@ use gridrt_host::grid::GridParams;
 use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::plan::{Interp, Plan};
 use gridrt_host::reference::{render as reference_render, Reference, Stages};
-use gridrt_host::simrun::SimBoard;
 use gridrt_host::scene::Scene;
+use gridrt_host::simrun::SimBoard;
 use gridrt_shared::msg::{render_flags, stat, ErrorCode};
 
 fn scenes() -> PathBuf {
@@ -18,7 +18,10 @@ fn scenes() -> PathBuf {
 }
 
 fn world(text: &str) -> Scene {
-    gridrt_host::scene::parse_scene_file(Path::new("t.toml"), text, &|p| gridrt_host::scene::load_mesh(&scenes().join(p))).unwrap()
+    gridrt_host::scene::parse_scene_file(Path::new("t.toml"), text, &|p| {
+        gridrt_host::scene::load_mesh(&scenes().join(p))
+    })
+    .unwrap()
 }
 
 fn params() -> GridParams {

@@ -287,6 +287,7 @@ impl<const N: usize> FrameAccumulator<N> {
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::*;
 

@@ -350,6 +350,7 @@ pub fn pack_gridrt_list(ids: &[i8]) -> Option<u32> {
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::*;
 

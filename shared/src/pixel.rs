@@ -249,7 +249,8 @@ pub fn rle_validate(count: usize, data: &[u8]) -> Result<(), PixelError> {
 
 /// Decodes `Rle` data of `count` pixels into `out` (RGB888, `3·count` bytes).
 pub fn rle_decode(count: usize, data: &[u8], out: &mut [u8]) -> Result<(), PixelError> {
-    let out = out.get_mut(..count.checked_mul(3).ok_or(PixelError::BufferTooSmall)?).ok_or(PixelError::BufferTooSmall)?;
+    let out =
+        out.get_mut(..count.checked_mul(3).ok_or(PixelError::BufferTooSmall)?).ok_or(PixelError::BufferTooSmall)?;
     let mut pixels = out.chunks_exact_mut(3);
     rle_walk(count, data, |px, n| {
         // rle_walk never emits more than `count` pixels in total.
@@ -272,6 +273,7 @@ pub fn rle_encode(pixels: &[[u8; 3]], out: &mut [u8]) -> Result<usize, PixelErro
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::*;
 

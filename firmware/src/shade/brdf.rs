@@ -239,8 +239,11 @@ mod tests {
         // Blinn–Phong peak at the mirror configuration: (e+2)/(2π).
         let e = MaterialModel { specular_model: SpecularModel::BlinnPhong, exponent: 16.0, ..MaterialModel::default() };
         assert!((specular_brdf(&e, n, n, n) - 18.0 / TAU).abs() < 1e-4);
-        let ts =
-            MaterialModel { specular_model: SpecularModel::TorranceSparrow, exponent: 16.0, ..MaterialModel::default() };
+        let ts = MaterialModel {
+            specular_model: SpecularModel::TorranceSparrow,
+            exponent: 16.0,
+            ..MaterialModel::default()
+        };
         assert!(specular_brdf(&ts, n, l, v) >= 0.0);
     }
 }

@@ -22,11 +22,11 @@ mod colour;
 mod geometry;
 mod light;
 
-#[cfg(feature = "specular")]
-pub use brdf::{fresnel, specular_brdf};
 pub use brdf::{
     diffuse_brdf, direct, fresnel_conductor, fresnel_dielectric, outgoing, reflectance, DirectLight, DirectTerm,
 };
+#[cfg(feature = "specular")]
+pub use brdf::{fresnel, specular_brdf};
 pub use colour::{clamp01, to_rgb8, to_u8, BACKGROUND, DEFAULT_ALBEDO};
 pub use geometry::{
     facing_normal, hit_point, shadow_epsilon, shadow_ray, SHADOW_EPS_DIAG, SHADOW_EPS_POS, SHADOW_T_MAX,

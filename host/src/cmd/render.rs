@@ -10,9 +10,9 @@ use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
 use gridrt_host::multi::{render_multi, DeviceShare};
 use gridrt_host::pipeline::PreparedScene;
-use gridrt_host::scene::Scene;
 use gridrt_host::plan::{Interp, Plan};
 use gridrt_host::reference::{self, Reference, Stages};
+use gridrt_host::scene::Scene;
 use gridrt_host::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
 use gridrt_host::stats::{LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
 use gridrt_shared::msg::PixelEncoding;
@@ -292,12 +292,8 @@ impl Cmd {
                 textures: plan.textures,
                 specular: plan.specular,
             };
-            let reference = reference::render(
-                &Reference::new(&prepared.scene, &prepared.grid.bounds),
-                &settings,
-                stages,
-                threads,
-            );
+            let reference =
+                reference::render(&Reference::new(&prepared.scene, &prepared.grid.bounds), &settings, stages, threads);
             let reference_ms = start.elapsed().as_secs_f64() * 1e3;
             let cmp = compare(&frame.rgb, &reference.rgb, frame.prim_ids.as_deref(), Some(&reference.prim_ids))?;
             stats.reference = Some(ReferenceStats::new(&cmp, reference_ms));

@@ -158,7 +158,6 @@ impl TriangleBvh {
     pub fn any_hit(&self, o: [f64; 3], d: [f64; 3], t_max: f64) -> bool {
         self.trace(o, d, t_max, true).is_some()
     }
-
 }
 
 /// Robust slab test (the far distance widened by `1 + 2γ(3)` in f64, pbrt-v4 style); NaN
@@ -238,7 +237,6 @@ impl WatertightRay {
         (t > t_min && t < t_max).then_some(t)
     }
 }
-
 
 #[cfg(test)]
 mod tests {

@@ -103,7 +103,6 @@ pub(super) fn specular(e: &MaterialModel, n: [f64; 3], l: [f64; 3], v: [f64; 3])
     }
 }
 
-
 /// The light a visible point light delivers: `spot·E·c_L` per channel and the BRDF weights.
 pub(super) struct DirectTerm {
     /// `spot · E · c_L`.
@@ -120,7 +119,9 @@ pub(super) fn outgoing(e: &MaterialModel, cd: [f64; 3], la: [f64; 3], direct: Op
     let (ka, cs) = (e.ka as f64, e.specular.map(|c| c as f64));
     [0, 1, 2].map(|k| match (e.diffuse_model, direct) {
         (DiffuseModel::Matte, None) => cd[k] * (ka * la[k]),
-        (DiffuseModel::Matte, Some(d)) => cd[k] * (ka * la[k] + d.light[k] * d.diffuse) + d.light[k] * (d.specular * cs[k]),
+        (DiffuseModel::Matte, Some(d)) => {
+            cd[k] * (ka * la[k] + d.light[k] * d.diffuse) + d.light[k] * (d.specular * cs[k])
+        }
         (_, None) => ka * cd[k] * la[k],
         (_, Some(d)) => ka * cd[k] * la[k] + d.light[k] * (d.diffuse * cd[k] + d.specular * cs[k]),
     })

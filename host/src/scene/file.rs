@@ -16,13 +16,13 @@ use gridrt_shared::scene::{
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::camera::{Camera, Light, RenderSettings, DEFAULT_HEIGHT, DEFAULT_WIDTH};
 use super::analytic::AnalyticPrim;
 use super::error::SceneLoadError;
-use super::mesh_file::load_mesh;
 use super::mesh::{Bounds, Mesh, Triangle, DEFAULT_MATERIAL};
+use super::mesh_file::load_mesh;
 use super::model::Scene;
 use super::transform::{apply_point, compose, invert, to_wire, trs, Affine64, IDENTITY};
+use crate::camera::{Camera, Light, RenderSettings, DEFAULT_HEIGHT, DEFAULT_WIDTH};
 
 /// Why a scene file was rejected.
 #[derive(Debug, thiserror::Error)]

@@ -4,7 +4,6 @@ use super::*;
 use gridrt_shared::scene::Material;
 use std::path::PathBuf;
 
-
 fn scenes() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes")
 }
@@ -83,11 +82,10 @@ fn obj_missing_mtl_is_a_warning() {
 #[test]
 fn obj_malformed_mtl_names_mtl_line() {
     let mtl = b"newmtl red\nKd 1 0\n".to_vec();
-    let err =
-        load_obj_bytes(Path::new("dir/a.obj"), format!("mtllib m.mtl\nusemtl red\n{QUAD}").as_bytes(), &|_| {
-            Ok(mtl.clone())
-        })
-        .unwrap_err();
+    let err = load_obj_bytes(Path::new("dir/a.obj"), format!("mtllib m.mtl\nusemtl red\n{QUAD}").as_bytes(), &|_| {
+        Ok(mtl.clone())
+    })
+    .unwrap_err();
     assert!(
         matches!(&err, SceneLoadError::Malformed { at: Location::Line(2), path, .. } if path.ends_with("m.mtl")),
         "{err}"

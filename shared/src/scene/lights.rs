@@ -51,16 +51,16 @@ impl LightingRecord {
     /// One white omnidirectional light without falloff, white ambient, depth 1, the
     /// contract's background (docs/CONTRACTS.md § Shading): a mesh file's lighting.
     pub const DEFAULT: Self = Self {
-                light_count: 1,
-                max_depth: 1,
-                falloff: Falloff::None,
-                light_colour: [1.0; 3],
-                spot_dir: [0.0; 3],
-                cos_outer: -1.0,
-                cos_inner: -1.0,
-                ambient_colour: [1.0; 3],
-                background: [0.08, 0.08, 0.12],
-            };
+        light_count: 1,
+        max_depth: 1,
+        falloff: Falloff::None,
+        light_colour: [1.0; 3],
+        spot_dir: [0.0; 3],
+        cos_outer: -1.0,
+        cos_inner: -1.0,
+        ambient_colour: [1.0; 3],
+        background: [0.08, 0.08, 0.12],
+    };
 
     /// Serialises the 80-byte record.
     pub fn to_bytes(&self) -> [u8; LIGHTING_LEN] {

@@ -163,27 +163,27 @@ impl MaterialModel {
     /// A scene file's material before its fields are set (docs/SCENE-FILE.md): Lambert, no
     /// specular, no reflection, no texture.
     pub const DEFAULT: Self = Self {
-                diffuse_model: DiffuseModel::Lambert,
-                specular_model: SpecularModel::None,
-                reflect_mode: ReflectMode::None,
-                texture: TextureKind::None,
-                mapping: Mapping::Planar,
-                bilinear: true,
-                tex_log2: 8,
-                ka: 1.0,
-                kd: 1.0,
-                ks: 0.0,
-                sigma2: 0.0,
-                exponent: 32.0,
-                specular: [1.0; 3],
-                eta: 1.5,
-                kappa: 0.0,
-                colour2: [0.1; 3],
-                uv_scale: [1.0; 2],
-                uv_offset: [0.0; 2],
-                tex_param: 8.0,
-                tex_seed: 0,
-            };
+        diffuse_model: DiffuseModel::Lambert,
+        specular_model: SpecularModel::None,
+        reflect_mode: ReflectMode::None,
+        texture: TextureKind::None,
+        mapping: Mapping::Planar,
+        bilinear: true,
+        tex_log2: 8,
+        ka: 1.0,
+        kd: 1.0,
+        ks: 0.0,
+        sigma2: 0.0,
+        exponent: 32.0,
+        specular: [1.0; 3],
+        eta: 1.5,
+        kappa: 0.0,
+        colour2: [0.1; 3],
+        uv_scale: [1.0; 2],
+        uv_offset: [0.0; 2],
+        tex_param: 8.0,
+        tex_seed: 0,
+    };
 
     /// GridRT's matte surface, what a mesh file's materials get: shades as
     /// docs/CONTRACTS.md § Shading has always written it, `albedo·(ambient + I·n·l·vis)`.

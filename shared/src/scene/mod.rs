@@ -44,4 +44,5 @@ pub use pe_image::PeImage;
 pub use stream::{SceneSink, SceneStream};
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests;

@@ -2,7 +2,6 @@
 
 use super::*;
 
-
 #[test]
 fn records_round_trip() {
     let m = MaterialModel {
@@ -15,13 +14,8 @@ fn records_round_trip() {
         ..MaterialModel::default()
     };
     assert_eq!(MaterialModel::parse(&m.to_bytes()), Ok(m));
-    let o = ObjectRecord {
-        kind: ObjectKind::Cone,
-        material: 3,
-        first_prim: 9,
-        prim_count: 1,
-        world_to_object: [1.5; 12],
-    };
+    let o =
+        ObjectRecord { kind: ObjectKind::Cone, material: 3, first_prim: 9, prim_count: 1, world_to_object: [1.5; 12] };
     assert_eq!(ObjectRecord::parse(&o.to_bytes()), Ok(o));
     let l = LightingRecord {
         max_depth: 2,
