@@ -214,3 +214,80 @@ impl Units {
         (0..count * out_words).map(|_| self.pipe.recv()).collect()
     }
 }
+
+/// Cycle counters of the co-processor program.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SimCycles {
+    /// Clock cycles simulated since reset.
+    pub total: u64,
+    /// Of which the co-processor was not idle (receiving, executing or sending).
+    pub busy: u64,
+}
+
+/// The co-processor program (`rtl/hdl/gridrt_coproc.sv`): FSL words in, FSL words out.
+///
+/// [`CoprocSim::push`] queues request words; [`CoprocSim::pop`] runs the simulation until
+/// every queued word is consumed and the RTL is idle, then returns the reply words in order
+/// (`None` when there are none), the same word-level behaviour as
+/// `gridrt_coproc::Coprocessor::push`/`pop`.
+pub struct CoprocSim {
+    pipe: Pipe,
+    pending: bool,
+    out: std::collections::VecDeque<gridrt_shared::fsl::FslWord>,
+}
+
+impl CoprocSim {
+    /// Starts the program; `stall` = (percent, seed) makes the harness drop the stream
+    /// handshakes at random (the replies must not change).
+    pub fn spawn(program: &Path, stall: Option<(u32, u64)>) -> Result<Self, SimError> {
+        let pipe = match stall {
+            None => Pipe::spawn(program)?,
+            Some((pct, seed)) => {
+                let mut child = Command::new(program)
+                    .args(["--stall", &pct.to_string(), "--seed", &seed.to_string()])
+                    .stdin(Stdio::piped())
+                    .stdout(Stdio::piped())
+                    .spawn()?;
+                let tx = BufWriter::new(child.stdin.take().ok_or_else(|| std::io::Error::other("no stdin"))?);
+                let rx = BufReader::new(child.stdout.take().ok_or_else(|| std::io::Error::other("no stdout"))?);
+                Pipe { child, tx, rx }
+            }
+        };
+        Ok(Self { pipe, pending: false, out: Default::default() })
+    }
+
+    /// Queues one request word.
+    pub fn push(&mut self, w: gridrt_shared::fsl::FslWord) -> Result<(), SimError> {
+        self.pipe.send(&[1, w.data, w.control as u32])?;
+        self.pending = true;
+        Ok(())
+    }
+
+    /// Runs the RTL until it has consumed everything queued and is idle.
+    pub fn drain(&mut self) -> Result<(), SimError> {
+        self.pipe.send(&[2])?;
+        let n = self.pipe.recv()?;
+        for _ in 0..n {
+            let data = self.pipe.recv()?;
+            let control = self.pipe.recv()? & 1 == 1;
+            self.out.push_back(gridrt_shared::fsl::FslWord { data, control });
+        }
+        self.pending = false;
+        Ok(())
+    }
+
+    /// The next reply word (runs the RTL first if words were pushed since the last run).
+    pub fn pop(&mut self) -> Result<Option<gridrt_shared::fsl::FslWord>, SimError> {
+        if self.out.is_empty() && self.pending {
+            self.drain()?;
+        }
+        Ok(self.out.pop_front())
+    }
+
+    /// The cycle counters.
+    pub fn cycles(&mut self) -> Result<SimCycles, SimError> {
+        self.pipe.send(&[3])?;
+        let w: Vec<u32> = (0..4).map(|_| self.pipe.recv()).collect::<Result<_, _>>()?;
+        Ok(SimCycles { total: (w[1] as u64) << 32 | w[0] as u64, busy: (w[3] as u64) << 32 | w[2] as u64 })
+    }
+}
