@@ -1,20 +1,20 @@
-//! The co-processor RTL against the reference, word for word, through the Verilator build.
+//! The co-processor RTL against the reference RESULT words, word for word, through the
+//! Verilator build: random rays over random scenes (10⁵ in all), in several fixed-point
+//! frames (FRAME packets), and with the stream handshakes stalled at random.
 
 mod support;
 
-use gridrt_coproc::{FslWord, RayKind, RayResult};
+use gridrt_coproc::{FixedFrame, FslWord, RayKind};
 use gridrt_rtl::sim::{default_programs, require_verilator, CoprocSim};
 use gridrt_rtl::twin::Frame;
 use gridrt_shared::math::{Ray, Vec3};
 use rand::Rng;
+use rand_chacha::ChaCha8Rng;
 use support::*;
 
-fn sim(test: &str, stall: Option<(u32, u64)>) -> Option<CoprocSim> {
-    if !require_verilator(test) {
-        return None;
-    }
-    let programs = default_programs().unwrap_or_else(|e| panic!("{test}: {e}"));
-    Some(CoprocSim::spawn(&programs.coproc, stall).unwrap())
+fn sim(stall: Option<(u32, u64)>) -> CoprocSim {
+    let programs = default_programs().unwrap_or_else(|e| panic!("{e}"));
+    CoprocSim::spawn(&programs.coproc, stall).unwrap()
 }
 
 /// Sends a packet and collects every reply word.
@@ -29,28 +29,54 @@ fn exchange(s: &mut CoprocSim, packet: &[FslWord]) -> Vec<FslWord> {
     out
 }
 
-fn result_words(r: &RayResult) -> Vec<FslWord> {
-    framed(&r.to_words())
+/// What a batch of rays saw.
+#[derive(Debug, Default)]
+struct Tally {
+    rays: usize,
+    hits: usize,
+    any: usize,
 }
 
-#[test]
-fn random_rays_give_the_reference_result_words() {
-    let Some(mut s) = sim("random_rays_give_the_reference_result_words", None) else { return };
-    let mut rng = rng(0xC0510);
-    let mut rays = 0;
-    let mut hits = 0;
-    for round in 0..20 {
-        let scene = random_scene(&mut rng, 4, 4.0);
+/// `rounds` random scenes inside the box `center ± ext` (with its FRAME unless it is the
+/// reset frame), `rays` random rays each, every RESULT compared with the reference.
+fn random_rays(
+    s: &mut CoprocSim,
+    rng: &mut ChaCha8Rng,
+    rounds: usize,
+    rays: usize,
+    center: Vec3,
+    ext: f32,
+    frame_packet: bool,
+) -> Tally {
+    let mut tally = Tally::default();
+    let model_frame = if frame_packet {
+        let (min, max) = ((center - Vec3::splat(ext)).to_array(), (center + Vec3::splat(ext)).to_array());
+        assert_eq!(exchange(s, &support::frame_packet(min, max)), framed(&[0x9500_0000]), "FRAME ack");
+        Frame::for_box(min, max).unwrap()
+    } else {
+        FixedFrame::IDENTITY
+    };
+    let frame = Frame::of(&model_frame);
+    for round in 0..rounds {
+        let mut scene = random_scene(rng, 4, ext);
+        for pe in &mut scene {
+            for t in &mut pe.tris {
+                t.v = t.v.map(|v| v + center);
+            }
+        }
         for (pe, p) in scene.iter().enumerate() {
             let img = p.image();
             assert_valid(&img);
-            let ack = exchange(&mut s, &load_packet(pe as u8, &img));
-            assert_eq!(ack, framed(&[0x9100_0000 | pe as u32]), "round {round} load {pe}");
+            assert_eq!(
+                exchange(s, &load_packet(pe as u8, &img)),
+                framed(&[0x9100_0000 | pe as u32]),
+                "round {round} load {pe}"
+            );
         }
-        let frame = Frame::of(&gridrt_coproc::FixedFrame::IDENTITY);
         let loaded = Loaded { frame, pes: &scene };
-        for _ in 0..250 {
-            let origin = Vec3::new(rng.gen_range(-8.0..8.0), rng.gen_range(-8.0..8.0), rng.gen_range(-8.0..8.0));
+        for _ in 0..rays {
+            let origin =
+                center + Vec3::new(rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0)) * ext;
             let pe = &scene[rng.gen_range(0..scene.len())];
             let t = pe.tris[rng.gen_range(0..pe.tris.len())];
             // Interior points, and points on the edge a-b (shared with a neighbour).
@@ -69,19 +95,117 @@ fn random_rays_give_the_reference_result_words() {
                 continue;
             }
             let ray = Ray { origin, dir };
-            let list = random_list(&mut rng, &scene, 12);
+            let list = random_list(rng, &scene, 12);
             let kind = if rng.gen_bool(0.3) { RayKind::Any } else { RayKind::Closest };
-            let t_max = if rng.gen_bool(0.7) { f32::INFINITY } else { rng.gen_range(0.0f32..3.0) };
+            let t_max = if rng.gen_bool(0.7) { f32::INFINITY } else { rng.gen_range(0.0f32..3.0) * ext };
             let want = reference(&loaded, kind, &ray, t_max, &list);
-            let got = exchange(&mut s, &ray_packet(kind, &ray, t_max, &list));
+            let got = exchange(s, &ray_packet(kind, &ray, t_max, &list));
             assert_eq!(
                 got,
-                result_words(&want),
+                framed(&want.to_words()),
                 "round {round}: {kind:?} {ray:?} t_max {t_max} list {list:?}\nwant {want:?}"
             );
-            rays += 1;
-            hits += want.hit as usize;
+            tally.rays += 1;
+            tally.hits += want.hit as usize;
+            tally.any += (kind == RayKind::Any) as usize;
         }
     }
-    assert!(hits > rays / 10, "{hits} hits of {rays}");
+    tally
+}
+
+/// 10⁵ random rays (two simulator processes in parallel, 50 000 each): RESULT words equal
+/// the reference's, cycles and test counts included.
+#[test]
+fn hundred_thousand_random_rays_give_the_reference_result_words() {
+    if !require_verilator("hundred_thousand_random_rays_give_the_reference_result_words") {
+        return;
+    }
+    let _ = default_programs();
+    let tallies: Vec<Tally> = std::thread::scope(|sc| {
+        let jobs: Vec<_> = (0..2u64)
+            .map(|j| {
+                sc.spawn(move || {
+                    let mut s = sim(None);
+                    let mut rng = rng(0xC0510 + j);
+                    random_rays(&mut s, &mut rng, 100, 500, Vec3::ZERO, 4.0, false)
+                })
+            })
+            .collect();
+        jobs.into_iter().map(|j| j.join().unwrap()).collect()
+    });
+    let rays: usize = tallies.iter().map(|t| t.rays).sum();
+    let hits: usize = tallies.iter().map(|t| t.hits).sum();
+    assert!(rays >= 99_000, "{rays} rays");
+    assert!(hits > rays / 5, "{hits} hits of {rays}");
+}
+
+/// FRAME packets set the fixed-point frame of the loads and rays after them: scenes far from
+/// the origin, tiny and huge, each in its own frame.
+#[test]
+fn frames_from_frame_packets_give_the_reference_result_words() {
+    if !require_verilator("frames_from_frame_packets_give_the_reference_result_words") {
+        return;
+    }
+    let mut s = sim(None);
+    let mut rng = rng(0xF4A3E);
+    for (center, ext) in [
+        (Vec3::new(1000.0, -2000.0, 5.5), 3.0),
+        (Vec3::new(0.001, 0.002, -0.003), 1e-4),
+        (Vec3::new(-3e5, 1e5, 2e5), 4e4),
+        (Vec3::new(0.3, 0.7, 0.1), 0.37),
+        (Vec3::ZERO, 1e-30),
+    ] {
+        let t = random_rays(&mut s, &mut rng, 3, 300, center, ext, true);
+        assert!(t.hits > t.rays / 10, "{center:?} ± {ext}: {t:?}");
+    }
+}
+
+/// The stream handshakes (s_axis_tvalid, m_axis_tready) dropped in 40 % of the cycles at
+/// random change nothing in the replies.
+#[test]
+fn stalled_handshakes_do_not_change_the_replies() {
+    if !require_verilator("stalled_handshakes_do_not_change_the_replies") {
+        return;
+    }
+    let mut s = sim(Some((40, 7)));
+    let mut rng = rng(0x57A11);
+    let t = random_rays(&mut s, &mut rng, 4, 250, Vec3::new(2.0, 1.0, -1.0), 2.0, true);
+    assert!(t.hits > 100 && t.any > 100, "{t:?}");
+}
+
+/// FRAME checks its box (SPEC §4.6): non-finite words and inverted axes are ERROR 12 with the
+/// word's index, framing errors as for every packet, and a good FRAME empties the PEs.
+#[test]
+fn frame_packet_errors_and_effects() {
+    if !require_verilator("frame_packet_errors_and_effects") {
+        return;
+    }
+    let mut s = sim(None);
+    let bad = |code: u32, detail: u32| framed(&[0xE000_0000 | code << 16 | detail]);
+    let ok = support::frame_packet([0.0; 3], [1.0; 3]);
+    assert_eq!(exchange(&mut s, &ok), framed(&[0x9500_0000]));
+    for i in 1..7 {
+        let mut p = ok.clone();
+        p[i].data = if i % 2 == 0 { f32::NAN.to_bits() } else { f32::INFINITY.to_bits() };
+        assert_eq!(exchange(&mut s, &p), bad(12, i as u32), "non-finite word {i}");
+    }
+    for a in 0..3 {
+        let mut p = ok.clone();
+        p[4 + a].data = (-1.0f32).to_bits();
+        assert_eq!(exchange(&mut s, &p), bad(12, 4 + a as u32), "inverted axis {a}");
+    }
+    let mut p = ok.clone();
+    p[3].control = true;
+    assert_eq!(exchange(&mut s, &p[..4]), bad(2, 3), "control at word 3");
+    let mut p = ok.clone();
+    p[6].control = false;
+    p.push(FslWord::last(0));
+    assert_eq!(exchange(&mut s, &p), bad(3, 6), "missing control");
+    // A load, then FRAME: the PE is empty again.
+    let mut rng = rng(1);
+    let scene = random_scene(&mut rng, 1, 0.5);
+    assert_eq!(exchange(&mut s, &load_packet(0, &scene[0].image())), framed(&[0x9100_0000]));
+    assert_eq!(exchange(&mut s, &ok), framed(&[0x9500_0000]));
+    let ray = Ray { origin: Vec3::splat(0.5), dir: Vec3::X };
+    assert_eq!(exchange(&mut s, &ray_packet(RayKind::Closest, &ray, 1.0, &[])), bad(10, 0));
 }
