@@ -220,16 +220,9 @@ module ctrl #(
     logic [PW-1:0]       ent_pe_of [MAX_LIST];
 
     logic [KW:0] first_hit, first_open;
+    first_set #(.N(MAX_LIST)) u_first_hit (.bits(done_q & hit_q), .index(first_hit));
+    first_set #(.N(MAX_LIST)) u_first_open (.bits(~done_q & mask_n), .index(first_open));
     always_comb begin
-        logic [MAX_LIST-1:0] open, hits;
-        open = ~done_q & mask_n;
-        hits = done_q & hit_q;
-        first_hit = (KW+1)'(MAX_LIST);
-        first_open = (KW+1)'(MAX_LIST);
-        for (int k = MAX_LIST - 1; k >= 0; k--) begin
-            if (hits[k]) first_hit = (KW+1)'(k);
-            if (open[k]) first_open = (KW+1)'(k);
-        end
         issued_sum = '0;
         for (int p = 0; p < PES; p++) issued_sum = issued_sum + 35'(pe_issued[p]);
     end
@@ -262,6 +255,7 @@ module ctrl #(
             rx <= RX_IDLE;
             busy <= BZ_NONE;
             tl_wr <= 2'd0;
+            pe_b_wdata <= '0;
             loaded <= '0;
             frame_s <= '0;
             frame_qm <= '0;
@@ -345,15 +339,14 @@ module ctrl #(
                 RX_FRAME: begin
                     fr_box[ray_idx - 16'd1] <= w;
                     if (ray_idx == 16'd6) begin
-                        logic [15:0] bad;
-                        logic [5:0][31:0] box;
-                        box = fr_box;
-                        box[5] = w;
+                        logic [15:0]  bad;
+                        logic [191:0] box;
+                        box = {w, fr_box[4], fr_box[3], fr_box[2], fr_box[1], fr_box[0]};
                         bad = 16'd0;
-                        for (int i = 5; i >= 0; i--) if (!is_finite(box[i])) bad = 16'(i + 1);
+                        for (int i = 5; i >= 0; i--) if (!is_finite(box[32*i +: 32])) bad = 16'(i + 1);
                         if (bad == 0) begin
                             for (int a = 2; a >= 0; a--)
-                                if (f32_lt(box[3 + a], box[a])) bad = 16'(4 + a);
+                                if (f32_lt(box[32*(3 + a) +: 32], box[32*a +: 32])) bad = 16'(4 + a);
                         end
                         if (bad != 0) fail(E_BAD_FRAME, bad, ctl);
                         else if (!ctl) fail(E_MISSING_CONTROL, 16'd6, 1'b0);
@@ -641,11 +634,11 @@ module ctrl #(
             if (idx >= 16'd1 && idx <= 16'd3) ray_org[idx - 16'd1] <= w;
             if (idx >= 16'd4 && idx <= 16'd6) ray_dir[idx - 16'd4] <= w;
             if (idx == 16'd7) begin
-                logic [15:0] bad;
-                logic [5:0][31:0] c;
+                logic [15:0]  bad;
+                logic [191:0] c;
                 c = {ray_dir, ray_org};
                 bad = 16'd0;
-                for (int i = 5; i >= 0; i--) if (!is_finite(c[i])) bad = 16'(i + 1);
+                for (int i = 5; i >= 0; i--) if (!is_finite(c[32*i +: 32])) bad = 16'(i + 1);
                 if (bad == 0 && ray_dir[0][30:0] == 0 && ray_dir[1][30:0] == 0 && ray_dir[2][30:0] == 0) bad = 16'd4;
                 if (bad == 0 && is_nan(w)) bad = 16'd7;
                 ray_tmax <= w;

@@ -56,8 +56,8 @@ impl Params {
         {
             bail!("--pe-mem-words must be 1024 × a power of two (1024..)");
         }
-        if !self.max_list.is_power_of_two() || !(8..=1024).contains(&self.max_list) {
-            bail!("--max-list must be a power of two in 8..=1024");
+        if !self.max_list.is_power_of_two() || !(16..=1024).contains(&self.max_list) {
+            bail!("--max-list must be a power of two in 16..=1024");
         }
         Ok(())
     }
