@@ -1,6 +1,6 @@
 //! `cargo xtask`: project automation that plain cargo cannot express.
 //!
-//! - `cargo xtask setup`     install the RISC-V toolchain and QEMU (the scripts in scripts/)
+//! - `cargo xtask setup`     install the RISC-V toolchain, QEMU and the HDL tools (scripts/)
 //! - `cargo xtask firmware`  build a soft-core image (firmware/image) and print its sections
 //! - `cargo xtask qemu`      boot an image on QEMU `virt` with its UART on a pseudo-terminal
 //!   (`--bin bootloader` boots the bootloader, `--elf PATH` any image; prints `serial: PTY`)
@@ -28,7 +28,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// Install the RISC-V Rust toolchain (rustup target, else Debian packages) and QEMU.
+    /// Install the RISC-V Rust toolchain (rustup target, else Debian packages), QEMU and the HDL tools.
     Setup(setup::Cmd),
     /// Build a firmware image for the soft-core and print its section sizes.
     Firmware(firmware::Cmd),
