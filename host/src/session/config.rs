@@ -28,7 +28,7 @@ pub struct SessionConfig {
     /// Rewinds allowed in a row without any new byte acknowledged before the upload gives up.
     pub max_rewinds: u32,
     /// Render with `RenderRegion` (selective repeat, reset recovery) when the device
-    /// supports it; `false` uses the single `RenderRequest` of protocol v1.
+    /// supports it; `false` sends one whole-frame `RenderRequest`.
     pub regions: bool,
     /// Rows per region when a frame is rendered with regions (0 = the whole frame).
     pub band_rows: u16,
@@ -54,7 +54,7 @@ impl SessionConfig {
             max_requests_per_band: 10_000,
         }
     }
-    /// Chooses regions or the v1 `RenderRequest` (see [`Self::regions`]).
+    /// Chooses regions or one whole-frame `RenderRequest` (see [`Self::regions`]).
     #[must_use]
     pub fn regions(mut self, on: bool) -> Self {
         self.regions = on;
