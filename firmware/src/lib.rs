@@ -5,8 +5,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`camera`] | pinhole camera (CONTRACTS.md) |
-//! | [`dda`] | 3D-DDA grid traversal and traversal lists (Amanatides & Woo 1987) |
-//! | [`dda_fixed`] | the same DDA in fixed point (used with feature `fixed-raygen`) |
+//! | [`dda`] | 3D-DDA grid traversal in f32 and in fixed point (feature `fixed-raygen`), traversal lists (Amanatides & Woo 1987) |
 //! | [`fixed`] | exact f32 ↔ fixed-point conversions, the ray-generation/DDA format switch |
 //! | [`fmath`] | `f32` polynomial sin/cos/tan/atan2/acos/pow (no libm trigonometry, no `f64`) |
 //! | [`shade`] | shading of a hit: GridRT's matte surface, ViRAY's Lambert/Oren–Nayar/Blinn–Phong/Torrance–Sparrow, Fresnel, spotlight, shadow rays (CONTRACTS.md) |
@@ -32,7 +31,6 @@ pub mod boot;
 pub mod bsp;
 pub mod camera;
 pub mod dda;
-pub mod dda_fixed;
 pub mod device;
 pub mod fixed;
 pub mod fmath;
