@@ -88,20 +88,3 @@ pub trait CycleCounter {
     /// Instructions retired (`minstret`; exact under QEMU `-icount shift=0`).
     fn instret(&self) -> u64;
 }
-
-#[cfg(test)]
-mod tests {
-    use super::mock::MockMmio;
-    use super::ns16550::{regs, Ns16550};
-    use super::UartWriter;
-    use core::fmt::Write as _;
-
-    #[test]
-    fn uart_writer_formats_through_the_byte_uart() {
-        let mock = MockMmio::new();
-        mock.set8(regs::LSR, regs::LSR_THRE);
-        let mut uart = Ns16550::new(&mock);
-        assert_eq!(write!(UartWriter(&mut uart), "n={}", 42), Ok(()));
-        assert_eq!(mock.writes8_at(regs::THR), b"n=42".to_vec());
-    }
-}

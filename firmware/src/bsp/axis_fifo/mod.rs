@@ -29,7 +29,7 @@
 
 pub mod regs;
 
-use super::Mmio;
+use super::mmio::Mmio;
 
 /// Errors of the stream link.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
