@@ -235,8 +235,9 @@ pub mod feature {
     pub const SPECULAR: u32 = 1 << 18;
     /// Row interpolation (seed 003; the `render_flags` interpolation fields are honoured).
     pub const INTERP: u32 = 1 << 19;
-    /// Scene image version 2 (analytic primitives, ViRAY shading) is accepted.
-    pub const SCENE_V2: u32 = 1 << 20;
+    /// Scenes with analytic primitives and ViRAY materials (the scene image of SPEC.md §5) are
+    /// accepted.
+    pub const ANALYTIC_PRIMITIVES: u32 = 1 << 20;
     /// The device renders `RenderRegion` requests (SPEC.md §3.12).
     pub const RENDER_REGION: u32 = 1 << 8;
     /// The device sends `Rgb565` spans.
@@ -251,11 +252,11 @@ pub mod render_flags {
     pub const SHADOWS: u16 = 1 << 0;
     /// Also send the primitive id of every primary hit ([`super::PixelEncoding::PrimId32`]).
     pub const PRIM_IDS: u16 = 1 << 1;
-    /// Pipeline plan (SPEC.md §3.13): trace mirror-reflection rays (v2 scenes).
+    /// Pipeline plan (SPEC.md §3.13): trace mirror-reflection rays.
     pub const REFLECTIONS: u16 = 1 << 2;
-    /// Pipeline plan: run the texture stage (v2 scenes).
+    /// Pipeline plan: run the texture stage.
     pub const TEXTURES: u16 = 1 << 3;
-    /// Pipeline plan: evaluate specular BRDFs (v2 scenes).
+    /// Pipeline plan: evaluate specular BRDFs.
     pub const SPECULAR: u16 = 1 << 4;
     /// Row interpolation: adapt the step per row (seed 003 §3.5); else a fixed step.
     pub const INTERP_ADAPTIVE: u16 = 1 << 5;

@@ -56,7 +56,7 @@ pub const fn pipeline_features() -> u32 {
     let r = if cfg!(feature = "reflections") { feature::REFLECTIONS } else { 0 };
     let t = if cfg!(feature = "textures") { feature::TEXTURES } else { 0 };
     let s = if cfg!(feature = "specular") { feature::SPECULAR } else { 0 };
-    r | t | s | feature::INTERP | feature::SCENE_V2
+    r | t | s | feature::INTERP | feature::ANALYTIC_PRIMITIVES
 }
 
 /// The texture-space point of a hit on primitive `prim` (the object table maps prim ids to

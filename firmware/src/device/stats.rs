@@ -111,7 +111,7 @@ pub struct FrameStats {
     pub pixels: u64,
     /// Per-stage counters, indexed by [`Stage::index`].
     pub stages: [StageCount; 5],
-    /// Mirror-reflection rays generated (scene image v2).
+    /// Mirror-reflection rays generated.
     pub reflection_rays: u64,
     /// Pixels filled by row interpolation.
     pub interpolated_pixels: u64,
