@@ -1,6 +1,6 @@
 //! The model's counters ([`CoprocStats`]) and what an untimed trace reports ([`TraceInfo`]).
 
-/// Counters of the model since creation or [`Coprocessor::reset_stats`].
+/// Counters of the model since creation or [`Coprocessor::reset_stats`](super::Coprocessor::reset_stats).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct CoprocStats {
     /// Ray queries answered with a result (word or direct API; not `trace_untimed`).
@@ -31,7 +31,7 @@ pub struct CoprocStats {
     pub overflow_records: u64,
 }
 
-/// What an untimed trace saw besides its result ([`Coprocessor::trace_untimed_with_info`]).
+/// What an untimed trace saw besides its result ([`Coprocessor::trace_untimed_with_info`](super::Coprocessor::trace_untimed_with_info)).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct TraceInfo {
     /// Tests performed (entries up to the winner), not saturated.

@@ -140,7 +140,7 @@ macro_rules! with_kernel {
 }
 pub(crate) use with_kernel;
 
-/// What each kernel needs, looked up through [`with_kernel!`].
+/// What each kernel needs, looked up through `with_kernel!`.
 impl KernelKind {
     /// Per-triangle record words of the kernel in f32.
     pub fn triangle_words(self) -> usize {

@@ -2,8 +2,8 @@
 //! triangle's plane first and decide inside/outside in the 2-D projection that drops the
 //! normal's dominant axis r. The record is that axis word followed by nine values computed in
 //! f64 from the vertices and rounded once to the format; the axis word is
-//! [`AXIS_DEGENERATE`] for a degenerate triangle (N = 0, or a coefficient not finite in f32)
-//! and [`AXIS_OVERFLOW`] for a record whose values overflow the fixed-point storage.
+//! 3 (`AXIS_DEGENERATE`) for a degenerate triangle (N = 0, or a coefficient not finite in f32)
+//! and 4 (`AXIS_OVERFLOW`) for a record whose values overflow the fixed-point storage.
 //! A kernel gives its nine values and its test ([`ProjectionTest`]); [`F32Projection`] and
 //! [`FxProjection`] make it a [`Kernel`].
 
@@ -92,7 +92,7 @@ pub trait ProjectionTest {
     const OPS_F32: OpCount;
     /// Operations of one full fixed-point test.
     const OPS_FIXED: OpCount;
-    /// Record words holding the plane's `n_s`, `n_q` and `n_d` ([`plane_t`]).
+    /// Record words holding the plane's `n_s`, `n_q` and `n_d` (the plane step, `plane_t`).
     const PLANE: [usize; 3];
 
     /// The nine values after the axis word, in f64, for the triangle `v` projected by `p`.
