@@ -1,5 +1,6 @@
 //! The PE image as a PE holds it: where its tables start, what LOAD checks beyond
-//! `PeImage::parse`, and its triangle records as vertices.
+//! `PeImage::parse`, its triangle records as vertices, and checked access to PE memory by
+//! offsets that come from images and requests.
 
 use gridrt_shared::math::Vec3;
 use gridrt_shared::scene::{PeImage, TRIANGLE_WORDS, VOXEL_ENTRY_WORDS};
@@ -45,8 +46,8 @@ pub(super) fn validate_image(words: &[u32]) -> Option<PeSlot> {
             return None;
         }
     }
-    let ref_off = img.header_words() + voxels * VOXEL_ENTRY_WORDS;
-    let tri_off = ref_off + img.ref_table().len();
+    let ref_off = voxels.checked_mul(VOXEL_ENTRY_WORDS)?.checked_add(img.header_words())?;
+    let tri_off = ref_off.checked_add(img.ref_table().len())?;
     Some(PeSlot {
         loaded: true,
         len: u32::try_from(words.len()).ok()?,
@@ -68,4 +69,23 @@ pub(super) fn record(rec: &[u32; TRIANGLE_WORDS]) -> Triangle {
         Vec3::new(f(rec[3]), f(rec[4]), f(rec[5])),
         Vec3::new(f(rec[6]), f(rec[7]), f(rec[8])),
     ]
+}
+
+/// The `n` words of `mem` at `at`; `None` when they reach past its end (or `at + n`
+/// overflows).
+#[inline(always)]
+pub(super) fn span(mem: &[u32], at: usize, n: usize) -> Option<&[u32]> {
+    mem.get(at..at.checked_add(n)?)
+}
+
+/// [`span`], writable.
+#[inline(always)]
+pub(super) fn span_mut(mem: &mut [u32], at: usize, n: usize) -> Option<&mut [u32]> {
+    mem.get_mut(at..at.checked_add(n)?)
+}
+
+/// The `N`-word record of `mem` at `at`.
+#[inline(always)]
+pub(super) fn record_at<const N: usize>(mem: &[u32], at: usize) -> Option<&[u32; N]> {
+    span(mem, at, N)?.try_into().ok()
 }

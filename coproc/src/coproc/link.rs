@@ -75,12 +75,12 @@ impl Link {
     /// back-pressure should stop pushing while this is false (words of replies that do not
     /// fit are dropped and counted in `CoprocStats::out_dropped`).
     pub(super) fn can_push(&self) -> bool {
-        OUT_QUEUE_WORDS - self.out.len() >= fsl::RESULT_WORDS
+        OUT_QUEUE_WORDS.saturating_sub(self.out.len()) >= fsl::RESULT_WORDS
     }
 
     /// Consumes one inbound word; executes a packet when its last word arrives.
     pub(super) fn push(&mut self, pes: &mut Pes<'_>, w: FslWord) {
-        pes.stats.words_in += 1;
+        pes.stats.words_in = pes.stats.words_in.saturating_add(1);
         self.rx = match self.rx {
             Rx::Idle => self.on_first_word(pes, w),
             Rx::Discard => {
@@ -98,15 +98,15 @@ impl Link {
 
     fn emit(&mut self, pes: &mut Pes<'_>, data: u32, control: bool) {
         if self.out.push_back(FslWord { data, control }).is_err() {
-            pes.stats.out_dropped += 1;
+            pes.stats.out_dropped = pes.stats.out_dropped.saturating_add(1);
         } else {
-            pes.stats.words_out += 1;
+            pes.stats.words_out = pes.stats.words_out.saturating_add(1);
         }
     }
 
     /// Reports `e` and picks the next state: packet over if `control`, else resynchronise.
     fn fail(&mut self, pes: &mut Pes<'_>, e: FslError, detail: u16, control: bool) -> Rx {
-        pes.stats.errors += 1;
+        pes.stats.errors = pes.stats.errors.saturating_add(1);
         self.emit(pes, e.to_word(detail), true);
         if control {
             Rx::Idle
@@ -172,14 +172,16 @@ impl Link {
     }
 
     fn on_load_word(&mut self, pes: &mut Pes<'_>, pe: u8, declared: u32, got: u32, w: FslWord) -> Rx {
-        let at = pes.base(pe) + got as usize;
+        let at = pes.base(pe).saturating_add(got as usize);
         // `declared ≤ pe_mem_words` was checked, so this slot exists; stay safe regardless.
         let Some(slot) = pes.mem.get_mut(at) else {
             return self.fail(pes, FslError::PeMemoryOverflow, pe as u16, w.control);
         };
         *slot = w.data;
-        let got = got + 1;
-        let index = (2 + got as u64 - 1).min(u16::MAX as u64) as u16;
+        // `got < declared ≤ pe_mem_words` (a u32): no overflow.
+        let got = got.saturating_add(1);
+        // Index in the packet: header, count, then the image words.
+        let index = (got as u64).saturating_add(1).min(u16::MAX as u64) as u16;
         if got == declared {
             if !w.control {
                 return self.fail(pes, FslError::MissingControl, index, false);
@@ -205,7 +207,7 @@ impl Link {
     fn on_ray_word(&mut self, pes: &mut Pes<'_>, kind: RayKind, count: u16, idx: u32, w: FslWord) -> Rx {
         let ctl = w.control;
         let index = idx.min(u16::MAX as u32) as u16;
-        let next = Rx::Ray { kind, count, idx: idx + 1 };
+        let next = Rx::Ray { kind, count, idx: idx.saturating_add(1) };
         if (idx as usize) < RAY_HEADER_WORDS {
             if let Some(h) = self.head.get_mut(idx as usize) {
                 *h = w.data;
@@ -227,7 +229,7 @@ impl Link {
             }
             return next;
         }
-        let j = idx as usize - RAY_HEADER_WORDS;
+        let j = (idx as usize).saturating_sub(RAY_HEADER_WORDS);
         let k = j / 2;
         if j & 1 == 0 {
             self.pending = w.data;
@@ -247,7 +249,7 @@ impl Link {
         if self.list.push(e).is_err() {
             return self.fail(pes, FslError::ListTooLong, pes.cfg.max_list, ctl);
         }
-        if k + 1 == count as usize {
+        if k.saturating_add(1) == count as usize {
             if !ctl {
                 return self.fail(pes, FslError::MissingControl, index, false);
             }
@@ -270,7 +272,7 @@ impl Link {
         match pes.trace_timed(kind, &ray, t_max, &self.list) {
             Ok(r) => {
                 let words = r.to_words();
-                let last = words.len() - 1;
+                let last = words.len().saturating_sub(1);
                 for (i, &wd) in words.iter().enumerate() {
                     self.emit(pes, wd, i == last);
                 }

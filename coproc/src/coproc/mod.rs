@@ -70,6 +70,7 @@
 //! | `link` | the FSL word interface: packet receiver, resynchronisation, reply queue | `pes`, `search` |
 //!
 //! [`Coprocessor`] (this module) owns a `pes::Pes` and a `link::Link` and is the public API.
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 mod image;
 mod link;
@@ -187,7 +188,7 @@ impl<'m> Coprocessor<'m> {
     pub fn pe_image(&self, pe: u8) -> Option<&[u32]> {
         let slot = self.pes.slots.get(pe as usize).filter(|s| s.loaded)?;
         let base = self.pes.base(pe);
-        self.pes.mem.get(base..base + slot.len as usize)
+        image::span(self.pes.mem, base, slot.len as usize)
     }
 
     /// Number of PEs holding a loaded image.
@@ -207,7 +208,7 @@ impl<'m> Coprocessor<'m> {
     pub fn load_pe(&mut self, pe: u8, words: &[u32]) -> Result<(), FslError> {
         let r = self.load_pe_inner(pe, words);
         if r.is_err() {
-            self.pes.stats.errors += 1;
+            self.pes.stats.errors = self.pes.stats.errors.saturating_add(1);
         }
         r
     }
@@ -221,7 +222,7 @@ impl<'m> Coprocessor<'m> {
             return Err(FslError::PeMemoryOverflow);
         }
         let base = self.pes.base(pe);
-        let dst = self.pes.mem.get_mut(base..base + words.len()).ok_or(FslError::PeMemoryOverflow)?;
+        let dst = image::span_mut(self.pes.mem, base, words.len()).ok_or(FslError::PeMemoryOverflow)?;
         dst.copy_from_slice(words);
         self.pes.finish_load(pe, words.len())
     }
@@ -235,7 +236,7 @@ impl<'m> Coprocessor<'m> {
     /// `result.cycles` includes the request and result words the packet would take).
     pub fn trace(&mut self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> Result<RayResult, FslError> {
         self.pes.trace_timed(kind, ray, t_max, list).map_err(|(e, _)| {
-            self.pes.stats.errors += 1;
+            self.pes.stats.errors = self.pes.stats.errors.saturating_add(1);
             e
         })
     }

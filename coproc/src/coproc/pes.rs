@@ -5,7 +5,7 @@ use gridrt_shared::fsl::{FslError, ListEntry, RayKind, RayResult};
 use gridrt_shared::math::Ray;
 use gridrt_shared::scene::{MAX_PES, TRIANGLE_WORDS};
 
-use super::image::{record, validate_image, PeSlot};
+use super::image::{record, record_at, span, span_mut, validate_image, PeSlot};
 use super::search::{Numerics, View};
 use super::stats::CoprocStats;
 use crate::config::{ArbitrationRule, CoprocConfig};
@@ -39,14 +39,15 @@ impl Pes<'_> {
     }
 
     pub(super) fn base(&self, pe: u8) -> usize {
-        pe as usize * self.cfg.pe_mem_words as usize
+        // pe < pe_count and pe_count · pe_mem_words fits the backing: never saturates.
+        (pe as usize).saturating_mul(self.cfg.pe_mem_words as usize)
     }
 
     /// Marks `pe` empty (start of a LOAD).
     pub(super) fn begin_load(&mut self, pe: u8) {
         if let Some(slot) = self.slots.get_mut(pe as usize) {
             if slot.loaded {
-                self.loaded_pes -= 1;
+                self.loaded_pes = self.loaded_pes.saturating_sub(1);
             }
             *slot = PeSlot::default();
         }
@@ -56,8 +57,8 @@ impl Pes<'_> {
     /// table after them if it needs one (module doc), and installs them.
     pub(super) fn finish_load(&mut self, pe: u8, len: usize) -> Result<(), FslError> {
         let base = self.base(pe);
-        let words = self.mem.get(base..base + len).ok_or(FslError::PeMemoryOverflow)?;
-        let slot = validate_image(words).ok_or(FslError::PeImageMalformed)?;
+        let image = span(self.mem, base, len).ok_or(FslError::PeMemoryOverflow)?;
+        let slot = validate_image(image).ok_or(FslError::PeImageMalformed)?;
         with_kernel!(self.cfg.kernel, self.numerics.format, K => {
             if !K::USES_IMAGE {
                 self.build_records::<K>(base, &slot)?;
@@ -65,10 +66,15 @@ impl Pes<'_> {
         });
         let dst = self.slots.get_mut(pe as usize).ok_or(FslError::PeOutOfRange)?;
         *dst = slot;
-        self.loaded_pes += 1;
-        self.stats.loads += 1;
+        self.loaded_pes = self.loaded_pes.saturating_add(1);
+        self.stats.loads = self.stats.loads.saturating_add(1);
         let t = &self.cfg.timing;
-        self.stats.cycles += (2 + len as u64) * t.word_in_cycles as u64 + t.word_out_cycles as u64;
+        // Header, count and `len` image words in, the ACK out.
+        let cycles = (len as u64)
+            .saturating_add(2)
+            .saturating_mul(t.word_in_cycles as u64)
+            .saturating_add(t.word_out_cycles as u64);
+        self.stats.cycles = self.stats.cycles.saturating_add(cycles);
         Ok(())
     }
 
@@ -82,18 +88,21 @@ impl Pes<'_> {
             return Err(FslError::PeMemoryOverflow);
         }
         let frame = self.numerics.frame;
+        // `need` fits pe_mem_words, so none of these offsets saturates; a saturated one would
+        // fail the checked access below.
+        let tri_base = base.saturating_add(slot.tri_off as usize);
+        let rec_base = base.saturating_add(rec_off);
         for i in 0..tris {
-            let src = base + slot.tri_off as usize + i * TRIANGLE_WORDS;
-            let words =
-                self.mem.get(src..src + TRIANGLE_WORDS).and_then(|w| <&[u32; TRIANGLE_WORDS]>::try_from(w).ok());
-            let tri = record(words.ok_or(FslError::PeImageMalformed)?);
-            let dst = base + rec_off + i * K::RECORD_WORDS;
-            let out = self.mem.get_mut(dst..dst + K::RECORD_WORDS).ok_or(FslError::PeMemoryOverflow)?;
-            match K::precompute(&tri, &frame, out) {
-                RecordStatus::Ok => {}
-                RecordStatus::Degenerate => self.stats.degenerate_records += 1,
-                RecordStatus::Overflow => self.stats.overflow_records += 1,
-            }
+            let src = tri_base.saturating_add(i.saturating_mul(TRIANGLE_WORDS));
+            let tri = record(record_at(self.mem, src).ok_or(FslError::PeImageMalformed)?);
+            let dst = rec_base.saturating_add(i.saturating_mul(K::RECORD_WORDS));
+            let out = span_mut(self.mem, dst, K::RECORD_WORDS).ok_or(FslError::PeMemoryOverflow)?;
+            let counter = match K::precompute(&tri, &frame, out) {
+                RecordStatus::Ok => continue,
+                RecordStatus::Degenerate => &mut self.stats.degenerate_records,
+                RecordStatus::Overflow => &mut self.stats.overflow_records,
+            };
+            *counter = counter.saturating_add(1);
         }
         Ok(())
     }
@@ -130,7 +139,7 @@ impl Pes<'_> {
             Some(f) if f.k == k => f.tests_in_entry,
             _ => view.lookup(e.pe, e.voxel).map_or(0, |r| r.count),
         };
-        let last = found.map_or(list.len(), |f| f.k + 1);
+        let last = found.map_or(list.len(), |f| f.k.saturating_add(1));
         let profile = self.cfg.timing;
         for e in list {
             if let Some(c) = self.clocks.get_mut(e.pe as usize) {
@@ -155,17 +164,18 @@ impl Pes<'_> {
             for (k, e) in list.iter().enumerate() {
                 let n = tests_of(k, e);
                 let at = tl.schedule(e.pe, n);
-                tests += tl.started_before(at, n, end) as u64;
+                tests = tests.saturating_add(tl.started_before(at, n, end) as u64);
             }
         }
-        let cycles = profile.ray_io_cycles(list.len()) + end;
+        let cycles = profile.ray_io_cycles(list.len()).saturating_add(end);
         result.tests = tests.min(u16::MAX as u64) as u16;
         result.cycles = cycles.min(u32::MAX as u64) as u32;
-        self.stats.rays += 1;
-        self.stats.hits += result.hit as u64;
-        self.stats.tests += tests;
-        self.stats.cycles += cycles;
-        self.stats.overflows += info.overflows;
+        let s = &mut self.stats;
+        s.rays = s.rays.saturating_add(1);
+        s.hits = s.hits.saturating_add(result.hit as u64);
+        s.tests = s.tests.saturating_add(tests);
+        s.cycles = s.cycles.saturating_add(cycles);
+        s.overflows = s.overflows.saturating_add(info.overflows);
         Ok(result)
     }
 }

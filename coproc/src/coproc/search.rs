@@ -5,7 +5,7 @@ use gridrt_shared::fsl::{FslError, ListEntry, RayKind, RayResult, RAY_HEADER_WOR
 use gridrt_shared::math::{Ray, Vec3};
 use gridrt_shared::scene::{MAX_PES, PRIM_WORDS, TRIANGLE_WORDS, VOXEL_ENTRY_WORDS};
 
-use super::image::{record, PeSlot};
+use super::image::{record, record_at, span, PeSlot};
 use super::stats::TraceInfo;
 use crate::config::{ArbitrationRule, CoprocConfig};
 use crate::isect::{geometric_normal, with_kernel, Kernel};
@@ -85,26 +85,27 @@ impl View<'_> {
         if !slot.loaded {
             return None;
         }
-        let base = pe as usize * self.cfg.pe_mem_words as usize;
-        let table = self.mem.get(base + slot.hdr as usize..base + slot.ref_off as usize)?;
+        // Offsets were checked at LOAD to lie inside the PE's memory, so nothing here
+        // saturates; a saturated offset would only make the checked access fail.
+        let base = (pe as usize).saturating_mul(self.cfg.pe_mem_words as usize);
+        let at = |off: u32| base.saturating_add(off as usize);
+        let table = span(self.mem, at(slot.hdr), slot.ref_off.saturating_sub(slot.hdr) as usize)?;
         let (mut lo, mut hi) = (0usize, slot.voxels as usize);
         while lo < hi {
-            let mid = lo + (hi - lo) / 2;
-            let id = *table.get(mid * VOXEL_ENTRY_WORDS)?;
+            let mid = lo.midpoint(hi);
+            let &[id, first, count] = record_at::<VOXEL_ENTRY_WORDS>(table, mid.saturating_mul(VOXEL_ENTRY_WORDS))?;
             if id < voxel {
-                lo = mid + 1;
+                lo = mid.saturating_add(1);
             } else if id > voxel {
                 hi = mid;
             } else {
-                let first = *table.get(mid * VOXEL_ENTRY_WORDS + 1)? as usize;
-                let count = *table.get(mid * VOXEL_ENTRY_WORDS + 2)?;
                 return Some(EntryRefs {
-                    first: base + slot.ref_off as usize + first,
+                    first: at(slot.ref_off).saturating_add(first as usize),
                     count,
-                    tri_base: base + slot.tri_off as usize,
+                    tri_base: at(slot.tri_off),
                     tris: slot.tris,
-                    prim_base: base + slot.prim_off as usize,
-                    rec_base: base + slot.len as usize,
+                    prim_base: at(slot.prim_off),
+                    rec_base: at(slot.len),
                 });
             }
         }
@@ -125,7 +126,8 @@ impl View<'_> {
     pub(super) fn check_ray(ray: &Ray, t_max: f32) -> Result<(), (FslError, u16)> {
         let comps = [ray.origin.x, ray.origin.y, ray.origin.z, ray.dir.x, ray.dir.y, ray.dir.z];
         if let Some(i) = comps.iter().position(|c| !c.is_finite()) {
-            return Err((FslError::NonFiniteRay, 1 + i as u16));
+            // Ray word 1 + i (i < 6).
+            return Err((FslError::NonFiniteRay, (i as u16).saturating_add(1)));
         }
         if ray.dir == Vec3::ZERO {
             return Err((FslError::NonFiniteRay, 4));
@@ -151,7 +153,8 @@ impl View<'_> {
     /// Entry word 1 check.
     pub(super) fn check_entry_exit(k: usize, t_exit: f32) -> Result<(), (FslError, u16)> {
         if t_exit.is_nan() {
-            let word = RAY_HEADER_WORDS + 2 * k + 1;
+            // Word 1 of entry k: header, then 2 words per entry.
+            let word = k.saturating_mul(2).saturating_add(RAY_HEADER_WORDS + 1);
             return Err((FslError::NonFiniteRay, word.min(u16::MAX as usize) as u16));
         }
         Ok(())
@@ -190,24 +193,25 @@ impl View<'_> {
         hi: f32,
         overflows: &mut u64,
     ) -> (Option<(f32, usize, bool)>, u32) {
-        let Some(list) = self.mem.get(refs.first..refs.first.saturating_add(refs.count as usize)) else {
+        let Some(list) = span(self.mem, refs.first, refs.count as usize) else {
             return (None, 0);
         };
         let limit = if t_max < hi { t_max } else { hi };
         let mut best: Option<(f32, usize, u32, bool)> = None;
         let mut bound = inflate(limit);
-        for (i, &r) in list.iter().enumerate() {
-            if r >= refs.tris {
+        // Record offsets come from the image's reference table: a saturated one is out of
+        // memory and skipped like any other bad reference.
+        for (tests, &r) in (1u32..).zip(list) {
+            if let Some(p) = r.checked_sub(refs.tris) {
                 // Analytic primitive: same acceptance and arbitration.
-                let rec = refs.prim_base + (r - refs.tris) as usize * PRIM_WORDS;
-                let Some(words) = self.mem.get(rec..rec + PRIM_WORDS) else { continue };
-                let Ok(words) = <&[u32; PRIM_WORDS]>::try_from(words) else { continue };
+                let rec = refs.prim_base.saturating_add((p as usize).saturating_mul(PRIM_WORDS));
+                let Some(words) = record_at::<PRIM_WORDS>(self.mem, rec) else { continue };
                 let Some(t) = crate::isect::analytic::intersect(words, ray) else { continue };
                 if !accept(t, t_max, hi) {
                     continue;
                 }
                 match kind {
-                    RayKind::Any => return (Some((t, rec, true)), i as u32 + 1),
+                    RayKind::Any => return (Some((t, rec, true)), tests),
                     RayKind::Closest => {
                         let prim = words[1];
                         if best.is_none_or(|(bt, _, bp, _)| t < bt || (t == bt && prim < bp)) {
@@ -218,17 +222,20 @@ impl View<'_> {
                 }
                 continue;
             }
-            let rec = refs.tri_base + r as usize * TRIANGLE_WORDS;
-            let Some(words) = self.mem.get(rec..rec + TRIANGLE_WORDS) else { continue };
-            let Ok(words) = <&[u32; TRIANGLE_WORDS]>::try_from(words) else { continue };
+            let rec = refs.tri_base.saturating_add((r as usize).saturating_mul(TRIANGLE_WORDS));
+            let Some(words) = record_at::<TRIANGLE_WORDS>(self.mem, rec) else { continue };
             // The kernel's record: the image's vertex words, or its load-time table entry.
-            let kr = if K::USES_IMAGE { rec } else { refs.rec_base + r as usize * K::RECORD_WORDS };
-            let Some(kwords) = self.mem.get(kr..kr + K::RECORD_WORDS) else { continue };
+            let kr = if K::USES_IMAGE {
+                rec
+            } else {
+                refs.rec_base.saturating_add((r as usize).saturating_mul(K::RECORD_WORDS))
+            };
+            let Some(kwords) = span(self.mem, kr, K::RECORD_WORDS) else { continue };
             let t = match K::intersect(pre, kwords, bound) {
                 Ok(Some(t)) => t,
                 Ok(None) => continue,
                 Err(Overflow) => {
-                    *overflows += 1;
+                    *overflows = overflows.saturating_add(1);
                     continue;
                 }
             };
@@ -236,7 +243,7 @@ impl View<'_> {
                 continue;
             }
             match kind {
-                RayKind::Any => return (Some((t, rec, false)), i as u32 + 1),
+                RayKind::Any => return (Some((t, rec, false)), tests),
                 RayKind::Closest => {
                     let prim = words[9];
                     if best.is_none_or(|(bt, _, bp, _)| t < bt || (t == bt && prim < bp)) {
@@ -265,7 +272,7 @@ impl View<'_> {
             Ok(pre) => pre,
             Err(Overflow) => {
                 for e in list {
-                    info.tests += self.lookup(e.pe, e.voxel).map_or(0, |r| r.count as u64);
+                    info.tests = info.tests.saturating_add(self.lookup(e.pe, e.voxel).map_or(0, |r| r.count as u64));
                 }
                 info.overflows = info.tests;
                 return (None, info);
@@ -274,7 +281,7 @@ impl View<'_> {
         for (k, e) in list.iter().enumerate() {
             let Some(refs) = self.lookup(e.pe, e.voxel) else { continue };
             let (hit, n) = self.test_entry::<K>(&pre, ray, kind, refs, t_max, self.entry_hi(e), &mut info.overflows);
-            info.tests += n as u64;
+            info.tests = info.tests.saturating_add(n as u64);
             if let Some((t, rec, prim)) = hit {
                 return (Some(Found { k, rec, prim, t, tests_in_entry: n }), info);
             }
@@ -297,8 +304,7 @@ impl View<'_> {
         let Some(f) = found else { return RayResult::MISS };
         let Some(e) = list.get(f.k) else { return RayResult::MISS };
         if f.prim {
-            let Some(words) = self.mem.get(f.rec..f.rec + PRIM_WORDS) else { return RayResult::MISS };
-            let Ok(words) = <&[u32; PRIM_WORDS]>::try_from(words) else { return RayResult::MISS };
+            let Some(words) = record_at::<PRIM_WORDS>(self.mem, f.rec) else { return RayResult::MISS };
             return RayResult {
                 hit: true,
                 pe: e.pe,
@@ -311,8 +317,7 @@ impl View<'_> {
                 cycles: 0,
             };
         }
-        let Some(words) = self.mem.get(f.rec..f.rec + TRIANGLE_WORDS) else { return RayResult::MISS };
-        let Ok(words) = <&[u32; TRIANGLE_WORDS]>::try_from(words) else { return RayResult::MISS };
+        let Some(words) = record_at::<TRIANGLE_WORDS>(self.mem, f.rec) else { return RayResult::MISS };
         let n = geometric_normal(&record(words));
         RayResult {
             hit: true,

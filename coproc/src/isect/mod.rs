@@ -43,6 +43,12 @@
 //!   no kernel panics, whatever the input bits;
 //! - a fixed-point range overflow is returned as `Err(Overflow)`, never as a wrong hit or a
 //!   silent miss (the co-processor counts it).
+//!
+//! Link data reaches a kernel only as a record slice that `crate::coproc` cut out of PE
+//! memory with checked offsets; the kernel takes its fixed-size words with `get` (a short
+//! record is a miss). The kernels' own arithmetic (float, and fixed point with its explicit
+//! overflow checks) is the hot path and is not under the crate's `indexing_slicing` /
+//! `arithmetic_side_effects` denial, which covers the code that parses link data.
 
 // The kernels write `!(x > y)` on purpose: it rejects NaN, which `x <= y` would let through.
 // `analytic`: the analytic primitives of the scene image (sphere, cylinder, cone, disk, square).

@@ -175,7 +175,8 @@ impl<'a> Msg<'a> {
                 // Cut at a character boundary so the decoder's UTF-8 check accepts it.
                 let mut cut = MAX_ERROR_TEXT.min(text.len());
                 while !text.is_char_boundary(cut) {
-                    cut -= 1;
+                    // 0 is a boundary, so this stops before it would underflow.
+                    cut = cut.saturating_sub(1);
                 }
                 let text = text.as_bytes().get(..cut).unwrap_or(&[]);
                 w.u16(code.code())?;
@@ -252,7 +253,7 @@ impl<'a> Msg<'a> {
             MsgType::Stats => {
                 let frame = r.u16()?;
                 let n = r.u16()? as usize;
-                let entries = r.take(n * STAT_ENTRY_LEN)?;
+                let entries = r.take(n.saturating_mul(STAT_ENTRY_LEN))?;
                 Self::Stats { frame, entries }
             }
             MsgType::FlashBegin => {
@@ -342,7 +343,7 @@ fn read_region(r: &mut Reader<'_>) -> Result<Region, MsgError> {
 /// `data` holds exactly `count` pixels of `encoding` (for `Rle`: decodes to exactly `count`).
 fn span_data_valid(encoding: PixelEncoding, count: u16, data: &[u8]) -> bool {
     match encoding.fixed_bytes_per_pixel() {
-        Some(bpp) => data.len() == count as usize * bpp,
+        Some(bpp) => Some(data.len()) == (count as usize).checked_mul(bpp),
         None => crate::pixel::rle_validate(count as usize, data).is_ok(),
     }
 }

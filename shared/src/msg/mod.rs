@@ -12,6 +12,7 @@
 //! | `flash` | the bootloader's fields ([`FlashStatus`], [`FlashError`]) |
 //! | `stats` | the [`stat`] keys and [`stat_entries`] |
 //! | `codec` | [`Msg::encode`], [`Msg::decode`], [`MsgError`] |
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 mod codec;
 mod device;

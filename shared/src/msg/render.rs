@@ -154,14 +154,15 @@ impl Region {
     }
     /// Pixels in the region.
     pub const fn pixels(&self) -> u64 {
-        self.cols as u64 * self.rows as u64
+        // u16 · u16 < 2^32: never saturates.
+        (self.cols as u64).saturating_mul(self.rows as u64)
     }
     /// True when the region is non-empty and lies inside a `width`×`height` frame.
     pub const fn fits(&self, width: u16, height: u16) -> bool {
         self.cols > 0
             && self.rows > 0
-            && self.x0 as u32 + self.cols as u32 <= width as u32
-            && self.y0 as u32 + self.rows as u32 <= height as u32
+            && (self.x0 as u32).saturating_add(self.cols as u32) <= width as u32
+            && (self.y0 as u32).saturating_add(self.rows as u32) <= height as u32
     }
 }
 
