@@ -5,6 +5,7 @@
 //! [`crate::bsp`] (real board) and `VirtualCoproc` (the co-processor model linked into the
 //! image, for the loopback simulator and the emulated board). The one generic user is the
 //! ray path in [`crate::device`].
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 pub use gridrt_shared::fsl::FslWord;
 

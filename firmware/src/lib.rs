@@ -18,6 +18,15 @@
 //! | [`boot`] | the flash bootloader's protocol (SPEC.md §3.11) |
 //! | [`bsp`] | board drivers |
 //!
+//! The modules that parse or index link data (UART frames and commands, FSL words, the
+//! scene upload, flash images, pixel and row buffers: `boot`, `bsp`, `device`, `fsl`,
+//! `pixels`, `interp`, `text`, and the grid and list of `dda`) deny
+//! `clippy::indexing_slicing` and `clippy::arithmetic_side_effects`: they use `get`,
+//! checked or saturating arithmetic, and wrapping arithmetic for counters (what release
+//! builds always did, at no cost per word). The numeric kernels (camera, the DDA walk,
+//! shading, textures, `fmath`, `fixed`) compute on values checked at load or clamped where
+//! they are used, and stay free of those checks on the hot path.
+//!
 //! Byte output and UART I/O use the ecosystem's blocking traits, [`embedded_io`] 0.6
 //! (re-exported, so dependents name the same version): the device loop and the bootloader
 //! write to any `embedded_io::Write`, and the `bsp` UARTs implement `Read`/`ReadReady`/`Write`.

@@ -23,10 +23,12 @@
 //! exactly when each call blocks), so any embedded-io consumer (the device loop, the
 //! bootloader, the images' console) takes these drivers as they are. Nothing here uses
 //! interrupts.
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 pub mod axis_fifo;
 pub mod mmio;
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 pub(crate) mod mock;
 pub mod ns16550;
 pub mod uart_io;

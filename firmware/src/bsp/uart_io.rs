@@ -42,11 +42,11 @@ macro_rules! impl_uart_io {
                 };
                 nb::block!($crate::bsp::ByteUart::write_byte(self, first))?;
                 let mut n = 1;
-                for &b in rest {
+                for (queued, &b) in (2..).zip(rest) {
                     if $crate::bsp::ByteUart::write_byte(self, b).is_err() {
                         break;
                     }
-                    n += 1;
+                    n = queued;
                 }
                 Ok(n)
             }
@@ -79,7 +79,7 @@ macro_rules! impl_uart_io {
                 };
                 *first = nb::block!($crate::bsp::ByteUart::read_byte(self))?;
                 let mut n = 1;
-                for slot in rest {
+                for (taken, slot) in (2..).zip(rest) {
                     match $crate::bsp::ByteUart::read_byte(self) {
                         Ok(b) => *slot = b,
                         Err(nb::Error::WouldBlock) => break,
@@ -88,7 +88,7 @@ macro_rules! impl_uart_io {
                             break;
                         }
                     }
-                    n += 1;
+                    n = taken;
                 }
                 Ok(n)
             }

@@ -1,5 +1,6 @@
 //! The uniform grid and the voxel steps a walk yields: the types both DDAs and the list
 //! builder share.
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 use gridrt_shared::math::{Aabb, Vec3};
 
@@ -33,10 +34,11 @@ impl GridDesc {
         self.dims.iter().product()
     }
 
-    /// Linear voxel id `ix + nx·(iy + ny·iz)`.
+    /// Linear voxel id `ix + nx·(iy + ny·iz)` (below 2^24 for cells inside a valid grid;
+    /// wrapping, not panicking, for cells outside it).
     #[inline]
     pub fn voxel_id(&self, cell: [u32; 3]) -> u32 {
-        cell[0] + self.dims[0] * (cell[1] + self.dims[1] * cell[2])
+        cell[2].wrapping_mul(self.dims[1]).wrapping_add(cell[1]).wrapping_mul(self.dims[0]).wrapping_add(cell[0])
     }
 
     /// The grid box.

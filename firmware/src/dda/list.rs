@@ -1,4 +1,5 @@
 //! The traversal list: the non-empty voxels of a walk, as the FSL request carries them.
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 use super::fixed::{DdaOverflow, FixedTraversal};
 use super::float::Traversal;
@@ -58,8 +59,8 @@ pub fn build_list_in(
 fn fill_list(walk: impl Iterator<Item = VoxelStep>, voxel_pe: &[u8], list: &mut TraversalList) -> u32 {
     list.clear();
     let mut walked = 0;
-    for v in walk {
-        walked += 1;
+    for (n, v) in (1..).zip(walk) {
+        walked = n;
         let pe = voxel_pe.get(v.voxel as usize).copied().unwrap_or(EMPTY_VOXEL);
         if pe == EMPTY_VOXEL {
             continue;

@@ -149,6 +149,7 @@ impl<M: Mmio> ByteUart for Ns16550<M> {
 impl_uart_io!(Ns16550, Ns16550Error);
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::regs::*;
     use super::*;

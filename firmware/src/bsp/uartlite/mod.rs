@@ -115,6 +115,7 @@ impl<M: Mmio> ByteUart for UartLite<M> {
 impl_uart_io!(UartLite, UartLiteError);
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::regs::*;
     use super::*;
