@@ -25,6 +25,7 @@
 //! The cost of a test does not depend on its outcome: the thesis reports one figure per
 //! intersection (648 cycles) and no early-exit profile, so the GridRT PE's early exits are not
 //! modelled in time (they are in the Cramer kernel's arithmetic).
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 use crate::isect::KernelKind;
 use crate::numeric::NumberFormat;
@@ -168,10 +169,12 @@ impl TimingProfile {
     /// Cycles of a ray that do not depend on the tests: request words of a `list_len`-entry
     /// list, result words and arbitration. (Voxel setup is charged on the PE timeline.)
     pub fn ray_io_cycles(&self, list_len: usize) -> u64 {
-        let words_in = (RAY_HEADER_WORDS + 2 * list_len) as u64;
-        words_in * self.word_in_cycles as u64
-            + self.arbitration_cycles as u64
-            + RESULT_WORDS as u64 * self.word_out_cycles as u64
+        // Saturating: a list length comes off the link (bounded by `max_list` there).
+        let words_in = (list_len as u64).saturating_mul(2).saturating_add(RAY_HEADER_WORDS as u64);
+        words_in
+            .saturating_mul(self.word_in_cycles as u64)
+            .saturating_add(self.arbitration_cycles as u64)
+            .saturating_add((RESULT_WORDS as u64).saturating_mul(self.word_out_cycles as u64))
     }
 
     /// Seconds for `cycles` at this profile's clock.
@@ -292,10 +295,11 @@ impl<'a> PeTimeline<'a> {
         let Some(clock) = self.clocks.get_mut(pe as usize) else {
             return EntryTime { first_issue: 0, done: 0 };
         };
-        let first_issue = *clock + p.voxel_setup_cycles as u64;
-        let issue_end = first_issue + tests as u64 * p.test_issue_cycles.max(1) as u64;
+        // Saturating: `tests` counts references of link-named voxels.
+        let first_issue = clock.saturating_add(p.voxel_setup_cycles as u64);
+        let issue_end = first_issue.saturating_add((tests as u64).saturating_mul(p.test_issue_cycles.max(1) as u64));
         *clock = issue_end;
-        let done = if tests > 0 { issue_end + p.test_latency_cycles as u64 } else { issue_end };
+        let done = if tests > 0 { issue_end.saturating_add(p.test_latency_cycles as u64) } else { issue_end };
         EntryTime { first_issue, done }
     }
 
@@ -305,12 +309,13 @@ impl<'a> PeTimeline<'a> {
             return 0;
         }
         let ii = self.profile.test_issue_cycles.max(1) as u64;
-        let started = (end - at.first_issue).div_ceil(ii);
+        let started = end.saturating_sub(at.first_issue).div_ceil(ii);
         started.min(tests as u64) as u32
     }
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::*;
 
