@@ -105,9 +105,9 @@ pub mod gridrt_pe {
 }
 
 impl TimingProfile {
-    /// GridRT's multi-cycle PE at 50 MHz (thesis §6.3.2), calibrated as follows.
+    /// GridRT's multi-cycle PE at 50 MHz (thesis §6.3.2); its numbers are set as follows.
     ///
-    /// - `test_issue_cycles = 648`: the thesis's measured cost of one intersection, "528 of
+    /// - `test_issue_cycles = 648`, set to the thesis's measured cost of one intersection, "528 of
     ///   them floating point" (so 120 loads/int/control). We take the measured figure rather
     ///   than our reconstruction, because the decoded PE loop ([`gridrt_pe`]: 57 FP + 9 loads +
     ///   10 int/branch = 76 instructions) comes from OCR-damaged listings and Table 6.14
@@ -186,7 +186,8 @@ impl TimingProfile {
 /// Cycles of one operation class on GridRT's multi-cycle PE, per number format: the basis of
 /// the per-kernel cycle model [`test_cycles`].
 ///
-/// - `f32` is calibrated on the thesis: Table 6.14 gives 6 execute cycles per FP add/sub/
+/// - `f32` is derived from the thesis (so the f32 Cramer test costs the reported 648 by
+///   construction): Table 6.14 gives 6 execute cycles per FP add/sub/
 ///   mul/cmp and 12 per div; the measured 528 FP cycles of the 57 FP instructions of the PE
 ///   loop leave `(528 − 348)/57 = 3.16` cycles of fetch/decode/control per instruction
 ///   (≈ 9.16 per FP op "incl. fetch"). Loads cost 7 (Table 6.14) and the loop's integer and
@@ -338,16 +339,10 @@ mod tests {
         assert_eq!(TimingProfile::GRIDRT.test_issue_cycles, REPORTED_TEST_CYCLES);
     }
 
-    /// The per-kernel cycle model reproduces the thesis figure for the PE program's own op
-    /// mix, and orders the kernels and formats as their op counts say.
+    /// Every profile charges each kernel × format the cycles of its op count (rounded), and the
+    /// kernels order as their op counts say.
     #[test]
-    fn kernel_cycle_model_is_calibrated_on_the_pe_program() {
-        use gridrt_pe::*;
-        let c = OpCycles::of(NumberFormat::F32);
-        let pe =
-            (FP_ADD_SUB + FP_MUL + FP_CMP) as f64 * c.add + FP_DIV as f64 * c.div + LOADS as f64 * c.load + c.overhead;
-        assert!((pe - REPORTED_TEST_CYCLES as f64).abs() < 1e-9, "{pe}");
-        assert!((c.add - 9.158).abs() < 1e-3);
+    fn for_kernel_charges_each_kernel_its_rounded_model_cycles_and_projection_kernels_are_cheapest() {
         for f in NumberFormat::ALL {
             for k in KernelKind::ALL {
                 let cy = test_cycles(k, f);
@@ -359,15 +354,7 @@ mod tests {
             assert!(test_cycles(KernelKind::Wald, f) < test_cycles(KernelKind::MollerTrumbore, f));
         }
         // Robust watertight f32 costs more than the PE's plain Cramer program.
-        assert!(test_cycles(KernelKind::Watertight, NumberFormat::F32) > REPORTED_TEST_CYCLES as f64);
-    }
-
-    #[test]
-    fn gridrt_rates_match_thesis_77k_per_pe_and_308k_for_4() {
-        let p = TimingProfile::GRIDRT;
-        assert!((p.tests_per_second(1) - 77_160.49).abs() < 0.01);
-        assert!((p.tests_per_second(4) - 308_641.98).abs() < 0.01);
-        assert!((p.seconds(50_000_000) - 1.0).abs() < 1e-12);
+        assert!(test_cycles(KernelKind::Watertight, NumberFormat::F32) > gridrt_pe::REPORTED_TEST_CYCLES as f64);
     }
 
     #[test]
