@@ -1,10 +1,10 @@
 //! The datapath blocks against their Rust twins, vector by vector (rtl/hdl/units_top.sv):
 //! IEEE-754 add/sub and mul against Rust's `f32`, the f32 → fixed conversion and the
-//! intersection pipeline against `gridrt_rtl::twin`.
+//! intersection pipeline against the model's kernel (`gridrt_coproc::isect::watertight_q23`).
 
-use gridrt_coproc::FixedFrame;
+use gridrt_coproc::isect::watertight_q23::{self as twin, Frame, RaySetup, Test};
+use gridrt_coproc::{FixedFrame, NumberFormat};
 use gridrt_rtl::sim::{default_programs, require_verilator, unit, Units};
-use gridrt_rtl::twin::{self, Frame, RaySetup, Test};
 use gridrt_shared::math::{Ray, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -169,7 +169,7 @@ fn intersection_pipeline_matches_the_twin() {
         let offset = if round % 3 == 0 { v3(&mut rng, -1e3, 1e3) } else { Vec3::ZERO };
         let lo = offset - Vec3::splat(scale);
         let hi = offset + Vec3::splat(scale);
-        let frame = Frame::for_box(lo.to_array(), hi.to_array()).unwrap();
+        let frame = FixedFrame::for_box(lo.to_array(), hi.to_array(), NumberFormat::Fixed64Q23).unwrap();
         let mut tris = Vec::new();
         for _ in 0..250 {
             let mut p = || offset + v3(&mut rng, -scale, scale);
@@ -190,7 +190,7 @@ fn intersection_pipeline_matches_the_twin() {
             let target = t[0] + (t[1] - t[0]) * b1 + (t[2] - t[0]) * b2;
             let mut dir = if k % 2 == 0 { target - origin } else { v3(&mut rng, -1.0, 1.0) };
             if k == 5 {
-                dir = dir * 1e-30;
+                dir *= 1e-30;
             }
             if dir == Vec3::ZERO {
                 continue;

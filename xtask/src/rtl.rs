@@ -51,7 +51,7 @@ impl Params {
             bail!("--pes must be 1..=16");
         }
         if self.pe_mem_words < 16384 / 16
-            || self.pe_mem_words % 1024 != 0
+            || !self.pe_mem_words.is_multiple_of(1024)
             || !(self.pe_mem_words / 1024).is_power_of_two()
         {
             bail!("--pe-mem-words must be 1024 × a power of two (1024..)");

@@ -134,12 +134,13 @@ impl SynthCmd {
             let stat = std::fs::read_to_string(dir.join("yosys-stat.txt")).unwrap_or_default();
             let count = |cell: &str| {
                 stat.lines()
+                    .rev()
                     .filter_map(|l| {
                         let mut it = l.split_whitespace();
                         let n = it.next()?.parse::<u64>().ok()?;
                         (it.next()? == cell).then_some(n)
                     })
-                    .last()
+                    .next()
                     .unwrap_or(0)
             };
             report.luts = count("LUT4") + 2 * count("CCU2C");

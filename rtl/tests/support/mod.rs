@@ -1,25 +1,17 @@
-//! Test support for the co-simulation: random scenes as PE images, packets, and the
-//! reference RESULT of a ray (the model's search and timeline with the twin kernel and the
-//! RTL's timing constants).
+//! Test support for the co-simulation: random scenes as PE images, packets, and the model
+//! configured as the RTL.
 
 #![allow(dead_code)]
 
-use gridrt_coproc::isect::geometric_normal;
-use gridrt_coproc::{FslWord, ListEntry, RayKind, RayResult};
-use gridrt_rtl::twin::{self, Frame, Test};
+use gridrt_coproc::{
+    CoprocConfig, Coprocessor, FixedFrame, FslWord, KernelKind, ListEntry, NumberFormat, RayKind, TimingProfile,
+};
+use gridrt_rtl::sim::{CoprocSim, RtlParams};
 use gridrt_shared::fsl;
 use gridrt_shared::math::{Ray, Vec3};
 use gridrt_shared::scene::PeImage;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-/// RTL timing (rtl/README.md §4.5): cycles from the last request word to the first exec
-/// cycle, from the decision to the first result word, and from an entry's last issue to its
-/// done event (issue interval 1, one setup cycle per entry).
-pub const RAY_SETUP_CYCLES: u64 = 33;
-pub const ARBITRATION_CYCLES: u64 = 7;
-pub const TEST_LATENCY: u64 = 56;
-pub const VOXEL_SETUP: u64 = 1;
 
 /// One triangle of a PE image.
 #[derive(Debug, Clone, Copy)]
@@ -64,12 +56,9 @@ pub fn load_packet(pe: u8, image: &[u32]) -> Vec<FslWord> {
     framed(&words)
 }
 
-/// A FRAME packet (rtl/README.md §2).
+/// A FRAME packet (SPEC §4.6).
 pub fn frame_packet(min: [f32; 3], max: [f32; 3]) -> Vec<FslWord> {
-    let mut words = vec![0x5000_0000];
-    words.extend(min.map(f32::to_bits));
-    words.extend(max.map(f32::to_bits));
-    framed(&words)
+    framed(&fsl::frame_packet(min, max))
 }
 
 /// A ray request.
@@ -87,101 +76,44 @@ pub fn framed(words: &[u32]) -> Vec<FslWord> {
     words.iter().enumerate().map(|(i, &d)| FslWord { data: d, control: i + 1 == words.len() }).collect()
 }
 
-/// The scene the reference sees: frame and the loaded PE images.
-pub struct Loaded<'a> {
-    pub frame: Frame,
-    pub pes: &'a [PeScene],
+/// The model configured as the RTL build `params` is: watertight fixed64-q23, the `rtl`
+/// timing profile, the reset frame (identity).
+pub fn model(params: RtlParams) -> Coprocessor<'static> {
+    let cfg = CoprocConfig {
+        pe_count: params.pes,
+        pe_mem_words: params.pe_mem_words,
+        max_list: params.max_list,
+        timing: TimingProfile::RTL,
+        kernel: KernelKind::Watertight,
+    };
+    let backing: &'static mut [u32] = vec![0u32; cfg.required_backing_words()].leak();
+    let mut m = Coprocessor::new(cfg, backing).expect("valid configuration");
+    m.set_number_format(NumberFormat::Fixed64Q23, FixedFrame::IDENTITY);
+    m
 }
 
-fn canonical(x: f32) -> f32 {
-    if x.is_nan() {
-        f32::NAN
-    } else {
-        x
+/// Every reply word of the model to `words`.
+pub fn run_model(m: &mut Coprocessor, words: &[FslWord]) -> Vec<FslWord> {
+    let mut out = Vec::new();
+    for &w in words {
+        m.push(w);
+        while let Some(o) = m.pop() {
+            out.push(o);
+        }
     }
+    out
 }
 
-/// The RESULT the RTL must send for a valid ray request.
-pub fn reference(s: &Loaded, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> RayResult {
-    let setup = twin::setup(&s.frame, ray);
-    // Per entry: (tests, accepted hit (t bits, prim, index in entry, tri)).
-    let mut found: Option<(usize, u32, usize, usize)> = None; // (k, t bits, hit index, tri)
-    let mut counts = Vec::with_capacity(list.len());
-    for (k, e) in list.iter().enumerate() {
-        let pe = &s.pes[e.pe as usize];
-        let (_, refs) = pe.voxels.iter().find(|(id, _)| *id == e.voxel).expect("listed voxel is loaded");
-        counts.push(refs.len() as u64);
-        if found.is_some() {
-            continue;
-        }
-        let hi = e.t_exit * f32::from_bits(0x3F80_0800);
-        let mut best: Option<(u32, u32, usize, usize)> = None; // (t, prim, index, tri)
-        for (i, &r) in refs.iter().enumerate() {
-            let tri = &pe.tris[r as usize];
-            let (rec, _) = twin::record(&s.frame, &tri.v, tri.prim);
-            let Some(Test::Hit(t)) = setup.map(|st| twin::intersect(&st, &rec)) else { continue };
-            let tf = f32::from_bits(t);
-            if !(tf > 0.0 && tf < t_max && tf <= hi) {
-                continue;
-            }
-            match kind {
-                RayKind::Any => {
-                    best = Some((t, tri.prim, i, r as usize));
-                    break;
-                }
-                RayKind::Closest => {
-                    if best.is_none_or(|(bt, bp, _, _)| t < bt || (t == bt && tri.prim < bp)) {
-                        best = Some((t, tri.prim, i, r as usize));
-                    }
-                }
-            }
-        }
-        if let Some((t, _, i, r)) = best {
-            found = Some((k, t, i, r));
-        }
+/// Every reply word of the RTL to `words`.
+pub fn run_rtl(s: &mut CoprocSim, words: &[FslWord]) -> Vec<FslWord> {
+    for &w in words {
+        s.push(w).expect("RTL simulation alive");
     }
-    // Timeline: every entry scheduled with all its tests; the winner is done when its
-    // accepted test is known (Any) or after its last test (Closest).
-    let mut clock = vec![0u64; s.pes.len()];
-    let mut first_issue = vec![0u64; list.len()];
-    let mut end = 0u64;
-    let last = found.map_or(list.len(), |f| f.0 + 1);
-    for (k, e) in list.iter().enumerate() {
-        let c = &mut clock[e.pe as usize];
-        first_issue[k] = *c + VOXEL_SETUP;
-        let n = counts[k];
-        *c = first_issue[k] + n;
-        let done = match found {
-            Some((w, _, i, _)) if w == k && kind == RayKind::Any => first_issue[k] + i as u64 + 1 + TEST_LATENCY,
-            _ if n > 0 => *c + TEST_LATENCY,
-            _ => *c,
-        };
-        if k < last {
-            end = end.max(done);
-        }
+    let mut out = Vec::new();
+    while let Some(w) = s.pop().expect("RTL simulation alive") {
+        out.push(w);
     }
-    let tests: u64 = (0..list.len()).map(|k| end.saturating_sub(first_issue[k]).min(counts[k])).sum();
-    let cycles = 16 + 2 * list.len() as u64 + RAY_SETUP_CYCLES + ARBITRATION_CYCLES + end;
-    let mut r = RayResult::MISS;
-    if let Some((k, t, _, tri)) = found {
-        let e = &list[k];
-        let tr = &s.pes[e.pe as usize].tris[tri];
-        let n = geometric_normal(&tr.v);
-        r = RayResult {
-            hit: true,
-            pe: e.pe,
-            list_pos: k as u16,
-            t: f32::from_bits(t),
-            prim: tr.prim,
-            material: tr.material as u16,
-            tests: 0,
-            normal: [canonical(n.x), canonical(n.y), canonical(n.z)],
-            cycles: 0,
-        };
-    }
-    r.tests = tests.min(u16::MAX as u64) as u16;
-    r.cycles = cycles.min(u32::MAX as u64) as u32;
-    r
+    out
 }
 
 /// A random scene: `pes` PEs, each with a few voxels of random triangles inside `[-ext, ext]³`
