@@ -32,18 +32,26 @@ struct Tally {
     any: usize,
 }
 
-/// `rounds` random scenes inside the box `center ± ext` (with its FRAME unless it is the
-/// reset frame), `rays` random rays each; every reply of the RTL equals the model's.
+/// Where the random scenes lie: the box `center ± ext`, announced by a FRAME packet or left
+/// in the reset frame (the identity).
+#[derive(Debug, Clone, Copy)]
+struct Place {
+    center: Vec3,
+    ext: f32,
+    frame_packet: bool,
+}
+
+/// `rounds` random scenes at `place`, `rays` random rays each; every reply of the RTL equals
+/// the model's.
 fn random_rays(
     s: &mut CoprocSim,
     m: &mut Coprocessor,
     rng: &mut ChaCha8Rng,
     rounds: usize,
     rays: usize,
-    center: Vec3,
-    ext: f32,
-    frame_packet: bool,
+    place: Place,
 ) -> Tally {
+    let Place { center, ext, frame_packet } = place;
     let mut tally = Tally::default();
     if frame_packet {
         let (min, max) = ((center - Vec3::splat(ext)).to_array(), (center + Vec3::splat(ext)).to_array());
@@ -113,7 +121,14 @@ fn hundred_thousand_random_rays_give_the_models_result_words() {
                     let mut s = sim(None);
                     let mut m = model(RtlParams::default());
                     let mut rng = rng(0xC0510 + j);
-                    random_rays(&mut s, &mut m, &mut rng, 100, 500, Vec3::ZERO, 4.0, false)
+                    random_rays(
+                        &mut s,
+                        &mut m,
+                        &mut rng,
+                        100,
+                        500,
+                        Place { center: Vec3::ZERO, ext: 4.0, frame_packet: false },
+                    )
                 })
             })
             .collect();
@@ -142,7 +157,7 @@ fn frames_from_frame_packets_give_the_models_result_words() {
         (Vec3::new(0.3, 0.7, 0.1), 0.37),
         (Vec3::ZERO, 1e-30),
     ] {
-        let t = random_rays(&mut s, &mut m, &mut rng, 3, 300, center, ext, true);
+        let t = random_rays(&mut s, &mut m, &mut rng, 3, 300, Place { center, ext, frame_packet: true });
         assert!(t.hits > t.rays / 10, "{center:?} ± {ext}: {t:?}");
     }
 }
@@ -157,7 +172,14 @@ fn stalled_handshakes_do_not_change_the_replies() {
     let mut s = sim(Some((40, 7)));
     let mut m = model(RtlParams::default());
     let mut rng = rng(0x57A11);
-    let t = random_rays(&mut s, &mut m, &mut rng, 4, 250, Vec3::new(2.0, 1.0, -1.0), 2.0, true);
+    let t = random_rays(
+        &mut s,
+        &mut m,
+        &mut rng,
+        4,
+        250,
+        Place { center: Vec3::new(2.0, 1.0, -1.0), ext: 2.0, frame_packet: true },
+    );
     assert!(t.hits > 100 && t.any > 100, "{t:?}");
 }
 
