@@ -32,9 +32,9 @@ module ctrl #(
     output logic [31:0]                 pe_a_wdata,
     input  logic [PES-1:0][31:0]        pe_a_rdata,
     output logic [PES-1:0][$clog2(WORDS)-1:0] pe_b_addr,
-    output logic [PES-1:0][15:0]        pe_b_we,
-    output logic [511:0]                pe_b_wdata,
-    input  logic [PES-1:0][511:0]       pe_b_rdata,
+    output logic [PES-1:0][15:0]        pe_b_we,     // bank order (pe_mem)
+    output logic [511:0]                pe_b_wdata,  // bank order, shared by the PEs
+    input  logic [PES-1:0][351:0]       pe_b_rdata,  // window words 0..10
     output logic [PES-1:0][$clog2(WORDS)-1:0] pe_ref_off,
     output logic [PES-1:0][$clog2(WORDS)-1:0] pe_rec_off,
     // Entry queues.
@@ -546,10 +546,18 @@ module ctrl #(
             logic [AW+5:0] addr;
             addr = (AW+6)'(ld_n) + (AW+6)'(ld_tri_count) * (AW+6)'(10);
             if (addr + (AW+6)'(10) <= (AW+6)'(WORDS)) begin
+                logic [511:0] rec;
+                rec = '0;
+                for (int j = 0; j < 9; j++) rec[32*j +: 32] = tl_coord[j];
+                rec[32*9 +: 32] = ld_prim;
                 pe_b_addr[ld_pe] <= AW'(addr);
-                pe_b_we[ld_pe] <= 16'h03FF;
-                for (int j = 0; j < 9; j++) pe_b_wdata[32*j +: 32] <= tl_coord[j];
-                pe_b_wdata[32*9 +: 32] <= ld_prim;
+                // Window word j goes to bank (addr + j) mod 16: rotated here once, not per PE.
+                for (int b = 0; b < 16; b++) begin
+                    logic [3:0] j;
+                    j = 4'(b) - addr[3:0];
+                    pe_b_we[ld_pe][b] <= j < 4'd10;
+                    pe_b_wdata[32*b +: 32] <= rec[32*j +: 32];
+                end
             end
             ld_tri_count <= ld_tri_count + 1'b1;
             pe_a_addr[ld_pe] <= AW'(ld_tri_base);
@@ -754,7 +762,7 @@ module ctrl #(
             default: ;
         endcase
         if (res_step >= 4'd5 && res_step <= 4'd12) begin
-            logic [511:0] wnd;
+            logic [351:0] wnd;
             logic [31:0]  word;
             wnd = pe_b_rdata[win_pe];
             case (res_step)

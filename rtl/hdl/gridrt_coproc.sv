@@ -37,7 +37,7 @@ module gridrt_coproc #(
     logic [PES-1:0][31:0]    a_rdata, issued, res_t;
     logic [PES-1:0][15:0]    b_we;
     logic [511:0]            b_wdata;
-    logic [PES-1:0][511:0]   b_rdata;
+    logic [PES-1:0][351:0]   b_rdata;
     logic                    ray_begin, start, stop, any, dz_neg, ray_overflow;
     logic [PES-1:0]          q_push, ev0_valid, ev1_valid, ev1_hit;
     logic [KW-1:0]           q_k, res_k;

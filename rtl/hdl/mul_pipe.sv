@@ -27,27 +27,57 @@ module mul_pipe #(
             p <= p2;
         end
     end else begin : g_fabric
-        // |a| * |b| as two half-products of shifted rows, then the sign.
-        localparam int H = B_W / 2;
-        logic [A_W-1:0] ma;
-        logic [B_W-1:0] mb;
-        logic           neg;
-        logic [P_W-1:0] lo_sum, hi_sum;
+        // |a| * |b| in radix 4: one row per two bits of |b|, each row a choice of
+        // {0, |a|, 2|a|, 3|a|} (3|a| formed in the input stage), accumulated A_W+2 bits at a
+        // time with two settled product bits shifted out per row, so every adder is as narrow
+        // as the row. Rows are split into two halves summed in parallel, then added and signed.
+        localparam int R = (B_W + 1) / 2;   // rows
+        localparam int RL = R / 2;          // rows of the low half
+        localparam int RH = R - RL;
+        localparam int RW = A_W + 2;        // row width: 3|a| < 2^(A_W+1)
+        logic [A_W-1:0]   ma;
+        logic [A_W+1:0]   ma3;
+        logic [B_W-1:0]   mb0;
+        logic [2*R-1:0]   mb;
         always_comb begin
             ma = a1[A_W-1] ? A_W'(-a1) : A_W'(a1);
-            mb = b1[B_W-1] ? B_W'(-b1) : B_W'(b1);
-            lo_sum = '0;
-            hi_sum = '0;
-            for (int i = 0; i < H; i++) if (mb[i]) lo_sum = lo_sum + (P_W'(ma) << i);
-            for (int i = H; i < B_W; i++) if (mb[i]) hi_sum = hi_sum + (P_W'(ma) << i);
+            mb0 = b1[B_W-1] ? B_W'(-b1) : B_W'(b1);
+            mb = (2*R)'(mb0);
         end
-        logic [P_W-1:0] lo2, hi2;
-        logic           neg2;
+        // Row k's multiple of |a| for digit d.
+        function automatic logic [RW-1:0] pick(input logic [1:0] d, input logic [A_W-1:0] x,
+                                                input logic [A_W+1:0] x3);
+            case (d)
+                2'd0: pick = '0;
+                2'd1: pick = RW'(x);
+                2'd2: pick = RW'({x, 1'b0});
+                default: pick = RW'(x3);
+            endcase
+        endfunction
+        // Sum of rows first..first+n-1 (value / 4^first), RW + 2n bits.
+        function automatic logic [RW+2*R-1:0] rows(input int first, input int n, input logic [2*R-1:0] m,
+                                                     input logic [A_W-1:0] x, input logic [A_W+1:0] x3);
+            logic [RW:0]          acc;
+            logic [RW+2*R-1:0]    out;
+            out = '0;
+            acc = {1'b0, pick(m[2*first +: 2], x, x3)};
+            for (int k = 1; k < n; k++) begin
+                out[2*(k-1) +: 2] = acc[1:0];
+                acc = {2'b00, acc[RW:2]} + {1'b0, pick(m[2*(first+k) +: 2], x, x3)};
+            end
+            out[2*(n-1) +: RW+1] = acc;
+            rows = out;
+        endfunction
+        logic [RW+2*R-1:0] lo2, hi2;
+        logic              neg2;
         always_ff @(posedge clk) begin
-            lo2 <= lo_sum;
-            hi2 <= hi_sum;
+            lo2 <= rows(0, RL, mb, ma, ma3);
+            hi2 <= rows(RL, RH, mb, ma, ma3);
             neg2 <= a1[A_W-1] ^ b1[B_W-1];
         end
-        always_ff @(posedge clk) p <= neg2 ? -$signed(lo2 + hi2) : $signed(lo2 + hi2);
+        assign ma3 = (A_W+2)'(ma) + (A_W+2)'({ma, 1'b0});
+        logic [P_W-1:0] sum2;
+        assign sum2 = P_W'(lo2) + P_W'({hi2, (2*RL)'(0)});
+        always_ff @(posedge clk) p <= neg2 ? -$signed(sum2) : $signed(sum2);
     end
 endmodule

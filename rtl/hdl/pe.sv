@@ -24,9 +24,9 @@ module pe #(
     input  logic [31:0]                  c_a_wdata,
     output logic [31:0]                  a_rdata,
     input  logic [$clog2(WORDS)-1:0]     c_b_addr,
-    input  logic [15:0]                  c_b_we,
-    input  logic [511:0]                 c_b_wdata,
-    output logic [511:0]                 b_rdata,
+    input  logic [15:0]                  c_b_we,     // bank order (pe_mem)
+    input  logic [511:0]                 c_b_wdata,  // bank order (pe_mem)
+    output logic [351:0]                 b_rdata,    // window words 0..10
     // Image layout (valid while loaded).
     input  logic [$clog2(WORDS)-1:0]     ref_off,
     input  logic [$clog2(WORDS)-1:0]     rec_off,
