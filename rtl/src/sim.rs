@@ -81,8 +81,7 @@ pub fn build(params: RtlParams) -> Result<Programs, SimError> {
         return Err(SimError::Build(format!("{stdout}{}", String::from_utf8_lossy(&out.stderr))));
     }
     let find = |key: &str| stdout.lines().find_map(|l| l.strip_prefix(key).map(|p| PathBuf::from(p.trim())));
-    match (find("COPROC_SIM:").or(Some(PathBuf::new())), find("UNITS_SIM:")) {
-        // TEMP
+    match (find("COPROC_SIM:"), find("UNITS_SIM:")) {
         (Some(coproc), Some(units)) => Ok(Programs { coproc, units }),
         _ => Err(SimError::Build(format!("cargo xtask rtl sim printed no program paths:\n{stdout}"))),
     }
