@@ -6,7 +6,7 @@
 use super::fail::{Fail, Text, Trunc};
 use super::pipeline::{self, Renderer};
 use super::request::{self, Target};
-use super::scene::{SceneStore, Upload};
+use super::scene::{Reorder, SceneStore, Upload, UPLOAD_WINDOW};
 use super::stats::{FrameStats, StageClock};
 use crate::fsl::FslLink;
 use crate::pixels::FrameTx;
@@ -14,7 +14,9 @@ use crate::text::TextOut;
 use core::ops::ControlFlow;
 use embedded_io::Write;
 use gridrt_shared::frame::{FrameAccumulator, FrameError, Received, MAX_PAYLOAD};
-use gridrt_shared::msg::{feature, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, RenderRequest, SceneStatus};
+use gridrt_shared::msg::{
+    feature, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, RenderRequest, Sack, SackRanges, SceneStatus,
+};
 
 /// Feature bits of this build.
 pub const fn compiled_features() -> u32 {
@@ -24,6 +26,7 @@ pub const fn compiled_features() -> u32 {
         | feature::RENDER_REGION
         | feature::RGB565
         | feature::RLE
+        | feature::WINDOWED
         | pipeline::pipeline_features()
 }
 
@@ -35,6 +38,11 @@ struct Core<L, C, const N: usize> {
     tx: FrameTx,
     scene: SceneStore<N>,
     upload: Option<Upload>,
+    /// `SceneData` bytes that arrived ahead of a gap.
+    ahead: Reorder,
+    /// (length, CRC) of the upload that loaded the current scene: a `SceneData` after the
+    /// end is answered with its final `SceneSack` again (the host may have lost it).
+    loaded_image: Option<(u32, u32)>,
 }
 
 /// The device: feed it UART bytes, it answers through an [`embedded_io::Write`].
@@ -69,6 +77,8 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
                 tx: FrameTx::new(),
                 scene: SceneStore::new(),
                 upload: None,
+                ahead: [0; UPLOAD_WINDOW],
+                loaded_image: None,
             },
         }
     }
@@ -80,7 +90,7 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
         let core = &mut self.core;
         self.rx.feed_all(input, |received| {
             match received {
-                Received::Frame(frame) => core.handle(frame.kind, frame.payload, out),
+                Received::Frame(frame) => core.handle(frame.kind, frame.seq, frame.payload, out),
                 Received::Bad(error) => core.bad_frame(error, out),
             }
             ControlFlow::<()>::Continue(())
@@ -165,7 +175,7 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         self.error(ErrorCode::BadFrame, e.code(), t.as_str(), out);
     }
 
-    fn handle(&mut self, kind: u8, payload: &[u8], out: &mut impl Write) {
+    fn handle(&mut self, kind: u8, seq: u16, payload: &[u8], out: &mut impl Write) {
         let msg = match Msg::decode(kind, payload) {
             Ok(m) => m,
             Err(MsgError::DecodeUnknownType) => {
@@ -189,9 +199,11 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             Msg::SceneBegin { total_len, crc } => {
                 // A new upload invalidates the old scene (it will CLEAR the co-processor).
                 self.scene.loaded = false;
+                self.loaded_image = None;
                 self.upload = Some(Upload::new(total_len, crc));
             }
-            Msg::SceneChunk { offset, data } => self.scene_chunk(offset, data, out),
+            Msg::SceneChunk { offset, data } => self.scene_data(MsgType::SceneChunk, seq, offset, data, out),
+            Msg::SceneData { offset, data } => self.scene_data(MsgType::SceneData, seq, offset, data, out),
             Msg::RenderRequest(req) => self.render(&req, Target::Frame, out),
             Msg::RenderRegion { region, max_span, options, request } => {
                 self.render(&request, Target::Region { region, max_span, options }, out)
@@ -203,21 +215,33 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         }
     }
 
-    fn scene_chunk(&mut self, offset: u32, data: &[u8], out: &mut impl Write) {
+    /// `SceneChunk` (in order, answered with `SceneAck`) or `SceneData` (any order inside the
+    /// window, answered with `SceneSack`, SPEC.md §3.14): the frame with sequence number `seq`.
+    fn scene_data(&mut self, kind: MsgType, seq: u16, offset: u32, data: &[u8], out: &mut impl Write) {
+        let windowed = kind == MsgType::SceneData;
         let Some(up) = self.upload.as_mut() else {
-            return self.error(
-                ErrorCode::UnexpectedMessage,
-                MsgType::SceneChunk as u32,
-                "scene chunk without SceneBegin",
-                out,
-            );
+            if let (true, Some((total, crc)), true) = (windowed, self.loaded_image, self.scene.loaded) {
+                // The upload is over: its last SceneSack again.
+                let sack = Sack {
+                    next_offset: total,
+                    heard: seq,
+                    window: UPLOAD_WINDOW as u16,
+                    crc,
+                    ranges: SackRanges::new(),
+                };
+                return self.send(&Msg::SceneSack { status: SceneStatus::Loaded, sack }, out);
+            }
+            let text = if windowed { "scene data without SceneBegin" } else { "scene chunk without SceneBegin" };
+            return self.error(ErrorCode::UnexpectedMessage, kind as u32, text, out);
         };
-        if offset != up.next {
+        if !windowed && offset != up.next {
             let expected = up.next;
             return self.error(ErrorCode::BadOffset, expected, "scene chunk out of order", out);
         }
         let path = &mut self.render.path;
-        if let Err((e, failure)) = up.feed(data, &mut path.link, path.polls, &mut self.scene, &self.info) {
+        let received =
+            up.receive(offset, data, &mut self.ahead, &mut path.link, path.polls, &mut self.scene, &self.info);
+        if let Err((e, failure)) = received {
             self.upload = None;
             self.scene.loaded = false;
             let mut t = Text::new();
@@ -229,18 +253,24 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             }
             return self.error(ErrorCode::SceneRejected, e.code(), t.as_str(), out);
         }
-        let next = up.next;
-        if !up.complete() {
-            return self.send(&Msg::SceneAck { next_offset: next, status: SceneStatus::Receiving }, out);
-        }
-        let result = up.finish();
-        self.upload = None;
-        match result {
-            Err((e, text)) => self.error(ErrorCode::SceneRejected, e.code(), text, out),
-            Ok(()) => {
-                self.scene.loaded = true;
-                self.send(&Msg::SceneAck { next_offset: next, status: SceneStatus::Loaded }, out);
+        let (next, crc, total) = (up.next, up.crc, up.total_len());
+        let sack = up.window.sack(seq, crc);
+        let status = if up.complete() {
+            let result = up.finish();
+            self.upload = None;
+            if let Err((e, text)) = result {
+                return self.error(ErrorCode::SceneRejected, e.code(), text, out);
             }
+            self.scene.loaded = true;
+            self.loaded_image = Some((total, crc));
+            SceneStatus::Loaded
+        } else {
+            SceneStatus::Receiving
+        };
+        if windowed {
+            self.send(&Msg::SceneSack { status, sack }, out);
+        } else {
+            self.send(&Msg::SceneAck { next_offset: next, status }, out);
         }
     }
 

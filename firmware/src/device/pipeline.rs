@@ -227,6 +227,9 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         self.spans.set_silent(job.crc_only);
         self.pixels(scene, tx, job, out)?;
         let (spans, crc) = self.spans.finish();
+        if job.no_stats {
+            return Ok((spans, crc));
+        }
         let entries = self.path.stats.to_bytes();
         // Only a write error stops the frame here (a `Stats` that does not fit a frame would be
         // a firmware bug, and the frame's pixels are all out).

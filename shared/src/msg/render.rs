@@ -171,6 +171,9 @@ pub mod region_options {
     /// Render the region but send no spans: only `Stats` and `RegionEnd` (its CRC lets the
     /// host verify pixels it already holds when an earlier `RegionEnd` was lost).
     pub const CRC_ONLY: u16 = 1 << 0;
+    /// Send no `Stats` for this region (re-requests of a few pixels, whose counters the host
+    /// does not need). A device that does not know the bit sends them anyway.
+    pub const NO_STATS: u16 = 1 << 1;
 }
 
 /// Payload size of a `RenderRegion`.

@@ -193,6 +193,23 @@ fn crc_only_regions_send_no_spans_but_the_same_crc() {
     assert_eq!((a, spans), (b, 0));
 }
 
+#[test]
+fn no_stats_regions_send_the_same_spans_and_end_without_stats() {
+    use gridrt_shared::msg::region_options::{CRC_ONLY, NO_STATS};
+    let mut dev = loaded_device();
+    let req = request(16, 9, render_flags::SHADOWS);
+    let region = Region { x0: 3, y0: 2, cols: 10, rows: 5 };
+    let full = send(&mut dev, &Msg::RenderRegion { region, max_span: 0, options: 0, request: req });
+    let lean = send(&mut dev, &Msg::RenderRegion { region, max_span: 0, options: NO_STATS, request: req });
+    let kinds = |r: &[Reply]| r.iter().map(|x| x.1).collect::<Vec<_>>();
+    let mut want = kinds(&full);
+    want.retain(|&k| k != MsgType::Stats as u8);
+    assert_eq!(kinds(&lean), want);
+    assert_eq!(full.last().unwrap().2, lean.last().unwrap().2, "same RegionEnd");
+    let bare = send(&mut dev, &Msg::RenderRegion { region, max_span: 0, options: NO_STATS | CRC_ONLY, request: req });
+    assert_eq!(kinds(&bare), [MsgType::RegionEnd as u8]);
+}
+
 /// A UART that takes `room` bytes, then fails every write.
 struct BrokenUart {
     room: usize,
