@@ -21,7 +21,7 @@ use core::ops::ControlFlow;
 use embedded_io::Write;
 use gridrt_shared::frame::{crc32, FrameAccumulator, FrameError, Received};
 use gridrt_shared::msg::{
-    feature, DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgError, MsgType, FEATURE_BOOTLOADER,
+    feature, DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgError, MsgType, Sack, FEATURE_BOOTLOADER,
     FLASH_FORMAT_VERSION, MAX_ERROR_TEXT,
 };
 use gridrt_shared::window::{Arrival, ReceiveWindow};
@@ -57,6 +57,10 @@ struct Core<'m> {
     base: u32,
     region: &'m mut [u8],
     xfer: Option<Transfer>,
+    /// Answers held back until the input at hand is used up (SPEC.md §3.14): the
+    /// `FlashSack` of the last `FlashData`, and a corrupt frame after it.
+    held_sack: Option<(FlashStatus, Sack)>,
+    held_bad: Option<FrameError>,
 }
 
 impl<'m> Bootloader<'m> {
@@ -73,7 +77,8 @@ impl<'m> Bootloader<'m> {
             features: FEATURE_BOOTLOADER | feature::WINDOWED,
             ..info
         };
-        Self { rx: FrameAccumulator::new(), core: Core { tx: FrameTx::new(), info, base, region, xfer: None } }
+        let core = Core { tx: FrameTx::new(), info, base, region, xfer: None, held_sack: None, held_bad: None };
+        Self { rx: FrameAccumulator::new(), core }
     }
 
     /// What the bootloader reports in `Msg::Version`.
@@ -106,21 +111,37 @@ impl<'m> Bootloader<'m> {
     /// ignored. Partial frames wait for the next call.
     pub fn feed(&mut self, input: &[u8], out: &mut impl Write) -> Option<u32> {
         let core = &mut self.core;
-        self.rx.feed_all(input, |received| match received {
+        let entry = self.rx.feed_all(input, |received| match received {
             Received::Frame(frame) => match core.handle(frame.kind, frame.seq, frame.payload, out) {
                 Some(entry) => ControlFlow::Break(entry),
                 None => ControlFlow::Continue(()),
             },
             Received::Bad(error) => {
-                core.bad_frame(error, out);
+                core.held_bad = Some(error);
                 ControlFlow::Continue(())
             }
-        })
+        });
+        core.flush(out);
+        entry
     }
 }
 
 impl Core<'_> {
+    /// Sends the answers held back: the `FlashSack`, then the report of a corrupt frame that
+    /// came after its data frame.
+    fn flush(&mut self, out: &mut impl Write) {
+        if let Some((status, sack)) = self.held_sack.take() {
+            let _ = self.tx.send(&Msg::FlashSack { status, sack }, out);
+        }
+        if let Some(e) = self.held_bad.take() {
+            let mut t = Text::new();
+            let _ = write!(t, "bad frame: {e}");
+            let _ = self.tx.send(&Msg::Error { code: ErrorCode::BadFrame, detail: e.code(), text: &t }, out);
+        }
+    }
+
     fn send(&mut self, msg: &Msg<'_>, out: &mut impl Write) {
+        self.flush(out);
         // Fails on a write error (counted by `tx`; the host asks again, module docs) or on a
         // firmware bug (message larger than a frame): nothing to report either with.
         let _ = self.tx.send(msg, out);
@@ -134,13 +155,11 @@ impl Core<'_> {
         self.error(ErrorCode::FlashRejected, e.code(), text, out);
     }
 
-    fn bad_frame(&mut self, e: FrameError, out: &mut impl Write) {
-        let mut t = Text::new();
-        let _ = write!(t, "bad frame: {e}");
-        self.error(ErrorCode::BadFrame, e.code(), &t, out);
-    }
-
     fn handle(&mut self, kind: u8, seq: u16, payload: &[u8], out: &mut impl Write) -> Option<u32> {
+        if kind != MsgType::FlashData as u8 {
+            // Everything else is answered in order, after what was held back.
+            self.flush(out);
+        }
         let msg = match Msg::decode(kind, payload) {
             Ok(m) => m,
             Err(MsgError::DecodeUnknownType) => {
@@ -259,7 +278,9 @@ impl Core<'_> {
         }
         let status = if x.verified { FlashStatus::Verified } else { FlashStatus::Receiving };
         if windowed {
-            self.send(&Msg::FlashSack { status, sack: x.window.sack(seq, x.crc) }, out);
+            // Held back: a later data frame of this batch answers for both.
+            self.held_sack = Some((status, x.window.sack(seq, x.crc)));
+            self.held_bad = None;
         } else {
             let crc = if x.verified { x.crc } else { 0 };
             self.send(&Msg::FlashAck { next_offset: x.window.next(), status, crc }, out);

@@ -43,6 +43,17 @@ struct Core<L, C, const N: usize> {
     /// (length, CRC) of the upload that loaded the current scene: a `SceneData` after the
     /// end is answered with its final `SceneSack` again (the host may have lost it).
     loaded_image: Option<(u32, u32)>,
+    /// Answers held back until the input at hand is used up (SPEC.md §3.14): the `SceneSack`
+    /// of the last `SceneData`, and a corrupt frame after it.
+    held: Held,
+}
+
+/// Answers one batch of input may share: one `SceneSack` for its data frames (naming the
+/// last), one `Error{BadFrame}` for the corrupt frames after that one.
+#[derive(Default)]
+struct Held {
+    sack: Option<(SceneStatus, Sack)>,
+    bad: Option<FrameError>,
 }
 
 /// The device: feed it UART bytes, it answers through an [`embedded_io::Write`].
@@ -79,22 +90,25 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
                 upload: None,
                 ahead: [0; UPLOAD_WINDOW],
                 loaded_image: None,
+                held: Held::default(),
             },
         }
     }
 
     /// Processes received bytes; every complete frame is handled before this returns (a
     /// render request renders the whole frame). Partial frames wait for the next call.
-    /// Blocks as long as `out`'s `write_all` does for each answer.
+    /// Blocks as long as `out`'s `write_all` does for each answer. The `SceneData` frames of
+    /// one call share one `SceneSack`, sent before this returns (SPEC.md §3.14).
     pub fn feed(&mut self, input: &[u8], out: &mut impl Write) {
         let core = &mut self.core;
         self.rx.feed_all(input, |received| {
             match received {
                 Received::Frame(frame) => core.handle(frame.kind, frame.seq, frame.payload, out),
-                Received::Bad(error) => core.bad_frame(error, out),
+                Received::Bad(error) => core.bad_frame(error),
             }
             ControlFlow::<()>::Continue(())
         });
+        core.flush(out);
     }
 
     /// The boot banner (SPEC.md §3.12): a lone `0x00` (flushes whatever the host's receiver
@@ -147,7 +161,22 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
 }
 
 impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
+    /// Sends the answers held back, in the order they belong: the `SceneSack`, then the
+    /// report of a corrupt frame that came after its data frame.
+    fn flush(&mut self, out: &mut impl Write) {
+        if let Some((status, sack)) = self.held.sack.take() {
+            let _ = self.tx.send(&Msg::SceneSack { status, sack }, out);
+        }
+        if let Some(e) = self.held.bad.take() {
+            let mut t = Text::new();
+            Trunc(&mut t).put("bad frame: ");
+            Trunc(&mut t).put(e.as_str());
+            let _ = self.tx.send(&Msg::Error { code: ErrorCode::BadFrame, detail: e.code(), text: t.as_str() }, out);
+        }
+    }
+
     fn send(&mut self, msg: &Msg<'_>, out: &mut impl Write) {
+        self.flush(out);
         // Fails on a write error (counted by `tx`, see `Device::write_errors`) or a firmware
         // bug (message larger than a frame): nothing to report either with.
         let _ = self.tx.send(msg, out);
@@ -168,14 +197,16 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         self.error(code, detail, t.as_str(), out);
     }
 
-    fn bad_frame(&mut self, e: FrameError, out: &mut impl Write) {
-        let mut t = Text::new();
-        Trunc(&mut t).put("bad frame: ");
-        Trunc(&mut t).put(e.as_str());
-        self.error(ErrorCode::BadFrame, e.code(), t.as_str(), out);
+    /// A corrupt frame: reported once this batch of input is used up (the last report wins).
+    fn bad_frame(&mut self, e: FrameError) {
+        self.held.bad = Some(e);
     }
 
     fn handle(&mut self, kind: u8, seq: u16, payload: &[u8], out: &mut impl Write) {
+        if kind != MsgType::SceneData as u8 {
+            // Everything else is answered in order, after what was held back.
+            self.flush(out);
+        }
         let msg = match Msg::decode(kind, payload) {
             Ok(m) => m,
             Err(MsgError::DecodeUnknownType) => {
@@ -268,7 +299,9 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             SceneStatus::Receiving
         };
         if windowed {
-            self.send(&Msg::SceneSack { status, sack }, out);
+            // Held back: the next data frame of this batch answers for both; a corrupt frame
+            // before it is then reported by the Sack itself (it does not cover it).
+            self.held = Held { sack: Some((status, sack)), bad: None };
         } else {
             self.send(&Msg::SceneAck { next_offset: next, status }, out);
         }

@@ -230,3 +230,29 @@ fn a_new_scene_begin_forgets_the_loaded_upload() {
     assert_eq!((status, s.next_offset), (SceneStatus::Receiving, 0));
     assert!(!dev.scene_loaded());
 }
+
+#[test]
+fn data_frames_read_together_share_one_sack_and_a_later_corrupt_frame_is_reported_after_it() {
+    let img = scene_image([2, 2, 1], &materials());
+    let mut dev = device();
+    send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) });
+    let noise = [0x13u8, 0x37, 0x00]; // a corrupt frame
+    let d = |o: usize, n: usize, seq| frame(&Msg::SceneData { offset: o as u32, data: &img[o..o + n] }, seq);
+    // Corrupt, data, data: one Sack for frame 2 (the corrupt frame came before it: the Sack
+    // itself shows what is missing).
+    let batch = [noise.to_vec(), d(0, 10, 1), d(10, 10, 2)].concat();
+    let r = exchange(&mut dev, &batch);
+    assert_eq!(r.len(), 1, "{r:?}");
+    let (_, s) = sack_of(&r[0]);
+    assert_eq!((s.heard, s.next_offset), (2, 20));
+    // Data, corrupt: the Sack, then the report of the corrupt frame after it.
+    let batch = [d(20, 10, 3), noise.to_vec()].concat();
+    let r = exchange(&mut dev, &batch);
+    assert_eq!(r.len(), 2, "{r:?}");
+    assert_eq!(sack_of(&r[0]).1.heard, 3);
+    assert_eq!(error_of(&r[1]).0, ErrorCode::BadFrame);
+    // Data, then Hello: answered in order.
+    let batch = [d(30, 10, 4), frame(&Msg::Hello { protocol: 1 }, 5)].concat();
+    let r = exchange(&mut dev, &batch);
+    assert_eq!(r.iter().map(|x| x.1).collect::<Vec<_>>(), [MsgType::SceneSack as u8, MsgType::Version as u8]);
+}
