@@ -25,22 +25,34 @@ fn acc() -> FrameAccumulator<{ frame::MAX_ENCODED }> {
 
 // ---------------------------------------------------------------- frames (§2)
 
+/// §2.5: `parse_raw` rejects every flipped bit; the accumulator corrects each one (the frame
+/// is short enough) and rejects every pair.
 #[test]
-fn frame_bad_crc_every_bit_flip() {
-    for bit in 0..HELLO_RAW.len() * 8 {
+fn frame_every_bit_flip_rejected_by_parse_and_corrected_by_the_accumulator() {
+    let bits = HELLO_RAW.len() * 8;
+    let expected =
+        |bit: usize| if (4..6).contains(&(bit / 8)) { FrameError::DecodeBadLength } else { FrameError::DecodeBadCrc };
+    for bit in 0..bits {
         let mut raw = HELLO_RAW;
         raw[bit / 8] ^= 1 << (bit % 8);
-        let expected = if (4..6).contains(&(bit / 8)) { FrameError::DecodeBadLength } else { FrameError::DecodeBadCrc };
-        assert_eq!(frame::parse_raw(&raw), Err(expected), "bit {bit}");
+        assert_eq!(frame::parse_raw(&raw), Err(expected(bit)), "bit {bit}");
         let mut a = acc();
-        assert_eq!(feed_all(&mut a, &cobs_wire(&raw), 64), [Outcome::Bad(expected)], "bit {bit}");
+        assert_eq!(feed_all(&mut a, &cobs_wire(&raw), 64), [hello_frame()], "bit {bit}");
+        assert_eq!(a.corrected(), 1);
+        for other in bit + 1..bits {
+            let mut two = raw;
+            two[other / 8] ^= 1 << (other % 8);
+            let mut a = acc();
+            let out = feed_all(&mut a, &cobs_wire(&two), 64);
+            assert!(matches!(out[..], [Outcome::Bad(_)]), "bits {bit}, {other}: {out:?}");
+        }
     }
 }
 
 #[test]
 fn frame_bad_crc_on_the_wire_then_resync() {
     let mut stream = HELLO_WIRE.to_vec();
-    stream[12] ^= 0x40; // a CRC byte
+    stream[12] ^= 0x41; // two bits of a CRC byte: beyond correction
     stream.extend_from_slice(&HELLO_WIRE);
     let mut a = acc();
     assert_eq!(feed_all(&mut a, &stream, 5), [Outcome::Bad(FrameError::DecodeBadCrc), hello_frame()]);
