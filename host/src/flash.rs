@@ -515,7 +515,10 @@ mod tests {
         let img = FlashImage::new(BASE, BASE, (0..5000u32).map(|i| (i * 7) as u8).collect());
         let r = flash(&mut port, &img, &cfg(), &mut |_| {}).unwrap();
         assert!(r.booted, "{r:?}");
-        assert_eq!(r.resent, 2, "{r:?}");
+        // The two lost 512-byte chunks go again (in pieces of the chunk size the losses call
+        // for) and nothing else: wire bytes are the image, those 1024 bytes and frame overhead.
+        assert!((2..=8).contains(&r.resent), "{r:?}");
+        assert!(r.wire.0 <= 5000 + 1024 + 40 * 16 + 100, "{r:?}");
         assert_eq!(&port.boot.region()[..5000], &img.data[..]);
     }
 

@@ -101,6 +101,28 @@ fn accumulator_worked_example() {
     assert!(!acc.has_partial());
 }
 
+/// §2.5 worked example of a correction: the §2.3 Hello frame with bit 4 of wire byte 3 (the
+/// low byte of `seq`) flipped arrives as seq 7; with bits 4 and 0 flipped it is rejected.
+#[test]
+fn accumulator_corrects_one_flipped_bit_worked_example() {
+    let one = [0x04, 0x01, 0x01, 0x17, 0x02, 0x04, 0x02, 0x01, 0x01, 0x01, 0x05, 0x61, 0x3B, 0xDB, 0x32, 0x00];
+    let mut raw = [0x01, 0x01, 0x17, 0x00, 0x04, 0x00, 0x01, 0x00, 0x00, 0x00, 0x61, 0x3B, 0xDB, 0x32];
+    assert_eq!(frame::crc32(&raw) ^ frame::CRC_OF_VALID_RAW, 0x0C18_EDFC, "the syndrome");
+    assert!(frame::correct_single_bit(&mut raw));
+    assert_eq!(raw[2], 0x07);
+    let mut acc = FrameAccumulator::<{ frame::MAX_ENCODED }>::new();
+    match acc.feed(&one) {
+        FeedResult::Frame { frame, .. } => {
+            assert_eq!((frame.kind, frame.seq, frame.payload), (0x01, 7, &[1u8, 0, 0, 0][..]))
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(acc.corrected(), 1);
+    let two = [0x04, 0x01, 0x01, 0x16, 0x02, 0x04, 0x02, 0x01, 0x01, 0x01, 0x05, 0x61, 0x3B, 0xDB, 0x32, 0x00];
+    assert!(matches!(acc.feed(&two), FeedResult::BadFrame { error: FrameError::DecodeBadCrc, .. }));
+    assert_eq!((acc.corrected(), frame::CORRECTABLE_RAW), (1, 375));
+}
+
 /// §2.2: a raw frame that ends right after a 254-byte non-zero run is encoded without the
 /// final 0x01 code; decoders accept the form with it too.
 #[test]

@@ -164,6 +164,32 @@ fn msg_render_region_worked_example() {
     );
 }
 
+/// §3.12.2 option `SPAN_BYTES` (bit 2): a re-request of row 5, columns 0..320, with spans of at
+/// most 311 data bytes and no Stats — the first 12 payload bytes; the request follows as in
+/// the worked example above.
+#[test]
+fn msg_render_region_span_bytes() {
+    assert_eq!(msg::region_options::SPAN_BYTES, 1 << 2);
+    let m = Msg::RenderRegion {
+        region: Region { x0: 0, y0: 5, cols: 320, rows: 1 },
+        max_span: 311,
+        options: msg::region_options::NO_STATS | msg::region_options::SPAN_BYTES,
+        request: example_request(),
+    };
+    let payload = encode_payload(&m);
+    assert_eq!(payload[..12], [0x00, 0x00, 0x05, 0x00, 0x40, 0x01, 0x01, 0x00, 0x37, 0x01, 0x06, 0x00]);
+    assert_eq!(Msg::decode(msg::MsgType::RenderRegion as u8, &payload), Ok(m));
+    // Reserved option bits are ignored, not refused (§3.12.2), so a device that does not know
+    // `SPAN_BYTES` still answers (taking `max_span` as pixels).
+    let mut later = payload.clone();
+    later[10] = 0xFE;
+    later[11] = 0xFF;
+    assert!(matches!(
+        Msg::decode(msg::MsgType::RenderRegion as u8, &later),
+        Ok(Msg::RenderRegion { options: 0xFFFE, max_span: 311, .. })
+    ));
+}
+
 #[test]
 fn msg_region_end_worked_example() {
     assert_eq!(msg::REGION_END_LEN, 20);

@@ -223,7 +223,12 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         let req = job.req;
         self.path.stats = FrameStats::default();
         let prim_ids = req.flags & render_flags::PRIM_IDS != 0 && !job.crc_only;
-        self.spans.begin_with(req.frame, prim_ids, req.encoding, job.max_span);
+        if job.span_bytes {
+            self.spans.begin_with(req.frame, prim_ids, req.encoding, 0);
+            self.spans.set_data_limit(job.max_span);
+        } else {
+            self.spans.begin_with(req.frame, prim_ids, req.encoding, job.max_span);
+        }
         self.spans.set_silent(job.crc_only);
         self.pixels(scene, tx, job, out)?;
         let (spans, crc) = self.spans.finish();

@@ -60,6 +60,8 @@ pub(super) struct Job<'r> {
     pub(super) crc_only: bool,
     /// Send no `Stats` (`region_options::NO_STATS`).
     pub(super) no_stats: bool,
+    /// `max_span` counts data bytes (`region_options::SPAN_BYTES`).
+    pub(super) span_bytes: bool,
     /// The request's camera.
     pub(super) cam: Camera,
     /// The request's light.
@@ -92,7 +94,8 @@ pub(super) fn job(scene_loaded: bool, req: &RenderRequest, target: Target) -> Re
     };
     let crc_only = options & region_options::CRC_ONLY != 0;
     let no_stats = options & region_options::NO_STATS != 0;
-    Ok(Job { req, region, max_span, crc_only, no_stats, cam, light })
+    let span_bytes = options & region_options::SPAN_BYTES != 0;
+    Ok(Job { req, region, max_span, crc_only, no_stats, span_bytes, cam, light })
 }
 
 /// Validates a request whose fields start at offset `base` of its message; returns the

@@ -68,7 +68,7 @@ pub fn line(a: &Activity) -> String {
             format!("{} / {} px verified", a.done, a.total),
             format!("{}/s in", size(a.wire_rx as f64 / secs)),
             "runs re-requested",
-            if a.chunk == 0 { "spans default".to_string() } else { format!("spans ≤ {} px", a.chunk) },
+            if a.chunk == 0 { "spans default".to_string() } else { format!("spans ≤ {} B", a.chunk) },
         ),
         _ => (
             format!("{} / {}", size(a.done as f64), size(a.total as f64)),

@@ -14,9 +14,9 @@ use gridrt_shared::PROTOCOL_VERSION;
 use super::config::SessionConfig;
 use super::error::{SessionError, Stage};
 use super::estimate::LossEstimator;
+use super::link::DevicePace;
 use super::link::{LinkStats, SpanSizer};
 use super::progress::ProgressEvent;
-use super::region::DevicePace;
 
 /// Owned form of the device → host messages.
 #[derive(Debug, Clone, PartialEq)]

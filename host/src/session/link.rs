@@ -2,6 +2,7 @@
 //! span size chosen from the error rate.
 
 use std::collections::VecDeque;
+use std::time::Duration;
 
 use gridrt_shared::msg::PixelEncoding;
 use serde::Serialize;
@@ -46,7 +47,7 @@ pub struct LinkStats {
     pub upload_chunks_resent: u64,
     /// Empty data frames sent to learn what the receiver holds (upload, flash).
     pub probes: u64,
-    /// Smallest `max_span` the adaptive span size chose (0 = never reduced).
+    /// Smallest `max_span` (span data bytes) the adaptive span size chose (0 = never reduced).
     pub min_max_span: u16,
 }
 
@@ -102,9 +103,28 @@ impl LinkStats {
     }
 }
 
-/// Chooses `max_span` (pixels per span) from the device → host byte error rate: spans whose
-/// frames have the best selective-repeat efficiency (§3.14's model with the 10-byte span
-/// header), converted to pixels at the bytes per pixel of the denser spans seen.
+/// What the device's timing looks like, for the waits of a render (`region` module docs).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct DevicePace {
+    /// Longest gap seen between two messages of an answer (ray work between spans).
+    pub(crate) gap: Duration,
+    /// Longest time seen from a request to the first message of its answer.
+    pub(crate) first: Duration,
+    /// Largest frame seen from the device, wire bytes.
+    pub(crate) frame: usize,
+}
+
+impl Default for DevicePace {
+    fn default() -> Self {
+        Self { gap: Duration::from_millis(50), first: Duration::from_millis(200), frame: 64 }
+    }
+}
+
+/// Chooses `max_span` (data bytes per span, `region_options::SPAN_BYTES`) from the device →
+/// host byte error rate: spans whose frames have the best selective-repeat efficiency
+/// (§3.14's model with the 10-byte span header). A byte limit, not a pixel limit, so spans of
+/// run-length coded background stay whole rows. Also keeps the bytes per pixel seen, for the
+/// cost of re-requests.
 #[derive(Debug, Clone)]
 pub(crate) struct SpanSizer {
     /// Bytes per pixel of fixed-size encodings.
@@ -153,16 +173,17 @@ impl SpanSizer {
         v.last().map_or(1.0, |x| x.0.max(0.05))
     }
 
-    /// The span limit at byte error rate `q` (0 = the device's default, for a clean line).
+    /// The span data limit in bytes at byte error rate `q` (0 = the device's default, for a
+    /// clean line).
     pub(crate) fn max_span(&self, q: f64) -> u16 {
         if q <= 0.0 {
             return 0;
         }
-        let bytes = best_payload(SPAN_HEAD, q, 8, gridrt_shared::frame::MAX_PAYLOAD - SPAN_HEAD);
+        let bytes = best_payload(SPAN_HEAD, q, 16, gridrt_shared::frame::MAX_PAYLOAD - SPAN_HEAD);
         if bytes >= 1800 {
             return 0; // frames as long as they come: the device's default
         }
-        ((bytes as f64 / self.bytes_per_pixel_seen()) as u64).clamp(4, 4096) as u16
+        bytes as u16
     }
 }
 
@@ -172,20 +193,23 @@ mod tests {
     use crate::session::estimate::byte_error_rate;
 
     #[test]
-    fn span_limit_follows_the_error_rate_and_the_dense_spans() {
+    fn span_limit_follows_the_error_rate_in_bytes() {
         let mut s = SpanSizer::new(PixelEncoding::Rle);
         assert_eq!(s.max_span(0.0), 0);
-        // Background spans of 320 px in 6 bytes, object spans of 100 px in 200 bytes.
+        // Background spans of 320 px in 6 bytes, object spans of 100 px in 200 bytes: the dense
+        // ones decide the bytes per pixel.
         for _ in 0..50 {
             s.record(6, 320);
             s.record(200, 100);
         }
+        assert_eq!(s.bytes_per_pixel_seen(), 2.0);
         let at = |ber: f64| s.max_span(byte_error_rate(ber));
         assert!(at(1e-3) < at(1e-4) && at(1e-4) < at(1e-5), "{} {} {}", at(1e-3), at(1e-4), at(1e-5));
-        // 1e-4: about 155 bytes per span at 2 bytes per pixel.
-        assert!((60..=90).contains(&at(1e-4)), "{}", at(1e-4));
+        // 1e-4: the best span frame is a correctable one (SPEC.md §2.5), ≤ 375 raw bytes.
+        let limit = gridrt_shared::frame::CORRECTABLE_RAW - 20;
+        assert!((250..=limit).contains(&(at(1e-4) as usize)), "{}", at(1e-4));
         let rgb = SpanSizer::new(PixelEncoding::Rgb888);
-        assert!((40..=60).contains(&rgb.max_span(byte_error_rate(1e-4))));
+        assert_eq!(rgb.max_span(byte_error_rate(1e-4)), at(1e-4), "bytes, whatever the encoding");
         assert_eq!(rgb.max_span(byte_error_rate(1e-7)), 0, "the optimum exceeds a frame: default");
     }
 }

@@ -27,7 +27,7 @@ pub struct Activity {
     pub retransmits: u64,
     /// Frames seen lost or corrupted on the line so far, both directions.
     pub line_errors: u64,
-    /// Payload bytes per frame in use (chunk size; for a render, the span limit in pixels,
+    /// Payload bytes per frame in use (chunk size; for a render, the span data limit,
     /// 0 = the device's default).
     pub chunk: usize,
     /// The last message heard from the device and how long ago.

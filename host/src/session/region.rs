@@ -140,23 +140,6 @@ pub struct BandReport {
     pub spans_reported: u32,
 }
 
-/// What the device's timing looks like, for the waits of a render (module docs).
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct DevicePace {
-    /// Longest gap seen between two messages of an answer (ray work between spans).
-    gap: Duration,
-    /// Longest time seen from a request to the first message of its answer.
-    first: Duration,
-    /// Largest frame seen from the device, wire bytes.
-    frame: usize,
-}
-
-impl Default for DevicePace {
-    fn default() -> Self {
-        Self { gap: Duration::from_millis(50), first: Duration::from_millis(200), frame: 64 }
-    }
-}
-
 impl<T: Read + Write> Session<T> {
     /// Renders `band` of the frame `req` describes into `canvas` until every pixel of the
     /// band is verified (see the module docs). `canvas` must be `req.width`×`req.height`.
@@ -238,6 +221,7 @@ impl<T: Read + Write> Session<T> {
             let mut att = Attempt::default();
             // A lone delimiter first: the device drops whatever noise it holds.
             self.write_bytes(stage, &[0])?;
+            let options = if max_span != 0 { options | region_options::SPAN_BYTES } else { options };
             self.send(stage, &Msg::RenderRegion { region: gap, max_span, options, request: *req })?;
             self.link.regions_requested += 1;
             let mut waiting = Waiting { last: Instant::now(), nak: None };

@@ -29,7 +29,7 @@ use std::time::{Duration, Instant};
 
 use gridrt_shared::msg::Sack;
 
-use super::estimate::{best_payload, wire_len, LossEstimator};
+use super::estimate::{arrival, best_payload, wire_len, LossEstimator};
 
 /// Bytes of a data message before its data (`offset`).
 pub(crate) const DATA_HEAD: usize = 4;
@@ -177,7 +177,7 @@ impl WindowSender {
     /// byte error rate `q` (the receiver holds four), at most `max_flight`.
     fn flight_limit(&self, chunk: usize, q: f64) -> u32 {
         let rtt = self.min_rtt.map_or(0.0, |d| d.as_secs_f64() * self.rate * 1.5) as u32;
-        let loss = 1.0 - (1.0 - q).powf(wire_len(DATA_HEAD + chunk) as f64);
+        let loss = 1.0 - arrival(wire_len(DATA_HEAD + chunk), q);
         let frames = if loss > 0.0 { (2.0 / loss).clamp(2.0, 1e6) as u32 } else { u32::MAX / 4 / chunk.max(1) as u32 };
         rtt.max(3 * chunk as u32).min(frames.saturating_mul(chunk as u32)).min(self.max_flight)
     }

@@ -2,7 +2,7 @@
 //! the boot banner, and what a failing UART does to a frame.
 
 use super::*;
-use gridrt_shared::msg::Region;
+use gridrt_shared::msg::{region_options, Region};
 use gridrt_shared::pixel;
 
 /// Decodes every colour span of `replies` into a `w`×`h` RGB888 canvas (untouched pixels
@@ -101,6 +101,38 @@ fn regions_reproduce_the_full_frame_pixel_for_pixel() {
         let stats = stats_map(r.iter().find(|x| x.1 == MsgType::Stats as u8).unwrap());
         assert_eq!(stats[&stat::PRIMARY_RAYS], region.pixels());
         assert_eq!(r.last().unwrap().1, MsgType::RegionEnd as u8, "RegionEnd comes last");
+    }
+}
+
+/// `SPAN_BYTES`: `max_span` limits each span's data bytes, not its pixels; the pixels are
+/// those of the full frame all the same.
+#[test]
+fn span_bytes_limit_the_data_of_each_span_not_its_pixels() {
+    let mut dev = loaded_device();
+    let req = request(40, 12, render_flags::SHADOWS);
+    let (full, _, _) = render_with(&mut dev, &req);
+    let region = Region::full(40, 12);
+    for (enc, limit) in [(PixelEncoding::Rle, 24u16), (PixelEncoding::Rle, 9), (PixelEncoding::Rgb888, 30)] {
+        let rq = RenderRequest { encoding: enc, ..req };
+        let options = region_options::SPAN_BYTES;
+        let r = send(&mut dev, &Msg::RenderRegion { region, max_span: limit, options, request: rq });
+        let (img, seen, end) = canvas(&r, 40, 12);
+        assert!(matches!(end, Some(Msg::RegionEnd { .. })), "{end:?}");
+        assert!(seen.iter().all(|&s| s));
+        assert_eq!(img, full, "{enc:?} ≤ {limit} B");
+        let mut longest_pixels = 0;
+        for x in &r {
+            if let Msg::PixelSpan { count, data, .. } = x.msg() {
+                assert!(data.len() <= limit as usize, "{enc:?}: {} B > {limit}", data.len());
+                longest_pixels = longest_pixels.max(count);
+            }
+        }
+        if enc == PixelEncoding::Rgb888 {
+            assert_eq!(longest_pixels, 10, "30 B of Rgb888");
+        } else if limit >= 24 {
+            // (A tighter limit leaves room for one worst-case pixel only.)
+            assert!(longest_pixels > limit, "{enc:?} ≤ {limit} B: runs make spans longer in pixels than in bytes");
+        }
     }
 }
 
