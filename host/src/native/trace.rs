@@ -1,0 +1,311 @@
+//! One ray through the fast path, and whole frames of primary rays.
+
+use core::ops::ControlFlow;
+
+use gridrt_coproc::isect::watertight::Watertight;
+use gridrt_coproc::{FixedFrame, Kernel, RayKind, RayResult, T_EXIT_REL_TOL};
+use gridrt_firmware::camera::Camera;
+use gridrt_shared::math::Ray;
+
+use super::filter::{LaneFilter, LaneRay, Portable, LANES};
+use super::{NativeScene, OrderedRef, Span};
+
+/// What the firmware and the co-processor make of one ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Trace {
+    /// The traversal list is empty: the firmware sends nothing.
+    Culled,
+    /// The co-processor's answer (as `Coprocessor::trace_untimed` gives it).
+    Result(RayResult),
+}
+
+/// Totals of a frame of primary rays.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Hits {
+    /// Rays with an accepted hit.
+    pub hits: u64,
+    /// Rays with an empty traversal list.
+    pub culled: u64,
+    /// Wrapping sum of the hit prim ids (a cheap fingerprint of the frame).
+    pub prim_sum: u64,
+    /// Ray–triangle tests the PEs perform.
+    pub tests: u64,
+}
+
+impl Hits {
+    /// Counts one ray.
+    pub fn add(&mut self, t: &Trace) {
+        match t {
+            Trace::Culled => self.culled += 1,
+            Trace::Result(r) => {
+                self.tests += r.tests as u64;
+                if r.hit {
+                    self.hits += 1;
+                    self.prim_sum = self.prim_sum.wrapping_add(r.prim as u64);
+                }
+            }
+        }
+    }
+
+    /// Totals of two disjoint sets of rays.
+    pub fn merge(mut self, o: Self) -> Self {
+        self.hits += o.hits;
+        self.culled += o.culled;
+        self.prim_sum = self.prim_sum.wrapping_add(o.prim_sum);
+        self.tests += o.tests;
+        self
+    }
+}
+
+// Copied from `coproc/src/coproc.rs` (module doc of `native`).
+#[inline(always)]
+fn accept(t: f32, t_max: f32, hi: f32) -> bool {
+    t > 0.0 && t < t_max && t <= hi
+}
+
+#[inline(always)]
+fn inflate(x: f32) -> f32 {
+    if x.is_finite() {
+        x + x.abs() * (1.0 / 65536.0)
+    } else {
+        x
+    }
+}
+
+/// The accepted hit of an entry and what it names.
+#[derive(Debug, Clone, Copy)]
+enum Winner {
+    Tri { t: f32, slot: u32 },
+    Prim { t: f32, prim: u32 },
+}
+
+impl NativeScene {
+    /// Traces `ray` as the firmware's ray path does: the DDA over `[0, t_max]`, then (unless
+    /// the list is empty) the co-processor's query of `kind` with `t_max`.
+    pub fn trace(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is only true when AVX2 and FMA were detected (`simd_available`).
+            return unsafe { self.trace_avx2(kind, ray, t_max) };
+        }
+        self.trace_with::<Portable>(kind, ray, t_max)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn trace_avx2(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
+        self.trace_with::<super::filter::Avx2>(kind, ray, t_max)
+    }
+
+    /// Traces a row of primary rays `camera.primary_ray(x, y)` for `x` in `xs`, appending
+    /// to `out`.
+    pub fn trace_row(&self, camera: &Camera, y: u32, xs: core::ops::Range<u32>, out: &mut Vec<Trace>) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: as in `trace`.
+            return unsafe { self.row_avx2(camera, y, xs, &mut |t| out.push(t)) };
+        }
+        self.row_with::<Portable>(camera, y, xs, &mut |t| out.push(t));
+    }
+
+    /// Totals of the primary rays of rows `rows` of a `width`-pixel-wide frame.
+    pub fn count_rows(&self, camera: &Camera, width: u32, rows: core::ops::Range<u32>) -> Hits {
+        let mut hits = Hits::default();
+        for y in rows {
+            #[cfg(target_arch = "x86_64")]
+            if self.avx2 {
+                // SAFETY: as in `trace`.
+                unsafe { self.row_avx2(camera, y, 0..width, &mut |t| hits.add(&t)) };
+                continue;
+            }
+            self.row_with::<Portable>(camera, y, 0..width, &mut |t| hits.add(&t));
+        }
+        hits
+    }
+
+    /// Totals of a `width`×`height` frame of primary rays on `threads` threads (rows handed
+    /// out in bands of `band` rows by rayon's work stealing; `threads` = 1 runs on the caller).
+    pub fn count_frame(&self, camera: &Camera, width: u32, height: u32, pool: Option<&rayon::ThreadPool>) -> Hits {
+        const BAND: u32 = 4;
+        match pool {
+            None => self.count_rows(camera, width, 0..height),
+            Some(pool) => pool.install(|| {
+                use rayon::prelude::*;
+                (0..height.div_ceil(BAND))
+                    .into_par_iter()
+                    .map(|b| self.count_rows(camera, width, b * BAND..((b + 1) * BAND).min(height)))
+                    .reduce(Hits::default, Hits::merge)
+            }),
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn row_avx2(&self, camera: &Camera, y: u32, xs: core::ops::Range<u32>, sink: &mut dyn FnMut(Trace)) {
+        self.row_with::<super::filter::Avx2>(camera, y, xs, sink)
+    }
+
+    #[inline(always)]
+    fn row_with<F: LaneFilter>(&self, camera: &Camera, y: u32, xs: core::ops::Range<u32>, sink: &mut dyn FnMut(Trace)) {
+        for x in xs {
+            let ray = camera.primary_ray(x, y);
+            sink(self.trace_with::<F>(RayKind::Closest, &ray, f32::INFINITY));
+        }
+    }
+
+    #[inline(always)]
+    fn trace_with<F: LaneFilter>(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
+        // The kernel's per-ray setup (f32 never fails) and the filter's.
+        let Ok(pre) = Watertight::prepare(ray, &FixedFrame::IDENTITY) else { return Trace::Culled };
+        let lane_ray = LaneRay::new(ray);
+        let mut tests = 0u64;
+        let mut k = 0usize;
+        let mut any_entry = false;
+        let (_, found) = self.walk.walk(&self.cell_span, ray, 0.0, t_max, |span, t_exit| {
+            any_entry = true;
+            // Always in range: spans are built with the table.
+            let Some(span) = self.spans.get(span as usize) else { return ControlFlow::Continue(()) };
+            let hi = t_exit * (1.0 + T_EXIT_REL_TOL);
+            let (w, n) = if span.ordered_len > 0 {
+                self.entry_ordered(&pre, ray, kind, span, t_max, hi)
+            } else {
+                self.entry_groups::<F>(&pre, &lane_ray, kind, span, t_max, hi)
+            };
+            tests += n as u64;
+            match w {
+                Some(w) => ControlFlow::Break((k, span.pe, w)),
+                None => {
+                    k += 1;
+                    ControlFlow::Continue(())
+                }
+            }
+        });
+        if !any_entry {
+            return Trace::Culled;
+        }
+        let tests = tests.min(u16::MAX as u64) as u16;
+        let Some((k, pe, w)) = found else { return Trace::Result(RayResult { tests, ..RayResult::MISS }) };
+        let list_pos = k.min(u16::MAX as usize) as u16;
+        let r = match w {
+            Winner::Tri { t, slot } => {
+                let s = &self.slots[slot as usize];
+                RayResult {
+                    hit: true,
+                    pe,
+                    list_pos,
+                    t,
+                    prim: s.prim,
+                    material: s.material,
+                    tests,
+                    normal: s.normal,
+                    cycles: 0,
+                }
+            }
+            Winner::Prim { t, prim } => {
+                let words = &self.prims[prim as usize];
+                RayResult {
+                    hit: true,
+                    pe,
+                    list_pos,
+                    t,
+                    prim: words[1],
+                    material: words[2] as u16,
+                    tests,
+                    normal: gridrt_coproc::isect::analytic::normal(words, ray, t),
+                    cycles: 0,
+                }
+            }
+        };
+        Trace::Result(r)
+    }
+
+    /// One entry of triangles only: the filter on each group, the kernel on the survivors in
+    /// reference order (`View::test_entry`). Returns the entry's winner and the tests the PE
+    /// performs (all references for Closest; up to the hit for Any).
+    #[inline(always)]
+    fn entry_groups<F: LaneFilter>(
+        &self,
+        pre: &<Watertight as Kernel>::RayData,
+        lane_ray: &LaneRay,
+        kind: RayKind,
+        span: &Span,
+        t_max: f32,
+        hi: f32,
+    ) -> (Option<Winner>, u32) {
+        let limit = if t_max < hi { t_max } else { hi };
+        let mut bound = inflate(limit);
+        let mut best: Option<(f32, u32, u32)> = None;
+        let first = span.group as usize;
+        let n_groups = (span.lanes as usize).div_ceil(LANES);
+        let groups = self.groups.get(first..first + n_groups).unwrap_or(&[]);
+        let lanes = self.group_slots.get(first..first + n_groups).unwrap_or(&[]);
+        for (gi, (g, gs)) in groups.iter().zip(lanes).enumerate() {
+            let used = (span.lanes as usize - gi * LANES).min(LANES);
+            let mut m = F::survivors(g, lane_ray) & ((1u32 << used) - 1);
+            while m != 0 {
+                let lane = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let slot = gs[lane];
+                let s = &self.slots[slot as usize];
+                let Ok(Some(t)) = Watertight::intersect(pre, &s.words, bound) else { continue };
+                if !accept(t, t_max, hi) {
+                    continue;
+                }
+                match kind {
+                    RayKind::Any => return (Some(Winner::Tri { t, slot }), (gi * LANES + lane) as u32 + 1),
+                    RayKind::Closest => {
+                        if best.is_none_or(|(bt, _, bp)| t < bt || (t == bt && s.prim < bp)) {
+                            best = Some((t, slot, s.prim));
+                            bound = inflate(t);
+                        }
+                    }
+                }
+            }
+        }
+        (best.map(|(t, slot, _)| Winner::Tri { t, slot }), span.refs)
+    }
+
+    /// One entry holding analytic primitives: the model's loop, reference by reference.
+    fn entry_ordered(
+        &self,
+        pre: &<Watertight as Kernel>::RayData,
+        ray: &Ray,
+        kind: RayKind,
+        span: &Span,
+        t_max: f32,
+        hi: f32,
+    ) -> (Option<Winner>, u32) {
+        let limit = if t_max < hi { t_max } else { hi };
+        let mut bound = inflate(limit);
+        let mut best: Option<(f32, u32, Winner)> = None;
+        let first = span.ordered as usize;
+        let refs = self.ordered.get(first..first + span.ordered_len as usize).unwrap_or(&[]);
+        for (i, r) in refs.iter().enumerate() {
+            let (t, prim, w) = match *r {
+                OrderedRef::Prim(p) => {
+                    let words = &self.prims[p as usize];
+                    let Some(t) = gridrt_coproc::isect::analytic::intersect(words, ray) else { continue };
+                    (t, words[1], Winner::Prim { t, prim: p })
+                }
+                OrderedRef::Tri(slot) => {
+                    let s = &self.slots[slot as usize];
+                    let Ok(Some(t)) = Watertight::intersect(pre, &s.words, bound) else { continue };
+                    (t, s.prim, Winner::Tri { t, slot })
+                }
+            };
+            if !accept(t, t_max, hi) {
+                continue;
+            }
+            match kind {
+                RayKind::Any => return (Some(w), i as u32 + 1),
+                RayKind::Closest => {
+                    if best.is_none_or(|(bt, bp, _)| t < bt || (t == bt && prim < bp)) {
+                        best = Some((t, prim, w));
+                        bound = inflate(t);
+                    }
+                }
+            }
+        }
+        (best.map(|(_, _, w)| w), span.refs)
+    }
+}
