@@ -23,6 +23,18 @@ use gridrt_shared::math::{gamma, Ray};
 /// `cell_span` value of a voxel the firmware never lists (empty, or no owner).
 pub(crate) const NO_SPAN: u32 = u32::MAX;
 
+/// A walk's start: the ray, its start cell and first boundary distances, its clip.
+struct Start {
+    o: [f32; 3],
+    inv: [f32; 3],
+    cell: [i32; 3],
+    step: [i32; 3],
+    t_next: [f32; 3],
+    voxel: u32,
+    t0: f32,
+    t_end: f32,
+}
+
 /// Per-grid constants of the walk.
 #[derive(Debug, Clone)]
 pub(crate) struct GridWalk {
@@ -106,7 +118,7 @@ impl GridWalk {
         ray: &Ray,
         t_min: f32,
         t_max: f32,
-        mut visit: impl FnMut(u32, f32) -> ControlFlow<B>,
+        visit: impl FnMut(u32, f32) -> ControlFlow<B>,
     ) -> (u32, Option<B>) {
         if !self.valid || !ray.is_valid() || t_min.is_nan() || t_max.is_nan() {
             return (0, None);
@@ -136,15 +148,118 @@ impl GridWalk {
                 t_next[a] = (self.plane(a, c) - o[a]) * inv[a];
             }
         }
-        let mut voxel = (cell[0] as u32)
+        let voxel = (cell[0] as u32)
             .wrapping_add(self.stride[1].wrapping_mul(cell[1] as u32))
             .wrapping_add(self.stride[2].wrapping_mul(cell[2] as u32));
-        let mut t = t0;
-        let t_end = t1;
+        let start = Start { o, inv, cell, step, t_next, voxel, t0, t_end: t1 };
+        // A finite 1/d on every stepped axis keeps every boundary distance free of NaN
+        // (finite plane − finite origin, times a finite factor), which the fast loop needs.
+        if (0..3).all(|a| step[a] == 0 || inv[a].is_finite()) {
+            self.walk_finite(cell_span, &start, visit)
+        } else {
+            self.walk_exact(cell_span, &start, visit)
+        }
+    }
+
+    /// The walk with the three axes in registers. Valid when no boundary distance can be NaN:
+    /// then `Traversal::next`'s `t_cross.is_nan() || t_cross ≥ t_end` is `!(t_cross < t_end)`,
+    /// an axis that does not step keeps `t_next = +∞` and is never stepped (an infinite
+    /// `t_cross` always ends the walk), and the `nx + ny + nz` bound cannot bind (each step
+    /// moves one cell along an axis in a fixed direction, so a walk is at most
+    /// `Σ(n − 1) + 1` voxels) — it is kept anyway.
+    #[inline(always)]
+    fn walk_finite<B>(
+        &self,
+        cell_span: &[u32],
+        st: &Start,
+        mut visit: impl FnMut(u32, f32) -> ControlFlow<B>,
+    ) -> (u32, Option<B>) {
+        let [mut tx, mut ty, mut tz] = st.t_next;
+        let [mut cx, mut cy, mut cz] = st.cell;
+        let [sx, sy, sz] = st.step;
+        let [nx, ny, nz] = self.dims;
+        let [ox, oy, oz] = st.o;
+        let [ix, iy, iz] = st.inv;
+        let [px, py, pz] = [&self.planes[0][..], &self.planes[1][..], &self.planes[2][..]];
+        // Voxel id deltas of a step on each axis.
+        let dvx = (sx as u32).wrapping_mul(self.stride[0]);
+        let dvy = (sy as u32).wrapping_mul(self.stride[1]);
+        let dvz = (sz as u32).wrapping_mul(self.stride[2]);
+        // Plane index of each axis' next boundary: c + 1 going up, c going down.
+        let next_plane = |c: i32, s: i32| (c + (s > 0) as i32) as usize;
+        let mut voxel = st.voxel;
+        let mut t = st.t0;
+        let t_end = st.t_end;
+        let mut walked = 0u32;
+        while walked < self.steps {
+            walked += 1;
+            let (axis, t_cross) = if tx <= ty && tx <= tz {
+                (0, tx)
+            } else if ty <= tz {
+                (1, ty)
+            } else {
+                (2, tz)
+            };
+            let t_exit = t_cross.min(t_end).max(t);
+            let span = cell_span.get(voxel as usize).copied().unwrap_or(NO_SPAN);
+            if span != NO_SPAN {
+                if let ControlFlow::Break(b) = visit(span, t_exit) {
+                    return (walked, Some(b));
+                }
+            }
+            if !(t_cross < t_end) {
+                break;
+            }
+            match axis {
+                0 => {
+                    cx += sx;
+                    if cx < 0 || cx >= nx {
+                        break;
+                    }
+                    voxel = voxel.wrapping_add(dvx);
+                    tx = (px.get(next_plane(cx, sx)).copied().unwrap_or(self.max[0]) - ox) * ix;
+                }
+                1 => {
+                    cy += sy;
+                    if cy < 0 || cy >= ny {
+                        break;
+                    }
+                    voxel = voxel.wrapping_add(dvy);
+                    ty = (py.get(next_plane(cy, sy)).copied().unwrap_or(self.max[1]) - oy) * iy;
+                }
+                _ => {
+                    cz += sz;
+                    if cz < 0 || cz >= nz {
+                        break;
+                    }
+                    voxel = voxel.wrapping_add(dvz);
+                    tz = (pz.get(next_plane(cz, sz)).copied().unwrap_or(self.max[2]) - oz) * iz;
+                }
+            }
+            t = t_exit;
+        }
+        (walked, None)
+    }
+
+    /// The walk exactly as `Traversal::next` writes it (NaN boundary distances included).
+    #[inline(never)]
+    fn walk_exact<B>(
+        &self,
+        cell_span: &[u32],
+        st: &Start,
+        mut visit: impl FnMut(u32, f32) -> ControlFlow<B>,
+    ) -> (u32, Option<B>) {
+        let (o, inv, step) = (st.o, st.inv, st.step);
+        let mut cell = st.cell;
+        let mut t_next = st.t_next;
+        let mut voxel = st.voxel;
+        let mut t = st.t0;
+        let t_end = st.t_end;
         let mut walked = 0u32;
         while walked < self.steps {
             walked += 1;
             let [tx, ty, tz] = t_next;
+            // Lowest axis wins ties.
             let axis = if tx <= ty && tx <= tz {
                 0
             } else if ty <= tz {
@@ -153,6 +268,7 @@ impl GridWalk {
                 2
             };
             let t_cross = t_next[axis];
+            // min/max ignore NaN, so a NaN boundary ends the voxel at t_end.
             let t_exit = t_cross.min(t_end).max(t);
             // Ids are in range: cells stay inside the grid (checked before every step).
             let span = cell_span.get(voxel as usize).copied().unwrap_or(NO_SPAN);

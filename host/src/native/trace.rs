@@ -79,52 +79,114 @@ enum Winner {
     Prim { t: f32, prim: u32 },
 }
 
+/// How an entry's triangle groups are searched: the filter, compiled with its target features
+/// (the DDA around it needs none). Kept out of line so the walk's loop stays small.
+trait EntrySearch {
+    #[allow(clippy::too_many_arguments)]
+    fn entry(
+        scene: &NativeScene,
+        pre: &<Watertight as Kernel>::RayData,
+        lane_ray: &LaneRay,
+        kind: RayKind,
+        span: &Span,
+        t_max: f32,
+        hi: f32,
+    ) -> (Option<Winner>, u32);
+}
+
+struct PortableSearch;
+
+impl EntrySearch for PortableSearch {
+    #[inline(never)]
+    fn entry(
+        scene: &NativeScene,
+        pre: &<Watertight as Kernel>::RayData,
+        lane_ray: &LaneRay,
+        kind: RayKind,
+        span: &Span,
+        t_max: f32,
+        hi: f32,
+    ) -> (Option<Winner>, u32) {
+        scene.entry_groups::<Portable>(pre, lane_ray, kind, span, t_max, hi)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+struct Avx2Search;
+
+#[cfg(target_arch = "x86_64")]
+impl EntrySearch for Avx2Search {
+    #[inline(always)]
+    fn entry(
+        scene: &NativeScene,
+        pre: &<Watertight as Kernel>::RayData,
+        lane_ray: &LaneRay,
+        kind: RayKind,
+        span: &Span,
+        t_max: f32,
+        hi: f32,
+    ) -> (Option<Winner>, u32) {
+        // SAFETY: `Avx2Search` is only chosen when AVX2 and FMA were detected
+        // (`NativeScene::avx2`, set by `simd_available`).
+        unsafe { entry_avx2(scene, pre, lane_ray, kind, span, t_max, hi) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+unsafe fn entry_avx2(
+    scene: &NativeScene,
+    pre: &<Watertight as Kernel>::RayData,
+    lane_ray: &LaneRay,
+    kind: RayKind,
+    span: &Span,
+    t_max: f32,
+    hi: f32,
+) -> (Option<Winner>, u32) {
+    scene.entry_groups::<super::filter::Avx2>(pre, lane_ray, kind, span, t_max, hi)
+}
+
 impl NativeScene {
     /// Traces `ray` as the firmware's ray path does: the DDA over `[0, t_max]`, then (unless
     /// the list is empty) the co-processor's query of `kind` with `t_max`.
     pub fn trace(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            // SAFETY: `avx2` is only true when AVX2 and FMA were detected (`simd_available`).
-            return unsafe { self.trace_avx2(kind, ray, t_max) };
+            return self.trace_with::<Avx2Search>(kind, ray, t_max);
         }
-        self.trace_with::<Portable>(kind, ray, t_max)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn trace_avx2(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
-        self.trace_with::<super::filter::Avx2>(kind, ray, t_max)
+        self.trace_with::<PortableSearch>(kind, ray, t_max)
     }
 
     /// Traces a row of primary rays `camera.primary_ray(x, y)` for `x` in `xs`, appending
     /// to `out`.
     pub fn trace_row(&self, camera: &Camera, y: u32, xs: core::ops::Range<u32>, out: &mut Vec<Trace>) {
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: as in `trace`.
-            return unsafe { self.row_avx2(camera, y, xs, &mut |t| out.push(t)) };
+        for x in xs {
+            out.push(self.trace(RayKind::Closest, &camera.primary_ray(x, y), f32::INFINITY));
         }
-        self.row_with::<Portable>(camera, y, xs, &mut |t| out.push(t));
     }
 
     /// Totals of the primary rays of rows `rows` of a `width`-pixel-wide frame.
     pub fn count_rows(&self, camera: &Camera, width: u32, rows: core::ops::Range<u32>) -> Hits {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            return self.count_rows_with::<Avx2Search>(camera, width, rows);
+        }
+        self.count_rows_with::<PortableSearch>(camera, width, rows)
+    }
+
+    fn count_rows_with<S: EntrySearch>(&self, camera: &Camera, width: u32, rows: core::ops::Range<u32>) -> Hits {
         let mut hits = Hits::default();
         for y in rows {
-            #[cfg(target_arch = "x86_64")]
-            if self.avx2 {
-                // SAFETY: as in `trace`.
-                unsafe { self.row_avx2(camera, y, 0..width, &mut |t| hits.add(&t)) };
-                continue;
+            for x in 0..width {
+                hits.add(&self.trace_with::<S>(RayKind::Closest, &camera.primary_ray(x, y), f32::INFINITY));
             }
-            self.row_with::<Portable>(camera, y, 0..width, &mut |t| hits.add(&t));
         }
         hits
     }
 
-    /// Totals of a `width`×`height` frame of primary rays on `threads` threads (rows handed
-    /// out in bands of `band` rows by rayon's work stealing; `threads` = 1 runs on the caller).
+    /// Totals of a `width`×`height` frame of primary rays, on the caller's thread or on
+    /// `pool` (bands of rows handed out by rayon's work stealing).
     pub fn count_frame(&self, camera: &Camera, width: u32, height: u32, pool: Option<&rayon::ThreadPool>) -> Hits {
         const BAND: u32 = 4;
         match pool {
@@ -139,25 +201,10 @@ impl NativeScene {
         }
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn row_avx2(&self, camera: &Camera, y: u32, xs: core::ops::Range<u32>, sink: &mut dyn FnMut(Trace)) {
-        self.row_with::<super::filter::Avx2>(camera, y, xs, sink)
-    }
-
     #[inline(always)]
-    fn row_with<F: LaneFilter>(&self, camera: &Camera, y: u32, xs: core::ops::Range<u32>, sink: &mut dyn FnMut(Trace)) {
-        for x in xs {
-            let ray = camera.primary_ray(x, y);
-            sink(self.trace_with::<F>(RayKind::Closest, &ray, f32::INFINITY));
-        }
-    }
-
-    #[inline(always)]
-    fn trace_with<F: LaneFilter>(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
-        // The kernel's per-ray setup (f32 never fails) and the filter's.
-        let Ok(pre) = Watertight::prepare(ray, &FixedFrame::IDENTITY) else { return Trace::Culled };
-        let lane_ray = LaneRay::new(ray);
+    fn trace_with<S: EntrySearch>(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
+        // The kernel's per-ray setup and the filter's, at the first entry (most rays have none).
+        let mut prepared = None;
         let mut tests = 0u64;
         let mut k = 0usize;
         let mut any_entry = false;
@@ -166,10 +213,15 @@ impl NativeScene {
             // Always in range: spans are built with the table.
             let Some(span) = self.spans.get(span as usize) else { return ControlFlow::Continue(()) };
             let hi = t_exit * (1.0 + T_EXIT_REL_TOL);
+            let (pre, lane_ray) = prepared.get_or_insert_with(|| {
+                // f32 preparation cannot fail (no fixed-point frame).
+                (Watertight::prepare(ray, &FixedFrame::IDENTITY).ok(), LaneRay::new(ray))
+            });
+            let Some(pre) = pre else { return ControlFlow::Continue(()) };
             let (w, n) = if span.ordered_len > 0 {
-                self.entry_ordered(&pre, ray, kind, span, t_max, hi)
+                self.entry_ordered(pre, ray, kind, span, t_max, hi)
             } else {
-                self.entry_groups::<F>(&pre, &lane_ray, kind, span, t_max, hi)
+                S::entry(self, pre, lane_ray, kind, span, t_max, hi)
             };
             tests += n as u64;
             match w {
