@@ -1,8 +1,10 @@
 //! The firmware's 3D-DDA walk (`gridrt_firmware::dda::Traversal`), restated for speed: the
 //! same floating-point operations in the same order, so the same voxels and the same exit
 //! distances, but with per-grid constants (plane positions, strides) hoisted out of the walk
-//! and the list fused away: each non-empty voxel is handed to the caller as it is reached,
-//! and the caller may stop the walk.
+//! and the list fused away: [`Walk::next_entry`] returns the next non-empty voxel as it is
+//! reached, and the caller stops when it has its answer. Per axis the walk keeps an iterator
+//! over the boundary planes still ahead in its direction of travel, so "the next cell leaves
+//! the grid" is "no plane left", and the loop's state fits in registers.
 //!
 //! What is copied from the firmware and `gridrt_shared::math` (keep in step; the tests in
 //! `host/tests/native_path.rs` pin the result word for word against the original):
@@ -15,25 +17,11 @@
 //!   `t_cross` is NaN or `≥ t_end` or the next cell leaves the grid, at most `nx + ny + nz`
 //!   voxels.
 
-use core::ops::ControlFlow;
-
 use gridrt_firmware::dda::GridDesc;
 use gridrt_shared::math::{gamma, Ray};
 
 /// `cell_span` value of a voxel the firmware never lists (empty, or no owner).
 pub(crate) const NO_SPAN: u32 = u32::MAX;
-
-/// A walk's start: the ray, its start cell and first boundary distances, its clip.
-struct Start {
-    o: [f32; 3],
-    inv: [f32; 3],
-    cell: [i32; 3],
-    step: [i32; 3],
-    t_next: [f32; 3],
-    voxel: u32,
-    t0: f32,
-    t_end: f32,
-}
 
 /// Per-grid constants of the walk.
 #[derive(Debug, Clone)]
@@ -46,9 +34,33 @@ pub(crate) struct GridWalk {
     extent: [f32; 3],
     /// Linear-id stride of a step along each axis: 1, nx, nx·ny.
     stride: [u32; 3],
-    /// Boundary planes per axis: `planes[a][k]` for k in 0..=n (the last one is `max`).
-    planes: [Vec<f32>; 3],
+    /// Boundary planes per axis: `up[a][k]` = plane k for k in 0..=n (the last one is
+    /// `max`), and the same reversed, `down[a][i]` = plane n − i.
+    up: [Vec<f32>; 3],
+    down: [Vec<f32>; 3],
     steps: u32,
+}
+
+/// One ray's walk in progress.
+#[derive(Debug, Clone)]
+pub(crate) struct Walk<'g> {
+    /// Boundary planes still ahead on each axis, in the order they are crossed (empty for an
+    /// axis the ray does not move along).
+    ahead: [core::slice::Iter<'g, f32>; 3],
+    o: [f32; 3],
+    inv: [f32; 3],
+    t_next: [f32; 3],
+    /// Voxel id change of a step on each axis.
+    dv: [u32; 3],
+    voxel: u32,
+    t: f32,
+    t_end: f32,
+    steps_left: u32,
+    done: bool,
+    /// Some boundary distance may be NaN: take the firmware's literal loop.
+    exact: bool,
+    cell: [i32; 3],
+    step: [i32; 3],
 }
 
 impl GridWalk {
@@ -59,10 +71,14 @@ impl GridWalk {
         let max = grid.max.to_array();
         let dims = grid.dims.map(|d| if valid { d as i32 } else { 0 });
         let extent = [0, 1, 2].map(|a| max[a] - min[a]);
-        let planes = [0, 1, 2].map(|a| {
+        let up = [0, 1, 2].map(|a| {
             let n = dims[a];
             let size = extent[a] / n as f32;
             (0..=n).map(|k| if k >= n { max[a] } else { min[a] + k as f32 * size }).collect::<Vec<f32>>()
+        });
+        let down = up.clone().map(|mut v| {
+            v.reverse();
+            v
         });
         let nx = dims[0].max(0) as u32;
         let ny = dims[1].max(0) as u32;
@@ -73,7 +89,8 @@ impl GridWalk {
             dims,
             extent,
             stride: [1, nx, nx.wrapping_mul(ny)],
-            planes,
+            up,
+            down,
             steps: dims.iter().map(|&d| d.max(0) as u32).sum(),
         }
     }
@@ -108,157 +125,94 @@ impl GridWalk {
         Some((t0, t1))
     }
 
-    /// Walks `ray` over `[t_min, t_max]` like `Traversal`, calling `visit(span, t_exit)` for
-    /// every voxel whose `cell_span` entry is not [`NO_SPAN`], in order, until it breaks.
-    /// Returns the number of voxels walked (empty ones included).
+    /// Boundary plane `k` of axis `a` (`Traversal::plane`; k is in 0..=n).
     #[inline(always)]
-    pub(crate) fn walk<B>(
-        &self,
-        cell_span: &[u32],
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        visit: impl FnMut(u32, f32) -> ControlFlow<B>,
-    ) -> (u32, Option<B>) {
+    fn plane(&self, a: usize, k: i32) -> f32 {
+        self.up[a].get(k.max(0) as usize).copied().unwrap_or(self.max[a])
+    }
+
+    /// Starts the walk of `ray` over `[t_min, t_max]` (`Traversal::new`); `None` when it
+    /// visits nothing (invalid ray or grid, clip empty or of zero length).
+    #[inline(always)]
+    pub(crate) fn start(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Walk<'_>> {
         if !self.valid || !ray.is_valid() || t_min.is_nan() || t_max.is_nan() {
-            return (0, None);
+            return None;
         }
         let o = ray.origin.to_array();
         let d = ray.dir.to_array();
         // `1 / d` is also what the clip computes (±∞ for a zero component).
         let inv = [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]];
-        let Some((t0, t1)) = self.clip(&o, &inv, t_min, t_max) else { return (0, None) };
+        let (t0, t1) = self.clip(&o, &inv, t_min, t_max)?;
         if t1.is_nan() || t1 <= t0 || !t0.is_finite() {
-            return (0, None);
+            return None;
         }
         let entry = ray.at(t0).to_array();
         let mut cell = [0i32; 3];
         let mut step = [0i32; 3];
         let mut t_next = [f32::INFINITY; 3];
+        let mut ahead = [[].iter(), [].iter(), [].iter()];
+        let mut dv = [0u32; 3];
         for a in 0..3 {
             let n = self.dims[a];
             let rel = (entry[a] - self.min[a]) / self.extent[a] * n as f32;
             let c = (rel.floor() as i32).max(0).min(n - 1);
             cell[a] = c;
+            // Planes ahead after the first crossing: c+2..=n going up, c−1..=0 going down
+            // (one per step that stays inside the grid).
             if d[a] > 0.0 {
                 step[a] = 1;
                 t_next[a] = (self.plane(a, c + 1) - o[a]) * inv[a];
+                ahead[a] = self.up[a].get((c + 2) as usize..).unwrap_or(&[]).iter();
+                dv[a] = self.stride[a];
             } else if d[a] < 0.0 {
                 step[a] = -1;
                 t_next[a] = (self.plane(a, c) - o[a]) * inv[a];
+                ahead[a] = self.down[a].get((n - c + 1) as usize..).unwrap_or(&[]).iter();
+                dv[a] = self.stride[a].wrapping_neg();
             }
         }
         let voxel = (cell[0] as u32)
             .wrapping_add(self.stride[1].wrapping_mul(cell[1] as u32))
             .wrapping_add(self.stride[2].wrapping_mul(cell[2] as u32));
-        let start = Start { o, inv, cell, step, t_next, voxel, t0, t_end: t1 };
         // A finite 1/d on every stepped axis keeps every boundary distance free of NaN
-        // (finite plane − finite origin, times a finite factor), which the fast loop needs.
-        if (0..3).all(|a| step[a] == 0 || inv[a].is_finite()) {
-            self.walk_finite(cell_span, &start, visit)
-        } else {
-            self.walk_exact(cell_span, &start, visit)
-        }
+        // (finite plane − finite origin, times a finite factor): the fast loop needs that.
+        let exact = !(0..3).all(|a| step[a] == 0 || inv[a].is_finite());
+        Some(Walk {
+            ahead,
+            o,
+            inv,
+            t_next,
+            dv,
+            voxel,
+            t: t0,
+            t_end: t1,
+            steps_left: self.steps,
+            done: false,
+            exact,
+            cell,
+            step,
+        })
     }
 
-    /// The walk with the three axes in registers. Valid when no boundary distance can be NaN:
-    /// then `Traversal::next`'s `t_cross.is_nan() || t_cross ≥ t_end` is `!(t_cross < t_end)`,
-    /// an axis that does not step keeps `t_next = +∞` and is never stepped (an infinite
-    /// `t_cross` always ends the walk), and the `nx + ny + nz` bound cannot bind (each step
-    /// moves one cell along an axis in a fixed direction, so a walk is at most
-    /// `Σ(n − 1) + 1` voxels) — it is kept anyway.
+    /// The next non-empty voxel of the walk (its `cell_span` entry, not [`NO_SPAN`]) and its
+    /// exit distance, or `None` when the walk is over.
     #[inline(always)]
-    fn walk_finite<B>(
-        &self,
-        cell_span: &[u32],
-        st: &Start,
-        mut visit: impl FnMut(u32, f32) -> ControlFlow<B>,
-    ) -> (u32, Option<B>) {
-        let [mut tx, mut ty, mut tz] = st.t_next;
-        let [mut cx, mut cy, mut cz] = st.cell;
-        let [sx, sy, sz] = st.step;
-        let [nx, ny, nz] = self.dims;
-        let [ox, oy, oz] = st.o;
-        let [ix, iy, iz] = st.inv;
-        let [px, py, pz] = [&self.planes[0][..], &self.planes[1][..], &self.planes[2][..]];
-        // Voxel id deltas of a step on each axis.
-        let dvx = (sx as u32).wrapping_mul(self.stride[0]);
-        let dvy = (sy as u32).wrapping_mul(self.stride[1]);
-        let dvz = (sz as u32).wrapping_mul(self.stride[2]);
-        // Plane index of each axis' next boundary: c + 1 going up, c going down.
-        let next_plane = |c: i32, s: i32| (c + (s > 0) as i32) as usize;
-        let mut voxel = st.voxel;
-        let mut t = st.t0;
-        let t_end = st.t_end;
-        let mut walked = 0u32;
-        while walked < self.steps {
-            walked += 1;
-            let (axis, t_cross) = if tx <= ty && tx <= tz {
-                (0, tx)
-            } else if ty <= tz {
-                (1, ty)
-            } else {
-                (2, tz)
-            };
-            let t_exit = t_cross.min(t_end).max(t);
-            let span = cell_span.get(voxel as usize).copied().unwrap_or(NO_SPAN);
-            if span != NO_SPAN {
-                if let ControlFlow::Break(b) = visit(span, t_exit) {
-                    return (walked, Some(b));
-                }
-            }
-            if !(t_cross < t_end) {
-                break;
-            }
-            match axis {
-                0 => {
-                    cx += sx;
-                    if cx < 0 || cx >= nx {
-                        break;
-                    }
-                    voxel = voxel.wrapping_add(dvx);
-                    tx = (px.get(next_plane(cx, sx)).copied().unwrap_or(self.max[0]) - ox) * ix;
-                }
-                1 => {
-                    cy += sy;
-                    if cy < 0 || cy >= ny {
-                        break;
-                    }
-                    voxel = voxel.wrapping_add(dvy);
-                    ty = (py.get(next_plane(cy, sy)).copied().unwrap_or(self.max[1]) - oy) * iy;
-                }
-                _ => {
-                    cz += sz;
-                    if cz < 0 || cz >= nz {
-                        break;
-                    }
-                    voxel = voxel.wrapping_add(dvz);
-                    tz = (pz.get(next_plane(cz, sz)).copied().unwrap_or(self.max[2]) - oz) * iz;
-                }
-            }
-            t = t_exit;
+    pub(crate) fn next_entry(&self, w: &mut Walk<'_>, cell_span: &[u32]) -> Option<(u32, f32)> {
+        if w.done {
+            None
+        } else if w.exact {
+            self.next_exact(w, cell_span)
+        } else {
+            next_finite(w, cell_span)
         }
-        (walked, None)
     }
 
-    /// The walk exactly as `Traversal::next` writes it (NaN boundary distances included).
+    /// The firmware's loop as written (`Traversal::next`, NaN boundary distances included).
     #[inline(never)]
-    fn walk_exact<B>(
-        &self,
-        cell_span: &[u32],
-        st: &Start,
-        mut visit: impl FnMut(u32, f32) -> ControlFlow<B>,
-    ) -> (u32, Option<B>) {
-        let (o, inv, step) = (st.o, st.inv, st.step);
-        let mut cell = st.cell;
-        let mut t_next = st.t_next;
-        let mut voxel = st.voxel;
-        let mut t = st.t0;
-        let t_end = st.t_end;
-        let mut walked = 0u32;
-        while walked < self.steps {
-            walked += 1;
-            let [tx, ty, tz] = t_next;
+    fn next_exact(&self, w: &mut Walk<'_>, cell_span: &[u32]) -> Option<(u32, f32)> {
+        while w.steps_left > 0 {
+            w.steps_left -= 1;
+            let [tx, ty, tz] = w.t_next;
             // Lowest axis wins ties.
             let axis = if tx <= ty && tx <= tz {
                 0
@@ -267,40 +221,100 @@ impl GridWalk {
             } else {
                 2
             };
-            let t_cross = t_next[axis];
+            let t_cross = w.t_next[axis];
             // min/max ignore NaN, so a NaN boundary ends the voxel at t_end.
-            let t_exit = t_cross.min(t_end).max(t);
-            // Ids are in range: cells stay inside the grid (checked before every step).
-            let span = cell_span.get(voxel as usize).copied().unwrap_or(NO_SPAN);
-            if span != NO_SPAN {
-                if let ControlFlow::Break(b) = visit(span, t_exit) {
-                    return (walked, Some(b));
-                }
-            }
-            if t_cross.is_nan() || t_cross >= t_end {
-                break;
-            }
-            let c = cell[axis] + step[axis];
-            if c < 0 || c >= self.dims[axis] {
-                break;
-            }
-            cell[axis] = c;
-            voxel = if step[axis] > 0 {
-                voxel.wrapping_add(self.stride[axis])
+            let t_exit = t_cross.min(w.t_end).max(w.t);
+            let span = cell_span.get(w.voxel as usize).copied().unwrap_or(NO_SPAN);
+            let c = w.cell[axis] + w.step[axis];
+            if t_cross.is_nan() || t_cross >= w.t_end || c < 0 || c >= self.dims[axis] {
+                w.done = true;
             } else {
-                voxel.wrapping_sub(self.stride[axis])
-            };
-            let k = if step[axis] > 0 { c + 1 } else { c };
-            t_next[axis] = (self.plane(axis, k) - o[axis]) * inv[axis];
-            t = t_exit;
+                w.cell[axis] = c;
+                w.voxel = w.voxel.wrapping_add(w.dv[axis]);
+                // `update_next`: an axis that does not move keeps its distance.
+                if w.step[axis] != 0 {
+                    let k = if w.step[axis] > 0 { c + 1 } else { c };
+                    w.t_next[axis] = (self.plane(axis, k) - w.o[axis]) * w.inv[axis];
+                }
+                w.t = t_exit;
+            }
+            if span != NO_SPAN {
+                return Some((span, t_exit));
+            }
+            if w.done {
+                return None;
+            }
         }
-        (walked, None)
+        w.done = true;
+        None
     }
+}
 
-    /// Boundary plane `k` of axis `a` (`Traversal::plane`).
-    #[inline(always)]
-    fn plane(&self, a: usize, k: i32) -> f32 {
-        // k is in 0..=n: cells are clamped into the grid before a plane is looked up.
-        self.planes[a].get(k.max(0) as usize).copied().unwrap_or(self.max[a])
+/// The walk with the three axes in locals. Valid when no boundary distance can be NaN: then
+/// `Traversal::next`'s `t_cross.is_nan() || t_cross ≥ t_end` is `!(t_cross < t_end)`, and an
+/// axis that does not move keeps `t_next = +∞` and is never stepped (an infinite `t_cross`
+/// always ends the walk). The `nx + ny + nz` bound cannot bind (a step moves one cell along
+/// an axis in a fixed direction, so a walk is at most `Σ(n − 1) + 1` voxels); it is kept.
+#[inline(never)]
+fn next_finite(w: &mut Walk<'_>, cell_span: &[u32]) -> Option<(u32, f32)> {
+    let [mut ax, mut ay, mut az] = w.ahead.clone();
+    let [mut tx, mut ty, mut tz] = w.t_next;
+    let [ox, oy, oz] = w.o;
+    let [ix, iy, iz] = w.inv;
+    let [dvx, dvy, dvz] = w.dv;
+    let (mut voxel, mut t, t_end, mut steps_left) = (w.voxel, w.t, w.t_end, w.steps_left);
+    let mut found = None;
+    let mut done = false;
+    while steps_left > 0 {
+        steps_left -= 1;
+        // Lowest axis wins ties.
+        let (axis, t_cross) = if tx <= ty && tx <= tz {
+            (0, tx)
+        } else if ty <= tz {
+            (1, ty)
+        } else {
+            (2, tz)
+        };
+        let t_exit = t_cross.min(t_end).max(t);
+        let span = cell_span.get(voxel as usize).copied().unwrap_or(NO_SPAN);
+        let plane = if t_cross < t_end {
+            match axis {
+                0 => ax.next(),
+                1 => ay.next(),
+                _ => az.next(),
+            }
+        } else {
+            None
+        };
+        match (axis, plane) {
+            (_, None) => done = true,
+            (0, Some(&p)) => {
+                tx = (p - ox) * ix;
+                voxel = voxel.wrapping_add(dvx);
+            }
+            (1, Some(&p)) => {
+                ty = (p - oy) * iy;
+                voxel = voxel.wrapping_add(dvy);
+            }
+            (_, Some(&p)) => {
+                tz = (p - oz) * iz;
+                voxel = voxel.wrapping_add(dvz);
+            }
+        }
+        t = t_exit;
+        if span != NO_SPAN {
+            found = Some((span, t_exit));
+            break;
+        }
+        if done {
+            break;
+        }
     }
+    w.ahead = [ax, ay, az];
+    w.t_next = [tx, ty, tz];
+    w.voxel = voxel;
+    w.t = t;
+    w.steps_left = steps_left;
+    w.done = done || steps_left == 0;
+    found
 }

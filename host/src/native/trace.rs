@@ -72,6 +72,19 @@ fn inflate(x: f32) -> f32 {
     }
 }
 
+/// One query's state while the DDA walks.
+struct Query<'r> {
+    ray: &'r Ray,
+    kind: RayKind,
+    t_max: f32,
+    /// Set at the first entry: the kernel's and the filter's ray setup.
+    prepared: Option<(Option<<Watertight as Kernel>::RayData>, LaneRay)>,
+    /// Tests the PEs perform, over the entries so far.
+    tests: u64,
+    /// List position of the current entry.
+    k: usize,
+}
+
 /// The accepted hit of an entry and what it names.
 #[derive(Debug, Clone, Copy)]
 enum Winner {
@@ -203,35 +216,18 @@ impl NativeScene {
 
     #[inline(always)]
     fn trace_with<S: EntrySearch>(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
-        // The kernel's per-ray setup and the filter's, at the first entry (most rays have none).
-        let mut prepared = None;
-        let mut tests = 0u64;
-        let mut k = 0usize;
-        let mut any_entry = false;
-        let (_, found) = self.walk.walk(&self.cell_span, ray, 0.0, t_max, |span, t_exit| {
-            any_entry = true;
-            // Always in range: spans are built with the table.
-            let Some(span) = self.spans.get(span as usize) else { return ControlFlow::Continue(()) };
-            let hi = t_exit * (1.0 + T_EXIT_REL_TOL);
-            let (pre, lane_ray) = prepared.get_or_insert_with(|| {
-                // f32 preparation cannot fail (no fixed-point frame).
-                (Watertight::prepare(ray, &FixedFrame::IDENTITY).ok(), LaneRay::new(ray))
-            });
-            let Some(pre) = pre else { return ControlFlow::Continue(()) };
-            let (w, n) = if span.ordered_len > 0 {
-                self.entry_ordered(pre, ray, kind, span, t_max, hi)
-            } else {
-                S::entry(self, pre, lane_ray, kind, span, t_max, hi)
-            };
-            tests += n as u64;
-            match w {
-                Some(w) => ControlFlow::Break((k, span.pe, w)),
-                None => {
-                    k += 1;
-                    ControlFlow::Continue(())
+        let mut q = Query { ray, kind, t_max, prepared: None, tests: 0, k: 0 };
+        let mut found = None;
+        if let Some(mut walk) = self.walk.start(ray, 0.0, t_max) {
+            while let Some((span, t_exit)) = self.walk.next_entry(&mut walk, &self.cell_span) {
+                if let ControlFlow::Break(b) = self.visit_entry::<S>(&mut q, span, t_exit) {
+                    found = Some(b);
+                    break;
                 }
             }
-        });
+        }
+        let Query { prepared, tests, .. } = q;
+        let any_entry = prepared.is_some();
         if !any_entry {
             return Trace::Culled;
         }
@@ -269,6 +265,42 @@ impl NativeScene {
             }
         };
         Trace::Result(r)
+    }
+
+    /// One list entry (out of line: the DDA loop around it stays in registers).
+    #[inline(never)]
+    fn visit_entry<S: EntrySearch>(
+        &self,
+        q: &mut Query<'_>,
+        span: u32,
+        t_exit: f32,
+    ) -> ControlFlow<(usize, u8, Winner)> {
+        // The kernel's per-ray setup and the filter's, at the first entry (most rays have none).
+        let ray = q.ray;
+        let (pre, lane_ray) =
+            q.prepared.get_or_insert_with(|| (Watertight::prepare(ray, &FixedFrame::IDENTITY).ok(), LaneRay::new(ray)));
+        // Always in range: spans are built with the table.
+        let Some(span) = self.spans.get(span as usize) else { return ControlFlow::Continue(()) };
+        let Some(pre) = pre else {
+            // The model's answer to a ray the kernel cannot prepare (fixed point only; f32
+            // always prepares): every entry's tests counted, no hit.
+            q.tests += span.refs as u64;
+            return ControlFlow::Continue(());
+        };
+        let hi = t_exit * (1.0 + T_EXIT_REL_TOL);
+        let (w, n) = if span.ordered_len > 0 {
+            self.entry_ordered(pre, ray, q.kind, span, q.t_max, hi)
+        } else {
+            S::entry(self, pre, lane_ray, q.kind, span, q.t_max, hi)
+        };
+        q.tests += n as u64;
+        match w {
+            Some(w) => ControlFlow::Break((q.k, span.pe, w)),
+            None => {
+                q.k += 1;
+                ControlFlow::Continue(())
+            }
+        }
     }
 
     /// One entry of triangles only: the filter on each group, the kernel on the survivors in
