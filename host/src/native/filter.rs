@@ -178,6 +178,72 @@ mod tests {
 
     /// Both filters give the same mask on random groups, including vertices shared between
     /// lanes and rays through them (edge functions exactly zero).
+    /// The filter's defining property: a lane it rejects is one the co-processor's kernel
+    /// misses. Rays aimed at points of edges shared by two triangles (where the edge functions
+    /// are near zero and a rounding difference would flip a sign), at vertices, and inside.
+    #[test]
+    fn filter_rejects_only_what_the_kernel_misses() {
+        use gridrt_coproc::isect::watertight::Watertight;
+        use gridrt_coproc::{FixedFrame, Kernel};
+        let mut rng = ChaCha8Rng::seed_from_u64(0xED6E);
+        let (mut hits, mut near_edge) = (0, 0);
+        for _ in 0..40_000 {
+            let mut g = Group::default();
+            let p = |rng: &mut ChaCha8Rng| {
+                Vec3::new(rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0))
+            };
+            // Lanes 0/1 share the edge a–b; the others are random.
+            let (a, b, c, d) = (p(&mut rng), p(&mut rng), p(&mut rng), p(&mut rng));
+            let mut tris = vec![[a, b, c], [b, a, d]];
+            while tris.len() < LANES {
+                tris.push([p(&mut rng), p(&mut rng), p(&mut rng)]);
+            }
+            for (lane, t) in tris.iter().enumerate() {
+                for (v, pt) in t.iter().enumerate() {
+                    for axis in 0..3 {
+                        g.c[3 * v + axis][lane] = pt[axis];
+                    }
+                }
+            }
+            let s: f32 = rng.gen_range(0.0..1.0);
+            let target = match rng.gen_range(0..3) {
+                0 => a + (b - a) * s,
+                1 => a,
+                _ => (a + b + c) * (1.0 / 3.0),
+            };
+            let origin = p(&mut rng) * 3.0;
+            let ray = Ray { origin, dir: target - origin };
+            if !ray.is_valid() {
+                continue;
+            }
+            let r = LaneRay::new(&ray);
+            let pre = Watertight::prepare(&ray, &FixedFrame::IDENTITY).unwrap();
+            let mut masks = vec![Portable::survivors(&g, &r)];
+            #[cfg(target_arch = "x86_64")]
+            if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+                #[target_feature(enable = "avx2,fma")]
+                unsafe fn avx2(g: &Group, r: &LaneRay) -> u32 {
+                    Avx2::survivors(g, r)
+                }
+                // SAFETY: the features were detected just above.
+                masks.push(unsafe { avx2(&g, &r) });
+            }
+            for (lane, t) in tris.iter().enumerate() {
+                let words: Vec<u32> = t.iter().flat_map(|v| v.to_array()).map(f32::to_bits).collect();
+                let hit = Watertight::intersect(&pre, &words, f32::INFINITY).unwrap();
+                hits += hit.is_some() as u32;
+                near_edge += (lane < 2 && hit.is_some()) as u32;
+                for m in &masks {
+                    assert!(
+                        hit.is_none() || m & (1 << lane) != 0,
+                        "lane {lane} rejected but hit at {hit:?}: {ray:?} {t:?}"
+                    );
+                }
+            }
+        }
+        assert!(hits > 10_000 && near_edge > 10_000, "{hits} hits, {near_edge} at the shared edge");
+    }
+
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn avx2_filter_equals_portable_filter() {
