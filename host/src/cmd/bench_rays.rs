@@ -101,30 +101,43 @@ struct EmbreeReport {
     ratio: f64,
 }
 
-/// Best and median of timed runs of `pass`, after `warmup` untimed ones; every run must
-/// give the same totals.
-fn time_runs<T: PartialEq + Copy>(
+/// A timed pass over the frame; returns its totals (equal in every run).
+type Pass<'a> = Box<dyn FnMut() -> anyhow::Result<Hits> + 'a>;
+
+/// Best and median time of each pass and its totals. The passes run interleaved — warm-up
+/// rounds, then `runs` rounds of each pass in turn — so that load from elsewhere on the
+/// machine touches all of them alike.
+fn time_interleaved(
     warmup: u32,
     runs: u32,
-    mut pass: impl FnMut() -> anyhow::Result<T>,
-) -> anyhow::Result<(f64, f64, T)> {
+    passes: &mut [&mut dyn FnMut() -> anyhow::Result<Hits>],
+) -> anyhow::Result<Vec<(f64, f64, Hits)>> {
     for _ in 0..warmup {
-        pass()?;
-    }
-    let mut times = Vec::new();
-    let mut last: Option<T> = None;
-    for _ in 0..runs.max(1) {
-        let start = Instant::now();
-        let o = std::hint::black_box(pass()?);
-        times.push(start.elapsed().as_secs_f64());
-        if last.is_some_and(|p| p != o) {
-            bail!("runs disagree: the path is not deterministic");
+        for p in passes.iter_mut() {
+            p()?;
         }
-        last = Some(o);
     }
-    times.sort_by(f64::total_cmp);
-    let o = last.ok_or_else(|| anyhow!("no run"))?;
-    Ok((times[0], times[times.len() / 2], o))
+    let mut times = vec![Vec::new(); passes.len()];
+    let mut last: Vec<Option<Hits>> = vec![None; passes.len()];
+    for _ in 0..runs.max(1) {
+        for (i, p) in passes.iter_mut().enumerate() {
+            let start = Instant::now();
+            let o = std::hint::black_box(p()?);
+            times[i].push(start.elapsed().as_secs_f64());
+            if last[i].is_some_and(|l| l != o) {
+                bail!("runs disagree: the path is not deterministic");
+            }
+            last[i] = Some(o);
+        }
+    }
+    times
+        .into_iter()
+        .zip(last)
+        .map(|(mut t, o)| {
+            t.sort_by(f64::total_cmp);
+            Ok((t[0], t[t.len() / 2], o.ok_or_else(|| anyhow!("no run"))?))
+        })
+        .collect()
 }
 
 impl Args {
@@ -224,10 +237,11 @@ impl Args {
             }
             Ok(Some(rayon::ThreadPoolBuilder::new().num_threads(threads as usize).build()?))
         };
-        let measure = |threads: u32| -> anyhow::Result<(f64, f64, Hits)> {
+        let pass = |threads: u32| -> anyhow::Result<Pass<'_>> {
             let pool = pool(threads)?;
-            time_runs(self.warmup, self.runs, || match (&native, &pool) {
-                (Some(n), p) => Ok(n.count_frame(&camera, w, h, p.as_ref())),
+            let (native, camera, model_rows) = (&native, &camera, &model_rows);
+            Ok(Box::new(move || match (native, &pool) {
+                (Some(n), p) => Ok(n.count_frame(camera, w, h, p.as_ref())),
                 (None, None) => model_rows(0..h),
                 (None, Some(p)) => p.install(|| {
                     use rayon::prelude::*;
@@ -236,15 +250,28 @@ impl Args {
                         .map(|y| model_rows(y..y + 1))
                         .try_reduce(Hits::default, |a, b| Ok(a.merge(b)))
                 }),
-            })
+            }))
         };
-        let (best, median, o) = measure(self.threads)?;
-        let single = if self.threads > 1 { measure(1)?.0 } else { best };
-
+        let mut passes = vec![pass(self.threads)?];
+        if self.threads > 1 {
+            passes.push(pass(1)?);
+        }
+        let (timed, embree) = if self.vs_embree {
+            let (timed, e) = self.embree(native.as_ref(), &grid, &camera, passes)?;
+            (timed, Some(e))
+        } else {
+            let mut refs: Vec<&mut dyn FnMut() -> anyhow::Result<Hits>> =
+                passes.iter_mut().map(|p| &mut **p as &mut dyn FnMut() -> anyhow::Result<Hits>).collect();
+            (time_interleaved(self.warmup, self.runs, &mut refs)?, None)
+        };
+        let (best, median, o) = timed[0];
+        let single = timed.get(1).map_or(best, |t| t.0);
         let rays = w as u64 * h as u64;
         let rate = |s: f64| rays as f64 / s / 1e6;
-        let embree =
-            if self.vs_embree { Some(self.embree(native.as_ref(), &grid, &camera, rate(single))?) } else { None };
+        let embree = embree.map(|mut e| {
+            e.ratio = rate(single) / e.mrays_per_s;
+            e
+        });
 
         let report = RaysReport {
             base: BenchReport {
@@ -324,14 +351,16 @@ impl Args {
         }
     }
 
+    /// Times `passes` and Embree on the same camera rays, interleaved; Embree's report has
+    /// its ratio filled in by the caller.
     #[cfg(feature = "embree")]
     fn embree(
         &self,
         native: Option<&NativeScene>,
         grid: &gridrt_host::grid::Grid,
         camera: &Camera,
-        ours_single: f64,
-    ) -> anyhow::Result<EmbreeReport> {
+        mut passes: Vec<Pass<'_>>,
+    ) -> anyhow::Result<(Vec<(f64, f64, Hits)>, EmbreeReport)> {
         use gridrt_host::native::embree::with_scene;
         let owned;
         let native = match native {
@@ -350,11 +379,16 @@ impl Args {
             v
         };
         let (timed, theirs, version) = with_scene(&native.triangles(), |emb| {
-            let timed = time_runs(self.warmup, self.runs, || Ok(emb.count_frame(camera, w, h)));
+            let mut theirs = || Ok(Hits { hits: emb.count_frame(camera, w, h), ..Hits::default() });
+            let mut refs: Vec<&mut dyn FnMut() -> anyhow::Result<Hits>> =
+                passes.iter_mut().map(|p| &mut **p as &mut dyn FnMut() -> anyhow::Result<Hits>).collect();
+            refs.push(&mut theirs);
+            let timed = time_interleaved(self.warmup, self.runs, &mut refs);
             (timed, emb.trace_frame(camera, w, h), emb.version())
         })
         .context("building the Embree scene")?;
-        let (best, median, hits) = timed?;
+        let mut timed = timed?;
+        let (best, median, e) = timed.pop().ok_or_else(|| anyhow!("no Embree run"))?;
         let mut hit_agreement = 0;
         let mut same_prim = 0;
         for (a, b) in ours.iter().zip(&theirs) {
@@ -366,17 +400,17 @@ impl Args {
                 same_prim += (r.hit && r.prim == *p) as u64;
             }
         }
-        let rate = w as f64 * h as f64 / best / 1e6;
-        Ok(EmbreeReport {
+        let report = EmbreeReport {
             version,
             best_ms: best * 1e3,
             median_ms: median * 1e3,
-            mrays_per_s: rate,
-            hits,
+            mrays_per_s: w as f64 * h as f64 / best / 1e6,
+            hits: e.hits,
             hit_agreement,
             same_prim,
-            ratio: ours_single / rate,
-        })
+            ratio: 0.0,
+        };
+        Ok((timed, report))
     }
 
     #[cfg(not(feature = "embree"))]
@@ -385,8 +419,8 @@ impl Args {
         _: Option<&NativeScene>,
         _: &gridrt_host::grid::Grid,
         _: &Camera,
-        _: f64,
-    ) -> anyhow::Result<EmbreeReport> {
+        _: Vec<Pass<'_>>,
+    ) -> anyhow::Result<(Vec<(f64, f64, Hits)>, EmbreeReport)> {
         bail!(
             "--vs-embree needs a gridrt built with `--features embree` (Embree 3; Debian: apt-get install libembree-dev)"
         )

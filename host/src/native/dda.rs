@@ -155,7 +155,7 @@ impl GridWalk {
         for a in 0..3 {
             let n = self.dims[a];
             let rel = (entry[a] - self.min[a]) / self.extent[a] * n as f32;
-            let c = (rel.floor() as i32).max(0).min(n - 1);
+            let c = floor_i32(rel).max(0).min(n - 1);
             cell[a] = c;
             // Planes ahead after the first crossing: c+2..=n going up, c−1..=0 going down
             // (one per step that stays inside the grid).
@@ -247,6 +247,18 @@ impl GridWalk {
         }
         w.done = true;
         None
+    }
+}
+
+/// `x.floor() as i32` (saturating, NaN → 0) without a library call: the truncation is
+/// exact, and one less where it rounded up (|x| < 2^31 has no fraction to lose beyond that).
+#[inline(always)]
+fn floor_i32(x: f32) -> i32 {
+    let t = x as i32;
+    if (t as f32) > x {
+        t.saturating_sub(1)
+    } else {
+        t
     }
 }
 
@@ -349,6 +361,38 @@ mod tests {
     /// rays, and rays built to tie (through grid edges and corners of a grid with exact
     /// planes, diagonal directions), axis-aligned, lying in grid planes, with tiny or zero
     /// direction components (the exact loop), bounded ranges.
+    #[test]
+    fn floor_i32_is_floor_then_saturating_cast() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0xF1);
+        let special = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            8388607.5,
+            -8388607.5,
+            16777217.0,
+            2147483520.0,
+            2147483648.0,
+            -2147483648.0,
+            -2147483904.0,
+            3e9,
+            -3e9,
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::from_bits(1),
+            -f32::from_bits(1),
+        ];
+        for x in special.into_iter().chain((0..100_000).map(|_| f32::from_bits(rng.gen()))) {
+            assert_eq!(floor_i32(x), x.floor() as i32, "{x:e}");
+        }
+    }
+
     #[test]
     fn walk_equals_firmware_traversal_voxel_for_voxel() {
         let mut rng = ChaCha8Rng::seed_from_u64(0xDDA0);

@@ -73,8 +73,9 @@ fn inflate(x: f32) -> f32 {
 }
 
 /// One query's state while the DDA walks.
-struct Query<'r> {
-    ray: &'r Ray,
+struct Query {
+    /// A copy: a reference would keep the ray in memory for the walk's setup too.
+    ray: Ray,
     kind: RayKind,
     t_max: f32,
     /// Set at the first entry: the kernel's and the filter's ray setup.
@@ -166,9 +167,9 @@ impl NativeScene {
     pub fn trace(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            return self.trace_with::<Avx2Search>(kind, ray, t_max);
+            return self.trace_with::<Avx2Search>(kind, *ray, t_max);
         }
-        self.trace_with::<PortableSearch>(kind, ray, t_max)
+        self.trace_with::<PortableSearch>(kind, *ray, t_max)
     }
 
     /// Traces a row of primary rays `camera.primary_ray(x, y)` for `x` in `xs`, appending
@@ -192,7 +193,7 @@ impl NativeScene {
         let mut hits = Hits::default();
         for y in rows {
             for x in 0..width {
-                hits.add(&self.trace_with::<S>(RayKind::Closest, &camera.primary_ray(x, y), f32::INFINITY));
+                hits.add(&self.trace_with::<S>(RayKind::Closest, camera.primary_ray(x, y), f32::INFINITY));
             }
         }
         hits
@@ -215,10 +216,11 @@ impl NativeScene {
     }
 
     #[inline(always)]
-    fn trace_with<S: EntrySearch>(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
-        let mut q = Query { ray, kind, t_max, prepared: None, tests: 0, k: 0 };
+    fn trace_with<S: EntrySearch>(&self, kind: RayKind, ray: Ray, t_max: f32) -> Trace {
         let mut found = None;
-        if let Some(mut walk) = self.walk.start(ray, 0.0, t_max) {
+        let walk = self.walk.start(&ray, 0.0, t_max);
+        let mut q = Query { ray, kind, t_max, prepared: None, tests: 0, k: 0 };
+        if let Some(mut walk) = walk {
             while let Some((span, t_exit)) = self.walk.next_entry(&mut walk, &self.cell_span) {
                 if let ControlFlow::Break(b) = self.visit_entry::<S>(&mut q, span, t_exit) {
                     found = Some(b);
@@ -259,7 +261,7 @@ impl NativeScene {
                     prim: words[1],
                     material: words[2] as u16,
                     tests,
-                    normal: gridrt_coproc::isect::analytic::normal(words, ray, t),
+                    normal: gridrt_coproc::isect::analytic::normal(words, &ray, t),
                     cycles: 0,
                 }
             }
@@ -269,14 +271,9 @@ impl NativeScene {
 
     /// One list entry (out of line: the DDA loop around it stays in registers).
     #[inline(never)]
-    fn visit_entry<S: EntrySearch>(
-        &self,
-        q: &mut Query<'_>,
-        span: u32,
-        t_exit: f32,
-    ) -> ControlFlow<(usize, u8, Winner)> {
+    fn visit_entry<S: EntrySearch>(&self, q: &mut Query, span: u32, t_exit: f32) -> ControlFlow<(usize, u8, Winner)> {
         // The kernel's per-ray setup and the filter's, at the first entry (most rays have none).
-        let ray = q.ray;
+        let ray = &q.ray;
         let (pre, lane_ray) =
             q.prepared.get_or_insert_with(|| (Watertight::prepare(ray, &FixedFrame::IDENTITY).ok(), LaneRay::new(ray)));
         // Always in range: spans are built with the table.
