@@ -101,6 +101,14 @@ struct EmbreeReport {
     ratio: f64,
 }
 
+/// Best and median seconds of a pass and its totals.
+#[derive(Debug, Clone, Copy)]
+struct Timed {
+    best: f64,
+    median: f64,
+    totals: Hits,
+}
+
 /// A timed pass over the frame; returns its totals (equal in every run).
 type Pass<'a> = Box<dyn FnMut() -> anyhow::Result<Hits> + 'a>;
 
@@ -111,7 +119,7 @@ fn time_interleaved(
     warmup: u32,
     runs: u32,
     passes: &mut [&mut dyn FnMut() -> anyhow::Result<Hits>],
-) -> anyhow::Result<Vec<(f64, f64, Hits)>> {
+) -> anyhow::Result<Vec<Timed>> {
     for _ in 0..warmup {
         for p in passes.iter_mut() {
             p()?;
@@ -135,7 +143,7 @@ fn time_interleaved(
         .zip(last)
         .map(|(mut t, o)| {
             t.sort_by(f64::total_cmp);
-            Ok((t[0], t[t.len() / 2], o.ok_or_else(|| anyhow!("no run"))?))
+            Ok(Timed { best: t[0], median: t[t.len() / 2], totals: o.ok_or_else(|| anyhow!("no run"))? })
         })
         .collect()
 }
@@ -264,8 +272,8 @@ impl Args {
                 passes.iter_mut().map(|p| &mut **p as &mut dyn FnMut() -> anyhow::Result<Hits>).collect();
             (time_interleaved(self.warmup, self.runs, &mut refs)?, None)
         };
-        let (best, median, o) = timed[0];
-        let single = timed.get(1).map_or(best, |t| t.0);
+        let Timed { best, median, totals: o } = timed[0];
+        let single = timed.get(1).map_or(best, |t| t.best);
         let rays = w as u64 * h as u64;
         let rate = |s: f64| rays as f64 / s / 1e6;
         let embree = embree.map(|mut e| {
@@ -360,7 +368,7 @@ impl Args {
         grid: &gridrt_host::grid::Grid,
         camera: &Camera,
         mut passes: Vec<Pass<'_>>,
-    ) -> anyhow::Result<(Vec<(f64, f64, Hits)>, EmbreeReport)> {
+    ) -> anyhow::Result<(Vec<Timed>, EmbreeReport)> {
         use gridrt_host::native::embree::with_scene;
         let owned;
         let native = match native {
@@ -388,7 +396,7 @@ impl Args {
         })
         .context("building the Embree scene")?;
         let mut timed = timed?;
-        let (best, median, e) = timed.pop().ok_or_else(|| anyhow!("no Embree run"))?;
+        let Timed { best, median, totals: e } = timed.pop().ok_or_else(|| anyhow!("no Embree run"))?;
         let mut hit_agreement = 0;
         let mut same_prim = 0;
         for (a, b) in ours.iter().zip(&theirs) {
@@ -420,7 +428,7 @@ impl Args {
         _: &gridrt_host::grid::Grid,
         _: &Camera,
         _: Vec<Pass<'_>>,
-    ) -> anyhow::Result<(Vec<(f64, f64, Hits)>, EmbreeReport)> {
+    ) -> anyhow::Result<(Vec<Timed>, EmbreeReport)> {
         bail!(
             "--vs-embree needs a gridrt built with `--features embree` (Embree 3; Debian: apt-get install libembree-dev)"
         )
