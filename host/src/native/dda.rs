@@ -18,7 +18,7 @@
 //!   voxels.
 
 use gridrt_firmware::dda::GridDesc;
-use gridrt_shared::math::{gamma, Ray};
+use gridrt_shared::math::gamma;
 
 /// `cell_span` value of a voxel the firmware never lists (empty, or no owner).
 pub(crate) const NO_SPAN: u32 = u32::MAX;
@@ -131,22 +131,23 @@ impl GridWalk {
         self.up[a].get(k.max(0) as usize).copied().unwrap_or(self.max[a])
     }
 
-    /// Starts the walk of `ray` over `[t_min, t_max]` (`Traversal::new`); `None` when it
-    /// visits nothing (invalid ray or grid, clip empty or of zero length).
+    /// Starts the walk of the ray `o + t·d` over `[t_min, t_max]` (`Traversal::new`);
+    /// `None` when it visits nothing (invalid ray or grid, clip empty or of zero length).
     #[inline(always)]
-    pub(crate) fn start(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Walk<'_>> {
-        if !self.valid || !ray.is_valid() || t_min.is_nan() || t_max.is_nan() {
+    pub(crate) fn start_at(&self, o: [f32; 3], d: [f32; 3], t_min: f32, t_max: f32) -> Option<Walk<'_>> {
+        // `Ray::is_valid`: finite origin and direction, direction not zero.
+        let valid_ray = o.iter().chain(&d).all(|c| c.is_finite()) && d != [0.0; 3];
+        if !self.valid || !valid_ray || t_min.is_nan() || t_max.is_nan() {
             return None;
         }
-        let o = ray.origin.to_array();
-        let d = ray.dir.to_array();
         // `1 / d` is also what the clip computes (±∞ for a zero component).
         let inv = [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]];
         let (t0, t1) = self.clip(&o, &inv, t_min, t_max)?;
         if t1.is_nan() || t1 <= t0 || !t0.is_finite() {
             return None;
         }
-        let entry = ray.at(t0).to_array();
+        // `Ray::at`: o + d·t0.
+        let entry = [o[0] + d[0] * t0, o[1] + d[1] * t0, o[2] + d[2] * t0];
         let mut cell = [0i32; 3];
         let mut step = [0i32; 3];
         let mut t_next = [f32::INFINITY; 3];
@@ -335,6 +336,7 @@ fn next_finite(w: &mut Walk<'_>, cell_span: &[u32]) -> Option<(u32, f32)> {
 mod tests {
     use super::*;
     use gridrt_firmware::dda::Traversal;
+    use gridrt_shared::math::Ray;
     use gridrt_shared::math::Vec3;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -349,7 +351,7 @@ mod tests {
 
     fn ours(walk: &GridWalk, occupied: &[u32], ray: &Ray, t_min: f32, t_max: f32) -> Vec<(u32, u32)> {
         let mut out = Vec::new();
-        if let Some(mut w) = walk.start(ray, t_min, t_max) {
+        if let Some(mut w) = walk.start_at(ray.origin.to_array(), ray.dir.to_array(), t_min, t_max) {
             while let Some((span, t_exit)) = walk.next_entry(&mut w, occupied) {
                 out.push((span, t_exit.to_bits()));
             }

@@ -73,9 +73,10 @@ fn inflate(x: f32) -> f32 {
 }
 
 /// One query's state while the DDA walks.
-struct Query {
-    /// A copy: a reference would keep the ray in memory for the walk's setup too.
-    ray: Ray,
+struct Query<'r> {
+    /// The ray in memory that was written well before (a row buffer): reading it back does
+    /// not stall on the stores that made it.
+    ray: &'r Ray,
     kind: RayKind,
     t_max: f32,
     /// Set at the first entry: the kernel's and the filter's ray setup.
@@ -167,9 +168,9 @@ impl NativeScene {
     pub fn trace(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            return self.trace_with::<Avx2Search>(kind, *ray, t_max);
+            return self.trace_with::<Avx2Search>(kind, ray, t_max);
         }
-        self.trace_with::<PortableSearch>(kind, *ray, t_max)
+        self.trace_with::<PortableSearch>(kind, ray, t_max)
     }
 
     /// Traces a row of primary rays `camera.primary_ray(x, y)` for `x` in `xs`, appending
@@ -191,9 +192,14 @@ impl NativeScene {
 
     fn count_rows_with<S: EntrySearch>(&self, camera: &Camera, width: u32, rows: core::ops::Range<u32>) -> Hits {
         let mut hits = Hits::default();
+        // A row's rays first, then the traces: read back long after they were written, the
+        // rays' words come from cache instead of stalling on the stores that made them.
+        let mut rays = Vec::with_capacity(width as usize);
         for y in rows {
-            for x in 0..width {
-                hits.add(&self.trace_with::<S>(RayKind::Closest, camera.primary_ray(x, y), f32::INFINITY));
+            rays.clear();
+            rays.extend((0..width).map(|x| camera.primary_ray(x, y)));
+            for ray in &rays {
+                hits.add(&self.trace_with::<S>(RayKind::Closest, ray, f32::INFINITY));
             }
         }
         hits
@@ -216,9 +222,9 @@ impl NativeScene {
     }
 
     #[inline(always)]
-    fn trace_with<S: EntrySearch>(&self, kind: RayKind, ray: Ray, t_max: f32) -> Trace {
+    fn trace_with<S: EntrySearch>(&self, kind: RayKind, ray: &Ray, t_max: f32) -> Trace {
         let mut found = None;
-        let walk = self.walk.start(&ray, 0.0, t_max);
+        let walk = self.walk.start_at(ray.origin.to_array(), ray.dir.to_array(), 0.0, t_max);
         let mut q = Query { ray, kind, t_max, prepared: None, tests: 0, k: 0 };
         if let Some(mut walk) = walk {
             while let Some((span, t_exit)) = self.walk.next_entry(&mut walk, &self.cell_span) {
@@ -261,7 +267,7 @@ impl NativeScene {
                     prim: words[1],
                     material: words[2] as u16,
                     tests,
-                    normal: gridrt_coproc::isect::analytic::normal(words, &ray, t),
+                    normal: gridrt_coproc::isect::analytic::normal(words, ray, t),
                     cycles: 0,
                 }
             }
@@ -271,9 +277,14 @@ impl NativeScene {
 
     /// One list entry (out of line: the DDA loop around it stays in registers).
     #[inline(never)]
-    fn visit_entry<S: EntrySearch>(&self, q: &mut Query, span: u32, t_exit: f32) -> ControlFlow<(usize, u8, Winner)> {
+    fn visit_entry<S: EntrySearch>(
+        &self,
+        q: &mut Query<'_>,
+        span: u32,
+        t_exit: f32,
+    ) -> ControlFlow<(usize, u8, Winner)> {
         // The kernel's per-ray setup and the filter's, at the first entry (most rays have none).
-        let ray = &q.ray;
+        let ray = q.ray;
         let (pre, lane_ray) =
             q.prepared.get_or_insert_with(|| (Watertight::prepare(ray, &FixedFrame::IDENTITY).ok(), LaneRay::new(ray)));
         // Always in range: spans are built with the table.
