@@ -15,12 +15,23 @@ use gridrt_shared::math::{max_dimension, Ray};
 /// Triangles per group.
 pub(crate) const LANES: usize = 8;
 
-/// Eight triangles' vertices, structure of arrays: `c[3·v + axis][lane]` is coordinate `axis`
-/// of vertex `v` (the order of the scene image's 9 vertex words).
+/// Eight triangles, structure of arrays: `c[3·v + axis][lane]` is coordinate `axis` of vertex
+/// `v` (the order of the scene image's 9 vertex words), with each lane's prim id and triangle
+/// slot beside them, so that a survivor's test reads only this group's cache lines.
 #[derive(Debug, Clone, Copy, Default)]
 #[repr(C, align(32))]
 pub(crate) struct Group {
     pub(crate) c: [[f32; LANES]; 9],
+    pub(crate) prim: [u32; LANES],
+    pub(crate) slot: [u32; LANES],
+}
+
+impl Group {
+    /// The 9 vertex words of `lane` (the kernel's record).
+    #[inline(always)]
+    pub(crate) fn words(&self, lane: usize) -> [u32; 9] {
+        core::array::from_fn(|k| self.c[k][lane].to_bits())
+    }
 }
 
 /// What the filter needs of a ray: the kernel's axis permutation, the origin in permuted

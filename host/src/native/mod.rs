@@ -115,8 +115,6 @@ pub struct NativeScene {
     pub(crate) cell_span: Vec<u32>,
     pub(crate) spans: Vec<Span>,
     pub(crate) groups: Vec<Group>,
-    /// Per group lane: index into `slots`.
-    pub(crate) group_slots: Vec<[u32; LANES]>,
     pub(crate) slots: Vec<Slot>,
     pub(crate) ordered: Vec<OrderedRef>,
     pub(crate) prims: Vec<[u32; PRIM_WORDS]>,
@@ -182,7 +180,6 @@ impl NativeScene {
         let mut cell_span = vec![NO_SPAN; voxel_count];
         let mut spans = Vec::new();
         let mut groups = Vec::new();
-        let mut group_slots = Vec::new();
         let mut ordered = Vec::new();
         for (voxel, &pe) in owners.iter().enumerate() {
             if pe == EMPTY_VOXEL {
@@ -216,22 +213,22 @@ impl NativeScene {
                 span.lanes = count as u32;
                 for chunk in refs.chunks(LANES) {
                     let mut g = Group::default();
-                    let mut gs = [0u32; LANES];
                     for (lane, &r) in chunk.iter().enumerate() {
                         let slot = sb + r;
-                        gs[lane] = slot;
+                        let s: &Slot = &slots[slot as usize];
+                        g.slot[lane] = slot;
+                        g.prim[lane] = s.prim;
                         for k in 0..9 {
-                            g.c[k][lane] = f32::from_bits(slots[slot as usize].words[k]);
+                            g.c[k][lane] = f32::from_bits(s.words[k]);
                         }
                     }
                     groups.push(g);
-                    group_slots.push(gs);
                 }
             }
             cell_span[voxel as usize] = spans.len() as u32;
             spans.push(span);
         }
-        Ok(Self { walk, cell_span, spans, groups, group_slots, slots, ordered, prims, avx2: simd_available() })
+        Ok(Self { walk, cell_span, spans, groups, slots, ordered, prims, avx2: simd_available() })
     }
 
     /// Builds the scene of a host grid (its box, resolution, voxel map and PE images).
@@ -254,7 +251,7 @@ impl NativeScene {
         use core::mem::size_of;
         self.cell_span.len() * 4
             + self.spans.len() * size_of::<Span>()
-            + self.groups.len() * (size_of::<Group>() + size_of::<[u32; LANES]>())
+            + self.groups.len() * size_of::<Group>()
             + self.slots.len() * size_of::<Slot>()
             + self.ordered.len() * size_of::<OrderedRef>()
             + self.prims.len() * size_of::<[u32; PRIM_WORDS]>()

@@ -330,24 +330,22 @@ impl NativeScene {
         let first = span.group as usize;
         let n_groups = (span.lanes as usize).div_ceil(LANES);
         let groups = self.groups.get(first..first + n_groups).unwrap_or(&[]);
-        let lanes = self.group_slots.get(first..first + n_groups).unwrap_or(&[]);
-        for (gi, (g, gs)) in groups.iter().zip(lanes).enumerate() {
+        for (gi, g) in groups.iter().enumerate() {
             let used = (span.lanes as usize - gi * LANES).min(LANES);
             let mut m = F::survivors(g, lane_ray) & ((1u32 << used) - 1);
             while m != 0 {
                 let lane = m.trailing_zeros() as usize;
                 m &= m - 1;
-                let slot = gs[lane];
-                let s = &self.slots[slot as usize];
-                let Ok(Some(t)) = Watertight::intersect(pre, &s.words, bound) else { continue };
+                let Ok(Some(t)) = Watertight::intersect(pre, &g.words(lane), bound) else { continue };
                 if !accept(t, t_max, hi) {
                     continue;
                 }
+                let (slot, prim) = (g.slot[lane], g.prim[lane]);
                 match kind {
                     RayKind::Any => return (Some(Winner::Tri { t, slot }), (gi * LANES + lane) as u32 + 1),
                     RayKind::Closest => {
-                        if best.is_none_or(|(bt, _, bp)| t < bt || (t == bt && s.prim < bp)) {
-                            best = Some((t, slot, s.prim));
+                        if best.is_none_or(|(bt, _, bp)| t < bt || (t == bt && prim < bp)) {
+                            best = Some((t, slot, prim));
                             bound = inflate(t);
                         }
                     }
