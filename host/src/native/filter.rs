@@ -16,14 +16,16 @@ use gridrt_shared::math::{max_dimension, Ray};
 pub(crate) const LANES: usize = 8;
 
 /// Eight triangles, structure of arrays: `c[3·v + axis][lane]` is coordinate `axis` of vertex
-/// `v` (the order of the scene image's 9 vertex words), with each lane's prim id and triangle
-/// slot beside them, so that a survivor's test reads only this group's cache lines.
+/// `v` (the order of the scene image's 9 vertex words), with what a hit on each lane reports
+/// beside them, so that testing a survivor and answering with it read only this group.
 #[derive(Debug, Clone, Copy, Default)]
 #[repr(C, align(32))]
 pub(crate) struct Group {
     pub(crate) c: [[f32; LANES]; 9],
     pub(crate) prim: [u32; LANES],
-    pub(crate) slot: [u32; LANES],
+    pub(crate) material: [u32; LANES],
+    /// `geometric_normal` of each lane's record, per axis.
+    pub(crate) normal: [[f32; LANES]; 3],
 }
 
 impl Group {

@@ -216,8 +216,11 @@ impl NativeScene {
                     for (lane, &r) in chunk.iter().enumerate() {
                         let slot = sb + r;
                         let s: &Slot = &slots[slot as usize];
-                        g.slot[lane] = slot;
                         g.prim[lane] = s.prim;
+                        g.material[lane] = s.material as u32;
+                        for (a, n) in s.normal.iter().enumerate() {
+                            g.normal[a][lane] = *n;
+                        }
                         for k in 0..9 {
                             g.c[k][lane] = f32::from_bits(s.words[k]);
                         }

@@ -26,8 +26,11 @@ pub struct Hits {
     pub hits: u64,
     /// Rays with an empty traversal list.
     pub culled: u64,
-    /// Wrapping sum of the hit prim ids (a cheap fingerprint of the frame).
+    /// Wrapping sum of the hit prim ids.
     pub prim_sum: u64,
+    /// Wrapping sum of every result word (a fingerprint of the frame's answers: keeps every
+    /// word of the result computed in a timed pass).
+    pub word_sum: u64,
     /// Ray–triangle tests the PEs perform.
     pub tests: u64,
 }
@@ -39,6 +42,9 @@ impl Hits {
             Trace::Culled => self.culled += 1,
             Trace::Result(r) => {
                 self.tests += r.tests as u64;
+                for w in r.to_words() {
+                    self.word_sum = self.word_sum.wrapping_add(w as u64);
+                }
                 if r.hit {
                     self.hits += 1;
                     self.prim_sum = self.prim_sum.wrapping_add(r.prim as u64);
@@ -52,6 +58,7 @@ impl Hits {
         self.hits += o.hits;
         self.culled += o.culled;
         self.prim_sum = self.prim_sum.wrapping_add(o.prim_sum);
+        self.word_sum = self.word_sum.wrapping_add(o.word_sum);
         self.tests += o.tests;
         self
     }
@@ -90,8 +97,20 @@ struct Query<'r> {
 /// The accepted hit of an entry and what it names.
 #[derive(Debug, Clone, Copy)]
 enum Winner {
-    Tri { t: f32, slot: u32 },
-    Prim { t: f32, prim: u32 },
+    /// Lane `lane` of group `group`.
+    Lane {
+        t: f32,
+        group: u32,
+        lane: u32,
+    },
+    Tri {
+        t: f32,
+        slot: u32,
+    },
+    Prim {
+        t: f32,
+        prim: u32,
+    },
 }
 
 /// How an entry's triangle groups are searched: the filter, compiled with its target features
@@ -243,6 +262,21 @@ impl NativeScene {
         let Some((k, pe, w)) = found else { return Trace::Result(RayResult { tests, ..RayResult::MISS }) };
         let list_pos = k.min(u16::MAX as usize) as u16;
         let r = match w {
+            Winner::Lane { t, group, lane } => {
+                let g = &self.groups[group as usize];
+                let l = lane as usize;
+                RayResult {
+                    hit: true,
+                    pe,
+                    list_pos,
+                    t,
+                    prim: g.prim[l],
+                    material: g.material[l] as u16,
+                    tests,
+                    normal: [g.normal[0][l], g.normal[1][l], g.normal[2][l]],
+                    cycles: 0,
+                }
+            }
             Winner::Tri { t, slot } => {
                 let s = &self.slots[slot as usize];
                 RayResult {
@@ -326,7 +360,7 @@ impl NativeScene {
     ) -> (Option<Winner>, u32) {
         let limit = if t_max < hi { t_max } else { hi };
         let mut bound = inflate(limit);
-        let mut best: Option<(f32, u32, u32)> = None;
+        let mut best: Option<(f32, Winner, u32)> = None;
         let first = span.group as usize;
         let n_groups = (span.lanes as usize).div_ceil(LANES);
         let groups = self.groups.get(first..first + n_groups).unwrap_or(&[]);
@@ -340,19 +374,20 @@ impl NativeScene {
                 if !accept(t, t_max, hi) {
                     continue;
                 }
-                let (slot, prim) = (g.slot[lane], g.prim[lane]);
+                let prim = g.prim[lane];
+                let w = Winner::Lane { t, group: (first + gi) as u32, lane: lane as u32 };
                 match kind {
-                    RayKind::Any => return (Some(Winner::Tri { t, slot }), (gi * LANES + lane) as u32 + 1),
+                    RayKind::Any => return (Some(w), (gi * LANES + lane) as u32 + 1),
                     RayKind::Closest => {
                         if best.is_none_or(|(bt, _, bp)| t < bt || (t == bt && prim < bp)) {
-                            best = Some((t, slot, prim));
+                            best = Some((t, w, prim));
                             bound = inflate(t);
                         }
                     }
                 }
             }
         }
-        (best.map(|(t, slot, _)| Winner::Tri { t, slot }), span.refs)
+        (best.map(|(_, w, _)| w), span.refs)
     }
 
     /// One entry holding analytic primitives: the model's loop, reference by reference.
