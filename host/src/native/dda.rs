@@ -100,29 +100,26 @@ impl GridWalk {
         self.dims.iter().map(|&d| d.max(0) as usize).product()
     }
 
-    /// `Aabb::clip` of the grid box (copied: see the module doc).
+    /// `Aabb::clip` of the grid box (copied: see the module doc), without branches: its
+    /// early `t0 > t1` exit changes nothing (t0 only grows and t1 only shrinks, so the last
+    /// check sees any crossing), and `if x > t0 { t0 = x }` keeps ignoring a NaN `x`.
     #[inline(always)]
     fn clip(&self, o: &[f32; 3], inv: &[f32; 3], t_min: f32, t_max: f32) -> Option<(f32, f32)> {
         let mut t0 = t_min;
         let mut t1 = t_max;
         for a in 0..3 {
-            let mut t_near = (self.min[a] - o[a]) * inv[a];
-            let mut t_far = (self.max[a] - o[a]) * inv[a];
-            if t_near > t_far {
-                core::mem::swap(&mut t_near, &mut t_far);
-            }
-            t_far *= 1.0 + 2.0 * gamma(3);
-            if t_near > t0 {
-                t0 = t_near;
-            }
-            if t_far < t1 {
-                t1 = t_far;
-            }
-            if t0 > t1 {
-                return None;
-            }
+            let t_a = (self.min[a] - o[a]) * inv[a];
+            let t_b = (self.max[a] - o[a]) * inv[a];
+            let (t_near, t_far) = if t_a > t_b { (t_b, t_a) } else { (t_a, t_b) };
+            let t_far = t_far * (1.0 + 2.0 * gamma(3));
+            t0 = if t_near > t0 { t_near } else { t0 };
+            t1 = if t_far < t1 { t_far } else { t1 };
         }
-        Some((t0, t1))
+        if t0 > t1 {
+            None
+        } else {
+            Some((t0, t1))
+        }
     }
 
     /// Boundary plane `k` of axis `a` (`Traversal::plane`; k is in 0..=n).
