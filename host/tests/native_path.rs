@@ -79,20 +79,34 @@ fn words(t: &Trace) -> Option<[u32; 8]> {
 
 /// Every pixel of a frame of the scene's default camera; returns (hits, culled).
 fn check_frame(name: &str, params: &GridParams, w: u32, h: u32) -> (u64, u64) {
+    check_frame_from(name, params, w, h, None)
+}
+
+/// Every pixel of a frame, from the scene's camera or from `eye` looking at the scene's
+/// target; returns (hits, culled). Also checks that the frame's footprint traced every pixel
+/// the model sends a ray for.
+fn check_frame_from(name: &str, params: &GridParams, w: u32, h: u32, eye: Option<Vec3>) -> (u64, u64) {
     let mut fx = Fixture::new(name, params);
     let mut totals = (0, 0);
     // The scene's own camera (the default one for a mesh file).
     let settings = fx.prepared.scene.settings.with_size(w as u16, h as u16);
     let c = settings.camera;
-    let camera =
-        Camera::new(Vec3::from_array(c.eye), Vec3::from_array(c.target), Vec3::from_array(c.up), c.fov_y_deg, w, h)
-            .unwrap();
+    let camera = Camera::new(
+        eye.unwrap_or(Vec3::from_array(c.eye)),
+        Vec3::from_array(c.target),
+        Vec3::from_array(c.up),
+        c.fov_y_deg,
+        w,
+        h,
+    )
+    .unwrap();
     fx.with(|coproc, native, desc, owners| {
         let mut row = Vec::new();
         totals = (0, 0);
+        let frame = native.frame(&camera, w, h);
         for y in 0..h {
             row.clear();
-            native.trace_row(&camera, y, 0..w, &mut row);
+            native.trace_row(&frame, y, &mut row);
             for (x, got) in row.iter().enumerate() {
                 let ray = camera.primary_ray(x as u32, y);
                 let want = model(coproc, desc, owners, RayKind::Closest, &ray, f32::INFINITY);
@@ -103,8 +117,29 @@ fn check_frame(name: &str, params: &GridParams, w: u32, h: u32) -> (u64, u64) {
                 }
             }
         }
+        assert!(frame.traced_pixels() >= w as u64 * h as u64 - totals.1);
     });
     totals
+}
+
+/// The frame footprint skips most of a bunny frame's empty pixels, and a camera inside the
+/// grid box gets no footprint (every pixel traced) and the same answers.
+#[test]
+fn frame_footprint_skips_empty_pixels_and_is_off_inside_the_box() {
+    let fx = Fixture::new("bun_zipper_res2.obj", &GridParams::default());
+    let native = NativeScene::from_grid(&fx.prepared.grid).unwrap();
+    let c = fx.prepared.scene.settings.with_size(160, 120).camera;
+    let camera =
+        Camera::new(Vec3::from_array(c.eye), Vec3::from_array(c.target), Vec3::from_array(c.up), c.fov_y_deg, 160, 120)
+            .unwrap();
+    let traced = native.frame(&camera, 160, 120).traced_pixels();
+    assert!(traced < 160 * 120 / 2, "{traced} pixels traced");
+    let b = fx.prepared.grid.bounds;
+    let inside = (Vec3::from_array(b.min) + Vec3::from_array(b.max)) * 0.5 + Vec3::new(0.0, 0.0, 1e-3);
+    let inside_cam = Camera::new(inside, Vec3::from_array(c.target), Vec3::from_array(c.up), 60.0, 160, 120).unwrap();
+    assert_eq!(native.frame(&inside_cam, 160, 120).traced_pixels(), 160 * 120);
+    let (hits, _) = check_frame_from("bun_zipper_res2.obj", &GridParams::default(), 96, 64, Some(inside));
+    assert!(hits > 1000, "{hits}");
 }
 
 #[test]

@@ -224,9 +224,10 @@ impl Args {
         if let (Some(n), false) = (&native, self.no_verify) {
             let mut list = TraversalList::new();
             let mut row = Vec::with_capacity(w as usize);
+            let frame = n.frame(&camera, w, h);
             for y in 0..h {
                 row.clear();
-                n.trace_row(&camera, y, 0..w, &mut row);
+                n.trace_row(&frame, y, &mut row);
                 for (x, got) in row.iter().enumerate() {
                     let want = model_pixel(x as u32, y, &mut list)?;
                     if !same_words(got, &want) {
@@ -245,11 +246,12 @@ impl Args {
             }
             Ok(Some(rayon::ThreadPoolBuilder::new().num_threads(threads as usize).build()?))
         };
+        let frame = native.as_ref().map(|n| n.frame(&camera, w, h));
         let pass = |threads: u32| -> anyhow::Result<Pass<'_>> {
             let pool = pool(threads)?;
-            let (native, camera, model_rows) = (&native, &camera, &model_rows);
-            Ok(Box::new(move || match (native, &pool) {
-                (Some(n), p) => Ok(n.count_frame(camera, w, h, p.as_ref())),
+            let (native, frame, model_rows) = (&native, &frame, &model_rows);
+            Ok(Box::new(move || match (native.as_ref().zip(frame.as_ref()), &pool) {
+                (Some((n, f)), p) => Ok(n.count_frame(f, p.as_ref())),
                 (None, None) => model_rows(0..h),
                 (None, Some(p)) => p.install(|| {
                     use rayon::prelude::*;
@@ -380,9 +382,10 @@ impl Args {
         };
         let (w, h) = (self.width as u32, self.height as u32);
         let ours: Vec<Trace> = {
+            let frame = native.frame(camera, w, h);
             let mut v = Vec::with_capacity(w as usize * h as usize);
             for y in 0..h {
-                native.trace_row(camera, y, 0..w, &mut v);
+                native.trace_row(&frame, y, &mut v);
             }
             v
         };

@@ -95,6 +95,11 @@ impl GridWalk {
         }
     }
 
+    /// The grid box, if the grid is valid.
+    pub(crate) fn bounds(&self) -> Option<([f32; 3], [f32; 3])> {
+        self.valid.then_some((self.min, self.max))
+    }
+
     /// Number of voxels.
     pub(crate) fn voxel_count(&self) -> usize {
         self.dims.iter().map(|&d| d.max(0) as usize).product()

@@ -32,8 +32,10 @@ pub mod dda;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod filter;
+mod frame;
 mod trace;
 
+pub use frame::PrimaryFrame;
 pub use trace::{Hits, Trace};
 
 use gridrt_coproc::isect::geometric_normal;

@@ -4,7 +4,6 @@ use core::ops::ControlFlow;
 
 use gridrt_coproc::isect::watertight::Watertight;
 use gridrt_coproc::{FixedFrame, Kernel, RayKind, RayResult, T_EXIT_REL_TOL};
-use gridrt_firmware::camera::Camera;
 use gridrt_shared::math::Ray;
 
 use super::filter::{LaneFilter, LaneRay, Portable, LANES};
@@ -192,52 +191,14 @@ impl NativeScene {
         self.trace_with::<PortableSearch>(kind, ray, t_max)
     }
 
-    /// Traces a row of primary rays `camera.primary_ray(x, y)` for `x` in `xs`, appending
-    /// to `out`.
-    pub fn trace_row(&self, camera: &Camera, y: u32, xs: core::ops::Range<u32>, out: &mut Vec<Trace>) {
-        for x in xs {
-            out.push(self.trace(RayKind::Closest, &camera.primary_ray(x, y), f32::INFINITY));
-        }
-    }
-
-    /// Totals of the primary rays of rows `rows` of a `width`-pixel-wide frame.
-    pub fn count_rows(&self, camera: &Camera, width: u32, rows: core::ops::Range<u32>) -> Hits {
+    /// The frame functions' dispatch: `f` runs with the entry search this CPU supports.
+    #[inline(always)]
+    pub(crate) fn with_search<R>(&self, f: impl FnOnce(&dyn Fn(&Ray) -> Trace) -> R) -> R {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            return self.count_rows_with::<Avx2Search>(camera, width, rows);
+            return f(&|ray| self.trace_with::<Avx2Search>(RayKind::Closest, ray, f32::INFINITY));
         }
-        self.count_rows_with::<PortableSearch>(camera, width, rows)
-    }
-
-    fn count_rows_with<S: EntrySearch>(&self, camera: &Camera, width: u32, rows: core::ops::Range<u32>) -> Hits {
-        let mut hits = Hits::default();
-        // A row's rays first, then the traces: read back long after they were written, the
-        // rays' words come from cache instead of stalling on the stores that made them.
-        let mut rays = Vec::with_capacity(width as usize);
-        for y in rows {
-            rays.clear();
-            rays.extend((0..width).map(|x| camera.primary_ray(x, y)));
-            for ray in &rays {
-                hits.add(&self.trace_with::<S>(RayKind::Closest, ray, f32::INFINITY));
-            }
-        }
-        hits
-    }
-
-    /// Totals of a `width`×`height` frame of primary rays, on the caller's thread or on
-    /// `pool` (bands of rows handed out by rayon's work stealing).
-    pub fn count_frame(&self, camera: &Camera, width: u32, height: u32, pool: Option<&rayon::ThreadPool>) -> Hits {
-        const BAND: u32 = 4;
-        match pool {
-            None => self.count_rows(camera, width, 0..height),
-            Some(pool) => pool.install(|| {
-                use rayon::prelude::*;
-                (0..height.div_ceil(BAND))
-                    .into_par_iter()
-                    .map(|b| self.count_rows(camera, width, b * BAND..((b + 1) * BAND).min(height)))
-                    .reduce(Hits::default, Hits::merge)
-            }),
-        }
+        f(&|ray| self.trace_with::<PortableSearch>(RayKind::Closest, ray, f32::INFINITY))
     }
 
     #[inline(always)]
