@@ -81,7 +81,7 @@ fn footprint(scene: &NativeScene, camera: &Camera, width: u32, height: u32) -> O
         ];
         let v = [c[0] - eye[0], c[1] - eye[1], c[2] - eye[2]];
         let z = dot(v, fw);
-        if !(z > 1e-6 * dot(v, v).sqrt()) {
+        if z.is_nan() || z <= 1e-6 * dot(v, v).sqrt() {
             return None;
         }
         let (u, w) = (dot(v, rt) / z, dot(v, up) / z);
