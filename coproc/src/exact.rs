@@ -29,7 +29,7 @@
 //! `(7 + 56ε)ε · permanent` and falls back to exact expansion arithmetic only when the sign
 //! is uncertain, so the common case costs about as much as an f64 test.
 
-use crate::isect::Triangle;
+use crate::isect::kernel::Triangle;
 use gridrt_shared::math::Ray;
 
 /// f64 machine epsilon as Shewchuk defines it (2^-53).

@@ -18,6 +18,10 @@
 //!
 //! Links into the host and into the emulated-board firmware image: no allocation, fixed
 //! capacities ([`LIST_CAPACITY`], [`OUT_QUEUE_WORDS`]), no panics on link data.
+//! The code that parses or indexes link data ([`coproc`]: FSL words, PE images, PE
+//! memory; [`timing`]: cycle counts from list lengths) denies `clippy::indexing_slicing`
+//! and `clippy::arithmetic_side_effects`; the kernels' arithmetic is the hot path and is
+//! not under that denial ([`isect`] module doc).
 #![cfg_attr(not(test), no_std)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 #![warn(missing_docs)]

@@ -11,12 +11,14 @@
 //! Answers go to any [`embedded_io::Write`] (blocking `write_all`). An answer whose write
 //! fails is lost: it is counted ([`Bootloader::write_errors`]) and the bootloader goes on
 //! serving; the host, which waits for every answer, times out and sends its request again.
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 use core::fmt::Write as _;
 
 use crate::pixels::FrameTx;
+use core::ops::ControlFlow;
 use embedded_io::Write;
-use gridrt_shared::frame::{crc32, FeedResult, FrameAccumulator, FrameError};
+use gridrt_shared::frame::{crc32, FrameAccumulator, FrameError, Received};
 use gridrt_shared::msg::{
     DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgError, FEATURE_BOOTLOADER, FLASH_FORMAT_VERSION,
     MAX_ERROR_TEXT,
@@ -41,6 +43,12 @@ struct Transfer {
 /// jump.
 pub struct Bootloader<'m> {
     rx: FrameAccumulator,
+    core: Core<'m>,
+}
+
+/// Everything but the receive buffer (split so a received frame can borrow that buffer
+/// while its handler writes the region).
+struct Core<'m> {
     tx: FrameTx,
     info: DeviceInfo,
     base: u32,
@@ -62,73 +70,53 @@ impl<'m> Bootloader<'m> {
             features: FEATURE_BOOTLOADER,
             ..info
         };
-        Self { rx: FrameAccumulator::new(), tx: FrameTx::new(), info, base, region, xfer: None }
+        Self { rx: FrameAccumulator::new(), core: Core { tx: FrameTx::new(), info, base, region, xfer: None } }
     }
 
     /// What the bootloader reports in `Msg::Version`.
     pub fn info(&self) -> &DeviceInfo {
-        &self.info
+        &self.core.info
     }
 
     /// First address of the application region.
     pub fn region_start(&self) -> u32 {
-        self.base
+        self.core.base
     }
 
     /// Size of the application region in bytes.
     pub fn region_len(&self) -> usize {
-        self.region.len()
+        self.core.region.len()
     }
 
     /// The application region (what has been written so far).
     pub fn region(&self) -> &[u8] {
-        self.region
+        self.core.region
     }
 
     /// Answers whose write failed so far (they were lost; see the module docs).
     pub fn write_errors(&self) -> u32 {
-        self.tx.write_errors()
+        self.core.tx.write_errors()
     }
 
     /// Processes received bytes. Returns `Some(entry)` once a verified image was asked to
     /// boot (its `FlashAck{Booting}` has been written to `out`); bytes after that frame are
     /// ignored. Partial frames wait for the next call.
     pub fn feed(&mut self, input: &[u8], out: &mut impl Write) -> Option<u32> {
-        let mut input = input;
-        // Each round consumes at least one byte, so the bound is never hit.
-        for _ in 0..=input.len() {
-            match self.rx.feed(input) {
-                FeedResult::Consumed => return None,
-                FeedResult::Overflow { rest } => {
-                    let rest_len = rest.len();
-                    self.bad_frame(FrameError::DecodeOversize, out);
-                    input = input.get(input.len() - rest_len..).unwrap_or(&[]);
-                }
-                FeedResult::BadFrame { error, rest } => {
-                    let rest_len = rest.len();
-                    self.bad_frame(error, out);
-                    input = input.get(input.len() - rest_len..).unwrap_or(&[]);
-                }
-                FeedResult::Frame { frame, rest } => {
-                    let rest_len = rest.len();
-                    // Copy the frame out of the accumulator's buffer so `self` is free.
-                    let kind = frame.kind;
-                    let mut payload = [0u8; gridrt_shared::frame::MAX_PAYLOAD];
-                    let n = frame.payload.len().min(payload.len());
-                    payload[..n].copy_from_slice(&frame.payload[..n]);
-                    if let Some(entry) = self.handle(kind, &payload[..n], out) {
-                        return Some(entry);
-                    }
-                    input = input.get(input.len() - rest_len..).unwrap_or(&[]);
-                }
+        let core = &mut self.core;
+        self.rx.feed_all(input, |received| match received {
+            Received::Frame(frame) => match core.handle(frame.kind, frame.payload, out) {
+                Some(entry) => ControlFlow::Break(entry),
+                None => ControlFlow::Continue(()),
+            },
+            Received::Bad(error) => {
+                core.bad_frame(error, out);
+                ControlFlow::Continue(())
             }
-            if input.is_empty() {
-                return None;
-            }
-        }
-        None
+        })
     }
+}
 
+impl Core<'_> {
     fn send(&mut self, msg: &Msg<'_>, out: &mut impl Write) {
         // Fails on a write error (counted by `tx`; the host asks again, module docs) or on a
         // firmware bug (message larger than a frame): nothing to report either with.
@@ -209,7 +197,7 @@ impl<'m> Bootloader<'m> {
             );
             return self.reject(FlashError::BadAddress, &t, out);
         }
-        if !entry.is_multiple_of(2) || entry < load_addr || entry - load_addr >= total_len {
+        if !entry.is_multiple_of(2) || entry.checked_sub(load_addr).is_none_or(|off| off >= total_len) {
             let _ =
                 write!(t, "entry {entry:#010x} not inside the image {load_addr:#010x}+{total_len:#x} (or misaligned)");
             return self.reject(FlashError::BadEntry, &t, out);
@@ -225,13 +213,13 @@ impl<'m> Bootloader<'m> {
         if x.verified || offset != x.next {
             return self.error(ErrorCode::BadOffset, x.next, "flash chunk out of order", out);
         }
-        let end = offset as u64 + data.len() as u64;
+        let end = (offset as u64).saturating_add(data.len() as u64);
         if end > x.total_len as u64 {
             self.xfer = None;
             return self.reject(FlashError::Overrun, "flash chunk past the end of the image", out);
         }
-        let from = x.start + offset as usize;
-        let Some(dst) = self.region.get_mut(from..from + data.len()) else {
+        let from = x.start.checked_add(offset as usize);
+        let Some(dst) = from.and_then(|from| self.region.get_mut(from..)).and_then(|r| r.get_mut(..data.len())) else {
             // Unreachable: begin() checked start + total_len against the region.
             self.xfer = None;
             return self.reject(FlashError::BadAddress, "chunk outside the application region", out);
@@ -243,7 +231,7 @@ impl<'m> Bootloader<'m> {
             return self.send(&Msg::FlashAck { next_offset: x.next, status: FlashStatus::Receiving, crc: 0 }, out);
         }
         // Complete: verify what memory now holds, not what we were sent.
-        let image = self.region.get(x.start..x.start + x.total_len as usize).unwrap_or(&[]);
+        let image = self.region.get(x.start..).and_then(|r| r.get(..x.total_len as usize)).unwrap_or(&[]);
         let got = crc32(image);
         if got != x.crc {
             self.xfer = None;
@@ -278,6 +266,7 @@ impl<'m> Bootloader<'m> {
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::*;
     use gridrt_shared::msg::MsgType;

@@ -25,6 +25,7 @@
 //! | `machine` | the [`Device`] state machine: frames in, answers out | all of the above |
 //!
 //! Each module uses only those listed before it in its row, never the other way round.
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 mod fail;
 mod machine;
@@ -42,4 +43,5 @@ pub use scene::{MAX_MATERIALS, MAX_OBJECTS};
 pub use stats::{CounterClock, FrameStats, NoClock, Stage, StageClock, StageCount, STAT_COUNT};
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests;

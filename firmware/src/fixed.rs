@@ -1,7 +1,7 @@
 //! Exact conversions between f32 and fixed point, by bit manipulation only.
 //!
 //! The fixed-point ray generation and DDA (cargo feature `fixed-raygen`, [`crate::camera`] and
-//! [`crate::dda_fixed`]) exist for soft-cores without an FPU, where every f32 operation is a
+//! [`crate::dda`]) exist for soft-cores without an FPU, where every f32 operation is a
 //! software routine of tens of instructions. Their inputs (eye, basis, grid box) and outputs
 //! (the f32 words of the FSL request) are f32, so the conversions here use integer operations
 //! only: no float arithmetic, no rounding except the one documented.

@@ -2,9 +2,10 @@
 //!
 //! [`FslLink`] mirrors MicroBlaze's `nput`/`nget` (non-blocking) and `put`/`get` (blocking)
 //! stream instructions. It has two implementations: the MMIO AXI4-Stream FIFO driver in
-//! [`crate::bsp`] (real board) and [`VirtualCoproc`] (the co-processor model linked into the
+//! [`crate::bsp`] (real board) and `VirtualCoproc` (the co-processor model linked into the
 //! image, for the loopback simulator and the emulated board). The one generic user is the
 //! ray path in [`crate::device`].
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 pub use gridrt_shared::fsl::FslWord;
 

@@ -16,6 +16,7 @@
 //! Step modes: fixed (the seed's hardware choice) and adaptive per row (seed §3.5: the next
 //! row's step grows after ≥ 90 % successful segments and shrinks below 60 %).
 //! The tail of a row that is shorter than a segment is traced directly (seed's `skipflag`).
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 /// Primitive id of a miss.
 pub const MISS: u32 = u32::MAX;
@@ -71,18 +72,31 @@ pub struct Counts {
     pub segments_ok: u64,
 }
 
-/// Exact integer interpolation of one channel: `(c_L·(n−k) + c_R·k + ⌊n/2⌋) / n`, `0 < k < n`.
+/// Longest segment [`lerp_channel`] takes: `255·n + n/2` stays below 2^32.
+const MAX_LERP_LEN: u32 = 1 << 23;
+
+/// Exact integer interpolation of one channel: `(c_L·(n−k) + c_R·k + ⌊n/2⌋) / n`, `0 < k < n`
+/// (`n` is clamped to `1..=2^23`, `k` to `0..=n`).
 #[inline]
+// n ≥ 1 and k ≤ n ≤ 2^23 after the clamps: no term overflows u32, the divisor is not 0.
+#[allow(clippy::arithmetic_side_effects)]
 pub fn lerp_channel(cl: u8, cr: u8, k: u32, n: u32) -> u8 {
-    let n = n.max(1);
+    let n = n.clamp(1, MAX_LERP_LEN);
     let k = k.min(n);
     ((cl as u32 * (n - k) + cr as u32 * k + n / 2) / n) as u8
+}
+
+/// [`lerp_channel`] of each channel.
+#[inline]
+fn lerp_rgb(l: [u8; 3], r: [u8; 3], k: u32, n: u32) -> [u8; 3] {
+    let ([l0, l1, l2], [r0, r1, r2]) = (l, r);
+    [lerp_channel(l0, r0, k, n), lerp_channel(l1, r1, k, n), lerp_channel(l2, r2, k, n)]
 }
 
 /// The improved test (module doc).
 #[inline]
 pub fn similar(a: &Sample, b: &Sample, eps: u8) -> bool {
-    let colour = (0..3).all(|c| a.rgb[c].abs_diff(b.rgb[c]) < eps);
+    let colour = a.rgb.iter().zip(b.rgb).all(|(&x, y)| x.abs_diff(y) < eps);
     if !colour || a.prim != b.prim {
         return false;
     }
@@ -106,25 +120,18 @@ fn fill_segment<E>(
     counts: &mut Counts,
     trace: &mut impl FnMut(usize) -> Result<Sample, E>,
 ) -> Result<bool, E> {
-    let mut stack = [(0usize, 0usize); STACK];
-    let mut sp = 0;
+    let mut stack = heapless::Vec::<(usize, usize), STACK>::new();
     let mut first = true;
     let mut ok_first = false;
     let mut cur = Some((l, r));
     // Bounded: every iteration either fills a segment or splits it into two shorter ones;
     // at most 2·(r − l) iterations.
-    for _ in 0..2 * (r - l + 1) {
-        let Some((a, b)) = cur.take().or_else(|| {
-            if sp == 0 {
-                None
-            } else {
-                sp -= 1;
-                stack.get(sp).copied()
-            }
-        }) else {
+    let rounds = r.saturating_sub(l).saturating_add(1).saturating_mul(2);
+    for _ in 0..rounds {
+        let Some((a, b)) = cur.take().or_else(|| stack.pop()) else {
             break;
         };
-        if b <= a + 1 {
+        if b.saturating_sub(a) <= 1 {
             continue;
         }
         let (sa, sb) = match (row.get(a), row.get(b)) {
@@ -132,34 +139,29 @@ fn fill_segment<E>(
             _ => continue,
         };
         if similar(&sa, &sb, eps) {
-            let n = (b - a) as u32;
-            for k in 1..n {
-                if let Some(px) = row.get_mut(a + k as usize) {
-                    *px = Sample {
-                        rgb: [0, 1, 2].map(|c| lerp_channel(sa.rgb[c], sb.rgb[c], k, n)),
-                        prim: sa.prim,
-                        t: sa.t + (sb.t - sa.t) * k as f32 / n as f32,
-                    };
-                }
+            // b − a ≤ 16 (a segment of the largest step).
+            let n = b.saturating_sub(a) as u32;
+            for (k, px) in (0..n).zip(row.get_mut(a..b).unwrap_or(&mut [])).skip(1) {
+                *px = Sample {
+                    rgb: lerp_rgb(sa.rgb, sb.rgb, k, n),
+                    prim: sa.prim,
+                    t: sa.t + (sb.t - sa.t) * k as f32 / n as f32,
+                };
             }
-            counts.interpolated += (n - 1) as u64;
+            counts.interpolated = counts.interpolated.wrapping_add(n.saturating_sub(1) as u64);
             if first {
                 ok_first = true;
             }
         } else {
-            let m = a + (b - a) / 2;
+            let m = a.midpoint(b);
             let s = trace(m)?;
             if let Some(px) = row.get_mut(m) {
                 *px = s;
             }
-            counts.traced += 1;
-            counts.retraces += 1;
-            if sp < STACK {
-                if let Some(slot) = stack.get_mut(sp) {
-                    *slot = (m, b);
-                    sp += 1;
-                }
-            }
+            counts.traced = counts.traced.wrapping_add(1);
+            counts.retraces = counts.retraces.wrapping_add(1);
+            // A full stack (deeper than a 16-pixel segment needs) drops the right half.
+            let _ = stack.push((m, b));
             cur = Some((a, m));
         }
         first = false;
@@ -181,20 +183,21 @@ pub fn fill_row<E>(
     if w == 0 {
         return Ok(());
     }
-    let inc = step.clamp(1, MAX_STEP) as usize + 1;
+    let inc = usize::from(step.clamp(1, MAX_STEP)).saturating_add(1);
     let s0 = trace(0)?;
     if let Some(px) = row.first_mut() {
         *px = s0;
     }
-    counts.traced += 1;
+    counts.traced = counts.traced.wrapping_add(1);
     let mut x = 0usize;
-    loop {
-        let next = x + inc;
-        if next > w - 1 {
+    // Bounded: x grows by `inc` ≥ 2 per round until the tail.
+    for _ in 0..w {
+        let next = x.saturating_add(inc);
+        if next >= w {
             // Tail shorter than a segment: trace it directly.
-            for (xi, px) in row.iter_mut().enumerate().skip(x + 1) {
+            for (xi, px) in row.iter_mut().enumerate().skip(x.saturating_add(1)) {
                 *px = trace(xi)?;
-                counts.traced += 1;
+                counts.traced = counts.traced.wrapping_add(1);
             }
             return Ok(());
         }
@@ -202,13 +205,14 @@ pub fn fill_row<E>(
         if let Some(px) = row.get_mut(next) {
             *px = s;
         }
-        counts.traced += 1;
-        counts.segments += 1;
+        counts.traced = counts.traced.wrapping_add(1);
+        counts.segments = counts.segments.wrapping_add(1);
         if fill_segment(row, x, next, eps, counts, &mut trace)? {
-            counts.segments_ok += 1;
+            counts.segments_ok = counts.segments_ok.wrapping_add(1);
         }
         x = next;
     }
+    Ok(())
 }
 
 /// Per-row step control of the adaptive mode (seed 003 §3.5).
@@ -232,20 +236,19 @@ impl StepControl {
         if !self.adaptive {
             return;
         }
-        let seg = after.segments - before.segments;
-        if seg == 0 {
-            return;
-        }
-        let pct = (100 * (after.segments_ok - before.segments_ok) / seg) as u32;
-        if pct >= P_HI && self.step < self.max {
-            self.step += 1;
-        } else if pct < P_LO && self.step > 1 {
-            self.step -= 1;
+        let seg = after.segments.wrapping_sub(before.segments);
+        let ok = after.segments_ok.wrapping_sub(before.segments_ok);
+        let Some(pct) = ok.saturating_mul(100).checked_div(seg) else { return };
+        if pct >= P_HI as u64 && self.step < self.max {
+            self.step = self.step.saturating_add(1);
+        } else if pct < P_LO as u64 && self.step > 1 {
+            self.step = self.step.saturating_sub(1);
         }
     }
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::*;
 

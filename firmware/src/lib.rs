@@ -5,8 +5,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`camera`] | pinhole camera (CONTRACTS.md) |
-//! | [`dda`] | 3D-DDA grid traversal and traversal lists (Amanatides & Woo 1987) |
-//! | [`dda_fixed`] | the same DDA in fixed point (used with feature `fixed-raygen`) |
+//! | [`dda`] | 3D-DDA grid traversal in f32 and in fixed point (feature `fixed-raygen`), traversal lists (Amanatides & Woo 1987) |
 //! | [`fixed`] | exact f32 ↔ fixed-point conversions, the ray-generation/DDA format switch |
 //! | [`fmath`] | `f32` polynomial sin/cos/tan/atan2/acos/pow (no libm trigonometry, no `f64`) |
 //! | [`shade`] | shading of a hit: GridRT's matte surface, ViRAY's Lambert/Oren–Nayar/Blinn–Phong/Torrance–Sparrow, Fresnel, spotlight, shadow rays (CONTRACTS.md) |
@@ -18,6 +17,15 @@
 //! | [`fsl`] | the co-processor link trait |
 //! | [`boot`] | the flash bootloader's protocol (SPEC.md §3.11) |
 //! | [`bsp`] | board drivers |
+//!
+//! The modules that parse or index link data (UART frames and commands, FSL words, the
+//! scene upload, flash images, pixel and row buffers: `boot`, `bsp`, `device`, `fsl`,
+//! `pixels`, `interp`, `text`, and the grid and list of `dda`) deny
+//! `clippy::indexing_slicing` and `clippy::arithmetic_side_effects`: they use `get`,
+//! checked or saturating arithmetic, and wrapping arithmetic for counters (what release
+//! builds always did, at no cost per word). The numeric kernels (camera, the DDA walk,
+//! shading, textures, `fmath`, `fixed`) compute on values checked at load or clamped where
+//! they are used, and stay free of those checks on the hot path.
 //!
 //! Byte output and UART I/O use the ecosystem's blocking traits, [`embedded_io`] 0.6
 //! (re-exported, so dependents name the same version): the device loop and the bootloader
@@ -32,7 +40,6 @@ pub mod boot;
 pub mod bsp;
 pub mod camera;
 pub mod dda;
-pub mod dda_fixed;
 pub mod device;
 pub mod fixed;
 pub mod fmath;

@@ -10,6 +10,7 @@
 //! buffer, a channel). A write error has no one to be reported to: [`FrameTx`] counts it
 //! ([`FrameTx::write_errors`]) and returns [`TxError::Write`], and the caller stops what it
 //! was sending (the device stops the frame, see `crate::device`).
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 use embedded_io::{Error as _, ErrorKind, Write};
 use gridrt_shared::frame::{encode_frame, Crc32Digest, FrameError, MAX_ENCODED, MAX_PAYLOAD};
@@ -201,7 +202,7 @@ impl SpanEncoder {
             Some(bpp) => bpp,
             None => RLE_MAX_PUSH_BYTES + RLE_MAX_FINISH_BYTES,
         };
-        self.len + need <= MAX_SPAN_DATA
+        self.len.saturating_add(need) <= MAX_SPAN_DATA
     }
 
     /// Adds pixel (x, y). A pixel that does not continue the pending span (other row, gap), a
@@ -216,7 +217,7 @@ impl SpanEncoder {
         tx: &mut FrameTx,
         out: &mut W,
     ) -> Result<(), TxError> {
-        let continues = self.count > 0 && y == self.y && x as usize == self.x0 as usize + self.count;
+        let continues = self.count > 0 && y == self.y && x as usize == (self.x0 as usize).saturating_add(self.count);
         if self.count > 0 && (!continues || self.count >= self.span_len || !self.has_room()) {
             self.flush(tx, out)?;
         }
@@ -228,7 +229,7 @@ impl SpanEncoder {
         let written = match self.encoding {
             PixelEncoding::Rgb565 => {
                 let v = pixel::rgb565_pack(rgb);
-                if let Some(dst) = self.data.get_mut(at..at + 2) {
+                if let Some(dst) = self.data.get_mut(at..).and_then(|d| d.get_mut(..2)) {
                     dst.copy_from_slice(&v.to_le_bytes());
                 }
                 self.crc.update(&pixel::rgb565_unpack(v));
@@ -241,20 +242,20 @@ impl SpanEncoder {
             }
             _ => {
                 // Rgb888: the CRC is taken over the whole span at flush time.
-                if let Some(dst) = self.data.get_mut(at..at + 3) {
+                if let Some(dst) = self.data.get_mut(at..).and_then(|d| d.get_mut(..3)) {
                     dst.copy_from_slice(&rgb);
                 }
                 3
             }
         };
-        self.len += written;
+        // Both stay below their buffers' sizes (`has_room`, `span_len`).
+        self.len = self.len.saturating_add(written);
         if self.prim_ids {
-            let i = self.count;
-            if let Some(dst) = self.ids.get_mut(4 * i..4 * i + 4) {
+            if let Some(dst) = self.ids.chunks_exact_mut(4).nth(self.count) {
                 dst.copy_from_slice(&prim.to_le_bytes());
             }
         }
-        self.count += 1;
+        self.count = self.count.saturating_add(1);
         Ok(())
     }
 
@@ -266,7 +267,8 @@ impl SpanEncoder {
         }
         if self.encoding == PixelEncoding::Rle {
             let dst = self.data.get_mut(self.len..).unwrap_or(&mut []);
-            self.len += self.rle.finish(dst).map_err(|_| TxError::Msg(MsgError::EncodeBufferTooSmall))?;
+            let tail = self.rle.finish(dst).map_err(|_| TxError::Msg(MsgError::EncodeBufferTooSmall))?;
+            self.len = self.len.saturating_add(tail);
         }
         let len = core::mem::take(&mut self.len);
         let data = self.data.get(..len).unwrap_or(&[]);
@@ -278,11 +280,11 @@ impl SpanEncoder {
         }
         let (frame, y, x0, count) = (self.frame, self.y, self.x0, n as u16);
         tx.send(&Msg::PixelSpan { frame, y, x0, count, encoding: self.encoding, data }, out)?;
-        self.spans += 1;
+        self.spans = self.spans.saturating_add(1);
         if self.prim_ids {
-            let ids = self.ids.get(..4 * n).unwrap_or(&[]);
+            let ids = self.ids.get(..n.saturating_mul(4)).unwrap_or(&[]);
             tx.send(&Msg::PixelSpan { frame, y, x0, count, encoding: PixelEncoding::PrimId32, data: ids }, out)?;
-            self.spans += 1;
+            self.spans = self.spans.saturating_add(1);
         }
         Ok(())
     }
@@ -301,6 +303,7 @@ impl SpanEncoder {
 
 /// Frame helpers shared by the tests of every module that writes frames.
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 pub(crate) mod tests {
     use super::*;
     use gridrt_shared::frame::{crc32, FeedResult, FrameAccumulator};

@@ -5,9 +5,15 @@
 //! reports need only these three shapes. [`TextOut::put_dec`] prints what `{v}` prints and
 //! [`TextOut::put_hex`] what `{v:#0W$x}` (W = digits + 2) prints for a value that fits, so the
 //! texts stay byte for byte what the `write!` versions sent.
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 /// One ASCII digit as a `&str`, indexed by its value (0..16).
 const DIGITS: [&str; 16] = ["0", "1", "2", "3", "4", "5", "6", "7", "8", "9", "a", "b", "c", "d", "e", "f"];
+
+/// The digit of value `d` (its low 4 bits).
+fn digit(d: u32) -> &'static str {
+    DIGITS.get((d & 15) as usize).copied().unwrap_or("?")
+}
 
 /// A text sink: everything else is built on [`TextOut::put`].
 pub trait TextOut {
@@ -16,18 +22,20 @@ pub trait TextOut {
 
     /// Appends `v` in decimal, as `{v}`.
     fn put_dec(&mut self, v: u64) {
+        // u64::MAX has 20 digits; they are produced lowest first.
         let mut digits = [0u8; 20];
-        let (mut v, mut n) = (v, 0);
-        loop {
-            digits[n % 20] = (v % 10) as u8;
-            n += 1;
+        let mut v = v;
+        let mut len = 0;
+        for (n, slot) in (1..).zip(digits.iter_mut()) {
+            *slot = (v % 10) as u8;
             v /= 10;
+            len = n;
             if v == 0 {
                 break;
             }
         }
-        for d in digits[..n.min(20)].iter().rev() {
-            self.put(DIGITS[(*d & 15) as usize]);
+        for &d in digits.iter().take(len).rev() {
+            self.put(digit(d.into()));
         }
     }
 
@@ -35,13 +43,14 @@ pub trait TextOut {
     /// `{v:#010x}` is `put_hex(v, 8)`, `{v:#04x}` of a byte is `put_hex(v, 2)`.
     fn put_hex(&mut self, v: u32, digits: u32) {
         self.put("0x");
-        for i in (0..digits.min(8)).rev() {
-            self.put(DIGITS[((v >> (4 * i)) & 15) as usize]);
+        for shift in (0..32).step_by(4).take(digits.min(8) as usize).rev() {
+            self.put(digit((v >> shift) & 15));
         }
     }
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::*;
 

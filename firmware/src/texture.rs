@@ -4,7 +4,7 @@
 //! ViRAY generated its textures on the MicroBlaze into a 256×256 BRAM page; here the texel
 //! (i, j) of an N×N texture (N = 2^`tex_log2`) is *computed* when it is fetched, from integer
 //! texel coordinates, so no texture memory travels to the device and the f64 reference
-//! (`host/src/reference_v2.rs`) evaluates the same texels. Checker, XOR and dots are integer
+//! (`host/src/reference/texture.rs`) evaluates the same texels. Checker, XOR and dots are integer
 //! exact; marble and wood use a value noise whose lattice values come from an integer hash.
 //! Addressing wraps (tiling); filtering is bilinear between texel centres or nearest.
 //! `sin`/`cos`/`atan2`/`acos` are `crate::fmath`'s f32 polynomials (errors ≤ 3e-7 rad, no

@@ -89,31 +89,40 @@ fn scene_without_reflective_materials_issues_zero_reflection_rays() {
     assert_eq!(frame.stats[&stat::FSL_WORDS_PRIMARY] + frame.stats[&stat::FSL_WORDS_SHADOW], total);
 }
 
+/// BENCHMARKS.md: `gridrt render --sim --scene tests/scenes/viray_demo.toml --reference` is
+/// at 87.6 dB against the f64 reference, 26 pixels off by one level, no hit mismatch.
 #[test]
-fn viray_demo_matches_the_reference() {
+fn viray_demo_matches_the_reference_at_the_documented_87_6_db() {
     let w = gridrt_host::scene::load(&scenes().join("viray_demo.toml")).unwrap();
     assert_eq!(w.prims.len(), 8);
     let plan = Plan::derive(&w);
     assert_eq!(plan, Plan::ALL, "the demo needs shadows, reflections, textures and specular");
     let prepared = PreparedScene::new(w.clone(), &params()).unwrap();
     let mut board = SimBoard::new(gridrt_loopback::SimConfig::default(), &prepared).unwrap();
-    let settings = w.settings.with_size(160, 120).with_prim_ids(true);
+    // The scene file's own frame (320×240), as `gridrt render` draws it.
+    let settings = w.settings.with_prim_ids(true);
+    assert_eq!((settings.width, settings.height), (320, 240));
     let mut req = settings.to_request(1);
     req.flags |= plan.flags();
     let frame = board.render(&req).unwrap();
     assert!(frame.stats[&stat::SHADOW_RAYS] > 0 && frame.stats[&stat::REFLECTION_RAYS] > 0);
     let reference = reference_render(&Reference::new(&w, &prepared.grid.bounds), &settings, Stages::ALL, 2);
     let cmp = compare(&frame.rgb, &reference.rgb, frame.prim_ids.as_deref(), Some(&reference.prim_ids)).unwrap();
-    assert!(cmp.psnr_db.is_none_or(|p| p >= 45.0), "PSNR {:?}", cmp.psnr_db);
+    assert!(cmp.psnr_db.is_none_or(|p| p >= 87.5), "PSNR {:?} dB below the documented 87.6: {cmp:?}", cmp.psnr_db);
+    assert!(cmp.max_abs_diff <= 1 && cmp.differing_pixels <= 26, "{cmp:?}");
+    assert_eq!(cmp.hit_mismatches, Some(0), "{cmp:?}");
 }
 
+/// BENCHMARKS.md: `--interp 3,8` traces 31.4 % of the bunny's pixels at 50.1 dB against the
+/// full trace, 30.3 % of the teapot's at 75.6 dB (320×240).
 #[test]
-fn interpolation_traces_at_most_half_the_pixels_at_40_db() {
-    for name in ["bun_zipper_res4.obj", "teapot.obj"] {
+fn interpolation_3_8_traces_the_documented_fraction_at_the_documented_psnr() {
+    for (name, max_traced, min_psnr) in [("bun_zipper_res4.obj", 0.315, 50.0), ("teapot.obj", 0.304, 75.5)] {
         let mesh = gridrt_host::scene::load(&scenes().join(name)).unwrap();
         let prepared = PreparedScene::new(mesh, &params()).unwrap();
         let mut board = SimBoard::new(gridrt_loopback::SimConfig::default(), &prepared).unwrap();
         let settings = gridrt_host::camera::RenderSettings::default_for(&prepared.grid.mesh_bounds);
+        assert_eq!((settings.width, settings.height), (320, 240));
         let full = board.render(&settings.to_request(1)).unwrap();
         let mut req = settings.to_request(2);
         req.flags |= Interp::parse("3,8").unwrap().flags();
@@ -122,9 +131,10 @@ fn interpolation_traces_at_most_half_the_pixels_at_40_db() {
         let interpolated = frame.stats[&stat::INTERPOLATED_PIXELS];
         let pixels = settings.width as u64 * settings.height as u64;
         assert_eq!(traced + interpolated, pixels, "{name}");
-        assert!(traced * 2 <= pixels, "{name}: traced {traced} of {pixels}");
         let cmp = compare(&frame.rgb, &full.rgb, None, None).unwrap();
-        assert!(cmp.psnr_db.is_none_or(|p| p >= 40.0), "{name}: PSNR {:?}", cmp.psnr_db);
+        eprintln!("{name}: traced {:.2} %, PSNR {:?} dB", 100.0 * traced as f64 / pixels as f64, cmp.psnr_db);
+        assert!(traced as f64 <= max_traced * pixels as f64, "{name}: traced {traced} of {pixels}");
+        assert!(cmp.psnr_db.is_none_or(|p| p >= min_psnr), "{name}: PSNR {:?}", cmp.psnr_db);
     }
 }
 

@@ -22,7 +22,7 @@ fn sim(pe_count: u16, pe_mem_words: u32) -> Session<gridrt_loopback::SimPort> {
 }
 
 #[test]
-fn sim_frame_matches_the_f64_reference() {
+fn sim_frame_is_identical_to_the_f64_reference() {
     let mut s = sim(3, 1 << 16);
     let info = s.hello(&mut |_| {}).unwrap();
     assert_eq!(info.pe_count, 3);
@@ -39,10 +39,13 @@ fn sim_frame_matches_the_f64_reference() {
     assert!(frame.bytes_rx > 96 * 72 * 3);
     let reference = render(&Reference::new(&prepared.scene, &prepared.grid.bounds), &settings, Stages::ALL, 2);
     let c = compare(&frame.rgb, &reference.rgb, frame.prim_ids.as_deref(), Some(&reference.prim_ids)).unwrap();
-    assert!(c.psnr_db.is_none_or(|p| p > 40.0), "{c:?}");
+    // The claim (docs/bench-accuracy.md): images identical to the f64 reference. Primitive ids
+    // may differ only where a ray hits an edge two triangles share (f32 and f64 round the tie
+    // apart): 1 of the 786 hit pixels here.
+    assert!(c.identical, "{c:?}");
     let hits = reference.prim_ids.iter().filter(|&&p| p != u32::MAX).count() as u64;
     assert!(hits > 300, "the bunny must be in view");
-    assert!(c.hit_mismatches.unwrap() * 50 < hits, "{c:?}");
+    assert!(c.hit_mismatches.is_some_and(|m| m <= 1), "more than one hit on another primitive: {c:?}");
     // A second frame on the same session (the scene stays loaded).
     let again = s.render(&settings.with_prim_ids(false).to_request(10), &mut |_| {}).unwrap();
     assert_eq!(again.rgb, frame.rgb);

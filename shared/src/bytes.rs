@@ -2,6 +2,7 @@
 //!
 //! Reads past the end return [`Truncated`] instead of panicking, so a short or corrupt
 //! payload can never index out of bounds.
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 /// A read ran past the end of the input.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -154,6 +155,7 @@ pub fn record<const N: usize>(write: impl FnOnce(&mut Writer<'_>) -> Result<(), 
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::*;
 

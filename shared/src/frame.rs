@@ -17,6 +17,8 @@
 // Link-facing: every index and every sum on received values is checked (issue 9).
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
+use core::ops::ControlFlow;
+
 use crate::bytes::{Overflow, Reader, Writer};
 use crate::PROTOCOL_VERSION;
 
@@ -215,6 +217,16 @@ pub enum FeedResult<'buf, 'input> {
     },
 }
 
+/// A frame or a rejected one, as [`FrameAccumulator::feed_all`] hands them out.
+#[derive(Debug, PartialEq, Eq)]
+pub enum Received<'buf> {
+    /// A valid frame, borrowed from the accumulator.
+    Frame(Frame<'buf>),
+    /// Bytes up to a delimiter that are not a valid frame; one that did not fit the buffer
+    /// is [`FrameError::DecodeOversize`].
+    Bad(FrameError),
+}
+
 /// Fixed-capacity reassembly buffer for a COBS byte stream.
 ///
 /// Bytes are buffered up to the next `0x00`. Empty frames (repeated delimiters) are skipped
@@ -284,6 +296,30 @@ impl<const N: usize> FrameAccumulator<N> {
         }
         FeedResult::Consumed
     }
+
+    /// Feeds all of `input`, handing every frame and every rejected frame to `on`, in order.
+    /// Returns `on`'s value when it breaks (the rest of `input` is dropped), `None` when the
+    /// input is used up (a partial frame waits for the next call).
+    pub fn feed_all<B>(&mut self, input: &[u8], mut on: impl FnMut(Received<'_>) -> ControlFlow<B>) -> Option<B> {
+        let mut input = input;
+        // Each round consumes at least one byte (up to a delimiter), so this bound is never hit.
+        for _ in 0..=input.len() {
+            let (received, rest) = match self.feed(input) {
+                FeedResult::Consumed => return None,
+                FeedResult::Overflow { rest } => (Received::Bad(FrameError::DecodeOversize), rest),
+                FeedResult::BadFrame { error, rest } => (Received::Bad(error), rest),
+                FeedResult::Frame { frame, rest } => (Received::Frame(frame), rest),
+            };
+            if let ControlFlow::Break(b) = on(received) {
+                return Some(b);
+            }
+            if rest.is_empty() {
+                return None;
+            }
+            input = rest;
+        }
+        None
+    }
 }
 
 #[cfg(test)]
@@ -327,6 +363,52 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn feed_all_hands_out_frames_and_rejects_in_order_and_stops_where_told() {
+        // An oversize run, a good frame, noise, a good frame, a partial frame.
+        let mut wire = vec![0x55u8; 100];
+        wire.push(0);
+        wire.extend_from_slice(&encode(0x21, 1, b"abc"));
+        wire.extend_from_slice(&[0x07, 0x07, 0]);
+        wire.extend_from_slice(&encode(0x22, 2, b""));
+        let partial = encode(0x23, 3, b"xy");
+        wire.extend_from_slice(&partial[..4]);
+        let mut acc = FrameAccumulator::<32>::new();
+        let mut seen = Vec::new();
+        let r: Option<()> = acc.feed_all(&wire, |r| {
+            seen.push(match r {
+                Received::Frame(f) => Ok((f.kind, f.seq, f.payload.to_vec())),
+                Received::Bad(e) => Err(e),
+            });
+            ControlFlow::Continue(())
+        });
+        assert_eq!(r, None);
+        assert_eq!(
+            seen,
+            [
+                Err(FrameError::DecodeOversize),
+                Ok((0x21, 1, b"abc".to_vec())),
+                Err(FrameError::DecodeBadCobs),
+                Ok((0x22, 2, vec![])),
+            ]
+        );
+        // The partial frame waits; its rest completes it.
+        assert!(acc.has_partial());
+        let got = acc.feed_all(&partial[4..], |r| match r {
+            Received::Frame(f) => ControlFlow::Break(f.seq),
+            Received::Bad(e) => panic!("{e:?}"),
+        });
+        assert_eq!(got, Some(3));
+        // A break drops the rest of the input.
+        let mut two = encode(0x21, 4, b"");
+        two.extend_from_slice(&encode(0x21, 5, b""));
+        let first = acc.feed_all(&two, |r| match r {
+            Received::Frame(f) => ControlFlow::Break(f.seq),
+            Received::Bad(e) => panic!("{e:?}"),
+        });
+        assert_eq!((first, acc.has_partial()), (Some(4), false));
     }
 
     #[test]

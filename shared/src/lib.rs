@@ -4,6 +4,8 @@
 //! and panic-free on data from outside: decoders return errors, never guess.
 //! The wire formats are specified in `shared/SPEC.md`; each table there has a golden-byte
 //! test in this crate.
+//! Every module that decodes or encodes wire data (`bytes`, `frame`, `fsl`, `msg`, `pixel`,
+//! `scene`) denies `clippy::indexing_slicing` and `clippy::arithmetic_side_effects`.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 #![warn(missing_docs)]

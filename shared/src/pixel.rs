@@ -20,7 +20,7 @@
 //! | `10gggggg` | LUMA | `rrrrbbbb` | dg = g − 32 (−32..=31); prev + (dg + r − 8, dg, dg + b − 8) |
 //! | `110nnnnn` | RUN_LONG | `nnnnnnnn` | prev, `n + 1` times, n = 13 bits, high bits in the tag (1..=8192) |
 //! | `11111110` | RGB | `r g b` | (r, g, b) |
-//! | `111xxxxx` other | reserved | | [`PixelError::BadOpcode`] |
+//! | `111xxxxx` other | reserved | | [`PixelError::DecodeBadOpcode`] |
 //!
 //! A span's data decodes to exactly `count` pixels and ends with the op that produced the last
 //! one; anything else is an error (never a guess, never a panic).

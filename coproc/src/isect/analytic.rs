@@ -1,4 +1,4 @@
-//! Ray–analytic-primitive tests (scene image v2, SPEC.md §5.8.1), in f32, run by a PE next to
+//! Ray–analytic-primitive tests (SPEC.md §5.8.1), in f32, run by a PE next to
 //! its triangle kernel.
 //!
 //! A primitive record holds the world → object affine map W. The ray is mapped into the

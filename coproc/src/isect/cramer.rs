@@ -25,14 +25,14 @@
 //! Storage: the 9 vertex words (36 B; the PE stored exactly these 9 words per triangle,
 //! 288 bits). f32 reads them from the scene image, fixed point from the load-time table.
 //!
-//! Cost of one full f32 test ([`Cramer::OPS`]). The PE program has 57 FP instructions
+//! Cost of one full f32 test ([`CramerRule::OPS_F32`]). The PE program has 57 FP instructions
 //! (24 add/sub, 27 mul, 5 cmp, 1 div; `timing::gridrt_pe`); the robustness fixes add Kahan's
 //! error terms and the det tolerance: entries (add 9), cofactors (3 × DifferenceOfProducts:
 //! mul 9, add 9), det (mul 3, add 2), tolerance (mul 1, add 2, cmp 1), reciprocal (div 1,
 //! cmp 1), β (mul 4, add 2, cmp 1), γ cofactors (mul 9, add 9), γ (mul 4, add 2, cmp 1),
 //! β + γ (add 1, cmp 1), t (mul 4, add 2, cmp 2) → add 38, mul 34, div 1, cmp 7.
 //!
-//! # Fixed point ([`CramerFx`])
+//! # Fixed point ([`CramerFx`], [`CramerRule::OPS_FIXED`])
 //!
 //! The PE program's arithmetic in checked fixed point: plain rounded products (no Kahan
 //! term: a fixed-point difference of two rounded products is already exact to one rounding
@@ -42,120 +42,74 @@
 //! (mul 6, add 3), γ (mul 3, add 2, cmp 1), β + γ (add 1, cmp 1), t (mul 3, add 2, cmp 1),
 //! range (mul 1, cmp 1), division (div 1) → add 24, mul 25, div 1, cmp 7.
 
-use core::marker::PhantomData;
-
-use super::{
-    f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute, Kernel, KernelKind, RecordStatus,
-    Triangle,
-};
-use crate::numeric::{beyond, FixedFormat, FixedFrame, Fx, FxRay, NumberFormat, OpCount, Overflow};
-use gridrt_shared::math::{difference_of_products, gamma, Ray, Vec3};
+use super::kernel::{KernelKind, Triangle};
+use super::vertex::{F32Vertices, FxVertices, VertexTest};
+use crate::numeric::{beyond, FixedFormat, Fx, Fx3, FxRay, OpCount, Overflow};
+use gridrt_shared::math::{difference_of_products, gamma, Ray};
 
 /// Rounding bound of the 3-term cofactor expansion, evaluated at compile time.
 const GAMMA4: f32 = gamma(4);
 
-/// The Cramer's-rule kernel of GridRT's PE.
+/// GridRT's PE test, Cramer's rule on the vertex record (module doc).
 #[derive(Debug, Clone, Copy)]
-pub struct Cramer;
+pub struct CramerRule;
 
-/// Per-ray data: origin (R26–R28) and direction (R29–R31).
-#[derive(Debug, Clone, Copy)]
-pub struct CramerRay {
-    origin: Vec3,
-    dir: Vec3,
-}
-
-impl Kernel for Cramer {
-    const KIND: KernelKind = KernelKind::Cramer;
-    const FORMAT: NumberFormat = NumberFormat::F32;
-    const RECORD_WORDS: usize = 9;
-    const USES_IMAGE: bool = true;
-    const OPS: OpCount = OpCount { add: 38, mul: 34, div: 1, cmp: 7 };
-    type RayData = CramerRay;
-
-    #[inline]
-    fn prepare(ray: &Ray, _frame: &FixedFrame) -> Result<CramerRay, Overflow> {
-        Ok(CramerRay { origin: ray.origin, dir: ray.dir })
-    }
-
-    fn precompute(tri: &Triangle, _frame: &FixedFrame, out: &mut [u32]) -> RecordStatus {
-        f32_vertices_precompute(tri, out)
-    }
-
-    #[inline]
-    fn intersect(r: &CramerRay, rec: &[u32], t_bound: f32) -> Result<Option<f32>, Overflow> {
-        Ok(f32_vertices(rec).and_then(|tri| intersect_f32(r, &tri, t_bound)))
-    }
-}
-
-/// The f32 test on a vertex triangle.
-#[inline(always)]
-fn intersect_f32(r: &CramerRay, tri: &Triangle, t_bound: f32) -> Option<f32> {
-    let [va, vb, vc] = *tri;
-    // Shirley's matrix entries (PE instr. 58–66).
-    let (a, b, c) = (va.x - vb.x, va.y - vb.y, va.z - vb.z);
-    let (d, e, f) = (va.x - vc.x, va.y - vc.y, va.z - vc.z);
-    let (g, h, i) = (r.dir.x, r.dir.y, r.dir.z);
-    let (j, k, l) = (va.x - r.origin.x, va.y - r.origin.y, va.z - r.origin.z);
-    // Cofactors (PE instr. 67–81).
-    let ei_hf = difference_of_products(e, i, h, f);
-    let gf_di = difference_of_products(g, f, d, i);
-    let dh_eg = difference_of_products(d, h, e, g);
-    // |A| (PE instr. 82–86) with its rounding-level tolerance.
-    let (m0, m1, m2) = (a * ei_hf, b * gf_di, c * dh_eg);
-    let det = m0 + m1 + m2;
-    if !(det.abs() > GAMMA4 * (m0.abs() + m1.abs() + m2.abs())) {
-        return None;
-    }
-    let inv = 1.0 / det; // PE instr. 87: the only divide
-    if !inv.is_finite() {
-        return None;
-    }
-    // β (PE instr. 88–95).
-    let beta = (j * ei_hf + k * gf_di + l * dh_eg) * inv;
-    if !(beta >= 0.0) {
-        return None;
-    }
-    // γ (PE instr. 96–106).
-    let ak_jb = difference_of_products(a, k, j, b);
-    let jc_al = difference_of_products(j, c, a, l);
-    let bl_kc = difference_of_products(b, l, k, c);
-    let gam = (i * ak_jb + h * jc_al + g * bl_kc) * inv;
-    if !(gam >= 0.0 && beta + gam <= 1.0) {
-        return None;
-    }
-    // t (PE instr. 110–119).
-    let t = -(f * ak_jb + e * jc_al + d * bl_kc) * inv;
-    if !(t > 0.0) || t > t_bound || t == f32::INFINITY {
-        return None;
-    }
-    Some(t)
-}
+/// The Cramer's-rule kernel of GridRT's PE, in f32.
+pub type Cramer = F32Vertices<CramerRule>;
 
 /// The PE program's Cramer test in fixed point (module doc).
-#[derive(Debug, Clone, Copy)]
-pub struct CramerFx<Q>(PhantomData<Q>);
+pub type CramerFx<Q> = FxVertices<CramerRule, Q>;
 
-impl<Q: FixedFormat> Kernel for CramerFx<Q> {
+impl VertexTest for CramerRule {
     const KIND: KernelKind = KernelKind::Cramer;
-    const FORMAT: NumberFormat = Q::FORMAT;
-    const RECORD_WORDS: usize = 9;
-    const USES_IMAGE: bool = false;
-    const OPS: OpCount = OpCount { add: 24, mul: 25, div: 1, cmp: 7 };
-    type RayData = FxRay<Q>;
+    const OPS_F32: OpCount = OpCount { add: 38, mul: 34, div: 1, cmp: 7 };
+    const OPS_FIXED: OpCount = OpCount { add: 24, mul: 25, div: 1, cmp: 7 };
 
-    #[inline]
-    fn prepare(ray: &Ray, frame: &FixedFrame) -> Result<FxRay<Q>, Overflow> {
-        FxRay::new(frame, ray.origin.to_array(), ray.dir.to_array())
+    #[inline(always)]
+    fn test_f32(r: &Ray, tri: &Triangle, t_bound: f32) -> Option<f32> {
+        let [va, vb, vc] = *tri;
+        // Shirley's matrix entries (PE instr. 58–66).
+        let (a, b, c) = (va.x - vb.x, va.y - vb.y, va.z - vb.z);
+        let (d, e, f) = (va.x - vc.x, va.y - vc.y, va.z - vc.z);
+        let (g, h, i) = (r.dir.x, r.dir.y, r.dir.z);
+        let (j, k, l) = (va.x - r.origin.x, va.y - r.origin.y, va.z - r.origin.z);
+        // Cofactors (PE instr. 67–81).
+        let ei_hf = difference_of_products(e, i, h, f);
+        let gf_di = difference_of_products(g, f, d, i);
+        let dh_eg = difference_of_products(d, h, e, g);
+        // |A| (PE instr. 82–86) with its rounding-level tolerance.
+        let (m0, m1, m2) = (a * ei_hf, b * gf_di, c * dh_eg);
+        let det = m0 + m1 + m2;
+        if !(det.abs() > GAMMA4 * (m0.abs() + m1.abs() + m2.abs())) {
+            return None;
+        }
+        let inv = 1.0 / det; // PE instr. 87: the only divide
+        if !inv.is_finite() {
+            return None;
+        }
+        // β (PE instr. 88–95).
+        let beta = (j * ei_hf + k * gf_di + l * dh_eg) * inv;
+        if !(beta >= 0.0) {
+            return None;
+        }
+        // γ (PE instr. 96–106).
+        let ak_jb = difference_of_products(a, k, j, b);
+        let jc_al = difference_of_products(j, c, a, l);
+        let bl_kc = difference_of_products(b, l, k, c);
+        let gam = (i * ak_jb + h * jc_al + g * bl_kc) * inv;
+        if !(gam >= 0.0 && beta + gam <= 1.0) {
+            return None;
+        }
+        // t (PE instr. 110–119).
+        let t = -(f * ak_jb + e * jc_al + d * bl_kc) * inv;
+        if !(t > 0.0) || t > t_bound || t == f32::INFINITY {
+            return None;
+        }
+        Some(t)
     }
 
-    fn precompute(tri: &Triangle, frame: &FixedFrame, out: &mut [u32]) -> RecordStatus {
-        fx_vertices_precompute::<Q>(tri, frame, out)
-    }
-
     #[inline]
-    fn intersect(r: &FxRay<Q>, rec: &[u32], t_bound: f32) -> Result<Option<f32>, Overflow> {
-        let Some([va, vb, vc]) = fx_vertices::<Q>(rec) else { return Ok(None) };
+    fn test_fx<Q: FixedFormat>(r: &FxRay<Q>, [va, vb, vc]: [Fx3<Q>; 3], t_bound: f32) -> Result<Option<f32>, Overflow> {
         // Shirley's matrix entries.
         let (a, b, c) = (va[0] - vb[0], va[1] - vb[1], va[2] - vb[2]);
         let (d, e, f) = (va[0] - vc[0], va[1] - vc[1], va[2] - vc[2]);
@@ -198,6 +152,7 @@ impl<Q: FixedFormat> Kernel for CramerFx<Q> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use gridrt_shared::math::Vec3;
 
     /// The PE divided by an exactly zero |A| (ray parallel to the plane): 1/0 = ∞, β = 0·∞ =
     /// NaN, and its subtraction-based compare treated NaN as "equal", so garbage could pass.
@@ -205,7 +160,7 @@ mod tests {
     fn cramer_rejects_zero_determinant_of_parallel_ray() {
         let tri = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
         let ray = Ray { origin: Vec3::new(0.2, 0.2, 1e-30), dir: Vec3::new(1.0, 0.0, 0.0) };
-        assert_eq!(intersect_f32(&Cramer::prepare(&ray, &FixedFrame::IDENTITY).unwrap(), &tri, f32::INFINITY), None);
+        assert_eq!(CramerRule::test_f32(&ray, &tri, f32::INFINITY), None);
     }
 
     /// No absolute epsilon: a 10⁻⁴-sized triangle far from the origin is still hit (an
@@ -217,7 +172,7 @@ mod tests {
         let tri = [c, c + Vec3::new(s, 0.0, 0.0), c + Vec3::new(0.0, s, 0.0)];
         let target = c + Vec3::new(s * 0.25, s * 0.25, 0.0);
         let ray = Ray { origin: Vec3::new(0.0, 0.0, -10.0), dir: target - Vec3::new(0.0, 0.0, -10.0) };
-        let t = intersect_f32(&Cramer::prepare(&ray, &FixedFrame::IDENTITY).unwrap(), &tri, f32::INFINITY);
+        let t = CramerRule::test_f32(&ray, &tri, f32::INFINITY);
         assert!(t.is_some_and(|t| (t - 1.0).abs() < 1e-5), "{t:?}");
     }
 }

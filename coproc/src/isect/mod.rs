@@ -8,10 +8,16 @@
 //! | `hanika-keller` | [`hanika_keller`] | Hanika, Keller, RT 2007 | 1 axis word + 9 precomputed: 40 |
 //! | `cramer` | [`cramer`] | Shirley, as GridRT's PE program | the 9 vertex words: 36 |
 //!
-//! Every kernel runs in every [`NumberFormat`]: `f32` (the `impl Kernel` on the plain type)
-//! and the fixed-point formats (`impl Kernel` on the `…Fx<Q>` type, generic over
-//! [`FixedFormat`]). Bytes per triangle are the kernel's record; every kernel additionally has
-//! the prim id and material words of the scene image (8 B), used only for the result.
+//! Every kernel runs in every [`NumberFormat`]: `f32` (the plain type) and the fixed-point
+//! formats (the `…Fx<Q>` type, generic over [`FixedFormat`](crate::numeric::FixedFormat)).
+//! Bytes per triangle are the kernel's record; every kernel additionally has the prim id and
+//! material words of the scene image (8 B), used only for the result.
+//!
+//! [`kernel`] holds the [`Kernel`] trait every kernel implements; [`vertex`] the vertex record
+//! (watertight, Möller–Trumbore, Cramer) and [`projection`] the projection record (Wald,
+//! Hanika–Keller), each with the `Kernel` impls for a test that is a function of its record
+//! alone, so a kernel module holds its algorithm and its costs and no plumbing. This module
+//! dispatches at run time (`with_kernel!`, [`Intersector`]).
 //!
 //! # Where the per-triangle records live (PE memory accounting)
 //!
@@ -37,9 +43,15 @@
 //!   no kernel panics, whatever the input bits;
 //! - a fixed-point range overflow is returned as `Err(Overflow)`, never as a wrong hit or a
 //!   silent miss (the co-processor counts it).
+//!
+//! Link data reaches a kernel only as a record slice that `crate::coproc` cut out of PE
+//! memory with checked offsets; the kernel takes its fixed-size words with `get` (a short
+//! record is a miss). The kernels' own arithmetic (float, and fixed point with its explicit
+//! overflow checks) is the hot path and is not under the crate's `indexing_slicing` /
+//! `arithmetic_side_effects` denial, which covers the code that parses link data.
 
 // The kernels write `!(x > y)` on purpose: it rejects NaN, which `x <= y` would let through.
-// Analytic primitives of scene image v2 (sphere, cylinder, cone, disk, square).
+// `analytic`: the analytic primitives of the scene image (sphere, cylinder, cone, disk, square).
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod analytic;
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -53,71 +65,15 @@ pub mod wald;
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod watertight;
 
-use crate::numeric::{fx_point, FixedFormat, FixedFrame, Fx, Fx3, NumberFormat, OpCount, Overflow};
+pub mod kernel;
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+pub mod projection;
+pub mod vertex;
+
+pub use kernel::{Kernel, KernelKind, RecordStatus, Triangle, MAX_RECORD_WORDS};
+
+use crate::numeric::{FixedFrame, NumberFormat, OpCount, Overflow};
 use gridrt_shared::math::{Ray, Vec3};
-
-/// Triangle vertices `a, b, c` as stored in PE memory (words 0..9 of a triangle record).
-pub type Triangle = [Vec3; 3];
-
-/// Largest record of any kernel, in words.
-pub const MAX_RECORD_WORDS: usize = 10;
-
-/// What precomputing one triangle's record found.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum RecordStatus {
-    /// A usable record.
-    Ok,
-    /// Zero-area (or, in f32, so thin that a coefficient is not finite): the record never hits.
-    Degenerate,
-    /// A value does not fit the format's 32-bit storage: every test of it reports
-    /// [`Overflow`].
-    Overflow,
-}
-
-/// A ray–triangle intersection kernel in one number format.
-pub trait Kernel {
-    /// The selector of this kernel.
-    const KIND: KernelKind;
-    /// The number format it computes in.
-    const FORMAT: NumberFormat;
-    /// 32-bit words of the per-triangle record it reads.
-    const RECORD_WORDS: usize;
-    /// True when the record is the 9 vertex words at the start of the scene image's triangle
-    /// record, so no load-time table is needed.
-    const USES_IMAGE: bool;
-    /// Operations of one full test (no early exit), for the cycle model.
-    const OPS: OpCount;
-    /// Per-ray data computed once by [`Kernel::prepare`].
-    type RayData: Copy;
-
-    /// Per-ray setup. `ray` has passed [`Ray::is_valid`]. Fixed point: `Err` when the ray
-    /// cannot be represented in `frame` (origin out of range).
-    fn prepare(ray: &Ray, frame: &FixedFrame) -> Result<Self::RayData, Overflow>;
-
-    /// Writes the record of `tri` into `out[..RECORD_WORDS]` (load time).
-    fn precompute(tri: &Triangle, frame: &FixedFrame, out: &mut [u32]) -> RecordStatus;
-
-    /// Tests one record (`rec.len() >= RECORD_WORDS`); returns the hit distance `t` in world
-    /// units (see the module contract).
-    fn intersect(ray: &Self::RayData, rec: &[u32], t_bound: f32) -> Result<Option<f32>, Overflow>;
-}
-
-/// Run-time selection of the intersection kernel every PE runs.
-#[non_exhaustive]
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub enum KernelKind {
-    /// Woop, Benthin, Wald 2013 with pbrt-v4's conservative `t` bound (the default).
-    #[default]
-    Watertight,
-    /// Möller and Trumbore 1997.
-    MollerTrumbore,
-    /// GridRT's PE program: Shirley's Cramer's-rule barycentric test (seed 004 §2.4).
-    Cramer,
-    /// Wald's projection test with precomputed per-triangle data (TriAccel, 2004).
-    Wald,
-    /// Hanika and Keller's fixed-point-friendly projection test (2007).
-    HanikaKeller,
-}
 
 /// Runs `$body` with `$K` bound to the kernel type of (`$kind`, `$format`).
 macro_rules! with_kernel {
@@ -190,27 +146,8 @@ macro_rules! with_kernel {
 }
 pub(crate) use with_kernel;
 
+/// What each kernel needs, looked up through `with_kernel!`.
 impl KernelKind {
-    /// Every kernel, in a stable order.
-    pub const ALL: [KernelKind; 5] =
-        [Self::Watertight, Self::MollerTrumbore, Self::Wald, Self::HanikaKeller, Self::Cramer];
-
-    /// Short name (for CLIs and reports: `--isect NAME`).
-    pub const fn name(self) -> &'static str {
-        match self {
-            Self::Watertight => "watertight",
-            Self::MollerTrumbore => "moller-trumbore",
-            Self::Cramer => "cramer",
-            Self::Wald => "wald",
-            Self::HanikaKeller => "hanika-keller",
-        }
-    }
-
-    /// Parses [`KernelKind::name`].
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == name)
-    }
-
     /// Per-triangle record words of the kernel in f32.
     pub fn triangle_words(self) -> usize {
         self.record_words(NumberFormat::F32)
@@ -315,82 +252,6 @@ impl Intersector {
 pub fn geometric_normal(tri: &Triangle) -> Vec3 {
     (tri[1] - tri[0]).cross(tri[2] - tri[0])
 }
-
-// ------------------------------------------------------------ record helpers
-
-/// The 9 vertex floats of an f32 vertex record.
-#[inline(always)]
-pub(crate) fn f32_vertices(rec: &[u32]) -> Option<Triangle> {
-    let w: &[u32; 9] = rec.get(..9)?.try_into().ok()?;
-    let f = f32::from_bits;
-    Some([
-        Vec3::new(f(w[0]), f(w[1]), f(w[2])),
-        Vec3::new(f(w[3]), f(w[4]), f(w[5])),
-        Vec3::new(f(w[6]), f(w[7]), f(w[8])),
-    ])
-}
-
-/// Writes the 9 vertex floats (the f32 vertex record, identical to the image's words).
-pub(crate) fn f32_vertices_precompute(tri: &Triangle, out: &mut [u32]) -> RecordStatus {
-    for (i, v) in tri.iter().enumerate() {
-        for (a, c) in v.to_array().into_iter().enumerate() {
-            if let Some(w) = out.get_mut(3 * i + a) {
-                *w = c.to_bits();
-            }
-        }
-    }
-    RecordStatus::Ok
-}
-
-/// Writes the 9 frame coordinates of the vertices as fixed-point words (fixed vertex
-/// record); coordinates that do not fit are stored as poison and reported. A triangle whose
-/// *quantised* vertices are collinear (checked exactly on the integers) is stored as a point
-/// at the frame origin and reported degenerate: with per-product rounding, the sheared or
-/// projected copies of collinear points need not stay collinear, but every kernel rejects a
-/// point triangle exactly (all its edges are zero).
-pub(crate) fn fx_vertices_precompute<Q: FixedFormat>(
-    tri: &Triangle,
-    frame: &FixedFrame,
-    out: &mut [u32],
-) -> RecordStatus {
-    let p = tri.map(|v| fx_point::<Q>(frame, v.to_array()));
-    let mut words = [0u32; 9];
-    let mut status = RecordStatus::Ok;
-    for (i, c) in p.iter().flatten().enumerate() {
-        words[i] = c.to_word().unwrap_or_else(|_| {
-            status = RecordStatus::Overflow;
-            i32::MIN as u32
-        });
-    }
-    if status == RecordStatus::Ok {
-        // Exact cross product of the integer edges (|raw| < 2^31: products fit i128).
-        let r = p.map(|v| v.map(|c| c.raw() as i128));
-        let e1 = [r[1][0] - r[0][0], r[1][1] - r[0][1], r[1][2] - r[0][2]];
-        let e2 = [r[2][0] - r[0][0], r[2][1] - r[0][1], r[2][2] - r[0][2]];
-        let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
-        if n == [0, 0, 0] {
-            words = [0; 9];
-            status = RecordStatus::Degenerate;
-        }
-    }
-    for (o, w) in out.iter_mut().zip(words) {
-        *o = w;
-    }
-    status
-}
-
-/// The vertices of a fixed vertex record (poison components for overflowed words).
-#[inline(always)]
-pub(crate) fn fx_vertices<Q: FixedFormat>(rec: &[u32]) -> Option<[Fx3<Q>; 3]> {
-    let w: &[u32; 9] = rec.get(..9)?.try_into().ok()?;
-    let f = Fx::<Q>::from_word;
-    Some([[f(w[0]), f(w[1]), f(w[2])], [f(w[3]), f(w[4]), f(w[5])], [f(w[6]), f(w[7]), f(w[8])]])
-}
-
-/// Axis word of a projection record (Wald, Hanika–Keller): 0..=2 the projection axis.
-pub(crate) const AXIS_DEGENERATE: u32 = 3;
-/// Axis word of a record whose precomputed values overflowed the format.
-pub(crate) const AXIS_OVERFLOW: u32 = 4;
 
 #[cfg(test)]
 mod tests {

@@ -15,12 +15,12 @@
 //! Storage: the 9 vertex words (36 B; "minimum storage" is the paper's point). f32 reads
 //! them from the scene image, fixed point from the load-time table.
 //!
-//! Cost of one full f32 test ([`MollerTrumbore::OPS`]): edges (add 6), P (mul 6, add 3),
+//! Cost of one full f32 test ([`MollerTrumboreRule::OPS_F32`]): edges (add 6), P (mul 6, add 3),
 //! det (mul 3, add 2, cmp 1), reciprocal (div 1, cmp 1 finite), s (add 3), u (mul 4, add 2,
 //! cmp 2), Q (mul 6, add 3), v (mul 4, add 2, cmp 1), u + v (add 1, cmp 1), t (mul 4, add 2,
 //! cmp 2) → add 24, mul 27, div 1, cmp 8.
 //!
-//! # Fixed point ([`MollerTrumboreFx`])
+//! # Fixed point ([`MollerTrumboreFx`], [`MollerTrumboreRule::OPS_FIXED`])
 //!
 //! Seed 002 found the reciprocal of det "the most problematic part" of a fixed-point MT and
 //! kept it in f32. Here the division is deferred instead: the signs and ranges of the
@@ -31,108 +31,60 @@
 //! add 2, cmp 2), Q (mul 6, add 3), v_num (mul 3, add 2, cmp 1), u + v (add 1, cmp 1), t_num
 //! (mul 3, add 2, cmp 1), range (mul 1, cmp 1), division (div 1) → add 24, mul 25, div 1, cmp 8.
 
-use core::marker::PhantomData;
+use super::kernel::{KernelKind, Triangle};
+use super::vertex::{F32Vertices, FxVertices, VertexTest};
+use crate::numeric::{beyond, fx_cross, fx_dot, fx_sub, FixedFormat, Fx, Fx3, FxRay, OpCount, Overflow};
+use gridrt_shared::math::Ray;
 
-use super::{
-    f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute, Kernel, KernelKind, RecordStatus,
-    Triangle,
-};
-use crate::numeric::{
-    beyond, fx_cross, fx_dot, fx_sub, FixedFormat, FixedFrame, Fx, FxRay, NumberFormat, OpCount, Overflow,
-};
-use gridrt_shared::math::{Ray, Vec3};
-
-/// The Möller–Trumbore kernel.
+/// The Möller–Trumbore test on the vertex record (module doc).
 #[derive(Debug, Clone, Copy)]
-pub struct MollerTrumbore;
+pub struct MollerTrumboreRule;
 
-/// Per-ray data: origin and direction.
-#[derive(Debug, Clone, Copy)]
-pub struct MtRay {
-    origin: Vec3,
-    dir: Vec3,
-}
-
-impl Kernel for MollerTrumbore {
-    const KIND: KernelKind = KernelKind::MollerTrumbore;
-    const FORMAT: NumberFormat = NumberFormat::F32;
-    const RECORD_WORDS: usize = 9;
-    const USES_IMAGE: bool = true;
-    const OPS: OpCount = OpCount { add: 24, mul: 27, div: 1, cmp: 8 };
-    type RayData = MtRay;
-
-    #[inline]
-    fn prepare(ray: &Ray, _frame: &FixedFrame) -> Result<MtRay, Overflow> {
-        Ok(MtRay { origin: ray.origin, dir: ray.dir })
-    }
-
-    fn precompute(tri: &Triangle, _frame: &FixedFrame, out: &mut [u32]) -> RecordStatus {
-        f32_vertices_precompute(tri, out)
-    }
-
-    #[inline]
-    fn intersect(r: &MtRay, rec: &[u32], t_bound: f32) -> Result<Option<f32>, Overflow> {
-        Ok(f32_vertices(rec).and_then(|tri| intersect_f32(r, &tri, t_bound)))
-    }
-}
-
-/// The f32 test on a vertex triangle.
-#[inline(always)]
-fn intersect_f32(r: &MtRay, tri: &Triangle, t_bound: f32) -> Option<f32> {
-    let [a, b, c] = *tri;
-    let e1 = b - a;
-    let e2 = c - a;
-    let p = r.dir.cross(e2);
-    let det = e1.dot(p);
-    if det == 0.0 {
-        return None;
-    }
-    let inv_det = 1.0 / det;
-    if !inv_det.is_finite() {
-        return None;
-    }
-    let s = r.origin - a;
-    let u = s.dot(p) * inv_det;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let v = r.dir.dot(q) * inv_det;
-    if !(v >= 0.0 && u + v <= 1.0) {
-        return None;
-    }
-    let t = e2.dot(q) * inv_det;
-    // `!(t > 0)` also rejects NaN.
-    if !(t > 0.0) || t > t_bound || t == f32::INFINITY {
-        return None;
-    }
-    Some(t)
-}
+/// The Möller–Trumbore kernel in f32.
+pub type MollerTrumbore = F32Vertices<MollerTrumboreRule>;
 
 /// Möller–Trumbore in fixed point with the division deferred (module doc).
-#[derive(Debug, Clone, Copy)]
-pub struct MollerTrumboreFx<Q>(PhantomData<Q>);
+pub type MollerTrumboreFx<Q> = FxVertices<MollerTrumboreRule, Q>;
 
-impl<Q: FixedFormat> Kernel for MollerTrumboreFx<Q> {
+impl VertexTest for MollerTrumboreRule {
     const KIND: KernelKind = KernelKind::MollerTrumbore;
-    const FORMAT: NumberFormat = Q::FORMAT;
-    const RECORD_WORDS: usize = 9;
-    const USES_IMAGE: bool = false;
-    const OPS: OpCount = OpCount { add: 24, mul: 25, div: 1, cmp: 8 };
-    type RayData = FxRay<Q>;
+    const OPS_F32: OpCount = OpCount { add: 24, mul: 27, div: 1, cmp: 8 };
+    const OPS_FIXED: OpCount = OpCount { add: 24, mul: 25, div: 1, cmp: 8 };
 
-    #[inline]
-    fn prepare(ray: &Ray, frame: &FixedFrame) -> Result<FxRay<Q>, Overflow> {
-        FxRay::new(frame, ray.origin.to_array(), ray.dir.to_array())
+    #[inline(always)]
+    fn test_f32(r: &Ray, tri: &Triangle, t_bound: f32) -> Option<f32> {
+        let [a, b, c] = *tri;
+        let e1 = b - a;
+        let e2 = c - a;
+        let p = r.dir.cross(e2);
+        let det = e1.dot(p);
+        if det == 0.0 {
+            return None;
+        }
+        let inv_det = 1.0 / det;
+        if !inv_det.is_finite() {
+            return None;
+        }
+        let s = r.origin - a;
+        let u = s.dot(p) * inv_det;
+        if !(0.0..=1.0).contains(&u) {
+            return None;
+        }
+        let q = s.cross(e1);
+        let v = r.dir.dot(q) * inv_det;
+        if !(v >= 0.0 && u + v <= 1.0) {
+            return None;
+        }
+        let t = e2.dot(q) * inv_det;
+        // `!(t > 0)` also rejects NaN.
+        if !(t > 0.0) || t > t_bound || t == f32::INFINITY {
+            return None;
+        }
+        Some(t)
     }
 
-    fn precompute(tri: &Triangle, frame: &FixedFrame, out: &mut [u32]) -> RecordStatus {
-        fx_vertices_precompute::<Q>(tri, frame, out)
-    }
-
     #[inline]
-    fn intersect(r: &FxRay<Q>, rec: &[u32], t_bound: f32) -> Result<Option<f32>, Overflow> {
-        let Some([a, b, c]) = fx_vertices::<Q>(rec) else { return Ok(None) };
+    fn test_fx<Q: FixedFormat>(r: &FxRay<Q>, [a, b, c]: [Fx3<Q>; 3], t_bound: f32) -> Result<Option<f32>, Overflow> {
         let e1 = fx_sub(b, a);
         let e2 = fx_sub(c, a);
         let p = fx_cross(r.d, e2);

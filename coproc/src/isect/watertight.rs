@@ -32,10 +32,8 @@
 
 use core::marker::PhantomData;
 
-use super::{
-    f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute, Kernel, KernelKind, RecordStatus,
-    Triangle,
-};
+use super::kernel::{Kernel, KernelKind, RecordStatus, Triangle};
+use super::vertex::{self, f32_vertices, f32_vertices_precompute, fx_vertices, fx_vertices_precompute};
 use crate::numeric::{beyond, fx_sub, FixedFormat, FixedFrame, Fx, FxRay, NumberFormat, OpCount, Overflow};
 use gridrt_shared::math::{difference_of_products, gamma, max_dimension, Ray, Vec3};
 
@@ -101,7 +99,7 @@ pub struct WatertightRay {
 impl Kernel for Watertight {
     const KIND: KernelKind = KernelKind::Watertight;
     const FORMAT: NumberFormat = NumberFormat::F32;
-    const RECORD_WORDS: usize = 9;
+    const RECORD_WORDS: usize = vertex::WORDS;
     const USES_IMAGE: bool = true;
     const OPS: OpCount = OpCount { add: 45, mul: 47, div: 1, cmp: 23 };
     type RayData = WatertightRay;
@@ -212,7 +210,7 @@ pub struct WatertightFxRay<Q> {
 impl<Q: FixedFormat> Kernel for WatertightFx<Q> {
     const KIND: KernelKind = KernelKind::Watertight;
     const FORMAT: NumberFormat = Q::FORMAT;
-    const RECORD_WORDS: usize = 9;
+    const RECORD_WORDS: usize = vertex::WORDS;
     const USES_IMAGE: bool = false;
     const OPS: OpCount = OpCount { add: 22, mul: 19, div: 1, cmp: 10 };
     type RayData = WatertightFxRay<Q>;

@@ -6,6 +6,9 @@
 //! this crate only knows addresses, CSRs and the riscv-rt runtime.
 #![no_std]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, missing_docs)]
+// UART bytes and FSL words pass through here (`serve`, `link`): no indexing or unchecked
+// arithmetic, as in the firmware library's link-facing modules.
+#![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 pub mod board;
 pub mod counters;

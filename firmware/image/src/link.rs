@@ -117,7 +117,7 @@ pub fn wrapper_overhead<K: CycleCounter + Copy>(counter: K) -> u64 {
         let _ = core::hint::black_box(&mut link).put(FslWord { data: i, control: false }, 1);
     }
     let t1 = clock.now();
-    t1.instret.wrapping_sub(t0.instret) / u64::from(N)
+    t1.instret.wrapping_sub(t0.instret).checked_div(u64::from(N)).unwrap_or(0)
 }
 
 /// `mcycle`/`minstret` minus the time [`TimedLink`] excluded: the firmware's own counts.

@@ -60,20 +60,21 @@ impl VolatileMmio {
 
 impl Mmio for VolatileMmio {
     fn read8(&self, off: usize) -> u8 {
-        // SAFETY: `new`'s contract makes base + off a valid device register.
-        unsafe { core::ptr::read_volatile((self.base + off) as *const u8) }
+        // SAFETY: `new`'s contract makes base + off a valid device register (so it does not
+        // wrap).
+        unsafe { core::ptr::read_volatile(self.base.wrapping_add(off) as *const u8) }
     }
     fn write8(&self, off: usize, value: u8) {
         // SAFETY: as in `read8`.
-        unsafe { core::ptr::write_volatile((self.base + off) as *mut u8, value) }
+        unsafe { core::ptr::write_volatile(self.base.wrapping_add(off) as *mut u8, value) }
     }
     fn read32(&self, off: usize) -> u32 {
         // SAFETY: as in `read8`; the drivers only use 4-byte aligned offsets for 32-bit
         // registers and every base address in our memory maps is 4-byte aligned.
-        unsafe { core::ptr::read_volatile((self.base + off) as *const u32) }
+        unsafe { core::ptr::read_volatile(self.base.wrapping_add(off) as *const u32) }
     }
     fn write32(&self, off: usize, value: u32) {
         // SAFETY: as in `read32`.
-        unsafe { core::ptr::write_volatile((self.base + off) as *mut u32, value) }
+        unsafe { core::ptr::write_volatile(self.base.wrapping_add(off) as *mut u32, value) }
     }
 }

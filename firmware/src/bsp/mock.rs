@@ -5,7 +5,7 @@
 //! never change what reads return (like real MMIO: writing THR does not fill RBR); they
 //! are only recorded. Every access goes into a log tests can inspect in order.
 
-use super::Mmio;
+use super::mmio::Mmio;
 use std::cell::RefCell;
 use std::collections::{BTreeMap, VecDeque};
 use std::vec::Vec;

@@ -28,12 +28,12 @@
 /// (module docs of [`crate::bsp::uart_io`]).
 macro_rules! impl_uart_io {
     ($ty:ident, $err:ty) => {
-        impl<M: $crate::bsp::Mmio> embedded_io::ErrorType for $ty<M> {
+        impl<M: $crate::bsp::mmio::Mmio> embedded_io::ErrorType for $ty<M> {
             type Error = $err;
         }
 
         /// Blocks until the transmitter took at least one byte (module `bsp::uart_io`).
-        impl<M: $crate::bsp::Mmio> embedded_io::Write for $ty<M> {
+        impl<M: $crate::bsp::mmio::Mmio> embedded_io::Write for $ty<M> {
             /// Spins until the first byte of `buf` is queued, then queues what else fits
             /// without waiting; `Ok(0)` at once for an empty `buf`.
             fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
@@ -42,11 +42,11 @@ macro_rules! impl_uart_io {
                 };
                 nb::block!($crate::bsp::ByteUart::write_byte(self, first))?;
                 let mut n = 1;
-                for &b in rest {
+                for (queued, &b) in (2..).zip(rest) {
                     if $crate::bsp::ByteUart::write_byte(self, b).is_err() {
                         break;
                     }
-                    n += 1;
+                    n = queued;
                 }
                 Ok(n)
             }
@@ -68,7 +68,7 @@ macro_rules! impl_uart_io {
         }
 
         /// Blocks until one byte (or a line error) arrived (module `bsp::uart_io`).
-        impl<M: $crate::bsp::Mmio> embedded_io::Read for $ty<M> {
+        impl<M: $crate::bsp::mmio::Mmio> embedded_io::Read for $ty<M> {
             /// Spins until the first byte arrives (or a line error, returned as `Err`), then
             /// takes the bytes already waiting, up to `buf.len()`, without waiting further. A
             /// line error after the first byte ends the call and is returned by the next one.
@@ -79,7 +79,7 @@ macro_rules! impl_uart_io {
                 };
                 *first = nb::block!($crate::bsp::ByteUart::read_byte(self))?;
                 let mut n = 1;
-                for slot in rest {
+                for (taken, slot) in (2..).zip(rest) {
                     match $crate::bsp::ByteUart::read_byte(self) {
                         Ok(b) => *slot = b,
                         Err(nb::Error::WouldBlock) => break,
@@ -88,14 +88,14 @@ macro_rules! impl_uart_io {
                             break;
                         }
                     }
-                    n += 1;
+                    n = taken;
                 }
                 Ok(n)
             }
         }
 
         /// Never blocks (module `bsp::uart_io`).
-        impl<M: $crate::bsp::Mmio> embedded_io::ReadReady for $ty<M> {
+        impl<M: $crate::bsp::mmio::Mmio> embedded_io::ReadReady for $ty<M> {
             /// `true` when a byte or a line error is waiting (then held for the next `read`,
             /// which returns at once); never `Err`.
             fn read_ready(&mut self) -> Result<bool, Self::Error> {

@@ -26,9 +26,10 @@ pub(super) struct Trunc<'a>(pub(super) &'a mut Text);
 impl TextOut for Trunc<'_> {
     fn put(&mut self, s: &str) {
         // The longest prefix that fits and ends on a character boundary.
-        let mut end = s.len().min(self.0.capacity() - self.0.len());
+        let mut end = s.len().min(self.0.capacity().saturating_sub(self.0.len()));
+        // 0 is a boundary, so this stops before it would underflow.
         while !s.is_char_boundary(end) {
-            end -= 1;
+            end = end.saturating_sub(1);
         }
         let _ = self.0.push_str(s.get(..end).unwrap_or(""));
     }

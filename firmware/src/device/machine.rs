@@ -11,8 +11,9 @@ use super::stats::{FrameStats, StageClock};
 use crate::fsl::FslLink;
 use crate::pixels::FrameTx;
 use crate::text::TextOut;
+use core::ops::ControlFlow;
 use embedded_io::Write;
-use gridrt_shared::frame::{FeedResult, FrameAccumulator, FrameError, MAX_PAYLOAD};
+use gridrt_shared::frame::{FrameAccumulator, FrameError, Received, MAX_PAYLOAD};
 use gridrt_shared::msg::{feature, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, RenderRequest, SceneStatus};
 
 /// Feature bits of this build.
@@ -76,28 +77,14 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
     /// render request renders the whole frame). Partial frames wait for the next call.
     /// Blocks as long as `out`'s `write_all` does for each answer.
     pub fn feed(&mut self, input: &[u8], out: &mut impl Write) {
-        let mut input = input;
-        // Each round consumes at least one byte (up to a delimiter), so this bound is never hit.
-        for _ in 0..=input.len() {
-            match self.rx.feed(input) {
-                FeedResult::Consumed => return,
-                FeedResult::Overflow { rest } => {
-                    self.core.bad_frame(FrameError::DecodeOversize, out);
-                    input = rest;
-                }
-                FeedResult::BadFrame { error, rest } => {
-                    self.core.bad_frame(error, out);
-                    input = rest;
-                }
-                FeedResult::Frame { frame, rest } => {
-                    self.core.handle(frame.kind, frame.payload, out);
-                    input = rest;
-                }
+        let core = &mut self.core;
+        self.rx.feed_all(input, |received| {
+            match received {
+                Received::Frame(frame) => core.handle(frame.kind, frame.payload, out),
+                Received::Bad(error) => core.bad_frame(error, out),
             }
-            if input.is_empty() {
-                return;
-            }
-        }
+            ControlFlow::<()>::Continue(())
+        });
     }
 
     /// The boot banner (SPEC.md §3.12): a lone `0x00` (flushes whatever the host's receiver

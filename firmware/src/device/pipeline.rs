@@ -13,7 +13,7 @@ use super::fail::Fail;
 use super::raypath::{RayClass, RayPath};
 use super::request::{field, Job};
 use super::scene::SceneStore;
-use super::stats::{FrameStats, Stage, StageClock, Stopwatch};
+use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
 use crate::camera::Camera;
 use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
@@ -56,19 +56,22 @@ pub const fn pipeline_features() -> u32 {
     let r = if cfg!(feature = "reflections") { feature::REFLECTIONS } else { 0 };
     let t = if cfg!(feature = "textures") { feature::TEXTURES } else { 0 };
     let s = if cfg!(feature = "specular") { feature::SPECULAR } else { 0 };
-    r | t | s | feature::INTERP | feature::SCENE_V2
+    r | t | s | feature::INTERP | feature::ANALYTIC_PRIMITIVES
 }
 
 /// The texture-space point of a hit on primitive `prim` (the object table maps prim ids to
 /// objects), or `None` when no object holds it.
 #[cfg(feature = "textures")]
 fn object_point<const N: usize>(scene: &SceneStore<N>, prim: u32, p: Vec3) -> Option<[f32; 3]> {
-    let o = scene.objects.iter().find(|o| prim >= o.first_prim && prim - o.first_prim < o.prim_count)?;
+    let o = scene.objects.iter().find(|o| prim.checked_sub(o.first_prim).is_some_and(|k| k < o.prim_count))?;
     Some(affine_point(&o.world_to_object, p.to_array()))
 }
 
 /// One pixel: the path of its primary ray through at most `max_depth` mirror bounces
 /// (module doc).
+// The arithmetic here is f32 shading on glam vectors, which the lint cannot tell from
+// integers; the integer work is the counters (`count`) and the bounce index.
+#[allow(clippy::arithmetic_side_effects)]
 fn pixel<L: FslLink, C: StageClock, const N: usize>(
     path: &mut RayPath<L>,
     scene: &SceneStore<N>,
@@ -80,7 +83,7 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
 ) -> Result<Sample, Fail> {
     let lighting = &scene.lighting;
     let mut ray = ctx.cam.primary_ray(x as u32, y as u32);
-    path.stats.primary_rays += 1;
+    count(&mut path.stats.primary_rays, 1);
     sw.lap(clock, &mut path.stats, Stage::RayGen);
     let la = lighting.ambient_colour.map(|c| c * ctx.light.ambient);
     let dl = shade::DirectLight {
@@ -138,7 +141,7 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
             let spot = if e > 0.0 { shade::spot_factor(lighting, dl.pos, p) } else { 0.0 };
             if e > 0.0 && spot > 0.0 {
                 let visible = if ctx.shadows {
-                    path.stats.shadow_rays += 1;
+                    count(&mut path.stats.shadow_rays, 1);
                     let sr = shade::shadow_ray(p, n, dl.pos, ctx.diag);
                     sw.lap(clock, &mut path.stats, Stage::Shade);
                     let blocker =
@@ -156,7 +159,7 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
             *a += throughput * b;
         }
         sw.lap(clock, &mut path.stats, Stage::Shade);
-        if bounce + 1 == depth || ext.reflect_mode == ReflectMode::None {
+        if bounce.wrapping_add(1) == depth || ext.reflect_mode == ReflectMode::None {
             break;
         }
         let refl = shade::reflectance(&ext, m.reflect, n.dot(v));
@@ -164,7 +167,7 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
             break;
         }
         throughput *= refl;
-        path.stats.reflection_rays += 1;
+        count(&mut path.stats.reflection_rays, 1);
         let origin = p + n * shade::shadow_epsilon(ctx.diag, p);
         ray = Ray { origin, dir: ray.dir - n * (2.0 * ray.dir.dot(n)) };
     }
@@ -302,21 +305,21 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
                 let before = counts;
                 let (path, clock) = (&mut self.path, &self.clock);
                 let row = self.row.get_mut(..w).unwrap_or(&mut []);
+                // `region` lies inside the image (≤ 4096 wide): x0 + xi does not wrap.
                 interp::fill_row(row, ctl.step, params.eps, &mut counts, |xi| {
-                    pixel(path, scene, clock, &mut sw, &ctx, region.x0 + xi as u16, y)
+                    pixel(path, scene, clock, &mut sw, &ctx, region.x0.wrapping_add(xi as u16), y)
                 })?;
                 ctl.after_row(&before, &counts);
-                for xi in 0..w {
-                    let s = self.row.get(xi).copied().unwrap_or_default();
-                    self.spans.push(region.x0 + xi as u16, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
-                    self.path.stats.pixels += 1;
+                for (x, s) in (region.x0..x1).zip(self.row.iter()) {
+                    self.spans.push(x, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
+                    count(&mut self.path.stats.pixels, 1);
                 }
                 sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
             } else {
                 for x in region.x0..x1 {
                     let s = pixel(&mut self.path, scene, &self.clock, &mut sw, &ctx, x, y)?;
                     self.spans.push(x, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
-                    self.path.stats.pixels += 1;
+                    count(&mut self.path.stats.pixels, 1);
                     sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
                 }
             }
@@ -331,6 +334,7 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::{check_plan, compiled_plan, pipeline_features};
     use gridrt_shared::msg::{feature, render_flags};

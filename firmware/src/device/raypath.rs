@@ -7,7 +7,7 @@
 
 use super::fail::Fail;
 use super::scene::SceneStore;
-use super::stats::{FrameStats, Stage, StageClock, Stopwatch};
+use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
 use crate::dda::{build_list, TraversalList};
 use crate::fsl::{FslLink, FslWord};
 use gridrt_shared::fsl::{self as wire, op, RayKind, RayResult, RESULT_WORDS};
@@ -60,14 +60,17 @@ impl<L: FslLink> RayPath<L> {
         t_max: f32,
         class: RayClass,
     ) -> Result<Option<RayResult>, Fail> {
-        let before = self.stats.fsl_words_out + self.stats.fsl_words_in;
+        let words_so_far = |s: &FrameStats| s.fsl_words_out.wrapping_add(s.fsl_words_in);
+        let before = words_so_far(&self.stats);
         let r = self.trace(scene, ray, kind, t_max, clock, sw);
-        let words = self.stats.fsl_words_out + self.stats.fsl_words_in - before;
-        match class {
-            RayClass::Primary => self.stats.fsl_words_primary += words,
-            RayClass::Shadow => self.stats.fsl_words_shadow += words,
-            RayClass::Reflection => self.stats.fsl_words_reflection += words,
-        }
+        let words = words_so_far(&self.stats).wrapping_sub(before);
+        let s = &mut self.stats;
+        let counter = match class {
+            RayClass::Primary => &mut s.fsl_words_primary,
+            RayClass::Shadow => &mut s.fsl_words_shadow,
+            RayClass::Reflection => &mut s.fsl_words_reflection,
+        };
+        count(counter, words);
         r
     }
 
@@ -86,7 +89,7 @@ impl<L: FslLink> RayPath<L> {
         build_list(&scene.grid, map, ray, 0.0, t_max, &mut self.list);
         sw.lap(clock, &mut self.stats, Stage::Traverse);
         if self.list.is_empty() {
-            self.stats.culled_rays += 1;
+            count(&mut self.stats.culled_rays, 1);
             return Ok(None);
         }
         let r = self.exchange(ray, kind, t_max);
@@ -103,36 +106,37 @@ impl<L: FslLink> RayPath<L> {
         let head = wire::ray_request_head(kind, ray.origin.to_array(), ray.dir.to_array(), t_max, n as u16);
         for w in head {
             self.link.put(FslWord::data(w), self.polls).map_err(|e| Fail::link(e, "ray request"))?;
-            self.stats.fsl_words_out += 1;
+            count(&mut self.stats.fsl_words_out, 1);
         }
-        for (i, e) in self.list.iter().enumerate() {
+        for (left, e) in (0..n).rev().zip(self.list.iter()) {
             let [w0, w1] = wire::entry_words(*e);
-            let w1 = if i + 1 == n { FslWord::last(w1) } else { FslWord::data(w1) };
+            // The last entry's last word carries the control bit.
+            let w1 = if left == 0 { FslWord::last(w1) } else { FslWord::data(w1) };
             for w in [FslWord::data(w0), w1] {
                 self.link.put(w, self.polls).map_err(|e| Fail::link(e, "ray request"))?;
-                self.stats.fsl_words_out += 1;
+                count(&mut self.stats.fsl_words_out, 1);
             }
         }
-        self.stats.coproc_rays += 1;
-        self.stats.list_entries += n as u64;
+        count(&mut self.stats.coproc_rays, 1);
+        count(&mut self.stats.list_entries, n as u64);
         let mut words = [0u32; RESULT_WORDS];
         for (i, slot) in words.iter_mut().enumerate() {
             let w = self.link.get(self.polls).map_err(|e| Fail::link(e, "ray result"))?;
-            self.stats.fsl_words_in += 1;
+            count(&mut self.stats.fsl_words_in, 1);
             let opc = wire::opcode(w.data);
             // An ERROR word is a whole packet; anything else must be an 8-word RESULT packet
             // whose only control bit is on the last word.
             if i == 0 && opc != op::RESULT {
                 return Err(Fail::Word(w.data, "ray result"));
             }
-            if w.control != (i + 1 == RESULT_WORDS) {
+            if w.control != (i == RESULT_WORDS - 1) {
                 return Err(Fail::Word(w.data, "ray result (misplaced control bit)"));
             }
             *slot = w.data;
         }
         let r = RayResult::from_words(&words).map_err(|_| Fail::Word(words[0], "ray result"))?;
-        self.stats.intersection_tests += r.tests as u64;
-        self.stats.coproc_cycles += r.cycles as u64;
+        count(&mut self.stats.intersection_tests, r.tests as u64);
+        count(&mut self.stats.coproc_cycles, r.cycles as u64);
         Ok(r)
     }
 

@@ -77,11 +77,12 @@ pub(super) fn job(scene_loaded: bool, req: &RenderRequest, target: Target) -> Re
         Target::Frame => (Region::full(req.width, req.height), 0, false),
         Target::Region { region, max_span, options } => {
             if !region.fits(req.width, req.height) {
-                let (f, t) = if region.cols == 0 || region.x0 as u32 + region.cols as u32 > req.width as u32 {
-                    (field::REGION_X0, "region columns outside the image")
-                } else {
-                    (field::REGION_Y0, "region rows outside the image")
-                };
+                let (f, t) =
+                    if region.cols == 0 || (region.x0 as u32).saturating_add(region.cols as u32) > req.width as u32 {
+                        (field::REGION_X0, "region columns outside the image")
+                    } else {
+                        (field::REGION_Y0, "region rows outside the image")
+                    };
                 return Err(Fail::Plain(ErrorCode::BadRequest, f, t));
             }
             (region, max_span, options & region_options::CRC_ONLY != 0)
@@ -93,7 +94,8 @@ pub(super) fn job(scene_loaded: bool, req: &RenderRequest, target: Target) -> Re
 /// Validates a request whose fields start at offset `base` of its message; returns the
 /// camera and light.
 fn validate(scene_loaded: bool, r: &RenderRequest, base: u32) -> Result<(Camera, Light), Fail> {
-    let bad = |f: u32, t: &'static str| Fail::Plain(ErrorCode::BadRequest, base + f, t);
+    // Offsets of a 72-byte request inside its message: no overflow.
+    let bad = |f: u32, t: &'static str| Fail::Plain(ErrorCode::BadRequest, base.saturating_add(f), t);
     if !scene_loaded {
         return Err(Fail::Plain(ErrorCode::NoScene, 0, "no scene loaded"));
     }

@@ -91,7 +91,7 @@ impl Upload {
         store: &mut SceneStore<N>,
         info: &DeviceInfo,
     ) -> Result<(), (SceneError, Option<Fail>)> {
-        let end = (self.next as u64) + data.len() as u64;
+        let end = (self.next as u64).saturating_add(data.len() as u64);
         if end > self.total_len as u64 {
             return Err((SceneError::TrailingBytes, None));
         }
@@ -192,7 +192,8 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
 
     fn voxel_map(&mut self, first: u32, owners: &[u8]) -> Result<(), SceneError> {
         let start = first as usize;
-        let dst = self.store.voxel_pe.get_mut(start..start + owners.len()).ok_or(SceneError::GridTooLarge)?;
+        let end = start.checked_add(owners.len()).ok_or(SceneError::GridTooLarge)?;
+        let dst = self.store.voxel_pe.get_mut(start..end).ok_or(SceneError::GridTooLarge)?;
         dst.copy_from_slice(owners);
         Ok(())
     }

@@ -76,13 +76,22 @@ impl Stage {
         self as usize
     }
     /// Stats key of this stage's instruction count: `STAGE_BASE + 2·stage`.
+    #[allow(clippy::arithmetic_side_effects)] // stage < 5: the key stays below 0x4A
     pub const fn instret_key(self) -> u8 {
         stat::STAGE_BASE + 2 * self as u8
     }
     /// Stats key of this stage's cycle count: `STAGE_BASE + 2·stage + 1`.
+    #[allow(clippy::arithmetic_side_effects)] // stage < 5: the key stays below 0x4A
     pub const fn cycles_key(self) -> u8 {
         stat::STAGE_BASE + 2 * self as u8 + 1
     }
+}
+
+/// Adds `n` to a frame counter. Wrapping, as release arithmetic always was: a u64 counter
+/// cannot wrap within a frame, and the soft-core pays no saturation check per FSL word.
+#[inline(always)]
+pub(super) fn count(counter: &mut u64, n: u64) {
+    *counter = counter.wrapping_add(n);
 }
 
 /// Counters of the last rendered frame (sent as `Msg::Stats`).
@@ -111,7 +120,7 @@ pub struct FrameStats {
     pub pixels: u64,
     /// Per-stage counters, indexed by [`Stage::index`].
     pub stages: [StageCount; 5],
-    /// Mirror-reflection rays generated (scene image v2).
+    /// Mirror-reflection rays generated.
     pub reflection_rays: u64,
     /// Pixels filled by row interpolation.
     pub interpolated_pixels: u64,
@@ -149,18 +158,10 @@ impl FrameStats {
             (stat::PIXELS, self.pixels),
             (stat::LIST_ENTRIES, self.list_entries),
         ];
-        for (slot, v) in e.iter_mut().zip(base) {
-            *slot = v;
-        }
-        for (i, s) in Stage::ALL.iter().enumerate() {
-            let c = self.stages[i];
-            if let Some(slot) = e.get_mut(10 + 2 * i) {
-                *slot = (s.instret_key(), c.instret);
-            }
-            if let Some(slot) = e.get_mut(11 + 2 * i) {
-                *slot = (s.cycles_key(), c.cycles);
-            }
-        }
+        let stages = Stage::ALL
+            .iter()
+            .zip(self.stages)
+            .flat_map(|(s, c)| [(s.instret_key(), c.instret), (s.cycles_key(), c.cycles)]);
         let plan = [
             (stat::REFLECTION_RAYS, self.reflection_rays),
             (stat::INTERPOLATED_PIXELS, self.interpolated_pixels),
@@ -170,7 +171,7 @@ impl FrameStats {
             (stat::FSL_WORDS_SHADOW, self.fsl_words_shadow),
             (stat::FSL_WORDS_REFLECTION, self.fsl_words_reflection),
         ];
-        for (slot, v) in e.iter_mut().skip(10 + 2 * Stage::ALL.len()).zip(plan) {
+        for (slot, v) in e.iter_mut().zip(base.into_iter().chain(stages).chain(plan)) {
             *slot = v;
         }
         e

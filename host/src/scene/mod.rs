@@ -8,7 +8,7 @@
 //! | `mesh` | [`Mesh`], [`Triangle`], [`Bounds`]: the triangles of a scene |
 //! | `analytic` | [`AnalyticPrim`]: ViRAY's sphere, cylinder, cone, disk, square |
 //! | `transform` | f64 affine maps and their f32 wire form |
-//! | `file` | the TOML scene file |
+//! | `file` | the TOML scene file (`schema`, `materials`, `objects`, `lighting`) |
 //! | `mesh_file`, `obj`, `ply` | mesh files |
 //! | `error` | [`SceneLoadError`] with file and line |
 //!

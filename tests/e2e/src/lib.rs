@@ -1,1 +1,3 @@
-//! Test-only crate; see tests/.
+//! Test-only crate; the tests are in tests/. This library holds what they share.
+
+pub mod tools;

@@ -1,8 +1,9 @@
 //! Several simulated boards render one frame (issue 6): the frame is split into row bands
 //! taken from a shared queue, merged, and identical to a single board's frame; two boards
-//! need clearly less modelled link time than one; a board that dies mid-frame costs its
-//! band, not the frame.
+//! need clearly less modelled link time than one; a board that holds the scene and dies
+//! mid-frame costs its band, not the frame.
 
+use std::io::{ErrorKind, Read, Write};
 use std::path::Path;
 use std::time::Duration;
 
@@ -77,30 +78,80 @@ fn two_boards_need_clearly_less_modelled_link_time() {
     assert!(cycles(&two) < cycles(&one), "the busiest board's co-processor works less");
 }
 
+/// A simulated board whose line can go dead: after `die_after` more device → host bytes it
+/// sends nothing and hears nothing, as a board that loses power or hangs mid-frame.
+struct DyingPort {
+    sim: SimPort,
+    /// Device → host bytes still to pass before the line dies (`None`: never).
+    left: Option<u64>,
+}
+
+impl DyingPort {
+    fn dead(&self) -> bool {
+        self.left == Some(0)
+    }
+}
+
+impl Read for DyingPort {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if self.dead() {
+            std::thread::sleep(self.sim.timeout());
+            return Err(ErrorKind::TimedOut.into());
+        }
+        let cap = self.left.map_or(buf.len(), |l| buf.len().min(l as usize));
+        let n = self.sim.read(&mut buf[..cap])?;
+        if let Some(l) = self.left.as_mut() {
+            *l -= n as u64;
+        }
+        Ok(n)
+    }
+}
+
+impl Write for DyingPort {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.dead() {
+            return Ok(buf.len());
+        }
+        self.sim.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.sim.flush()
+    }
+}
+
 #[test]
 fn a_board_that_dies_mid_frame_costs_its_band_not_the_frame() {
     let p = prepared("cornell_box.obj");
     let req = request(&p, 64, 48, PixelEncoding::Rgb888);
     let single = boards(1, &p, None).remove(0).render(&req, &mut |_| {}).unwrap();
-    // The healthy boards are paced (a real line rate), so the dead one surely gets a band.
-    let mut b = boards(3, &p, Some(460_800));
-    // Board 1 loses its scene right away (reset) and its session cannot recover it quickly
-    // enough: a short request budget makes it give up, and the others take its band.
-    let dead = {
-        let port = gridrt_loopback::spawn(gridrt_loopback::SimConfig::default());
-        let cfg = SessionConfig::new("dead")
-            .retransmit_after(Duration::from_millis(20))
-            .render_timeout(Duration::from_millis(200));
-        let mut s = Session::new(port, cfg.max_requests_per_band(2));
-        s.port_mut().set_timeout(Duration::from_millis(5));
+    // Both boards hold the scene. Board 0 is paced at a real line rate, so board 1 (unpaced)
+    // takes bands from the start; its line dies after 5 000 bytes, a little more than two
+    // 4-row bands (64 × 4 pixels × 3 bytes, their framing, Stats and RegionEnd: about 2 kB
+    // each), in the middle of its third.
+    let board = |baud: Option<u32>, session: SessionConfig| {
+        let mut sim = gridrt_loopback::spawn(gridrt_loopback::SimConfig::default());
+        sim.set_timeout(Duration::from_millis(5));
+        sim.set_line_rate(baud);
+        let mut s = Session::new(DyingPort { sim, left: None }, session);
         s.hello(&mut |_| {}).unwrap();
-        // No scene on this board and none uploaded in the session: NoScene cannot be recovered.
+        s.upload_scene(&p.image, &mut |_| {}).unwrap();
         s
     };
-    b[1] = dead;
-    let (m, _) = render_multi(b, &req, 4, &|_, _| {}).unwrap();
-    assert_eq!(m.frame.rgb, single.rgb);
-    assert!(m.devices[1].error.is_some(), "{:?}", m.devices[1]);
-    assert_eq!(m.devices[1].rows, 0);
-    assert_eq!(m.devices[0].rows + m.devices[2].rows, 48);
+    let healthy = board(Some(460_800), SessionConfig::new("healthy").render_timeout(Duration::from_secs(5)));
+    let mut dying = board(
+        None,
+        SessionConfig::new("dying")
+            .retransmit_after(Duration::from_millis(20))
+            .render_timeout(Duration::from_millis(300)),
+    );
+    dying.port_mut().left = Some(5_000);
+    let (m, mut sessions) = render_multi(vec![healthy, dying], &req, 4, &|_, _| {}).unwrap();
+    assert!(sessions[1].port_mut().dead(), "the line of board 1 died during the frame");
+    assert_eq!(m.frame.rgb, single.rgb, "the frame is the single board's, byte for byte");
+    assert_eq!(m.frame.prim_ids, single.prim_ids);
+    let (ok, dead) = (&m.devices[0], &m.devices[1]);
+    eprintln!("healthy: {} rows; dying: {} rows, then {:?}", ok.rows, dead.rows, dead.error);
+    assert!(dead.error.is_some(), "{dead:?}");
+    assert!(dead.rows > 0 && dead.rows < 48, "board 1 verified some rows before it died: {dead:?}");
+    assert!(ok.error.is_none() && ok.rows + dead.rows == 48, "{ok:?} {dead:?}");
 }

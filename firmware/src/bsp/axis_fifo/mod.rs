@@ -29,7 +29,7 @@
 
 pub mod regs;
 
-use super::Mmio;
+use super::mmio::Mmio;
 
 /// Errors of the stream link.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -141,10 +141,11 @@ impl<M: Mmio> AxisFifo<M> {
             }
         }
         self.mmio.write32(regs::TDFD, data);
-        self.tx_vacancy -= 1;
-        self.tx_pending += 1;
+        // Vacancy was non-zero; pending stays below the FIFO's capacity (checked above).
+        self.tx_vacancy = self.tx_vacancy.saturating_sub(1);
+        self.tx_pending = self.tx_pending.saturating_add(1);
         if last {
-            let bytes = self.tx_pending * regs::WORD_BYTES;
+            let bytes = self.tx_pending.saturating_mul(regs::WORD_BYTES);
             self.tx_pending = 0;
             self.mmio.write32(regs::TLR, bytes & regs::LEN_MASK);
             // TSE/TPOE would mean the core disagrees with the length just committed.
@@ -178,8 +179,9 @@ impl<M: Mmio> AxisFifo<M> {
             self.rx_remaining = bytes.div_ceil(regs::WORD_BYTES);
         }
         let data = self.mmio.read32(regs::RDFD);
-        self.rx_occupancy -= 1;
-        self.rx_remaining -= 1;
+        // Both were non-zero (read from the core, or counted down from its RLR).
+        self.rx_occupancy = self.rx_occupancy.saturating_sub(1);
+        self.rx_remaining = self.rx_remaining.saturating_sub(1);
         Ok((data, self.rx_remaining == 0))
     }
 
@@ -190,6 +192,7 @@ impl<M: Mmio> AxisFifo<M> {
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::regs::*;
     use super::*;

@@ -5,8 +5,9 @@
 
 pub mod regs;
 
+use super::mmio::Mmio;
 use super::uart_io::impl_uart_io;
-use super::{ByteUart, Mmio};
+use super::ByteUart;
 
 /// A receive-side line error, as flagged in LSR.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -148,6 +149,7 @@ impl<M: Mmio> ByteUart for Ns16550<M> {
 impl_uart_io!(Ns16550, Ns16550Error);
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::regs::*;
     use super::*;
@@ -303,5 +305,15 @@ mod tests {
         assert_eq!(uart.read_ready(), Ok(true));
         assert_eq!(uart.read(&mut buf[..1]), Ok(1));
         assert_eq!(buf[0], b'c');
+    }
+    #[test]
+    fn uart_writer_formats_through_the_uart() {
+        use crate::bsp::UartWriter;
+        use core::fmt::Write as _;
+        let mock = MockMmio::new();
+        mock.set8(LSR, LSR_THRE);
+        let mut uart = Ns16550::new(&mock);
+        assert_eq!(write!(UartWriter(&mut uart), "n={}", 42), Ok(()));
+        assert_eq!(mock.writes8_at(THR), b"n=42".to_vec());
     }
 }

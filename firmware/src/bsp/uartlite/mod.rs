@@ -5,8 +5,9 @@
 
 pub mod regs;
 
+use super::mmio::Mmio;
 use super::uart_io::impl_uart_io;
-use super::{ByteUart, Mmio};
+use super::ByteUart;
 
 /// A receive-side line error, as flagged in STAT. The IP does not say which byte was
 /// bad, so no byte is dropped: the next read returns the next byte in the FIFO.
@@ -114,6 +115,7 @@ impl<M: Mmio> ByteUart for UartLite<M> {
 impl_uart_io!(UartLite, UartLiteError);
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {
     use super::regs::*;
     use super::*;

@@ -4,7 +4,7 @@
 //! Eurographics 1987 — the incremental form (`t_next += t_delta`), which is what a soft-core
 //! without an FPU wants: after a per-ray setup of a few integer divisions, every voxel step
 //! is one compare and one add on integers. Semantics, ties and the output are those of the
-//! f32 [`crate::dda::Traversal`] (same [`VoxelStep`]s up to rounding), so it is a drop-in.
+//! f32 [`Traversal`](super::Traversal) (same [`VoxelStep`]s up to rounding), so it is a drop-in.
 //!
 //! # Number format
 //!
@@ -31,14 +31,15 @@
 //!
 //! Origins more than ~2²⁶ times the grid's coordinate magnitude away, or ~2³⁰ grid units
 //! away, do not fit: [`FixedTraversal::new`] returns [`DdaOverflow`] instead of a wrong
-//! walk, and [`crate::dda::build_list`] then falls back to the f32 DDA (and says so).
+//! walk, and [`build_list`](super::build_list) then falls back to the f32 DDA (and says so).
 
-use crate::dda::{GridDesc, VoxelStep};
+use super::grid::{GridDesc, VoxelStep};
+use super::walk::{Stepper, Walk};
 use crate::fixed::{f32_to_fixed_i128, fixed_to_f32};
 use gridrt_shared::math::Ray;
 
 /// Fractional bits of grid-unit coordinates and of the ray parameter t'.
-pub const FRAC: u32 = 32;
+const FRAC: u32 = 32;
 /// "Never": the t of an axis that is not stepped, or an unbounded end.
 const NEVER: i64 = i64::MAX;
 
@@ -97,40 +98,26 @@ fn sat(v: i128) -> i64 {
 /// Iterator over the voxels a ray crosses, in fixed point (module doc).
 #[derive(Debug, Clone)]
 pub struct FixedTraversal {
-    dims: [i32; 3],
-    cell: [i32; 3],
-    step: [i32; 3],
-    t_next: [i64; 3],
+    walk: Walk<i64>,
+    deltas: Deltas,
+}
+
+/// The per-axis increments of the walk and the scale of its parameter.
+#[derive(Debug, Clone)]
+struct Deltas {
     t_delta: [i64; 3],
-    t: i64,
-    t_end: i64,
     /// `t_world = t' · 2^-t_exp` with t' raw (Q31.32).
     t_exp: i32,
-    steps_left: u32,
-    nx: u32,
-    ny: u32,
 }
 
 impl FixedTraversal {
     /// An empty walk.
     fn empty() -> Self {
-        Self {
-            dims: [0; 3],
-            cell: [0; 3],
-            step: [0; 3],
-            t_next: [NEVER; 3],
-            t_delta: [0; 3],
-            t: 0,
-            t_end: 0,
-            t_exp: 0,
-            steps_left: 0,
-            nx: 0,
-            ny: 0,
-        }
+        Self { walk: Walk::empty(0, NEVER), deltas: Deltas { t_delta: [0; 3], t_exp: 0 } }
     }
 
     /// Starts a walk of `ray` restricted to `[t_min, t_max]` (the same contract as
-    /// [`crate::dda::Traversal::new`]: an invalid ray or grid, or a clip of zero length,
+    /// [`Traversal::new`](super::Traversal::new): an invalid ray or grid, or a clip of zero length,
     /// gives an empty walk). `Err` when the ray does not fit the fixed-point format.
     pub fn new(grid: &GridDesc, ray: &Ray, t_min: f32, t_max: f32) -> Result<Self, DdaOverflow> {
         if !grid.is_valid() || !ray.is_valid() || t_min.is_nan() || t_max.is_nan() {
@@ -222,30 +209,48 @@ impl FixedTraversal {
         if t1 <= t0 || t0 == NEVER || t0 == -NEVER {
             return Ok(Self::empty());
         }
-        let mut tr = Self { t_exp, nx: grid.dims[0], ny: grid.dims[1], ..Self::empty() };
+        let mut tr = Self { walk: Walk::on_grid(grid.dims, 0, NEVER), deltas: Deltas { t_delta: [0; 3], t_exp } };
         for a in 0..3 {
             let n = grid.dims[a] as i32;
-            tr.dims[a] = n;
+            tr.walk.dims[a] = n;
             let cell_size = ext_g[a] / n as i64;
             // Entry point, floor + clamp into the grid.
             let entry = org[a] as i128 + ((t0 as i128 * dir[a] as i128) >> FRAC);
             let c = if entry <= 0 { 0 } else { (entry / cell_size.max(1) as i128).min((n - 1) as i128) as i32 };
-            tr.cell[a] = c;
+            tr.walk.cell[a] = c;
             if dir[a] == 0 {
                 continue;
             }
-            tr.step[a] = if dir[a] > 0 { 1 } else { -1 };
+            tr.walk.step[a] = if dir[a] > 0 { 1 } else { -1 };
             let k = if dir[a] > 0 { c + 1 } else { c };
             let plane = if k >= n { ext_g[a] } else { k as i64 * cell_size };
             let (fl, _) = div_q((plane - org[a]) as i128, dir[a] as i128);
-            tr.t_next[a] = sat(fl);
+            tr.walk.t_next[a] = sat(fl);
             let (dl, _) = div_q(cell_size as i128, (dir[a] as i128).abs());
-            tr.t_delta[a] = sat(dl);
+            tr.deltas.t_delta[a] = sat(dl);
         }
-        tr.t = t0;
-        tr.t_end = t1;
-        tr.steps_left = grid.dims.iter().sum();
+        tr.walk.start(t0, t1, grid.dims);
         Ok(tr)
+    }
+}
+
+impl Stepper for Deltas {
+    type T = i64;
+
+    #[inline]
+    fn min(a: i64, b: i64) -> i64 {
+        a.min(b)
+    }
+
+    #[inline]
+    fn max(a: i64, b: i64) -> i64 {
+        a.max(b)
+    }
+
+    /// One `t_delta` further (the incremental form); saturates at "never".
+    #[inline]
+    fn next_crossing(&self, walk: &Walk<i64>, a: usize) -> i64 {
+        walk.t_next[a].saturating_add(self.t_delta[a])
     }
 
     #[inline]
@@ -262,40 +267,6 @@ impl Iterator for FixedTraversal {
 
     #[inline]
     fn next(&mut self) -> Option<VoxelStep> {
-        if self.steps_left == 0 {
-            return None;
-        }
-        self.steps_left -= 1;
-        let [tx, ty, tz] = self.t_next;
-        // Lowest axis wins ties (as in the f32 DDA).
-        let axis = if tx <= ty && tx <= tz {
-            0
-        } else if ty <= tz {
-            1
-        } else {
-            2
-        };
-        let t_cross = self.t_next[axis];
-        let t_exit = t_cross.min(self.t_end).max(self.t);
-        let cell = [self.cell[0] as u32, self.cell[1] as u32, self.cell[2] as u32];
-        let item = VoxelStep {
-            voxel: cell[0] + self.nx * (cell[1] + self.ny * cell[2]),
-            cell,
-            t_enter: self.world(self.t),
-            t_exit: self.world(t_exit),
-        };
-        if t_cross >= self.t_end {
-            self.steps_left = 0;
-            return Some(item);
-        }
-        let c = self.cell[axis] + self.step[axis];
-        if c < 0 || c >= self.dims[axis] {
-            self.steps_left = 0;
-            return Some(item);
-        }
-        self.cell[axis] = c;
-        self.t_next[axis] = self.t_next[axis].saturating_add(self.t_delta[axis]);
-        self.t = t_exit;
-        Some(item)
+        self.walk.next(&self.deltas)
     }
 }

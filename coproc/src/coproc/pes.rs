@@ -1,0 +1,181 @@
+//! The PE array: loading and clearing PE memories (with the kernels' load-time record
+//! tables) and the timed trace of one ray (search, PE timeline, counters).
+
+use gridrt_shared::fsl::{FslError, ListEntry, RayKind, RayResult};
+use gridrt_shared::math::Ray;
+use gridrt_shared::scene::{MAX_PES, TRIANGLE_WORDS};
+
+use super::image::{record, record_at, span, span_mut, validate_image, PeSlot};
+use super::search::{Numerics, View};
+use super::stats::CoprocStats;
+use crate::config::{ArbitrationRule, CoprocConfig};
+use crate::isect::{with_kernel, Kernel, RecordStatus};
+use crate::timing::PeTimeline;
+
+/// The PE array: configuration, memories, image slots, clocks and counters (everything but
+/// the link buffers, so a buffered list can be traced in place).
+pub(super) struct Pes<'m> {
+    pub(super) cfg: CoprocConfig,
+    pub(super) mem: &'m mut [u32],
+    pub(super) slots: [PeSlot; MAX_PES],
+    pub(super) loaded_pes: u16,
+    pub(super) rule: ArbitrationRule,
+    pub(super) numerics: Numerics,
+    pub(super) clocks: [u64; MAX_PES],
+    pub(super) stats: CoprocStats,
+}
+
+impl Pes<'_> {
+    pub(super) fn view(&self) -> View<'_> {
+        let numerics = self.numerics;
+        View {
+            cfg: &self.cfg,
+            mem: self.mem,
+            slots: &self.slots,
+            loaded_pes: self.loaded_pes,
+            rule: self.rule,
+            numerics,
+        }
+    }
+
+    pub(super) fn base(&self, pe: u8) -> usize {
+        // pe < pe_count and pe_count · pe_mem_words fits the backing: never saturates.
+        (pe as usize).saturating_mul(self.cfg.pe_mem_words as usize)
+    }
+
+    /// Marks `pe` empty (start of a LOAD).
+    pub(super) fn begin_load(&mut self, pe: u8) {
+        if let Some(slot) = self.slots.get_mut(pe as usize) {
+            if slot.loaded {
+                self.loaded_pes = self.loaded_pes.saturating_sub(1);
+            }
+            *slot = PeSlot::default();
+        }
+    }
+
+    /// Validates the `len` words already written at `pe`'s base, builds the kernel's record
+    /// table after them if it needs one (module doc), and installs them.
+    pub(super) fn finish_load(&mut self, pe: u8, len: usize) -> Result<(), FslError> {
+        let base = self.base(pe);
+        let image = span(self.mem, base, len).ok_or(FslError::PeMemoryOverflow)?;
+        let slot = validate_image(image).ok_or(FslError::PeImageMalformed)?;
+        with_kernel!(self.cfg.kernel, self.numerics.format, K => {
+            if !K::USES_IMAGE {
+                self.build_records::<K>(base, &slot)?;
+            }
+        });
+        let dst = self.slots.get_mut(pe as usize).ok_or(FslError::PeOutOfRange)?;
+        *dst = slot;
+        self.loaded_pes = self.loaded_pes.saturating_add(1);
+        self.stats.loads = self.stats.loads.saturating_add(1);
+        let t = &self.cfg.timing;
+        // Header, count and `len` image words in, the ACK out.
+        let cycles = (len as u64)
+            .saturating_add(2)
+            .saturating_mul(t.word_in_cycles as u64)
+            .saturating_add(t.word_out_cycles as u64);
+        self.stats.cycles = self.stats.cycles.saturating_add(cycles);
+        Ok(())
+    }
+
+    /// Precomputes kernel `K`'s record of every triangle of the image at `base` into PE
+    /// memory right after the image, charged against `pe_mem_words`.
+    fn build_records<K: Kernel>(&mut self, base: usize, slot: &PeSlot) -> Result<(), FslError> {
+        let tris = slot.tris as usize;
+        let rec_off = slot.len as usize;
+        let need = tris.checked_mul(K::RECORD_WORDS).and_then(|n| n.checked_add(rec_off));
+        if need.is_none_or(|n| n > self.cfg.pe_mem_words as usize) {
+            return Err(FslError::PeMemoryOverflow);
+        }
+        let frame = self.numerics.frame;
+        // `need` fits pe_mem_words, so none of these offsets saturates; a saturated one would
+        // fail the checked access below.
+        let tri_base = base.saturating_add(slot.tri_off as usize);
+        let rec_base = base.saturating_add(rec_off);
+        for i in 0..tris {
+            let src = tri_base.saturating_add(i.saturating_mul(TRIANGLE_WORDS));
+            let tri = record(record_at(self.mem, src).ok_or(FslError::PeImageMalformed)?);
+            let dst = rec_base.saturating_add(i.saturating_mul(K::RECORD_WORDS));
+            let out = span_mut(self.mem, dst, K::RECORD_WORDS).ok_or(FslError::PeMemoryOverflow)?;
+            let counter = match K::precompute(&tri, &frame, out) {
+                RecordStatus::Ok => continue,
+                RecordStatus::Degenerate => &mut self.stats.degenerate_records,
+                RecordStatus::Overflow => &mut self.stats.overflow_records,
+            };
+            *counter = counter.saturating_add(1);
+        }
+        Ok(())
+    }
+
+    pub(super) fn clear(&mut self) {
+        self.slots = [PeSlot::default(); MAX_PES];
+        self.loaded_pes = 0;
+    }
+
+    /// The timed path: validation, functional search, PE timeline, statistics.
+    pub(super) fn trace_timed(
+        &mut self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+    ) -> Result<RayResult, (FslError, u16)> {
+        let numerics = self.numerics;
+        let view = View {
+            cfg: &self.cfg,
+            mem: self.mem,
+            slots: &self.slots,
+            loaded_pes: self.loaded_pes,
+            rule: self.rule,
+            numerics,
+        };
+        view.validate(ray, t_max, list)?;
+        let (found, info) = view.search_dyn(kind, ray, t_max, list);
+        let mut result = view.result_of(list, found, ray);
+
+        // Timeline (module doc of `timing`): pass 1 finds the completion time T of entries
+        // 0..=w, pass 2 charges the tests every entry had started by T.
+        let tests_of = |k: usize, e: &ListEntry| match found {
+            Some(f) if f.k == k => f.tests_in_entry,
+            _ => view.lookup(e.pe, e.voxel).map_or(0, |r| r.count),
+        };
+        let last = found.map_or(list.len(), |f| f.k.saturating_add(1));
+        let profile = self.cfg.timing;
+        for e in list {
+            if let Some(c) = self.clocks.get_mut(e.pe as usize) {
+                *c = 0;
+            }
+        }
+        let mut end = 0u64;
+        {
+            let mut tl = PeTimeline::new(&profile, &mut self.clocks);
+            for (k, e) in list.iter().enumerate().take(last) {
+                end = end.max(tl.schedule(e.pe, tests_of(k, e)).done);
+            }
+        }
+        for e in list {
+            if let Some(c) = self.clocks.get_mut(e.pe as usize) {
+                *c = 0;
+            }
+        }
+        let mut tests = 0u64;
+        {
+            let mut tl = PeTimeline::new(&profile, &mut self.clocks);
+            for (k, e) in list.iter().enumerate() {
+                let n = tests_of(k, e);
+                let at = tl.schedule(e.pe, n);
+                tests = tests.saturating_add(tl.started_before(at, n, end) as u64);
+            }
+        }
+        let cycles = profile.ray_io_cycles(list.len()).saturating_add(end);
+        result.tests = tests.min(u16::MAX as u64) as u16;
+        result.cycles = cycles.min(u32::MAX as u64) as u32;
+        let s = &mut self.stats;
+        s.rays = s.rays.saturating_add(1);
+        s.hits = s.hits.saturating_add(result.hit as u64);
+        s.tests = s.tests.saturating_add(tests);
+        s.cycles = s.cycles.saturating_add(cycles);
+        s.overflows = s.overflows.saturating_add(info.overflows);
+        Ok(result)
+    }
+}

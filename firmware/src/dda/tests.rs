@@ -1,0 +1,416 @@
+//! Property rule (pinned by `traversal_visits_exactly_the_voxels_the_ray_crosses`), against
+//! an exact f64 per-voxel slab test of the same f32 ray: with δ = 2^-20 · S, S = the largest
+//! coordinate magnitude of the origin and grid corners (≈ 8 f32 ulps of S),
+//! - a voxel MUST be visited when the ray crosses its δ-shrunk box with positive length
+//!   inside `[t_min, t_max]`, and then its t_enter/t_exit lie between the crossings of the
+//!   δ-grown and δ-shrunk boxes (the boundary point is right to within δ);
+//! - a voxel MUST NOT be visited when the ray misses its δ-grown closed box;
+//! - voxels in between are touched only within δ of their boundary — at a corner, along an
+//!   edge, or on a face the ray lies in — and may go either way. (Measured: the rule still
+//!   holds at δ = 2^-23 · S; it breaks at 2^-24 · S, half an ulp.)
+use super::*;
+use crate::fixed::RayFormat;
+use gridrt_shared::math::{Ray, Vec3};
+use gridrt_shared::scene::EMPTY_VOXEL;
+use rand::{Rng, SeedableRng};
+
+/// The walk of the DDA in `fmt` (the fixed-point one must represent every test ray).
+fn trav(fmt: RayFormat, g: &GridDesc, r: &Ray, tmin: f32, tmax: f32) -> Vec<VoxelStep> {
+    match fmt {
+        RayFormat::F32 => Traversal::new(g, r, tmin, tmax).collect(),
+        RayFormat::Fixed => {
+            FixedTraversal::new(g, r, tmin, tmax).unwrap_or_else(|e| panic!("{e:?}: {g:?} {r:?}")).collect()
+        }
+    }
+}
+use rand_chacha::ChaCha8Rng;
+
+type V64 = [f64; 3];
+
+fn v64(v: Vec3) -> V64 {
+    [v.x as f64, v.y as f64, v.z as f64]
+}
+
+/// Closed slab test in f64 against `[lo, hi]`, returning the signed interval length
+/// `t1 − t0` of the ray restricted to `[tmin, tmax]` (negative or `None` = miss).
+fn slab64(o: V64, d: V64, lo: V64, hi: V64, tmin: f64, tmax: f64) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (tmin, tmax);
+    for a in 0..3 {
+        if d[a] == 0.0 {
+            if o[a] < lo[a] || o[a] > hi[a] {
+                return None;
+            }
+            continue;
+        }
+        let (mut n, mut f) = ((lo[a] - o[a]) / d[a], (hi[a] - o[a]) / d[a]);
+        if n > f {
+            core::mem::swap(&mut n, &mut f);
+        }
+        t0 = t0.max(n);
+        t1 = t1.min(f);
+    }
+    Some((t0, t1))
+}
+
+struct Case {
+    grid: GridDesc,
+    ray: Ray,
+    tmin: f32,
+    tmax: f32,
+    /// No origin coordinate forced onto a plane and no zero direction component.
+    general: bool,
+}
+
+fn cell_box(g: &GridDesc, c: [u32; 3]) -> (V64, V64) {
+    let (mn, mx) = (v64(g.min), v64(g.max));
+    let mut lo = [0.0; 3];
+    let mut hi = [0.0; 3];
+    for a in 0..3 {
+        let n = g.dims[a] as f64;
+        lo[a] = mn[a] + (mx[a] - mn[a]) * c[a] as f64 / n;
+        hi[a] = mn[a] + (mx[a] - mn[a]) * (c[a] + 1) as f64 / n;
+    }
+    (lo, hi)
+}
+
+fn delta(case: &Case) -> f64 {
+    let g = &case.grid;
+    let s = [g.min.abs().max_element(), g.max.abs().max_element(), case.ray.origin.abs().max_element()]
+        .into_iter()
+        .fold(0.0f32, f32::max) as f64;
+    s * (2.0f64).powi(-20)
+}
+
+fn random_grid(rng: &mut ChaCha8Rng, max_dim: u32) -> GridDesc {
+    let min = Vec3::new(rng.gen_range(-8.0..8.0), rng.gen_range(-8.0..8.0), rng.gen_range(-8.0..8.0));
+    let ext = Vec3::new(rng.gen_range(0.2..6.0), rng.gen_range(0.2..6.0), rng.gen_range(0.2..6.0));
+    let dims = [rng.gen_range(1..=max_dim), rng.gen_range(1..=max_dim), rng.gen_range(1..=max_dim)];
+    GridDesc { min, max: min + ext, dims }
+}
+
+/// A grid plane coordinate on axis `a` (as the f32 the DDA computes, so "on the plane" is
+/// as exact as f32 allows).
+fn plane_coord(rng: &mut ChaCha8Rng, g: &GridDesc, a: usize) -> f32 {
+    let k = rng.gen_range(0..=g.dims[a]);
+    if k == g.dims[a] {
+        g.max[a]
+    } else {
+        g.min[a] + k as f32 * ((g.max[a] - g.min[a]) / g.dims[a] as f32)
+    }
+}
+
+/// Random rays of every awkward kind: general, axis-aligned (1 or 2 zero components),
+/// grazing (lying in a grid plane), origins on faces, edges and corners, inside and
+/// outside the box, limited t ranges (shadow-ray style).
+fn random_case(rng: &mut ChaCha8Rng, max_dim: u32) -> Case {
+    let grid = random_grid(rng, max_dim);
+    let ext = grid.max - grid.min;
+    let inside = |rng: &mut ChaCha8Rng| {
+        Vec3::new(
+            rng.gen_range(grid.min.x..grid.max.x),
+            rng.gen_range(grid.min.y..grid.max.y),
+            rng.gen_range(grid.min.z..grid.max.z),
+        )
+    };
+    let mut origin = match rng.gen_range(0..3) {
+        0 => inside(rng),
+        _ => grid.min - ext + Vec3::new(rng.gen::<f32>(), rng.gen::<f32>(), rng.gen::<f32>()) * ext * 3.0,
+    };
+    let mut dir = match rng.gen_range(0..4) {
+        0 => Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)),
+        _ => inside(rng) - origin,
+    };
+    // Put 0..3 origin coordinates exactly on grid planes (faces, edges, corners).
+    let on_planes = if rng.gen_bool(0.5) { 0 } else { rng.gen_range(1..4) };
+    for _ in 0..on_planes {
+        let a = rng.gen_range(0..3);
+        origin[a] = plane_coord(rng, &grid, a);
+    }
+    // Zero 0..2 direction components: axis-aligned and grazing rays.
+    let kind = rng.gen_range(0..6);
+    match kind {
+        0 => dir[rng.gen_range(0..3)] = 0.0,
+        1 => {
+            let keep = rng.gen_range(0..3);
+            for a in 0..3 {
+                if a != keep {
+                    dir[a] = 0.0;
+                }
+            }
+        }
+        2 => {
+            // Grazing: lie in a grid plane.
+            let a = rng.gen_range(0..3);
+            dir[a] = 0.0;
+            origin[a] = plane_coord(rng, &grid, a);
+        }
+        _ => {}
+    }
+    if dir == Vec3::ZERO {
+        dir = Vec3::X;
+    }
+    dir *= rng.gen_range(0.01..10.0f32);
+    let (tmin, tmax) = if rng.gen_bool(0.2) { (0.0, rng.gen_range(0.0..3.0f32)) } else { (0.0, f32::INFINITY) };
+    let general = on_planes == 0 && kind > 2 && dir.x != 0.0 && dir.y != 0.0 && dir.z != 0.0;
+    Case { grid, ray: Ray { origin, dir }, tmin, tmax, general }
+}
+
+/// Checks the order invariants and returns the visited voxels.
+fn walk(case: &Case, fmt: RayFormat) -> Vec<VoxelStep> {
+    let g = &case.grid;
+    let steps: Vec<VoxelStep> = trav(fmt, g, &case.ray, case.tmin, case.tmax);
+    let bound = (g.dims[0] + g.dims[1] + g.dims[2]) as usize;
+    assert!(steps.len() <= bound, "{} steps > {bound}", steps.len());
+    for s in &steps {
+        assert!(s.t_exit >= s.t_enter, "{s:?}");
+        assert!(s.t_enter >= case.tmin && s.t_exit <= case.tmax, "{s:?}");
+        assert!((0..3).all(|a| s.cell[a] < g.dims[a]));
+        assert_eq!(s.voxel, g.voxel_id(s.cell));
+    }
+    for w in steps.windows(2) {
+        assert_eq!(w[0].t_exit, w[1].t_enter);
+        let moved: u32 = (0..3).map(|a| w[0].cell[a].abs_diff(w[1].cell[a])).sum();
+        assert_eq!(moved, 1, "consecutive voxels must share a face: {w:?}");
+    }
+    steps
+}
+
+/// Compares a walk with the per-voxel f64 slab test (rule in the module comment).
+/// Returns the number of voxels that went either way.
+fn check_exhaustive(case: &Case, fmt: RayFormat) -> u64 {
+    let mut ambiguous = 0;
+    let g = &case.grid;
+    let steps = walk(case, fmt);
+    let dl = delta(case);
+    let (o, d) = (v64(case.ray.origin), v64(case.ray.dir));
+    let (tmin, tmax) = (case.tmin as f64, case.tmax as f64);
+    for iz in 0..g.dims[2] {
+        for iy in 0..g.dims[1] {
+            for ix in 0..g.dims[0] {
+                let c = [ix, iy, iz];
+                let (lo, hi) = cell_box(g, c);
+                let shrunk = slab64(o, d, lo.map(|v| v + dl), hi.map(|v| v - dl), tmin, tmax);
+                let grown = slab64(o, d, lo.map(|v| v - dl), hi.map(|v| v + dl), tmin, tmax);
+                let must = matches!(shrunk, Some((t0, t1)) if t1 > t0);
+                let may = matches!(grown, Some((t0, t1)) if t1 >= t0);
+                let visited = steps.iter().find(|s| s.cell == c);
+                if must {
+                    let s = visited.unwrap_or_else(|| {
+                        panic!("missed voxel {c:?} of {:?} ray {:?} t[{tmin},{tmax}] steps {steps:?}", g, case.ray)
+                    });
+                    // Its entry and exit lie within δ of the voxel's boundary: between the
+                    // crossings of the grown and the shrunk box (plus the relative widening
+                    // of the clip's far end).
+                    let (s0, s1) = shrunk.unwrap_or_default();
+                    let (g0, g1) = grown.unwrap_or_default();
+                    let slack = 1e-6 * g1.abs().max(g0.abs()).min(1e30);
+                    let ok_enter = s.t_enter as f64 >= g0 - slack && s.t_enter as f64 <= s0 + slack;
+                    let ok_exit = s.t_exit as f64 >= s1 - slack && s.t_exit as f64 <= g1 + slack;
+                    assert!(
+                        ok_enter && ok_exit,
+                        "{s:?} vs shrunk ({s0}, {s1}) grown ({g0}, {g1}) ({g:?}, {:?})",
+                        case.ray
+                    );
+                } else if !may {
+                    assert!(
+                        visited.is_none(),
+                        "visited voxel {c:?} the ray misses: {g:?} {:?} t[{tmin},{tmax}] {steps:?}",
+                        case.ray
+                    );
+                } else if visited.is_some() != must {
+                    ambiguous += 1;
+                }
+            }
+        }
+    }
+    ambiguous
+}
+
+#[test]
+/// 10⁶ seeded random rays per number format (f32 and the fixed-point DDA of feature
+/// `fixed-raygen`), each checked voxel by voxel against the exact f64 slab test.
+fn traversal_visits_exactly_the_voxels_the_ray_crosses() {
+    for fmt in RayFormat::ALL {
+        let mut rng = ChaCha8Rng::seed_from_u64(0xDDA_0001);
+        let (mut general, mut general_ambiguous) = (0u64, 0u64);
+        for _ in 0..1_000_000 {
+            let case = random_case(&mut rng, 7);
+            let ambiguous = check_exhaustive(&case, fmt);
+            if case.general {
+                general += 1;
+                general_ambiguous += (ambiguous > 0) as u64;
+            }
+        }
+        // The δ band must stay thin: general-position rays almost never fall into it
+        // (degenerate rays lying in planes or through edges are ambiguous by design).
+        assert!(general > 200_000, "{fmt:?}: {general}");
+        assert!(general_ambiguous * 1000 < general, "{fmt:?}: {general_ambiguous} of {general} general rays ambiguous");
+    }
+}
+
+/// Large grids (up to 255³) cannot be checked voxel by voxel: check instead that every
+/// sample point of the segment that lies δ inside a voxel is in a visited voxel, and that
+/// every visited voxel is touched (δ-grown) by the ray.
+#[test]
+fn traversal_on_large_grids_covers_the_segment_and_stays_on_it() {
+    for fmt in RayFormat::ALL {
+        let mut rng = ChaCha8Rng::seed_from_u64(0xDDA_0002);
+        for _ in 0..3_000 {
+            let case = random_case(&mut rng, MAX_GRID_DIM);
+            let g = &case.grid;
+            let steps = walk(&case, fmt);
+            let dl = delta(&case);
+            let (o, d) = (v64(case.ray.origin), v64(case.ray.dir));
+            let (tmin, tmax) = (case.tmin as f64, case.tmax as f64);
+            for s in &steps {
+                let (lo, hi) = cell_box(g, s.cell);
+                let grown = slab64(o, d, lo.map(|v| v - dl), hi.map(|v| v + dl), tmin, tmax);
+                assert!(matches!(grown, Some((t0, t1)) if t1 >= t0), "visited {s:?} off the ray");
+            }
+            let Some((t0, t1)) = slab64(o, d, v64(g.min), v64(g.max), tmin, tmax) else { continue };
+            if t1 <= t0 {
+                continue;
+            }
+            let samples = 4 * (g.dims[0] + g.dims[1] + g.dims[2]);
+            for k in 0..samples {
+                let t = t0 + (t1 - t0) * (k as f64 + 0.5) / samples as f64;
+                let p: V64 = core::array::from_fn(|a| o[a] + t * d[a]);
+                let mut c = [0u32; 3];
+                let mut clear = true;
+                for a in 0..3 {
+                    let (mn, mx) = (g.min[a] as f64, g.max[a] as f64);
+                    let n = g.dims[a] as f64;
+                    let rel = (p[a] - mn) / (mx - mn) * n;
+                    let i = rel.floor().clamp(0.0, n - 1.0);
+                    c[a] = i as u32;
+                    let (lo, hi) = (mn + (mx - mn) * i / n, mn + (mx - mn) * (i + 1.0) / n);
+                    clear &= p[a] > lo + dl && p[a] < hi - dl;
+                }
+                if clear {
+                    assert!(
+                        steps.iter().any(|s| s.cell == c),
+                        "sample {p:?} in {c:?} not visited: {g:?} {:?}",
+                        case.ray
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn ray_missing_the_box_or_touching_it_visits_nothing() {
+    for fmt in RayFormat::ALL {
+        let g = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [4, 4, 4] };
+        let miss = Ray { origin: Vec3::new(2.0, 0.5, -1.0), dir: Vec3::Z };
+        assert_eq!(trav(fmt, &g, &miss, 0.0, f32::INFINITY).len(), 0);
+        // Pointing away.
+        let away = Ray { origin: Vec3::new(0.5, 0.5, -1.0), dir: -Vec3::Z };
+        assert_eq!(trav(fmt, &g, &away, 0.0, f32::INFINITY).len(), 0);
+        // On the z = 1 face, leaving the box.
+        let leaving = Ray { origin: Vec3::new(0.5, 0.5, 1.0), dir: Vec3::Z };
+        assert_eq!(trav(fmt, &g, &leaving, 0.0, f32::INFINITY).len(), 0);
+        // Stops before reaching the box.
+        let short = Ray { origin: Vec3::new(0.5, 0.5, -1.0), dir: Vec3::Z };
+        assert_eq!(trav(fmt, &g, &short, 0.0, 0.5).len(), 0);
+        // Invalid rays and grids.
+        let zero = Ray { origin: Vec3::splat(0.5), dir: Vec3::ZERO };
+        assert_eq!(trav(fmt, &g, &zero, 0.0, f32::INFINITY).len(), 0);
+        let nan = Ray { origin: Vec3::splat(f32::NAN), dir: Vec3::Z };
+        assert_eq!(trav(fmt, &g, &nan, 0.0, f32::INFINITY).len(), 0);
+        let bad = GridDesc { dims: [0, 4, 4], ..g };
+        assert_eq!(trav(fmt, &bad, &short, 0.0, f32::INFINITY).len(), 0);
+        let big = GridDesc { dims: [256, 1, 1], ..g };
+        assert_eq!(trav(fmt, &big, &short, 0.0, f32::INFINITY).len(), 0);
+    }
+}
+
+#[test]
+fn axis_aligned_ray_through_centres_visits_a_straight_row() {
+    for fmt in RayFormat::ALL {
+        let g = GridDesc { min: Vec3::ZERO, max: Vec3::new(4.0, 2.0, 2.0), dims: [4, 2, 2] };
+        let r = Ray { origin: Vec3::new(-1.0, 1.5, 0.5), dir: Vec3::X };
+        let s: Vec<_> = trav(fmt, &g, &r, 0.0, f32::INFINITY);
+        let cells: Vec<_> = s.iter().map(|s| s.cell).collect();
+        assert_eq!(cells, [[0, 1, 0], [1, 1, 0], [2, 1, 0], [3, 1, 0]]);
+        let ids: Vec<_> = s.iter().map(|s| s.voxel).collect();
+        assert_eq!(ids, [4, 5, 6, 7]);
+        let t: Vec<_> = s.iter().map(|s| (s.t_enter, s.t_exit)).collect();
+        assert_eq!(t[0], (1.0, 2.0));
+        assert_eq!(t[3].0, 4.0);
+        assert!(t[3].1 >= 5.0 && t[3].1 < 5.0 + 1e-5);
+        // Reverse direction walks it backwards.
+        let back = Ray { origin: Vec3::new(5.0, 1.5, 0.5), dir: -Vec3::X };
+        let cells: Vec<_> = trav(fmt, &g, &back, 0.0, f32::INFINITY).iter().map(|s| s.voxel).collect();
+        assert_eq!(cells, [7, 6, 5, 4]);
+    }
+}
+
+#[test]
+fn ray_in_a_grid_plane_takes_the_cell_above_the_plane() {
+    for fmt in RayFormat::ALL {
+        // y = 1 is the plane between iy = 0 and iy = 1; floor puts the ray in iy = 1.
+        let g = GridDesc { min: Vec3::ZERO, max: Vec3::new(2.0, 2.0, 2.0), dims: [2, 2, 2] };
+        let r = Ray { origin: Vec3::new(-1.0, 1.0, 0.5), dir: Vec3::X };
+        let cells: Vec<_> = trav(fmt, &g, &r, 0.0, f32::INFINITY).iter().map(|s| s.cell).collect();
+        assert_eq!(cells, [[0, 1, 0], [1, 1, 0]]);
+        // On the top face (y = max) the clamped cell is the last one.
+        let top = Ray { origin: Vec3::new(-1.0, 2.0, 0.5), dir: Vec3::X };
+        let cells: Vec<_> = trav(fmt, &g, &top, 0.0, f32::INFINITY).iter().map(|s| s.cell).collect();
+        assert_eq!(cells, [[0, 1, 0], [1, 1, 0]]);
+    }
+}
+
+#[test]
+fn diagonal_through_corners_steps_lowest_axis_first() {
+    for fmt in RayFormat::ALL {
+        let g = GridDesc { min: Vec3::ZERO, max: Vec3::new(2.0, 2.0, 1.0), dims: [2, 2, 1] };
+        let r = Ray { origin: Vec3::new(0.0, 0.0, 0.5), dir: Vec3::new(1.0, 1.0, 0.0) };
+        let s: Vec<_> = trav(fmt, &g, &r, 0.0, f32::INFINITY);
+        let cells: Vec<_> = s.iter().map(|s| s.cell).collect();
+        assert_eq!(cells, [[0, 0, 0], [1, 0, 0], [1, 1, 0]]);
+        // The corner voxel in between is touched in one point only.
+        assert_eq!(s[1].t_enter, s[1].t_exit);
+    }
+}
+
+#[test]
+fn origin_inside_starts_in_its_own_voxel_at_t_min() {
+    for fmt in RayFormat::ALL {
+        let g = GridDesc { min: Vec3::ZERO, max: Vec3::splat(3.0), dims: [3, 3, 3] };
+        let r = Ray { origin: Vec3::new(1.5, 1.5, 1.5), dir: Vec3::new(0.0, 0.0, -2.0) };
+        let s: Vec<_> = trav(fmt, &g, &r, 0.0, f32::INFINITY);
+        assert_eq!(s.iter().map(|s| s.cell).collect::<Vec<_>>(), [[1, 1, 1], [1, 1, 0]]);
+        assert_eq!((s[0].t_enter, s[0].t_exit), (0.0, 0.25));
+        assert!(s[1].t_exit >= 0.75);
+    }
+}
+
+#[test]
+fn walk_is_bounded_by_sum_of_dims_on_a_max_size_grid() {
+    for fmt in RayFormat::ALL {
+        let g = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [MAX_GRID_DIM; 3] };
+        let r = Ray { origin: Vec3::new(-0.1, -0.2, -0.3), dir: Vec3::new(1.0, 1.01, 1.02) };
+        let n = trav(fmt, &g, &r, 0.0, f32::INFINITY).len();
+        assert!(n <= 3 * MAX_GRID_DIM as usize - 2 && n > 2 * MAX_GRID_DIM as usize, "{n}");
+    }
+}
+
+#[test]
+fn build_list_keeps_only_non_empty_voxels_with_their_pe_and_exit() {
+    let g = GridDesc { min: Vec3::ZERO, max: Vec3::new(4.0, 1.0, 1.0), dims: [4, 1, 1] };
+    let map = [0u8, EMPTY_VOXEL, 3, EMPTY_VOXEL];
+    let r = Ray { origin: Vec3::new(-1.0, 0.5, 0.5), dir: Vec3::X };
+    let mut list = TraversalList::new();
+    assert_eq!(build_list(&g, &map, &r, 0.0, f32::INFINITY, &mut list), 4);
+    assert_eq!(list.len(), 2);
+    assert_eq!((list[0].voxel, list[0].pe, list[0].t_exit), (0, 0, 2.0));
+    assert_eq!((list[1].voxel, list[1].pe, list[1].t_exit), (2, 3, 4.0));
+    // A map shorter than the grid: missing voxels are empty, not a panic.
+    assert_eq!(build_list(&g, &map[..1], &r, 0.0, f32::INFINITY, &mut list), 4);
+    assert_eq!(list.len(), 1);
+    // Missing the box: nothing.
+    let miss = Ray { origin: Vec3::new(-1.0, 5.0, 0.5), dir: Vec3::X };
+    assert_eq!(build_list(&g, &map, &miss, 0.0, f32::INFINITY, &mut list), 0);
+    assert!(list.is_empty());
+}

@@ -1,0 +1,277 @@
+//! The session itself: transport, frame codec, sequence numbers, byte counters, and the
+//! `Hello` exchange every stage starts from.
+
+use std::io::{ErrorKind, Read, Write};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use gridrt_shared::frame::{encode_frame, FeedResult, FrameAccumulator, FrameError, MAX_ENCODED, MAX_PAYLOAD};
+use gridrt_shared::msg::{
+    stat_entries, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, PixelEncoding, Region, SceneStatus,
+};
+use gridrt_shared::PROTOCOL_VERSION;
+
+use super::config::SessionConfig;
+use super::error::{SessionError, Stage};
+use super::link::{LinkStats, SpanSizer};
+use super::progress::ProgressEvent;
+
+/// Owned form of the device → host messages.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Incoming {
+    Version(DeviceInfo),
+    SceneAck { next_offset: u32, status: SceneStatus },
+    PixelSpan { frame: u16, y: u16, x0: u16, count: u16, encoding: PixelEncoding, data: Vec<u8> },
+    FrameEnd { frame: u16, spans: u32, image_crc: u32 },
+    RegionEnd { frame: u16, region: Region, spans: u32, crc: u32 },
+    Stats { frame: u16, entries: Vec<(u8, u64)> },
+    Error { code: ErrorCode, detail: u32, text: String },
+    Other,
+}
+
+impl Incoming {
+    fn from_msg(m: Msg<'_>) -> Self {
+        match m {
+            Msg::Version(d) => Self::Version(d),
+            Msg::SceneAck { next_offset, status } => Self::SceneAck { next_offset, status },
+            Msg::PixelSpan { frame, y, x0, count, encoding, data } => {
+                Self::PixelSpan { frame, y, x0, count, encoding, data: data.to_vec() }
+            }
+            Msg::FrameEnd { frame, spans, image_crc } => Self::FrameEnd { frame, spans, image_crc },
+            Msg::RegionEnd { frame, region, spans, crc } => Self::RegionEnd { frame, region, spans, crc },
+            Msg::Stats { frame, entries } => Self::Stats { frame, entries: stat_entries(entries).collect() },
+            Msg::Error { code, detail, text } => Self::Error { code, detail, text: text.to_string() },
+            _ => Self::Other,
+        }
+    }
+}
+
+/// A protocol session over transport `T`.
+#[derive(Debug)]
+pub struct Session<T> {
+    port: T,
+    pub(super) cfg: SessionConfig,
+    acc: Box<FrameAccumulator<MAX_ENCODED>>,
+    rx: Vec<u8>,
+    rx_pos: usize,
+    pub(super) tx_seq: u16,
+    pub(super) last_rx_seq: Option<u16>,
+    pub(super) bytes_tx: u64,
+    pub(super) bytes_rx: u64,
+    bad_frames: u64,
+    pub(super) device: Option<DeviceInfo>,
+    /// Valid frames received.
+    pub(super) rx_frames: u64,
+    /// Retransmission counters.
+    pub(super) link: LinkStats,
+    /// The last scene uploaded (uploaded again after a device reset).
+    pub(super) scene: Option<Arc<[u8]>>,
+    /// Line-quality estimate carried from band to band.
+    pub(super) sizer: Option<SpanSizer>,
+}
+
+impl<T: Read + Write> Session<T> {
+    /// A session over `port`.
+    pub fn new(port: T, cfg: SessionConfig) -> Self {
+        Self {
+            port,
+            cfg,
+            acc: Box::new(FrameAccumulator::new()),
+            rx: Vec::with_capacity(4096),
+            rx_pos: 0,
+            tx_seq: 0,
+            last_rx_seq: None,
+            bytes_tx: 0,
+            bytes_rx: 0,
+            bad_frames: 0,
+            device: None,
+            rx_frames: 0,
+            link: LinkStats::default(),
+            scene: None,
+            sizer: None,
+        }
+    }
+
+    /// Retransmission and line-error counters since the session started.
+    pub fn link_stats(&self) -> &LinkStats {
+        &self.link
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SessionConfig {
+        &self.cfg
+    }
+    /// What the device said in `Version`, after [`Self::hello`].
+    pub fn device(&self) -> Option<&DeviceInfo> {
+        self.device.as_ref()
+    }
+    /// Bytes written to the transport so far.
+    pub fn bytes_tx(&self) -> u64 {
+        self.bytes_tx
+    }
+    /// Bytes read from the transport so far.
+    pub fn bytes_rx(&self) -> u64 {
+        self.bytes_rx
+    }
+    /// Frames dropped for bad CRC, bad COBS or overflow (line noise) so far.
+    pub fn bad_frames(&self) -> u64 {
+        self.bad_frames
+    }
+    /// The transport.
+    pub fn port_mut(&mut self) -> &mut T {
+        &mut self.port
+    }
+    /// Ends the session and returns the transport.
+    pub fn into_inner(self) -> T {
+        self.port
+    }
+
+    fn io_err(&self, stage: Stage, source: std::io::Error) -> SessionError {
+        SessionError::Io { port: self.cfg.port_name.clone(), stage, source }
+    }
+
+    pub(super) fn timeout(&self, stage: Stage, waited: Duration) -> SessionError {
+        SessionError::Timeout {
+            port: self.cfg.port_name.clone(),
+            stage,
+            waited,
+            last_seq: self.last_rx_seq,
+            sent_seq: self.tx_seq.wrapping_sub(1),
+            what: String::new(),
+        }
+    }
+
+    pub(super) fn protocol(&self, stage: Stage, what: impl Into<String>) -> SessionError {
+        SessionError::Protocol { port: self.cfg.port_name.clone(), stage, what: what.into() }
+    }
+
+    pub(super) fn device_err(&self, stage: Stage, code: ErrorCode, detail: u32, text: String) -> SessionError {
+        SessionError::Device { port: self.cfg.port_name.clone(), stage, code, detail, text }
+    }
+
+    pub(super) fn write_bytes(&mut self, stage: Stage, bytes: &[u8]) -> Result<(), SessionError> {
+        self.port.write_all(bytes).map_err(|e| self.io_err(stage, e))?;
+        self.port.flush().map_err(|e| self.io_err(stage, e))?;
+        self.bytes_tx += bytes.len() as u64;
+        Ok(())
+    }
+
+    pub(super) fn send(&mut self, stage: Stage, msg: &Msg<'_>) -> Result<(), SessionError> {
+        let mut payload = [0u8; MAX_PAYLOAD];
+        let n = msg.encode(&mut payload).map_err(|e: MsgError| SessionError::BadInput {
+            port: self.cfg.port_name.clone(),
+            stage,
+            what: e.to_string(),
+        })?;
+        let mut wire = [0u8; MAX_ENCODED];
+        let len = encode_frame(msg.kind() as u8, self.tx_seq, &payload[..n], &mut wire)
+            .map_err(|e| SessionError::BadInput { port: self.cfg.port_name.clone(), stage, what: e.to_string() })?;
+        self.tx_seq = self.tx_seq.wrapping_add(1);
+        self.write_bytes(stage, &wire[..len])
+    }
+
+    /// Next message, or `None` once `until` has passed without one.
+    pub(super) fn poll(&mut self, stage: Stage, until: Instant) -> Result<Option<Incoming>, SessionError> {
+        let mut buf = [0u8; 4096];
+        loop {
+            while self.rx_pos < self.rx.len() {
+                let total = self.rx.len();
+                let decoded = match self.acc.feed(&self.rx[self.rx_pos..]) {
+                    FeedResult::Consumed => {
+                        self.rx_pos = total;
+                        None
+                    }
+                    FeedResult::Overflow { rest } => {
+                        self.bad_frames += 1;
+                        self.link.resyncs += 1;
+                        self.rx_pos = total - rest.len();
+                        None
+                    }
+                    FeedResult::BadFrame { error, rest } => {
+                        self.bad_frames += 1;
+                        self.link.resyncs += 1;
+                        if error == FrameError::DecodeBadCrc {
+                            self.link.crc_errors += 1;
+                        }
+                        self.rx_pos = total - rest.len();
+                        None
+                    }
+                    FeedResult::Frame { frame, rest } => {
+                        let pos = total - rest.len();
+                        let seq = frame.seq;
+                        let msg = match Msg::decode(frame.kind, frame.payload) {
+                            Ok(m) => Ok(Incoming::from_msg(m)),
+                            Err(MsgError::DecodeUnknownType) => Ok(Incoming::Other),
+                            Err(e) => Err(format!("undecodable {:?} message: {e}", MsgType::from_u8(frame.kind))),
+                        };
+                        Some((pos, seq, msg))
+                    }
+                };
+                if let Some((pos, seq, msg)) = decoded {
+                    self.rx_pos = pos;
+                    // Frames lost in between, by sequence number (a device restarts at 0).
+                    if let Some(last) = self.last_rx_seq {
+                        let gap = seq.wrapping_sub(last).wrapping_sub(1);
+                        if seq != 0 && gap < 0x8000 {
+                            self.link.seq_gaps += gap as u64;
+                        }
+                    }
+                    self.rx_frames += 1;
+                    self.last_rx_seq = Some(seq);
+                    return msg.map(Some).map_err(|w| self.protocol(stage, w));
+                }
+            }
+            self.rx.clear();
+            self.rx_pos = 0;
+            if Instant::now() >= until {
+                return Ok(None);
+            }
+            match self.port.read(&mut buf) {
+                Ok(0) => return Err(SessionError::Disconnected { port: self.cfg.port_name.clone(), stage }),
+                Ok(n) => {
+                    self.bytes_rx += n as u64;
+                    self.rx.extend_from_slice(&buf[..n]);
+                }
+                Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::Interrupted => {}
+                Err(e) if e.kind() == ErrorKind::WouldBlock => std::thread::sleep(Duration::from_millis(1)),
+                Err(e) => return Err(self.io_err(stage, e)),
+            }
+        }
+    }
+
+    /// Opens the session: flushes the line, sends `Hello`, returns the device's `Version`.
+    pub fn hello(&mut self, progress: &mut dyn FnMut(ProgressEvent)) -> Result<DeviceInfo, SessionError> {
+        let stage = Stage::Hello;
+        self.acc.reset();
+        self.rx.clear();
+        self.rx_pos = 0;
+        // A lone delimiter ends whatever noise the device may have buffered.
+        self.write_bytes(stage, &[0])?;
+        let start = Instant::now();
+        let attempts = 3u32;
+        for attempt in 1..=attempts {
+            self.send(stage, &Msg::Hello { protocol: PROTOCOL_VERSION as u16 })?;
+            let until = start + self.cfg.hello_timeout * attempt / attempts;
+            while let Some(m) = self.poll(stage, until)? {
+                match m {
+                    Incoming::Version(info) => {
+                        if info.protocol != PROTOCOL_VERSION as u16 {
+                            return Err(SessionError::VersionMismatch {
+                                port: self.cfg.port_name.clone(),
+                                device: info.protocol,
+                                host: PROTOCOL_VERSION as u16,
+                            });
+                        }
+                        self.device = Some(info);
+                        progress(ProgressEvent::Connected(info));
+                        return Ok(info);
+                    }
+                    Incoming::Error { code: ErrorCode::BadFrame, .. } => {} // noise before our Hello
+                    Incoming::Error { code, detail, text } => return Err(self.device_err(stage, code, detail, text)),
+                    _ => {} // stale traffic from an earlier session
+                }
+            }
+        }
+        Err(self.timeout(stage, start.elapsed()))
+    }
+}

@@ -1,0 +1,66 @@
+//! Progress events: the library reports, the binary draws.
+
+use gridrt_shared::msg::{DeviceInfo, Region};
+
+/// Progress of a session operation.
+///
+/// Order: `Connected` once per [`Session::hello`](crate::session::Session::hello); for an upload `UploadStarted`, then any
+/// number of `Uploaded`/`UploadRewound`, then `UploadFinished`; for a render `RenderStarted`,
+/// `RowReceived` once per completed row (rows may complete in any order), then `Finished`.
+/// When an operation fails, no further events are emitted for it and the error is returned.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ProgressEvent {
+    /// The device answered `Hello`.
+    Connected(DeviceInfo),
+    /// A scene upload of `total` bytes started.
+    UploadStarted {
+        /// Image size in bytes.
+        total: u64,
+    },
+    /// The device acknowledged `bytes` bytes of the image so far.
+    Uploaded {
+        /// Acknowledged bytes.
+        bytes: u64,
+        /// Image size in bytes.
+        total: u64,
+    },
+    /// Chunks from `offset` on are sent again (device asked for it or nothing was acknowledged).
+    UploadRewound {
+        /// Offset sending restarts from.
+        offset: u64,
+    },
+    /// The device loaded the scene.
+    UploadFinished {
+        /// Image size in bytes.
+        total: u64,
+    },
+    /// A frame was requested.
+    RenderStarted {
+        /// Width in pixels.
+        width: u16,
+        /// Height in pixels.
+        height: u16,
+    },
+    /// Row `y` is complete; `rows_done` rows are complete in total.
+    RowReceived {
+        /// The row.
+        y: u16,
+        /// Completed rows.
+        rows_done: u32,
+    },
+    /// The frame arrived complete and verified.
+    Finished,
+    /// Row `y` of a band is verified ([`Session::render_band`](crate::session::Session::render_band); `render` turns these into
+    /// `RowReceived`).
+    RowVerified {
+        /// The row.
+        y: u16,
+    },
+    /// Pixels of `region` are requested again (selective repeat).
+    Resend {
+        /// What is requested.
+        region: Region,
+    },
+    /// The device reset; the scene is uploaded again and the render resumes.
+    DeviceReset,
+}

@@ -1,0 +1,48 @@
+//! What a device says about itself: [`DeviceInfo`] of a `Version` message and its
+//! compiled-in stages ([`feature`] bits).
+
+/// What the device says about itself in [`Msg::Version`](crate::msg::Msg::Version).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DeviceInfo {
+    /// UART protocol version the device speaks.
+    pub protocol: u16,
+    /// Firmware version major, minor, patch.
+    pub firmware: [u8; 3],
+    /// Board id: 0 = loopback simulator, 1 = qemu-virt, 2 = FPGA SoC.
+    pub board: u8,
+    /// Largest payload the device accepts.
+    pub max_payload: u16,
+    /// PEs of the attached co-processor.
+    pub pe_count: u16,
+    /// Largest grid (voxels) the device can hold.
+    pub voxel_capacity: u32,
+    /// Words of memory per PE.
+    pub pe_mem_words: u32,
+    /// Compiled-in pipeline stages (bit flags, SPEC.md §3.2).
+    pub features: u32,
+}
+
+/// Compiled-in pipeline stages (bit flags in [`DeviceInfo::features`]).
+pub mod feature {
+    /// The shadow-ray stage is compiled in.
+    pub const SHADOWS: u32 = 1 << 0;
+    /// The device can send primitive-id spans ([`render_flags::PRIM_IDS`](crate::msg::render_flags::PRIM_IDS)).
+    pub const PRIM_IDS: u32 = 1 << 1;
+    /// Mirror-reflection rays ([`render_flags::REFLECTIONS`](crate::msg::render_flags::REFLECTIONS) is honoured; SPEC.md §3.13).
+    pub const REFLECTIONS: u32 = 1 << 16;
+    /// Procedural textures ([`render_flags::TEXTURES`](crate::msg::render_flags::TEXTURES) is honoured).
+    pub const TEXTURES: u32 = 1 << 17;
+    /// Specular highlights ([`render_flags::SPECULAR`](crate::msg::render_flags::SPECULAR) is honoured).
+    pub const SPECULAR: u32 = 1 << 18;
+    /// Row interpolation (seed 003; the `render_flags` interpolation fields are honoured).
+    pub const INTERP: u32 = 1 << 19;
+    /// Scenes with analytic primitives and ViRAY materials (the scene image of SPEC.md §5) are
+    /// accepted.
+    pub const ANALYTIC_PRIMITIVES: u32 = 1 << 20;
+    /// The device renders `RenderRegion` requests (SPEC.md §3.12).
+    pub const RENDER_REGION: u32 = 1 << 8;
+    /// The device sends `Rgb565` spans.
+    pub const RGB565: u32 = 1 << 9;
+    /// The device sends `Rle` spans.
+    pub const RLE: u32 = 1 << 10;
+}

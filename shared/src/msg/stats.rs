@@ -1,0 +1,53 @@
+//! The device statistics of a `Stats` message (SPEC.md §3.8): keys and entries.
+
+/// Keys of the device statistics in a [`Msg::Stats`](crate::msg::Msg::Stats) (SPEC.md §3.8).
+pub mod stat {
+    /// Camera rays generated.
+    pub const PRIMARY_RAYS: u8 = 1;
+    /// Shadow rays generated.
+    pub const SHADOW_RAYS: u8 = 2;
+    /// Rays sent to the co-processor (all kinds).
+    pub const COPROC_RAYS: u8 = 3;
+    /// Rays that missed the grid box and cost no FSL words.
+    pub const CULLED_RAYS: u8 = 4;
+    /// FSL words written to the co-processor.
+    pub const FSL_WORDS_OUT: u8 = 5;
+    /// FSL words read from the co-processor.
+    pub const FSL_WORDS_IN: u8 = 6;
+    /// Ray–primitive tests the co-processor reported.
+    pub const INTERSECTION_TESTS: u8 = 7;
+    /// Co-processor cycles the co-processor reported.
+    pub const COPROC_CYCLES: u8 = 8;
+    /// Pixels sent.
+    pub const PIXELS: u8 = 9;
+    /// Traversal-list entries sent.
+    pub const LIST_ENTRIES: u8 = 10;
+    /// First key of the per-stage device counters (instructions), see SPEC.md §3.8.
+    pub const STAGE_BASE: u8 = 0x40;
+    /// Mirror-reflection rays generated (SPEC.md §3.13).
+    pub const REFLECTION_RAYS: u8 = 0x20;
+    /// Pixels filled by row interpolation instead of traced.
+    pub const INTERPOLATED_PIXELS: u8 = 0x21;
+    /// Centre pixels traced because a segment failed the interpolation test.
+    pub const INTERP_RETRACES: u8 = 0x22;
+    /// The pipeline plan the device followed (`render_flags` bits it honoured).
+    pub const PLAN: u8 = 0x23;
+    /// FSL words (both directions) of primary rays.
+    pub const FSL_WORDS_PRIMARY: u8 = 0x24;
+    /// FSL words (both directions) of shadow rays.
+    pub const FSL_WORDS_SHADOW: u8 = 0x25;
+    /// FSL words (both directions) of reflection rays.
+    pub const FSL_WORDS_REFLECTION: u8 = 0x26;
+}
+
+/// Bytes per stats entry: key u8, value u64.
+pub const STAT_ENTRY_LEN: usize = 9;
+
+/// Iterates over the (key, value) entries of a stats payload.
+pub fn stat_entries(entries: &[u8]) -> impl Iterator<Item = (u8, u64)> + '_ {
+    entries.chunks_exact(STAT_ENTRY_LEN).map(|c| {
+        let mut v = [0u8; 8];
+        v.copy_from_slice(c.get(1..9).unwrap_or(&[0; 8]));
+        (c.first().copied().unwrap_or(0), u64::from_le_bytes(v))
+    })
+}
