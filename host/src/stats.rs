@@ -389,7 +389,7 @@ pub struct BenchReport {
     pub ns_per_ray: f64,
     /// Million rays per second (best run).
     pub mrays_per_s: f64,
-    /// Always 1: the bench is single-threaded.
+    /// Threads of the timed run (`--threads`; the single-thread rate is reported beside it).
     pub threads: u32,
 }
 
