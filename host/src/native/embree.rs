@@ -17,7 +17,7 @@ use cgmath::{Vector3, Vector4};
 use embree::{Device, Geometry, IntersectContext, Ray, RayHit, Scene, TriangleMesh};
 use gridrt_firmware::camera::Camera;
 
-use super::NativeScene;
+use super::scene::NativeScene;
 
 /// Why the Embree scene could not be built.
 #[derive(Debug, thiserror::Error)]

@@ -19,7 +19,8 @@ use core::ops::Range;
 use gridrt_firmware::camera::Camera;
 use gridrt_shared::math::Ray;
 
-use super::{Hits, NativeScene, Trace};
+use super::scene::NativeScene;
+use super::trace::{Hits, Trace};
 
 /// A frame of primary rays `camera.primary_ray(x, y)`, `width`×`height`, with the pixels of
 /// each row that may reach the grid box.

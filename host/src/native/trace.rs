@@ -7,7 +7,7 @@ use gridrt_coproc::{FixedFrame, Kernel, RayKind, RayResult, T_EXIT_REL_TOL};
 use gridrt_shared::math::Ray;
 
 use super::filter::{LaneFilter, LaneRay, Portable, LANES};
-use super::{NativeScene, OrderedRef, Span};
+use super::scene::{NativeScene, OrderedRef, Span};
 
 /// What the firmware and the co-processor make of one ray.
 #[derive(Debug, Clone, Copy, PartialEq)]
