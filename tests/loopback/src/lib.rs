@@ -1,12 +1,14 @@
-//! Loopback simulator: the firmware's device loop and the co-processor model in one process.
+//! Loopback simulator: the firmware's device loop and the co-processor in one process.
 //!
 //! The host reaches the simulated board only through [`SimPort`], an in-memory byte stream
 //! with the same blocking/timeout behaviour as a serial port: the device thread sees UART
-//! bytes, the co-processor sees FSL words, and nothing else crosses.
+//! bytes, the co-processor sees FSL words, and nothing else crosses. The co-processor is the
+//! Rust model ([`Backend::Model`]) or the RTL in Verilator ([`Backend::Rtl`], a child process
+//! built by `cargo xtask rtl sim`).
 //!
 //! ```text
-//! host ──bytes──► SimPort ══channel══► device thread: Device<VirtualCoproc> ──FSL──► Coprocessor
-//!      ◄─bytes──         ◄═channel══                 (firmware logic)              (PE model)
+//! host ──bytes──► SimPort ══channel══► device thread: Device<SimLink> ──FSL──► Coprocessor model
+//!      ◄─bytes──         ◄═channel══                 (firmware logic)       or RTL (Verilator)
 //! ```
 
 use std::io;
@@ -16,12 +18,15 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use gridrt_coproc::{CoprocConfig, Coprocessor, KernelKind, TimingProfile};
+use gridrt_coproc::{CoprocConfig, KernelKind, NumberFormat, TimingProfile};
 use gridrt_firmware::device::{Device, NoClock};
 use gridrt_firmware::embedded_io::{self, ErrorType};
-use gridrt_firmware::fsl::VirtualCoproc;
 use gridrt_shared::frame::MAX_PAYLOAD;
 use gridrt_shared::msg::DeviceInfo;
+
+mod link;
+pub use link::RtlLinkError;
+use link::SimLink;
 
 /// Largest grid the simulated device accepts (voxels): 128³.
 pub const SIM_MAX_VOXELS: usize = 1 << 21;
@@ -42,6 +47,20 @@ pub struct SimConfig {
     pub timing: TimingProfile,
     /// Intersection kernel run by every PE.
     pub kernel: KernelKind,
+    /// Number format of the kernel.
+    pub format: NumberFormat,
+    /// What computes: the model, or the RTL (which has its own kernel, format and timing).
+    pub backend: Backend,
+}
+
+/// The co-processor of a simulated board.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Backend {
+    /// The Rust model (`gridrt-coproc`).
+    #[default]
+    Model,
+    /// The RTL (`rtl/hdl/`) in Verilator: watertight, fixed64-q23, the `rtl` timing.
+    Rtl,
 }
 
 impl Default for SimConfig {
@@ -52,8 +71,25 @@ impl Default for SimConfig {
             max_list: 1024,
             timing: TimingProfile::GRIDRT,
             kernel: KernelKind::default(),
+            format: NumberFormat::F32,
+            backend: Backend::Model,
         }
     }
+}
+
+impl SimConfig {
+    /// The board with the RTL co-processor as `cargo xtask rtl sim` builds it by default:
+    /// 4 PEs of 16 384 words, lists of 256; watertight in fixed64-q23 with the `rtl` timing
+    /// (what the model must be set to for the same images and cycles).
+    pub const RTL: SimConfig = SimConfig {
+        pe_count: 4,
+        pe_mem_words: 16_384,
+        max_list: 256,
+        timing: TimingProfile::RTL,
+        kernel: KernelKind::Watertight,
+        format: NumberFormat::Fixed64Q23,
+        backend: Backend::Rtl,
+    };
 }
 
 impl SimConfig {
@@ -132,20 +168,26 @@ impl embedded_io::Write for ChannelSink<'_> {
 /// memories), boots a fresh one and sends its banner (`Device::announce`).
 fn run_device(config: SimConfig, input: Receiver<Input>, output: Sender<(u32, Vec<u8>)>, reset: Arc<ResetState>) {
     let coproc_config = config.coproc();
-    let mut backing = vec![0u32; coproc_config.required_backing_words()];
+    let mut backing =
+        vec![0u32; if config.backend == Backend::Model { coproc_config.required_backing_words() } else { 0 }];
+    // The board cannot start without its co-processor: say so on the line, like firmware
+    // would, then stop.
+    let fail = |what: String| {
+        let _ = output.send((0, format!("loopback: {what}\n").into_bytes()));
+    };
+    let program = match link::rtl_program(&config) {
+        Ok(p) => p,
+        Err(e) => return fail(e),
+    };
     let mut booted_before = false;
     loop {
         backing.fill(0);
-        let model = match Coprocessor::new(coproc_config, &mut backing) {
-            Ok(m) => m,
-            Err(e) => {
-                // The board cannot start; report it on the line like firmware would, then stop.
-                let _ = output.send((0, format!("loopback: invalid co-processor configuration: {e:?}\n").into_bytes()));
-                return;
-            }
+        let link = match link::open(&config, &mut backing, program.as_deref()) {
+            Ok(l) => l,
+            Err(e) => return fail(e),
         };
-        let mut device: Box<Device<VirtualCoproc<'_>, NoClock, SIM_MAX_VOXELS>> =
-            Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
+        let mut device: Box<Device<SimLink<'_>, NoClock, SIM_MAX_VOXELS>> =
+            Box::new(Device::new(link, NoClock, config.device_info()));
         reset.muted.store(false, Ordering::Release);
         let epoch = reset.count.load(Ordering::Acquire);
         let mut sink = ChannelSink { out: &output, muted: &reset.muted, epoch };
@@ -251,12 +293,13 @@ fn is_timeout(e: &io::Error) -> bool {
 pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfig) -> io::Result<()> {
     let run = move || -> io::Result<()> {
         let coproc_config = config.coproc();
-        let mut backing = vec![0u32; coproc_config.required_backing_words()];
-        let model = Coprocessor::new(coproc_config, &mut backing).map_err(|e| {
-            io::Error::new(io::ErrorKind::InvalidInput, format!("invalid co-processor configuration: {e:?}"))
-        })?;
-        let mut device: Box<Device<VirtualCoproc<'_>, NoClock, SIM_MAX_VOXELS>> =
-            Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
+        let words = if config.backend == Backend::Model { coproc_config.required_backing_words() } else { 0 };
+        let mut backing = vec![0u32; words];
+        let invalid = |e: String| io::Error::new(io::ErrorKind::InvalidInput, e);
+        let program = link::rtl_program(&config).map_err(invalid)?;
+        let link = link::open(&config, &mut backing, program.as_deref()).map_err(invalid)?;
+        let mut device: Box<Device<SimLink<'_>, NoClock, SIM_MAX_VOXELS>> =
+            Box::new(Device::new(link, NoClock, config.device_info()));
         let mut buf = [0u8; 4096];
         loop {
             let n = match port.read(&mut buf) {
@@ -280,6 +323,13 @@ pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfi
             .join()
             .unwrap_or_else(|_| Err(io::Error::other("simulated device thread panicked")))
     })
+}
+
+/// Makes what `config` needs before a board starts: for [`Backend::Rtl`], the Verilator build
+/// (`cargo xtask rtl sim`, tens of seconds the first time, then cached). [`spawn`] does it
+/// too, but on the device thread, where a long build looks like a silent board to the host.
+pub fn prepare(config: &SimConfig) -> Result<(), String> {
+    link::rtl_program(config).map(|_| ())
 }
 
 /// Starts a simulated board in its own thread and returns the host's end of its UART.
