@@ -14,6 +14,7 @@
 //! | [`session`] | protocol client over any `Read + Write` byte transport, progress events |
 //! | [`multi`] | one frame on several boards: work queue of row bands, merged result |
 //! | [`link_bench`] | `gridrt bench link`: wire bytes, efficiency, compression, modelled frame time |
+//! | [`frame_bench`] | `gridrt bench frame`: whole-frame time on the modelled board (soft-core on QEMU, co-processor model, link), per configuration and target |
 //! | [`stats`] | JSON statistics |
 //! | [`plan`] | the pipeline plan (which stages a scene needs) and `--interp` |
 //!
@@ -25,6 +26,7 @@ pub mod bench_accuracy;
 pub mod camera;
 pub mod compare;
 pub mod flash;
+pub mod frame_bench;
 pub mod grid;
 pub mod image_format;
 pub mod link_bench;
