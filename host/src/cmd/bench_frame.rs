@@ -7,6 +7,7 @@
 //! writes the rows as JSON (`--json`) and, with `--out DIR`, `frame.csv` and `frame.svg`.
 
 use std::path::PathBuf;
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context};
@@ -68,20 +69,29 @@ pub struct Args {
     repo: PathBuf,
 }
 
-/// Prints steps as they start and, at most every 5 s, how far an upload or render is, so a
-/// long run is never silent (with or without a terminal).
+/// Prints steps as they start and, at most every 5 s, how far an upload or render is; a
+/// ticker thread says what is still running when nothing was printed for 10 s (a render on
+/// QEMU reports its rows only at the end), so a long run is never silent, with or without a
+/// terminal.
 struct Reporter {
     started: Instant,
     last: Instant,
+    /// What runs now.
+    current: String,
+    done: bool,
 }
 
 impl Reporter {
+    fn say(&mut self, line: &str) {
+        eprintln!("[{:6.1} s] {line}", self.started.elapsed().as_secs_f64());
+        self.last = Instant::now();
+    }
+
     fn handle(&mut self, e: BenchEvent) {
-        let t = self.started.elapsed().as_secs_f64();
         match e {
             BenchEvent::Step(s) => {
-                eprintln!("[{t:6.1} s] {s}");
-                self.last = Instant::now();
+                self.current = s.clone();
+                self.say(&s);
             }
             BenchEvent::Session { run, event } => {
                 let line = match event {
@@ -100,9 +110,24 @@ impl Reporter {
                     _ => None,
                 };
                 if let Some(l) = line {
-                    eprintln!("[{t:6.1} s] {l}");
-                    self.last = Instant::now();
+                    self.current = l.clone();
+                    self.say(&l);
                 }
+            }
+        }
+    }
+
+    /// Runs on its own thread until `done`: a line when nothing was said for 10 s.
+    fn tick(shared: &Mutex<Reporter>) {
+        loop {
+            std::thread::sleep(Duration::from_secs(1));
+            let mut r = shared.lock().unwrap_or_else(|e| e.into_inner());
+            if r.done {
+                return;
+            }
+            if r.last.elapsed() >= Duration::from_secs(10) {
+                let line = format!("{} (still running)", r.current);
+                r.say(&line);
             }
         }
     }
@@ -160,8 +185,16 @@ impl Args {
             native_runs: self.native_runs,
             repo: self.repo.clone(),
         };
-        let mut reporter = Reporter { started: Instant::now(), last: Instant::now() };
-        let report = run_bench(&opt, &mut |e| reporter.handle(e))?;
+        let reporter =
+            Mutex::new(Reporter { started: Instant::now(), last: Instant::now(), current: String::new(), done: false });
+        let lock = || reporter.lock().unwrap_or_else(|e| e.into_inner());
+        // The bench runs on this thread: QEMU dies with the thread that booted it.
+        let report = std::thread::scope(|s| {
+            s.spawn(|| Reporter::tick(&reporter));
+            let r = run_bench(&opt, &mut |e| lock().handle(e));
+            lock().done = true;
+            r
+        })?;
         std::fs::write(&self.json, serde_json::to_string_pretty(&report)? + "\n")
             .with_context(|| format!("writing {}", self.json.display()))?;
         if let Some(dir) = &self.out {

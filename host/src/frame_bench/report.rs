@@ -347,6 +347,7 @@ pub fn critical_path(r: &FrameRow) -> [f64; 3] {
 /// [`critical_path`]'s parts, its total written at the end.
 pub fn write_svg(path: &Path, report: &FrameReport) -> Result<(), String> {
     use plotters::prelude::*;
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
     let e = |e: &dyn std::fmt::Display| e.to_string();
     let n = report.rows.len().max(1);
     let height = 140 + 46 * n as u32;
@@ -410,7 +411,8 @@ pub fn write_svg(path: &Path, report: &FrameReport) -> Result<(), String> {
         .draw_series(report.rows.iter().enumerate().map(|(i, r)| {
             let y = (n - 1 - i) as f64 + 0.5;
             let q = if r.identical { "identical".to_string() } else { opt_num(r.psnr_db, 1) + " dB" };
-            Text::new(format!(" {:.1} ms ({:.2} fps, {q})", r.frame_ms, r.fps), (r.frame_ms, y), ("sans-serif", 13))
+            let style = ("sans-serif", 13).into_font().into_text_style(&root).pos(Pos::new(HPos::Left, VPos::Center));
+            Text::new(format!(" {:.1} ms ({:.2} fps, {q})", r.frame_ms, r.fps), (r.frame_ms, y), style)
         }))
         .map_err(|x| e(&x))?;
     chart

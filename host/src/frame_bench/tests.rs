@@ -138,6 +138,68 @@ fn host_native_renders_the_loopbacks_image_and_reports_measured_wall_time() {
     assert_eq!(v["link_ms"], 0.0);
 }
 
+/// The CSV has the columns and a line per row; the SVG a bar label per row.
+#[test]
+fn csv_and_svg_have_a_line_and_a_bar_label_per_row() {
+    let opt = options();
+    let (prepared, req, _) = prepare(res4(), 8, 6, opt.encoding).unwrap();
+    let quiet = &mut |_| {};
+    let sim = run_on_loopback(TimingProfile::PIPELINED, &prepared, &req, "t", quiet).unwrap();
+    let cmp = compare(&sim.frame.rgb, &sim.frame.rgb, None, None).unwrap();
+    let rows = vec![
+        device_row(
+            Configuration::Pipelined,
+            Target::Riscv32imac,
+            &sim,
+            Some((TimingProfile::PIPELINED, &sim)),
+            &cmp,
+            &opt,
+        ),
+        native_row(&sim, &cmp),
+    ];
+    let report = FrameReport {
+        scene: "tests/scenes/bun_zipper_res4.obj".into(),
+        width: 8,
+        height: 6,
+        clock_mhz: 100.0,
+        baud: 921_600,
+        encoding: "rle".into(),
+        kernel: "watertight".into(),
+        number_format: "f32".into(),
+        triangles: 946,
+        grid: [11, 11, 9],
+        pe_count: 4,
+        plan: vec!["shadows".into()],
+        tx_buffer_bytes: 16,
+        cpu_profile: "picorv32".into(),
+        cpi: 4.1,
+        cpi_citation: String::new(),
+        upload_bytes: Some(1),
+        upload_ms: Some(0.0),
+        reference_ms: 0.0,
+        qemu: None,
+        rows,
+    };
+    let dir = std::env::temp_dir().join(format!("gridrt-frame-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    write_csv(&dir.join("frame.csv"), &report).unwrap();
+    write_svg(&dir.join("frame.svg"), &report).unwrap();
+    let csv = std::fs::read_to_string(dir.join("frame.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3, "{csv}");
+    assert!(lines[0].starts_with(
+        "config,target,instructions_per_primary_ray,instructions_source,cpu_ms,coproc_ms,link_ms,frame_ms,fps,psnr_db,identical"
+    ));
+    assert!(lines[1].starts_with("pipelined,riscv32imac,") && lines[2].starts_with("host-native,"), "{csv}");
+    let columns = lines[0].split(',').count();
+    assert!(lines.iter().all(|l| l.split(',').count() == columns), "{csv}");
+    let svg = std::fs::read_to_string(dir.join("frame.svg")).unwrap();
+    for label in ["pipelined / riscv32imac", "host-native / ", "soft-core", "UART, not overlapped"] {
+        assert!(svg.contains(label), "the plot lacks {label}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn configurations_targets_and_profiles_parse_their_names() {
     for c in Configuration::ALL {
