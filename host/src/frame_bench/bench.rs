@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use gridrt_coproc::TimingProfile;
 use gridrt_shared::msg::{stat, PixelEncoding, RenderRequest};
 
 use super::report::{self, FrameReport};
@@ -76,15 +77,16 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
     let wants = |c: Configuration| opt.configs.contains(&c);
     let with_coproc = opt.configs.iter().any(|c| matches!(c.coproc(), CoprocCycles::Model(_)));
     for &target in &opt.targets {
-        let mut variants: Vec<(&str, &[&str])> = Vec::new();
+        let mut variants: Vec<bool> = Vec::new();
         if with_coproc {
-            variants.push(("co-processor", &[]));
+            variants.push(false);
         }
         if wants(Configuration::SoftCoreOnly) {
-            variants.push(("soft-core-only", &["--features", "soft-core-only"]));
+            variants.push(true);
         }
-        for (variant, extra) in variants {
-            let label = format!("{} {variant}", target.name());
+        for direct in variants {
+            let extra: &[&str] = if direct { &["--features", "soft-core-only"] } else { &[] };
+            let label = format!("{} {}", target.name(), variant_name(direct));
             progress(BenchEvent::Step(format!(
                 "{label}: cargo xtask firmware --target {} {}",
                 target.name(),
@@ -95,32 +97,22 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
             let elf = gridrt_qemu::build_firmware(&opt.repo, &["--quiet"], &args)
                 .map_err(|e| FrameBenchError::Build(e.to_string()))?;
             let run = run_on_qemu(&elf, &prepared, &req, &label, progress)?;
-            runs.push((target, variant == "soft-core-only", run));
+            runs.push((target, direct, run));
         }
     }
-    // The same frame, the same work: QEMU against the loopback (the gridrt profile's run when
-    // there is one; the work counters do not depend on the profile except the tests, which
-    // the co-processor charges by its timeline).
-    if let Some((_, sim)) = models.iter().find(|(c, _)| *c == Configuration::Gridrt).or(models.first()) {
+    // The same frame, the same work: every QEMU run against the loopback with GridRT's
+    // profile (the configuration's run, or one for the check alone).
+    if !runs.is_empty() {
+        let checked;
+        let sim = match models.iter().find(|(c, _)| *c == Configuration::Gridrt) {
+            Some((_, r)) => r,
+            None => {
+                checked = run_on_loopback(TimingProfile::GRIDRT, &prepared, &req, "check", progress)?;
+                &checked
+            }
+        };
         for (target, direct, run) in &runs {
-            let label = format!("{} {}", target.name(), if *direct { "soft-core-only" } else { "co-processor" });
-            let mut diff = work_differences(run, sim);
-            if *direct {
-                // No words, and every test the soft-core ran (not the PEs' started ones).
-                diff.retain(|(k, _, _)| !k.starts_with("fsl_words") && k != "intersection_tests");
-            } else if !models.iter().any(|(c, _)| *c == Configuration::Gridrt) {
-                diff.retain(|(k, _, _)| k != "intersection_tests");
-            }
-            let gridrt_sim = models.iter().any(|(c, _)| *c == Configuration::Gridrt);
-            if !*direct && gridrt_sim && run.stat(stat::COPROC_CYCLES) != sim.stat(stat::COPROC_CYCLES) {
-                diff.push(("coproc_cycles".into(), run.stat(stat::COPROC_CYCLES), sim.stat(stat::COPROC_CYCLES)));
-            }
-            if !diff.is_empty() || run.frame.rgb != sim.frame.rgb {
-                return Err(FrameBenchError::Mismatch(format!(
-                    "{label} on QEMU and the loopback did different work for the same frame: {diff:?}{}",
-                    if run.frame.rgb != sim.frame.rgb { " (and the images differ)" } else { "" }
-                )));
-            }
+            check_same_work(&format!("{} {}", target.name(), variant_name(*direct)), run, sim, *direct)?;
         }
     }
 
@@ -153,7 +145,8 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
             }
         }
     }
-    let upload_bytes = runs.first().map(|r| r.2.upload_bytes).or(models.first().map(|m| m.1.upload_bytes));
+    // The loopback's upload has no resends (QEMU's slow UART makes some): the scene's wire bytes.
+    let upload_bytes = models.first().map(|m| m.1.upload_bytes).or(runs.first().map(|r| r.2.upload_bytes));
     let (kind, format) = kernel();
     Ok(FrameReport {
         scene: opt.scene.display().to_string(),
@@ -178,4 +171,32 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
         qemu: gridrt_qemu::version(),
         rows,
     })
+}
+
+/// The image of a soft-core run: with the co-processor model, or soft-core-only.
+fn variant_name(direct: bool) -> &'static str {
+    if direct {
+        "soft-core-only"
+    } else {
+        "co-processor"
+    }
+}
+
+/// Fails unless the QEMU run `run` did the work of the loopback run `sim` (GridRT's profile)
+/// for the same frame: the same work counters, cycles and image; a soft-core-only run sends
+/// no FSL words and runs its own tests (up to each winner), so those are not compared.
+fn check_same_work(label: &str, run: &DeviceRun, sim: &DeviceRun, direct: bool) -> Result<(), FrameBenchError> {
+    let mut diff = work_differences(run, sim);
+    if direct {
+        diff.retain(|(k, _, _)| !k.starts_with("fsl_words") && k != "intersection_tests");
+    } else if run.stat(stat::COPROC_CYCLES) != sim.stat(stat::COPROC_CYCLES) {
+        diff.push(("coproc_cycles".into(), run.stat(stat::COPROC_CYCLES), sim.stat(stat::COPROC_CYCLES)));
+    }
+    let images = if run.frame.rgb == sim.frame.rgb { "" } else { " (and the images differ)" };
+    if diff.is_empty() && images.is_empty() {
+        return Ok(());
+    }
+    Err(FrameBenchError::Mismatch(format!(
+        "{label} on QEMU and the loopback did different work for the same frame: {diff:?}{images}"
+    )))
 }

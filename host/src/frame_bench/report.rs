@@ -51,7 +51,8 @@ pub struct FrameReport {
     pub cpi: f64,
     /// Where the CPI comes from.
     pub cpi_citation: String,
-    /// Wire bytes of the scene upload (both directions), not part of any frame.
+    /// Wire bytes of the scene upload (both directions), not part of any frame: the
+    /// loopback's, without the resends QEMU's slow UART causes.
     pub upload_bytes: Option<u64>,
     /// The upload at the baud rate (modelled).
     pub upload_ms: Option<f64>,
