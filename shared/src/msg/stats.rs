@@ -38,6 +38,9 @@ pub mod stat {
     pub const FSL_WORDS_SHADOW: u8 = 0x25;
     /// FSL words (both directions) of reflection rays.
     pub const FSL_WORDS_REFLECTION: u8 = 0x26;
+    /// Rays the firmware keeps in flight in the co-processor (its ray-queue depth). Absent
+    /// or 0 means 1: one ray at a time, the soft-core waiting for every result.
+    pub const RAYS_IN_FLIGHT: u8 = 0x27;
 }
 
 /// Bytes per stats entry: key u8, value u64.

@@ -501,6 +501,20 @@ mod reset_tests {
         assert_eq!(f[0].0, 1);
     }
 
+    /// Issue 10 §3: the simulated PEs charge the kernel that runs, not GridRT's 648 cycles
+    /// for every kernel (docs/bench-accuracy.md, model cycles per test); a pipelined PE
+    /// issues a test per cycle whatever the kernel.
+    #[test]
+    fn simulated_pes_charge_the_running_kernels_cycles_per_test() {
+        let issue =
+            |timing, kernel| SimConfig { timing, kernel, ..SimConfig::default() }.coproc().timing.test_issue_cycles;
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::Watertight), 1188);
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::Wald), 399);
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::MollerTrumbore), 675);
+        assert_eq!(issue(TimingProfile::PIPELINED, KernelKind::Watertight), 1);
+        assert_eq!(SimConfig::default().kernel, KernelKind::Watertight);
+    }
+
     #[test]
     fn line_rate_paces_device_output() {
         let mut port = spawn(SimConfig::default());
