@@ -203,6 +203,41 @@ impl<const P: usize, const T: usize> SplatEngine<P, T> {
     }
 }
 
+/// Where the scene loader puts the point section (SPEC.md §5.10).
+pub trait PointSink {
+    /// A new scene: forget the points.
+    fn clear(&mut self);
+    /// The section's head.
+    fn begin(&mut self, head: &PointsHead) -> Result<(), SceneError>;
+    /// The next point.
+    fn push(&mut self, p: &PointRecord) -> Result<(), SceneError>;
+}
+
+/// A device without the splat path: refuses any point section.
+pub struct NoPoints;
+
+impl PointSink for NoPoints {
+    fn clear(&mut self) {}
+    fn begin(&mut self, _head: &PointsHead) -> Result<(), SceneError> {
+        Err(SceneError::TooManyPoints)
+    }
+    fn push(&mut self, _p: &PointRecord) -> Result<(), SceneError> {
+        Err(SceneError::TooManyPoints)
+    }
+}
+
+impl<const P: usize, const T: usize> PointSink for SplatEngine<P, T> {
+    fn clear(&mut self) {
+        SplatEngine::clear(self);
+    }
+    fn begin(&mut self, head: &PointsHead) -> Result<(), SceneError> {
+        SplatEngine::begin(self, head)
+    }
+    fn push(&mut self, p: &PointRecord) -> Result<(), SceneError> {
+        SplatEngine::push(self, p)
+    }
+}
+
 impl<const P: usize, const T: usize> Default for SplatEngine<P, T> {
     fn default() -> Self {
         Self::new()

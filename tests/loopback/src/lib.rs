@@ -26,6 +26,15 @@ use gridrt_shared::msg::DeviceInfo;
 /// Largest grid the simulated device accepts (voxels): 128³.
 pub const SIM_MAX_VOXELS: usize = 1 << 21;
 
+/// Points the simulated device keeps for splat frames (SPEC.md §6): 64 B each.
+pub const SIM_MAX_POINTS: usize = 1 << 17;
+
+/// Words of the simulated device's splat shape table (`TableConfig::DEVICE`).
+pub const SIM_TABLE_WORDS: usize = 81_920;
+
+/// The simulated device.
+type SimDevice<'a> = Device<VirtualCoproc<'a>, NoClock, SIM_MAX_VOXELS, SIM_MAX_POINTS, SIM_TABLE_WORDS>;
+
 /// Board id the simulator reports in its Version message.
 pub const BOARD_LOOPBACK: u8 = 0;
 
@@ -144,8 +153,7 @@ fn run_device(config: SimConfig, input: Receiver<Input>, output: Sender<(u32, Ve
                 return;
             }
         };
-        let mut device: Box<Device<VirtualCoproc<'_>, NoClock, SIM_MAX_VOXELS>> =
-            Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
+        let mut device: Box<SimDevice<'_>> = Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
         reset.muted.store(false, Ordering::Release);
         let epoch = reset.count.load(Ordering::Acquire);
         let mut sink = ChannelSink { out: &output, muted: &reset.muted, epoch };
@@ -255,8 +263,7 @@ pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfi
         let model = Coprocessor::new(coproc_config, &mut backing).map_err(|e| {
             io::Error::new(io::ErrorKind::InvalidInput, format!("invalid co-processor configuration: {e:?}"))
         })?;
-        let mut device: Box<Device<VirtualCoproc<'_>, NoClock, SIM_MAX_VOXELS>> =
-            Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
+        let mut device: Box<SimDevice<'_>> = Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
         let mut buf = [0u8; 4096];
         loop {
             let n = match port.read(&mut buf) {
