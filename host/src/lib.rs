@@ -31,6 +31,7 @@ pub mod link_bench;
 pub mod multi;
 pub mod pipeline;
 pub mod plan;
+pub mod points;
 pub mod reference;
 pub mod scene;
 pub mod serial;
