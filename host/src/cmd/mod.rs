@@ -10,3 +10,4 @@ pub mod flash;
 pub mod ports;
 pub mod progress;
 pub mod render;
+mod render_points;
