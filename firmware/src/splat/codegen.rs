@@ -62,6 +62,11 @@ pub struct View {
     pub clip: f32,
     /// Emit a depth word after every codeword.
     pub pixel_depth: bool,
+    /// Key the table as the seed does: the view-space normal in the camera's frame and the
+    /// radius scaled by 1/z (orthographic at every splat). Off (the device's default): the
+    /// ellipse of the disk under the perspective projection's local affine map (its Jacobian
+    /// at the centre), re-expressed as the (radius, normal) of the table's family.
+    pub seed_affine: bool,
 }
 
 impl View {
@@ -98,6 +103,7 @@ impl View {
             inv_far: 1.0 / far,
             clip,
             pixel_depth: false,
+            seed_affine: false,
         })
     }
 }
@@ -217,6 +223,42 @@ fn light_terms(light: &SplatLight, eye: Vec3, p: Vec3, n: Vec3) -> (u8, u8) {
     (term(cos * f), term(r.dot(v).max(0.0) * f))
 }
 
+/// The table key (radius in pixels, nx, ny) of the ellipse that a disk with view-space unit
+/// normal `n` at view position `v` (x right, y down, z depth) and radius `r` pixels-at-depth
+/// projects to under the local affine map of the perspective projection, `J = [I | −v.xy/z]`
+/// (times f/z, already in `r`). The table's ellipses have semi-axes r and r·|nz| with the
+/// minor axis along (nx, ny); any centred ellipse is one of them.
+#[inline]
+fn local_affine_key(n: Vec3, v: Vec3, r: f32) -> (f32, f32, f32) {
+    let a = if n.x.abs() < 0.6 { Vec3::X } else { Vec3::Y };
+    let Some(t1) = n.cross(a).try_normalize() else { return (r, 0.0, 0.0) };
+    let t2 = n.cross(t1);
+    let (wx, wy) = (v.x / v.z, v.y / v.z);
+    let j = |t: Vec3| (r * (t.x - wx * t.z), r * (t.y - wy * t.z));
+    let (e1, e2) = (j(t1), j(t2));
+    let (m00, m01, m11) = (e1.0 * e1.0 + e2.0 * e2.0, e1.0 * e1.1 + e2.0 * e2.1, e1.1 * e1.1 + e2.1 * e2.1);
+    let half = 0.5 * (m00 + m11);
+    let disc = libm::sqrtf(0.25 * (m00 - m11) * (m00 - m11) + m01 * m01);
+    let (l1, l2) = (half + disc, (half - disc).max(0.0));
+    let major = libm::sqrtf(l1);
+    if !(major > 0.0) {
+        return (0.0, 0.0, 0.0);
+    }
+    // Major axis direction; the normal's screen part lies along the minor axis.
+    let (ux, uy) = if m01.abs() > 1e-12 * l1 {
+        let (x, y) = (l1 - m11, m01);
+        let l = libm::sqrtf(x * x + y * y);
+        (x / l, y / l)
+    } else if m00 >= m11 {
+        (1.0, 0.0)
+    } else {
+        (0.0, 1.0)
+    };
+    let ratio = (libm::sqrtf(l2) / major).min(1.0);
+    let s = libm::sqrtf(1.0 - ratio * ratio);
+    (major, -uy * s, ux * s)
+}
+
 /// Files every point of `points` that can touch `pass` in its bucket. `materials` maps a
 /// point's material to the 7-bit index the stage's table uses (identity when shorter).
 pub fn file_points<const P: usize, const T: usize>(
@@ -245,13 +287,19 @@ pub fn file_points<const P: usize, const T: usize>(
         let inv = 1.0 / z;
         let px = view.centre.0 + view.focal * d.dot(view.right) * inv;
         let py = view.centre.1 + view.focal * d.dot(view.down) * inv;
-        let (s, clamped) = table.size_bin(p.radius * view.focal * inv);
+        let (nx, ny) = (p.normal.dot(view.right), p.normal.dot(view.down));
+        let (r_px, kx_n, ky_n) = if view.seed_affine {
+            (p.radius * view.focal * inv, nx, ny)
+        } else {
+            let v = Vec3::new(d.dot(view.right), d.dot(view.down), z);
+            local_affine_key(Vec3::new(nx, ny, p.normal.dot(view.forward)), v, p.radius * view.focal * inv)
+        };
+        let (s, clamped) = table.size_bin(r_px);
         if s == 0 || !(px.abs() < 1e6 && py.abs() < 1e6) {
             stats.culled += 1;
             continue;
         }
-        let (nx, ny) = (p.normal.dot(view.right), p.normal.dot(view.down));
-        let e = table.entry(s, table.normal_bin(nx), table.normal_bin(ny));
+        let e = table.entry(s, table.normal_bin(kx_n), table.normal_bin(ky_n));
         let k = e.k as i32;
         // Box centre on the pixel corner nearest the projected centre.
         let (kx, ky) = (libm::floorf(px + 0.5) as i32, libm::floorf(py + 0.5) as i32);

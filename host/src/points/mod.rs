@@ -8,10 +8,12 @@
 //! | `cloud` | [`PointCloud`]: from PLY vertices or a mesh, k-NN radii, palette, random split |
 //! | `image` | disks for the ray tracer and the reference, the point section, [`prepare`] |
 //! | `render` | the splat request, [`composite`], [`render_sort_last`], [`SplatReport`] |
+//! | `synthetic` | seeded clouds on analytic surfaces, a PLY writer |
 
 mod cloud;
 mod image;
 mod render;
+pub mod synthetic;
 
 use std::path::Path;
 
