@@ -30,7 +30,7 @@ fn cloud_file(d: &Path, n: usize, seed: u64, binary: bool) -> PathBuf {
 
 fn splat_with_reference(binary: bool, seed: u64) {
     let d = dir(if binary { "bin" } else { "ascii" });
-    let ply = cloud_file(&d, 6000, seed, binary);
+    let ply = cloud_file(&d, 8000, seed, binary);
     let p = |s: &str| d.join(s).display().to_string();
     let (ok, log) = gridrt(
         &[
@@ -43,10 +43,6 @@ fn splat_with_reference(binary: bool, seed: u64) {
             "--stats",
             &p("s.json"),
             "--reference",
-            "--width",
-            "200",
-            "--height",
-            "150",
         ],
         &d,
     );
@@ -57,8 +53,8 @@ fn splat_with_reference(binary: bool, seed: u64) {
     let traced = stats["splat"]["psnr_vs_traced_disks_db"].as_f64().expect("PSNR against the traced disks");
     assert!(psnr >= 30.0 && traced >= 30.0, "PSNR {psnr} dB vs f64 disks, {traced} dB vs device-traced disks");
     assert_eq!(stats["splat"]["radius_from"], "density");
-    assert_eq!(stats["splat"]["points"], 6000);
-    assert!(stats["splat"]["codewords"].as_u64().unwrap() > 3000, "{}", stats["splat"]);
+    assert_eq!(stats["splat"]["points"], 8000);
+    assert!(stats["splat"]["codewords"].as_u64().unwrap() > 4000, "{}", stats["splat"]);
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -126,8 +122,10 @@ fn a_mesh_renders_as_a_cloud_with_points() {
     );
     assert!(ok, "{log}");
     let stats: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
-    // bun_zipper_res4 has 453 vertices.
-    assert_eq!(stats["splat"]["points"], 453, "{}", stats["splat"]);
+    // bun_zipper_res4 has 453 vertices; those of zero-area faces only have no normal.
+    let n = stats["splat"]["points"].as_u64().unwrap();
+    assert!((400..=453).contains(&n), "{}", stats["splat"]);
+    assert!(stats["splat"]["codewords"].as_u64().unwrap() > 400, "{}", stats["splat"]);
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -8,8 +8,10 @@
 //! | `cloud` | [`PointCloud`]: from PLY vertices or a mesh, k-NN radii, palette, random split |
 //! | `image` | disks for the ray tracer and the reference, the point section, [`prepare`] |
 //! | `render` | the splat request, [`composite`], [`render_sort_last`], [`SplatReport`] |
+//! | `bench` | `gridrt bench splat`: native splats/s and image error per cloud size and table |
 //! | `synthetic` | seeded clouds on analytic surfaces, a PLY writer |
 
+pub mod bench;
 mod cloud;
 mod image;
 mod render;
