@@ -38,6 +38,10 @@ enum What {
     /// with transmission overlapped with ray work at 115 200 / 921 600 / 3 000 000 baud, on
     /// 1, 2 and 4 boards (CSV, SVG plot and JSON in --out).
     Link(super::bench_link::Args),
+    /// Seed 001's point splats (issue 15): native splats/s and image error against the
+    /// ray-traced disks for 10³…10⁶ points and several shape tables, optionally soft-core
+    /// instructions per splat from QEMU (`--port`); CSV, SVG plot and JSON in --out.
+    Splat(super::bench_splat::Args),
 }
 
 #[derive(Debug, clap::Args)]
@@ -72,6 +76,7 @@ impl Cmd {
             What::Accuracy(a) => a.run(),
             What::Skip(a) => a.run(),
             What::Link(a) => a.run(),
+            What::Splat(a) => a.run(),
         }
     }
 }

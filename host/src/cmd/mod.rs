@@ -4,6 +4,7 @@ pub mod bench;
 pub mod bench_accuracy;
 pub mod bench_link;
 pub mod bench_skip;
+pub mod bench_splat;
 pub mod common;
 pub mod device;
 pub mod flash;
