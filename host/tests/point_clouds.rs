@@ -154,7 +154,14 @@ fn malformed_point_clouds_are_clear_errors() {
         let e = points::load(&path, false).map(|i| matches!(i, Input::Cloud(_))).unwrap_err().to_string();
         assert!(e.contains(want), "{name}: {e}");
         let (ok, log) = gridrt(
-            &["render", "--sim", "--scene", &path.display().to_string(), "--out", &d.join("x.png").display().to_string()],
+            &[
+                "render",
+                "--sim",
+                "--scene",
+                &path.display().to_string(),
+                "--out",
+                &d.join("x.png").display().to_string(),
+            ],
             &d,
         );
         assert!(!ok && log.contains(want) && !log.contains("panicked"), "{name}: {log}");

@@ -121,7 +121,8 @@ fn no_splat_codeword_is_a_command() {
 fn corrupted_command_and_load_words_are_rejected() {
     assert_eq!(Command::unpack(symmetric_example().pack()), Err(CodewordError::NotCommand));
     // Every bit outside a command's parameter.
-    for (c, param_bits) in [(Command::StartLoad, 0), (Command::EndLoad, 0), (Command::Shift(0), 16), (Command::Ambient(0), 7)]
+    for (c, param_bits) in
+        [(Command::StartLoad, 0), (Command::EndLoad, 0), (Command::Shift(0), 16), (Command::Ambient(0), 7)]
     {
         for bit in param_bits..54 {
             assert_eq!(Command::unpack(c.pack() | 1 << bit), Err(CodewordError::ReservedBits), "{c:?} bit {bit}");

@@ -24,6 +24,8 @@ const SPLAT_STATS: usize = 15;
 /// The splat stage's material table for this frame: per material, the colour coefficients of
 /// the ambient, diffuse and specular terms (seed 001 §2.6; lights and ambient folded in), and
 /// the ambient register.
+// Indexes only the fixed `[f32; 3]` colour arrays with 0..3.
+#[allow(clippy::indexing_slicing)]
 fn material_terms<const N: usize>(scene: &SceneStore<N>, job: &Job<'_>, table: &mut [[MaterialTerm; 3]]) -> u8 {
     let l = &scene.lighting;
     let light = job.light;
@@ -64,7 +66,8 @@ fn view_of<const N: usize, const P: usize, const T: usize>(
     let half_h = crate::fmath::tan_turns(req.fov_y_deg / 720.0);
     let focal = req.height as f32 / (2.0 * half_h);
     let eye = Vec3::from_array(req.eye);
-    let mut view = View::new(eye, [cam.forward(), cam.right(), cam.up()], focal, (req.width, req.height), engine.bounds())?;
+    let mut view =
+        View::new(eye, [cam.forward(), cam.right(), cam.up()], focal, (req.width, req.height), engine.bounds())?;
     view.pixel_depth = req.flags & render_flags::SPLAT_PIXEL_DEPTH != 0;
     let l = &scene.lighting;
     let on = l.light_count > 0 && l.light_colour.iter().any(|&c| c != 0.0) && job.light.intensity != 0.0;

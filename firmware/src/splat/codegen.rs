@@ -9,6 +9,9 @@
 //! [z_near, z_far] the view depths of the cloud's box: linear in screen space for a plane, so
 //! the per-pixel mode's depth word is exact across a splat. The seed's 9-bit Z is `D >> 7`.
 
+// `!(x > y)` is how this file rejects NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use super::table::{template_bits, ShapeTable, TILE_EMPTY};
 use gridrt_shared::math::Vec3;
 use gridrt_shared::splat::{Command, DepthWord, MaterialTerm, MAX_PIXEL_DEPTH, MAX_TERM};
@@ -216,7 +219,13 @@ fn light_terms(light: &SplatLight, eye: Vec3, p: Vec3, n: Vec3) -> (u8, u8) {
     let mut f = if light.inverse_square { 1.0 / r2 } else { 1.0 };
     if let Some((axis, co, ci)) = light.spot {
         let c = axis.dot(-l);
-        f *= if ci > co { ((c - co) / (ci - co)).clamp(0.0, 1.0) } else if c >= co { 1.0 } else { 0.0 };
+        f *= if ci > co {
+            ((c - co) / (ci - co)).clamp(0.0, 1.0)
+        } else if c >= co {
+            1.0
+        } else {
+            0.0
+        };
     }
     let v = (eye - p).try_normalize().unwrap_or(n);
     let r = n * (2.0 * cos) - l;
@@ -318,14 +327,11 @@ pub fn file_points<const P: usize, const T: usize>(
         let (diffuse, specular) = light_terms(light, view.eye, p.pos, n);
         // Depth at the box centre (the corner), and its screen slopes (1/z is linear there).
         let nd = p.normal.dot(d);
-        let (gx, gy) = if nd.abs() > 1e-20 {
-            (nx / (view.focal * nd), ny / (view.focal * nd))
-        } else {
-            (0.0, 0.0)
-        };
+        let (gx, gy) = if nd.abs() > 1e-20 { (nx / (view.focal * nd), ny / (view.focal * nd)) } else { (0.0, 0.0) };
         let inv_k = inv + gx * (kx as f32 - px) + gy * (ky as f32 - py);
         let dval = ((inv_k - view.inv_near) * scale).clamp(0.0, MAX_PIXEL_DEPTH as f32);
-        let z16 = if view.pixel_depth { dval } else { ((inv - view.inv_near) * scale).clamp(0.0, MAX_PIXEL_DEPTH as f32) };
+        let z16 =
+            if view.pixel_depth { dval } else { ((inv - view.inv_near) * scale).clamp(0.0, MAX_PIXEL_DEPTH as f32) };
         let z9 = (z16 as u32 >> 7) as u64;
         let slope = |g: f32| (g * scale * 16.0).clamp(i16::MIN as f32, i16::MAX as f32) as i16;
         let (dzdx, dzdy) = (slope(gx), slope(gy));
@@ -356,6 +362,7 @@ pub fn file_points<const P: usize, const T: usize>(
 
 /// Streams the pass: material table, ambient, then the buckets top to bottom, and a final
 /// shift that finishes the last line. `emit` is the stage's input (seed 001's DMA).
+#[allow(clippy::too_many_arguments)]
 pub fn stream<const P: usize, const T: usize, E>(
     table: &ShapeTable<T>,
     materials: &[[MaterialTerm; 3]],
@@ -403,7 +410,8 @@ pub fn stream<const P: usize, const T: usize, E>(
                 emit(template_bits(tpl) | node.fields | (x as u64) << 9)?;
                 if pixel_depth {
                     let z = (node.z16 + node.dzdx as i32 * 8 * ti as i32) >> 4;
-                    let d = DepthWord { z: z.clamp(0, MAX_PIXEL_DEPTH as i32) as u16, dzdx: node.dzdx, dzdy: node.dzdy };
+                    let d =
+                        DepthWord { z: z.clamp(0, MAX_PIXEL_DEPTH as i32) as u16, dzdx: node.dzdx, dzdy: node.dzdy };
                     emit(d.pack())?;
                 }
             }

@@ -190,10 +190,8 @@ impl<const P: usize, const T: usize> SplatEngine<P, T> {
         let t1 = clock();
         st.fragments = self.stage.fragments;
         st.stage_clock = in_stage;
-        st.codegen_clock = [
-            t1[0].wrapping_sub(t0[0]).wrapping_sub(in_stage[0]),
-            t1[1].wrapping_sub(t0[1]).wrapping_sub(in_stage[1]),
-        ];
+        st.codegen_clock =
+            [t1[0].wrapping_sub(t0[0]).wrapping_sub(in_stage[0]), t1[1].wrapping_sub(t0[1]).wrapping_sub(in_stage[1])];
         match (streamed, failure) {
             (Ok(()), _) => Ok(st),
             (Err(()), Some(Ok(e))) => Err(PassError::Stage(e)),

@@ -122,7 +122,8 @@ impl SplatStage {
             }
             let t = MaterialTerm::unpack(word).map_err(|_| Ok(StageError::BadWord(word)))?;
             let (m, term) = ((i / 3) as usize, (i % 3) as usize);
-            let slot = self.materials.get_mut(m).and_then(|e| e.get_mut(term)).ok_or(Ok(StageError::MaterialOverflow))?;
+            let slot =
+                self.materials.get_mut(m).and_then(|e| e.get_mut(term)).ok_or(Ok(StageError::MaterialOverflow))?;
             *slot = t;
             self.loading = Some(i.wrapping_add(1));
             return Ok(());
@@ -169,7 +170,7 @@ impl SplatStage {
         let [r, g, b] = shade(&terms, self.ambient, s.diffuse, s.specular);
         let rgb = (r as u32) << 16 | (g as u32) << 8 | b as u32;
         // Box column c is tile column x − 8 + c (X carries 4 guard columns each side).
-        let left = s.x as i32 - 8;
+        let left = (s.x as i32).wrapping_sub(8);
         for (row, run) in s.rows().iter().enumerate() {
             let Some((a, b)) = *run else { continue };
             let slot = (self.top as usize).wrapping_add(row) % RING_LINES;

@@ -221,7 +221,8 @@ fn row_run(r: f32, nx: f32, ny: f32, k: u32, row: u32) -> Option<(i32, i32)> {
 
 /// Template of tile (i, j) of the k×k cascade.
 fn tile_template(r: f32, nx: f32, ny: f32, k: u32, i: u32, j: u32) -> u32 {
-    let (mode, rows): (Mode, [u32; 4]) = if k == 1 { (Mode::Symmetric, [0, 1, 2, 3]) } else { (Mode::Interpolated, [0, 2, 5, 7]) };
+    let (mode, rows): (Mode, [u32; 4]) =
+        if k == 1 { (Mode::Symmetric, [0, 1, 2, 3]) } else { (Mode::Interpolated, [0, 2, 5, 7]) };
     let x0 = 8 * i as i32;
     let mut scans = [RowCode::EMPTY; 4];
     let mut any = false;

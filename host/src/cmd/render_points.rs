@@ -89,7 +89,8 @@ impl Cmd {
                 .zip(&images)
                 .map(|(s, image)| sc.spawn(move || s.upload_scene(image, &mut |_| {}).map_err(anyhow::Error::from)))
                 .collect();
-            jobs.into_iter().try_for_each(|j| j.join().unwrap_or_else(|_| Err(anyhow::anyhow!("upload thread panicked"))))
+            jobs.into_iter()
+                .try_for_each(|j| j.join().unwrap_or_else(|_| Err(anyhow::anyhow!("upload thread panicked"))))
         })
         .context("uploading the point cloud")?;
         let upload_ms = upload_start.elapsed().as_secs_f64() * 1e3;
@@ -102,7 +103,8 @@ impl Cmd {
         let (frame, devices) = if let [session] = &mut sessions[..] {
             (session.render(&req, &mut on_event).context("rendering splats")?, Vec::new())
         } else if sort_last {
-            let (f, d) = points::render_sort_last(&mut sessions, &req, &|_, _| {}).context("rendering splats sort-last")?;
+            let (f, d) =
+                points::render_sort_last(&mut sessions, &req, &|_, _| {}).context("rendering splats sort-last")?;
             (f, d)
         } else {
             let owned = std::mem::take(&mut sessions);
@@ -148,7 +150,9 @@ impl Cmd {
         if self.reference || self.reference_out.is_some() {
             let session = sessions.first_mut().context("no board left for the reference")?;
             if sort_last {
-                session.upload_scene(&whole.image, &mut |_| {}).context("uploading the whole cloud for the reference")?;
+                session
+                    .upload_scene(&whole.image, &mut |_| {})
+                    .context("uploading the whole cloud for the reference")?;
             }
             let traced = session.render(&request, &mut |_| {}).context("ray tracing the disks")?;
             let start = Instant::now();
@@ -206,7 +210,10 @@ fn print_summary(s: &RenderStats, r: &SplatReport, frame: &RenderedFrame, out: &
             r.codegen_instructions, r.stage_instructions, r.encode_instructions
         );
     }
-    println!("link       {} UART bytes ({} spans), {:.2} s modelled at {} baud", s.uart_bytes, frame.spans_received, s.link.modelled_link_s, s.link.baud);
+    println!(
+        "link       {} UART bytes ({} spans), {:.2} s modelled at {} baud",
+        s.uart_bytes, frame.spans_received, s.link.modelled_link_s, s.link.baud
+    );
     for d in &s.devices {
         println!("board      {}: {} B, {:.2} s link", d.port, d.bytes_tx + d.bytes_rx, d.link_seconds(s.link.baud));
     }

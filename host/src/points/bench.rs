@@ -69,8 +69,13 @@ pub fn render_native(
     let cam = Camera::new(v(req.eye), v(req.target), v(req.up), req.fov_y_deg, w as u32, h as u32).ok()?;
     let half_h = gridrt_firmware::fmath::tan_turns(req.fov_y_deg / 720.0);
     let b = cloud.bounds();
-    let mut view =
-        View::new(v(req.eye), [cam.forward(), cam.right(), cam.up()], h as f32 / (2.0 * half_h), (w, h), [v(b.min), v(b.max)])?;
+    let mut view = View::new(
+        v(req.eye),
+        [cam.forward(), cam.right(), cam.up()],
+        h as f32 / (2.0 * half_h),
+        (w, h),
+        [v(b.min), v(b.max)],
+    )?;
     view.seed_affine = seed_affine;
     view.pixel_depth = pixel_depth;
     let l = &scene.lighting;
@@ -112,12 +117,14 @@ pub fn render_native(
 /// Loads a cloud into the engine (through the same point records the device parses).
 pub fn load(engine: &mut BenchEngine, cloud: &PointCloud) -> bool {
     let b = cloud.bounds();
-    let head = gridrt_shared::scene::PointsHead { count: cloud.points.len() as u32, bounds_min: b.min, bounds_max: b.max };
+    let head =
+        gridrt_shared::scene::PointsHead { count: cloud.points.len() as u32, bounds_min: b.min, bounds_max: b.max };
     if engine.begin(&head).is_err() {
         return false;
     }
     cloud.points.iter().all(|p| {
-        let r = gridrt_shared::scene::PointRecord { pos: p.pos, normal: p.normal, radius: p.radius, material: p.material };
+        let r =
+            gridrt_shared::scene::PointRecord { pos: p.pos, normal: p.normal, radius: p.radius, material: p.material };
         engine.push(&r).is_ok()
     })
 }
@@ -158,7 +165,8 @@ pub fn run(
                 out = Some((rgb, cw));
             }
             let (rgb, codewords) = out.ok_or("no run")?;
-            let psnr = |img: &[u8]| compare(img, &reference.rgb, None, None).map(|c| c.psnr_db).map_err(|e| e.to_string());
+            let psnr =
+                |img: &[u8]| compare(img, &reference.rgb, None, None).map(|c| c.psnr_db).map_err(|e| e.to_string());
             let seed = render_native(&mut engine, &cloud, w, h, true, false).ok_or("render failed")?.0;
             let depth = render_native(&mut engine, &cloud, w, h, false, true).ok_or("render failed")?.0;
             let row = SplatRow {

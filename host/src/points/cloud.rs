@@ -148,8 +148,9 @@ impl PointCloud {
     /// generator seeded so every run splits alike. Every subset keeps the whole palette.
     pub fn split(&self, n: usize, seed: u64) -> Vec<PointCloud> {
         let n = n.max(1);
-        let mut out: Vec<PointCloud> =
-            (0..n).map(|_| PointCloud { points: Vec::new(), materials: self.materials.clone(), radius: self.radius }).collect();
+        let mut out: Vec<PointCloud> = (0..n)
+            .map(|_| PointCloud { points: Vec::new(), materials: self.materials.clone(), radius: self.radius })
+            .collect();
         let mut state = seed ^ 0x9E37_79B9_7F4A_7C15;
         for p in &self.points {
             // SplitMix64.
@@ -186,7 +187,7 @@ pub fn density_radii(points: &mut [CloudPoint]) -> Result<(), String> {
         }
     }
     let diag = (0..3).map(|i| (hi[i] - lo[i]).powi(2)).sum::<f64>().sqrt();
-    if !(diag > 0.0) {
+    if diag.is_nan() || diag <= 0.0 {
         return Err("all points coincide: no density to derive radii from".into());
     }
     // About 4 points per cell on a surface spanning the box.

@@ -238,8 +238,10 @@ fn parse(name: &Path, bytes: &[u8]) -> Result<Parsed, SceneLoadError> {
     let vel = &elements[vertex_el];
     let normal_idx = triple_index(vel, &[["nx", "ny", "nz"], ["normal_x", "normal_y", "normal_z"]]);
     let radius_idx = scalar_index(vel, &["radius"]);
-    let colour_idx =
-        triple_index(vel, &[["red", "green", "blue"], ["r", "g", "b"], ["diffuse_red", "diffuse_green", "diffuse_blue"]]);
+    let colour_idx = triple_index(
+        vel,
+        &[["red", "green", "blue"], ["r", "g", "b"], ["diffuse_red", "diffuse_green", "diffuse_blue"]],
+    );
     let colour_scale: [f64; 3] = colour_idx.map_or([1.0; 3], |ix| {
         ix.map(|i| match vel.props[i].kind {
             PropKind::Scalar(t) => t.full_scale(),
@@ -342,7 +344,10 @@ fn parse(name: &Path, bytes: &[u8]) -> Result<Parsed, SceneLoadError> {
             }
             src.end_record().map_err(|r| malformed(loc(src.as_ref()), r))?;
             if ei == vertex_el {
-                if xyz.iter().chain(nrm.iter()).any(|c| !c.is_finite()) || !rad.is_finite() || rgb.iter().any(|c| c.is_nan()) {
+                if xyz.iter().chain(nrm.iter()).any(|c| !c.is_finite())
+                    || !rad.is_finite()
+                    || rgb.iter().any(|c| c.is_nan())
+                {
                     return Err(SceneLoadError::NonFinite { path: path.clone(), at: record_at });
                 }
                 vertices.push(xyz);

@@ -282,13 +282,15 @@ fn qemu_splat_frame_matches_loopback_riscv32imac() {
     std::fs::write(&ply, gridrt_host::points::synthetic::write_ply(&cloud, true)).unwrap();
     let qemu = Qemu::boot(&elf);
     let p = |name: &str| dir.join(name).display().to_string();
-    let common = ["--scene", &ply.display().to_string(), "--width", "160", "--height", "120"];
+    let (q_png, q_json, s_png, s_json) = (p("q.png"), p("q.json"), p("s.png"), p("s.json"));
+    let ply_s = ply.display().to_string();
+    let common = ["--scene", &ply_s, "--width", "160", "--height", "120"];
     let start = Instant::now();
-    let q = [&["render", "--port", &qemu.pty, "--timeout", "90", "--out", &p("q.png"), "--stats", &p("q.json")][..], &common]
+    let q = [&["render", "--port", &qemu.pty, "--timeout", "90", "--out", &q_png, "--stats", &q_json][..], &common]
         .concat();
     eprintln!("{}", run_gridrt(&q));
     eprintln!("device splat render: {:.1} s", start.elapsed().as_secs_f64());
-    let s = [&["render", "--sim", "--out", &p("s.png"), "--stats", &p("s.json")][..], &common].concat();
+    let s = [&["render", "--sim", "--out", &s_png, "--stats", &s_json][..], &common].concat();
     run_gridrt(&s);
     let (qi, si) = (read_rgb(&dir.join("q.png")), read_rgb(&dir.join("s.png")));
     let cmp = compare(&qi, &si, None, None).unwrap();
@@ -299,7 +301,10 @@ fn qemu_splat_frame_matches_loopback_riscv32imac() {
         assert_eq!(qs["splat"][k], ss["splat"][k], "{k}");
     }
     let per_splat = qs["splat"]["instructions_per_splat"].as_f64().expect("QEMU counts instructions per splat");
-    assert!(qs["splat"]["codegen_instructions"].as_u64().unwrap() > 0 && qs["splat"]["stage_instructions"].as_u64().unwrap() > 0);
+    assert!(
+        qs["splat"]["codegen_instructions"].as_u64().unwrap() > 0
+            && qs["splat"]["stage_instructions"].as_u64().unwrap() > 0
+    );
     eprintln!("riscv32imac: {per_splat:.0} instructions per splat: {}", qs["splat"]);
 }
 

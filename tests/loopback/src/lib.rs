@@ -153,7 +153,8 @@ fn run_device(config: SimConfig, input: Receiver<Input>, output: Sender<(u32, Ve
                 return;
             }
         };
-        let mut device: Box<SimDevice<'_>> = Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
+        let mut device: Box<SimDevice<'_>> =
+            Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
         reset.muted.store(false, Ordering::Release);
         let epoch = reset.count.load(Ordering::Acquire);
         let mut sink = ChannelSink { out: &output, muted: &reset.muted, epoch };
@@ -263,7 +264,8 @@ pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfi
         let model = Coprocessor::new(coproc_config, &mut backing).map_err(|e| {
             io::Error::new(io::ErrorKind::InvalidInput, format!("invalid co-processor configuration: {e:?}"))
         })?;
-        let mut device: Box<SimDevice<'_>> = Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
+        let mut device: Box<SimDevice<'_>> =
+            Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
         let mut buf = [0u8; 4096];
         loop {
             let n = match port.read(&mut buf) {
