@@ -104,6 +104,11 @@ impl<const P: usize, const T: usize> SplatEngine<P, T> {
         }
         self.expected = head.count;
         self.bounds = [Vec3::from_array(head.bounds_min), Vec3::from_array(head.bounds_max)];
+        // The table is built once, while the scene loads, not in the first frame's time (a
+        // table that does not fit fails that frame with `PassError::Table`).
+        if head.count > 0 {
+            let _ = self.table.build(TableConfig::DEVICE);
+        }
         Ok(())
     }
 
