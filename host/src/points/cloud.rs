@@ -197,12 +197,23 @@ pub fn density_radii(points: &mut [CloudPoint]) -> Result<(), String> {
     for (i, p) in points.iter().enumerate() {
         grid.entry(cell(p.pos)).or_default().push(i as u32);
     }
-    let max_ring = ((diag / h).ceil() as i64 + 1).min(1 << 12);
+    // Rings of cells around the point's cell; an isolated point (nothing within 16 cells)
+    // falls back to a scan of the whole cloud, so outliers cost O(n), not O(rings³).
+    let max_ring = ((diag / h).ceil() as i64 + 1).min(16);
+    let consider = |best: &mut Vec<f64>, p: [f32; 3], q: [f32; 3]| {
+        let d2: f64 = (0..3).map(|a| (q[a] as f64 - p[a] as f64).powi(2)).sum();
+        if best.len() < k || d2 < best[k - 1] {
+            let at = best.partition_point(|&b| b <= d2);
+            best.insert(at, d2);
+            best.truncate(k);
+        }
+    };
     let radii: Vec<f32> = (0..n)
         .map(|i| {
             let p = points[i].pos;
             let c = cell(p);
             let mut best: Vec<f64> = Vec::with_capacity(k + 1);
+            let mut done = false;
             for r in 0..=max_ring {
                 for dx in -r..=r {
                     for dy in -r..=r {
@@ -211,24 +222,22 @@ pub fn density_radii(points: &mut [CloudPoint]) -> Result<(), String> {
                                 continue;
                             }
                             let Some(list) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else { continue };
-                            for &j in list {
-                                if j as usize == i {
-                                    continue;
-                                }
-                                let q = points[j as usize].pos;
-                                let d2: f64 = (0..3).map(|a| (q[a] as f64 - p[a] as f64).powi(2)).sum();
-                                if best.len() < k || d2 < best[k - 1] {
-                                    let at = best.partition_point(|&b| b <= d2);
-                                    best.insert(at, d2);
-                                    best.truncate(k);
-                                }
+                            for &j in list.iter().filter(|&&j| j as usize != i) {
+                                consider(&mut best, p, points[j as usize].pos);
                             }
                         }
                     }
                 }
                 // Every point of ring r + 1 is at least r·h away.
                 if best.len() == k && best[k - 1] <= (r as f64 * h).powi(2) {
+                    done = true;
                     break;
+                }
+            }
+            if !done {
+                best.clear();
+                for (_, q) in points.iter().enumerate().filter(|&(j, _)| j != i) {
+                    consider(&mut best, p, q.pos);
                 }
             }
             best.last().map_or(h, |d2| d2.sqrt()) as f32
