@@ -35,6 +35,7 @@ pub mod multi;
 pub mod native;
 pub mod pipeline;
 pub mod plan;
+pub mod points;
 pub mod reference;
 pub mod scene;
 pub mod serial;

@@ -32,6 +32,10 @@ enum What {
     /// (riscv32imac, riscv32imafc); every image checked against the f64 reference (JSON,
     /// and CSV + SVG in --out).
     Frame(super::bench_frame::Args),
+    /// Seed 001's point splats (issue 15): native splats/s and image error against the
+    /// ray-traced disks for 10³…10⁶ points and several shape tables, optionally soft-core
+    /// instructions per splat from QEMU (`--port`); CSV, SVG plot and JSON in --out.
+    Splat(super::bench_splat::Args),
 }
 
 impl Cmd {
@@ -43,6 +47,7 @@ impl Cmd {
             What::Skip(a) => a.run(),
             What::Link(a) => a.run(),
             What::Frame(a) => a.run(),
+            What::Splat(a) => a.run(),
         }
     }
 }

@@ -299,6 +299,49 @@ fn qemu_and_loopback_do_the_same_work_for_the_same_frame() {
     assert_eq!(d.wrapper_per_word, None);
 }
 
+/// Issue 15: the QEMU firmware renders a splat frame of a point cloud (seed 001's code
+/// generator and splat stage on the soft-core) byte-identical to `render --sim`, and reports
+/// its instructions per splat.
+#[test]
+fn qemu_splat_frame_matches_loopback_riscv32imac() {
+    let test = "qemu_splat_frame_matches_loopback_riscv32imac";
+    if !require(test, Tool::Qemu) {
+        return;
+    }
+    let elf = build_firmware(&["--target", "riscv32imac", "--bin", "app"]);
+    gridrt();
+    let dir = tempdir(test);
+    let cloud = gridrt_host::points::synthetic::torus_and_sphere(3000, 0x0E2E_0015);
+    let ply = dir.join("cloud.ply");
+    std::fs::write(&ply, gridrt_host::points::synthetic::write_ply(&cloud, true)).unwrap();
+    let qemu = Qemu::boot(&elf);
+    let p = |name: &str| dir.join(name).display().to_string();
+    let (q_png, q_json, s_png, s_json) = (p("q.png"), p("q.json"), p("s.png"), p("s.json"));
+    let ply_s = ply.display().to_string();
+    let common = ["--scene", &ply_s, "--width", "160", "--height", "120"];
+    let start = Instant::now();
+    let q = [&["render", "--port", &qemu.pty, "--timeout", "90", "--out", &q_png, "--stats", &q_json][..], &common]
+        .concat();
+    eprintln!("{}", run_gridrt(&q));
+    eprintln!("device splat render: {:.1} s", start.elapsed().as_secs_f64());
+    let s = [&["render", "--sim", "--out", &s_png, "--stats", &s_json][..], &common].concat();
+    run_gridrt(&s);
+    let (qi, si) = (read_rgb(&dir.join("q.png")), read_rgb(&dir.join("s.png")));
+    let cmp = compare(&qi, &si, None, None).unwrap();
+    assert!(cmp.identical, "QEMU splat frame differs from the simulator's: {cmp:?}");
+    let qs: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("q.json")).unwrap()).unwrap();
+    let ss: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("s.json")).unwrap()).unwrap();
+    for k in ["transformed", "codewords", "culled", "clamped", "fragments"] {
+        assert_eq!(qs["splat"][k], ss["splat"][k], "{k}");
+    }
+    let per_splat = qs["splat"]["instructions_per_splat"].as_f64().expect("QEMU counts instructions per splat");
+    assert!(
+        qs["splat"]["codegen_instructions"].as_u64().unwrap() > 0
+            && qs["splat"]["stage_instructions"].as_u64().unwrap() > 0
+    );
+    eprintln!("riscv32imac: {per_splat:.0} instructions per splat: {}", qs["splat"]);
+}
+
 #[test]
 fn qemu_flash_through_bootloader() {
     if !require("qemu_flash_through_bootloader", Tool::Qemu) {

@@ -142,7 +142,8 @@ fn serve_model(console: &mut board::Console, info: DeviceInfo, model: gridrt_cop
     let link = TimedLink::new(VirtualCoproc { model }, CsrCounters, &excluded);
     let clock = ModelFreeClock::new(CsrCounters, &excluded);
     // On the stack, which is most of RAM here (memory.x).
-    let mut device: Device<_, _, { board::MAX_VOXELS }> = Device::new(link, clock, info);
+    let mut device: Device<_, _, { board::MAX_VOXELS }, { board::MAX_POINTS }, { board::TABLE_WORDS }> =
+        Device::new(link, clock, info);
     serve(&mut device, console)
 }
 
