@@ -56,6 +56,7 @@ pub fn stat_name(key: u8) -> String {
         stat::FSL_WORDS_PRIMARY => "fsl_words_primary".into(),
         stat::FSL_WORDS_SHADOW => "fsl_words_shadow".into(),
         stat::FSL_WORDS_REFLECTION => "fsl_words_reflection".into(),
+        stat::RAYS_IN_FLIGHT => "rays_in_flight".into(),
         k => {
             // Per-stage counters, keyed as the firmware sends them (`device::Stage`).
             for s in Stage::ALL {
@@ -407,7 +408,7 @@ pub struct BenchReport {
     pub ns_per_ray: f64,
     /// Million rays per second (best run).
     pub mrays_per_s: f64,
-    /// Always 1: the bench is single-threaded.
+    /// Threads of the timed run (`--threads`; the single-thread rate is reported beside it).
     pub threads: u32,
 }
 
