@@ -151,6 +151,17 @@ impl SynthCmd {
             .with_context(|| format!("running {nextpnr}"))?;
         report.nextpnr_s = t1.elapsed().as_secs_f64();
         report.fits = status.success();
+        if !status.success() {
+            // A design that does not fit ends with nextpnr's ERROR line (placement or routing);
+            // anything else (killed, crashed) is no verdict on the design.
+            let log = std::fs::read_to_string(dir.join("nextpnr.log")).unwrap_or_default();
+            match log.lines().find(|l| l.starts_with("ERROR:")) {
+                Some(line) => eprintln!("rtl synth: nextpnr: {line}"),
+                None => {
+                    bail!("nextpnr stopped ({status}) without a verdict; log: {}", dir.join("nextpnr.log").display())
+                }
+            }
+        }
         if let Ok(text) = std::fs::read_to_string(&pnr_report) {
             let used = |cell: &str| json_number_after(&text, &format!("\"{cell}\""), "used").unwrap_or(0.0) as u64;
             report.dsps = used("MULT18X18D");
