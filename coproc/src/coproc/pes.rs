@@ -13,11 +13,37 @@ use crate::isect::{with_kernel, Kernel, RecordStatus};
 use crate::numeric::FixedFrame;
 use crate::timing::PeTimeline;
 
+/// PE memory: the co-processor's own, or a read-only share of it (a [`super::RayPort`]).
+pub(super) trait PeMem {
+    /// Every PE's words.
+    fn words(&self) -> &[u32];
+    /// Every PE's words for a LOAD; `None` when the memory is shared read-only.
+    fn words_mut(&mut self) -> Option<&mut [u32]>;
+}
+
+impl PeMem for &mut [u32] {
+    fn words(&self) -> &[u32] {
+        self
+    }
+    fn words_mut(&mut self) -> Option<&mut [u32]> {
+        Some(self)
+    }
+}
+
+impl PeMem for &[u32] {
+    fn words(&self) -> &[u32] {
+        self
+    }
+    fn words_mut(&mut self) -> Option<&mut [u32]> {
+        None
+    }
+}
+
 /// The PE array: configuration, memories, image slots, clocks and counters (everything but
 /// the link buffers, so a buffered list can be traced in place).
-pub(super) struct Pes<'m> {
+pub(super) struct Pes<M> {
     pub(super) cfg: CoprocConfig,
-    pub(super) mem: &'m mut [u32],
+    pub(super) mem: M,
     pub(super) slots: [PeSlot; MAX_PES],
     pub(super) loaded_pes: u16,
     pub(super) rule: ArbitrationRule,
@@ -26,12 +52,12 @@ pub(super) struct Pes<'m> {
     pub(super) stats: CoprocStats,
 }
 
-impl Pes<'_> {
+impl<M: PeMem> Pes<M> {
     pub(super) fn view(&self) -> View<'_> {
         let numerics = self.numerics;
         View {
             cfg: &self.cfg,
-            mem: self.mem,
+            mem: self.mem.words(),
             slots: &self.slots,
             loaded_pes: self.loaded_pes,
             rule: self.rule,
@@ -58,7 +84,7 @@ impl Pes<'_> {
     /// table after them if it needs one (module doc), and installs them.
     pub(super) fn finish_load(&mut self, pe: u8, len: usize) -> Result<(), FslError> {
         let base = self.base(pe);
-        let image = span(self.mem, base, len).ok_or(FslError::PeMemoryOverflow)?;
+        let image = span(self.mem.words(), base, len).ok_or(FslError::PeMemoryOverflow)?;
         let slot = validate_image(image).ok_or(FslError::PeImageMalformed)?;
         with_kernel!(self.cfg.kernel, self.numerics.format, K => {
             if !K::TESTS_PRIMITIVES && slot.prims > 0 {
@@ -98,10 +124,11 @@ impl Pes<'_> {
         let rec_base = base.saturating_add(rec_off);
         for i in 0..tris {
             let src = tri_base.saturating_add(i.saturating_mul(TRIANGLE_WORDS));
-            let words = record_at(self.mem, src).ok_or(FslError::PeImageMalformed)?;
+            let words = record_at(self.mem.words(), src).ok_or(FslError::PeImageMalformed)?;
             let (tri, prim) = (record(words), words.get(9).copied().unwrap_or(0));
             let dst = rec_base.saturating_add(i.saturating_mul(K::RECORD_WORDS));
-            let out = span_mut(self.mem, dst, K::RECORD_WORDS).ok_or(FslError::PeMemoryOverflow)?;
+            let mem = self.mem.words_mut().ok_or(FslError::Unsupported)?;
+            let out = span_mut(mem, dst, K::RECORD_WORDS).ok_or(FslError::PeMemoryOverflow)?;
             let status = K::precompute(&tri, &frame, out);
             if K::PRIM_IN_RECORD {
                 if let Some(last) = out.last_mut() {
@@ -143,7 +170,7 @@ impl Pes<'_> {
         let numerics = self.numerics;
         let view = View {
             cfg: &self.cfg,
-            mem: self.mem,
+            mem: self.mem.words(),
             slots: &self.slots,
             loaded_pes: self.loaded_pes,
             rule: self.rule,
