@@ -129,3 +129,19 @@ impl FslLink for VirtualCoproc<'_> {
         self.model.pop().ok_or(nb::Error::WouldBlock)
     }
 }
+
+/// A ray port onto the co-processor model (`Coprocessor::ray_port`): a second link to the
+/// same loaded PEs, for a simulator's row farm.
+#[cfg(feature = "virtual-coproc")]
+impl FslLink for gridrt_coproc::RayPort<'_> {
+    type Error = core::convert::Infallible;
+
+    fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
+        self.push(word);
+        Ok(())
+    }
+
+    fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+        self.pop().ok_or(nb::Error::WouldBlock)
+    }
+}

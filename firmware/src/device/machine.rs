@@ -4,10 +4,11 @@
 //! are the sibling modules this one drives.
 
 use super::fail::{Fail, Text, Trunc};
+use super::farm::{NoFarm, RowFarm};
 use super::pipeline::{self, Renderer};
 use super::request::{self, Target};
 use super::scene::{SceneStore, Upload};
-use super::stats::{FrameStats, StageClock};
+use super::stats::{FrameStats, NoClock, StageClock};
 use crate::fsl::FslLink;
 use crate::pixels::FrameTx;
 use crate::text::TextOut;
@@ -29,8 +30,8 @@ pub const fn compiled_features() -> u32 {
 
 /// Everything but the receive buffer (split so a received frame can borrow that buffer
 /// while the handler mutates the rest).
-struct Core<L, C, const N: usize> {
-    render: Renderer<L, C>,
+struct Core<L, C, const N: usize, F> {
+    render: Renderer<L, C, F>,
     info: DeviceInfo,
     tx: FrameTx,
     scene: SceneStore<N>,
@@ -44,9 +45,12 @@ struct Core<L, C, const N: usize> {
 /// end message or `Error`, which would need the output that just failed). An answer outside
 /// a frame whose write failed is lost. Either way the host, which waits for every answer,
 /// times out and asks again.
-pub struct Device<L: FslLink, C: StageClock, const MAX_VOXELS: usize> {
+///
+/// A simulator may hand the rows of a frame to a [`RowFarm`] ([`Device::with_farm`]); the
+/// firmware has none ([`NoFarm`]).
+pub struct Device<L: FslLink, C: StageClock, const MAX_VOXELS: usize, F: RowFarm<L> = NoFarm> {
     rx: FrameAccumulator,
-    core: Core<L, C, MAX_VOXELS>,
+    core: Core<L, C, MAX_VOXELS, F>,
 }
 
 impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS> {
@@ -54,6 +58,21 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
     /// size (0 = unknown, not checked); protocol, max payload, voxel capacity (= MAX_VOXELS)
     /// and feature bits are filled in here.
     pub fn new(link: L, clock: C, info: DeviceInfo) -> Self {
+        Device::build(link, clock, info, NoFarm)
+    }
+}
+
+impl<L: FslLink, const MAX_VOXELS: usize, F: RowFarm<L>> Device<L, NoClock, MAX_VOXELS, F> {
+    /// A device whose frames without row interpolation are traced by `farm` (when it takes
+    /// them), sending the same bytes as [`Device::new`]'s. Only without stage clocks: a
+    /// farm's rows are not timed.
+    pub fn with_farm(link: L, info: DeviceInfo, farm: F) -> Self {
+        Device::build(link, NoClock, info, farm)
+    }
+}
+
+impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize, F: RowFarm<L>> Device<L, C, MAX_VOXELS, F> {
+    fn build(link: L, clock: C, info: DeviceInfo, farm: F) -> Self {
         let info = DeviceInfo {
             protocol: gridrt_shared::PROTOCOL_VERSION as u16,
             max_payload: MAX_PAYLOAD as u16,
@@ -64,7 +83,7 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
         Self {
             rx: FrameAccumulator::new(),
             core: Core {
-                render: Renderer::new(link, clock),
+                render: Renderer::new(link, clock, farm),
                 info,
                 tx: FrameTx::new(),
                 scene: SceneStore::new(),
@@ -136,7 +155,7 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
     }
 }
 
-impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
+impl<L: FslLink, C: StageClock, const N: usize, F: RowFarm<L>> Core<L, C, N, F> {
     fn send(&mut self, msg: &Msg<'_>, out: &mut impl Write) {
         // Fails on a write error (counted by `tx`, see `Device::write_errors`) or a firmware
         // bug (message larger than a frame): nothing to report either with.

@@ -8,7 +8,7 @@ use gridrt_coproc::{Coprocessor, FixedFrame};
 use gridrt_firmware::fsl::{FslLink, FslWord, LinkError, LinkErrorKind, VirtualCoproc};
 use gridrt_rtl::sim::{CoprocSim, RtlParams};
 
-use crate::{Backend, SimConfig};
+use crate::config::{Backend, SimConfig};
 
 /// The RTL simulation failed (the child died or its pipe broke): a hardware fault to the
 /// firmware, which reports it and aborts the frame.
