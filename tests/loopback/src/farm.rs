@@ -8,7 +8,7 @@
 
 use std::collections::BTreeMap;
 use std::ops::{ControlFlow, Range};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc;
 
 use gridrt_firmware::device::{FrameStats, RowDone, RowFarm, RowFault, RowTracer, Rows};
@@ -18,7 +18,10 @@ use crate::link::SimLink;
 
 /// Pixels per band: enough to make a task worth scheduling, few enough that the bands of a
 /// frame keep every thread busy and the device thread streams rows out as they come.
-const BAND_PIXELS: usize = 8192;
+const BAND_PIXELS: usize = 4096;
+
+/// Frames whose rows a farm traced, in this process.
+pub(crate) static FARMED_FRAMES: AtomicU64 = AtomicU64::new(0);
 
 /// The rows a band traced (it stops at the first fault).
 struct Band {
@@ -104,8 +107,9 @@ impl<'m> RowFarm<SimLink<'m>> for SimFarm {
         }
         let model = &coproc.model;
         let w = rows.width();
-        let per = (BAND_PIXELS / w.max(1)).clamp(1, 64) as u16;
+        let per = (BAND_PIXELS / w.max(1)).clamp(1, 32) as u16;
         let bands = bands(rows.ys(), per);
+        FARMED_FRAMES.fetch_add(1, Ordering::Relaxed);
         let cancel = AtomicBool::new(false);
         let job = Job { model, rows, bands: &bands, cancel: &cancel };
         match &self.pool {

@@ -234,6 +234,12 @@ pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfi
     })
 }
 
+/// Frames whose rows were traced on the row farm's threads (`SimConfig::threads` ≠ 1) so
+/// far in this process, by every board: lets a test or bench see that the farm ran.
+pub fn farmed_frames() -> u64 {
+    farm::FARMED_FRAMES.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Makes what `config` needs before a board starts: for [`Backend::Rtl`], the Verilator build
 /// (`cargo xtask rtl sim`, tens of seconds the first time, then cached). [`spawn`] does it
 /// too, but on the device thread, where a long build looks like a silent board to the host.
