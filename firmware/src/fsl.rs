@@ -136,11 +136,13 @@ impl FslLink for VirtualCoproc<'_> {
 impl FslLink for gridrt_coproc::RayPort<'_> {
     type Error = core::convert::Infallible;
 
+    #[inline]
     fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
         self.push(word);
         Ok(())
     }
 
+    #[inline]
     fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
         self.pop().ok_or(nb::Error::WouldBlock)
     }

@@ -108,6 +108,20 @@ impl Link {
     /// Consumes one inbound word; executes a packet when its last word arrives.
     pub(super) fn push(&mut self, pes: &mut Pes<impl PeMem>, w: FslWord) {
         pes.stats.words_in = pes.stats.words_in.saturating_add(1);
+        if let Rx::Ray { kind, count, idx } = self.rx {
+            // Mid-packet only the word index moves: update it in place. (Storing the whole
+            // state back through the stack stalled store forwarding on every word, ~8 % of
+            // a simulated frame.)
+            match self.on_ray_word(pes, kind, count, idx, w) {
+                Rx::Ray { idx: next, .. } => {
+                    if let Rx::Ray { idx, .. } = &mut self.rx {
+                        *idx = next;
+                    }
+                }
+                other => self.rx = other,
+            }
+            return;
+        }
         self.rx = match self.rx {
             Rx::Idle => self.on_first_word(pes, w),
             Rx::Discard => {
@@ -334,16 +348,12 @@ impl Link {
 
     fn execute(&mut self, pes: &mut Pes<impl PeMem>, kind: RayKind) -> Rx {
         let (ray, t_max) = self.head_ray();
-        match pes.trace_timed(kind, &ray, t_max, &self.list) {
-            Ok(r) => {
-                let words = r.to_words();
-                let last = words.len().saturating_sub(1);
-                for (i, &wd) in words.iter().enumerate() {
-                    self.emit(pes, wd, i == last);
-                }
-                Rx::Idle
-            }
-            Err((e, d)) => self.fail(pes, e, d, true),
+        // Every word of the packet passed its check on arrival.
+        let words = pes.trace_validated(kind, &ray, t_max, &self.list).to_words();
+        let last = words.len().saturating_sub(1);
+        for (i, &wd) in words.iter().enumerate() {
+            self.emit(pes, wd, i == last);
         }
+        Rx::Idle
     }
 }

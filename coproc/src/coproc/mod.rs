@@ -352,11 +352,13 @@ impl core::fmt::Debug for RayPort<'_> {
 
 impl RayPort<'_> {
     /// Consumes one inbound word; executes a packet when its last word arrives.
+    #[inline]
     pub fn push(&mut self, w: FslWord) {
         self.link.push(&mut self.pes, w);
     }
 
     /// Dequeues the next outbound word.
+    #[inline]
     pub fn pop(&mut self) -> Option<FslWord> {
         self.link.pop()
     }

@@ -8,7 +8,7 @@ use gridrt_shared::scene::{MAX_PES, TRIANGLE_WORDS};
 use super::image::{record, record_at, span, span_mut, validate_image, PeSlot};
 use super::search::{Numerics, View};
 use super::stats::CoprocStats;
-use crate::config::{ArbitrationRule, CoprocConfig};
+use crate::config::{ArbitrationRule, CoprocConfig, LIST_CAPACITY};
 use crate::isect::{with_kernel, Kernel, RecordStatus};
 use crate::numeric::FixedFrame;
 use crate::timing::PeTimeline;
@@ -167,6 +167,13 @@ impl<M: PeMem> Pes<M> {
         t_max: f32,
         list: &[ListEntry],
     ) -> Result<RayResult, (FslError, u16)> {
+        self.view().validate(ray, t_max, list)?;
+        Ok(self.trace_validated(kind, ray, t_max, list))
+    }
+
+    /// [`trace_timed`](Self::trace_timed) of a request that passed `View::validate` (the link
+    /// checks every word of a packet as it arrives: the same checks).
+    pub(super) fn trace_validated(&mut self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> RayResult {
         let numerics = self.numerics;
         let view = View {
             cfg: &self.cfg,
@@ -176,7 +183,6 @@ impl<M: PeMem> Pes<M> {
             rule: self.rule,
             numerics,
         };
-        view.validate(ray, t_max, list)?;
         let (found, info) = view.search_dyn(kind, ray, t_max, list);
         let mut result = view.result_of(list, found, ray);
 
@@ -184,7 +190,11 @@ impl<M: PeMem> Pes<M> {
         // 0..=w, pass 2 charges the tests every entry had started by T. Every entry is
         // scheduled with all its tests (a PE does not know a RAY_ANY hit before its result
         // comes out); the winner is done when the result of its last needed test is known.
-        let count_of = |e: &ListEntry| view.lookup(e.pe, e.voxel).map_or(0, |r| r.count);
+        // Each entry's test count, looked up once for both passes.
+        let mut counts = [0u32; LIST_CAPACITY];
+        for (c, e) in counts.iter_mut().zip(list) {
+            *c = view.lookup(e.pe, e.voxel).map_or(0, |r| r.count);
+        }
         let last = found.map_or(list.len(), |f| f.k.saturating_add(1));
         let profile = self.cfg.timing;
         for e in list {
@@ -195,8 +205,7 @@ impl<M: PeMem> Pes<M> {
         let mut end = 0u64;
         {
             let mut tl = PeTimeline::new(&profile, &mut self.clocks);
-            for (k, e) in list.iter().enumerate().take(last) {
-                let n = count_of(e);
+            for (k, (e, &n)) in list.iter().zip(&counts).enumerate().take(last) {
                 let at = tl.schedule(e.pe, n);
                 let done = match found {
                     Some(f) if f.k == k && f.tests_in_entry < n => tl.done_after(at, f.tests_in_entry),
@@ -213,8 +222,7 @@ impl<M: PeMem> Pes<M> {
         let mut tests = 0u64;
         {
             let mut tl = PeTimeline::new(&profile, &mut self.clocks);
-            for e in list {
-                let n = count_of(e);
+            for (e, &n) in list.iter().zip(&counts) {
                 let at = tl.schedule(e.pe, n);
                 tests = tests.saturating_add(tl.started_before(at, n, end) as u64);
             }
@@ -228,6 +236,6 @@ impl<M: PeMem> Pes<M> {
         s.tests = s.tests.saturating_add(tests);
         s.cycles = s.cycles.saturating_add(cycles);
         s.overflows = s.overflows.saturating_add(info.overflows);
-        Ok(result)
+        result
     }
 }
