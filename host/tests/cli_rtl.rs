@@ -53,7 +53,11 @@ fn rtl_frame_is_byte_identical_to_the_model_with_its_kernel_and_format() {
 
 #[test]
 fn rtl_refuses_another_kernel_or_format() {
-    for flags in [&["--coproc", "rtl", "--format", "f32"][..], &["--coproc", "rtl", "--kernel", "wald"], &["--coproc", "rtl", "--timing", "gridrt"]] {
+    for flags in [
+        &["--coproc", "rtl", "--format", "f32"][..],
+        &["--coproc", "rtl", "--kernel", "wald"],
+        &["--coproc", "rtl", "--timing", "gridrt"],
+    ] {
         let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
             .args(["render", "--sim", "--scene"])
             .arg(scene())
