@@ -24,6 +24,7 @@
 //! | `pixel` | one pixel: primary ray, shading, shadow and reflection rays | `stats`, `fail`, `scene`, `raypath` |
 //! | `farm` | [`RowFarm`]s: rows traced away from the device loop (a simulator's threads) | `stats`, `fail`, `scene`, `raypath`, `pixel` |
 //! | `pipeline` | the frame: plan, row loop, row interpolation, farmed rows; renders a job | all of the above |
+//! | `splat` | a `SPLATS` job: seed 001's splat path over the scene's points | `fail`, `request`, `scene`, `stats` |
 //! | `machine` | the [`Device`] state machine: frames in, answers out | all of the above |
 //!
 //! Each module uses only those listed before it in its row, never the other way round.
@@ -37,6 +38,8 @@ mod pixel;
 mod raypath;
 mod request;
 mod scene;
+#[cfg(feature = "splats")]
+mod splat;
 mod stats;
 
 pub use fail::{DETAIL_LINK_HARDWARE, DETAIL_LINK_OTHER, DETAIL_LINK_TIMEOUT};

@@ -72,6 +72,12 @@ pub(super) struct Renderer<L, C, F> {
 }
 
 impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
+    /// The stage clock (the splat path times its stages with it too).
+    #[cfg(feature = "splats")]
+    pub(super) fn clock(&self) -> &C {
+        &self.clock
+    }
+
     /// A renderer over `link`, timed by `clock`, with rows traced by `farm` when it takes
     /// them.
     pub(super) fn new(link: L, clock: C, farm: F) -> Self {

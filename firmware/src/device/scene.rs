@@ -7,12 +7,14 @@
 use super::fail::Fail;
 use crate::dda::{GridDesc, MAX_GRID_DIM};
 use crate::fsl::{FslLink, FslWord};
+use crate::splat::PointSink;
 use gridrt_shared::frame::Crc32Digest;
 use gridrt_shared::fsl::{self as wire, op, FslError};
 use gridrt_shared::math::Vec3;
 use gridrt_shared::msg::DeviceInfo;
 use gridrt_shared::scene::{
-    LightingRecord, Material, MaterialModel, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream, EMPTY_VOXEL,
+    LightingRecord, Material, MaterialModel, ObjectRecord, PointRecord, PointsHead, SceneError, SceneHeader, SceneSink,
+    SceneStream, EMPTY_VOXEL,
 };
 
 /// Largest material table the device holds.
@@ -80,15 +82,17 @@ impl Upload {
         self.next >= self.total_len
     }
 
-    /// Feeds the chunk at [`next`](Self::next) through the scene parser into `store`, forwarding
-    /// PE blocks to the co-processor over `link`. On failure returns the scene error and,
-    /// when the link or the co-processor caused it, that failure.
+    /// Feeds the chunk at [`next`](Self::next) through the scene parser into `store` (the
+    /// point section into `points`), forwarding PE blocks to the co-processor over `link`. On
+    /// failure returns the scene error and, when the link or the co-processor caused it, that
+    /// failure.
     pub(super) fn feed<L: FslLink, const N: usize>(
         &mut self,
         data: &[u8],
         link: &mut L,
         polls: u32,
         store: &mut SceneStore<N>,
+        points: &mut dyn PointSink,
         info: &DeviceInfo,
     ) -> Result<(), (SceneError, Option<Fail>)> {
         let end = (self.next as u64).saturating_add(data.len() as u64);
@@ -98,7 +102,7 @@ impl Upload {
         self.digest.update(data);
         let total_len = self.total_len;
         let mut loader =
-            Loader { link, store, info, polls, total_len, words_left: &mut self.pe_words_left, failure: None };
+            Loader { link, store, points, info, polls, total_len, words_left: &mut self.pe_words_left, failure: None };
         match self.stream.feed(data, &mut loader) {
             Ok(()) => {
                 self.next = end as u32;
@@ -128,6 +132,7 @@ impl Upload {
 struct Loader<'a, L: FslLink, const N: usize> {
     link: &'a mut L,
     store: &'a mut SceneStore<N>,
+    points: &'a mut dyn PointSink,
     info: &'a DeviceInfo,
     polls: u32,
     total_len: u32,
@@ -206,6 +211,7 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
         self.store.material_model.clear();
         self.store.objects.clear();
         self.store.lighting = LightingRecord::default();
+        self.points.clear();
         // The co-processor's old scene goes now: CLEAR, FRAME (the grid box, from which a
         // fixed-point co-processor takes its frame), then one LOAD_PE per block.
         self.put(FslWord::last(wire::CLEAR_WORD), "CLEAR")?;
@@ -261,5 +267,13 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
             return Err(SceneError::BadPeBlock);
         }
         self.expect_ack("LOAD_PE")
+    }
+
+    fn points_begin(&mut self, head: &PointsHead) -> Result<(), SceneError> {
+        self.points.begin(head)
+    }
+
+    fn point(&mut self, _index: u32, p: PointRecord) -> Result<(), SceneError> {
+        self.points.push(&p)
     }
 }

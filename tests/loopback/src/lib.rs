@@ -24,14 +24,21 @@ use gridrt_firmware::embedded_io::{self, ErrorType};
 mod config;
 mod farm;
 mod link;
+
 pub use config::{Backend, SimConfig, BOARD_LOOPBACK, SIM_MAX_VOXELS};
 use farm::SimFarm;
 pub use link::RtlLinkError;
 use link::SimLink;
 
+/// Points the simulated device keeps for splat frames (SPEC.md §6): 64 B each.
+pub const SIM_MAX_POINTS: usize = 1 << 17;
+
+/// Words of the simulated device's splat shape table (`TableConfig::DEVICE`).
+pub const SIM_TABLE_WORDS: usize = 81_920;
+
 /// The simulated device: the firmware's device loop on the simulator's link, its frames'
 /// rows traced by the row farm.
-type SimDevice<'m> = Device<SimLink<'m>, NoClock, SIM_MAX_VOXELS, SimFarm>;
+type SimDevice<'a> = Device<SimLink<'a>, NoClock, SIM_MAX_VOXELS, SIM_MAX_POINTS, SIM_TABLE_WORDS, SimFarm>;
 
 /// What the host end sends to the device thread.
 enum Input {
@@ -510,6 +517,21 @@ mod reset_tests {
         let f = frames(&mut port, 1);
         assert!(matches!(Msg::decode(f[0].1, &f[0].2), Ok(Msg::Error { code: ErrorCode::NoScene, .. })), "{f:?}");
         assert_eq!(f[0].0, 1);
+    }
+
+    /// Issue 10 §3: the simulated PEs charge the kernel that runs, not GridRT's 648 cycles
+    /// for every kernel (docs/bench-accuracy.md, model cycles per test); a pipelined PE
+    /// issues a test per cycle whatever the kernel.
+    #[test]
+    fn simulated_pes_charge_the_running_kernels_cycles_per_test() {
+        use gridrt_coproc::{KernelKind, TimingProfile};
+        let issue =
+            |timing, kernel| SimConfig { timing, kernel, ..SimConfig::default() }.coproc().timing.test_issue_cycles;
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::Watertight), 1188);
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::Wald), 399);
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::MollerTrumbore), 675);
+        assert_eq!(issue(TimingProfile::PIPELINED, KernelKind::Watertight), 1);
+        assert_eq!(SimConfig::default().kernel, KernelKind::Watertight);
     }
 
     #[test]
