@@ -190,10 +190,12 @@ impl<M: PeMem> Pes<M> {
         // 0..=w, pass 2 charges the tests every entry had started by T. Every entry is
         // scheduled with all its tests (a PE does not know a RAY_ANY hit before its result
         // comes out); the winner is done when the result of its last needed test is known.
-        // Each entry's test count, looked up once for both passes.
-        let mut counts = [0u32; LIST_CAPACITY];
-        for (c, e) in counts.iter_mut().zip(list) {
-            *c = view.lookup(e.pe, e.voxel).map_or(0, |r| r.count);
+        // Each entry's test count, looked up once for both passes (a heapless vector: no
+        // zeroing of the whole capacity per ray). `list` fits: the request checks hold it
+        // to `max_list` ≤ LIST_CAPACITY.
+        let mut counts: heapless::Vec<u32, LIST_CAPACITY> = heapless::Vec::new();
+        for e in list {
+            let _ = counts.push(view.lookup(e.pe, e.voxel).map_or(0, |r| r.count));
         }
         let last = found.map_or(list.len(), |f| f.k.saturating_add(1));
         let profile = self.cfg.timing;
