@@ -9,7 +9,8 @@
 //! | [`camera`] | default camera/light and [`camera::RenderSettings`] (docs/CONTRACTS.md) |
 //! | [`reference`](mod@reference) | independent f64 reference renderer (BVH + watertight test, analytic primitives, f64 shading) |
 //! | [`compare`] | PSNR and pixel/hit differences |
-//! | [`flash`] | ELF → flash image, flashing through the bootloader (SPEC.md §3.11), progress events |
+//! | [`flash`] | ELF → flash image, flashing through the bootloader (SPEC.md §3.11, windowed §3.14), progress events |
+//! | [`faults`] | a faulty serial line: seeded bit flips, drops and bursts; a paced relay between two pseudo-terminals; a timed session over it |
 //! | [`serial`] | opening serial ports (no flush on open) and listing them |
 //! | [`session`] | protocol client over any `Read + Write` byte transport, progress events |
 //! | [`native`] | the fast native ray path: firmware DDA + co-processor search laid out for a CPU (SIMD, threads), word-identical results |
@@ -26,6 +27,7 @@
 pub mod bench_accuracy;
 pub mod camera;
 pub mod compare;
+pub mod faults;
 pub mod flash;
 pub mod frame_bench;
 pub mod grid;

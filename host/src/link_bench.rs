@@ -123,8 +123,7 @@ impl Measured {
 fn sim_session(prepared: &PreparedScene) -> Result<Session<gridrt_loopback::SimPort>, SessionError> {
     let mut port = gridrt_loopback::spawn(gridrt_loopback::SimConfig::default());
     port.set_timeout(Duration::from_millis(20));
-    let cfg =
-        SessionConfig::new("sim").render_timeout(Duration::from_secs(600)).retransmit_after(Duration::from_secs(10));
+    let cfg = SessionConfig::new("sim").render_timeout(Duration::from_secs(600));
     let mut s = Session::new(port, cfg);
     s.hello(&mut |_| {})?;
     s.upload_scene(&prepared.image, &mut |_| {})?;

@@ -103,10 +103,18 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         let req = job.req;
         self.path.stats = FrameStats::default();
         let prim_ids = req.flags & render_flags::PRIM_IDS != 0 && !job.crc_only;
-        self.spans.begin_with(req.frame, prim_ids, req.encoding, job.max_span);
+        if job.span_bytes {
+            self.spans.begin_with(req.frame, prim_ids, req.encoding, 0);
+            self.spans.set_data_limit(job.max_span);
+        } else {
+            self.spans.begin_with(req.frame, prim_ids, req.encoding, job.max_span);
+        }
         self.spans.set_silent(job.crc_only);
         self.pixels(scene, tx, job, out)?;
         let (spans, crc) = self.spans.finish();
+        if job.no_stats {
+            return Ok((spans, crc));
+        }
         let entries = self.path.stats.to_bytes();
         // Only a write error stops the frame here (a `Stats` that does not fit a frame would be
         // a firmware bug, and the frame's pixels are all out).

@@ -31,9 +31,14 @@ pub struct PortOptions {
     /// Baud rate for --port (and the line rate of the modelled link time).
     #[arg(long, default_value_t = 115_200, value_name = "BAUD")]
     pub baud: u32,
-    /// Seconds the render may go without any message from the device before it fails.
+    /// Seconds the render may go without a new pixel (the device's ray work) before it
+    /// fails. Every other wait is derived from --baud and the bytes expected.
     #[arg(long, default_value_t = 120.0, value_name = "SECONDS")]
     pub timeout: f64,
+    /// Allowance per exchange on top of the wire time derived from --baud (USB adapter,
+    /// operating system, device).
+    #[arg(long, default_value_t = 30, value_name = "MS")]
+    pub turnaround: u64,
 }
 
 /// Scene file and grid build.

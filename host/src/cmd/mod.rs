@@ -4,6 +4,7 @@ pub mod bench;
 pub mod bench_accuracy;
 pub mod bench_frame;
 pub mod bench_link;
+pub mod bench_link_faults;
 pub mod bench_rays;
 pub mod bench_skip;
 pub mod bench_splat;

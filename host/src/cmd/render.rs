@@ -13,7 +13,7 @@ use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::plan::{Interp, Plan};
 use gridrt_host::reference::{self, Reference, Stages};
 use gridrt_host::scene::Scene;
-use gridrt_host::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
+use gridrt_host::session::{Activity, ProgressEvent, RenderedFrame, Session, SessionConfig};
 use gridrt_host::stats::{CoprocFacts, LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
 use gridrt_shared::msg::PixelEncoding;
 
@@ -197,6 +197,8 @@ impl Cmd {
             .into_iter()
             .map(|(port, name)| {
                 let cfg = SessionConfig::new(name)
+                    .baud(self.port.baud)
+                    .turnaround(Duration::from_millis(self.port.turnaround))
                     .render_timeout(Duration::from_secs_f64(self.port.timeout.max(0.1)))
                     .band_rows(self.band_rows);
                 Session::new(port, cfg)
@@ -267,10 +269,23 @@ impl Cmd {
             session.upload_scene(&prepared.image, &mut on_event).context("uploading the scene")?;
         } else {
             let image = &prepared.image;
+            // Progress of the first board stands for all (they upload at once).
+            let first = std::sync::Mutex::new(&mut on_event);
+            let first = &first;
             std::thread::scope(|sc| {
                 let jobs: Vec<_> = sessions
                     .iter_mut()
-                    .map(|s| sc.spawn(move || s.upload_scene(image, &mut |_| {}).map_err(anyhow::Error::from)))
+                    .enumerate()
+                    .map(|(i, s)| {
+                        sc.spawn(move || {
+                            let mut on = |e| {
+                                if i == 0 {
+                                    (first.lock().unwrap_or_else(|p| p.into_inner()))(e)
+                                }
+                            };
+                            s.upload_scene(image, &mut on).map_err(anyhow::Error::from)
+                        })
+                    })
                     .collect();
                 jobs.into_iter()
                     .try_for_each(|j| j.join().unwrap_or_else(|_| Err(anyhow::anyhow!("upload thread panicked"))))
@@ -296,12 +311,21 @@ impl Cmd {
         } else {
             on_event(ProgressEvent::RenderStarted { width: request.width, height: request.height });
             let shared = std::sync::Mutex::new((0u32, &mut on_event));
+            let pixels = request.width as u64 * request.height as u64;
             let (multi, _) = render_multi(sessions, &request, self.band_rows, &|_, e| {
-                if let ProgressEvent::RowVerified { y } = e {
-                    let mut g = shared.lock().unwrap_or_else(|p| p.into_inner());
-                    g.0 += 1;
-                    let rows_done = g.0;
-                    (g.1)(ProgressEvent::RowReceived { y, rows_done });
+                let mut g = shared.lock().unwrap_or_else(|p| p.into_inner());
+                match e {
+                    ProgressEvent::RowVerified { y } => {
+                        g.0 += 1;
+                        let rows_done = g.0;
+                        (g.1)(ProgressEvent::RowReceived { y, rows_done });
+                    }
+                    // One board's activity, with the frame's verified rows as its progress.
+                    ProgressEvent::Activity(a) => {
+                        let done = g.0 as u64 * request.width as u64;
+                        (g.1)(ProgressEvent::Activity(Activity { done, total: pixels, ..a }));
+                    }
+                    _ => {}
                 }
             })
             .context("rendering on several boards")?;

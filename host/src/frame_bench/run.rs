@@ -143,7 +143,7 @@ pub fn run_on_qemu(
         let said = qemu_lines.lock().unwrap_or_else(|e| e.into_inner()).join("\n");
         FrameBenchError::Qemu(format!("{run}: {what}; QEMU said: {said}"))
     })?;
-    let cfg = SessionConfig::new(pty).render_timeout(STAGE_TIMEOUT).upload_timeout(STAGE_TIMEOUT);
+    let cfg = SessionConfig::new(pty).render_timeout(STAGE_TIMEOUT);
     let mut session = Session::new(port, cfg);
     let (frame, upload, wall_ms) = hello_upload_render(&mut session, prepared, req, run, progress)?;
     drop(machine);
@@ -186,7 +186,7 @@ pub fn run_on_loopback(
     let config = SimConfig { pe_count: QEMU_PE_COUNT, pe_mem_words: QEMU_PE_MEM_WORDS, timing, ..SimConfig::default() };
     let mut port = gridrt_loopback::spawn(config);
     port.set_timeout(Duration::from_millis(20));
-    let cfg = SessionConfig::new("sim").render_timeout(STAGE_TIMEOUT).upload_timeout(STAGE_TIMEOUT);
+    let cfg = SessionConfig::new("sim").render_timeout(STAGE_TIMEOUT);
     let mut session = Session::new(port, cfg);
     let (frame, upload, wall_ms) = hello_upload_render(&mut session, prepared, req, run, progress)?;
     Ok(finish(frame, upload, wall_ms, String::new()))
@@ -269,7 +269,7 @@ pub fn run_native(
         let mut device: Box<NativeDevice<'_>> =
             Box::new(Device::new(DirectKernel { model }, NoClock, config.device_info()));
         let port = InProcess { device: &mut device, out: VecDeque::new(), busy: Duration::ZERO };
-        let cfg = SessionConfig::new("native").render_timeout(STAGE_TIMEOUT).upload_timeout(STAGE_TIMEOUT);
+        let cfg = SessionConfig::new("native").render_timeout(STAGE_TIMEOUT);
         let mut session = Session::new(port, cfg);
         let mut quiet = |_: BenchEvent| {};
         let (mut frame, upload, _) = hello_upload_render(&mut session, prepared, req, "host-native", &mut quiet)?;

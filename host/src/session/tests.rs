@@ -204,9 +204,10 @@ impl Read for FakeDevice {
 
 fn session(faults: Faults) -> Session<FakeDevice> {
     let cfg = SessionConfig::new("fake0")
+        .baud(1_000_000)
+        .turnaround(Duration::from_millis(20))
         .hello_timeout(Duration::from_millis(300))
-        .upload_timeout(Duration::from_millis(500))
-        .retransmit_after(Duration::from_millis(100))
+        .max_probes(5)
         .render_timeout(Duration::from_millis(200));
     Session::new(FakeDevice::new(faults), cfg)
 }

@@ -179,6 +179,14 @@ pub mod region_options {
     /// Render the region but send no spans: only `Stats` and `RegionEnd` (its CRC lets the
     /// host verify pixels it already holds when an earlier `RegionEnd` was lost).
     pub const CRC_ONLY: u16 = 1 << 0;
+    /// Send no `Stats` for this region (re-requests of a few pixels, whose counters the host
+    /// does not need). A device that does not know the bit sends them anyway.
+    pub const NO_STATS: u16 = 1 << 1;
+    /// `max_span` counts bytes of span data, not pixels: each span ends before its data would
+    /// pass `max_span` bytes (a span holds at least one pixel). Spans of run-length data then
+    /// stay as long in pixels as their content allows. A device that does not know the bit
+    /// takes `max_span` as pixels.
+    pub const SPAN_BYTES: u16 = 1 << 2;
 }
 
 /// Payload size of a `RenderRegion`.

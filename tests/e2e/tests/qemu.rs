@@ -357,7 +357,9 @@ fn qemu_flash_through_bootloader() {
     let good = FlashImage::from_elf(&std::fs::read(&app).unwrap()).unwrap();
     let mut corrupted = good.clone();
     corrupted.data[1000] ^= 0x10;
-    let cfg = FlashConfig { reply_timeout: Duration::from_secs(5), ..FlashConfig::new(qemu.pty.clone()) };
+    // Timers derive from the line rate (SPEC.md §3.14); only the hello wait is a duration.
+    let mut cfg = FlashConfig::new(qemu.pty.clone());
+    cfg.session = cfg.session.hello_timeout(Duration::from_secs(5));
     {
         let mut port = serial::open(&qemu.pty, 115_200, serial::DEFAULT_READ_TIMEOUT).unwrap();
         let e = flash(&mut port, &corrupted, &cfg, &mut |_| {}).unwrap_err();
