@@ -26,8 +26,16 @@ fn prepared(name: &str, m: f64) -> PreparedScene {
 /// A simulated board with `prepared` loaded, its port handed back for raw frames.
 fn board(config: SimConfig, prepared: &PreparedScene) -> SimPort {
     let mut port = gridrt_loopback::spawn(config);
-    port.set_timeout(Duration::from_millis(20));
-    let mut s = Session::new(port, SessionConfig::new("sim").render_timeout(Duration::from_secs(60)));
+    port.set_timeout(Duration::from_millis(500));
+    // No retransmission (timers far above any answer time on a loaded machine) and one chunk
+    // in flight: the device sends the same frames during hello and upload, and so reaches
+    // the render with the same sequence number, however the threads were scheduled.
+    let cfg = SessionConfig::new("sim")
+        .hello_timeout(Duration::from_secs(60))
+        .turnaround(Duration::from_secs(60))
+        .render_timeout(Duration::from_secs(60))
+        .window(1);
+    let mut s = Session::new(port, cfg);
     s.hello(&mut |_| {}).unwrap();
     s.upload_scene(&prepared.image, &mut |_| {}).unwrap();
     let mut port = s.into_inner();
@@ -129,7 +137,13 @@ fn uart_bytes_do_not_depend_on_the_thread_count() {
             // Every frame but the interpolated one went through the farm.
             assert!(gridrt_loopback::farmed_frames() - farmed >= msgs.len() as u64 - 1, "{name}: the farm did not run");
             for (k, (a, b)) in one.iter().zip(&many).enumerate() {
-                assert!(a == b, "{name}, message {k}, {threads} threads: {} bytes against {}", b.len(), a.len());
+                let at = a.iter().zip(b.iter()).position(|(x, y)| x != y);
+                assert!(
+                    a == b,
+                    "{name}, message {k}, {threads} threads: {} bytes against {}, first difference at {at:?}",
+                    b.len(),
+                    a.len()
+                );
             }
         }
         // The frames are real: pixels went out (not just errors).
