@@ -183,6 +183,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
                 & (render_flags::INTERP_STEP_MASK | render_flags::INTERP_EPS_MASK | render_flags::INTERP_ADAPTIVE);
         }
         self.path.stats.plan = plan as u64;
+        let mut sw = Stopwatch::start(&self.clock);
         let (x1, y1) = (region.x0.saturating_add(region.cols), region.y0.saturating_add(region.rows));
         if !interpolate {
             let rows =
@@ -191,7 +192,6 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
                 return r;
             }
         }
-        let mut sw = Stopwatch::start(&self.clock);
         let mut counts = Counts::default();
         let mut ctl = StepControl::new(&params);
         for y in region.y0..y1 {
