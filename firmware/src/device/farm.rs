@@ -1,0 +1,130 @@
+//! Row farms: the rows of a frame traced away from the device loop. A simulator's worker
+//! threads each trace rows on a link of their own to the same co-processor
+//! ([`RowTracer`]) and the farm hands the device every row in order ([`RowFarm`]); the device
+//! encodes and sends them as its own loop would. Every pixel is a pure function of the
+//! frame, the scene and the co-processor's loaded memories, so the bytes on the UART are
+//! the same whichever thread traced which row.
+//!
+//! The firmware has no farm ([`NoFarm`]): it renders every row itself.
+
+use core::ops::{ControlFlow, Range};
+
+use super::fail::Fail;
+use super::pixel::{pixel, FrameCtx};
+use super::raypath::RayPath;
+use super::scene::SceneStore;
+use super::stats::{FrameStats, NoClock, Stopwatch};
+use crate::fsl::FslLink;
+use crate::interp::Sample;
+
+/// The rows of one frame a farm is asked to trace (the region's rows, left to right).
+pub struct Rows<'a, const N: usize> {
+    pub(super) scene: &'a SceneStore<N>,
+    pub(super) ctx: &'a FrameCtx,
+    pub(super) x0: u16,
+    pub(super) cols: u16,
+    pub(super) ys: Range<u16>,
+    pub(super) polls: u32,
+}
+
+impl<const N: usize> Rows<'_, N> {
+    /// The rows, top to bottom.
+    pub fn ys(&self) -> Range<u16> {
+        self.ys.clone()
+    }
+
+    /// Samples per row.
+    pub fn width(&self) -> usize {
+        self.cols as usize
+    }
+}
+
+/// A pixel of a row failed: the frame stops there, as it would in the device loop.
+#[derive(Debug, Clone, Copy)]
+pub struct RowFault {
+    /// Samples of the row done before the failing pixel.
+    pub(super) done: usize,
+    pub(super) fail: Fail,
+}
+
+impl RowFault {
+    /// Samples of the row done before the failing pixel.
+    pub fn done(&self) -> usize {
+        self.done
+    }
+}
+
+/// Traces rows of a frame on a link of its own, counting what it does in its own
+/// [`FrameStats`] (the ray, FSL word and co-processor counters; stage clocks stay 0).
+pub struct RowTracer<L> {
+    path: RayPath<L>,
+}
+
+impl<L: FslLink> RowTracer<L> {
+    /// A tracer over `link` with the device's poll budget.
+    pub fn new<const N: usize>(rows: &Rows<'_, N>, link: L) -> Self {
+        let mut path = RayPath::new(link);
+        path.polls = rows.polls;
+        Self { path }
+    }
+
+    /// Traces row `y` into `out` (its first [`Rows::width`] samples). On a failure the
+    /// samples before the failing pixel are in `out` and the rest of the row is not traced.
+    pub fn row<const N: usize>(&mut self, rows: &Rows<'_, N>, y: u16, out: &mut [Sample]) -> Result<(), RowFault> {
+        let mut sw = Stopwatch::start(&NoClock);
+        for (xi, (x, slot)) in (rows.x0..).zip(out.iter_mut().take(rows.width())).enumerate() {
+            match pixel(&mut self.path, rows.scene, &NoClock, &mut sw, rows.ctx, x, y) {
+                Ok(s) => *slot = s,
+                Err(fail) => return Err(RowFault { done: xi, fail }),
+            }
+        }
+        Ok(())
+    }
+
+    /// The counters since the last call; zeroes them.
+    pub fn take_stats(&mut self) -> FrameStats {
+        core::mem::take(&mut self.path.stats)
+    }
+}
+
+/// One traced row, handed to the device.
+pub struct RowDone<'s> {
+    /// The row.
+    pub y: u16,
+    /// Its samples (all [`Rows::width`] of them unless `fault`).
+    pub samples: &'s [Sample],
+    /// The failure that stopped the row, if any.
+    pub fault: Option<RowFault>,
+    /// What tracing the row counted ([`RowTracer::take_stats`] after it).
+    pub stats: FrameStats,
+}
+
+/// Traces the rows of a frame for the device, possibly on other threads.
+pub trait RowFarm<L> {
+    /// Traces every row of `rows` and hands each to `sink` in order, top to bottom, and
+    /// stops after a row with a fault or when `sink` breaks. Returns `false` without calling
+    /// `sink` when it does not take this frame (e.g. `link` is not one it can share): the
+    /// device then renders the frame on `link` itself.
+    fn render<const N: usize>(
+        &mut self,
+        link: &L,
+        rows: &Rows<'_, N>,
+        sink: &mut dyn FnMut(RowDone<'_>) -> ControlFlow<()>,
+    ) -> bool;
+}
+
+/// No farm: the device renders every row itself.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoFarm;
+
+impl<L> RowFarm<L> for NoFarm {
+    #[inline(always)]
+    fn render<const N: usize>(
+        &mut self,
+        _link: &L,
+        _rows: &Rows<'_, N>,
+        _sink: &mut dyn FnMut(RowDone<'_>) -> ControlFlow<()>,
+    ) -> bool {
+        false
+    }
+}
