@@ -48,5 +48,7 @@ pub mod timeline;
 pub use bench::{prepare, run_bench};
 pub use report::{critical_path, write_csv, write_svg, FrameReport, FrameRow};
 pub use run::{run_native, run_on_loopback, run_on_qemu, work_differences, DeviceRun};
-pub use setup::{kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, CpuProfile, FrameBenchError, Target};
+pub use setup::{
+    kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, CpuProfile, FrameBenchError, Image, Target,
+};
 pub use timeline::{timeline, FrameWork, Timeline};
