@@ -133,6 +133,8 @@ pub struct FrameRow {
     pub primary_rays: u64,
     /// Shadow rays.
     pub shadow_rays: u64,
+    /// Reflection rays.
+    pub reflection_rays: u64,
     /// Rays intersected (by the co-processor or, soft-core-only, by the firmware).
     pub coproc_rays: u64,
     /// Traversal-list entries.
@@ -242,6 +244,7 @@ pub(crate) fn device_row(
         link_hidden_ms: t.link_hidden_s * 1e3,
         primary_rays: run.stat(stat::PRIMARY_RAYS),
         shadow_rays: run.stat(stat::SHADOW_RAYS),
+        reflection_rays: run.stat(stat::REFLECTION_RAYS),
         coproc_rays: run.stat(stat::COPROC_RAYS),
         list_entries: run.stat(stat::LIST_ENTRIES),
         fsl_words: words,
@@ -293,6 +296,7 @@ pub(crate) fn native_row(run: &DeviceRun, cmp: &Comparison) -> FrameRow {
         link_hidden_ms: 0.0,
         primary_rays: run.stat(stat::PRIMARY_RAYS),
         shadow_rays: run.stat(stat::SHADOW_RAYS),
+        reflection_rays: run.stat(stat::REFLECTION_RAYS),
         coproc_rays: run.stat(stat::COPROC_RAYS),
         list_entries: run.stat(stat::LIST_ENTRIES),
         fsl_words: 0,
