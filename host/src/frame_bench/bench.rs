@@ -126,8 +126,7 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
             }
             cycles => {
                 for &target in &opt.targets {
-                    let Some((_, _, run)) = runs.iter().find(|(t, i, _)| *t == target && Some(*i) == c.image())
-                    else {
+                    let Some((_, _, run)) = runs.iter().find(|(t, i, _)| *t == target && Some(*i) == c.image()) else {
                         continue;
                     };
                     let model = match cycles {

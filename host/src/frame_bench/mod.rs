@@ -11,8 +11,9 @@
 //!   the banner) are reported on a line of their own and not charged to the firmware.
 //! - **Co-processor cycles** (modelled): the loopback simulator renders the same frame with
 //!   the configuration's timing profile at the kernel and number format that ran
-//!   ([`gridrt_coproc::TimingProfile::for_kernel`]). The bench refuses to report when the
-//!   QEMU run and the loopback did different work (rays, list entries, FSL words, tests).
+//!   ([`gridrt_coproc::TimingProfile::for_kernel`]). The bench refuses to report when a
+//!   QEMU run and the loopback with its image's kernel did different work (rays, list
+//!   entries, FSL words, tests), cycles or images.
 //! - **Soft-core cycles** (modelled): instructions × the CPI of a named soft-core profile
 //!   ([`CpuProfile`]; `cpu_source` = `"cpi-model"`). A cycle-accurate soft-core run (the
 //!   LiteX SoC issue) will replace it with measured `mcycle` (`cpu_source` = `"rtl"`).
@@ -26,8 +27,9 @@
 //!
 //! # Configurations
 //! [`Configuration`]: `soft-core-only` (no co-processor: the firmware calls the kernel itself
-//! and every instruction is counted), `gridrt` (GridRT's multi-cycle PEs), `pipelined`, and
-//! `host-native`. See [`Configuration`] for how `rtl` plugs in.
+//! and every instruction is counted), `gridrt` (GridRT's multi-cycle PEs), `pipelined`, `rtl`
+//! (the RTL co-processor's kernel, format and cycles, on its own QEMU image; its clock is the
+//! profile's until a synthesis reports an fmax), and `host-native`.
 //!
 //! | module | what | uses |
 //! |---|---|---|

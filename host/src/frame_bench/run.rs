@@ -185,10 +185,7 @@ pub fn run_on_loopback(
     progress: &mut dyn FnMut(BenchEvent),
 ) -> Result<DeviceRun, FrameBenchError> {
     let (kind, format) = kernel;
-    progress(BenchEvent::Step(format!(
-        "{run}: loopback simulator, {} profile, {kind:?} {format:?}",
-        timing.name
-    )));
+    progress(BenchEvent::Step(format!("{run}: loopback simulator, {} profile, {kind:?} {format:?}", timing.name)));
     let config = SimConfig {
         pe_count: QEMU_PE_COUNT,
         pe_mem_words: QEMU_PE_MEM_WORDS,
