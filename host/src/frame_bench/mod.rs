@@ -17,7 +17,9 @@
 //! - **Soft-core cycles** (modelled): instructions × the CPI of a named soft-core profile
 //!   ([`CpuProfile`]; `cpu_source` = `"cpi-model"`). A cycle-accurate soft-core run (the
 //!   LiteX SoC issue) will replace it with measured `mcycle` (`cpu_source` = `"rtl"`).
-//! - **Link** (modelled): wire bytes of the render, both directions, at the baud rate (8N1).
+//! - **Link** (modelled): wire bytes of the render, both directions, at the baud rate (8N1),
+//!   as the loopback sends them for the same frame (QEMU's slow UART makes the host
+//!   re-request regions; those resent bytes are not the frame's).
 //!   The scene upload is not part of the frame; its bytes and modelled time are reported
 //!   apart.
 //! - **Frame**: the [`timeline`] of those, with the overlaps written down there.
