@@ -61,7 +61,7 @@ def scene_table(r):
         ipr = row["instructions_per_primary_ray"]
         cop = row["coproc_ms"]
         if row.get("coproc_profile"):
-            clock = row.get("coproc_clock_mhz")
+            clock = row.get("coproc_clock_mhz") or r["clock_mhz"]  # reports before the rtl row: one clock
             cop_cell = f"{num(cop)} ({row['coproc_profile']}, {row['coproc_test_cycles']} cy/test, {num(clock, 0)} MHz)"
         else:
             cop_cell = "—"
