@@ -69,7 +69,7 @@ def scene_table(r):
             "| {} | {} | {} | {} | {} | {} | {} | **{}**{} | {} | {} |".format(
                 row["config"],
                 row["target"],
-                row.get("kernel") or "",
+                row.get("kernel") or f"{r['kernel']}/{r['number_format']}",
                 num(ipr, 0) if ipr is not None else "—",
                 f"{num(row['cpu_ms'])} (measured wall time)" if measured else num(row["cpu_ms"]),
                 cop_cell,
