@@ -114,3 +114,31 @@ fn session_over_a_pty_pair_renders() {
     stop.store(true, Ordering::Relaxed);
     bridge.join().unwrap();
 }
+
+#[test]
+fn upload_ignores_a_late_no_scene_answer_to_an_earlier_render() {
+    // After a device reset, the answers to render requests sent before it arrive during the
+    // re-upload. Here: a render request goes out with no scene loaded and, without waiting
+    // for its `NoScene`, the (windowed) upload starts; the answer is not the upload's failure.
+    use gridrt_shared::frame::{encode_frame, MAX_ENCODED, MAX_PAYLOAD};
+    use gridrt_shared::msg::Msg;
+    use std::io::Write;
+
+    let mut s = sim(2, 1 << 16);
+    s.hello(&mut |_| {}).unwrap();
+    let prepared = PreparedScene::new(
+        scene("bun_zipper_res4.obj"),
+        &GridParams { pe_count: 2, pe_mem_words: 1 << 16, m: 2.0, ..Default::default() },
+    )
+    .unwrap();
+    let settings = RenderSettings::default_for(&prepared.grid.mesh_bounds).with_size(16, 12);
+    let msg = Msg::RenderRequest(settings.to_request(1));
+    let mut payload = [0u8; MAX_PAYLOAD];
+    let n = msg.encode(&mut payload).unwrap();
+    let mut wire = [0u8; MAX_ENCODED];
+    let len = encode_frame(msg.kind() as u8, 40_000, &payload[..n], &mut wire).unwrap();
+    s.port_mut().write_all(&wire[..len]).unwrap();
+    s.upload_scene(&prepared.image, &mut |_| {}).unwrap();
+    let frame = s.render(&settings.to_request(2), &mut |_| {}).unwrap();
+    assert_eq!(frame.rgb.len(), 16 * 12 * 3);
+}

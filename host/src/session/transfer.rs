@@ -74,6 +74,13 @@ impl Kind {
         }
     }
 
+    /// True when `m` answers a request sent before this transfer, not the transfer: the
+    /// device answers only render requests with `NoScene` (SPEC §3.12), which arrive late
+    /// during the re-upload after a reset.
+    fn late_answer(self, m: &Incoming) -> bool {
+        matches!((self, m), (Self::Scene, Incoming::Error { code: ErrorCode::NoScene, .. }))
+    }
+
     /// True when `m` says the receiver holds no transfer (begin lost, or it reset).
     fn lost_transfer(self, m: &Incoming) -> bool {
         match (self, m) {
@@ -225,6 +232,7 @@ impl<T: Read + Write> Session<T> {
                     }
                     last_event = Instant::now();
                 }
+                m if kind.late_answer(&m) => {}
                 Incoming::Error { code, detail, text } => return Err(self.device_err(stage, code, detail, text)),
                 _ => {} // late answers of earlier requests
             }
@@ -308,6 +316,7 @@ impl<T: Read + Write> Session<T> {
                     Incoming::Error { code: ErrorCode::BadFrame, .. } => self.link.device_bad_frames += 1,
                     m if kind.lost_transfer(&m) => {}
                     Incoming::Error { code: ErrorCode::UnexpectedMessage, .. } => {}
+                    m if kind.late_answer(&m) => {}
                     Incoming::Error { code, detail, text } => return Err(self.device_err(stage, code, detail, text)),
                     _ => {}
                 }
