@@ -88,25 +88,30 @@ fn main() -> ! {
 #[cfg(feature = "board-qemu-virt")]
 fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     use core::fmt::Write as _;
-    use gridrt_coproc::{CoprocConfig, Coprocessor, KernelKind, NumberFormat, TimingProfile, LIST_CAPACITY};
+    use gridrt_coproc::{CoprocConfig, Coprocessor, FixedFrame, KernelKind, NumberFormat, TimingProfile, LIST_CAPACITY};
 
     const WORDS: usize = board::PE_COUNT as usize * board::PE_MEM_WORDS as usize;
     /// The PE memories of the virtual co-processor (zeroed .bss).
     static mut PE_MEMORY: [u32; WORDS] = [0; WORDS];
 
     // The same model configuration as the loopback simulator's default (`render --sim`),
-    // so both render the same image and report the same kernel-true cycles.
-    let kernel = KernelKind::default();
+    // so both render the same image and report the same kernel-true cycles; with
+    // `coproc-rtl`, the RTL co-processor's kernel, number format and timing
+    // (`SimConfig::RTL` of the loopback: the same image and cycles as `--coproc rtl`).
+    #[cfg(not(feature = "coproc-rtl"))]
+    let (kernel, format, timing) = (KernelKind::default(), NumberFormat::F32, TimingProfile::GRIDRT);
+    #[cfg(feature = "coproc-rtl")]
+    let (kernel, format, timing) = (KernelKind::Watertight, NumberFormat::Fixed64Q23, TimingProfile::RTL);
     let config = CoprocConfig {
         pe_count: board::PE_COUNT,
         pe_mem_words: board::PE_MEM_WORDS,
         max_list: LIST_CAPACITY as u16,
-        timing: TimingProfile::GRIDRT.for_kernel(kernel, NumberFormat::F32),
+        timing: timing.for_kernel(kernel, format),
         kernel,
     };
     // SAFETY: `run` is called once and never returns: this is the only reference ever made.
     let backing: &'static mut [u32] = unsafe { &mut *core::ptr::addr_of_mut!(PE_MEMORY) };
-    let model = match Coprocessor::new(config, backing) {
+    let mut model = match Coprocessor::new(config, backing) {
         Ok(m) => m,
         Err(e) => {
             let _ = writeln!(UartWriter(console), "\r\nFATAL: co-processor model configuration refused: {e}; halted\r");
@@ -115,6 +120,8 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
             gridrt_firmware_image::halt()
         }
     };
+    // The frame itself comes with the scene (the firmware's FRAME packet).
+    model.set_number_format(format, FixedFrame::IDENTITY);
     serve_model(console, info, model)
 }
 
@@ -129,6 +136,8 @@ fn serve_model(console: &mut board::Console, info: DeviceInfo, model: gridrt_cop
     let cost = wrapper_cost(CsrCounters);
     let mut w = UartWriter(console);
     w.put("co-processor: model behind the timed link, its work excluded from the stage counters\r\n");
+    #[cfg(feature = "coproc-rtl")]
+    w.put("co-processor kernel: the RTL's (watertight, fixed64-q23, rtl timing)\r\n");
     w.put("timed link: ");
     w.put_dec(cost.timed_put);
     w.put(" instructions per FSL word stay in fsl_io, ");
