@@ -1,6 +1,10 @@
 //! Board constants and the console, selected by the `board-*` feature.
 
-#[cfg(all(feature = "board-qemu-virt", feature = "board-fpga-soc"))]
+#[cfg(any(
+    all(feature = "board-qemu-virt", feature = "board-fpga-soc"),
+    all(feature = "board-qemu-virt", feature = "board-litex"),
+    all(feature = "board-fpga-soc", feature = "board-litex"),
+))]
 compile_error!("enable exactly one board-* feature");
 
 #[cfg(feature = "board-qemu-virt")]
@@ -94,6 +98,93 @@ mod imp {
     pub const PE_MEM_WORDS: u32 = 8192;
 
     /// Nothing to exit from on hardware: the caller halts.
+    pub fn exit_failure(_code: u16) {}
+}
+
+#[cfg(feature = "board-litex")]
+mod imp {
+    use crate::litex_map as map;
+    use gridrt_firmware::bsp::coproc_csr::regs as coproc_regs;
+    use gridrt_firmware::bsp::litex_uart::{regs as uart_regs, LitexUart};
+    use gridrt_firmware::bsp::VolatileMmio;
+
+    /// Board name, as printed in the banner and accepted by `cargo xtask --board`.
+    pub const NAME: &str = "litex";
+    /// The LiteX UART (csr.json `uart`; baud rate fixed in the gateware).
+    pub const CONSOLE_BASE: usize = map::uart::BASE;
+    /// The co-processor's CSR FIFOs (csr.json `coproc`).
+    pub const COPROC_BASE: usize = map::coproc::BASE;
+
+    // The drivers address registers by offset from the base; the SoC's csr.json says where
+    // each register is. Disagreement (a changed LiteX core, a changed SoC) fails the build.
+    const _: () = {
+        let uart = [
+            (map::uart::RXTX, uart_regs::RXTX),
+            (map::uart::TXFULL, uart_regs::TXFULL),
+            (map::uart::RXEMPTY, uart_regs::RXEMPTY),
+            (map::uart::EV_PENDING, uart_regs::EV_PENDING),
+            (map::uart::EV_ENABLE, uart_regs::EV_ENABLE),
+            (map::uart::TXEMPTY, uart_regs::TXEMPTY),
+        ];
+        let mut i = 0;
+        while i < uart.len() {
+            assert!(uart[i].0 - map::uart::BASE == uart[i].1, "LiteX UART register offsets disagree with csr.json");
+            i += 1;
+        }
+        assert!(1 << map::uart::EV_PENDING_RX_OFFSET == uart_regs::EV_RX);
+        assert!(1 << map::uart::EV_PENDING_TX_OFFSET == uart_regs::EV_TX);
+        let coproc = [
+            (map::coproc::REQ, coproc_regs::REQ),
+            (map::coproc::REQ_LAST, coproc_regs::REQ_LAST),
+            (map::coproc::RSP, coproc_regs::RSP),
+            (map::coproc::STATUS, coproc_regs::STATUS),
+            (map::coproc::CTRL, coproc_regs::CTRL),
+        ];
+        let mut i = 0;
+        while i < coproc.len() {
+            assert!(coproc[i].0 - map::coproc::BASE == coproc[i].1, "co-processor CSR offsets disagree with csr.json");
+            i += 1;
+        }
+        assert!(map::coproc::STATUS_REQ_SPACE_OFFSET == coproc_regs::STATUS_REQ_SPACE_OFFSET);
+        assert!(map::coproc::STATUS_REQ_SPACE_SIZE == coproc_regs::STATUS_LEVEL_BITS);
+        assert!(map::coproc::STATUS_RSP_LEVEL_OFFSET == coproc_regs::STATUS_RSP_LEVEL_OFFSET);
+        assert!(map::coproc::STATUS_RSP_LEVEL_SIZE == coproc_regs::STATUS_LEVEL_BITS);
+        assert!(1 << map::coproc::STATUS_RSP_LAST_OFFSET == coproc_regs::STATUS_RSP_LAST);
+        assert!(1 << map::coproc::STATUS_IDLE_OFFSET == coproc_regs::STATUS_IDLE);
+        assert!(1 << map::coproc::STATUS_REQ_OVERFLOW_OFFSET == coproc_regs::STATUS_REQ_OVERFLOW);
+        assert!(1 << map::coproc::STATUS_RSP_UNDERFLOW_OFFSET == coproc_regs::STATUS_RSP_UNDERFLOW);
+        assert!(1 << map::coproc::CTRL_RESET_OFFSET == coproc_regs::CTRL_RESET);
+    };
+
+    /// The console UART type of this board.
+    pub type Console = LitexUart<VolatileMmio>;
+
+    /// A handle on the console registers, without touching the device.
+    ///
+    /// # Safety
+    ///
+    /// Creates an alias of the console: only use it where the owner cannot run any more
+    /// (trap and panic reports), or create it once at start-up.
+    pub unsafe fn console_unchecked() -> Console {
+        // SAFETY: CONSOLE_BASE is the SoC's UART (csr.json, through litex_map).
+        LitexUart::new(unsafe { VolatileMmio::new(CONSOLE_BASE) })
+    }
+
+    /// Turns the UART's interrupts off; bytes already received stay.
+    pub fn init_console(console: &mut Console) {
+        console.init();
+    }
+    /// Board id in `Msg::Version` (SPEC.md §3.2).
+    pub const BOARD_ID: u8 = 3;
+    /// Largest grid the app accepts (voxels): 16³ doubled. The voxel map lives on the stack
+    /// in main RAM with the rest of the device state (boards/litex.x).
+    pub const MAX_VOXELS: usize = 1 << 13;
+    /// PEs of the co-processor (csr.json constant `gridrt_coproc_pes`).
+    pub const PE_COUNT: u16 = map::COPROC_PES;
+    /// Words per PE memory (csr.json constant `gridrt_coproc_pe_mem_words`).
+    pub const PE_MEM_WORDS: u32 = map::COPROC_PE_MEM_WORDS;
+
+    /// Nothing to exit from on hardware or in the simulation: the caller halts.
     pub fn exit_failure(_code: u16) {}
 }
 

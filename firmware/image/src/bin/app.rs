@@ -5,7 +5,8 @@
 //! - qemu-virt: the co-processor model linked in as a virtual co-processor, its PE memories
 //!   a static array in .bss (`board::PE_COUNT` × `board::PE_MEM_WORDS`), with the model's own
 //!   work excluded from the per-stage counters (`link::TimedLink`);
-//! - fpga-soc: the real one behind the AXI4-Stream FIFO.
+//! - fpga-soc: the real one behind the AXI4-Stream FIFO;
+//! - litex: the RTL co-processor behind the LiteX SoC's CSR FIFOs.
 //!
 //! Stage counters come from `mcycle`/`minstret` (exact under QEMU's `-icount shift=0`).
 #![no_std]
@@ -142,5 +143,22 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
     let _ = console.write_all(&[0]);
     let mut device: Device<_, _, { board::MAX_VOXELS }> = Device::new(AxisLink(fifo), CounterClock(CsrCounters), info);
+    serve(&mut device, console)
+}
+
+#[cfg(feature = "board-litex")]
+fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
+    use gridrt_firmware::bsp::coproc_csr::CoprocCsr;
+    use gridrt_firmware::bsp::VolatileMmio;
+    use gridrt_firmware::device::{CounterClock, Device};
+    use gridrt_firmware_image::link::CsrFifoLink;
+
+    // SAFETY: COPROC_BASE is the co-processor's CSR FIFOs (csr.json); owned here only.
+    let mut fifos = CoprocCsr::new(unsafe { VolatileMmio::new(board::COPROC_BASE) });
+    fifos.init();
+    // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
+    let _ = console.write_all(&[0]);
+    let mut device: Device<_, _, { board::MAX_VOXELS }> =
+        Device::new(CsrFifoLink(fifos), CounterClock(CsrCounters), info);
     serve(&mut device, console)
 }
