@@ -56,7 +56,6 @@ def main(argv=None):
     ulx3s.add_argument("--device", default="LFE5U-85F", choices=("LFE5U-25F", "LFE5U-45F", "LFE5U-85F"))
     ulx3s.add_argument("--seed", type=int, default=1, help="nextpnr placement seed")
     gen = sub.add_parser("board-files", help="write (or --check) the firmware's board files from csr.json")
-    gen.add_argument("--rtl-dir", type=Path, default=REPO / "rtl" / "hdl")
     gen.add_argument("--check", action="store_true")
 
     args = parser.parse_args(argv)
@@ -76,9 +75,10 @@ def main(argv=None):
     elif args.cmd == "board-files":
         from . import sim
 
-        # The simulation SoC has the memory map of every target; only its csr.json is needed.
+        # The simulation SoC has the memory map of every target; only its csr.json is needed
+        # (no RTL sources, no build).
         with tempfile.TemporaryDirectory(prefix="gridrt-soc-map-") as tmp:
-            soc = sim.make_soc(args.rtl_dir)
+            soc = sim.make_soc(None)
             from litex.soc.integration.builder import Builder
 
             builder = Builder(soc, output_dir=tmp, compile_software=False, csr_json=str(Path(tmp) / "csr.json"))

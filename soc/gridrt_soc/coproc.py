@@ -51,7 +51,8 @@ class GridrtCoproc(LiteXModule):
 
     Parameters are the RTL's: ``pes`` processing elements, ``pe_mem_words`` words of block
     RAM per PE, ``max_list`` longest traversal list. ``reset`` (in) resets the core
-    synchronously, with the system reset.
+    synchronously, with the system reset. ``rtl_dir`` None adds no sources (enough to export
+    the memory map).
     """
 
     def __init__(self, platform, rtl_dir, pes=4, pe_mem_words=8192, max_list=256):
@@ -83,8 +84,9 @@ class GridrtCoproc(LiteXModule):
             i_m_axis_tready=self.source.ready,
             o_idle=self.idle,
         )
-        for f in hdl_sources(rtl_dir):
-            platform.add_source(str(f), language="systemverilog")
+        if rtl_dir is not None:
+            for f in hdl_sources(rtl_dir):
+                platform.add_source(str(f), language="systemverilog")
 
 
 class GridrtCoprocCSR(LiteXModule):

@@ -18,9 +18,8 @@ import subprocess
 import time
 from pathlib import Path
 
-from migen import ClockDomain, Module, Signal
-
 from litex.build.generic_platform import Pins, Subsignal
+from litex.build.io import CRG
 from litex.build.sim import SimPlatform
 from litex.build.sim.config import SimConfig
 from litex.soc.cores.uart import RS232PHYModel
@@ -47,24 +46,11 @@ _io = [
 ]
 
 
-class SimCRG(Module):
-    """The simulation's clock and reset: ``sys_clk`` from the ``clocker`` module, a reset
-    held for the first cycles."""
-
-    def __init__(self, platform):
-        self.clock_domains.cd_sys = ClockDomain()
-        self.comb += self.cd_sys.clk.eq(platform.request("sys_clk"))
-        count = Signal(4, reset=15)
-        self.comb += self.cd_sys.rst.eq(count != 0)
-        self.sync += count.eq(count - (count != 0))
-        self.cd_sys.rst.attr.add("no_retiming")
-
-
 def make_soc(rtl_dir, rom_words=()):
     platform = SimPlatform("SIM", _io)
     soc = GridrtSoC(platform, RS232PHYModel(platform.request("serial")), rtl_dir, rom_words)
-    # Assigned after SoCCore.__init__ (a migen submodule needs the module initialised).
-    soc.crg = SimCRG(platform)
+    # Clock from the `clocker` module; reset for the first cycle (power-on).
+    soc.crg = CRG(platform.request("sys_clk"))
     return soc
 
 
@@ -124,6 +110,8 @@ def prepare(build_dir, rtl_dir, rom_words, board_files_mode, jobs=2):
         print(f"sim: compiling the simulator with {verilator} (a few minutes on 2 cores)", flush=True)
         start = time.monotonic()
         stamp_file.unlink(missing_ok=True)
+        # LiteX's script rebuilds obj_dir/ only; stale simulation modules would survive.
+        shutil.rmtree(gateware / "modules", ignore_errors=True)
         log = gateware / "build_sim.log"
         with open(log, "w") as out:
             r = subprocess.run(["bash", "build_sim.sh"], cwd=gateware, stdout=out, stderr=subprocess.STDOUT)

@@ -1,9 +1,11 @@
 //! `cargo xtask`: project automation that plain cargo cannot express.
 //!
-//! - `cargo xtask setup`     install the RISC-V toolchain and QEMU (the scripts in scripts/)
+//! - `cargo xtask setup`     install the RISC-V toolchain, QEMU and the SoC's tools (scripts/)
 //! - `cargo xtask firmware`  build a soft-core image (firmware/image) and print its sections
 //! - `cargo xtask qemu`      boot an image on QEMU `virt` with its UART on a pseudo-terminal
 //!   (`--bin bootloader` boots the bootloader, `--elf PATH` any image; prints `serial: PTY`)
+//! - `cargo xtask soc`       the LiteX SoC (soc/): `sim` in Verilator (prints `serial: PTY`),
+//!   `build --board ulx3s` a bitstream, `board-files` the firmware's memory map from csr.json
 //!
 //! One file per subcommand; `toolchain.rs` decides how to cross-compile.
 
@@ -11,6 +13,9 @@ mod elf;
 mod firmware;
 mod qemu;
 mod setup;
+mod soc;
+mod soc_build;
+mod soc_sim;
 mod toolchain;
 
 use clap::{Parser, Subcommand};
@@ -24,12 +29,15 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// Install the RISC-V Rust toolchain (rustup target, else Debian packages) and QEMU.
+    /// Install the RISC-V Rust toolchain (rustup target, else Debian packages), QEMU and the
+    /// LiteX SoC's tools.
     Setup(setup::Cmd),
     /// Build a firmware image for the soft-core and print its section sizes.
     Firmware(firmware::Cmd),
     /// Boot a firmware image on qemu-system-riscv32 (`virt`), serial on a pty.
     Qemu(qemu::Cmd),
+    /// The LiteX SoC: Verilator simulation, ECP5 bitstream, board files from csr.json.
+    Soc(soc::Cmd),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -37,5 +45,6 @@ fn main() -> anyhow::Result<()> {
         Cmd::Setup(cmd) => cmd.run(),
         Cmd::Firmware(cmd) => cmd.run(),
         Cmd::Qemu(cmd) => cmd.run(),
+        Cmd::Soc(cmd) => cmd.run(),
     }
 }

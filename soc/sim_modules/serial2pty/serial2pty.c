@@ -16,6 +16,8 @@
  *
  * Arguments (sim_config.js, optional): {"link": "/path"} also makes a symlink to the pty.
  */
+/* posix_openpt, grantpt, unlockpt, ptsname, cfmakeraw. */
+#define _GNU_SOURCE
 #include <errno.h>
 #include <fcntl.h>
 #include <stdint.h>

@@ -1,10 +1,11 @@
-//! External tools a test needs (QEMU, socat), and the one way to do without them.
+//! External tools a test needs (QEMU, socat, Verilator, LiteX), and the one way to do without
+//! them.
 //!
 //! A test that needs a tool calls [`require`] first. The tool missing is a test failure, with
 //! the install script named. Only an explicit opt-out skips such tests:
 //!
 //! ```sh
-//! GRIDRT_SKIP_TOOLS=qemu,socat cargo test --workspace    # or GRIDRT_SKIP_TOOLS=all
+//! GRIDRT_SKIP_TOOLS=qemu,socat,verilator,litex cargo test --workspace    # or GRIDRT_SKIP_TOOLS=all
 //! ```
 //!
 //! A skipped test passes, so it says so where a user looks: one line per test on the real
@@ -15,7 +16,8 @@
 use std::io::Write as _;
 use std::process::Command;
 
-/// Comma-separated tools whose tests are skipped (`qemu`, `socat`, or `all`).
+/// Comma-separated tools whose tests are skipped (`qemu`, `socat`, `verilator`, `litex`, or
+/// `all`).
 pub const SKIP_VAR: &str = "GRIDRT_SKIP_TOOLS";
 
 /// Start of the line a test skipped by [`SKIP_VAR`] writes.
@@ -31,17 +33,24 @@ pub enum Tool {
     Qemu,
     /// `socat`: linked pseudo-terminal pairs.
     Socat,
+    /// `verilator`: compiles the LiteX SoC's simulation.
+    Verilator,
+    /// LiteX and its simulation libraries in the project's `.toolchain/soc-venv/` (checked with
+    /// `scripts/setup-soc.sh --check`).
+    Litex,
 }
 
 impl Tool {
     /// Every tool, in the order [`SKIP_VAR`] lists them.
-    pub const ALL: [Tool; 2] = [Tool::Qemu, Tool::Socat];
+    pub const ALL: [Tool; 4] = [Tool::Qemu, Tool::Socat, Tool::Verilator, Tool::Litex];
 
     /// The name [`SKIP_VAR`] uses.
     pub fn key(self) -> &'static str {
         match self {
             Tool::Qemu => "qemu",
             Tool::Socat => "socat",
+            Tool::Verilator => "verilator",
+            Tool::Litex => "litex",
         }
     }
 
@@ -50,19 +59,43 @@ impl Tool {
         match self {
             Tool::Qemu => "qemu-system-riscv32",
             Tool::Socat => "socat",
+            Tool::Verilator => "verilator",
+            Tool::Litex => "scripts/setup-soc.sh",
         }
     }
 
-    fn version_arg(self) -> &'static str {
+    /// The script that installs the tool.
+    pub fn setup_script(self) -> &'static str {
         match self {
-            Tool::Qemu => "--version",
-            Tool::Socat => "-V",
+            Tool::Qemu | Tool::Socat => "scripts/setup-qemu.sh",
+            Tool::Verilator | Tool::Litex => "scripts/setup-soc.sh",
+        }
+    }
+
+    fn version_command(self) -> Command {
+        match self {
+            Tool::Qemu | Tool::Verilator => {
+                let mut c = Command::new(self.program());
+                c.arg("--version");
+                c
+            }
+            Tool::Socat => {
+                let mut c = Command::new(self.program());
+                c.arg("-V");
+                c
+            }
+            Tool::Litex => {
+                let repo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+                let mut c = Command::new("bash");
+                c.arg(repo.join(self.program())).arg("--check");
+                c
+            }
         }
     }
 
     /// First line of the tool's version text, or `None` when it does not run.
     pub fn version(self) -> Option<String> {
-        let out = Command::new(self.program()).arg(self.version_arg()).output().ok()?;
+        let out = self.version_command().output().ok()?;
         if !out.status.success() {
             return None;
         }
@@ -112,9 +145,10 @@ pub fn require(test: &str, tool: Tool) -> bool {
             true
         }
         None => panic!(
-            "{test}: {} is not installed or does not run; install it with scripts/setup-qemu.sh, \
+            "{test}: {} is not installed or does not run; install it with {}, \
              or skip the tests that need it with {SKIP_VAR}={}",
             tool.program(),
+            tool.setup_script(),
             tool.key()
         ),
     }
@@ -137,6 +171,7 @@ mod tests {
         assert_eq!(parse_skip_list(" SOCAT , qemu,socat"), Ok(vec![Tool::Socat, Tool::Qemu]));
         assert_eq!(parse_skip_list("all"), Ok(Tool::ALL.to_vec()));
         let e = parse_skip_list("qemu,qemuu").unwrap_err();
-        assert!(e.contains("unknown tool `qemuu`") && e.contains("known: qemu, socat, all"), "{e}");
+        assert!(e.contains("unknown tool `qemuu`") && e.contains("known: qemu, socat, verilator, litex, all"), "{e}");
+        assert_eq!(parse_skip_list("litex,verilator"), Ok(vec![Tool::Litex, Tool::Verilator]));
     }
 }
