@@ -115,45 +115,37 @@ mod imp {
     /// The co-processor's CSR FIFOs (csr.json `coproc`).
     pub const COPROC_BASE: usize = map::coproc::BASE;
 
+    /// True when the register at absolute address `addr` sits at `offset` from `base`.
+    const fn at(addr: usize, base: usize, offset: usize) -> bool {
+        addr.wrapping_sub(base) == offset
+    }
+
     // The drivers address registers by offset from the base; the SoC's csr.json says where
     // each register is. Disagreement (a changed LiteX core, a changed SoC) fails the build.
     const _: () = {
-        let uart = [
-            (map::uart::RXTX, uart_regs::RXTX),
-            (map::uart::TXFULL, uart_regs::TXFULL),
-            (map::uart::RXEMPTY, uart_regs::RXEMPTY),
-            (map::uart::EV_PENDING, uart_regs::EV_PENDING),
-            (map::uart::EV_ENABLE, uart_regs::EV_ENABLE),
-            (map::uart::TXEMPTY, uart_regs::TXEMPTY),
-        ];
-        let mut i = 0;
-        while i < uart.len() {
-            assert!(uart[i].0 - map::uart::BASE == uart[i].1, "LiteX UART register offsets disagree with csr.json");
-            i += 1;
-        }
-        assert!(1 << map::uart::EV_PENDING_RX_OFFSET == uart_regs::EV_RX);
-        assert!(1 << map::uart::EV_PENDING_TX_OFFSET == uart_regs::EV_TX);
-        let coproc = [
-            (map::coproc::REQ, coproc_regs::REQ),
-            (map::coproc::REQ_LAST, coproc_regs::REQ_LAST),
-            (map::coproc::RSP, coproc_regs::RSP),
-            (map::coproc::STATUS, coproc_regs::STATUS),
-            (map::coproc::CTRL, coproc_regs::CTRL),
-        ];
-        let mut i = 0;
-        while i < coproc.len() {
-            assert!(coproc[i].0 - map::coproc::BASE == coproc[i].1, "co-processor CSR offsets disagree with csr.json");
-            i += 1;
-        }
-        assert!(map::coproc::STATUS_REQ_SPACE_OFFSET == coproc_regs::STATUS_REQ_SPACE_OFFSET);
-        assert!(map::coproc::STATUS_REQ_SPACE_SIZE == coproc_regs::STATUS_LEVEL_BITS);
-        assert!(map::coproc::STATUS_RSP_LEVEL_OFFSET == coproc_regs::STATUS_RSP_LEVEL_OFFSET);
-        assert!(map::coproc::STATUS_RSP_LEVEL_SIZE == coproc_regs::STATUS_LEVEL_BITS);
-        assert!(1 << map::coproc::STATUS_RSP_LAST_OFFSET == coproc_regs::STATUS_RSP_LAST);
-        assert!(1 << map::coproc::STATUS_IDLE_OFFSET == coproc_regs::STATUS_IDLE);
-        assert!(1 << map::coproc::STATUS_REQ_OVERFLOW_OFFSET == coproc_regs::STATUS_REQ_OVERFLOW);
-        assert!(1 << map::coproc::STATUS_RSP_UNDERFLOW_OFFSET == coproc_regs::STATUS_RSP_UNDERFLOW);
-        assert!(1 << map::coproc::CTRL_RESET_OFFSET == coproc_regs::CTRL_RESET);
+        use map::{coproc, uart};
+        assert!(at(uart::RXTX, uart::BASE, uart_regs::RXTX), "LiteX UART: RXTX");
+        assert!(at(uart::TXFULL, uart::BASE, uart_regs::TXFULL), "LiteX UART: TXFULL");
+        assert!(at(uart::RXEMPTY, uart::BASE, uart_regs::RXEMPTY), "LiteX UART: RXEMPTY");
+        assert!(at(uart::EV_PENDING, uart::BASE, uart_regs::EV_PENDING), "LiteX UART: EV_PENDING");
+        assert!(at(uart::EV_ENABLE, uart::BASE, uart_regs::EV_ENABLE), "LiteX UART: EV_ENABLE");
+        assert!(at(uart::TXEMPTY, uart::BASE, uart_regs::TXEMPTY), "LiteX UART: TXEMPTY");
+        assert!(1 << uart::EV_PENDING_RX_OFFSET == uart_regs::EV_RX, "LiteX UART: EV_RX");
+        assert!(1 << uart::EV_PENDING_TX_OFFSET == uart_regs::EV_TX, "LiteX UART: EV_TX");
+        assert!(at(coproc::REQ, coproc::BASE, coproc_regs::REQ), "co-processor: REQ");
+        assert!(at(coproc::REQ_LAST, coproc::BASE, coproc_regs::REQ_LAST), "co-processor: REQ_LAST");
+        assert!(at(coproc::RSP, coproc::BASE, coproc_regs::RSP), "co-processor: RSP");
+        assert!(at(coproc::STATUS, coproc::BASE, coproc_regs::STATUS), "co-processor: STATUS");
+        assert!(at(coproc::CTRL, coproc::BASE, coproc_regs::CTRL), "co-processor: CTRL");
+        assert!(coproc::STATUS_REQ_SPACE_OFFSET == coproc_regs::STATUS_REQ_SPACE_OFFSET);
+        assert!(coproc::STATUS_REQ_SPACE_SIZE == coproc_regs::STATUS_LEVEL_BITS);
+        assert!(coproc::STATUS_RSP_LEVEL_OFFSET == coproc_regs::STATUS_RSP_LEVEL_OFFSET);
+        assert!(coproc::STATUS_RSP_LEVEL_SIZE == coproc_regs::STATUS_LEVEL_BITS);
+        assert!(1 << coproc::STATUS_RSP_LAST_OFFSET == coproc_regs::STATUS_RSP_LAST);
+        assert!(1 << coproc::STATUS_IDLE_OFFSET == coproc_regs::STATUS_IDLE);
+        assert!(1 << coproc::STATUS_REQ_OVERFLOW_OFFSET == coproc_regs::STATUS_REQ_OVERFLOW);
+        assert!(1 << coproc::STATUS_RSP_UNDERFLOW_OFFSET == coproc_regs::STATUS_RSP_UNDERFLOW);
+        assert!(1 << coproc::CTRL_RESET_OFFSET == coproc_regs::CTRL_RESET);
     };
 
     /// The console UART type of this board.
