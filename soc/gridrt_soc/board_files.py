@@ -143,18 +143,19 @@ def apply(files, mode, repo=REPO):
             path.write_text(text)
             print(f"board-files: wrote {rel}")
         elif mode == "check":
-            diff = "".join(
-                difflib.unified_diff(
-                    old.splitlines(True), text.splitlines(True), f"{rel} (committed)", f"{rel} (from csr.json)"
-                )
+            diff = difflib.unified_diff(
+                old.splitlines(), text.splitlines(), f"{rel} (committed)", f"{rel} (from csr.json)", lineterm=""
             )
-            print(diff)
+            for line in diff:
+                print(f"board-files: {line}")
     if drift and mode == "check":
-        raise SystemExit(
+        print(
             "board-files: the firmware's board files differ from the SoC's csr.json: "
             + ", ".join(str(d) for d in drift)
-            + "\nrun `cargo xtask soc board-files` to regenerate them, then rebuild the firmware"
+            + "; run `cargo xtask soc board-files` to regenerate them, then rebuild the firmware",
+            flush=True,
         )
+        raise SystemExit(1)
     if not drift and mode != "skip":
         print("board-files: firmware board files match csr.json")
     return drift

@@ -102,9 +102,8 @@ impl BuildCmd {
         py.args(["ulx3s", "--build-dir"]).arg(&dir).arg("--rtl-dir").arg(self.rtl.dir());
         py.arg("--rom-image").arg(&rom);
         py.args(["--device", self.device.part(), "--seed", &self.seed.to_string()]);
-        let results = run_logged(py, &dir.join("litex.log"), |l| {
-            l.starts_with("ulx3s:") || l.starts_with("board-files:") || l.starts_with("---") || l.starts_with("+++")
-        })?;
+        let results =
+            run_logged(py, &dir.join("litex.log"), |l| l.starts_with("ulx3s:") || l.starts_with("board-files:"))?;
         let seconds = started.elapsed().as_secs_f64();
         let bitstream = PathBuf::from(result(&results, "BITSTREAM")?);
         let report_path = PathBuf::from(result(&results, "REPORT")?);

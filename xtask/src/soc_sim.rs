@@ -70,9 +70,8 @@ impl SimCmd {
         let mut py = python()?;
         py.args(["sim", "--build-dir"]).arg(&dir).arg("--rtl-dir").arg(self.rtl.dir());
         py.arg("--rom-image").arg(&rom).args(["--jobs", &self.jobs.to_string()]);
-        let results = run_logged(py, &dir.join("litex.log"), |l| {
-            l.starts_with("sim:") || l.starts_with("board-files:") || l.starts_with("---") || l.starts_with("+++")
-        })?;
+        let results =
+            run_logged(py, &dir.join("litex.log"), |l| l.starts_with("sim:") || l.starts_with("board-files:"))?;
         let gateware = PathBuf::from(result(&results, "SIM_DIR")?);
 
         let mut cmd = Command::new(gateware.join("obj_dir/Vsim"));
