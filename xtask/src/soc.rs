@@ -72,8 +72,13 @@ pub struct RtlDir {
 }
 
 impl RtlDir {
+    /// The folder, absolute (the SoC scripts run in soc/).
     pub fn dir(&self) -> PathBuf {
-        self.rtl_dir.clone().unwrap_or_else(|| repo_root().join("rtl/hdl"))
+        match &self.rtl_dir {
+            Some(d) if d.is_relative() => std::env::current_dir().map(|c| c.join(d)).unwrap_or_else(|_| d.clone()),
+            Some(d) => d.clone(),
+            None => repo_root().join("rtl/hdl"),
+        }
     }
 }
 

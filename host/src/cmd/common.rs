@@ -31,7 +31,8 @@ pub struct PortOptions {
     /// Baud rate for --port (and the line rate of the modelled link time).
     #[arg(long, default_value_t = 115_200, value_name = "BAUD")]
     pub baud: u32,
-    /// Seconds the render may go without any message from the device before it fails.
+    /// Seconds the device may go without answering before the render fails: without any
+    /// message while rendering, without a new acknowledgement while uploading the scene.
     #[arg(long, default_value_t = 120.0, value_name = "SECONDS")]
     pub timeout: f64,
 }
