@@ -55,6 +55,7 @@ def main(argv=None):
     common(ulx3s, rom=True)
     ulx3s.add_argument("--device", default="LFE5U-85F", choices=("LFE5U-25F", "LFE5U-45F", "LFE5U-85F"))
     ulx3s.add_argument("--seed", type=int, default=1, help="nextpnr placement seed")
+    ulx3s.add_argument("--pes", type=int, default=2, help="co-processor PEs (block RAM: 4 do not fit beside 192 KiB of main RAM)")
     gen = sub.add_parser("board-files", help="write (or --check) the firmware's board files from csr.json")
     gen.add_argument("--check", action="store_true")
 
@@ -69,7 +70,7 @@ def main(argv=None):
         from . import ulx3s
 
         words = rom_words(args.rom_image, args.rom_base)
-        result = ulx3s.build(args.build_dir, args.rtl_dir, words, args.board_files, args.device, args.seed, args.jobs)
+        result = ulx3s.build(args.build_dir, args.rtl_dir, words, args.board_files, args.device, args.seed, args.pes)
         print(f"BITSTREAM: {result['bitstream']}")
         print(f"REPORT: {result['report']}")
     elif args.cmd == "board-files":

@@ -6,8 +6,8 @@ Two files, both committed (the firmware builds without LiteX installed):
   main_ram), included by the hand-written ``litex.x`` / ``litex-bootloader.x``, which say
   what goes where;
 - ``firmware/image/src/litex_map.rs``: base and register addresses of every CSR peripheral,
-  the CSR field layouts the drivers use, and the SoC constants (clock, co-processor
-  configuration). ``board.rs`` checks at compile time that the drivers' register offsets
+  the CSR field layouts the drivers use, and the SoC constants (clock, FIFO depths; the
+  co-processor's configuration is read from its CSRs at run time). ``board.rs`` checks at compile time that the drivers' register offsets
   agree with these addresses.
 
 Every SoC build (``cargo xtask soc sim|build``) regenerates the text and compares it with the
@@ -32,9 +32,6 @@ PERIPHERALS = ("ctrl", "uart", "timer0", "coproc")
 CONSTANTS = (
     ("config_clock_frequency", "CLOCK_HZ", "u32"),
     ("gridrt_uart_fifo_depth", "UART_FIFO_DEPTH", "u32"),
-    ("gridrt_coproc_pes", "COPROC_PES", "u16"),
-    ("gridrt_coproc_pe_mem_words", "COPROC_PE_MEM_WORDS", "u32"),
-    ("gridrt_coproc_max_list", "COPROC_MAX_LIST", "u16"),
     ("gridrt_coproc_fifo_depth", "COPROC_FIFO_DEPTH", "u32"),
 )
 

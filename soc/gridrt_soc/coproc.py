@@ -19,7 +19,13 @@ register      access  meaning
                       FIFO was dropped / a read of an empty reply FIFO returned 0)
 ``ctrl``      W       ``reset``: pulse; resets the co-processor and both FIFOs, clears the
                       sticky bits
+``pes``       R       processing elements of this build (the RTL's ``PES``)
+``pe_mem_w``  R       words of memory per PE (the RTL's ``PE_MEM_WORDS``; register
+                      ``pe_mem_words``)
 ============  ======  ===========================================================================
+
+The configuration is read at run time, so one firmware image serves every build of the SoC
+(the simulation's 4 PEs and a smaller FPGA's 2) and the memory map does not depend on it.
 
 A request word costs the CPU one CSR write (the driver caches ``req_space``); a reply word
 one ``status`` read (its control bit) and one ``rsp`` read.
@@ -122,6 +128,9 @@ class GridrtCoprocCSR(LiteXModule):
             ],
             name="ctrl",
         )
+
+        self._pes = CSRStatus(8, reset=pes, name="pes", description="Processing elements.")
+        self._pe_mem_words = CSRStatus(32, reset=pe_mem_words, name="pe_mem_words", description="Words per PE memory.")
 
         # # #
 

@@ -9,7 +9,8 @@
 - Main RAM (``main_ram``, 192 KiB of block RAM at 0x4000_0000): the application region; the
   bootloader writes the application here (``gridrt flash``), which then uses all of it.
 - CSRs (0xF000_0000, uncached): ``ctrl``, ``identifier_mem``, ``uart`` (LiteX UART, 64-byte
-  FIFOs, a read of ``rxtx`` pops), ``timer0``, ``coproc`` (``coproc.GridrtCoprocCSR``).
+  FIFOs, a read of ``rxtx`` pops), ``timer0``, ``coproc`` (``coproc.GridrtCoprocCSR``; its
+  configuration, PEs and words per PE, is readable there).
 
 The firmware's board files are generated from this SoC's csr.json (``board_files``); the
 target only brings its clock/reset generator and UART PHY.
@@ -33,11 +34,12 @@ SYS_CLK_FREQ = int(50e6)
 
 UART_FIFO_DEPTH = 64
 
-# The co-processor configuration: GridRT's 4 PEs of 8192 words (bun_zipper_res4 needs 8141
-# words per PE on a 4-PE grid). Written into csr.json as constants, from there into the
-# firmware (board::PE_COUNT, board::PE_MEM_WORDS).
+# The co-processor configuration (the RTL's defaults: GridRT's 4 PEs). 16384 words per PE cost
+# the same block RAM as 8192 on the ECP5 (a true dual-port bank of 32-bit words takes two
+# 18-bit-wide DP16KD either way). A target may build fewer PEs (`pes`); the firmware reads
+# the configuration from the `coproc` CSRs at run time, so the memory map stays the same.
 COPROC_PES = 4
-COPROC_PE_MEM_WORDS = 8192
+COPROC_PE_MEM_WORDS = 16384
 COPROC_MAX_LIST = 256
 COPROC_FIFO_DEPTH = 16
 
@@ -48,7 +50,8 @@ class GridrtSoC(SoCCore):
     ``uart_phy``: the target's UART PHY (``RS232PHY`` on a board, ``RS232PHYModel`` in the
     simulation). ``rom_words``: the ROM image as little-endian 32-bit words (the bootloader),
     padded to ``ROM_SIZE``; empty for an uninitialised ROM (e.g. to export csr.json only).
-    ``rtl_dir``: the co-processor's SystemVerilog (rtl/hdl).
+    ``rtl_dir``: the co-processor's SystemVerilog (rtl/hdl). ``coproc_pes``: the
+    co-processor's processing elements.
     """
 
     # Fixed CSR locations: the map must not depend on the order modules are added in.
@@ -60,7 +63,7 @@ class GridrtSoC(SoCCore):
         "coproc": 4,
     }
 
-    def __init__(self, platform, uart_phy, rtl_dir, rom_words=(), ident="gridrt SoC"):
+    def __init__(self, platform, uart_phy, rtl_dir, rom_words=(), ident="gridrt SoC", coproc_pes=COPROC_PES):
         rom_words = list(rom_words)
         if len(rom_words) * 4 > ROM_SIZE:
             raise ValueError(f"ROM image of {len(rom_words) * 4} bytes exceeds the {ROM_SIZE}-byte ROM")
@@ -91,12 +94,9 @@ class GridrtSoC(SoCCore):
         self.coproc = GridrtCoprocCSR(
             platform,
             rtl_dir,
-            pes=COPROC_PES,
+            pes=coproc_pes,
             pe_mem_words=COPROC_PE_MEM_WORDS,
             max_list=COPROC_MAX_LIST,
             fifo_depth=COPROC_FIFO_DEPTH,
         )
-        self.add_constant("GRIDRT_COPROC_PES", COPROC_PES)
-        self.add_constant("GRIDRT_COPROC_PE_MEM_WORDS", COPROC_PE_MEM_WORDS)
-        self.add_constant("GRIDRT_COPROC_MAX_LIST", COPROC_MAX_LIST)
         self.add_constant("GRIDRT_COPROC_FIFO_DEPTH", COPROC_FIFO_DEPTH)

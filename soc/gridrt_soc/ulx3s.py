@@ -56,10 +56,10 @@ class ULX3SCRG(LiteXModule):
         self.comb += platform.request("wifi_gpio0").eq(1)
 
 
-def make_soc(rtl_dir, rom_words, device):
+def make_soc(rtl_dir, rom_words, device, pes):
     platform = radiona_ulx3s.Platform(device=device, revision="2.0", toolchain="trellis")
     uart_phy = RS232PHY(platform.request("serial"), SYS_CLK_FREQ, baudrate=UART_BAUDRATE)
-    soc = GridrtSoC(platform, uart_phy, rtl_dir, rom_words, ident="gridrt SoC on ULX3S")
+    soc = GridrtSoC(platform, uart_phy, rtl_dir, rom_words, ident="gridrt SoC on ULX3S", coproc_pes=pes)
     soc.crg = ULX3SCRG(platform, SYS_CLK_FREQ)
     return soc
 
@@ -77,9 +77,9 @@ def _tool_wrappers(bin_dir):
         wrapper.chmod(0o755)
 
 
-def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, jobs):
-    """Builds the bitstream; returns its path and nextpnr's report path."""
-    del jobs  # nextpnr-ecp5 (WebAssembly) runs on one thread
+def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes):
+    """Builds the bitstream with ``pes`` co-processor PEs; returns its path and nextpnr's
+    report path."""
     build_dir = Path(build_dir).resolve()
     if Path(rtl_dir).resolve().is_relative_to("/tmp"):
         # YoWASP mounts its own temporary folder at /tmp inside the WebAssembly sandbox.
@@ -88,7 +88,7 @@ def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, jobs):
     _tool_wrappers(bin_dir)
     os.environ["PATH"] = f"{bin_dir}{os.pathsep}{os.environ['PATH']}"
 
-    soc = make_soc(rtl_dir, rom_words, device)
+    soc = make_soc(rtl_dir, rom_words, device, pes)
     builder = Builder(
         soc,
         output_dir=str(build_dir),
@@ -101,7 +101,7 @@ def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, jobs):
     board_files.apply(board_files.render(build_dir / "csr.json", soc), board_files_mode)
     gateware = Path(builder.gateware_dir)
     start = time.monotonic()
-    print(f"ulx3s: yosys, nextpnr-ecp5 ({device}, seed {seed}), ecppack: this takes a while", flush=True)
+    print(f"ulx3s: yosys, nextpnr-ecp5 ({device}, {pes} PEs, seed {seed}), ecppack: this takes a while", flush=True)
     cwd = os.getcwd()
     os.chdir(gateware)
     try:

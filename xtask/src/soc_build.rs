@@ -60,6 +60,10 @@ pub struct BuildCmd {
     /// nextpnr's placement seed.
     #[arg(long, default_value_t = 1)]
     seed: u32,
+    /// Processing elements of the co-processor. Each takes 32 DP16KD block RAMs; 4 do not fit
+    /// the LFE5U-85F beside the SoC's 240 KiB of ROM, SRAM and main RAM.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u16).range(1..=16))]
+    pes: u16,
     /// Write the resource and timing summary here (JSON).
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
@@ -101,7 +105,7 @@ impl BuildCmd {
         let mut py = python()?;
         py.args(["ulx3s", "--build-dir"]).arg(&dir).arg("--rtl-dir").arg(self.rtl.dir());
         py.arg("--rom-image").arg(&rom);
-        py.args(["--device", self.device.part(), "--seed", &self.seed.to_string()]);
+        py.args(["--device", self.device.part(), "--seed", &self.seed.to_string(), "--pes", &self.pes.to_string()]);
         let results =
             run_logged(py, &dir.join("litex.log"), |l| l.starts_with("ulx3s:") || l.starts_with("board-files:"))?;
         let seconds = started.elapsed().as_secs_f64();
@@ -117,10 +121,11 @@ impl BuildCmd {
         let (lut_cap, bram_cap, dsp_cap) = self.device.capacity();
         let fits = bitstream.is_file() && luts <= lut_cap && brams <= bram_cap && dsps <= dsp_cap;
         let json = format!(
-            "{{\"board\": \"ulx3s\", \"device\": \"{}-CABGA381\", \"cpu\": \"vexriscv imac\", \"luts\": {luts}, \
+            "{{\"board\": \"ulx3s\", \"device\": \"{}-CABGA381\", \"cpu\": \"vexriscv imac\", \"pes\": {}, \"luts\": {luts}, \
              \"ffs\": {ffs}, \"dsps\": {dsps}, \"brams\": {brams}, \"fmax_mhz\": {fmax:.2}, \"target_mhz\": {target:.2}, \
              \"fits\": {fits}, \"seed\": {}, \"build_s\": {seconds:.0}, \"bitstream\": \"{}\"}}\n",
             self.device.part(),
+            self.pes,
             self.seed,
             bitstream.display()
         );

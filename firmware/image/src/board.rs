@@ -46,6 +46,11 @@ mod imp {
     /// (`bun_zipper_res4`: 8 139), so every test scene fits.
     pub const PE_MEM_WORDS: u32 = 1 << 19;
 
+    /// The co-processor's configuration, `(PEs, words per PE)`.
+    pub fn coproc_config() -> (u16, u32) {
+        (PE_COUNT, PE_MEM_WORDS)
+    }
+
     /// QEMU `virt`'s SiFive test device: a write ends the emulation.
     const SIFIVE_TEST_BASE: usize = 0x0010_0000;
 
@@ -97,6 +102,11 @@ mod imp {
     /// Words per PE memory in the block design (GridRT: 8192).
     pub const PE_MEM_WORDS: u32 = 8192;
 
+    /// The co-processor's configuration, `(PEs, words per PE)`.
+    pub fn coproc_config() -> (u16, u32) {
+        (PE_COUNT, PE_MEM_WORDS)
+    }
+
     /// Nothing to exit from on hardware: the caller halts.
     pub fn exit_failure(_code: u16) {}
 }
@@ -104,7 +114,7 @@ mod imp {
 #[cfg(feature = "board-litex")]
 mod imp {
     use crate::litex_map as map;
-    use gridrt_firmware::bsp::coproc_csr::regs as coproc_regs;
+    use gridrt_firmware::bsp::coproc_csr::{regs as coproc_regs, CoprocCsr};
     use gridrt_firmware::bsp::litex_uart::{regs as uart_regs, LitexUart};
     use gridrt_firmware::bsp::VolatileMmio;
 
@@ -137,6 +147,8 @@ mod imp {
         assert!(at(coproc::RSP, coproc::BASE, coproc_regs::RSP), "co-processor: RSP");
         assert!(at(coproc::STATUS, coproc::BASE, coproc_regs::STATUS), "co-processor: STATUS");
         assert!(at(coproc::CTRL, coproc::BASE, coproc_regs::CTRL), "co-processor: CTRL");
+        assert!(at(coproc::PES, coproc::BASE, coproc_regs::PES), "co-processor: PES");
+        assert!(at(coproc::PE_MEM_WORDS, coproc::BASE, coproc_regs::PE_MEM_WORDS), "co-processor: PE_MEM_WORDS");
         assert!(coproc::STATUS_REQ_SPACE_OFFSET == coproc_regs::STATUS_REQ_SPACE_OFFSET);
         assert!(coproc::STATUS_REQ_SPACE_SIZE == coproc_regs::STATUS_LEVEL_BITS);
         assert!(coproc::STATUS_RSP_LEVEL_OFFSET == coproc_regs::STATUS_RSP_LEVEL_OFFSET);
@@ -171,10 +183,14 @@ mod imp {
     /// Largest grid the app accepts (voxels): 16³ doubled. The voxel map lives on the stack
     /// in main RAM with the rest of the device state (boards/litex.x).
     pub const MAX_VOXELS: usize = 1 << 13;
-    /// PEs of the co-processor (csr.json constant `gridrt_coproc_pes`).
-    pub const PE_COUNT: u16 = map::COPROC_PES;
-    /// Words per PE memory (csr.json constant `gridrt_coproc_pe_mem_words`).
-    pub const PE_MEM_WORDS: u32 = map::COPROC_PE_MEM_WORDS;
+
+    /// The co-processor's configuration, `(PEs, words per PE)`, as the SoC was built: read
+    /// from its CSRs, so one image serves every build of the SoC.
+    pub fn coproc_config() -> (u16, u32) {
+        // SAFETY: two read-only configuration registers of the co-processor's CSR block;
+        // reading them has no side effect on the FIFOs.
+        CoprocCsr::new(unsafe { VolatileMmio::new(COPROC_BASE) }).config()
+    }
 
     /// Nothing to exit from on hardware or in the simulation: the caller halts.
     pub fn exit_failure(_code: u16) {}

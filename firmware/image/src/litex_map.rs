@@ -21,12 +21,6 @@ pub const MAIN_RAM_SIZE: usize = 0x30000;
 pub const CLOCK_HZ: u32 = 50000000;
 /// SoC constant `gridrt_uart_fifo_depth`.
 pub const UART_FIFO_DEPTH: u32 = 64;
-/// SoC constant `gridrt_coproc_pes`.
-pub const COPROC_PES: u16 = 4;
-/// SoC constant `gridrt_coproc_pe_mem_words`.
-pub const COPROC_PE_MEM_WORDS: u32 = 8192;
-/// SoC constant `gridrt_coproc_max_list`.
-pub const COPROC_MAX_LIST: u16 = 256;
 /// SoC constant `gridrt_coproc_fifo_depth`.
 pub const COPROC_FIFO_DEPTH: u32 = 16;
 
@@ -169,4 +163,8 @@ pub mod coproc {
     pub const CTRL_RESET_OFFSET: u32 = 0;
     /// Field `reset` of `ctrl`: width in bits.
     pub const CTRL_RESET_SIZE: u32 = 1;
+    /// `coproc_pes`: 1 word(s), ro.
+    pub const PES: usize = 0xf000_2014;
+    /// `coproc_pe_mem_words`: 1 word(s), ro.
+    pub const PE_MEM_WORDS: usize = 0xf000_2018;
 }

@@ -111,7 +111,9 @@ impl Cmd {
         if self.no_check {
             return Ok(());
         }
-        let cfg = SessionConfig::new(self.port.clone()).hello_timeout(Duration::from_secs(15));
+        // The application starts up first; a slow (simulated) board takes longer.
+        let hello = Duration::from_secs(15).max(Duration::from_secs_f64(self.reply_timeout.max(0.05)));
+        let cfg = SessionConfig::new(self.port.clone()).hello_timeout(hello);
         let mut session = Session::new(&mut port, cfg);
         let info = session.hello(&mut |_| {}).context("the started application did not answer Hello")?;
         println!(

@@ -152,10 +152,8 @@ impl Cmd {
                 // A slow device (a board simulated cycle by cycle) may take long to acknowledge
                 // a scene chunk too, not only to render.
                 let silence = Duration::from_secs_f64(self.port.timeout.max(0.1));
-                let cfg = SessionConfig::new(name)
-                    .render_timeout(silence)
-                    .upload_timeout(silence)
-                    .band_rows(self.band_rows);
+                let cfg =
+                    SessionConfig::new(name).render_timeout(silence).upload_timeout(silence).band_rows(self.band_rows);
                 Session::new(port, cfg)
             })
             .collect();

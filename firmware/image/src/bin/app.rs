@@ -63,21 +63,22 @@ fn main() -> ! {
         panic!("panic-test feature");
     }
 
+    let (pe_count, pe_mem_words) = board::coproc_config();
     let info = DeviceInfo {
         protocol: 0, // filled in by Device::new, like max_payload, voxel_capacity, features
         firmware: serve::firmware_version(),
         board: board::BOARD_ID,
         max_payload: 0,
-        pe_count: board::PE_COUNT,
+        pe_count,
         voxel_capacity: 0,
-        pe_mem_words: board::PE_MEM_WORDS,
+        pe_mem_words,
         features: 0,
     };
     let mut w = UartWriter(&mut console);
     w.put("device: ");
-    w.put_dec(board::PE_COUNT as u64);
+    w.put_dec(u64::from(pe_count));
     w.put(" PEs x ");
-    w.put_dec(board::PE_MEM_WORDS as u64);
+    w.put_dec(u64::from(pe_mem_words));
     w.put(" words, up to ");
     w.put_dec(board::MAX_VOXELS as u64);
     w.put(" voxels; speak SPEC.md frames now\r\n");

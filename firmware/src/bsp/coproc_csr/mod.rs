@@ -61,6 +61,12 @@ impl<M: Mmio> CoprocCsr<M> {
         self.req_space = 0;
     }
 
+    /// The co-processor's configuration, `(PEs, words per PE memory)`: the SoC reports what
+    /// it was built with.
+    pub fn config(&self) -> (u16, u32) {
+        (u16::from(self.mmio.read32(regs::PES) as u8), self.mmio.read32(regs::PE_MEM_WORDS))
+    }
+
     /// True when the co-processor waits for input with nothing to send (`STATUS.idle`).
     pub fn idle(&self) -> bool {
         self.mmio.read32(regs::STATUS) & regs::STATUS_IDLE != 0
@@ -165,6 +171,15 @@ mod tests {
         assert_eq!(link.nget_word(), Ok((0xA, false)));
         assert_eq!(link.nget_word(), Ok((0xB, true)));
         assert_eq!(mock.reads_at(RSP), 2);
+    }
+
+    #[test]
+    fn config_reads_the_built_pes_and_memory() {
+        let mock = MockMmio::new();
+        mock.set(PES, 0xFFFF_FF02);
+        mock.set(PE_MEM_WORDS, 16384);
+        assert_eq!(CoprocCsr::new(&mock).config(), (2, 16384));
+        assert!(mock.writes().is_empty());
     }
 
     #[test]

@@ -13,6 +13,10 @@ pub const RSP: usize = 0x08;
 pub const STATUS: usize = 0x0C;
 /// 0x10, write: `CTRL_RESET` resets the co-processor and both FIFOs.
 pub const CTRL: usize = 0x10;
+/// 0x14, read: processing elements of the co-processor (bits 7:0).
+pub const PES: usize = 0x14;
+/// 0x18, read: words of memory per PE.
+pub const PE_MEM_WORDS: usize = 0x18;
 
 /// `STATUS` bits 7:0: free request FIFO slots.
 pub const STATUS_REQ_SPACE_OFFSET: u32 = 0;
