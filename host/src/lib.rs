@@ -12,6 +12,7 @@
 //! | [`flash`] | ELF → flash image, flashing through the bootloader (SPEC.md §3.11), progress events |
 //! | [`serial`] | opening serial ports (no flush on open) and listing them |
 //! | [`session`] | protocol client over any `Read + Write` byte transport, progress events |
+//! | [`native`] | the fast native ray path: firmware DDA + co-processor search laid out for a CPU (SIMD, threads), word-identical results |
 //! | [`multi`] | one frame on several boards: work queue of row bands, merged result |
 //! | [`link_bench`] | `gridrt bench link`: wire bytes, efficiency, compression, modelled frame time |
 //! | [`stats`] | JSON statistics |
@@ -29,6 +30,7 @@ pub mod grid;
 pub mod image_format;
 pub mod link_bench;
 pub mod multi;
+pub mod native;
 pub mod pipeline;
 pub mod plan;
 pub mod reference;

@@ -1,4 +1,4 @@
-//! `cargo xtask setup`: run the install scripts in scripts/ (toolchain, QEMU, the SoC's tools).
+//! `cargo xtask setup`: run the install scripts in scripts/ (toolchain, QEMU, HDL tools, the SoC's).
 
 use crate::toolchain::run_script;
 use anyhow::Result;
@@ -12,7 +12,10 @@ pub struct Cmd {
     /// Skip QEMU and socat.
     #[arg(long)]
     no_qemu: bool,
-    /// Skip the LiteX SoC's tools (Verilator, LiteX, the ECP5 open flow).
+    /// Skip the HDL tools (Verilator, Yosys, nextpnr-ecp5).
+    #[arg(long)]
+    no_hdl: bool,
+    /// Skip the LiteX SoC's tools (LiteX and its simulation libraries, the ECP5 flow for the SoC).
     #[arg(long)]
     no_soc: bool,
 }
@@ -22,6 +25,9 @@ impl Cmd {
         run_script("setup-riscv-toolchain.sh", self.debian.then_some("--debian"))?;
         if !self.no_qemu {
             run_script("setup-qemu.sh", None)?;
+        }
+        if !self.no_hdl {
+            run_script("setup-hdl.sh", None)?;
         }
         if !self.no_soc {
             run_script("setup-soc.sh", None)?;

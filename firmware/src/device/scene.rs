@@ -8,7 +8,7 @@ use super::fail::Fail;
 use crate::dda::{GridDesc, MAX_GRID_DIM};
 use crate::fsl::{FslLink, FslWord};
 use gridrt_shared::frame::Crc32Digest;
-use gridrt_shared::fsl::{self as wire, op};
+use gridrt_shared::fsl::{self as wire, op, FslError};
 use gridrt_shared::math::Vec3;
 use gridrt_shared::msg::DeviceInfo;
 use gridrt_shared::scene::{
@@ -160,6 +160,27 @@ impl<L: FslLink, const N: usize> Loader<'_, L, N> {
     }
 }
 
+impl<L: FslLink, const N: usize> Loader<'_, L, N> {
+    /// The answer to FRAME: ACK, or `UnknownOpcode` from a co-processor without a fixed-point
+    /// frame (SPEC §4.6: both work); anything else fails the load.
+    fn expect_frame_ack(&mut self) -> Result<(), SceneError> {
+        match self.link.get(self.polls) {
+            Ok(w) if wire::opcode(w.data) == op::ACK => Ok(()),
+            Ok(w) if FslError::from_word(w.data).0 == FslError::UnknownOpcode && wire::opcode(w.data) == op::ERROR => {
+                Ok(())
+            }
+            Ok(w) => {
+                self.failure = Some(Fail::Word(w.data, "FRAME"));
+                Err(SceneError::Rejected)
+            }
+            Err(e) => {
+                self.failure = Some(Fail::link(e, "FRAME"));
+                Err(SceneError::Rejected)
+            }
+        }
+    }
+}
+
 impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
     fn header(&mut self, h: &SceneHeader) -> Result<(), SceneError> {
         let dims = h.dims.map(u32::from);
@@ -185,9 +206,16 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
         self.store.material_model.clear();
         self.store.objects.clear();
         self.store.lighting = LightingRecord::default();
-        // The co-processor's old scene goes now: CLEAR, then one LOAD_PE per block.
+        // The co-processor's old scene goes now: CLEAR, FRAME (the grid box, from which a
+        // fixed-point co-processor takes its frame), then one LOAD_PE per block.
         self.put(FslWord::last(wire::CLEAR_WORD), "CLEAR")?;
-        self.expect_ack("CLEAR")
+        self.expect_ack("CLEAR")?;
+        let frame = wire::frame_packet(h.bounds_min, h.bounds_max);
+        let last = frame.len().saturating_sub(1);
+        for (i, &w) in frame.iter().enumerate() {
+            self.put(FslWord { data: w, control: i == last }, "FRAME")?;
+        }
+        self.expect_frame_ack()
     }
 
     fn voxel_map(&mut self, first: u32, owners: &[u8]) -> Result<(), SceneError> {

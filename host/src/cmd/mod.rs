@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod bench_accuracy;
 pub mod bench_link;
+pub mod bench_rays;
 pub mod bench_skip;
 pub mod common;
 pub mod device;

@@ -14,7 +14,7 @@ use gridrt_host::plan::{Interp, Plan};
 use gridrt_host::reference::{self, Reference, Stages};
 use gridrt_host::scene::Scene;
 use gridrt_host::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
-use gridrt_host::stats::{LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
+use gridrt_host::stats::{CoprocFacts, LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
 use gridrt_shared::msg::PixelEncoding;
 
 use super::common::{ModelOptions, PortOptions, SceneOptions};
@@ -119,16 +119,13 @@ impl Cmd {
                     .with_context(|| format!("opening serial port {path}"))?;
                 ports.push((port, path.clone()));
             }
-            self.run_on(ports, mesh)
+            self.run_on(ports, mesh, None)
         } else {
-            let defaults = gridrt_loopback::SimConfig::default();
-            let config = gridrt_loopback::SimConfig {
-                pe_count: self.scene.pes,
-                pe_mem_words: self.scene.pe_mem_words.unwrap_or(defaults.pe_mem_words),
-                timing: self.model.timing.into(),
-                kernel: self.model.kernel.into(),
-                ..defaults
-            };
+            let config = self.model.sim_config(self.scene.pes, self.scene.pe_mem_words)?;
+            if config.backend == gridrt_loopback::Backend::Rtl {
+                eprintln!("rtl        building or reusing the Verilator co-processor (cargo xtask rtl sim) …");
+            }
+            gridrt_loopback::prepare(&config).map_err(anyhow::Error::msg).context("the RTL co-processor")?;
             let n = self.port.sim_devices.unwrap_or(1);
             let ports = (0..n)
                 .map(|i| {
@@ -140,11 +137,16 @@ impl Cmd {
                     (port, if n == 1 { "sim".to_string() } else { format!("sim{i}") })
                 })
                 .collect();
-            self.run_on(ports, mesh)
+            self.run_on(ports, mesh, Some(ModelOptions::facts(&config)))
         }
     }
 
-    fn run_on<T: Read + Write + Send>(&self, ports: Vec<(T, String)>, loaded: Scene) -> anyhow::Result<()> {
+    fn run_on<T: Read + Write + Send>(
+        &self,
+        ports: Vec<(T, String)>,
+        loaded: Scene,
+        coproc: Option<CoprocFacts>,
+    ) -> anyhow::Result<()> {
         let total_start = Instant::now();
         let mut sessions: Vec<Session<T>> = ports
             .into_iter()
@@ -273,6 +275,7 @@ impl Cmd {
             upload_ms,
         };
         let mut stats = RenderStats::new(&facts, &prepared.grid, &frame);
+        stats.coproc = coproc;
         stats.pipeline = Some(PipelineStats::new(&plan.names(), self.interp, &frame));
         let baud = self.port.baud;
         let modelled_link_s = if devices.is_empty() {

@@ -8,6 +8,9 @@
 //! GRIDRT_SKIP_TOOLS=qemu,socat,verilator,litex cargo test --workspace    # or GRIDRT_SKIP_TOOLS=all
 //! ```
 //!
+//! The co-simulation tests (gridrt-rtl, `gridrt render --coproc rtl`) check `verilator` with
+//! `gridrt_rtl::sim::require_verilator`, the same rule.
+//!
 //! A skipped test passes, so it says so where a user looks: one line per test on the real
 //! standard error (libtest captures only `print!`/`eprint!`, not direct writes), which shows
 //! in the `cargo test` output next to the test's `ok`. A test that runs says which tool
@@ -33,7 +36,7 @@ pub enum Tool {
     Qemu,
     /// `socat`: linked pseudo-terminal pairs.
     Socat,
-    /// `verilator`: compiles the LiteX SoC's simulation.
+    /// `verilator`: the RTL co-simulation and the LiteX SoC's simulation.
     Verilator,
     /// LiteX and its simulation libraries in the project's `.toolchain/soc-venv/` (checked with
     /// `scripts/setup-soc.sh --check`).
@@ -68,7 +71,8 @@ impl Tool {
     pub fn setup_script(self) -> &'static str {
         match self {
             Tool::Qemu | Tool::Socat => "scripts/setup-qemu.sh",
-            Tool::Verilator | Tool::Litex => "scripts/setup-soc.sh",
+            Tool::Verilator => "scripts/setup-hdl.sh",
+            Tool::Litex => "scripts/setup-soc.sh",
         }
     }
 
@@ -169,6 +173,7 @@ mod tests {
         assert_eq!(parse_skip_list(""), Ok(vec![]));
         assert_eq!(parse_skip_list("qemu"), Ok(vec![Tool::Qemu]));
         assert_eq!(parse_skip_list(" SOCAT , qemu,socat"), Ok(vec![Tool::Socat, Tool::Qemu]));
+        assert_eq!(parse_skip_list("verilator"), Ok(vec![Tool::Verilator]));
         assert_eq!(parse_skip_list("all"), Ok(Tool::ALL.to_vec()));
         let e = parse_skip_list("qemu,qemuu").unwrap_err();
         assert!(e.contains("unknown tool `qemuu`") && e.contains("known: qemu, socat, verilator, litex, all"), "{e}");

@@ -16,6 +16,8 @@ pub(super) enum Mode {
     ErrorOnLoad(u32),
     /// Never answer ray packets (the device must time out).
     SilentOnRay,
+    /// Answer FRAME packets with this ERROR word (an older co-processor: `UnknownOpcode`).
+    ErrorOnFrame(u32),
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -35,6 +37,8 @@ pub(super) struct FakeCoproc {
     out: VecDeque<FslWord>,
     pub(super) words_in: usize,
     pub(super) clears: usize,
+    /// FRAME boxes received: min xyz, max xyz.
+    pub(super) frames: Vec<[f32; 6]>,
     pub(super) loads: Vec<(u8, Vec<u32>)>,
     pub(super) rays: Vec<RayReq>,
     pub(super) violations: Vec<&'static str>,
@@ -49,6 +53,7 @@ impl FakeCoproc {
             out: VecDeque::new(),
             words_in: 0,
             clears: 0,
+            frames: Vec::new(),
             loads: Vec::new(),
             rays: Vec::new(),
             violations: Vec::new(),
@@ -71,6 +76,18 @@ impl FakeCoproc {
                 }
                 self.clears += 1;
                 self.answer(&[ack]);
+            }
+            op::FRAME => {
+                if p.len() != wire::FRAME_WORDS {
+                    self.violations.push("FRAME length");
+                    return self.answer(&[FslError::PacketTooShort.to_word(0)]);
+                }
+                let f = |i: usize| f32::from_bits(p[i]);
+                self.frames.push([f(1), f(2), f(3), f(4), f(5), f(6)]);
+                match self.mode {
+                    Mode::ErrorOnFrame(w) => self.answer(&[w]),
+                    _ => self.answer(&[wire::ack_word(op::FRAME, 0)]),
+                }
             }
             op::LOAD_PE => {
                 let count = p.get(1).copied().unwrap_or(u32::MAX) as usize;
