@@ -1,6 +1,7 @@
 // tdp_ram: true dual-port RAM with synchronous reads (one DP16KD-style block per port pair;
 // Yosys maps it to ECP5 block RAM). Reading and writing one address on both ports in the
-// same cycle is not used by the design.
+// same cycle is not used by the design; `no_rw_check` tells Yosys so (without it the
+// cross-port collision cannot be mapped to DP16KD and each bank becomes flip-flops).
 module tdp_ram #(
     parameter int W = 32,
     parameter int DEPTH = 1024
@@ -15,7 +16,7 @@ module tdp_ram #(
     input  logic [W-1:0]             b_wdata,
     output logic [W-1:0]             b_rdata
 );
-    logic [W-1:0] mem [DEPTH];
+    (* no_rw_check *) logic [W-1:0] mem [DEPTH];
     always_ff @(posedge clk) begin
         if (a_we) mem[a_addr] <= a_wdata;
         a_rdata <= mem[a_addr];

@@ -43,10 +43,14 @@ from litex.soc.interconnect.csr import CSR, CSRField, CSRStatus, CSRStorage
 WORD_LAYOUT = [("data", 32)]
 
 
+# In rtl/hdl but not part of the design: the datapath blocks side by side for the unit
+# co-simulation (rtl/README.md).
+NOT_THE_DESIGN = ("units_top.sv",)
+
+
 def hdl_sources(rtl_dir):
-    """Every SystemVerilog file of the co-processor RTL, sorted (the tools only elaborate
-    what ``gridrt_coproc`` instantiates)."""
-    files = sorted(Path(rtl_dir).glob("*.sv"))
+    """The SystemVerilog files of the co-processor RTL, sorted."""
+    files = sorted(f for f in Path(rtl_dir).glob("*.sv") if f.name not in NOT_THE_DESIGN)
     if not any(f.name == "gridrt_coproc.sv" for f in files):
         raise FileNotFoundError(f"no gridrt_coproc.sv in {rtl_dir} (the co-processor RTL, issue 11)")
     return files

@@ -9,7 +9,8 @@
 //! - `gridrt flash` writes the app built for `--board litex`, verifies and starts it;
 //! - `gridrt render --port` of a 32×24 bun_zipper_res4 frame is byte-identical to
 //!   `gridrt render --sim --coproc rtl` with the same flags (the co-processor RTL is the same
-//!   in both; the soft-core runs the same firmware as the loopback simulator);
+//!   in both; the soft-core runs the same firmware as the loopback simulator), and to
+//!   `--coproc model` at the RTL's kernel and format (watertight, fixed64-q23);
 //! - the device's per-stage `mcycle`/`minstret` are in the stats JSON: measured cycles per
 //!   instruction of a real soft-core, printed per stage.
 //!
@@ -202,7 +203,19 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     assert!(cmp.identical, "the SoC's frame must equal the RTL co-simulation's: {cmp:?}");
     assert_eq!(std::fs::read(&soc_png).unwrap(), std::fs::read(&sim_png).unwrap(), "PNG bytes");
 
+    // The same frame from the co-processor model at the RTL's kernel, format and timing
+    // (`SimConfig::RTL` of the loopback): the SoC matches the model too, not only the RTL.
+    let (model_png, model_json) = (dir.join("model.png"), dir.join("model.json"));
+    let (model_out, model_stats) = (p(&model_png), p(&model_json));
+    let mut model_args = vec!["render", "--sim", "--coproc", "model", "--kernel", "watertight"];
+    model_args.extend(["--format", "fixed64-q23", "--timing", "rtl"]);
+    model_args.extend(frame);
+    model_args.extend(["--out", &model_out, "--stats", &model_stats]);
+    run(&gridrt, &model_args);
+    assert_eq!(std::fs::read(&soc_png).unwrap(), std::fs::read(&model_png).unwrap(), "SoC vs --coproc model PNG bytes");
+
     let (soc, rtl) = (json(&soc_json), json(&sim_json));
+    assert_eq!((&rtl["kernel"], &rtl["format"]), (&"watertight".into(), &"fixed64-q23".into()));
     for k in ["primary_rays", "shadow_rays", "coproc_rays", "list_entries", "intersection_tests"] {
         assert_eq!(soc[k], rtl[k], "{k}");
     }
