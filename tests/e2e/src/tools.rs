@@ -15,6 +15,9 @@
 //! standard error (libtest captures only `print!`/`eprint!`, not direct writes), which shows
 //! in the `cargo test` output next to the test's `ok`. A test that runs says which tool
 //! version it uses, the same way; `.ci/run` counts both kinds of line.
+//!
+//! The SoC simulation test is slow (minutes), so it also waits for an opt-in,
+//! `GRIDRT_SOC_SIM=1` ([`soc_sim_opted_in`]); `.ci/run` gives it.
 
 use std::io::Write as _;
 use std::process::Command;
@@ -156,6 +159,23 @@ pub fn require(test: &str, tool: Tool) -> bool {
             tool.key()
         ),
     }
+}
+
+/// Opts in to the SoC simulation test (`GRIDRT_SOC_SIM=1`): a soft-core simulated cycle by
+/// cycle takes minutes, so `cargo test --workspace` runs it only when asked (`.ci/run` asks).
+pub const SOC_SIM_VAR: &str = "GRIDRT_SOC_SIM";
+
+/// Start of the line a test that waits for an opt-in writes when it is not given.
+pub const NOT_OPTED_IN: &str = "SKIPPED without opt-in";
+
+/// True when [`SOC_SIM_VAR`] is `1`; otherwise `test` should return at once (a line on
+/// standard error says it was skipped and how to run it).
+pub fn soc_sim_opted_in(test: &str) -> bool {
+    if std::env::var(SOC_SIM_VAR).is_ok_and(|v| v.trim() == "1") {
+        return true;
+    }
+    say(&format!("{test}: {NOT_OPTED_IN} {SOC_SIM_VAR}=1 (the SoC simulation takes minutes)"));
+    false
 }
 
 /// One line on the process's standard error, past libtest's output capture, in one write
