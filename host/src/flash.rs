@@ -411,13 +411,22 @@ pub fn flash<T: Read + Write>(
     let mut resent = 0u64;
     let mut verified_crc = None;
     let mut tries = 0u32;
+    // The wait adapts to the bootloader (one simulated cycle by cycle answers a chunk after
+    // seconds): twice the last answer's round trip when it needed no resend, at least
+    // `reply_timeout`; doubled after each silence, up to 64 `reply_timeout`s.
+    let longest = cfg.reply_timeout.saturating_mul(64);
+    let mut wait = cfg.reply_timeout;
     while verified_crc.is_none() {
         let end = (offset as usize + chunk).min(image.data.len());
         link.send(&Msg::FlashChunk { offset, data: &image.data[offset as usize..end] })?;
-        match link.recv(Instant::now() + cfg.reply_timeout)? {
+        let sent = Instant::now();
+        match link.recv(sent + wait)? {
             Some(Answer::Ack { next_offset, status: FlashStatus::Receiving, .. })
                 if next_offset == end as u32 && next_offset < total =>
             {
+                if tries == 0 {
+                    wait = sent.elapsed().saturating_mul(2).clamp(cfg.reply_timeout, longest);
+                }
                 offset = next_offset;
                 tries = 0;
                 progress(FlashEvent::Written { bytes: offset as u64, total: total as u64 });
@@ -446,6 +455,7 @@ pub fn flash<T: Read + Write>(
             None => {
                 resent += 1;
                 tries += 1;
+                wait = wait.saturating_mul(2).min(longest);
                 progress(FlashEvent::Resent { offset: offset as u64 });
             }
         }

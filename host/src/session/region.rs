@@ -28,7 +28,7 @@
 
 use std::collections::BTreeMap;
 use std::io::{Read, Write};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use gridrt_shared::frame::crc32;
 use gridrt_shared::msg::{region_options, render_flags, ErrorCode, Msg, MsgType, Region, RenderRequest};
@@ -108,6 +108,12 @@ impl<T: Read + Write> Session<T> {
         let mut announced = vec![false; band.rows as usize];
         let mut last_progress = Instant::now();
         let mut first = true;
+        // How long a quiet line means the request or its end was lost. It adapts to the
+        // device: doubled after each wait that gave up, and after a region that ended, twice
+        // the longest quiet spell of its answer (at least `retransmit_after`): a board
+        // simulated cycle by cycle goes quiet for seconds while it computes, and asking again
+        // sooner would only queue requests behind the one it is serving.
+        let mut idle = self.cfg.retransmit_after;
         loop {
             self.check_claims(canvas, &mut claims);
             for y in canvas.verified_rows(band) {
@@ -163,7 +169,7 @@ impl<T: Read + Write> Session<T> {
             self.write_bytes(stage, &[0])?;
             self.send(stage, &Msg::RenderRegion { region: gap, max_span, options, request: *req })?;
             self.link.regions_requested += 1;
-            let outcome = self.wait_region(req, gap, canvas, &mut claims, &mut report, &mut att, resend)?;
+            let outcome = self.wait_region(req, gap, canvas, &mut claims, &mut report, &mut att, resend, &mut idle)?;
             let (dtx, drx) = (self.bytes_tx - tx0, self.bytes_rx - rx0);
             if resend {
                 self.link.bytes_resent += dtx + drx;
@@ -216,16 +222,22 @@ impl<T: Read + Write> Session<T> {
         report: &mut BandReport,
         att: &mut Attempt,
         resend: bool,
+        idle_after: &mut Duration,
     ) -> Result<Wait, SessionError> {
         let stage = Stage::Render;
-        let idle = self.cfg.retransmit_after;
+        let idle = *idle_after;
         let mut deadline = Instant::now() + idle;
+        let mut last_msg = Instant::now();
+        let mut quiet = Duration::ZERO;
         loop {
             let msg = self.poll(stage, deadline)?;
             let Some(m) = msg else {
                 self.link.timeouts += 1;
+                *idle_after = idle.saturating_mul(2).min(self.cfg.render_timeout.max(self.cfg.retransmit_after));
                 return Ok(Wait::GaveUp);
             };
+            quiet = quiet.max(last_msg.elapsed());
+            last_msg = Instant::now();
             match m {
                 Incoming::PixelSpan { frame, y, x0, count, encoding, data } if frame == req.frame => {
                     let wire = data.len() as u64 + 22;
@@ -256,6 +268,9 @@ impl<T: Read + Write> Session<T> {
                     report.spans_reported += spans;
                     att.got_any = true;
                     if r == region {
+                        *idle_after = quiet
+                            .saturating_mul(2)
+                            .clamp(self.cfg.retransmit_after, self.cfg.render_timeout.max(self.cfg.retransmit_after));
                         return Ok(Wait::Ended);
                     }
                     deadline = Instant::now() + idle;

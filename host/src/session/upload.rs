@@ -70,6 +70,12 @@ impl<T: Read + Write> Session<T> {
         // Answers still expected to chunks sent before a restart (ignored).
         let mut stale = 0usize;
         let mut last_progress = Instant::now();
+        // The retransmit interval adapts to the device (a board simulated cycle by cycle
+        // acknowledges a chunk only after seconds; resending sooner would only queue
+        // duplicates behind the originals): doubled after each timeout, and after an
+        // acknowledgement that came without one, twice its wait (at least `retransmit_after`).
+        let mut rto = self.cfg.retransmit_after.min(self.cfg.upload_timeout);
+        let mut timed_out = false;
         loop {
             // Fill the window.
             let window = (self.cfg.window.max(1) * chunk) as u32;
@@ -89,7 +95,7 @@ impl<T: Read + Write> Session<T> {
                     rewinds: stalls,
                 });
             }
-            let until = (Instant::now() + self.cfg.retransmit_after).min(last_progress + self.cfg.upload_timeout);
+            let until = (Instant::now() + rto).min(last_progress + self.cfg.upload_timeout);
             let in_flight = ((next - acked.min(next)) as usize).div_ceil(chunk.max(1));
             let mut restart = false;
             match self.poll(stage, until)? {
@@ -99,6 +105,14 @@ impl<T: Read + Write> Session<T> {
                             .protocol(stage, format!("ack of offset {next_offset} beyond the image ({total} bytes)")));
                     }
                     if next_offset > acked {
+                        if !timed_out {
+                            let wait = last_progress.elapsed().saturating_mul(2);
+                            rto = wait.clamp(
+                                self.cfg.retransmit_after,
+                                self.cfg.upload_timeout.max(self.cfg.retransmit_after),
+                            );
+                        }
+                        timed_out = false;
                         acked = next_offset;
                         stalls = 0;
                         stale = 0;
@@ -186,6 +200,8 @@ impl<T: Read + Write> Session<T> {
                         });
                     }
                     self.link.timeouts += 1;
+                    rto = rto.saturating_mul(2).min(self.cfg.upload_timeout);
+                    timed_out = true;
                     if next > acked {
                         // Nothing acknowledged for a while: go back and resend, smaller.
                         chunk = (chunk / 2).max(min_chunk);
