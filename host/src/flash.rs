@@ -383,22 +383,29 @@ pub fn flash<T: Read + Write>(
         entry: image.entry,
     };
     let mut accepted = false;
-    for _ in 0..attempts {
+    let mut wait = cfg.reply_timeout;
+    'begin: for _ in 0..attempts {
         link.send(&begin)?;
-        match link.recv(Instant::now() + cfg.reply_timeout)? {
-            Some(Answer::Ack { next_offset: 0, status: FlashStatus::Receiving, .. }) => {
-                accepted = true;
-                break;
+        let until = Instant::now() + wait;
+        loop {
+            match link.recv(until)? {
+                Some(Answer::Ack { next_offset: 0, status: FlashStatus::Receiving, .. }) => {
+                    accepted = true;
+                    break 'begin;
+                }
+                // A slow bootloader's answer to a repeated Hello.
+                Some(Answer::Version(_)) => {}
+                Some(Answer::Error { code, detail, text }) => return Err(device_error(&name, code, detail, text)),
+                Some(other) => {
+                    return Err(FlashError::Protocol {
+                        port: name,
+                        what: format!("unexpected answer to FlashBegin: {other:?}"),
+                    })
+                }
+                None => break,
             }
-            Some(Answer::Error { code, detail, text }) => return Err(device_error(&name, code, detail, text)),
-            Some(other) => {
-                return Err(FlashError::Protocol {
-                    port: name,
-                    what: format!("unexpected answer to FlashBegin: {other:?}"),
-                })
-            }
-            None => {}
         }
+        wait = wait.saturating_mul(2);
     }
     if !accepted {
         return Err(FlashError::Timeout { port: name, what: "FlashBegin", waited: start.elapsed() });
@@ -415,7 +422,7 @@ pub fn flash<T: Read + Write>(
     // seconds): twice the last answer's round trip when it needed no resend, at least
     // `reply_timeout`; doubled after each silence, up to 64 `reply_timeout`s.
     let longest = cfg.reply_timeout.saturating_mul(64);
-    let mut wait = cfg.reply_timeout;
+    wait = cfg.reply_timeout;
     while verified_crc.is_none() {
         let end = (offset as usize + chunk).min(image.data.len());
         link.send(&Msg::FlashChunk { offset, data: &image.data[offset as usize..end] })?;
@@ -445,6 +452,9 @@ pub fn flash<T: Read + Write>(
                 tries += 1;
                 progress(FlashEvent::Resent { offset: offset as u64 });
             }
+            // A slow bootloader's answer to a repeated Hello (the chunk goes again, and a
+            // duplicate is answered with BadOffset).
+            Some(Answer::Version(_)) => {}
             Some(Answer::Error { code, detail, text }) => return Err(device_error(&name, code, detail, text)),
             Some(other) => {
                 return Err(FlashError::Protocol {
