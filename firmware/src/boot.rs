@@ -2,9 +2,10 @@
 //!
 //! [`Bootloader`] owns a window of memory, the *application region*, given as a byte slice
 //! and the address of its first byte. It answers `Hello` (as a device with
-//! [`FEATURE_BOOTLOADER`] set), accepts one image at a time (`FlashBegin`: version, size,
-//! address and entry checks; `FlashChunk`s written in order; CRC-32 read back from memory
-//! after the last byte) and, on `FlashBoot` with the verified CRC, returns the entry point
+//! [`FEATURE_BOOTLOADER`] and [`feature::WINDOWED`] set), accepts one image at a time
+//! (`FlashBegin`: version, size, address and entry checks; `FlashData` written where it
+//! belongs in any order inside the window, SPEC.md §3.14, or `FlashChunk`s in order; CRC-32
+//! read back from memory after the last byte) and, on `FlashBoot` with the verified CRC, returns the entry point
 //! from [`Bootloader::feed`]. The caller (the bootloader binary) then jumps there. Every
 //! refusal is an `Error` message and leaves the bootloader serving.
 //!
@@ -20,9 +21,10 @@ use core::ops::ControlFlow;
 use embedded_io::Write;
 use gridrt_shared::frame::{crc32, FrameAccumulator, FrameError, Received};
 use gridrt_shared::msg::{
-    DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgError, FEATURE_BOOTLOADER, FLASH_FORMAT_VERSION,
-    MAX_ERROR_TEXT,
+    feature, DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgError, MsgType, Sack, FEATURE_BOOTLOADER,
+    FLASH_FORMAT_VERSION, MAX_ERROR_TEXT,
 };
+use gridrt_shared::window::{Arrival, ReceiveWindow};
 
 /// Error text buffer.
 type Text = heapless::String<MAX_ERROR_TEXT>;
@@ -35,7 +37,8 @@ struct Transfer {
     total_len: u32,
     crc: u32,
     entry: u32,
-    next: u32,
+    /// What has been written (data goes straight to its address: no buffer, the widest window).
+    window: ReceiveWindow,
     verified: bool,
 }
 
@@ -54,6 +57,10 @@ struct Core<'m> {
     base: u32,
     region: &'m mut [u8],
     xfer: Option<Transfer>,
+    /// Answers held back until the input at hand is used up (SPEC.md §3.14): the
+    /// `FlashSack` of the last `FlashData`, and a corrupt frame after it.
+    held_sack: Option<(FlashStatus, Sack)>,
+    held_bad: Option<FrameError>,
 }
 
 impl<'m> Bootloader<'m> {
@@ -67,10 +74,11 @@ impl<'m> Bootloader<'m> {
             pe_count: 0,
             voxel_capacity: 0,
             pe_mem_words: 0,
-            features: FEATURE_BOOTLOADER,
+            features: FEATURE_BOOTLOADER | feature::WINDOWED,
             ..info
         };
-        Self { rx: FrameAccumulator::new(), core: Core { tx: FrameTx::new(), info, base, region, xfer: None } }
+        let core = Core { tx: FrameTx::new(), info, base, region, xfer: None, held_sack: None, held_bad: None };
+        Self { rx: FrameAccumulator::new(), core }
     }
 
     /// What the bootloader reports in `Msg::Version`.
@@ -103,21 +111,37 @@ impl<'m> Bootloader<'m> {
     /// ignored. Partial frames wait for the next call.
     pub fn feed(&mut self, input: &[u8], out: &mut impl Write) -> Option<u32> {
         let core = &mut self.core;
-        self.rx.feed_all(input, |received| match received {
-            Received::Frame(frame) => match core.handle(frame.kind, frame.payload, out) {
+        let entry = self.rx.feed_all(input, |received| match received {
+            Received::Frame(frame) => match core.handle(frame.kind, frame.seq, frame.payload, out) {
                 Some(entry) => ControlFlow::Break(entry),
                 None => ControlFlow::Continue(()),
             },
             Received::Bad(error) => {
-                core.bad_frame(error, out);
+                core.held_bad = Some(error);
                 ControlFlow::Continue(())
             }
-        })
+        });
+        core.flush(out);
+        entry
     }
 }
 
 impl Core<'_> {
+    /// Sends the answers held back: the `FlashSack`, then the report of a corrupt frame that
+    /// came after its data frame.
+    fn flush(&mut self, out: &mut impl Write) {
+        if let Some((status, sack)) = self.held_sack.take() {
+            let _ = self.tx.send(&Msg::FlashSack { status, sack }, out);
+        }
+        if let Some(e) = self.held_bad.take() {
+            let mut t = Text::new();
+            let _ = write!(t, "bad frame: {e}");
+            let _ = self.tx.send(&Msg::Error { code: ErrorCode::BadFrame, detail: e.code(), text: &t }, out);
+        }
+    }
+
     fn send(&mut self, msg: &Msg<'_>, out: &mut impl Write) {
+        self.flush(out);
         // Fails on a write error (counted by `tx`; the host asks again, module docs) or on a
         // firmware bug (message larger than a frame): nothing to report either with.
         let _ = self.tx.send(msg, out);
@@ -131,13 +155,11 @@ impl Core<'_> {
         self.error(ErrorCode::FlashRejected, e.code(), text, out);
     }
 
-    fn bad_frame(&mut self, e: FrameError, out: &mut impl Write) {
-        let mut t = Text::new();
-        let _ = write!(t, "bad frame: {e}");
-        self.error(ErrorCode::BadFrame, e.code(), &t, out);
-    }
-
-    fn handle(&mut self, kind: u8, payload: &[u8], out: &mut impl Write) -> Option<u32> {
+    fn handle(&mut self, kind: u8, seq: u16, payload: &[u8], out: &mut impl Write) -> Option<u32> {
+        if kind != MsgType::FlashData as u8 {
+            // Everything else is answered in order, after what was held back.
+            self.flush(out);
+        }
         let msg = match Msg::decode(kind, payload) {
             Ok(m) => m,
             Err(MsgError::DecodeUnknownType) => {
@@ -159,7 +181,8 @@ impl Core<'_> {
             Msg::FlashBegin { version, total_len, crc, load_addr, entry } => {
                 self.begin(version, total_len, crc, load_addr, entry, out);
             }
-            Msg::FlashChunk { offset, data } => self.chunk(offset, data, out),
+            Msg::FlashChunk { offset, data } => self.data(MsgType::FlashChunk, seq, offset, data, out),
+            Msg::FlashData { offset, data } => self.data(MsgType::FlashData, seq, offset, data, out),
             Msg::FlashBoot { crc } => return self.boot(crc, out),
             // Never answer an Error with an Error (SPEC.md §1).
             Msg::Error { .. } => {}
@@ -202,47 +225,66 @@ impl Core<'_> {
                 write!(t, "entry {entry:#010x} not inside the image {load_addr:#010x}+{total_len:#x} (or misaligned)");
             return self.reject(FlashError::BadEntry, &t, out);
         }
-        self.xfer = Some(Transfer { start, total_len, crc, entry, next: 0, verified: false });
+        let window = ReceiveWindow::new(total_len, u16::MAX);
+        self.xfer = Some(Transfer { start, total_len, crc, entry, window, verified: false });
         self.send(&Msg::FlashAck { next_offset: 0, status: FlashStatus::Receiving, crc: 0 }, out);
     }
 
-    fn chunk(&mut self, offset: u32, data: &[u8], out: &mut impl Write) {
+    /// `FlashChunk` (in order, answered with `FlashAck`) or `FlashData` (any order inside the
+    /// window, answered with `FlashSack`), the frame with sequence number `seq`.
+    fn data(&mut self, kind: MsgType, seq: u16, offset: u32, data: &[u8], out: &mut impl Write) {
+        let windowed = kind == MsgType::FlashData;
         let Some(mut x) = self.xfer else {
-            return self.reject(FlashError::NotBegun, "flash chunk without FlashBegin", out);
+            return self.reject(FlashError::NotBegun, "flash data without FlashBegin", out);
         };
-        if x.verified || offset != x.next {
-            return self.error(ErrorCode::BadOffset, x.next, "flash chunk out of order", out);
+        let next = x.window.next();
+        if !windowed && (x.verified || offset != next) {
+            return self.error(ErrorCode::BadOffset, next, "flash chunk out of order", out);
         }
-        let end = (offset as u64).saturating_add(data.len() as u64);
-        if end > x.total_len as u64 {
-            self.xfer = None;
-            return self.reject(FlashError::Overrun, "flash chunk past the end of the image", out);
-        }
-        let from = x.start.checked_add(offset as usize);
-        let Some(dst) = from.and_then(|from| self.region.get_mut(from..)).and_then(|r| r.get_mut(..data.len())) else {
-            // Unreachable: begin() checked start + total_len against the region.
-            self.xfer = None;
-            return self.reject(FlashError::BadAddress, "chunk outside the application region", out);
-        };
-        dst.copy_from_slice(data);
-        x.next = end as u32;
-        if x.next < x.total_len {
+        if !x.verified {
+            let len = u32::try_from(data.len()).unwrap_or(u32::MAX);
+            let arrival = x.window.arrive(offset, len);
+            if arrival == Arrival::PastEnd {
+                self.xfer = None;
+                return self.reject(FlashError::Overrun, "flash data past the end of the image", out);
+            }
+            if arrival.accepted() {
+                let from = x.start.checked_add(offset as usize);
+                let Some(dst) = from.and_then(|f| self.region.get_mut(f..)).and_then(|r| r.get_mut(..data.len()))
+                else {
+                    // Unreachable: begin() checked start + total_len against the region.
+                    self.xfer = None;
+                    return self.reject(FlashError::BadAddress, "data outside the application region", out);
+                };
+                dst.copy_from_slice(data);
+            }
+            if x.window.complete() {
+                // Complete: verify what memory now holds, not what we were sent.
+                let image = self.region.get(x.start..).and_then(|r| r.get(..x.total_len as usize)).unwrap_or(&[]);
+                let got = crc32(image);
+                if got != x.crc {
+                    self.xfer = None;
+                    let mut t = Text::new();
+                    let _ = write!(
+                        t,
+                        "image CRC-32 read back from memory is {got:#010x}, FlashBegin announced {:#010x}",
+                        x.crc
+                    );
+                    return self.reject(FlashError::BadCrc, &t, out);
+                }
+                x.verified = true;
+            }
             self.xfer = Some(x);
-            return self.send(&Msg::FlashAck { next_offset: x.next, status: FlashStatus::Receiving, crc: 0 }, out);
         }
-        // Complete: verify what memory now holds, not what we were sent.
-        let image = self.region.get(x.start..).and_then(|r| r.get(..x.total_len as usize)).unwrap_or(&[]);
-        let got = crc32(image);
-        if got != x.crc {
-            self.xfer = None;
-            let mut t = Text::new();
-            let _ =
-                write!(t, "image CRC-32 read back from memory is {got:#010x}, FlashBegin announced {:#010x}", x.crc);
-            return self.reject(FlashError::BadCrc, &t, out);
+        let status = if x.verified { FlashStatus::Verified } else { FlashStatus::Receiving };
+        if windowed {
+            // Held back: a later data frame of this batch answers for both.
+            self.held_sack = Some((status, x.window.sack(seq, x.crc)));
+            self.held_bad = None;
+        } else {
+            let crc = if x.verified { x.crc } else { 0 };
+            self.send(&Msg::FlashAck { next_offset: x.window.next(), status, crc }, out);
         }
-        x.verified = true;
-        self.xfer = Some(x);
-        self.send(&Msg::FlashAck { next_offset: x.total_len, status: FlashStatus::Verified, crc: got }, out);
     }
 
     fn boot(&mut self, crc: u32, out: &mut impl Write) -> Option<u32> {
@@ -336,7 +378,7 @@ mod tests {
         let mut mem = vec![0u8; 4096];
         let mut b = Bootloader::new(BASE, &mut mem, info());
         let Msg::Version(v) = one(&mut b, &Msg::Hello { protocol: 1 }) else { panic!() };
-        assert_eq!(v.features, FEATURE_BOOTLOADER);
+        assert_eq!(v.features, FEATURE_BOOTLOADER | feature::WINDOWED);
         assert_eq!((v.pe_count, v.voxel_capacity, v.board, v.firmware), (0, 0, 1, [0, 1, 0]));
     }
 
@@ -422,6 +464,70 @@ mod tests {
         let m = one(&mut b, &Msg::FlashChunk { offset: 0, data: &img });
         assert_eq!(m, Msg::FlashAck { next_offset: 100, status: FlashStatus::Verified, crc: crc32(&img) });
         assert_eq!(exchange(&mut b, &Msg::FlashBoot { crc: crc32(&img) }).0, Some(BASE));
+    }
+
+    fn sack(m: Msg<'_>) -> (FlashStatus, gridrt_shared::msg::Sack) {
+        match m {
+            Msg::FlashSack { status, sack } => (status, sack),
+            other => panic!("expected a FlashSack, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn windowed_data_in_any_order_is_written_verified_and_booted() {
+        use rand::{seq::SliceRandom, SeedableRng};
+        let img = image(3000);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0xF1A5);
+        for round in 0..20 {
+            let mut mem = vec![0u8; 4096];
+            let mut b = Bootloader::new(BASE, &mut mem, info());
+            one(&mut b, &begin(&img, BASE + 8, BASE + 8));
+            let mut pieces: Vec<(usize, usize)> = (0..3000).step_by(97).map(|o| (o, 97.min(3000 - o))).collect();
+            pieces.shuffle(&mut rng);
+            let mut seq = 0u16;
+            let mut verified = None;
+            // A sender resends what was not taken (more than four gaps at a time are refused).
+            let passes = std::iter::repeat_n(pieces.iter(), 40).flatten();
+            for &(o, n) in passes {
+                if verified.is_some() {
+                    break;
+                }
+                seq += 1;
+                let mut out = Vec::new();
+                b.feed(
+                    &crate::pixels::tests::frame_of(&Msg::FlashData { offset: o as u32, data: &img[o..o + n] }, seq),
+                    &mut out,
+                );
+                let rep = replies(&out);
+                let (status, s) = sack(Msg::decode(rep[0].0, &rep[0].1).unwrap());
+                assert_eq!((s.heard, s.crc, s.window), (seq, crc32(&img), u16::MAX));
+                if status == FlashStatus::Verified {
+                    assert_eq!(s.next_offset, 3000);
+                    verified.get_or_insert(seq);
+                }
+            }
+            assert!(verified.is_some(), "round {round}");
+            assert_eq!(&b.region()[8..3008], &img[..]);
+            assert_eq!(exchange(&mut b, &Msg::FlashBoot { crc: crc32(&img) }).0, Some(BASE + 8));
+        }
+    }
+
+    #[test]
+    fn windowed_data_reports_held_ranges_and_refuses_overruns() {
+        let mut mem = vec![0u8; 4096];
+        let img = image(1000);
+        let mut b = Bootloader::new(BASE, &mut mem, info());
+        assert_eq!(rejected(one(&mut b, &Msg::FlashData { offset: 0, data: &img })), Some(FlashError::NotBegun));
+        one(&mut b, &begin(&img, BASE, BASE));
+        let (st, s) = sack(one(&mut b, &Msg::FlashData { offset: 500, data: &img[500..600] }));
+        assert_eq!((st, s.next_offset, s.ranges.as_slice()), (FlashStatus::Receiving, 0, &[(500, 600)][..]));
+        let (_, s) = sack(one(&mut b, &Msg::FlashData { offset: 0, data: &[] }));
+        assert_eq!((s.next_offset, s.ranges.as_slice()), (0, &[(500, 600)][..]));
+        // In order, a FlashChunk is still answered with a FlashAck.
+        let m = one(&mut b, &Msg::FlashChunk { offset: 0, data: &img[..500] });
+        assert_eq!(m, Msg::FlashAck { next_offset: 600, status: FlashStatus::Receiving, crc: 0 });
+        assert_eq!(rejected(one(&mut b, &Msg::FlashData { offset: 990, data: &[0; 20] })), Some(FlashError::Overrun));
+        assert_eq!(rejected(one(&mut b, &Msg::FlashData { offset: 0, data: &[] })), Some(FlashError::NotBegun));
     }
 
     #[test]

@@ -122,6 +122,8 @@ pub struct SpanEncoder {
     prim_ids: bool,
     encoding: PixelEncoding,
     span_len: usize,
+    /// Most data bytes per span.
+    data_limit: usize,
     y: u16,
     x0: u16,
     count: usize,
@@ -148,6 +150,7 @@ impl SpanEncoder {
             prim_ids: false,
             encoding: PixelEncoding::Rgb888,
             span_len: MAX_SPAN_PIXELS,
+            data_limit: MAX_SPAN_DATA,
             y: 0,
             x0: 0,
             count: 0,
@@ -182,6 +185,7 @@ impl SpanEncoder {
         self.prim_ids = prim_ids;
         self.encoding = encoding;
         self.span_len = if max_span == 0 { default } else { default.min(max_span as usize) };
+        self.data_limit = MAX_SPAN_DATA;
         self.count = 0;
         self.len = 0;
         self.rle = RleEncoder::new();
@@ -196,13 +200,19 @@ impl SpanEncoder {
         self.silent = silent;
     }
 
-    /// True when one more pixel surely fits the data buffer.
+    /// Ends each span before its data would pass `max_bytes` (0 = the buffer's size; a span
+    /// holds at least one pixel): `RenderRegion` option `SPAN_BYTES`. Call after `begin_with`.
+    pub fn set_data_limit(&mut self, max_bytes: u16) {
+        self.data_limit = if max_bytes == 0 { MAX_SPAN_DATA } else { MAX_SPAN_DATA.min(max_bytes as usize) };
+    }
+
+    /// True when one more pixel surely fits the data buffer and the data limit.
     fn has_room(&self) -> bool {
         let need = match self.encoding.fixed_bytes_per_pixel() {
             Some(bpp) => bpp,
             None => RLE_MAX_PUSH_BYTES + RLE_MAX_FINISH_BYTES,
         };
-        self.len.saturating_add(need) <= MAX_SPAN_DATA
+        self.len.saturating_add(need) <= self.data_limit
     }
 
     /// Adds pixel (x, y). A pixel that does not continue the pending span (other row, gap), a

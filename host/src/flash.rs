@@ -4,25 +4,29 @@
 //!   data, placed by physical address, gaps zero-filled), its load address, entry point and
 //!   CRC-32. `.bss` and the stack are not part of the image: the application's start-up code
 //!   sets them up.
-//! - [`flash`]: `Hello` (the device must be a bootloader, `FEATURE_BOOTLOADER`), `FlashBegin`,
-//!   stop-and-wait `FlashChunk`s (resent on silence; a `BadOffset` report resumes where the
-//!   bootloader is), the bootloader's `Verified` CRC — read back from its memory — compared
-//!   with ours, then `FlashBoot` unless told not to. Progress goes to a [`FlashEvent`]
-//!   callback; refusals come back as [`FlashError::Rejected`] with the bootloader's reason.
+//! - [`flash`]: `Hello` (the device must be a bootloader, `FEATURE_BOOTLOADER`), then the
+//!   windowed transfer of SPEC.md §3.14 — the same protocol and the same sender as the scene
+//!   upload ([`crate::session`]): `FlashBegin`, `FlashData` chunks in a window, selective
+//!   repeat of what the `FlashSack`s prove lost, chunks sized for the line — until the
+//!   bootloader's `Verified` CRC, read back from its memory, which must equal ours; then
+//!   `FlashBoot` unless told not to. A bootloader without `WINDOWED` gets stop-and-wait
+//!   `FlashChunk`s. Progress goes to a [`FlashEvent`] callback (an `Activity` at least once a
+//!   second); refusals come back as [`FlashError::Rejected`] with the bootloader's reason.
 //!
 //! Transport contract as for [`crate::session`]: `Read + Write`, reads time out quickly.
 
-use std::io::{ErrorKind, Read, Write};
+use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
-use gridrt_shared::frame::{crc32, encode_frame, FeedResult, FrameAccumulator, MAX_ENCODED, MAX_PAYLOAD};
-use gridrt_shared::msg::{self, DeviceInfo, ErrorCode, FlashStatus, Msg, FEATURE_BOOTLOADER, FLASH_FORMAT_VERSION};
-use gridrt_shared::PROTOCOL_VERSION;
+use gridrt_shared::frame::crc32;
+use gridrt_shared::msg::{
+    self, feature, DeviceInfo, ErrorCode, FlashStatus, Msg, FEATURE_BOOTLOADER, FLASH_FORMAT_VERSION,
+};
+
+use crate::session::transfer::Kind;
+use crate::session::{Activity, Incoming, ProgressEvent, Session, SessionConfig, SessionError, Stage};
 use object::read::elf::{ElfFile32, FileHeader, ProgramHeader};
 use object::Endianness;
-
-/// Largest chunk sent (bytes of image per `FlashChunk`).
-pub const MAX_CHUNK: usize = 1024;
 
 /// Largest image accepted from an ELF (the span from the lowest to the highest loaded byte).
 pub const MAX_IMAGE: usize = 64 << 20;
@@ -100,7 +104,7 @@ impl FlashImage {
 pub enum FlashEvent {
     /// The bootloader answered `Hello`.
     Connected(DeviceInfo),
-    /// `FlashBegin` was accepted.
+    /// `FlashBegin` was sent.
     Started {
         /// Image bytes.
         total: u64,
@@ -117,6 +121,8 @@ pub enum FlashEvent {
         /// Offset sending continues from.
         offset: u64,
     },
+    /// Where the transfer stands (at least once a second).
+    Activity(Activity),
     /// The bootloader read the image back and its CRC-32 matched ours.
     Verified {
         /// The CRC-32.
@@ -136,16 +142,9 @@ pub enum FlashError {
     /// The ELF cannot be flashed.
     #[error("ELF: {0}")]
     Elf(String),
-    /// The device did not answer in time.
-    #[error("{port}: no answer to {what} within {}ms", waited.as_millis())]
-    Timeout {
-        /// Port name.
-        port: String,
-        /// The request.
-        what: &'static str,
-        /// How long we waited (all attempts).
-        waited: Duration,
-    },
+    /// The line or the bootloader failed (timeouts name the stage and what was last heard).
+    #[error(transparent)]
+    Link(#[from] SessionError),
     /// The device is not in its bootloader.
     #[error("{port}: the device is not a bootloader (firmware {}.{}.{}, board {}, features {:#010x}); reset it into the bootloader first", info.firmware[0], info.firmware[1], info.firmware[2], info.board, info.features)]
     NotBootloader {
@@ -166,18 +165,6 @@ pub enum FlashError {
         /// The bootloader's text.
         text: String,
     },
-    /// Some other device error.
-    #[error("{port}: device error {code:?} (detail {detail:#x}): {text}")]
-    Device {
-        /// Port name.
-        port: String,
-        /// Code.
-        code: ErrorCode,
-        /// Detail.
-        detail: u32,
-        /// Text.
-        text: String,
-    },
     /// The bootloader's read-back CRC differs from ours.
     #[error("{port}: verification failed: the bootloader read back CRC-32 {device:#010x}, the image has {host:#010x}")]
     VerifyMismatch {
@@ -188,49 +175,32 @@ pub enum FlashError {
         /// Our CRC.
         host: u32,
     },
-    /// The device sent something that makes no sense here.
-    #[error("{port}: protocol error: {what}")]
-    Protocol {
-        /// Port name.
-        port: String,
-        /// What.
-        what: String,
-    },
-    /// The transport failed.
-    #[error("{port}: {source}")]
-    Io {
-        /// Port name.
-        port: String,
-        /// The I/O error.
-        source: std::io::Error,
-    },
+}
+
+/// A session error, with the bootloader's refusals as [`FlashError::Rejected`].
+fn from_session(e: SessionError) -> FlashError {
+    match e {
+        SessionError::Device { port, code: ErrorCode::FlashRejected, detail, text, .. } => {
+            FlashError::Rejected { port, reason: msg::FlashError::from_code(detail), detail, text }
+        }
+        e => FlashError::Link(e),
+    }
 }
 
 /// Settings of [`flash`].
 #[derive(Debug, Clone)]
 pub struct FlashConfig {
-    /// Port name for messages.
-    pub port_name: String,
-    /// How long to wait for each answer before resending.
-    pub reply_timeout: Duration,
-    /// Sends of one request before giving up.
-    pub attempts: u32,
-    /// Image bytes per chunk (≤ [`MAX_CHUNK`]).
-    pub chunk_size: usize,
+    /// The session: port name, line rate and turnaround (the timers derive from them),
+    /// hello timeout, probes.
+    pub session: SessionConfig,
     /// Send `FlashBoot` after verification.
     pub boot: bool,
 }
 
 impl FlashConfig {
-    /// Defaults: 2 s per answer, 5 attempts, 1024-byte chunks, boot.
+    /// Defaults of [`SessionConfig::new`] for `port_name`, and boot.
     pub fn new(port_name: impl Into<String>) -> Self {
-        Self {
-            port_name: port_name.into(),
-            reply_timeout: Duration::from_secs(2),
-            attempts: 5,
-            chunk_size: MAX_CHUNK,
-            boot: true,
-        }
+        Self { session: SessionConfig::new(port_name), boot: true }
     }
 }
 
@@ -249,92 +219,8 @@ pub struct FlashReport {
     pub resent: u64,
     /// Wall time.
     pub elapsed: Duration,
-}
-
-/// Framed request/answer link over a byte transport.
-struct Link<'p, T> {
-    port: &'p mut T,
-    name: String,
-    acc: Box<FrameAccumulator<MAX_ENCODED>>,
-    pending: Vec<u8>,
-    seq: u16,
-}
-
-/// A decoded answer.
-#[derive(Debug)]
-enum Answer {
-    Version(DeviceInfo),
-    Ack { next_offset: u32, status: FlashStatus, crc: u32 },
-    Error { code: ErrorCode, detail: u32, text: String },
-}
-
-impl<T: Read + Write> Link<'_, T> {
-    fn io(&self, source: std::io::Error) -> FlashError {
-        FlashError::Io { port: self.name.clone(), source }
-    }
-
-    fn send(&mut self, m: &Msg<'_>) -> Result<(), FlashError> {
-        let mut payload = [0u8; MAX_PAYLOAD];
-        let n = m
-            .encode(&mut payload)
-            .map_err(|e| FlashError::Protocol { port: self.name.clone(), what: e.to_string() })?;
-        let mut wire = [0u8; MAX_ENCODED];
-        let len = encode_frame(m.kind() as u8, self.seq, &payload[..n], &mut wire)
-            .map_err(|e| FlashError::Protocol { port: self.name.clone(), what: e.to_string() })?;
-        self.seq = self.seq.wrapping_add(1);
-        self.port.write_all(&wire[..len]).map_err(|e| self.io(e))?;
-        self.port.flush().map_err(|e| self.io(e))
-    }
-
-    /// The next answer before `until`, skipping noise and messages that are not answers.
-    fn recv(&mut self, until: Instant) -> Result<Option<Answer>, FlashError> {
-        let mut buf = [0u8; 4096];
-        loop {
-            while !self.pending.is_empty() {
-                let (used, answer) = match self.acc.feed(&self.pending) {
-                    FeedResult::Consumed => (self.pending.len(), None),
-                    FeedResult::Overflow { rest } | FeedResult::BadFrame { rest, .. } => {
-                        (self.pending.len() - rest.len(), None)
-                    }
-                    FeedResult::Frame { frame, rest } => {
-                        let a = match Msg::decode(frame.kind, frame.payload) {
-                            Ok(Msg::Version(d)) => Some(Answer::Version(d)),
-                            Ok(Msg::FlashAck { next_offset, status, crc }) => {
-                                Some(Answer::Ack { next_offset, status, crc })
-                            }
-                            Ok(Msg::Error { code, detail, text }) => {
-                                Some(Answer::Error { code, detail, text: text.to_string() })
-                            }
-                            _ => None,
-                        };
-                        (self.pending.len() - rest.len(), a)
-                    }
-                };
-                self.pending.drain(..used);
-                if answer.is_some() {
-                    return Ok(answer);
-                }
-            }
-            if Instant::now() >= until {
-                return Ok(None);
-            }
-            match self.port.read(&mut buf) {
-                Ok(0) => return Err(self.io(std::io::Error::new(ErrorKind::UnexpectedEof, "port closed"))),
-                Ok(n) => self.pending.extend_from_slice(&buf[..n]),
-                Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::Interrupted) => {}
-                Err(e) if e.kind() == ErrorKind::WouldBlock => std::thread::sleep(Duration::from_millis(1)),
-                Err(e) => return Err(self.io(e)),
-            }
-        }
-    }
-}
-
-fn device_error(port: &str, code: ErrorCode, detail: u32, text: String) -> FlashError {
-    if code == ErrorCode::FlashRejected {
-        FlashError::Rejected { port: port.to_string(), reason: msg::FlashError::from_code(detail), detail, text }
-    } else {
-        FlashError::Device { port: port.to_string(), code, detail, text }
-    }
+    /// Wire bytes sent and received.
+    pub wire: (u64, u64),
 }
 
 /// Flashes `image` through the bootloader on `port` (see the module doc).
@@ -345,36 +231,14 @@ pub fn flash<T: Read + Write>(
     progress: &mut dyn FnMut(FlashEvent),
 ) -> Result<FlashReport, FlashError> {
     let start = Instant::now();
-    let name = cfg.port_name.clone();
+    let name = cfg.session.port_name.clone();
     let total = u32::try_from(image.data.len()).map_err(|_| FlashError::Elf("image larger than 4 GiB".into()))?;
-    let mut link = Link { port, name: name.clone(), acc: Box::new(FrameAccumulator::new()), pending: vec![], seq: 0 };
-    let attempts = cfg.attempts.max(1);
-
-    // Hello: a lone delimiter first ends any noise in the bootloader's receiver.
-    let mut info = None;
-    link.port.write_all(&[0]).map_err(|e| link.io(e))?;
-    'hello: for _ in 0..attempts {
-        link.send(&Msg::Hello { protocol: PROTOCOL_VERSION as u16 })?;
-        let until = Instant::now() + cfg.reply_timeout;
-        while let Some(a) = link.recv(until)? {
-            match a {
-                Answer::Version(d) => {
-                    info = Some(d);
-                    break 'hello;
-                }
-                Answer::Error { code: ErrorCode::BadFrame, .. } => {} // noise before our Hello
-                Answer::Error { code, detail, text } => return Err(device_error(&name, code, detail, text)),
-                Answer::Ack { .. } => {}
-            }
-        }
-    }
-    let info = info.ok_or(FlashError::Timeout { port: name.clone(), what: "Hello", waited: start.elapsed() })?;
+    let mut s = Session::new(&mut *port, cfg.session.clone());
+    let info = s.hello(&mut |_| {}).map_err(from_session)?;
     if info.features & FEATURE_BOOTLOADER == 0 {
         return Err(FlashError::NotBootloader { port: name, info });
     }
     progress(FlashEvent::Connected(info));
-
-    // Begin.
     let begin = Msg::FlashBegin {
         version: FLASH_FORMAT_VERSION,
         total_len: total,
@@ -382,133 +246,142 @@ pub fn flash<T: Read + Write>(
         load_addr: image.load_addr,
         entry: image.entry,
     };
-    let mut accepted = false;
-    let mut wait = cfg.reply_timeout;
-    'begin: for _ in 0..attempts {
-        link.send(&begin)?;
-        let until = Instant::now() + wait;
-        loop {
-            match link.recv(until)? {
-                Some(Answer::Ack { next_offset: 0, status: FlashStatus::Receiving, .. }) => {
-                    accepted = true;
-                    break 'begin;
-                }
-                // A slow bootloader's answer to a repeated Hello.
-                Some(Answer::Version(_)) => {}
-                Some(Answer::Error { code, detail, text }) => return Err(device_error(&name, code, detail, text)),
-                Some(other) => {
-                    return Err(FlashError::Protocol {
-                        port: name,
-                        what: format!("unexpected answer to FlashBegin: {other:?}"),
-                    })
-                }
-                None => break,
-            }
-        }
-        wait = wait.saturating_mul(2);
-    }
-    if !accepted {
-        return Err(FlashError::Timeout { port: name, what: "FlashBegin", waited: start.elapsed() });
-    }
     progress(FlashEvent::Started { total: total as u64 });
-
-    // Chunks, stop-and-wait.
-    let chunk = cfg.chunk_size.clamp(1, MAX_CHUNK.min(info.max_payload.saturating_sub(4).max(1) as usize));
-    let mut offset = 0u32;
-    let mut resent = 0u64;
-    let mut verified_crc = None;
-    let mut tries = 0u32;
-    // The wait adapts to the bootloader (one simulated cycle by cycle answers a chunk after
-    // seconds): twice the last answer's round trip when it needed no resend, at least
-    // `reply_timeout`; doubled after each silence, up to 64 `reply_timeout`s.
-    let longest = cfg.reply_timeout.saturating_mul(64);
-    wait = cfg.reply_timeout;
-    while verified_crc.is_none() {
-        let end = (offset as usize + chunk).min(image.data.len());
-        link.send(&Msg::FlashChunk { offset, data: &image.data[offset as usize..end] })?;
-        let sent = Instant::now();
-        match link.recv(sent + wait)? {
-            Some(Answer::Ack { next_offset, status: FlashStatus::Receiving, .. })
-                if next_offset == end as u32 && next_offset < total =>
-            {
-                if tries == 0 {
-                    wait = sent.elapsed().saturating_mul(2).clamp(cfg.reply_timeout, longest);
-                }
-                offset = next_offset;
-                tries = 0;
-                progress(FlashEvent::Written { bytes: offset as u64, total: total as u64 });
-            }
-            Some(Answer::Ack { next_offset, status: FlashStatus::Verified, crc }) if next_offset == total => {
-                progress(FlashEvent::Written { bytes: total as u64, total: total as u64 });
-                if crc != image.crc {
-                    return Err(FlashError::VerifyMismatch { port: name, device: crc, host: image.crc });
-                }
-                verified_crc = Some(crc);
-            }
-            Some(Answer::Error { code: ErrorCode::BadOffset, detail, .. }) if detail <= total => {
-                // The bootloader is elsewhere (a lost answer or a duplicate): continue there.
-                offset = detail;
-                resent += 1;
-                tries += 1;
-                progress(FlashEvent::Resent { offset: offset as u64 });
-            }
-            // A slow bootloader's answer to a repeated Hello (the chunk goes again, and a
-            // duplicate is answered with BadOffset).
-            Some(Answer::Version(_)) => {}
-            Some(Answer::Error { code, detail, text }) => return Err(device_error(&name, code, detail, text)),
-            Some(other) => {
-                return Err(FlashError::Protocol {
-                    port: name,
-                    what: format!("unexpected answer to FlashChunk: {other:?}"),
-                })
-            }
-            None => {
-                resent += 1;
-                tries += 1;
-                wait = wait.saturating_mul(2).min(longest);
-                progress(FlashEvent::Resent { offset: offset as u64 });
-            }
-        }
-        if tries >= attempts {
-            return Err(FlashError::Timeout { port: name, what: "FlashChunk", waited: start.elapsed() });
-        }
+    let (crc, resent) = if info.features & feature::WINDOWED != 0 {
+        let mut on = |e: ProgressEvent| match e {
+            ProgressEvent::Uploaded { bytes, total } => progress(FlashEvent::Written { bytes, total }),
+            ProgressEvent::Activity(a) => progress(FlashEvent::Activity(a)),
+            _ => {}
+        };
+        let r = s.send_windowed(Kind::Flash, &begin, &image.data, image.crc, &mut on).map_err(from_session)?;
+        (r.crc, r.resent)
+    } else {
+        stop_and_wait(&mut s, &begin, image, progress)?
+    };
+    if crc != image.crc {
+        return Err(FlashError::VerifyMismatch { port: name, device: crc, host: image.crc });
     }
-    let crc = verified_crc.unwrap_or(image.crc);
     progress(FlashEvent::Verified { crc });
 
     let mut booted = false;
     if cfg.boot {
-        for _ in 0..attempts {
-            link.send(&Msg::FlashBoot { crc })?;
-            match link.recv(Instant::now() + cfg.reply_timeout)? {
-                Some(Answer::Ack { status: FlashStatus::Booting, crc: c, .. }) if c == crc => {
-                    booted = true;
-                    break;
-                }
-                Some(Answer::Error { code, detail, text }) => return Err(device_error(&name, code, detail, text)),
-                Some(other) => {
-                    return Err(FlashError::Protocol {
-                        port: name,
-                        what: format!("unexpected answer to FlashBoot: {other:?}"),
-                    })
-                }
-                None => {}
-            }
-        }
-        if !booted {
-            return Err(FlashError::Timeout { port: name, what: "FlashBoot", waited: start.elapsed() });
-        }
+        booted = boot(&mut s, crc)?;
         progress(FlashEvent::Booting { entry: image.entry });
     }
-    Ok(FlashReport { bootloader: info, bytes: total as u64, crc, booted, resent, elapsed: start.elapsed() })
+    Ok(FlashReport {
+        bootloader: info,
+        bytes: total as u64,
+        crc,
+        booted,
+        resent,
+        elapsed: start.elapsed(),
+        wire: (s.bytes_tx(), s.bytes_rx()),
+    })
+}
+
+/// `FlashBoot` until the bootloader answers `Booting` (derived waits, `max_probes` tries).
+fn boot<T: Read + Write>(s: &mut Session<T>, crc: u32) -> Result<bool, FlashError> {
+    let stage = Stage::Flash;
+    let start = Instant::now();
+    for _ in 0..=s.config().max_probes {
+        s.send(stage, &Msg::FlashBoot { crc }).map_err(from_session)?;
+        let until = Instant::now() + s.config().answer_wait(16, 24);
+        while let Some(m) = s.poll(stage, until).map_err(from_session)? {
+            match m {
+                Incoming::FlashAck { status: FlashStatus::Booting, crc: c, .. } if c == crc => return Ok(true),
+                Incoming::Error { code: ErrorCode::BadFrame, .. } => break,
+                Incoming::Error { code, detail, text } => {
+                    return Err(from_session(s.device_err(stage, code, detail, text)))
+                }
+                _ => {} // late Sacks of the transfer
+            }
+        }
+    }
+    Err(FlashError::Link(s.timeout(stage, start.elapsed(), "FlashAck{Booting} in answer to FlashBoot")))
+}
+
+/// A bootloader without windowed transfers: `FlashBegin`, then `FlashChunk`s one at a time
+/// (resent after a derived wait; a `BadOffset` report resumes where the bootloader is).
+/// Returns the verified CRC and the chunks resent.
+fn stop_and_wait<T: Read + Write>(
+    s: &mut Session<T>,
+    begin: &Msg<'_>,
+    image: &FlashImage,
+    progress: &mut dyn FnMut(FlashEvent),
+) -> Result<(u32, u64), FlashError> {
+    let stage = Stage::Flash;
+    let total = image.data.len() as u32;
+    let max_probes = s.config().max_probes;
+    let mut tries = 0u32;
+    s.write_bytes(stage, &[0]).map_err(from_session)?;
+    'begin: loop {
+        tries += 1;
+        if tries > max_probes {
+            return Err(FlashError::Link(s.timeout(stage, Duration::ZERO, "FlashAck in answer to FlashBegin")));
+        }
+        s.send(stage, begin).map_err(from_session)?;
+        let until = Instant::now() + s.config().answer_wait(32, 24);
+        while let Some(m) = s.poll(stage, until).map_err(from_session)? {
+            match m {
+                Incoming::FlashAck { next_offset: 0, status: FlashStatus::Receiving, .. } => break 'begin,
+                Incoming::Error { code: ErrorCode::BadFrame, .. } => continue 'begin,
+                Incoming::Error { code, detail, text } => {
+                    return Err(from_session(s.device_err(stage, code, detail, text)))
+                }
+                _ => {}
+            }
+        }
+    }
+    let chunk = s.config().chunk_size.clamp(1, 1024);
+    let (mut offset, mut resent, mut tries) = (0u32, 0u64, 0u32);
+    loop {
+        let end = (offset as usize + chunk).min(image.data.len());
+        s.send(stage, &Msg::FlashChunk { offset, data: &image.data[offset as usize..end] }).map_err(from_session)?;
+        let until = Instant::now() + s.config().answer_wait(end - offset as usize + 20, 24);
+        let answer = loop {
+            match s.poll(stage, until).map_err(from_session)? {
+                Some(Incoming::FlashAck { next_offset, status, crc }) => break Some((next_offset, status, crc)),
+                Some(Incoming::Error { code: ErrorCode::BadOffset, detail, .. }) if detail <= total => {
+                    break Some((detail, FlashStatus::Receiving, 0))
+                }
+                Some(Incoming::Error { code: ErrorCode::BadFrame, .. }) | None => break None,
+                Some(Incoming::Error { code, detail, text }) => {
+                    return Err(from_session(s.device_err(stage, code, detail, text)))
+                }
+                Some(_) => {}
+            }
+        };
+        match answer {
+            Some((next, FlashStatus::Verified, crc)) if next == total => return Ok((crc, resent)),
+            Some((next, FlashStatus::Receiving, _)) if next <= total => {
+                if next != end as u32 {
+                    resent += 1;
+                    progress(FlashEvent::Resent { offset: next as u64 });
+                }
+                tries = if next > offset { 0 } else { tries + 1 };
+                offset = next;
+                progress(FlashEvent::Written { bytes: offset as u64, total: total as u64 });
+            }
+            _ => {
+                resent += 1;
+                tries += 1;
+                progress(FlashEvent::Resent { offset: offset as u64 });
+            }
+        }
+        if tries > max_probes {
+            return Err(FlashError::Link(s.timeout(stage, Duration::ZERO, format!("FlashAck for offset {offset}"))));
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::session::SessionConfig;
     use gridrt_firmware::boot::Bootloader;
     use gridrt_firmware::embedded_io;
     use std::collections::VecDeque;
+    use std::io::ErrorKind;
 
     const BASE: u32 = 0x8010_0000;
 
@@ -530,13 +403,16 @@ mod tests {
     }
 
     /// The fake transport: a real `Bootloader` over leaked memory; the answers whose
-    /// indices are in `drop_answers` are lost on the way.
+    /// indices are in `drop_answers`, and the host's writes whose indices are in
+    /// `drop_writes`, are lost on the way.
     struct BootFake {
         boot: Bootloader<'static>,
         to_host: VecDeque<u8>,
         booted: Option<u32>,
         drop_answers: Vec<usize>,
         answers: usize,
+        drop_writes: Vec<usize>,
+        writes: usize,
     }
 
     impl BootFake {
@@ -558,12 +434,18 @@ mod tests {
                 booted: None,
                 drop_answers: vec![],
                 answers: 0,
+                drop_writes: vec![],
+                writes: 0,
             }
         }
     }
 
     impl Write for BootFake {
         fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.writes += 1;
+            if self.drop_writes.contains(&(self.writes - 1)) {
+                return Ok(buf.len());
+            }
             if self.booted.is_none() {
                 let before = self.to_host.len();
                 let drop = self.drop_answers.contains(&self.answers);
@@ -594,7 +476,8 @@ mod tests {
     }
 
     fn cfg() -> FlashConfig {
-        FlashConfig { reply_timeout: Duration::from_millis(20), ..FlashConfig::new("fake") }
+        let session = SessionConfig::new("fake").turnaround(Duration::from_millis(10)).baud(10_000_000);
+        FlashConfig { session, boot: true }
     }
 
     #[test]
@@ -613,14 +496,30 @@ mod tests {
     }
 
     #[test]
-    fn lost_answers_are_recovered() {
+    fn lost_answers_are_recovered_without_resending() {
         let mut port = BootFake::new(8192);
-        // Answers: 0 Version, 1 Begin ack, 2.. chunk acks: lose the first two chunk acks.
-        port.drop_answers = vec![2, 3];
-        let img = FlashImage::new(BASE, BASE, vec![7u8; 3000]);
+        // Answers: 0 Version, 1 Begin ack, 2 the probe's Sack, 3.. chunk Sacks.
+        port.drop_answers = vec![3, 4, 6];
+        let img = FlashImage::new(BASE, BASE, (0..3000u32).map(|i| (i * 13) as u8).collect());
         let r = flash(&mut port, &img, &cfg(), &mut |_| {}).unwrap();
-        assert!(r.booted && r.resent >= 1, "{r:?}");
+        assert!(r.booted, "{r:?}");
+        assert_eq!(r.resent, 0, "a lost Sack alone is no reason to resend");
         assert_eq!(&port.boot.region()[..3000], &img.data[..]);
+    }
+
+    #[test]
+    fn lost_chunks_are_resent_selectively() {
+        let mut port = BootFake::new(8192);
+        // Writes: 0 delimiter, 1 Hello, 2 delimiter, 3 Begin, 4 probe, 5.. chunks.
+        port.drop_writes = vec![6, 8];
+        let img = FlashImage::new(BASE, BASE, (0..5000u32).map(|i| (i * 7) as u8).collect());
+        let r = flash(&mut port, &img, &cfg(), &mut |_| {}).unwrap();
+        assert!(r.booted, "{r:?}");
+        // The two lost 512-byte chunks go again (in pieces of the chunk size the losses call
+        // for) and nothing else: wire bytes are the image, those 1024 bytes and frame overhead.
+        assert!((2..=8).contains(&r.resent), "{r:?}");
+        assert!(r.wire.0 <= 5000 + 1024 + 40 * 16 + 100, "{r:?}");
+        assert_eq!(&port.boot.region()[..5000], &img.data[..]);
     }
 
     #[test]

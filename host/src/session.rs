@@ -28,19 +28,23 @@ mod canvas;
 mod client;
 mod config;
 mod error;
+pub mod estimate;
 mod link;
 mod progress;
 mod region;
 mod render;
+mod sender;
 #[cfg(test)]
 mod tests;
+pub(crate) mod transfer;
 mod upload;
 
 pub use canvas::{decode_colour, merge_stat, Canvas};
+pub(crate) use client::Incoming;
 pub use client::Session;
 pub use config::{SessionConfig, MAX_CHUNK, MIN_CHUNK};
 pub use error::{SessionError, Stage};
 pub use link::LinkStats;
-pub use progress::ProgressEvent;
+pub use progress::{Activity, ProgressEvent};
 pub use region::BandReport;
 pub use render::RenderedFrame;

@@ -463,13 +463,14 @@ module ctrl #(
         if (i == 4) begin
             logic [37:0] ve, re, te;
             ld_p <= w;
-            ve = 38'd5 + 38'(ld_v) * 38'd3;
+            // Constant multiples as shifts and adds: Yosys would give each `*` DSP blocks.
+            ve = 38'd5 + (38'(ld_v) << 1) + 38'(ld_v);
             re = ve + 38'(ld_r);
-            te = re + 38'(ld_t) * 38'd11;
+            te = re + (38'(ld_t) << 3) + (38'(ld_t) << 1) + 38'(ld_t);
             ld_vox_end <= ve;
             ld_ref_end <= re;
             ld_tri_end <= te;
-            ld_need <= te + 38'(w) * 38'd16;
+            ld_need <= te + (38'(w) << 4);
             ld_sub3 <= '0;
             ld_sub11 <= '0;
             ld_sub16 <= '0;
@@ -577,7 +578,7 @@ module ctrl #(
             reply(err_word(E_MALFORMED, 16'(ld_pe)));
         end else if (ld_p != 0) begin
             reply(err_word(E_UNSUPPORTED, 16'(ld_pe)));
-        end else if (n38 + 38'(ld_t) * 38'd10 > 38'(WORDS)) begin
+        end else if (n38 + (38'(ld_t) << 3) + (38'(ld_t) << 1) > 38'(WORDS)) begin
             reply(err_word(E_MEM_OVERFLOW, 16'(ld_pe)));
         end else begin
             loaded[ld_pe] <= 1'b1;
@@ -735,8 +736,9 @@ module ctrl #(
         ray_cnt <= 32'd0;
         pe_any <= ray_any;
         pe_t_max <= ray_tmax;
-        mask_n <= '0;
-        for (int k = 0; k < MAX_LIST; k++) if (32'(k) < 32'(ray_count)) mask_n[k] <= 1'b1;
+        // Entries 0..n-1 (n <= MAX_LIST): a thermometer code, as a shift rather than MAX_LIST
+        // comparators.
+        mask_n <= ~({MAX_LIST{1'b1}} << ray_count[KW:0]);
         busy <= BZ_SETUP;
     endtask
 
@@ -766,7 +768,7 @@ module ctrl #(
                 default: begin
                     // cycles = request words + busy cycles + result words (one per cycle).
                     logic [35:0] c;
-                    c = 36'd16 + 36'(ray_count) * 36'd2 + 36'(ray_cnt) - 36'd7;
+                    c = 36'd16 + (36'(ray_count) << 1) + 36'(ray_cnt) - 36'd7;
                     word = (c > 36'hFFFF_FFFF) ? 32'hFFFF_FFFF : 32'(c);
                 end
             endcase

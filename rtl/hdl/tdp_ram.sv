@@ -1,7 +1,8 @@
-// tdp_ram: true dual-port RAM with synchronous reads (one DP16KD-style block per port pair;
-// Yosys maps it to ECP5 block RAM). Reading and writing one address on both ports in the
-// same cycle is not used by the design; `no_rw_check` tells Yosys so (without it the
-// cross-port collision cannot be mapped to DP16KD and each bank becomes flip-flops).
+// tdp_ram: true dual-port RAM with synchronous reads, mapped by Yosys to ECP5 DP16KD block
+// RAM (1024 x 32 = two DP16KD in 1024 x 18 mode). The design never reads an address in the
+// cycle it writes it, on either port, so the collision behaviour is left undefined
+// (`no_rw_check`): without it Yosys must keep read-old-data across the two ports, which
+// DP16KD cannot do, and builds the memory from flip-flops instead.
 module tdp_ram #(
     parameter int W = 32,
     parameter int DEPTH = 1024
@@ -16,7 +17,8 @@ module tdp_ram #(
     input  logic [W-1:0]             b_wdata,
     output logic [W-1:0]             b_rdata
 );
-    (* no_rw_check *) logic [W-1:0] mem [DEPTH];
+    (* no_rw_check *)
+    logic [W-1:0] mem [DEPTH];
     always_ff @(posedge clk) begin
         if (a_we) mem[a_addr] <= a_wdata;
         a_rdata <= mem[a_addr];

@@ -35,6 +35,14 @@ pub const MAX_ENCODED: usize = MAX_RAW + MAX_RAW / 254 + 2;
 
 const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
+/// CRC-32 of a whole valid raw frame (`body ‖ crc_le`), whatever the body.
+pub const CRC_OF_VALID_RAW: u32 = 0x2144_DF1C;
+/// Longest raw frame whose single flipped bit the accumulator corrects: a body of at most
+/// 2974 bits, where CRC-32/ISO-HDLC has Hamming distance 5, so a frame with one flipped bit
+/// is one bit from exactly one valid frame and frames with two or three flipped bits are
+/// never "corrected" (SPEC.md §2.5).
+pub const CORRECTABLE_RAW: usize = 2974 / 8 + CRC_LEN;
+
 /// CRC-32/ISO-HDLC (the zlib/Ethernet CRC) of `data`.
 pub fn crc32(data: &[u8]) -> u32 {
     CRC32.checksum(data)
@@ -168,6 +176,40 @@ pub fn encode_frame(kind: u8, seq: u16, payload: &[u8], out: &mut [u8]) -> Resul
     Ok(n.saturating_add(1))
 }
 
+/// Corrects one flipped bit of a COBS-decoded frame of at most [`CORRECTABLE_RAW`] bytes
+/// whose CRC does not match: finds the bit whose flip makes the frame's CRC syndrome vanish
+/// and flips it back. Returns true when it corrected a bit; false (and `raw` unchanged) when
+/// the CRC matches, the frame is longer, or no single bit explains the syndrome.
+pub fn correct_single_bit(raw: &mut [u8]) -> bool {
+    /// CRC-32/ISO-HDLC polynomial, reflected.
+    const POLY: u32 = 0xEDB8_8320;
+    if raw.len() > CORRECTABLE_RAW {
+        return false;
+    }
+    // The CRC is affine in the frame, so the syndrome is the CRC (zero init and xorout) of
+    // the error pattern alone: for a single bit at processing position p of L bits, the
+    // polynomial shifted through the L − 1 − p zero bits after it.
+    let syndrome = crc32(raw) ^ CRC_OF_VALID_RAW;
+    if syndrome == 0 {
+        return false;
+    }
+    let bits = raw.len().saturating_mul(8);
+    let mut s = POLY;
+    for after in 0..bits {
+        if s == syndrome {
+            // Reflected CRC: bit 0 of each byte goes first.
+            let p = bits.saturating_sub(1).saturating_sub(after);
+            if let Some(byte) = raw.get_mut(p / 8) {
+                *byte ^= 1 << (p % 8);
+                return true;
+            }
+            return false;
+        }
+        s = if s & 1 == 1 { (s >> 1) ^ POLY } else { s >> 1 };
+    }
+    false
+}
+
 /// Validates a COBS-decoded frame (header, length, CRC, version).
 pub fn parse_raw(raw: &[u8]) -> Result<Frame<'_>, FrameError> {
     let body_len = raw.len().checked_sub(CRC_LEN).filter(|&n| n >= HEADER_LEN).ok_or(FrameError::DecodeTruncated)?;
@@ -236,6 +278,7 @@ pub struct FrameAccumulator<const N: usize = MAX_ENCODED> {
     buf: [u8; N],
     len: usize,
     overflowed: bool,
+    corrected: u32,
 }
 
 impl<const N: usize> Default for FrameAccumulator<N> {
@@ -247,7 +290,13 @@ impl<const N: usize> Default for FrameAccumulator<N> {
 impl<const N: usize> FrameAccumulator<N> {
     /// An empty accumulator.
     pub const fn new() -> Self {
-        Self { buf: [0; N], len: 0, overflowed: false }
+        Self { buf: [0; N], len: 0, overflowed: false, corrected: 0 }
+    }
+
+    /// Frames accepted after correcting one flipped bit, since the accumulator was made
+    /// (wrapping).
+    pub fn corrected(&self) -> u32 {
+        self.corrected
     }
 
     /// Drops any partial frame, e.g. after a link reset.
@@ -286,12 +335,23 @@ impl<const N: usize> FrameAccumulator<N> {
             let Some(encoded) = self.buf.get_mut(..len) else {
                 return FeedResult::BadFrame { error: FrameError::DecodeOversize, rest };
             };
-            return match cobs::decode_in_place(encoded) {
-                Err(_) => FeedResult::BadFrame { error: FrameError::DecodeBadCobs, rest },
-                Ok(n) => match parse_raw(encoded.get(..n).unwrap_or(&[])) {
-                    Ok(frame) => FeedResult::Frame { frame, rest },
-                    Err(error) => FeedResult::BadFrame { error, rest },
-                },
+            let Ok(n) = cobs::decode_in_place(encoded) else {
+                return FeedResult::BadFrame { error: FrameError::DecodeBadCobs, rest };
+            };
+            let raw = encoded.get_mut(..n).unwrap_or(&mut []);
+            // A flipped bit of the length field fails check 3 before the CRC: both may be one
+            // flipped bit the CRC can locate (SPEC.md §2.5).
+            let first = parse_raw(raw).err();
+            let corrected = matches!(first, Some(FrameError::DecodeBadCrc | FrameError::DecodeBadLength))
+                && correct_single_bit(raw);
+            if corrected {
+                self.corrected = self.corrected.wrapping_add(1);
+            }
+            return match parse_raw(raw) {
+                Ok(frame) => FeedResult::Frame { frame, rest },
+                Err(error) => {
+                    FeedResult::BadFrame { error: if corrected { error } else { first.unwrap_or(error) }, rest }
+                }
             };
         }
         FeedResult::Consumed
@@ -414,9 +474,91 @@ mod tests {
     #[test]
     fn decoder_rejects_bad_crc() {
         let mut wire = encode(0x01, 7, &[1, 0, 0, 0]);
-        wire[3] ^= 0x10; // flip a bit of the sequence number
+        wire[3] ^= 0x11; // flip two bits of the sequence number
         let mut acc = FrameAccumulator::<64>::new();
         assert!(matches!(acc.feed(&wire), FeedResult::BadFrame { error: FrameError::DecodeBadCrc, .. }));
+        assert_eq!(acc.corrected(), 0);
+    }
+
+    /// A raw frame of exactly [`CORRECTABLE_RAW`] bytes, payload from a seeded generator.
+    fn longest_correctable_raw() -> Vec<u8> {
+        let payload: Vec<u8> = (0..CORRECTABLE_RAW - HEADER_LEN - CRC_LEN).map(|i| (i * 37 + 11) as u8).collect();
+        let mut raw = vec![0x13, 1, 9, 0];
+        raw.extend_from_slice(&(payload.len() as u16).to_le_bytes());
+        raw.extend_from_slice(&payload);
+        let crc = crc32(&raw);
+        raw.extend_from_slice(&crc.to_le_bytes());
+        raw
+    }
+
+    #[test]
+    fn every_single_flipped_bit_of_a_correctable_frame_is_corrected() {
+        let good = longest_correctable_raw();
+        assert_eq!(good.len(), CORRECTABLE_RAW);
+        assert_eq!(crc32(&good), CRC_OF_VALID_RAW);
+        for bit in 0..good.len() * 8 {
+            let mut raw = good.clone();
+            raw[bit / 8] ^= 1 << (bit % 8);
+            assert!(correct_single_bit(&mut raw), "bit {bit}");
+            assert_eq!(raw, good, "bit {bit}");
+        }
+        let mut raw = good.clone();
+        assert!(!correct_single_bit(&mut raw), "a valid frame is left alone");
+    }
+
+    #[test]
+    fn two_or_three_flipped_bits_are_never_miscorrected() {
+        use rand::{Rng, SeedableRng};
+        let good = longest_correctable_raw();
+        let bits = good.len() * 8;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        for trial in 0..4000 {
+            let mut raw = good.clone();
+            let mut flipped = Vec::new();
+            while flipped.len() < 2 + trial % 2 {
+                let b = rng.gen_range(0..bits);
+                if !flipped.contains(&b) {
+                    flipped.push(b);
+                    raw[b / 8] ^= 1 << (b % 8);
+                }
+            }
+            let before = raw.clone();
+            assert!(!correct_single_bit(&mut raw), "bits {flipped:?}");
+            assert_eq!(raw, before);
+        }
+    }
+
+    #[test]
+    fn longer_frames_are_not_corrected() {
+        let mut good = longest_correctable_raw();
+        good.truncate(good.len() - CRC_LEN);
+        good.push(0x55);
+        good[4] += 1;
+        let crc = crc32(&good);
+        good.extend_from_slice(&crc.to_le_bytes());
+        let mut raw = good.clone();
+        raw[20] ^= 0x04;
+        assert!(!correct_single_bit(&mut raw));
+        assert_eq!(parse_raw(&raw), Err(FrameError::DecodeBadCrc));
+    }
+
+    /// SPEC.md §2.5 worked example: the §2.3 Hello frame with bit 4 of wire byte 3 (the
+    /// sequence number's low byte) flipped arrives as seq 7 all the same, as does one with a
+    /// flipped bit of the length field.
+    #[test]
+    fn accumulator_corrects_one_flipped_bit_of_sequence_or_length() {
+        for (at, bit) in [(3, 0x10), (5, 0x02)] {
+            let mut wire = encode(0x01, 7, &[1, 0, 0, 0]);
+            wire[at] ^= bit;
+            let mut acc = FrameAccumulator::<64>::new();
+            match acc.feed(&wire) {
+                FeedResult::Frame { frame, .. } => {
+                    assert_eq!((frame.kind, frame.seq, frame.payload), (0x01, 7, &[1u8, 0, 0, 0][..]))
+                }
+                other => panic!("{other:?}"),
+            }
+            assert_eq!(acc.corrected(), 1);
+        }
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! The wire formats are specified in `shared/SPEC.md`; each table there has a golden-byte
 //! test in this crate.
 //! Every module that decodes or encodes wire data (`bytes`, `frame`, `fsl`, `msg`, `pixel`,
-//! `scene`) denies `clippy::indexing_slicing` and `clippy::arithmetic_side_effects`.
+//! `scene`, `window`) denies `clippy::indexing_slicing` and `clippy::arithmetic_side_effects`.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 #![warn(missing_docs)]
@@ -18,6 +18,8 @@ pub mod math;
 pub mod msg;
 pub mod pixel;
 pub mod scene;
+pub mod splat;
+pub mod window;
 
 /// Version of the UART protocol (frame header byte 1). Bumped on any incompatible change.
 pub const PROTOCOL_VERSION: u8 = 1;

@@ -25,22 +25,34 @@ fn acc() -> FrameAccumulator<{ frame::MAX_ENCODED }> {
 
 // ---------------------------------------------------------------- frames (§2)
 
+/// §2.5: `parse_raw` rejects every flipped bit; the accumulator corrects each one (the frame
+/// is short enough) and rejects every pair.
 #[test]
-fn frame_bad_crc_every_bit_flip() {
-    for bit in 0..HELLO_RAW.len() * 8 {
+fn frame_every_bit_flip_rejected_by_parse_and_corrected_by_the_accumulator() {
+    let bits = HELLO_RAW.len() * 8;
+    let expected =
+        |bit: usize| if (4..6).contains(&(bit / 8)) { FrameError::DecodeBadLength } else { FrameError::DecodeBadCrc };
+    for bit in 0..bits {
         let mut raw = HELLO_RAW;
         raw[bit / 8] ^= 1 << (bit % 8);
-        let expected = if (4..6).contains(&(bit / 8)) { FrameError::DecodeBadLength } else { FrameError::DecodeBadCrc };
-        assert_eq!(frame::parse_raw(&raw), Err(expected), "bit {bit}");
+        assert_eq!(frame::parse_raw(&raw), Err(expected(bit)), "bit {bit}");
         let mut a = acc();
-        assert_eq!(feed_all(&mut a, &cobs_wire(&raw), 64), [Outcome::Bad(expected)], "bit {bit}");
+        assert_eq!(feed_all(&mut a, &cobs_wire(&raw), 64), [hello_frame()], "bit {bit}");
+        assert_eq!(a.corrected(), 1);
+        for other in bit + 1..bits {
+            let mut two = raw;
+            two[other / 8] ^= 1 << (other % 8);
+            let mut a = acc();
+            let out = feed_all(&mut a, &cobs_wire(&two), 64);
+            assert!(matches!(out[..], [Outcome::Bad(_)]), "bits {bit}, {other}: {out:?}");
+        }
     }
 }
 
 #[test]
 fn frame_bad_crc_on_the_wire_then_resync() {
     let mut stream = HELLO_WIRE.to_vec();
-    stream[12] ^= 0x40; // a CRC byte
+    stream[12] ^= 0x41; // two bits of a CRC byte: beyond correction
     stream.extend_from_slice(&HELLO_WIRE);
     let mut a = acc();
     assert_eq!(feed_all(&mut a, &stream, 5), [Outcome::Bad(FrameError::DecodeBadCrc), hello_frame()]);
@@ -128,7 +140,10 @@ fn frame_unknown_type_is_a_frame_but_not_a_message() {
     let w = [0x04, 0x55, 0x01, 0x01, 0x01, 0x01, 0x05, 0x32, 0x76, 0x5D, 0x68, 0x00];
     let mut a = acc();
     assert_eq!(feed_all(&mut a, &w, 64), [Outcome::Frame { kind: 0x55, seq: 1, payload: vec![] }]);
-    let known = [0x01, 0x02, 0x10, 0x11, 0x12, 0x20, 0x21, 0x22, 0x23, 0x24, 0x25, 0x30, 0x31, 0x32, 0x33, 0x7F];
+    let known = [
+        0x01, 0x02, 0x10, 0x11, 0x12, 0x13, 0x14, 0x20, 0x21, 0x22, 0x23, 0x24, 0x25, 0x30, 0x31, 0x32, 0x33, 0x34,
+        0x35, 0x7F,
+    ];
     for kind in (0..=255u8).filter(|k| !known.contains(k)) {
         assert_eq!(Msg::decode(kind, &[]), Err(MsgError::DecodeUnknownType), "type {kind:#04x}");
         assert_eq!(Msg::decode(kind, &[1, 0, 0, 0]), Err(MsgError::DecodeUnknownType), "type {kind:#04x}");
@@ -218,8 +233,18 @@ fn golden_payloads() -> Vec<(u8, Vec<u8>)> {
         (0x22, vec![1, 0, 0, 0, 0xE0, 0x01, 0, 0, 0x78, 0x56, 0x34, 0x12]),
         (0x23, vec![1, 0, 2, 0, 1, 0x00, 0x2C, 0x01, 0, 0, 0, 0, 0, 0x08, 0x15, 0xCD, 0x5B, 0x07, 0, 0, 0, 0]),
         (0x7F, vec![5, 0, 8, 0, 0, 0, 0, 0, b'n', b'o', b' ', b's', b'c', b'e', b'n', b'e']),
+        (0x13, vec![0x00, 0x04, 0x00, 0x00, 0x47, 0x52, 0x54, 0x53]),
+        (0x14, SCENE_SACK.to_vec()),
+        (0x34, vec![0x00, 0x04, 0x00, 0x00, 0x97, 0x01, 0x00, 0x00]),
+        (0x35, vec![0x34, 0x12, 0, 0, 1, 0, 5, 0, 0xFF, 0xFF, 0, 0, 0xEF, 0xBE, 0xAD, 0xDE]),
     ]
 }
+
+/// The §3.14 `SceneSack` worked example (two ranges).
+const SCENE_SACK: [u8; 24] = [
+    0x00, 0x02, 0x00, 0x00, 0x00, 0x02, 0x0C, 0x00, 0x00, 0x10, 0x00, 0x00, 0xA2, 0x82, 0x96, 0x2A, 0x00, 0x02, 0x00,
+    0x04, 0x00, 0x06, 0x10, 0x06,
+];
 
 #[test]
 fn msg_golden_payloads_decode() {
@@ -236,7 +261,7 @@ fn msg_truncated_at_every_length() {
             let r = Msg::decode(kind, &p[..n]);
             match kind {
                 // The data of a chunk is "the rest": every cut after the offset is a shorter chunk.
-                0x11 if n >= 4 => assert!(r.is_ok(), "type {kind:#04x} cut {n}"),
+                0x11 | 0x13 | 0x34 if n >= 4 => assert!(r.is_ok(), "type {kind:#04x} cut {n}"),
                 // A span cut inside its pixels has the wrong pixel byte count.
                 0x21 if n >= 10 => assert_eq!(r, Err(MsgError::DecodeBadField), "type {kind:#04x} cut {n}"),
                 // An error cut inside its text is short of text_len bytes.
@@ -254,6 +279,8 @@ fn msg_trailing_bytes() {
         let r = Msg::decode(kind, &long);
         match kind {
             0x11 => assert!(matches!(r, Ok(Msg::SceneChunk { data, .. }) if data.len() == 9)),
+            0x13 => assert!(matches!(r, Ok(Msg::SceneData { data, .. }) if data.len() == 5)),
+            0x34 => assert!(matches!(r, Ok(Msg::FlashData { data, .. }) if data.len() == 5)),
             0x21 => assert_eq!(r, Err(MsgError::DecodeBadField), "type {kind:#04x}"),
             _ => assert_eq!(r, Err(MsgError::DecodeTrailingBytes), "type {kind:#04x}"),
         }
@@ -301,6 +328,46 @@ fn msg_bad_enum_fields() {
     );
 }
 
+/// §3.14: a Sack's range list must be what a receiver can hold: at most four ranges, each
+/// non-empty, above `next_offset`, ascending and separated by a gap; statuses as SceneAck /
+/// FlashAck (a FlashSack is never `Booting`).
+#[test]
+fn msg_sack_ranges_and_status_are_checked() {
+    let with = |count: u8, ranges: &[(u16, u16)]| {
+        let mut p = SCENE_SACK[..16].to_vec();
+        p[5] = count;
+        for &(a, b) in ranges {
+            p.extend_from_slice(&a.to_le_bytes());
+            p.extend_from_slice(&b.to_le_bytes());
+        }
+        p
+    };
+    assert!(Msg::decode(0x14, &with(4, &[(1, 2), (3, 4), (5, 6), (7, 8)])).is_ok());
+    let bad: [&[(u16, u16)]; 6] = [
+        &[(0, 4)],          // starts at next_offset, which is missing by definition
+        &[(4, 4)],          // empty
+        &[(6, 4)],          // reversed
+        &[(1, 4), (4, 8)],  // touching: would be one range
+        &[(5, 8), (1, 4)],  // descending
+        &[(1, 8), (4, 12)], // overlapping
+    ];
+    for r in bad {
+        assert_eq!(Msg::decode(0x14, &with(r.len() as u8, r)), Err(MsgError::DecodeBadField), "{r:?}");
+        assert_eq!(Msg::decode(0x35, &with(r.len() as u8, r)), Err(MsgError::DecodeBadField), "{r:?}");
+    }
+    let five = [(1, 2), (3, 4), (5, 6), (7, 8), (9, 10)];
+    assert_eq!(Msg::decode(0x14, &with(5, &five)), Err(MsgError::DecodeBadField));
+    // A count larger than the ranges present is short; smaller leaves trailing bytes.
+    assert_eq!(Msg::decode(0x14, &with(3, &[(1, 2), (3, 4)])), Err(MsgError::DecodeTruncated));
+    assert_eq!(Msg::decode(0x14, &with(1, &[(1, 2), (3, 4)])), Err(MsgError::DecodeTrailingBytes));
+    for st in 0..=255u8 {
+        let mut p = SCENE_SACK.to_vec();
+        p[4] = st;
+        assert_eq!(Msg::decode(0x14, &p).is_ok(), st <= 1, "SceneSack status {st}");
+        assert_eq!(Msg::decode(0x35, &p).is_ok(), st <= 1, "FlashSack status {st}");
+    }
+}
+
 #[test]
 fn msg_reserved_bytes_are_ignored() {
     assert_eq!(Msg::decode(0x01, &[1, 0, 0xAA, 0xBB]), Ok(Msg::Hello { protocol: 1 }));
@@ -312,6 +379,9 @@ fn msg_reserved_bytes_are_ignored() {
     span[9] = 0xAA;
     assert!(Msg::decode(0x21, &span).is_ok());
     assert!(Msg::decode(0x22, &[1, 0, 0xAA, 0xBB, 0, 0, 0, 0, 0, 0, 0, 0]).is_ok());
+    let mut sack = SCENE_SACK;
+    sack[10..12].copy_from_slice(&[0xAA, 0xBB]);
+    assert_eq!(Msg::decode(0x14, &sack), Msg::decode(0x14, &SCENE_SACK));
 }
 
 #[test]
@@ -478,8 +548,11 @@ fn scene_bad_header_fields() {
     for (i, spec) in cases.iter().enumerate() {
         assert_eq!(err_of(spec), Err(SceneError::BadHeader), "case {i}");
     }
-    // Flags and the reserved bytes 62..64 are ignored (and outside the body CRC).
-    assert_eq!(err_of(&ImageSpec { flags: 0xFFFF, reserved: 0xBEEF, ..t() }), Ok(()));
+    // Flags other than POINTS (bit 0, §5.10) and the reserved bytes 62..64 are ignored (and
+    // outside the body CRC); POINTS announces a section this image lacks.
+    assert_eq!(err_of(&ImageSpec { flags: 0xFFFE, reserved: 0xBEEF, ..t() }), Ok(()));
+    let (r, _, s) = stream(&ImageSpec { flags: 0x0001, ..t() }.build());
+    assert_eq!((r, s.is_done(), s.finish()), (Ok(()), false, Err(SceneError::Truncated)));
 }
 
 #[test]

@@ -9,7 +9,7 @@ use gridrt_shared::frame::{self, FeedResult, FrameAccumulator, FrameError};
 use gridrt_shared::fsl::{self, op, FslError, FslWord, ListEntry, RayKind, RayResult};
 use gridrt_shared::msg::{
     self, render_flags, stat, DeviceInfo, ErrorCode, FlashError, FlashStatus, Msg, MsgType, PixelEncoding,
-    RenderRequest, SceneStatus,
+    RenderRequest, Sack, SackRanges, SceneStatus,
 };
 use gridrt_shared::scene::{
     self, DiffuseModel, Falloff, LightingRecord, Mapping, Material, MaterialModel, ObjectKind, ObjectRecord, PeImage,
@@ -101,6 +101,28 @@ fn accumulator_worked_example() {
     assert!(!acc.has_partial());
 }
 
+/// §2.5 worked example of a correction: the §2.3 Hello frame with bit 4 of wire byte 3 (the
+/// low byte of `seq`) flipped arrives as seq 7; with bits 4 and 0 flipped it is rejected.
+#[test]
+fn accumulator_corrects_one_flipped_bit_worked_example() {
+    let one = [0x04, 0x01, 0x01, 0x17, 0x02, 0x04, 0x02, 0x01, 0x01, 0x01, 0x05, 0x61, 0x3B, 0xDB, 0x32, 0x00];
+    let mut raw = [0x01, 0x01, 0x17, 0x00, 0x04, 0x00, 0x01, 0x00, 0x00, 0x00, 0x61, 0x3B, 0xDB, 0x32];
+    assert_eq!(frame::crc32(&raw) ^ frame::CRC_OF_VALID_RAW, 0x0C18_EDFC, "the syndrome");
+    assert!(frame::correct_single_bit(&mut raw));
+    assert_eq!(raw[2], 0x07);
+    let mut acc = FrameAccumulator::<{ frame::MAX_ENCODED }>::new();
+    match acc.feed(&one) {
+        FeedResult::Frame { frame, .. } => {
+            assert_eq!((frame.kind, frame.seq, frame.payload), (0x01, 7, &[1u8, 0, 0, 0][..]))
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(acc.corrected(), 1);
+    let two = [0x04, 0x01, 0x01, 0x16, 0x02, 0x04, 0x02, 0x01, 0x01, 0x01, 0x05, 0x61, 0x3B, 0xDB, 0x32, 0x00];
+    assert!(matches!(acc.feed(&two), FeedResult::BadFrame { error: FrameError::DecodeBadCrc, .. }));
+    assert_eq!((acc.corrected(), frame::CORRECTABLE_RAW), (1, 375));
+}
+
 /// §2.2: a raw frame that ends right after a 254-byte non-zero run is encoded without the
 /// final 0x01 code; decoders accept the form with it too.
 #[test]
@@ -163,6 +185,8 @@ fn msg_type_table() {
         (0x10, MsgType::SceneBegin),
         (0x11, MsgType::SceneChunk),
         (0x12, MsgType::SceneAck),
+        (0x13, MsgType::SceneData),
+        (0x14, MsgType::SceneSack),
         (0x20, MsgType::RenderRequest),
         (0x21, MsgType::PixelSpan),
         (0x22, MsgType::FrameEnd),
@@ -173,6 +197,8 @@ fn msg_type_table() {
         (0x31, MsgType::FlashChunk),
         (0x32, MsgType::FlashAck),
         (0x33, MsgType::FlashBoot),
+        (0x34, MsgType::FlashData),
+        (0x35, MsgType::FlashSack),
         (0x7F, MsgType::Error),
     ];
     for (b, t) in table {
@@ -637,6 +663,113 @@ fn msg_flash_rejected_error() {
             0x20, 0x63, 0x72, 0x63, 0x12, 0xF4, 0x6A, 0x48, 0x00,
         ],
     );
+}
+
+// ---------------------------------------------------------------- §3.14 windowed transfers
+
+fn sack(next_offset: u32, heard: u16, window: u16, crc: u32, ranges: &[(u16, u16)]) -> Sack {
+    let mut r = SackRanges::new();
+    for &(a, b) in ranges {
+        assert!(r.push(a, b));
+    }
+    Sack { next_offset, heard, window, crc, ranges: r }
+}
+
+/// §3.14 constants: the feature bit, the range limit and the layout sizes.
+#[test]
+fn msg_windowed_tables() {
+    assert_eq!(msg::feature::WINDOWED, 1 << 11);
+    assert_eq!(msg::region_options::NO_STATS, 1 << 1);
+    assert_eq!((msg::MAX_SACK_RANGES, msg::SACK_HEAD_LEN, msg::SACK_RANGE_LEN), (4, 16, 4));
+}
+
+#[test]
+fn msg_scene_data() {
+    check_msg(
+        Msg::SceneData { offset: 0x400, data: b"GRTS" },
+        9,
+        &[0x00, 0x04, 0x00, 0x00, 0x47, 0x52, 0x54, 0x53],
+        &[
+            0x04, 0x13, 0x01, 0x09, 0x02, 0x08, 0x01, 0x02, 0x04, 0x01, 0x09, 0x47, 0x52, 0x54, 0x53, 0xC7, 0xE5, 0x81,
+            0x29, 0x00,
+        ],
+    );
+}
+
+/// §3.14 worked example: the device holds bytes 0..0x200, 0x400..0x600 and 0x800..0x810 of the
+/// §5.9 image's upload (named by its CRC) after frame 12.
+#[test]
+fn msg_scene_sack_with_ranges() {
+    check_msg(
+        Msg::SceneSack {
+            status: SceneStatus::Receiving,
+            sack: sack(0x200, 12, 4096, TINY_IMAGE_CRC, &[(0x200, 0x400), (0x600, 0x610)]),
+        },
+        10,
+        &[
+            0x00, 0x02, 0x00, 0x00, 0x00, 0x02, 0x0C, 0x00, 0x00, 0x10, 0x00, 0x00, 0xA2, 0x82, 0x96, 0x2A, 0x00, 0x02,
+            0x00, 0x04, 0x00, 0x06, 0x10, 0x06,
+        ],
+        &[
+            0x04, 0x14, 0x01, 0x0A, 0x02, 0x18, 0x01, 0x02, 0x02, 0x01, 0x01, 0x03, 0x02, 0x0C, 0x01, 0x02, 0x10, 0x01,
+            0x05, 0xA2, 0x82, 0x96, 0x2A, 0x02, 0x02, 0x02, 0x04, 0x08, 0x06, 0x10, 0x06, 0x8D, 0x2A, 0x73, 0x77, 0x00,
+        ],
+    );
+}
+
+#[test]
+fn msg_scene_sack_loaded() {
+    check_msg(
+        Msg::SceneSack { status: SceneStatus::Loaded, sack: sack(348, 13, 4096, TINY_IMAGE_CRC, &[]) },
+        11,
+        &[0x5C, 0x01, 0x00, 0x00, 0x01, 0x00, 0x0D, 0x00, 0x00, 0x10, 0x00, 0x00, 0xA2, 0x82, 0x96, 0x2A],
+        &[
+            0x04, 0x14, 0x01, 0x0B, 0x02, 0x10, 0x03, 0x5C, 0x01, 0x01, 0x02, 0x01, 0x02, 0x0D, 0x01, 0x02, 0x10, 0x01,
+            0x09, 0xA2, 0x82, 0x96, 0x2A, 0x20, 0x4D, 0x02, 0xF8, 0x00,
+        ],
+    );
+}
+
+#[test]
+fn msg_flash_data() {
+    check_msg(
+        Msg::FlashData { offset: 0x400, data: &[0x97, 0x01, 0x00, 0x00] },
+        2,
+        &[0x00, 0x04, 0x00, 0x00, 0x97, 0x01, 0x00, 0x00],
+        &[
+            0x04, 0x34, 0x01, 0x02, 0x02, 0x08, 0x01, 0x02, 0x04, 0x01, 0x03, 0x97, 0x01, 0x01, 0x05, 0xBF, 0x22, 0xA1,
+            0x94, 0x00,
+        ],
+    );
+}
+
+#[test]
+fn msg_flash_sack_verified() {
+    check_msg(
+        Msg::FlashSack { status: FlashStatus::Verified, sack: sack(0x1234, 5, 0xFFFF, 0xDEAD_BEEF, &[]) },
+        4,
+        &[0x34, 0x12, 0x00, 0x00, 0x01, 0x00, 0x05, 0x00, 0xFF, 0xFF, 0x00, 0x00, 0xEF, 0xBE, 0xAD, 0xDE],
+        &[
+            0x04, 0x35, 0x01, 0x04, 0x02, 0x10, 0x03, 0x34, 0x12, 0x01, 0x02, 0x01, 0x02, 0x05, 0x03, 0xFF, 0xFF, 0x01,
+            0x09, 0xEF, 0xBE, 0xAD, 0xDE, 0x39, 0xF9, 0x7E, 0x06, 0x00,
+        ],
+    );
+}
+
+/// §3.14 Sack table offsets, with a distinct value in every field.
+#[test]
+fn msg_sack_field_offsets() {
+    let m = Msg::FlashSack {
+        status: FlashStatus::Verified,
+        sack: sack(0x0403_0201, 0x0807, 0x0A09, 0x100F_0E0D, &[(0x1211, 0x1413), (0x1615, 0x1817)]),
+    };
+    let p = encode_payload(&m);
+    let want: Vec<u8> =
+        [0x01, 0x02, 0x03, 0x04, 0x01, 0x02, 0x07, 0x08, 0x09, 0x0A, 0x00, 0x00, 0x0D, 0x0E, 0x0F, 0x10]
+            .into_iter()
+            .chain(0x11..=0x18)
+            .collect();
+    assert_eq!(p, want);
 }
 
 // ---------------------------------------------------------------- §4 FSL

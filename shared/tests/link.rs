@@ -164,6 +164,32 @@ fn msg_render_region_worked_example() {
     );
 }
 
+/// §3.12.2 option `SPAN_BYTES` (bit 2): a re-request of row 5, columns 0..320, with spans of at
+/// most 311 data bytes and no Stats — the first 12 payload bytes; the request follows as in
+/// the worked example above.
+#[test]
+fn msg_render_region_span_bytes() {
+    assert_eq!(msg::region_options::SPAN_BYTES, 1 << 2);
+    let m = Msg::RenderRegion {
+        region: Region { x0: 0, y0: 5, cols: 320, rows: 1 },
+        max_span: 311,
+        options: msg::region_options::NO_STATS | msg::region_options::SPAN_BYTES,
+        request: example_request(),
+    };
+    let payload = encode_payload(&m);
+    assert_eq!(payload[..12], [0x00, 0x00, 0x05, 0x00, 0x40, 0x01, 0x01, 0x00, 0x37, 0x01, 0x06, 0x00]);
+    assert_eq!(Msg::decode(msg::MsgType::RenderRegion as u8, &payload), Ok(m));
+    // Reserved option bits are ignored, not refused (§3.12.2), so a device that does not know
+    // `SPAN_BYTES` still answers (taking `max_span` as pixels).
+    let mut later = payload.clone();
+    later[10] = 0xFE;
+    later[11] = 0xFF;
+    assert!(matches!(
+        Msg::decode(msg::MsgType::RenderRegion as u8, &later),
+        Ok(Msg::RenderRegion { options: 0xFFFE, max_span: 311, .. })
+    ));
+}
+
 #[test]
 fn msg_region_end_worked_example() {
     assert_eq!(msg::REGION_END_LEN, 20);
@@ -240,10 +266,11 @@ fn rle_span_that_does_not_decode_to_count_is_rejected() {
 }
 
 #[test]
-fn rle_every_single_bit_flip_is_caught_or_harmless() {
+fn rle_every_single_bit_flip_is_corrected_caught_or_harmless() {
+    // A flip of a COBS data byte is corrected (§2.5: the frame is short) and the span arrives
+    // as sent; a flip of a code byte or the delimiter breaks the frame, which is rejected.
     // Any damage that COBS and the frame CRC let through would have to also decode to exactly
-    // `count` pixels; flips are rejected by the frame CRC first, and the pixel layer on its own
-    // never panics and never writes outside the span.
+    // `count` pixels; the pixel layer on its own never panics and never writes outside the span.
     let payload = encode_payload(&Msg::PixelSpan {
         frame: 1,
         y: 2,
@@ -258,7 +285,8 @@ fn rle_every_single_bit_flip_is_caught_or_harmless() {
         c[bit / 8] ^= 1 << (bit % 8);
         let mut acc = FrameAccumulator::<{ frame::MAX_ENCODED }>::new();
         let out = feed_all(&mut acc, &c, 5);
-        assert!(out.iter().all(|o| !matches!(o, Outcome::Frame { .. })), "bit {bit}: {out:?}");
+        let sent = Outcome::Frame { kind: 0x21, seq: 20, payload: payload.clone() };
+        assert!(out.iter().all(|o| !matches!(o, Outcome::Frame { .. }) || *o == sent), "bit {bit}: {out:?}");
         let mut data = RLE_EXAMPLE;
         if bit / 8 < data.len() {
             data[bit / 8] ^= 1 << (bit % 8);
@@ -357,4 +385,47 @@ fn accumulator_never_returns_a_corrupt_span() {
         }
     }
     assert!(frames >= 100, "{frames}");
+}
+
+// ---------------------------------------------------------------- §3.14 windowed transfers
+
+/// §3.14 worked example: the §5.9 image (348 bytes) in chunks of 100 bytes; the frame of
+/// chunk 100..200 (seq 11) is corrupted on the way. The device's `ReceiveWindow` gives the
+/// Sacks of the SPEC's transcript; the one after seq 13 has the literal bytes shown there.
+#[test]
+fn windowed_upload_worked_example() {
+    use gridrt_shared::msg::{SceneStatus, MAX_SACK_RANGES};
+    use gridrt_shared::window::{Arrival, ReceiveWindow};
+    let mut w = ReceiveWindow::new(TINY_IMAGE.len() as u32, 4096);
+    let probe = w.sack(9, TINY_IMAGE_CRC);
+    assert_eq!((probe.next_offset, probe.heard, probe.window, probe.ranges.len()), (0, 9, 4096, 0));
+    check_msg(
+        Msg::SceneData { offset: 0, data: &[] },
+        9,
+        &[0, 0, 0, 0],
+        &[0x04, 0x13, 0x01, 0x09, 0x02, 0x04, 0x01, 0x01, 0x01, 0x01, 0x05, 0xE3, 0x1F, 0xB6, 0xBC, 0x00],
+    );
+    assert_eq!(w.arrive(0, 100), Arrival::Advanced { from: 0, to: 100 });
+    assert_eq!(w.sack(10, TINY_IMAGE_CRC).next_offset, 100);
+    // seq 11 never arrives intact (the device reports Error{BadFrame}).
+    assert_eq!(w.arrive(200, 100), Arrival::Held);
+    assert_eq!(w.sack(12, TINY_IMAGE_CRC).ranges.as_slice(), [(100, 200)]);
+    assert_eq!(w.arrive(300, 48), Arrival::Held);
+    let s = w.sack(13, TINY_IMAGE_CRC);
+    assert!(s.ranges.len() <= MAX_SACK_RANGES);
+    check_msg(
+        Msg::SceneSack { status: SceneStatus::Receiving, sack: s },
+        4,
+        &[
+            0x64, 0x00, 0x00, 0x00, 0x00, 0x01, 0x0D, 0x00, 0x00, 0x10, 0x00, 0x00, 0xA2, 0x82, 0x96, 0x2A, 0x64, 0x00,
+            0xF8, 0x00,
+        ],
+        &[
+            0x04, 0x14, 0x01, 0x04, 0x02, 0x14, 0x02, 0x64, 0x01, 0x01, 0x01, 0x03, 0x01, 0x0D, 0x01, 0x02, 0x10, 0x01,
+            0x06, 0xA2, 0x82, 0x96, 0x2A, 0x64, 0x02, 0xF8, 0x05, 0x88, 0x02, 0x61, 0x08, 0x00,
+        ],
+    );
+    // The host sees heard = 13 ≥ 11 and 100..200 not held: lost; sent again as seq 14.
+    assert_eq!(w.arrive(100, 100), Arrival::Advanced { from: 100, to: 348 });
+    assert!(w.complete());
 }

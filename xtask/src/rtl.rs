@@ -151,6 +151,26 @@ struct Program {
     with_params: bool,
 }
 
+/// An exclusive `flock` on a file, released when dropped (or when the process dies).
+struct BuildLock(#[allow(dead_code)] std::fs::File);
+
+impl BuildLock {
+    fn acquire(path: &std::path::Path) -> Result<Self> {
+        use std::os::unix::io::AsRawFd;
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(path)
+            .with_context(|| format!("opening {}", path.display()))?;
+        // SAFETY: flock on a descriptor this function owns; no memory is involved.
+        if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX) } != 0 {
+            bail!("locking {}: {}", path.display(), std::io::Error::last_os_error());
+        }
+        Ok(Self(file))
+    }
+}
+
 const PROGRAMS: [Program; 2] = [
     Program { top: "gridrt_coproc", main: "coproc_main.cpp", name: "gridrt-coproc-sim", with_params: true },
     Program { top: "units_top", main: "units_main.cpp", name: "gridrt-units-sim", with_params: false },
@@ -168,6 +188,10 @@ impl SimCmd {
             .collect();
         sim_files.sort();
         let out_root = root().join("target/rtl").join(format!("sim-{}", self.params.tag()));
+        std::fs::create_dir_all(&out_root)?;
+        // Parallel tests (and a render) call this at once: one builds, the others wait and
+        // then find the stamp current.
+        let _lock = BuildLock::acquire(&out_root.join(".lock"))?;
         for prog in &PROGRAMS {
             let dir = out_root.join(prog.name);
             let exe = dir.join(prog.name);

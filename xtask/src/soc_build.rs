@@ -60,9 +60,9 @@ pub struct BuildCmd {
     /// nextpnr's placement seed.
     #[arg(long, default_value_t = 1)]
     seed: u32,
-    /// Processing elements of the co-processor. Each takes 32 DP16KD block RAMs; 4 do not fit
-    /// the LFE5U-85F beside the SoC's 240 KiB of ROM, SRAM and main RAM.
-    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u16).range(1..=16))]
+    /// Processing elements of the co-processor. One PE is ~49 k LUTs (BENCHMARKS.md, `cargo
+    /// xtask rtl synth --pes 1`), so the LFE5U-85F (83 640 LUTs) holds one beside the CPU.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=16))]
     pes: u16,
     /// Write the resource and timing summary here (JSON).
     #[arg(long, value_name = "OUT.json")]

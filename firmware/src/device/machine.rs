@@ -6,15 +6,23 @@
 use super::fail::{Fail, Text, Trunc};
 use super::pipeline::{self, Renderer};
 use super::request::{self, Target};
-use super::scene::{SceneStore, Upload};
+use super::scene::{Reorder, SceneStore, Upload, UPLOAD_WINDOW};
+#[cfg(feature = "splats")]
+use super::splat;
 use super::stats::{FrameStats, StageClock};
 use crate::fsl::FslLink;
 use crate::pixels::FrameTx;
+#[cfg(feature = "splats")]
+use crate::pixels::SpanEncoder;
+#[cfg(feature = "splats")]
+use crate::splat::SplatEngine;
 use crate::text::TextOut;
 use core::ops::ControlFlow;
 use embedded_io::Write;
 use gridrt_shared::frame::{FrameAccumulator, FrameError, Received, MAX_PAYLOAD};
-use gridrt_shared::msg::{feature, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, RenderRequest, SceneStatus};
+use gridrt_shared::msg::{
+    feature, render_flags, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, RenderRequest, Sack, SackRanges, SceneStatus,
+};
 
 /// Feature bits of this build.
 pub const fn compiled_features() -> u32 {
@@ -24,17 +32,39 @@ pub const fn compiled_features() -> u32 {
         | feature::RENDER_REGION
         | feature::RGB565
         | feature::RLE
+        | feature::WINDOWED
         | pipeline::pipeline_features()
 }
 
 /// Everything but the receive buffer (split so a received frame can borrow that buffer
 /// while the handler mutates the rest).
-struct Core<L, C, const N: usize> {
+struct Core<L, C, const N: usize, const P: usize, const T: usize> {
     render: Renderer<L, C>,
     info: DeviceInfo,
     tx: FrameTx,
     scene: SceneStore<N>,
     upload: Option<Upload>,
+    /// `SceneData` bytes that arrived ahead of a gap.
+    ahead: Reorder,
+    /// (length, CRC) of the upload that loaded the current scene: a `SceneData` after the
+    /// end is answered with its final `SceneSack` again (the host may have lost it).
+    loaded_image: Option<(u32, u32)>,
+    /// Answers held back until the input at hand is used up (SPEC.md §3.14): the `SceneSack`
+    /// of the last `SceneData`, and a corrupt frame after it.
+    held: Held,
+    /// The point cloud, shape table and stage of `SPLATS` frames, and their span encoder.
+    #[cfg(feature = "splats")]
+    splat: SplatEngine<P, T>,
+    #[cfg(feature = "splats")]
+    splat_spans: SpanEncoder,
+}
+
+/// Answers one batch of input may share: one `SceneSack` for its data frames (naming the
+/// last), one `Error{BadFrame}` for the corrupt frames after that one.
+#[derive(Default)]
+struct Held {
+    sack: Option<(SceneStatus, Sack)>,
+    bad: Option<FrameError>,
 }
 
 /// The device: feed it UART bytes, it answers through an [`embedded_io::Write`].
@@ -44,12 +74,23 @@ struct Core<L, C, const N: usize> {
 /// end message or `Error`, which would need the output that just failed). An answer outside
 /// a frame whose write failed is lost. Either way the host, which waits for every answer,
 /// times out and asks again.
-pub struct Device<L: FslLink, C: StageClock, const MAX_VOXELS: usize> {
+///
+/// `MAX_POINTS` and `TABLE_WORDS` size the splat path (SPEC.md §6): a device with either at
+/// 0 (the default) has none and does not advertise `feature::SPLATS`.
+pub struct Device<
+    L: FslLink,
+    C: StageClock,
+    const MAX_VOXELS: usize,
+    const MAX_POINTS: usize = 0,
+    const TABLE_WORDS: usize = 0,
+> {
     rx: FrameAccumulator,
-    core: Core<L, C, MAX_VOXELS>,
+    core: Core<L, C, MAX_VOXELS, MAX_POINTS, TABLE_WORDS>,
 }
 
-impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS> {
+impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize, const MAX_POINTS: usize, const TABLE_WORDS: usize>
+    Device<L, C, MAX_VOXELS, MAX_POINTS, TABLE_WORDS>
+{
     /// A device with no scene. `info` supplies firmware version, board, PE count and PE memory
     /// size (0 = unknown, not checked); protocol, max payload, voxel capacity (= MAX_VOXELS)
     /// and feature bits are filled in here.
@@ -58,7 +99,8 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
             protocol: gridrt_shared::PROTOCOL_VERSION as u16,
             max_payload: MAX_PAYLOAD as u16,
             voxel_capacity: u32::try_from(MAX_VOXELS).unwrap_or(u32::MAX),
-            features: compiled_features(),
+            features: compiled_features()
+                | if cfg!(feature = "splats") && MAX_POINTS > 0 && TABLE_WORDS > 0 { feature::SPLATS } else { 0 },
             ..info
         };
         Self {
@@ -69,22 +111,31 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
                 tx: FrameTx::new(),
                 scene: SceneStore::new(),
                 upload: None,
+                ahead: [0; UPLOAD_WINDOW],
+                loaded_image: None,
+                held: Held::default(),
+                #[cfg(feature = "splats")]
+                splat: SplatEngine::new(),
+                #[cfg(feature = "splats")]
+                splat_spans: SpanEncoder::new(),
             },
         }
     }
 
     /// Processes received bytes; every complete frame is handled before this returns (a
     /// render request renders the whole frame). Partial frames wait for the next call.
-    /// Blocks as long as `out`'s `write_all` does for each answer.
+    /// Blocks as long as `out`'s `write_all` does for each answer. The `SceneData` frames of
+    /// one call share one `SceneSack`, sent before this returns (SPEC.md §3.14).
     pub fn feed(&mut self, input: &[u8], out: &mut impl Write) {
         let core = &mut self.core;
         self.rx.feed_all(input, |received| {
             match received {
-                Received::Frame(frame) => core.handle(frame.kind, frame.payload, out),
-                Received::Bad(error) => core.bad_frame(error, out),
+                Received::Frame(frame) => core.handle(frame.kind, frame.seq, frame.payload, out),
+                Received::Bad(error) => core.bad_frame(error),
             }
             ControlFlow::<()>::Continue(())
         });
+        core.flush(out);
     }
 
     /// The boot banner (SPEC.md §3.12): a lone `0x00` (flushes whatever the host's receiver
@@ -136,8 +187,23 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
     }
 }
 
-impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
+impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize> Core<L, C, N, P, T> {
+    /// Sends the answers held back, in the order they belong: the `SceneSack`, then the
+    /// report of a corrupt frame that came after its data frame.
+    fn flush(&mut self, out: &mut impl Write) {
+        if let Some((status, sack)) = self.held.sack.take() {
+            let _ = self.tx.send(&Msg::SceneSack { status, sack }, out);
+        }
+        if let Some(e) = self.held.bad.take() {
+            let mut t = Text::new();
+            Trunc(&mut t).put("bad frame: ");
+            Trunc(&mut t).put(e.as_str());
+            let _ = self.tx.send(&Msg::Error { code: ErrorCode::BadFrame, detail: e.code(), text: t.as_str() }, out);
+        }
+    }
+
     fn send(&mut self, msg: &Msg<'_>, out: &mut impl Write) {
+        self.flush(out);
         // Fails on a write error (counted by `tx`, see `Device::write_errors`) or a firmware
         // bug (message larger than a frame): nothing to report either with.
         let _ = self.tx.send(msg, out);
@@ -158,14 +224,16 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         self.error(code, detail, t.as_str(), out);
     }
 
-    fn bad_frame(&mut self, e: FrameError, out: &mut impl Write) {
-        let mut t = Text::new();
-        Trunc(&mut t).put("bad frame: ");
-        Trunc(&mut t).put(e.as_str());
-        self.error(ErrorCode::BadFrame, e.code(), t.as_str(), out);
+    /// A corrupt frame: reported once this batch of input is used up (the last report wins).
+    fn bad_frame(&mut self, e: FrameError) {
+        self.held.bad = Some(e);
     }
 
-    fn handle(&mut self, kind: u8, payload: &[u8], out: &mut impl Write) {
+    fn handle(&mut self, kind: u8, seq: u16, payload: &[u8], out: &mut impl Write) {
+        if kind != MsgType::SceneData as u8 {
+            // Everything else is answered in order, after what was held back.
+            self.flush(out);
+        }
         let msg = match Msg::decode(kind, payload) {
             Ok(m) => m,
             Err(MsgError::DecodeUnknownType) => {
@@ -189,9 +257,11 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             Msg::SceneBegin { total_len, crc } => {
                 // A new upload invalidates the old scene (it will CLEAR the co-processor).
                 self.scene.loaded = false;
+                self.loaded_image = None;
                 self.upload = Some(Upload::new(total_len, crc));
             }
-            Msg::SceneChunk { offset, data } => self.scene_chunk(offset, data, out),
+            Msg::SceneChunk { offset, data } => self.scene_data(MsgType::SceneChunk, seq, offset, data, out),
+            Msg::SceneData { offset, data } => self.scene_data(MsgType::SceneData, seq, offset, data, out),
             Msg::RenderRequest(req) => self.render(&req, Target::Frame, out),
             Msg::RenderRegion { region, max_span, options, request } => {
                 self.render(&request, Target::Region { region, max_span, options }, out)
@@ -203,21 +273,37 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
         }
     }
 
-    fn scene_chunk(&mut self, offset: u32, data: &[u8], out: &mut impl Write) {
+    /// `SceneChunk` (in order, answered with `SceneAck`) or `SceneData` (any order inside the
+    /// window, answered with `SceneSack`, SPEC.md §3.14): the frame with sequence number `seq`.
+    fn scene_data(&mut self, kind: MsgType, seq: u16, offset: u32, data: &[u8], out: &mut impl Write) {
+        let windowed = kind == MsgType::SceneData;
         let Some(up) = self.upload.as_mut() else {
-            return self.error(
-                ErrorCode::UnexpectedMessage,
-                MsgType::SceneChunk as u32,
-                "scene chunk without SceneBegin",
-                out,
-            );
+            if let (true, Some((total, crc)), true) = (windowed, self.loaded_image, self.scene.loaded) {
+                // The upload is over: its last SceneSack again.
+                let sack = Sack {
+                    next_offset: total,
+                    heard: seq,
+                    window: UPLOAD_WINDOW as u16,
+                    crc,
+                    ranges: SackRanges::new(),
+                };
+                return self.send(&Msg::SceneSack { status: SceneStatus::Loaded, sack }, out);
+            }
+            let text = if windowed { "scene data without SceneBegin" } else { "scene chunk without SceneBegin" };
+            return self.error(ErrorCode::UnexpectedMessage, kind as u32, text, out);
         };
-        if offset != up.next {
+        if !windowed && offset != up.next {
             let expected = up.next;
             return self.error(ErrorCode::BadOffset, expected, "scene chunk out of order", out);
         }
         let path = &mut self.render.path;
-        if let Err((e, failure)) = up.feed(data, &mut path.link, path.polls, &mut self.scene, &self.info) {
+        #[cfg(feature = "splats")]
+        let points: &mut dyn crate::splat::PointSink = &mut self.splat;
+        #[cfg(not(feature = "splats"))]
+        let points: &mut dyn crate::splat::PointSink = &mut crate::splat::NoPoints;
+        let received =
+            up.receive(offset, data, &mut self.ahead, &mut path.link, path.polls, &mut self.scene, points, &self.info);
+        if let Err((e, failure)) = received {
             self.upload = None;
             self.scene.loaded = false;
             let mut t = Text::new();
@@ -229,18 +315,26 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             }
             return self.error(ErrorCode::SceneRejected, e.code(), t.as_str(), out);
         }
-        let next = up.next;
-        if !up.complete() {
-            return self.send(&Msg::SceneAck { next_offset: next, status: SceneStatus::Receiving }, out);
-        }
-        let result = up.finish();
-        self.upload = None;
-        match result {
-            Err((e, text)) => self.error(ErrorCode::SceneRejected, e.code(), text, out),
-            Ok(()) => {
-                self.scene.loaded = true;
-                self.send(&Msg::SceneAck { next_offset: next, status: SceneStatus::Loaded }, out);
+        let (next, crc, total) = (up.next, up.crc, up.total_len());
+        let sack = up.window.sack(seq, crc);
+        let status = if up.complete() {
+            let result = up.finish();
+            self.upload = None;
+            if let Err((e, text)) = result {
+                return self.error(ErrorCode::SceneRejected, e.code(), text, out);
             }
+            self.scene.loaded = true;
+            self.loaded_image = Some((total, crc));
+            SceneStatus::Loaded
+        } else {
+            SceneStatus::Receiving
+        };
+        if windowed {
+            // Held back: the next data frame of this batch answers for both; a corrupt frame
+            // before it is then reported by the Sack itself (it does not cover it).
+            self.held = Held { sack: Some((status, sack)), bad: None };
+        } else {
+            self.send(&Msg::SceneAck { next_offset: next, status }, out);
         }
     }
 
@@ -248,8 +342,29 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
     /// and the end message (`FrameEnd` / `RegionEnd`), or one `Error` when it is refused or
     /// the frame fails.
     fn render(&mut self, req: &RenderRequest, target: Target, out: &mut impl Write) {
-        let result = request::job(self.scene.loaded, req, target)
-            .and_then(|job| self.render.frame(&self.scene, &mut self.tx, &job, out));
+        let splats = req.flags & render_flags::SPLATS != 0;
+        let result = request::job(self.scene.loaded, req, target).and_then(|job| {
+            if splats {
+                #[cfg(feature = "splats")]
+                return splat::render(
+                    &mut self.splat,
+                    &self.scene,
+                    self.render.clock(),
+                    &mut self.splat_spans,
+                    &mut self.tx,
+                    &job,
+                    out,
+                );
+                #[cfg(not(feature = "splats"))]
+                return Err(super::fail::Fail::Plain(
+                    ErrorCode::BadRequest,
+                    6,
+                    "this firmware was built without the splat path (feature `splats`)",
+                ));
+            } else {
+                self.render.frame(&self.scene, &mut self.tx, &job, out)
+            }
+        });
         let (spans, crc) = match result {
             Ok(v) => v,
             Err(f) => return self.abort(f, out),

@@ -205,6 +205,12 @@ pub(super) struct Renderer<L, C> {
 }
 
 impl<L: FslLink, C: StageClock> Renderer<L, C> {
+    /// The stage clock (the splat path times its stages with it too).
+    #[cfg(feature = "splats")]
+    pub(super) fn clock(&self) -> &C {
+        &self.clock
+    }
+
     /// A renderer over `link`, timed by `clock`.
     pub(super) fn new(link: L, clock: C) -> Self {
         Self { path: RayPath::new(link), clock, spans: SpanEncoder::new(), row: [Sample::default(); MAX_INTERP_WIDTH] }
@@ -223,10 +229,18 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         let req = job.req;
         self.path.stats = FrameStats::default();
         let prim_ids = req.flags & render_flags::PRIM_IDS != 0 && !job.crc_only;
-        self.spans.begin_with(req.frame, prim_ids, req.encoding, job.max_span);
+        if job.span_bytes {
+            self.spans.begin_with(req.frame, prim_ids, req.encoding, 0);
+            self.spans.set_data_limit(job.max_span);
+        } else {
+            self.spans.begin_with(req.frame, prim_ids, req.encoding, job.max_span);
+        }
         self.spans.set_silent(job.crc_only);
         self.pixels(scene, tx, job, out)?;
         let (spans, crc) = self.spans.finish();
+        if job.no_stats {
+            return Ok((spans, crc));
+        }
         let entries = self.path.stats.to_bytes();
         // Only a write error stops the frame here (a `Stats` that does not fit a frame would be
         // a firmware bug, and the frame's pixels are all out).

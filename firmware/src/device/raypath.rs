@@ -1,7 +1,8 @@
 //! The ray path: one ray from its 3D-DDA traversal list to the co-processor's answer
 //! (GridRT seed 004 §1.4 with the extended request of `shared::fsl`, SPEC.md §4): put the 8
 //! head words and 2 words per list entry, control bit on the last; get the 8 result words.
-//! A ray whose list is empty sends nothing. Every wait is a bounded poll; a failed exchange
+//! A ray whose list is empty sends nothing; a link that is the kernel itself (no
+//! co-processor, `FslLink::trace_direct`) answers without words. Every wait is a bounded poll; a failed exchange
 //! drains stale answer words so the next request starts clean. Each ray's FSL words are
 //! charged to its class (primary, shadow, reflection) in [`FrameStats`].
 
@@ -10,7 +11,7 @@ use super::scene::SceneStore;
 use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
 use crate::dda::{build_list, TraversalList};
 use crate::fsl::{FslLink, FslWord};
-use gridrt_shared::fsl::{self as wire, op, RayKind, RayResult, RESULT_WORDS};
+use gridrt_shared::fsl::{self as wire, op, FslError, RayKind, RayResult, RESULT_WORDS};
 use gridrt_shared::math::Ray;
 
 /// Default poll budget of every blocking FSL put/get (≈ 4 M polls: seconds on a 50 MHz
@@ -92,7 +93,11 @@ impl<L: FslLink> RayPath<L> {
             count(&mut self.stats.culled_rays, 1);
             return Ok(None);
         }
-        let r = self.exchange(ray, kind, t_max);
+        // A link that is the kernel itself answers without FSL words (`FslLink::trace_direct`).
+        let r = match self.link.trace_direct(kind, ray, t_max, &self.list) {
+            Some(answer) => self.direct(answer),
+            None => self.exchange(ray, kind, t_max),
+        };
         sw.lap(clock, &mut self.stats, Stage::FslIo);
         if r.is_err() {
             self.drain();
@@ -135,6 +140,17 @@ impl<L: FslLink> RayPath<L> {
             *slot = w.data;
         }
         let r = RayResult::from_words(&words).map_err(|_| Fail::Word(words[0], "ray result"))?;
+        count(&mut self.stats.intersection_tests, r.tests as u64);
+        count(&mut self.stats.coproc_cycles, r.cycles as u64);
+        Ok(r)
+    }
+
+    /// Counts a ray the link answered without the word stream, like [`exchange`](Self::exchange)
+    /// counts one it sent (no FSL words).
+    fn direct(&mut self, answer: Result<RayResult, FslError>) -> Result<RayResult, Fail> {
+        let r = answer.map_err(|e| Fail::Word(e.to_word(0), "ray result"))?;
+        count(&mut self.stats.coproc_rays, 1);
+        count(&mut self.stats.list_entries, self.list.len() as u64);
         count(&mut self.stats.intersection_tests, r.tests as u64);
         count(&mut self.stats.coproc_cycles, r.cycles as u64);
         Ok(r)

@@ -58,6 +58,10 @@ pub(super) struct Job<'r> {
     pub(super) max_span: u16,
     /// Keep the CRC but send no spans (`region_options::CRC_ONLY`).
     pub(super) crc_only: bool,
+    /// Send no `Stats` (`region_options::NO_STATS`).
+    pub(super) no_stats: bool,
+    /// `max_span` counts data bytes (`region_options::SPAN_BYTES`).
+    pub(super) span_bytes: bool,
     /// The request's camera.
     pub(super) cam: Camera,
     /// The request's light.
@@ -73,8 +77,8 @@ pub(super) fn job(scene_loaded: bool, req: &RenderRequest, target: Target) -> Re
         Target::Region { .. } => field::REGION_REQUEST,
     };
     let (cam, light) = validate(scene_loaded, req, base)?;
-    let (region, max_span, crc_only) = match target {
-        Target::Frame => (Region::full(req.width, req.height), 0, false),
+    let (region, max_span, options) = match target {
+        Target::Frame => (Region::full(req.width, req.height), 0, 0),
         Target::Region { region, max_span, options } => {
             if !region.fits(req.width, req.height) {
                 let (f, t) =
@@ -85,10 +89,13 @@ pub(super) fn job(scene_loaded: bool, req: &RenderRequest, target: Target) -> Re
                     };
                 return Err(Fail::Plain(ErrorCode::BadRequest, f, t));
             }
-            (region, max_span, options & region_options::CRC_ONLY != 0)
+            (region, max_span, options)
         }
     };
-    Ok(Job { req, region, max_span, crc_only, cam, light })
+    let crc_only = options & region_options::CRC_ONLY != 0;
+    let no_stats = options & region_options::NO_STATS != 0;
+    let span_bytes = options & region_options::SPAN_BYTES != 0;
+    Ok(Job { req, region, max_span, crc_only, no_stats, span_bytes, cam, light })
 }
 
 /// Validates a request whose fields start at offset `base` of its message; returns the

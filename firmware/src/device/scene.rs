@@ -7,13 +7,25 @@
 use super::fail::Fail;
 use crate::dda::{GridDesc, MAX_GRID_DIM};
 use crate::fsl::{FslLink, FslWord};
+use crate::splat::PointSink;
 use gridrt_shared::frame::Crc32Digest;
 use gridrt_shared::fsl::{self as wire, op, FslError};
 use gridrt_shared::math::Vec3;
 use gridrt_shared::msg::DeviceInfo;
 use gridrt_shared::scene::{
-    LightingRecord, Material, MaterialModel, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream, EMPTY_VOXEL,
+    LightingRecord, Material, MaterialModel, ObjectRecord, PointRecord, PointsHead, SceneError, SceneHeader, SceneSink,
+    SceneStream, EMPTY_VOXEL,
 };
+use gridrt_shared::window::{Arrival, ReceiveWindow};
+
+/// Receive window of a windowed upload (SPEC.md §3.14): how far past the next expected byte
+/// a `SceneData` may reach. Bytes that arrive ahead of a gap wait in a buffer this large.
+pub const UPLOAD_WINDOW: usize = 4096;
+
+const _: () = assert!(UPLOAD_WINDOW.is_power_of_two() && UPLOAD_WINDOW <= u16::MAX as usize);
+
+/// Image bytes that arrived ahead of a gap, at their offset modulo [`UPLOAD_WINDOW`].
+pub(super) type Reorder = [u8; UPLOAD_WINDOW];
 
 /// Largest material table the device holds.
 pub const MAX_MATERIALS: usize = 64;
@@ -61,10 +73,13 @@ pub const MAX_OBJECTS: usize = 64;
 pub(super) struct Upload {
     stream: SceneStream,
     total_len: u32,
-    crc: u32,
+    /// CRC-32 of the whole image, from `SceneBegin` (it also names the upload in `SceneSack`).
+    pub(super) crc: u32,
     digest: Crc32Digest,
-    /// Offset of the next expected chunk.
+    /// Offset of the next byte the parser expects.
     pub(super) next: u32,
+    /// What has arrived, in order or ahead of a gap.
+    pub(super) window: ReceiveWindow,
     /// Words of the current PE block still to forward (a block spans chunks).
     pe_words_left: u32,
 }
@@ -72,7 +87,20 @@ pub(super) struct Upload {
 impl Upload {
     /// The upload `SceneBegin` announced: `total_len` bytes whose CRC-32 is `crc`.
     pub(super) fn new(total_len: u32, crc: u32) -> Self {
-        Self { stream: SceneStream::new(), total_len, crc, digest: Crc32Digest::default(), next: 0, pe_words_left: 0 }
+        Self {
+            stream: SceneStream::new(),
+            total_len,
+            crc,
+            digest: Crc32Digest::default(),
+            next: 0,
+            window: ReceiveWindow::new(total_len, UPLOAD_WINDOW as u16),
+            pe_words_left: 0,
+        }
+    }
+
+    /// The image's length.
+    pub(super) fn total_len(&self) -> u32 {
+        self.total_len
     }
 
     /// True once every announced byte has been fed.
@@ -80,15 +108,59 @@ impl Upload {
         self.next >= self.total_len
     }
 
-    /// Feeds the chunk at [`next`](Self::next) through the scene parser into `store`, forwarding
-    /// PE blocks to the co-processor over `link`. On failure returns the scene error and,
-    /// when the link or the co-processor caused it, that failure.
+    /// Takes the data frame `offset .. offset + data.len()` (any order inside the window):
+    /// keeps its new bytes in `ahead` and feeds every byte that became contiguous through
+    /// the parser. Returns what the frame did; `PastEnd` is refused as `TrailingBytes`.
+    // The frame, the reorder buffer, and what `feed` needs to load PE blocks.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn receive<L: FslLink, const N: usize>(
+        &mut self,
+        offset: u32,
+        data: &[u8],
+        ahead: &mut Reorder,
+        link: &mut L,
+        polls: u32,
+        store: &mut SceneStore<N>,
+        points: &mut dyn crate::splat::PointSink,
+        info: &DeviceInfo,
+    ) -> Result<Arrival, (SceneError, Option<Fail>)> {
+        let old_next = self.window.next();
+        let len = u32::try_from(data.len()).unwrap_or(u32::MAX);
+        let arrival = self.window.arrive(offset, len);
+        match arrival {
+            Arrival::PastEnd => return Err((SceneError::TrailingBytes, None)),
+            a if !a.accepted() => return Ok(a),
+            _ => {}
+        }
+        // New bytes start at or after `old_next` and end within the window: each lands in its
+        // own slot of `ahead` (offset modulo the window), never on a byte still waiting.
+        let skip = old_next.saturating_sub(offset) as usize;
+        let mut pos = offset.max(old_next) as usize;
+        for &b in data.get(skip..).unwrap_or(&[]) {
+            if let Some(slot) = ahead.get_mut(pos % UPLOAD_WINDOW) {
+                *slot = b;
+            }
+            pos = pos.saturating_add(1);
+        }
+        if let Arrival::Advanced { from, to } = arrival {
+            let (a, b) = ring_slices(ahead, from, to);
+            self.feed(a, link, polls, store, points, info)?;
+            self.feed(b, link, polls, store, points, info)?;
+        }
+        Ok(arrival)
+    }
+
+    /// Feeds the chunk at [`next`](Self::next) through the scene parser into `store` (the
+    /// point section into `points`), forwarding PE blocks to the co-processor over `link`. On
+    /// failure returns the scene error and, when the link or the co-processor caused it, that
+    /// failure.
     pub(super) fn feed<L: FslLink, const N: usize>(
         &mut self,
         data: &[u8],
         link: &mut L,
         polls: u32,
         store: &mut SceneStore<N>,
+        points: &mut dyn PointSink,
         info: &DeviceInfo,
     ) -> Result<(), (SceneError, Option<Fail>)> {
         let end = (self.next as u64).saturating_add(data.len() as u64);
@@ -98,7 +170,7 @@ impl Upload {
         self.digest.update(data);
         let total_len = self.total_len;
         let mut loader =
-            Loader { link, store, info, polls, total_len, words_left: &mut self.pe_words_left, failure: None };
+            Loader { link, store, points, info, polls, total_len, words_left: &mut self.pe_words_left, failure: None };
         match self.stream.feed(data, &mut loader) {
             Ok(()) => {
                 self.next = end as u32;
@@ -123,11 +195,23 @@ impl Upload {
     }
 }
 
+/// Bytes `from..to` (at most [`UPLOAD_WINDOW`] of them) of `ring`, in order: two slices when
+/// they wrap around its end.
+fn ring_slices(ring: &Reorder, from: u32, to: u32) -> (&[u8], &[u8]) {
+    let n = (to.saturating_sub(from) as usize).min(UPLOAD_WINDOW);
+    let start = from as usize % UPLOAD_WINDOW;
+    let first = n.min(UPLOAD_WINDOW.saturating_sub(start));
+    let a = ring.get(start..start.saturating_add(first)).unwrap_or(&[]);
+    let b = ring.get(..n.saturating_sub(first)).unwrap_or(&[]);
+    (a, b)
+}
+
 /// [`SceneSink`] that stores the header, voxel map and materials and forwards PE blocks to
 /// the co-processor as LOAD_PE packets.
 struct Loader<'a, L: FslLink, const N: usize> {
     link: &'a mut L,
     store: &'a mut SceneStore<N>,
+    points: &'a mut dyn PointSink,
     info: &'a DeviceInfo,
     polls: u32,
     total_len: u32,
@@ -206,6 +290,7 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
         self.store.material_model.clear();
         self.store.objects.clear();
         self.store.lighting = LightingRecord::default();
+        self.points.clear();
         // The co-processor's old scene goes now: CLEAR, FRAME (the grid box, from which a
         // fixed-point co-processor takes its frame), then one LOAD_PE per block.
         self.put(FslWord::last(wire::CLEAR_WORD), "CLEAR")?;
@@ -261,5 +346,13 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
             return Err(SceneError::BadPeBlock);
         }
         self.expect_ack("LOAD_PE")
+    }
+
+    fn points_begin(&mut self, head: &PointsHead) -> Result<(), SceneError> {
+        self.points.begin(head)
+    }
+
+    fn point(&mut self, _index: u32, p: PointRecord) -> Result<(), SceneError> {
+        self.points.push(&p)
     }
 }

@@ -26,6 +26,16 @@ enum What {
     /// with transmission overlapped with ray work at 115 200 / 921 600 / 3 000 000 baud, on
     /// 1, 2 and 4 boards (CSV, SVG plot and JSON in --out).
     Link(super::bench_link::Args),
+    /// The whole frame on the modelled board (soft-core instructions measured on QEMU,
+    /// co-processor cycles from the timing model, UART link, and what overlaps), per
+    /// configuration (soft-core-only, gridrt, pipelined, host-native) and soft-core target
+    /// (riscv32imac, riscv32imafc); every image checked against the f64 reference (JSON,
+    /// and CSV + SVG in --out).
+    Frame(super::bench_frame::Args),
+    /// Seed 001's point splats (issue 15): native splats/s and image error against the
+    /// ray-traced disks for 10³…10⁶ points and several shape tables, optionally soft-core
+    /// instructions per splat from QEMU (`--port`); CSV, SVG plot and JSON in --out.
+    Splat(super::bench_splat::Args),
 }
 
 impl Cmd {
@@ -36,6 +46,8 @@ impl Cmd {
             What::Accuracy(a) => a.run(),
             What::Skip(a) => a.run(),
             What::Link(a) => a.run(),
+            What::Frame(a) => a.run(),
+            What::Splat(a) => a.run(),
         }
     }
 }

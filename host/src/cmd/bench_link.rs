@@ -6,6 +6,9 @@
 //! work, modelled frame time with and without overlap), `link_multi.csv` (bunny frames on
 //! 1, 2 and 4 boards: modelled frame time, speed-up, busiest board's co-processor cycles),
 //! `link.svg` (modelled frame time against baud) and `link.json` (the headline numbers).
+//!
+//! With `--faults` it measures instead: sessions over a paced, faulty pseudo-terminal relay
+//! at several bit error rates ([`super::bench_link_faults`]).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -39,11 +42,21 @@ pub struct Args {
     /// Board counts of the several-boards model.
     #[arg(long, value_delimiter = ',', default_value = "1,2,4")]
     devices: Vec<usize>,
+    /// Measure on a faulty line instead: whole sessions (upload included) over a paced
+    /// pseudo-terminal relay with bit flips, drops and bursts, at each --bers (see
+    /// `gridrt bench link --faults --help`).
+    #[arg(long)]
+    faults: bool,
+    #[clap(flatten)]
+    line: super::bench_link_faults::LineArgs,
 }
 
 impl Args {
     /// Runs the bench.
     pub fn run(self) -> anyhow::Result<()> {
+        if self.faults {
+            return super::bench_link_faults::run(&self.out, &self.scenes, self.width, self.height, &self.line);
+        }
         std::fs::create_dir_all(&self.out).with_context(|| format!("creating {}", self.out.display()))?;
         let fw = FirmwareModel::RV32IMAFC;
         let mut rows: Vec<LinkRow> = Vec::new();

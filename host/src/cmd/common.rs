@@ -31,10 +31,14 @@ pub struct PortOptions {
     /// Baud rate for --port (and the line rate of the modelled link time).
     #[arg(long, default_value_t = 115_200, value_name = "BAUD")]
     pub baud: u32,
-    /// Seconds the device may go without answering before the render fails: without any
-    /// message while rendering, without a new acknowledgement while uploading the scene.
+    /// Seconds the render may go without a new pixel (the device's ray work) before it
+    /// fails. Every other wait is derived from --baud and the bytes expected.
     #[arg(long, default_value_t = 120.0, value_name = "SECONDS")]
     pub timeout: f64,
+    /// Allowance per exchange on top of the wire time derived from --baud (USB adapter,
+    /// operating system, device).
+    #[arg(long, default_value_t = 30, value_name = "MS")]
+    pub turnaround: u64,
 }
 
 /// Scene file and grid build.
@@ -233,7 +237,8 @@ impl From<Kernel> for KernelKind {
 /// Cycle models.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Timing {
-    /// GridRT's multi-cycle PE: 648 cycles per test at 50 MHz.
+    /// GridRT's multi-cycle PE at 50 MHz, charged at the running kernel's cycles per test
+    /// (watertight f32: 1188; GridRT's own program: 648).
     Gridrt,
     /// A pipelined PE.
     Pipelined,

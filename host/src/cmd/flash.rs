@@ -5,20 +5,24 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::Context;
-use gridrt_host::flash::{flash, FlashConfig, FlashEvent, FlashImage};
+use gridrt_host::flash::{flash, FlashConfig, FlashImage};
 use gridrt_host::serial;
 use gridrt_host::session::{Session, SessionConfig};
-use indicatif::{ProgressBar, ProgressStyle};
+
+use super::progress::CliProgress;
 
 /// Flash an application through the bootloader.
 ///
 /// The ELF must be linked for the bootloader's application region
 /// (`cargo xtask firmware --bin app --layout bootloaded`). Its loadable segments are sent in
-/// CRC-checked, acknowledged chunks; the bootloader reads the image back from memory and
-/// reports its CRC-32, which must equal ours; then it jumps to the entry point and the
-/// application must answer Hello. A refused image (wrong format version, too large, outside
-/// the region, bad CRC) is reported with the bootloader's reason; the bootloader keeps
-/// running.
+/// CRC-checked chunks, several in flight, each acknowledged selectively; only chunks the
+/// bootloader did not get are sent again, and the chunk size follows the line's error rate
+/// (SPEC.md §3.14). The bootloader reads the image back from memory and reports its CRC-32,
+/// which must equal ours; then it jumps to the entry point and the application must answer
+/// Hello. A refused image (wrong format version, too large, outside the region, bad CRC) is
+/// reported with the bootloader's reason; the bootloader keeps running. Every wait is
+/// derived from --baud and the bytes expected. When stdout is not a terminal, a progress
+/// line is printed every few seconds.
 #[derive(Debug, clap::Parser)]
 pub struct Cmd {
     /// Application ELF.
@@ -30,9 +34,10 @@ pub struct Cmd {
     /// Baud rate.
     #[arg(long, default_value_t = 115_200, value_name = "BAUD")]
     baud: u32,
-    /// Seconds to wait for each answer of the bootloader before sending again.
-    #[arg(long, default_value_t = 2.0, value_name = "SECONDS")]
-    reply_timeout: f64,
+    /// Allowance per exchange on top of the wire time derived from --baud (USB adapter,
+    /// operating system, bootloader).
+    #[arg(long, default_value_t = 30, value_name = "MS")]
+    turnaround: u64,
     /// Write and verify, but do not start the application.
     #[arg(long)]
     no_boot: bool,
@@ -56,45 +61,23 @@ impl Cmd {
             image.segments.len()
         );
         let mut port = serial::open(&self.port, self.baud, serial::DEFAULT_READ_TIMEOUT)?;
-        let cfg = FlashConfig {
-            reply_timeout: Duration::from_secs_f64(self.reply_timeout.max(0.05)),
-            boot: !self.no_boot,
-            ..FlashConfig::new(self.port.clone())
-        };
-        let mut bar: Option<ProgressBar> = None;
-        let report = flash(&mut port, &image, &cfg, &mut |e| match e {
-            FlashEvent::Connected(info) => println!(
-                "bootloader firmware {}.{}.{} on board {}, max payload {}",
-                info.firmware[0], info.firmware[1], info.firmware[2], info.board, info.max_payload
-            ),
-            FlashEvent::Started { total } => {
-                let pb = ProgressBar::new(total);
-                if let Ok(style) =
-                    ProgressStyle::with_template("flash  [{bar:40}] {bytes}/{total_bytes} {bytes_per_sec} {msg}")
-                {
-                    pb.set_style(style.progress_chars("=> "));
-                }
-                bar = Some(pb);
+        let session =
+            SessionConfig::new(self.port.clone()).baud(self.baud).turnaround(Duration::from_millis(self.turnaround));
+        let cfg = FlashConfig { session, boot: !self.no_boot };
+        let mut progress = CliProgress::default();
+        let report = flash(&mut port, &image, &cfg, &mut |e| {
+            if let gridrt_host::flash::FlashEvent::Connected(info) = e {
+                println!(
+                    "bootloader firmware {}.{}.{} on board {}, max payload {}",
+                    info.firmware[0], info.firmware[1], info.firmware[2], info.board, info.max_payload
+                );
             }
-            FlashEvent::Written { bytes, .. } => {
-                if let Some(b) = &bar {
-                    b.set_position(bytes);
-                }
-            }
-            FlashEvent::Resent { offset } => {
-                if let Some(b) = &bar {
-                    b.set_message(format!("(resending from {offset})"));
-                }
-            }
-            FlashEvent::Verified { .. } | FlashEvent::Booting { .. } => {
-                if let Some(b) = bar.take() {
-                    b.finish_and_clear();
-                }
-            }
+            progress.handle_flash(e)
         });
-        if let Some(b) = bar.take() {
-            b.abandon();
+        if report.is_err() {
+            progress.abandon();
         }
+        drop(progress);
         let report = report?;
         println!(
             "verified   {} bytes, CRC-32 {:#010x} read back by the bootloader ({:.1} s, {} chunks resent)",
@@ -111,9 +94,10 @@ impl Cmd {
         if self.no_check {
             return Ok(());
         }
-        // The application starts up first; a slow (simulated) board takes longer.
-        let hello = Duration::from_secs(15).max(Duration::from_secs_f64(self.reply_timeout.max(0.05)));
-        let cfg = SessionConfig::new(self.port.clone()).hello_timeout(hello);
+        let cfg = SessionConfig::new(self.port.clone())
+            .baud(self.baud)
+            .turnaround(Duration::from_millis(self.turnaround))
+            .hello_timeout(Duration::from_secs(15));
         let mut session = Session::new(&mut port, cfg);
         let info = session.hello(&mut |_| {}).context("the started application did not answer Hello")?;
         println!(

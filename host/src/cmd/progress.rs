@@ -1,13 +1,43 @@
-//! Draws the library's [`ProgressEvent`]s with indicatif (on stderr; hidden when stderr is
-//! not a terminal).
+//! Draws the library's progress events: indicatif bars on stderr when stdout is a terminal;
+//! otherwise (a pipe, a file, a CI log) plain lines on stdout, one at each stage's start and
+//! end and one every [`LINE_EVERY`] in between — bytes, rate, retransmits, line errors and
+//! what was last heard — so a long or struggling transfer is never silent.
 
-use gridrt_host::session::ProgressEvent;
+use std::io::{IsTerminal, Write};
+use std::time::{Duration, Instant};
+
+use gridrt_host::flash::FlashEvent;
+use gridrt_host::session::{Activity, ProgressEvent, Stage};
 use indicatif::{ProgressBar, ProgressStyle};
 
-/// Progress bars for one command.
-#[derive(Debug, Default)]
+/// Time between progress lines when stdout is not a terminal (at most; the library reports
+/// at least once a second).
+pub const LINE_EVERY: Duration = Duration::from_secs(4);
+
+/// How progress is shown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// indicatif bars on stderr.
+    Bars,
+    /// Lines on stdout.
+    Lines,
+}
+
+/// Progress display for one command.
+#[derive(Debug)]
 pub struct CliProgress {
+    mode: Mode,
     bar: Option<ProgressBar>,
+    /// When the last line was printed (`Lines`).
+    last_line: Option<Instant>,
+    /// The latest activity, printed at a stage's end.
+    latest: Option<Activity>,
+}
+
+impl Default for CliProgress {
+    fn default() -> Self {
+        Self::new(if std::io::stdout().is_terminal() { Mode::Bars } else { Mode::Lines })
+    }
 }
 
 fn bar(len: u64, template: &str) -> ProgressBar {
@@ -18,59 +48,211 @@ fn bar(len: u64, template: &str) -> ProgressBar {
     pb
 }
 
+/// `n` bytes in B, KiB or MiB.
+fn size(n: f64) -> String {
+    if n >= 10.0 * 1024.0 * 1024.0 {
+        format!("{:.1} MiB", n / 1048576.0)
+    } else if n >= 10.0 * 1024.0 {
+        format!("{:.1} KiB", n / 1024.0)
+    } else {
+        format!("{n:.0} B")
+    }
+}
+
+/// One progress line for `a` (what `Lines` mode prints).
+pub fn line(a: &Activity) -> String {
+    let secs = a.elapsed.as_secs_f64().max(1e-3);
+    let pct = if a.total > 0 { 100.0 * a.done as f64 / a.total as f64 } else { 0.0 };
+    let (done, rate, again, unit) = match a.stage {
+        Stage::Render => (
+            format!("{} / {} px verified", a.done, a.total),
+            format!("{}/s in", size(a.wire_rx as f64 / secs)),
+            "runs re-requested",
+            if a.chunk == 0 { "spans default".to_string() } else { format!("spans ≤ {} B", a.chunk) },
+        ),
+        _ => (
+            format!("{} / {}", size(a.done as f64), size(a.total as f64)),
+            format!("{}/s payload, {}/s out", size(a.done as f64 / secs), size(a.wire_tx as f64 / secs)),
+            "chunks resent",
+            format!("chunks {} B", a.chunk),
+        ),
+    };
+    format!(
+        "{:<7} {done} ({pct:.0} %) in {secs:.1} s, {rate}, {} {again}, {} line errors, {unit}; last heard {}",
+        a.stage.to_string().split(' ').next_back().unwrap_or("link"),
+        a.retransmits,
+        a.line_errors,
+        a.last_heard
+    )
+}
+
 impl CliProgress {
-    /// Handles one event.
+    /// A display in `mode`.
+    pub fn new(mode: Mode) -> Self {
+        Self { mode, bar: None, last_line: None, latest: None }
+    }
+
+    fn say(&mut self, text: &str) {
+        let mut out = std::io::stdout().lock();
+        let _ = writeln!(out, "{text}");
+        let _ = out.flush();
+        self.last_line = Some(Instant::now());
+    }
+
+    fn activity(&mut self, a: Activity) {
+        match self.mode {
+            Mode::Bars => {
+                if let Some(b) = &self.bar {
+                    if a.retransmits + a.line_errors > 0 {
+                        b.set_message(format!("({} resent, {} line errors)", a.retransmits, a.line_errors));
+                    }
+                }
+            }
+            Mode::Lines => {
+                if self.last_line.is_none_or(|t| t.elapsed() >= LINE_EVERY) {
+                    self.say(&line(&a));
+                }
+            }
+        }
+        self.latest = Some(a);
+    }
+
+    fn start(&mut self, total: u64, template: &str, what: &str) {
+        self.finish();
+        self.latest = None;
+        match self.mode {
+            Mode::Bars => self.bar = Some(bar(total, template)),
+            Mode::Lines => self.say(what),
+        }
+    }
+
+    fn position(&self, n: u64) {
+        if let Some(b) = &self.bar {
+            b.set_position(n);
+        }
+    }
+
+    fn note(&self, text: String) {
+        if let Some(b) = &self.bar {
+            b.set_message(text);
+        }
+    }
+
+    /// Handles one session event.
     pub fn handle(&mut self, event: ProgressEvent) {
         match event {
-            ProgressEvent::Connected(_) => {}
-            ProgressEvent::UploadStarted { total } => {
-                self.finish();
-                self.bar = Some(bar(total, "upload [{bar:40}] {bytes}/{total_bytes} {bytes_per_sec} {msg}"));
-            }
-            ProgressEvent::Uploaded { bytes, .. } => {
-                if let Some(b) = &self.bar {
-                    b.set_position(bytes);
-                }
-            }
-            ProgressEvent::UploadRewound { offset } => {
-                if let Some(b) = &self.bar {
-                    b.set_message(format!("(resending from {offset})"));
-                }
-            }
-            ProgressEvent::RenderStarted { height, .. } => {
-                self.finish();
-                self.bar = Some(bar(height as u64, "render [{bar:40}] {pos}/{len} rows {elapsed_precise} eta {eta}"));
-            }
-            ProgressEvent::RowReceived { rows_done, .. } => {
-                if let Some(b) = &self.bar {
-                    b.set_position(rows_done as u64);
-                }
-            }
+            ProgressEvent::Connected(_) | ProgressEvent::RowVerified { .. } => {}
+            ProgressEvent::UploadStarted { total } => self.start(
+                total,
+                "upload [{bar:40}] {bytes}/{total_bytes} {bytes_per_sec} {msg}",
+                &format!("upload  {} scene image", size(total as f64)),
+            ),
+            ProgressEvent::Uploaded { bytes, .. } => self.position(bytes),
+            ProgressEvent::UploadRewound { offset } => self.note(format!("(resending from {offset})")),
+            ProgressEvent::RenderStarted { width, height } => self.start(
+                height as u64,
+                "render [{bar:40}] {pos}/{len} rows {elapsed_precise} eta {eta}",
+                &format!("render  {width}×{height} frame"),
+            ),
+            ProgressEvent::RowReceived { rows_done, .. } => self.position(rows_done as u64),
             ProgressEvent::Resend { region } => {
-                if let Some(b) = &self.bar {
-                    b.set_message(format!("(re-requesting rows {}..{})", region.y0, region.y0 + region.rows));
-                }
+                self.note(format!("(re-requesting rows {}..{})", region.y0, region.y0 + region.rows))
             }
             ProgressEvent::DeviceReset => {
-                if let Some(b) = &self.bar {
-                    b.set_message("(device reset: uploading the scene again)");
+                self.note("(device reset: uploading the scene again)".into());
+                if self.mode == Mode::Lines {
+                    self.say("device reset: uploading the scene again, then the pixels still missing");
                 }
             }
-            ProgressEvent::RowVerified { .. } => {}
+            ProgressEvent::Activity(a) => self.activity(a),
             ProgressEvent::UploadFinished { .. } | ProgressEvent::Finished => self.finish(),
         }
     }
 
-    /// Removes the current bar.
+    /// Handles one flash event.
+    pub fn handle_flash(&mut self, event: FlashEvent) {
+        match event {
+            FlashEvent::Connected(_) => {}
+            FlashEvent::Started { total } => self.start(
+                total,
+                "flash  [{bar:40}] {bytes}/{total_bytes} {bytes_per_sec} {msg}",
+                &format!("flash   {} application image", size(total as f64)),
+            ),
+            FlashEvent::Written { bytes, .. } => self.position(bytes),
+            FlashEvent::Resent { offset } => self.note(format!("(resending from {offset})")),
+            FlashEvent::Activity(a) => self.activity(a),
+            FlashEvent::Verified { .. } | FlashEvent::Booting { .. } => self.finish(),
+        }
+    }
+
+    /// Ends the current stage: removes its bar, or prints its last line.
     pub fn finish(&mut self) {
         if let Some(b) = self.bar.take() {
             b.finish_and_clear();
         }
+        if self.mode == Mode::Lines {
+            if let Some(a) = self.latest.take() {
+                self.say(&line(&a));
+            }
+        }
+    }
+
+    /// Drops the bar without the final line (the operation failed; its error follows).
+    pub fn abandon(&mut self) {
+        if let Some(b) = self.bar.take() {
+            b.abandon();
+        }
+        self.latest = None;
     }
 }
 
 impl Drop for CliProgress {
     fn drop(&mut self) {
         self.finish();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn act(stage: Stage, done: u64, secs: u64) -> Activity {
+        Activity {
+            stage,
+            done,
+            total: 1000,
+            wire_tx: 2 * done,
+            wire_rx: done / 2,
+            elapsed: Duration::from_secs(secs),
+            retransmits: 7,
+            line_errors: 9,
+            chunk: 134,
+            last_heard: "SceneSack {next 500, Receiving, 1 ranges} (seq 3) 0.2 s ago".into(),
+        }
+    }
+
+    #[test]
+    fn a_line_names_bytes_rate_retransmits_and_what_was_heard() {
+        let l = line(&act(Stage::Upload, 500, 2));
+        for part in ["upload", "500 B / 1000 B (50 %)", "250 B/s payload", "7 chunks resent", "9 line errors"] {
+            assert!(l.contains(part), "`{part}` missing from: {l}");
+        }
+        assert!(l.contains("last heard SceneSack"), "{l}");
+        let r = line(&act(Stage::Render, 500, 1));
+        assert!(r.starts_with("render") && r.contains("500 / 1000 px verified") && r.contains("7 runs"), "{r}");
+    }
+
+    #[test]
+    fn lines_mode_keeps_quiet_between_lines_and_prints_the_last_state_at_the_end() {
+        let mut p = CliProgress::new(Mode::Lines);
+        p.handle(ProgressEvent::UploadStarted { total: 1000 });
+        let t = p.last_line.expect("a line at the start");
+        p.handle(ProgressEvent::Activity(act(Stage::Upload, 100, 1)));
+        assert_eq!(p.last_line, Some(t), "no second line within {LINE_EVERY:?}");
+        p.last_line = Some(t - LINE_EVERY);
+        p.handle(ProgressEvent::Activity(act(Stage::Upload, 200, 5)));
+        assert!(p.last_line.unwrap() > t, "a line once {LINE_EVERY:?} passed");
+        p.handle(ProgressEvent::UploadFinished { total: 1000 });
+        assert!(p.latest.is_none());
     }
 }

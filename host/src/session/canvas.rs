@@ -128,9 +128,38 @@ impl Canvas {
         Ok(newly)
     }
 
-    /// The first group of rows of `band` with unverified pixels, as one region (the union of
-    /// their column ranges); `None` when the band is verified.
-    pub(super) fn next_gap(&self, band: Region) -> Option<Region> {
+    /// Runs of pixels of `band` that have not arrived (colour, or id when collected), row by
+    /// row, left to right: `(row, first column, end column)`.
+    pub(super) fn missing_runs(&self, band: Region) -> Vec<(u16, u16, u16)> {
+        let (w, need) = (self.width as usize, self.need());
+        let mut runs = Vec::new();
+        for y in band.y0..band.y0 + band.rows {
+            let base = y as usize * w;
+            let mut x = band.x0;
+            while x < band.x0 + band.cols {
+                if self.state[base + x as usize] & need == need {
+                    x += 1;
+                    continue;
+                }
+                let start = x;
+                while x < band.x0 + band.cols && self.state[base + x as usize] & need != need {
+                    x += 1;
+                }
+                runs.push((y, start, x));
+            }
+        }
+        runs
+    }
+
+    /// Pixels of `r` that have not arrived.
+    pub(super) fn missing_in(&self, r: Region) -> u64 {
+        let need = self.need();
+        self.rows(r).map(|row| self.state[row].iter().filter(|&&s| s & need != need).count() as u64).sum()
+    }
+
+    /// The first group of consecutive rows of `band` with unverified pixels, as one region
+    /// (the union of their column ranges); `None` when the band is verified.
+    pub(super) fn next_unverified(&self, band: Region) -> Option<Region> {
         let w = self.width as usize;
         let mut group: Option<(u16, u16, usize, usize)> = None; // (y0, rows, xmin, xmax)
         for y in band.y0..band.y0 + band.rows {
@@ -152,6 +181,11 @@ impl Canvas {
             }
         }
         group.map(|(y0, rows, a, b)| Region { x0: band.x0 + a as u16, y0, cols: (b - a + 1) as u16, rows })
+    }
+
+    /// Pixels of `band` that are verified.
+    pub(super) fn verified_pixels(&self, band: Region) -> u64 {
+        self.rows(band).map(|row| self.state[row].iter().filter(|&&s| s & VERIFIED != 0).count() as u64).sum()
     }
 
     /// Rows of `band` that are fully verified.

@@ -7,20 +7,25 @@ use std::time::{Duration, Instant};
 
 use gridrt_shared::frame::{encode_frame, FeedResult, FrameAccumulator, FrameError, MAX_ENCODED, MAX_PAYLOAD};
 use gridrt_shared::msg::{
-    stat_entries, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, PixelEncoding, Region, SceneStatus,
+    stat_entries, DeviceInfo, ErrorCode, FlashStatus, Msg, MsgError, MsgType, PixelEncoding, Region, Sack, SceneStatus,
 };
 use gridrt_shared::PROTOCOL_VERSION;
 
 use super::config::SessionConfig;
 use super::error::{SessionError, Stage};
+use super::estimate::LossEstimator;
+use super::link::DevicePace;
 use super::link::{LinkStats, SpanSizer};
 use super::progress::ProgressEvent;
 
 /// Owned form of the device → host messages.
 #[derive(Debug, Clone, PartialEq)]
-pub(super) enum Incoming {
+pub(crate) enum Incoming {
     Version(DeviceInfo),
     SceneAck { next_offset: u32, status: SceneStatus },
+    SceneSack { status: SceneStatus, sack: Sack },
+    FlashAck { next_offset: u32, status: FlashStatus, crc: u32 },
+    FlashSack { status: FlashStatus, sack: Sack },
     PixelSpan { frame: u16, y: u16, x0: u16, count: u16, encoding: PixelEncoding, data: Vec<u8> },
     FrameEnd { frame: u16, spans: u32, image_crc: u32 },
     RegionEnd { frame: u16, region: Region, spans: u32, crc: u32 },
@@ -34,6 +39,9 @@ impl Incoming {
         match m {
             Msg::Version(d) => Self::Version(d),
             Msg::SceneAck { next_offset, status } => Self::SceneAck { next_offset, status },
+            Msg::SceneSack { status, sack } => Self::SceneSack { status, sack },
+            Msg::FlashAck { next_offset, status, crc } => Self::FlashAck { next_offset, status, crc },
+            Msg::FlashSack { status, sack } => Self::FlashSack { status, sack },
             Msg::PixelSpan { frame, y, x0, count, encoding, data } => {
                 Self::PixelSpan { frame, y, x0, count, encoding, data: data.to_vec() }
             }
@@ -44,30 +52,63 @@ impl Incoming {
             _ => Self::Other,
         }
     }
+
+    /// A short description for error messages ("last heard: …").
+    fn summary(&self) -> String {
+        match self {
+            Self::Version(d) => format!("Version (firmware {}.{}.{})", d.firmware[0], d.firmware[1], d.firmware[2]),
+            Self::SceneAck { next_offset, status } => format!("SceneAck {{{next_offset}, {status:?}}}"),
+            Self::SceneSack { status, sack } => {
+                format!("SceneSack {{next {}, {status:?}, {} ranges}}", sack.next_offset, sack.ranges.len())
+            }
+            Self::FlashAck { next_offset, status, .. } => format!("FlashAck {{{next_offset}, {status:?}}}"),
+            Self::FlashSack { status, sack } => {
+                format!("FlashSack {{next {}, {status:?}, {} ranges}}", sack.next_offset, sack.ranges.len())
+            }
+            Self::PixelSpan { y, x0, count, .. } => format!("PixelSpan {{row {y}, x {x0}+{count}}}"),
+            Self::FrameEnd { frame, .. } => format!("FrameEnd {{frame {frame}}}"),
+            Self::RegionEnd { region: r, .. } => {
+                format!("RegionEnd {{rows {}..{}, x {}+{}}}", r.y0, r.y0 + r.rows, r.x0, r.cols)
+            }
+            Self::Stats { frame, .. } => format!("Stats {{frame {frame}}}"),
+            Self::Error { code, detail, text } => format!("Error {{{code:?}, {detail:#x}: {text}}}"),
+            Self::Other => "a message this host does not know".into(),
+        }
+    }
 }
 
 /// A protocol session over transport `T`.
 #[derive(Debug)]
 pub struct Session<T> {
     port: T,
-    pub(super) cfg: SessionConfig,
+    pub(crate) cfg: SessionConfig,
     acc: Box<FrameAccumulator<MAX_ENCODED>>,
     rx: Vec<u8>,
     rx_pos: usize,
-    pub(super) tx_seq: u16,
-    pub(super) last_rx_seq: Option<u16>,
-    pub(super) bytes_tx: u64,
-    pub(super) bytes_rx: u64,
+    pub(crate) tx_seq: u16,
+    pub(crate) last_rx_seq: Option<u16>,
+    pub(crate) bytes_tx: u64,
+    pub(crate) bytes_rx: u64,
     bad_frames: u64,
-    pub(super) device: Option<DeviceInfo>,
+    pub(crate) device: Option<DeviceInfo>,
     /// Valid frames received.
-    pub(super) rx_frames: u64,
+    pub(crate) rx_frames: u64,
     /// Retransmission counters.
-    pub(super) link: LinkStats,
+    pub(crate) link: LinkStats,
     /// The last scene uploaded (uploaded again after a device reset).
-    pub(super) scene: Option<Arc<[u8]>>,
+    pub(crate) scene: Option<Arc<[u8]>>,
     /// Line-quality estimate carried from band to band.
-    pub(super) sizer: Option<SpanSizer>,
+    pub(crate) sizer: Option<SpanSizer>,
+    /// Byte error rate host → device, from data frames that arrived or were lost.
+    pub(crate) est_up: LossEstimator,
+    /// Byte error rate device → host, from the frames received intact or corrupt.
+    pub(crate) est_down: LossEstimator,
+    /// Bytes received since the last frame outcome (the size of the next one).
+    frame_bytes: usize,
+    /// The device's compute gaps and frame sizes seen while rendering.
+    pub(crate) pace: DevicePace,
+    /// When, with which sequence number, and what was last heard.
+    heard: Option<(Instant, u16, String)>,
 }
 
 impl<T: Read + Write> Session<T> {
@@ -89,6 +130,20 @@ impl<T: Read + Write> Session<T> {
             link: LinkStats::default(),
             scene: None,
             sizer: None,
+            est_up: LossEstimator::default(),
+            est_down: LossEstimator::default(),
+            frame_bytes: 0,
+            pace: DevicePace::default(),
+            heard: None,
+        }
+    }
+
+    /// The last valid message from the device, its sequence number and how long ago; for
+    /// error messages and progress lines.
+    pub fn last_heard(&self) -> String {
+        match &self.heard {
+            None => "nothing".into(),
+            Some((at, seq, what)) => format!("{what} (seq {seq}) {:.1} s ago", at.elapsed().as_secs_f64()),
         }
     }
 
@@ -130,33 +185,35 @@ impl<T: Read + Write> Session<T> {
         SessionError::Io { port: self.cfg.port_name.clone(), stage, source }
     }
 
-    pub(super) fn timeout(&self, stage: Stage, waited: Duration) -> SessionError {
+    pub(crate) fn timeout(&self, stage: Stage, waited: Duration, what: impl Into<String>) -> SessionError {
         SessionError::Timeout {
             port: self.cfg.port_name.clone(),
             stage,
             waited,
             last_seq: self.last_rx_seq,
             sent_seq: self.tx_seq.wrapping_sub(1),
-            what: String::new(),
+            what: what.into(),
+            last_heard: self.last_heard(),
         }
     }
 
-    pub(super) fn protocol(&self, stage: Stage, what: impl Into<String>) -> SessionError {
+    pub(crate) fn protocol(&self, stage: Stage, what: impl Into<String>) -> SessionError {
         SessionError::Protocol { port: self.cfg.port_name.clone(), stage, what: what.into() }
     }
 
-    pub(super) fn device_err(&self, stage: Stage, code: ErrorCode, detail: u32, text: String) -> SessionError {
+    pub(crate) fn device_err(&self, stage: Stage, code: ErrorCode, detail: u32, text: String) -> SessionError {
         SessionError::Device { port: self.cfg.port_name.clone(), stage, code, detail, text }
     }
 
-    pub(super) fn write_bytes(&mut self, stage: Stage, bytes: &[u8]) -> Result<(), SessionError> {
+    pub(crate) fn write_bytes(&mut self, stage: Stage, bytes: &[u8]) -> Result<(), SessionError> {
         self.port.write_all(bytes).map_err(|e| self.io_err(stage, e))?;
         self.port.flush().map_err(|e| self.io_err(stage, e))?;
         self.bytes_tx += bytes.len() as u64;
         Ok(())
     }
 
-    pub(super) fn send(&mut self, stage: Stage, msg: &Msg<'_>) -> Result<(), SessionError> {
+    /// Sends `msg` as one frame; returns its sequence number and wire length.
+    pub(crate) fn send(&mut self, stage: Stage, msg: &Msg<'_>) -> Result<(u16, usize), SessionError> {
         let mut payload = [0u8; MAX_PAYLOAD];
         let n = msg.encode(&mut payload).map_err(|e: MsgError| SessionError::BadInput {
             port: self.cfg.port_name.clone(),
@@ -166,24 +223,29 @@ impl<T: Read + Write> Session<T> {
         let mut wire = [0u8; MAX_ENCODED];
         let len = encode_frame(msg.kind() as u8, self.tx_seq, &payload[..n], &mut wire)
             .map_err(|e| SessionError::BadInput { port: self.cfg.port_name.clone(), stage, what: e.to_string() })?;
+        let seq = self.tx_seq;
         self.tx_seq = self.tx_seq.wrapping_add(1);
-        self.write_bytes(stage, &wire[..len])
+        self.write_bytes(stage, &wire[..len])?;
+        Ok((seq, len))
     }
 
     /// Next message, or `None` once `until` has passed without one.
-    pub(super) fn poll(&mut self, stage: Stage, until: Instant) -> Result<Option<Incoming>, SessionError> {
+    pub(crate) fn poll(&mut self, stage: Stage, until: Instant) -> Result<Option<Incoming>, SessionError> {
         let mut buf = [0u8; 4096];
         loop {
             while self.rx_pos < self.rx.len() {
                 let total = self.rx.len();
                 let decoded = match self.acc.feed(&self.rx[self.rx_pos..]) {
                     FeedResult::Consumed => {
+                        self.frame_bytes += total - self.rx_pos;
                         self.rx_pos = total;
                         None
                     }
                     FeedResult::Overflow { rest } => {
                         self.bad_frames += 1;
                         self.link.resyncs += 1;
+                        self.est_down.record(self.frame_bytes + (total - rest.len() - self.rx_pos), false);
+                        self.frame_bytes = 0;
                         self.rx_pos = total - rest.len();
                         None
                     }
@@ -193,11 +255,19 @@ impl<T: Read + Write> Session<T> {
                         if error == FrameError::DecodeBadCrc {
                             self.link.crc_errors += 1;
                         }
+                        // A lone garbage byte or two is noise between frames, not a frame.
+                        let n = self.frame_bytes + (total - rest.len() - self.rx_pos);
+                        if n > 4 {
+                            self.est_down.record(n, false);
+                        }
+                        self.frame_bytes = 0;
                         self.rx_pos = total - rest.len();
                         None
                     }
                     FeedResult::Frame { frame, rest } => {
                         let pos = total - rest.len();
+                        self.est_down.record(self.frame_bytes + (pos - self.rx_pos), true);
+                        self.frame_bytes = 0;
                         let seq = frame.seq;
                         let msg = match Msg::decode(frame.kind, frame.payload) {
                             Ok(m) => Ok(Incoming::from_msg(m)),
@@ -218,6 +288,9 @@ impl<T: Read + Write> Session<T> {
                     }
                     self.rx_frames += 1;
                     self.last_rx_seq = Some(seq);
+                    if let Ok(m) = &msg {
+                        self.heard = Some((Instant::now(), seq, m.summary()));
+                    }
                     return msg.map(Some).map_err(|w| self.protocol(stage, w));
                 }
             }
@@ -227,7 +300,13 @@ impl<T: Read + Write> Session<T> {
                 return Ok(None);
             }
             match self.port.read(&mut buf) {
-                Ok(0) => return Err(SessionError::Disconnected { port: self.cfg.port_name.clone(), stage }),
+                Ok(0) => {
+                    return Err(SessionError::Disconnected {
+                        port: self.cfg.port_name.clone(),
+                        stage,
+                        last_heard: self.last_heard(),
+                    })
+                }
                 Ok(n) => {
                     self.bytes_rx += n as u64;
                     self.rx.extend_from_slice(&buf[..n]);
@@ -248,10 +327,12 @@ impl<T: Read + Write> Session<T> {
         // A lone delimiter ends whatever noise the device may have buffered.
         self.write_bytes(stage, &[0])?;
         let start = Instant::now();
-        let attempts = 3u32;
-        for attempt in 1..=attempts {
+        // One Hello per derived answer wait (at least 100 ms: a device may be busy for a
+        // moment), until the device had `hello_timeout` to boot.
+        let wait = self.cfg.answer_wait(16, 36).max(Duration::from_millis(100));
+        while start.elapsed() < self.cfg.hello_timeout {
             self.send(stage, &Msg::Hello { protocol: PROTOCOL_VERSION as u16 })?;
-            let until = start + self.cfg.hello_timeout * attempt / attempts;
+            let until = (Instant::now() + wait).min(start + self.cfg.hello_timeout);
             while let Some(m) = self.poll(stage, until)? {
                 match m {
                     Incoming::Version(info) => {
@@ -272,6 +353,6 @@ impl<T: Read + Write> Session<T> {
                 }
             }
         }
-        Err(self.timeout(stage, start.elapsed()))
+        Err(self.timeout(stage, start.elapsed(), "Version in answer to Hello"))
     }
 }

@@ -13,6 +13,8 @@ pub enum Stage {
     Upload,
     /// Receiving a frame.
     Render,
+    /// Writing an application image through the bootloader.
+    Flash,
 }
 
 impl std::fmt::Display for Stage {
@@ -21,6 +23,7 @@ impl std::fmt::Display for Stage {
             Self::Hello => "hello",
             Self::Upload => "scene upload",
             Self::Render => "render",
+            Self::Flash => "flash",
         })
     }
 }
@@ -30,7 +33,7 @@ impl std::fmt::Display for Stage {
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
     /// Nothing useful arrived for too long.
-    #[error("{port}: timed out during {stage} after {}ms without progress{}{} (last sequence number received: {}, sent: {sent_seq})", waited.as_millis(), if what.is_empty() { "" } else { ": " }, what, fmt_seq(*last_seq))]
+    #[error("{port}: timed out during {stage} after {}ms without progress{}{} (last heard: {last_heard}; last sequence number received: {}, sent: {sent_seq})", waited.as_millis(), if what.is_empty() { "" } else { ": " }, what, fmt_seq(*last_seq))]
     Timeout {
         /// Port name.
         port: String,
@@ -44,6 +47,8 @@ pub enum SessionError {
         sent_seq: u16,
         /// What was being waited for (may be empty).
         what: String,
+        /// The last message heard from the device, how long before the error.
+        last_heard: String,
     },
     /// The transport failed.
     #[error("{port}: I/O error during {stage}: {source}")]
@@ -57,12 +62,14 @@ pub enum SessionError {
         source: std::io::Error,
     },
     /// The transport reported end of stream.
-    #[error("{port}: link closed during {stage}")]
+    #[error("{port}: link closed during {stage} (last heard: {last_heard})")]
     Disconnected {
         /// Port name.
         port: String,
         /// Stage.
         stage: Stage,
+        /// The last message heard from the device.
+        last_heard: String,
     },
     /// The device sent an `Error` message.
     #[error("{port}: device error during {stage}: {code:?} (detail {detail:#010x}): {text}")]
@@ -99,7 +106,7 @@ pub enum SessionError {
         what: String,
     },
     /// The upload made no progress after repeated rewinds.
-    #[error("{port}: scene upload stalled at offset {offset} after {rewinds} rewinds")]
+    #[error("{port}: scene upload stalled at offset {offset} after {rewinds} rewinds (last heard: {last_heard})")]
     UploadStalled {
         /// Port name.
         port: String,
@@ -107,6 +114,8 @@ pub enum SessionError {
         offset: u32,
         /// Rewinds performed.
         rewinds: u32,
+        /// The last message heard from the device.
+        last_heard: String,
     },
     /// `FrameEnd` arrived but some pixels (or primitive ids) never did.
     #[error("{port}: frame {frame} incomplete: {missing} {what} missing, first at (x {first_x}, y {first_y})")]

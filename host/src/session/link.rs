@@ -1,8 +1,13 @@
 //! The line's condition as a session sees it: retransmission and error counters, and the
 //! span size chosen from the error rate.
 
+use std::collections::VecDeque;
+use std::time::Duration;
+
 use gridrt_shared::msg::PixelEncoding;
 use serde::Serialize;
+
+use super::estimate::best_payload;
 
 /// Retransmission and error counters of the link (one session, cumulative).
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
@@ -17,6 +22,8 @@ pub struct LinkStats {
     pub spans_received: u64,
     /// Colour spans received in answer to re-requests (frames resent by the device).
     pub spans_resent: u64,
+    /// Pixel data bytes of the colour spans received (encoded, as on the wire).
+    pub span_data_bytes: u64,
     /// Wire bytes of re-requests and of everything received while one was outstanding.
     pub bytes_resent: u64,
     /// Frames the host dropped because their CRC-32 failed.
@@ -36,9 +43,11 @@ pub struct LinkStats {
     pub device_resets: u64,
     /// Scene uploads repeated after a reset.
     pub scene_reuploads: u64,
-    /// Scene chunks sent again (go-back-N rewinds).
+    /// Scene (or flash) chunks sent again.
     pub upload_chunks_resent: u64,
-    /// Smallest `max_span` the adaptive span size chose (0 = never reduced).
+    /// Empty data frames sent to learn what the receiver holds (upload, flash).
+    pub probes: u64,
+    /// Smallest `max_span` (span data bytes) the adaptive span size chose (0 = never reduced).
     pub min_max_span: u16,
 }
 
@@ -51,6 +60,7 @@ impl LinkStats {
             pixels_resent: self.pixels_resent - e.pixels_resent,
             spans_received: self.spans_received - e.spans_received,
             spans_resent: self.spans_resent - e.spans_resent,
+            span_data_bytes: self.span_data_bytes - e.span_data_bytes,
             bytes_resent: self.bytes_resent - e.bytes_resent,
             crc_errors: self.crc_errors - e.crc_errors,
             resyncs: self.resyncs - e.resyncs,
@@ -61,6 +71,7 @@ impl LinkStats {
             device_resets: self.device_resets - e.device_resets,
             scene_reuploads: self.scene_reuploads - e.scene_reuploads,
             upload_chunks_resent: self.upload_chunks_resent - e.upload_chunks_resent,
+            probes: self.probes - e.probes,
             min_max_span: self.min_max_span,
         }
     }
@@ -72,6 +83,7 @@ impl LinkStats {
         self.pixels_resent += o.pixels_resent;
         self.spans_received += o.spans_received;
         self.spans_resent += o.spans_resent;
+        self.span_data_bytes += o.span_data_bytes;
         self.bytes_resent += o.bytes_resent;
         self.crc_errors += o.crc_errors;
         self.resyncs += o.resyncs;
@@ -82,6 +94,7 @@ impl LinkStats {
         self.device_resets += o.device_resets;
         self.scene_reuploads += o.scene_reuploads;
         self.upload_chunks_resent += o.upload_chunks_resent;
+        self.probes += o.probes;
         self.min_max_span = match (self.min_max_span, o.min_max_span) {
             (0, b) => b,
             (a, 0) => a,
@@ -90,45 +103,113 @@ impl LinkStats {
     }
 }
 
-/// Chooses `max_span` from the frame error rate seen so far: spans short enough that about
-/// one frame in ten is hit at the estimated bit error rate, never shorter than 4 pixels.
-#[derive(Debug, Clone)]
-pub(super) struct SpanSizer {
-    /// Estimated bit error rate on the device → host line.
-    ber: f64,
-    /// Wire bytes per colour pixel seen (spans only).
-    bytes_per_pixel: f64,
-    pub(super) max_span: u16,
+/// What the device's timing looks like, for the waits of a render (`region` module docs).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct DevicePace {
+    /// Longest gap seen between two messages of an answer (ray work between spans).
+    pub(crate) gap: Duration,
+    /// Longest time seen from a request to the first message of its answer.
+    pub(crate) first: Duration,
+    /// Largest frame seen from the device, wire bytes.
+    pub(crate) frame: usize,
 }
 
+impl Default for DevicePace {
+    fn default() -> Self {
+        Self { gap: Duration::from_millis(50), first: Duration::from_millis(200), frame: 64 }
+    }
+}
+
+/// Chooses `max_span` (data bytes per span, `region_options::SPAN_BYTES`) from the device →
+/// host byte error rate: spans whose frames have the best selective-repeat efficiency
+/// (§3.14's model with the 10-byte span header). A byte limit, not a pixel limit, so spans of
+/// run-length coded background stay whole rows. Also keeps the bytes per pixel seen, for the
+/// cost of re-requests.
+#[derive(Debug, Clone)]
+pub(crate) struct SpanSizer {
+    /// Bytes per pixel of fixed-size encodings.
+    fixed: Option<f64>,
+    /// (data bytes, pixels) of recent colour spans.
+    spans: VecDeque<(u32, u32)>,
+}
+
+/// Bytes of a `PixelSpan` before its pixels.
+pub(crate) const SPAN_HEAD: usize = 10;
+
 impl SpanSizer {
-    pub(super) fn new(encoding: PixelEncoding) -> Self {
-        let bpp = match encoding.fixed_bytes_per_pixel() {
-            Some(n) => n as f64,
-            None => 1.0,
-        };
-        Self { ber: 0.0, bytes_per_pixel: bpp, max_span: 0 }
+    pub(crate) fn new(encoding: PixelEncoding) -> Self {
+        Self { fixed: encoding.fixed_bytes_per_pixel().map(|n| n as f64), spans: VecDeque::new() }
     }
 
-    /// Updates from one attempt: frames accepted/dropped and wire bytes seen.
-    pub(super) fn update(&mut self, ok: u64, bad: u64, bytes: u64, span_bytes: u64, span_pixels: u64) {
-        if span_pixels > 0 {
-            self.bytes_per_pixel = (span_bytes as f64 / span_pixels as f64).max(0.05);
+    /// Records a received colour span.
+    pub(crate) fn record(&mut self, data_bytes: usize, pixels: u16) {
+        if pixels >= 4 {
+            if self.spans.len() == 256 {
+                self.spans.pop_front();
+            }
+            self.spans.push_back((data_bytes as u32, pixels as u32));
         }
-        let frames = ok + bad;
-        if frames < 3 || bytes == 0 {
-            return;
+    }
+
+    /// Bytes per pixel that 80 % of the span bytes seen stay under (dense spans decide the
+    /// frame size; 1 until spans are seen).
+    pub(crate) fn bytes_per_pixel_seen(&self) -> f64 {
+        if let Some(b) = self.fixed {
+            return b;
         }
-        let p = (bad as f64 / frames as f64).min(0.95);
-        let bits = bytes as f64 * 10.0 / frames as f64;
-        let ber = -(1.0 - p).ln() / bits;
-        self.ber = if bad == 0 { self.ber * 0.5 } else { 0.5 * self.ber + 0.5 * ber };
-        // Frame bytes for ~10 % loss; 22 bytes are header, CRC, COBS and delimiter.
-        let target = if self.ber > 0.0 { 0.105 / (self.ber * 10.0) } else { f64::INFINITY };
-        self.max_span = if target >= 2048.0 {
-            0
-        } else {
-            (((target - 22.0).max(0.0) / self.bytes_per_pixel) as u16).clamp(4, 4096)
-        };
+        let mut v: Vec<(f64, u32)> = self.spans.iter().map(|&(b, p)| (b as f64 / p as f64, b)).collect();
+        let total: u64 = v.iter().map(|x| x.1 as u64).sum();
+        if total == 0 {
+            return 1.0;
+        }
+        v.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut acc = 0u64;
+        for (bpp, b) in &v {
+            acc += *b as u64;
+            if acc as f64 >= 0.8 * total as f64 {
+                return bpp.max(0.05);
+            }
+        }
+        v.last().map_or(1.0, |x| x.0.max(0.05))
+    }
+
+    /// The span data limit in bytes at byte error rate `q` (0 = the device's default, for a
+    /// clean line).
+    pub(crate) fn max_span(&self, q: f64) -> u16 {
+        if q <= 0.0 {
+            return 0;
+        }
+        let bytes = best_payload(SPAN_HEAD, q, 16, gridrt_shared::frame::MAX_PAYLOAD - SPAN_HEAD);
+        if bytes >= 1800 {
+            return 0; // frames as long as they come: the device's default
+        }
+        bytes as u16
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::session::estimate::byte_error_rate;
+
+    #[test]
+    fn span_limit_follows_the_error_rate_in_bytes() {
+        let mut s = SpanSizer::new(PixelEncoding::Rle);
+        assert_eq!(s.max_span(0.0), 0);
+        // Background spans of 320 px in 6 bytes, object spans of 100 px in 200 bytes: the dense
+        // ones decide the bytes per pixel.
+        for _ in 0..50 {
+            s.record(6, 320);
+            s.record(200, 100);
+        }
+        assert_eq!(s.bytes_per_pixel_seen(), 2.0);
+        let at = |ber: f64| s.max_span(byte_error_rate(ber));
+        assert!(at(1e-3) < at(1e-4) && at(1e-4) < at(1e-5), "{} {} {}", at(1e-3), at(1e-4), at(1e-5));
+        // 1e-4: the best span frame is a correctable one (SPEC.md §2.5), ≤ 375 raw bytes.
+        let limit = gridrt_shared::frame::CORRECTABLE_RAW - 20;
+        assert!((250..=limit).contains(&(at(1e-4) as usize)), "{}", at(1e-4));
+        let rgb = SpanSizer::new(PixelEncoding::Rgb888);
+        assert_eq!(rgb.max_span(byte_error_rate(1e-4)), at(1e-4), "bytes, whatever the encoding");
+        assert_eq!(rgb.max_span(byte_error_rate(1e-7)), 0, "the optimum exceeds a frame: default");
     }
 }

@@ -1,6 +1,38 @@
 //! Progress events: the library reports, the binary draws.
 
+use std::time::Duration;
+
 use gridrt_shared::msg::{DeviceInfo, Region};
+
+use super::error::Stage;
+
+/// Where a long operation stands: emitted at least once a second while an upload, a flash
+/// or a render runs, whether or not it advances, so a front end can show progress (and
+/// silence) at any rate it likes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Activity {
+    /// The operation.
+    pub stage: Stage,
+    /// Payload done: image bytes acknowledged (upload, flash) or pixels verified (render).
+    pub done: u64,
+    /// Payload in all.
+    pub total: u64,
+    /// Wire bytes sent in this operation so far.
+    pub wire_tx: u64,
+    /// Wire bytes received in this operation so far.
+    pub wire_rx: u64,
+    /// Time since the operation started.
+    pub elapsed: Duration,
+    /// Chunks sent again (upload, flash) or pixel runs requested again (render).
+    pub retransmits: u64,
+    /// Frames seen lost or corrupted on the line so far, both directions.
+    pub line_errors: u64,
+    /// Payload bytes per frame in use (chunk size; for a render, the span data limit,
+    /// 0 = the device's default).
+    pub chunk: usize,
+    /// The last message heard from the device and how long ago.
+    pub last_heard: String,
+}
 
 /// Progress of a session operation.
 ///
@@ -63,4 +95,6 @@ pub enum ProgressEvent {
     },
     /// The device reset; the scene is uploaded again and the render resumes.
     DeviceReset,
+    /// Where the running operation stands (at least once a second).
+    Activity(Activity),
 }

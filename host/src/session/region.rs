@@ -1,5 +1,5 @@
-//! Reliable rendering with `RenderRegion` (SPEC.md §3.12): selective repeat of whatever did
-//! not arrive intact, device-reset recovery, adaptive span size.
+//! Reliable rendering with `RenderRegion` (SPEC.md §3.12): selective repeat of exactly what
+//! did not arrive intact, device-reset recovery, span size adapted to the line.
 //!
 //! # Acceptance rule
 //! A pixel is accepted only when it lies in a region whose `RegionEnd` arrived and the CRC-32
@@ -9,36 +9,52 @@
 //!
 //! # One band
 //! [`Session::render_band`] renders one rectangle ("band") of a frame into a [`Canvas`]:
-//! 1. request the unverified part of the band (at first, all of it), one `RenderRegion` in
-//!    flight (the device does not read its UART while it renders, so a second request could
-//!    be lost in its receive FIFO);
-//! 2. take spans, `Stats` and `RegionEnd`s until the `RegionEnd` of that request arrives, or
-//!    the line has been idle for [`SessionConfig::retransmit_after`] (request or end lost), or
-//!    the device reports a corrupt frame before answering (request lost: resend after a
-//!    short grace period);
+//! 1. request the whole band once (with `Stats`);
+//! 2. take spans, `Stats` and `RegionEnd`s until the `RegionEnd` of that request arrives, the
+//!    device reports the request corrupt (`Error{BadFrame}` before any answer: sent again at
+//!    once), or the line has been quiet for longer than the next frame takes to cross it plus
+//!    the device's measured compute gap (request or end lost);
 //! 3. check every `RegionEnd` claim whose pixels are all present;
-//! 4. if pixels remain unverified, group them into regions (consecutive rows with unverified
-//!    pixels, the union of their column ranges) and go to 1.
+//! 4. request again exactly the runs of pixels that never arrived — row by row, runs merged
+//!    into one rectangle only while the pixels resent cost less line time than another request
+//!    (`NO_STATS`: the first request's counters stand for the band); once every pixel is
+//!    present, only pixels whose claim was lost stay unverified: ask for their CRC
+//!    (`CRC_ONLY`, the device re-renders but sends no pixels). Go to 2.
+//!
+//! The device renders inside its receive loop and does not read its UART meanwhile (a soft-
+//! core's receive FIFO holds 16 bytes, 1.4 ms at 115 200 baud, against tens of ms per row),
+//! so one request is in flight at a time; the next leaves the moment the previous one ends.
 //!
 //! A device reset is recognised by its banner (an unsolicited `Version` with sequence number
 //! 0) or by `Error{NoScene}` in answer to a request: the session uploads the scene again and
-//! carries on with the pixels still missing. Every wait is bounded: no progress for
-//! [`SessionConfig::render_timeout`], or more than [`SessionConfig::max_requests_per_band`]
-//! requests, ends the band with an error naming port, stage and sequence numbers.
+//! carries on with the pixels still missing. Every wait is bounded: no new pixel for
+//! [`SessionConfig::render_timeout`](super::SessionConfig::render_timeout), more than
+//! [`SessionConfig::max_probes`](super::SessionConfig::max_probes) requests in a row without
+//! any answer, or more than [`SessionConfig::max_requests_per_band`](super::SessionConfig::max_requests_per_band)
+//! requests, ends the band with an error naming port, stage, sequence numbers and what was
+//! last heard.
 
 use std::collections::BTreeMap;
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
 use gridrt_shared::frame::crc32;
-use gridrt_shared::msg::{region_options, render_flags, ErrorCode, Msg, MsgType, Region, RenderRequest};
+use gridrt_shared::msg::{
+    region_options, render_flags, ErrorCode, Msg, MsgType, Region, RenderRequest, RENDER_REGION_LEN,
+};
 
 use super::canvas::{merge_stat, Canvas, VERIFIED};
 use super::client::{Incoming, Session};
 use super::error::{SessionError, Stage};
+use super::estimate::wire_len;
 use super::link::SpanSizer;
-use super::progress::ProgressEvent;
+use super::progress::{Activity, ProgressEvent};
 use super::render::RenderedFrame;
+
+/// Wire bytes of a `RenderRegion` (the lone `0x00` before it included).
+const REQUEST_WIRE: usize = RENDER_REGION_LEN + 13;
+/// Wire bytes of a `RegionEnd`.
+const END_WIRE: usize = 32;
 
 /// Row interpolation (seed 003) makes a pixel depend on its row's traced neighbours and, in
 /// the adaptive mode, on the step chosen for the rows before: re-requested pixels only come
@@ -56,13 +72,40 @@ fn widen_for_interpolation(gap: Region, band: Region, flags: u16) -> Region {
     Region { x0: band.x0, y0, cols: band.cols, rows }
 }
 
+/// The smallest region holding `a` and the run `(y, x0, x1)`.
+fn grow(a: Option<Region>, (y, x0, x1): (u16, u16, u16)) -> Region {
+    match a {
+        None => Region { x0, y0: y, cols: x1 - x0, rows: 1 },
+        Some(r) => {
+            let (lx, ly) = (r.x0.min(x0), r.y0.min(y));
+            let (hx, hy) = ((r.x0 + r.cols).max(x1), (r.y0 + r.rows).max(y + 1));
+            Region { x0: lx, y0: ly, cols: hx - lx, rows: hy - ly }
+        }
+    }
+}
+
+/// The first request for the missing `runs` (row-major): the first run, grown over the next
+/// ones while the pixels that arrived already but would be sent again cost fewer wire bytes
+/// than another request (`request_cost`) at `bytes_per_pixel`.
+fn group_runs(runs: &[(u16, u16, u16)], bytes_per_pixel: f64, request_cost: f64, canvas: &Canvas) -> Region {
+    let mut rect = grow(None, runs[0]);
+    for &run in &runs[1..] {
+        let bigger = grow(Some(rect), run);
+        let resent_now = (rect.pixels() - canvas.missing_in(rect)) as f64;
+        let resent = (bigger.pixels() - canvas.missing_in(bigger)) as f64;
+        if (resent - resent_now) * bytes_per_pixel >= request_cost {
+            break;
+        }
+        rect = bigger;
+    }
+    rect
+}
+
 /// Counters of one `RenderRegion` attempt.
 #[derive(Debug, Default)]
 struct Attempt {
     got_any: bool,
     new_pixels: usize,
-    span_bytes: u64,
-    span_pixels: u64,
 }
 
 /// Outcome of waiting for one request.
@@ -73,6 +116,16 @@ enum Wait {
     GaveUp,
     /// The device reset (banner or `NoScene`).
     Reset,
+    /// Time for a progress report; the wait goes on after it.
+    Tick,
+}
+
+/// Where the wait for one request stands (kept across progress reports).
+struct Waiting {
+    /// When the last message arrived (or the request left).
+    last: Instant,
+    /// When the device reported a corrupt frame before answering, if it did.
+    nak: Option<Instant>,
 }
 
 /// Result of one band.
@@ -80,7 +133,8 @@ enum Wait {
 pub struct BandReport {
     /// Requests sent for the band.
     pub requests: u32,
-    /// Sum of the device counters of every region rendered (re-renders included).
+    /// The device counters of the band (the `Stats` of its first request; empty when that
+    /// message was lost on the line).
     pub stats: BTreeMap<u8, u64>,
     /// Spans the device reported in the `RegionEnd`s received.
     pub spans_reported: u32,
@@ -108,12 +162,10 @@ impl<T: Read + Write> Session<T> {
         let mut announced = vec![false; band.rows as usize];
         let mut last_progress = Instant::now();
         let mut first = true;
-        // How long a quiet line means the request or its end was lost. It adapts to the
-        // device: doubled after each wait that gave up, and after a region that ended, twice
-        // the longest quiet spell of its answer (at least `retransmit_after`): a board
-        // simulated cycle by cycle goes quiet for seconds while it computes, and asking again
-        // sooner would only queue requests behind the one it is serving.
-        let mut idle = self.cfg.retransmit_after;
+        let mut silent = 0u32;
+        let start = Instant::now();
+        let (tx0, rx0, errors0, resent0) = (self.bytes_tx, self.bytes_rx, self.line_errors(), self.link.regions_resent);
+        let mut next_tick = Instant::now();
         loop {
             self.check_claims(canvas, &mut claims);
             for y in canvas.verified_rows(band) {
@@ -124,28 +176,34 @@ impl<T: Read + Write> Session<T> {
                     progress(ProgressEvent::RowVerified { y });
                 }
             }
-            let Some(gap) = canvas.next_gap(band) else {
+            let runs = canvas.missing_runs(band);
+            let (gap, options) = if first {
+                (band, 0)
+            } else if !runs.is_empty() {
+                let bpp = sizer.bytes_per_pixel_seen();
+                let cost =
+                    (REQUEST_WIRE + END_WIRE) as f64 + self.cfg.turnaround.as_secs_f64() * self.cfg.baud as f64 / 10.0;
+                let g = widen_for_interpolation(group_runs(&runs, bpp, cost, canvas), band, req.flags);
+                (g, region_options::NO_STATS)
+            } else if let Some(g) = canvas.next_unverified(band) {
+                // Every pixel is here; these lost their RegionEnd: ask for the CRC only.
+                (widen_for_interpolation(g, band, req.flags), region_options::CRC_ONLY | region_options::NO_STATS)
+            } else {
                 self.sizer = Some(sizer);
                 return Ok(report);
             };
-            let gap = widen_for_interpolation(gap, band, req.flags);
-            if report.requests >= self.cfg.max_requests_per_band || last_progress.elapsed() >= self.cfg.render_timeout {
+            let stalled = last_progress.elapsed() >= self.cfg.render_timeout || silent > self.cfg.max_probes;
+            if report.requests >= self.cfg.max_requests_per_band || stalled {
                 self.sizer = Some(sizer);
-                let waited = last_progress.elapsed();
-                return Err(SessionError::Timeout {
-                    port: self.cfg.port_name.clone(),
-                    stage,
-                    waited,
-                    last_seq: self.last_rx_seq,
-                    sent_seq: self.tx_seq.wrapping_sub(1),
-                    what: format!(
-                        "rows {}..{} of frame {} still unverified after {} requests",
-                        gap.y0,
-                        gap.y0 + gap.rows,
-                        req.frame,
-                        report.requests
-                    ),
-                });
+                let what = format!(
+                    "rows {}..{} of frame {} still unverified after {} requests ({} in a row unanswered)",
+                    gap.y0,
+                    gap.y0 + gap.rows,
+                    req.frame,
+                    report.requests,
+                    silent
+                );
+                return Err(self.timeout(stage, last_progress.elapsed(), what));
             }
             if !first {
                 self.link.regions_resent += 1;
@@ -155,36 +213,66 @@ impl<T: Read + Write> Session<T> {
             let resend = !first;
             first = false;
             report.requests += 1;
-            let (tx0, rx0) = (self.bytes_tx, self.bytes_rx);
-            let (ok0, bad0) = (self.rx_frames, self.link.resyncs);
-            let mut att = Attempt::default();
-            let max_span = sizer.max_span;
+            let (tx1, rx1) = (self.bytes_tx, self.bytes_rx);
+            let max_span = sizer.max_span(self.est_down.byte_error_rate());
             if max_span != 0 && (self.link.min_max_span == 0 || max_span < self.link.min_max_span) {
                 self.link.min_max_span = max_span;
             }
-            // Pixels all here but unverified (their RegionEnd was lost or did not match yet):
-            // ask only for the CRC, the device re-renders without sending the pixels.
-            let options = if canvas.complete(gap) { region_options::CRC_ONLY } else { 0 };
+            let mut att = Attempt::default();
             // A lone delimiter first: the device drops whatever noise it holds.
             self.write_bytes(stage, &[0])?;
+            let options = if max_span != 0 { options | region_options::SPAN_BYTES } else { options };
             self.send(stage, &Msg::RenderRegion { region: gap, max_span, options, request: *req })?;
             self.link.regions_requested += 1;
-            let outcome = self.wait_region(req, gap, canvas, &mut claims, &mut report, &mut att, resend, &mut idle)?;
-            let (dtx, drx) = (self.bytes_tx - tx0, self.bytes_rx - rx0);
+            let mut waiting = Waiting { last: Instant::now(), nak: None };
+            let outcome = loop {
+                let w = self.wait_region(
+                    req,
+                    gap,
+                    canvas,
+                    &mut claims,
+                    &mut report,
+                    &mut att,
+                    &mut sizer,
+                    resend,
+                    &mut waiting,
+                    next_tick,
+                )?;
+                if !matches!(w, Wait::Tick) && Instant::now() < next_tick {
+                    break w;
+                }
+                next_tick = Instant::now() + Duration::from_secs(1);
+                progress(ProgressEvent::Activity(Activity {
+                    stage,
+                    done: canvas.verified_pixels(band),
+                    total: band.pixels(),
+                    wire_tx: self.bytes_tx - tx0,
+                    wire_rx: self.bytes_rx - rx0,
+                    elapsed: start.elapsed(),
+                    retransmits: self.link.regions_resent - resent0,
+                    line_errors: self.line_errors() - errors0,
+                    chunk: max_span as usize,
+                    last_heard: self.last_heard(),
+                }));
+                if !matches!(w, Wait::Tick) {
+                    break w;
+                }
+            };
             if resend {
-                self.link.bytes_resent += dtx + drx;
+                self.link.bytes_resent += (self.bytes_tx - tx1) + (self.bytes_rx - rx1);
             }
-            sizer.update(self.rx_frames - ok0, self.link.resyncs - bad0, drx, att.span_bytes, att.span_pixels);
+            silent = if att.got_any { 0 } else { silent + 1 };
             if att.new_pixels > 0 {
                 last_progress = Instant::now();
             }
             match outcome {
-                Wait::Ended | Wait::GaveUp => {}
+                Wait::Ended | Wait::GaveUp | Wait::Tick => {}
                 Wait::Reset => {
                     self.link.device_resets += 1;
                     progress(ProgressEvent::DeviceReset);
                     self.recover_scene(progress)?;
                     last_progress = Instant::now();
+                    silent = 0;
                 }
             }
         }
@@ -211,7 +299,20 @@ impl<T: Read + Write> Session<T> {
         });
     }
 
-    /// Waits for the answer to the `RenderRegion` of `region`.
+    /// How long the line may stay quiet while an answer to `region` is under way: the next
+    /// frame's wire time plus the device's compute gap (the first message of an answer comes
+    /// after a longer gap: the first row's work).
+    fn quiet_limit(&self, got_any: bool, complete: bool) -> Duration {
+        let p = self.pace;
+        if complete {
+            // Only the end (and maybe Stats) is left; it follows the last span at once.
+            return self.cfg.answer_wait(0, 300) + p.gap;
+        }
+        let compute = if got_any { 2 * p.gap } else { 2 * p.first };
+        self.cfg.answer_wait(0, p.frame) + compute
+    }
+
+    /// Waits for the answer to the `RenderRegion` of `region` (returns `Tick` at `tick`).
     #[allow(clippy::too_many_arguments)]
     fn wait_region(
         &mut self,
@@ -221,45 +322,63 @@ impl<T: Read + Write> Session<T> {
         claims: &mut Vec<(Region, u32)>,
         report: &mut BandReport,
         att: &mut Attempt,
+        sizer: &mut SpanSizer,
         resend: bool,
-        idle_after: &mut Duration,
+        waiting: &mut Waiting,
+        tick: Instant,
     ) -> Result<Wait, SessionError> {
         let stage = Stage::Render;
-        let idle = *idle_after;
-        let mut deadline = Instant::now() + idle;
-        let mut last_msg = Instant::now();
-        let mut quiet = Duration::ZERO;
         loop {
-            let msg = self.poll(stage, deadline)?;
+            let (last, nak) = (waiting.last, waiting.nak);
+            let limit = match nak {
+                // The device found a corrupt frame before answering: most likely our request.
+                // Send it again unless spans start to flow within a turnaround.
+                Some(at) => at + self.cfg.turnaround + self.cfg.answer_wait(0, 64),
+                None => last + self.quiet_limit(att.got_any, canvas.complete(region)),
+            };
+            let before = self.bytes_rx;
+            let msg = self.poll(stage, limit.min(tick))?;
             let Some(m) = msg else {
+                if Instant::now() < limit {
+                    return Ok(Wait::Tick);
+                }
                 self.link.timeouts += 1;
-                *idle_after = idle.saturating_mul(2).min(self.cfg.render_timeout.max(self.cfg.retransmit_after));
                 return Ok(Wait::GaveUp);
             };
-            quiet = quiet.max(last_msg.elapsed());
-            last_msg = Instant::now();
+            let now = Instant::now();
+            // Learn the device's pace from its answers (wire time of this frame excluded).
+            let wire = self.cfg.wire_time((self.bytes_rx - before) as usize);
+            let gap = now.duration_since(last).saturating_sub(wire + self.cfg.turnaround);
+            if att.got_any {
+                self.pace.gap = self.pace.gap.max(gap);
+            } else {
+                self.pace.first = self.pace.first.max(gap);
+            }
+            waiting.last = now;
             match m {
                 Incoming::PixelSpan { frame, y, x0, count, encoding, data } if frame == req.frame => {
-                    let wire = data.len() as u64 + 22;
+                    self.pace.frame = self.pace.frame.max(wire_len(data.len() + 10));
                     att.new_pixels +=
                         canvas.place(y, x0, count, encoding, &data).map_err(|w| self.protocol(stage, w))?;
                     if encoding.is_colour() {
                         self.link.spans_received += 1;
+                        self.link.span_data_bytes += data.len() as u64;
                         if resend {
                             self.link.spans_resent += 1;
                         }
-                        att.span_pixels += count as u64;
+                        sizer.record(data.len(), count);
                     }
-                    att.span_bytes += wire;
                     att.got_any = true;
-                    deadline = Instant::now() + idle;
+                    waiting.nak = None;
                 }
                 Incoming::Stats { frame, entries } if frame == req.frame => {
-                    for (k, v) in entries {
-                        merge_stat(&mut report.stats, k, v);
+                    if report.stats.is_empty() {
+                        for (k, v) in entries {
+                            merge_stat(&mut report.stats, k, v);
+                        }
                     }
                     att.got_any = true;
-                    deadline = Instant::now() + idle;
+                    waiting.nak = None;
                 }
                 Incoming::RegionEnd { frame, region: r, spans, crc } if frame == req.frame => {
                     if r.fits(canvas.width, canvas.height) {
@@ -267,21 +386,17 @@ impl<T: Read + Write> Session<T> {
                     }
                     report.spans_reported += spans;
                     att.got_any = true;
+                    waiting.nak = None;
                     if r == region {
-                        *idle_after = quiet
-                            .saturating_mul(2)
-                            .clamp(self.cfg.retransmit_after, self.cfg.render_timeout.max(self.cfg.retransmit_after));
                         return Ok(Wait::Ended);
                     }
-                    deadline = Instant::now() + idle;
                 }
                 Incoming::Version(_) if self.last_rx_seq == Some(0) => return Ok(Wait::Reset),
                 Incoming::Error { code: ErrorCode::NoScene, .. } => return Ok(Wait::Reset),
                 Incoming::Error { code: ErrorCode::BadFrame, .. } => {
                     self.link.device_bad_frames += 1;
                     if !att.got_any {
-                        // Probably our request: resend soon, unless spans start arriving.
-                        deadline = deadline.min(Instant::now() + idle / 4);
+                        waiting.nak = Some(now);
                     }
                 }
                 // Late answers to scene chunks retransmitted during the upload.
@@ -289,7 +404,7 @@ impl<T: Read + Write> Session<T> {
                 Incoming::Error { code: ErrorCode::UnexpectedMessage, detail, .. }
                     if detail != MsgType::RenderRegion as u32 => {}
                 Incoming::Error { code, detail, text } => return Err(self.device_err(stage, code, detail, text)),
-                _ => {} // stale traffic of other frames, late Versions
+                _ => {} // stale traffic of other frames, late Versions, Sacks
             }
         }
     }
@@ -358,5 +473,31 @@ impl<T: Read + Write> Session<T> {
             elapsed: start.elapsed(),
             link,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_merge_while_resending_costs_less_than_a_request() {
+        let mut c = Canvas::new(100, 10, false);
+        // Everything arrived but two runs on row 3 (10..20, 24..30) and one on row 8 (50..60).
+        for y in 0..10u16 {
+            c.place(y, 0, 100, gridrt_shared::msg::PixelEncoding::Rgb888, &[7; 300]).unwrap();
+        }
+        c.mark(Region { x0: 10, y0: 3, cols: 10, rows: 1 }, |_| 0);
+        c.mark(Region { x0: 24, y0: 3, cols: 6, rows: 1 }, |_| 0);
+        c.mark(Region { x0: 50, y0: 8, cols: 10, rows: 1 }, |_| 0);
+        let runs = c.missing_runs(Region::full(100, 10));
+        assert_eq!(runs, [(3, 10, 20), (3, 24, 30), (8, 50, 60)]);
+        // Cheap pixels, dear requests: the two runs of row 3 go together (4 pixels resent),
+        // row 8 is too far (5 rows × 50 columns).
+        assert_eq!(group_runs(&runs, 3.0, 150.0, &c), Region { x0: 10, y0: 3, cols: 20, rows: 1 });
+        // Dear pixels: each run on its own.
+        assert_eq!(group_runs(&runs, 3.0, 10.0, &c), Region { x0: 10, y0: 3, cols: 10, rows: 1 });
+        // Free pixels: one rectangle.
+        assert_eq!(group_runs(&runs, 0.0, 10.0, &c), Region { x0: 10, y0: 3, cols: 50, rows: 6 });
     }
 }

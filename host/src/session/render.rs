@@ -90,7 +90,7 @@ impl<T: Read + Write> Session<T> {
         let mut last_msg = Instant::now();
         loop {
             let Some(m) = self.poll(stage, last_msg + self.cfg.render_timeout)? else {
-                return Err(self.timeout(stage, last_msg.elapsed()));
+                return Err(self.timeout(stage, last_msg.elapsed(), format!("the next span of frame {}", req.frame)));
             };
             last_msg = Instant::now();
             match m {

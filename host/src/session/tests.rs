@@ -204,9 +204,10 @@ impl Read for FakeDevice {
 
 fn session(faults: Faults) -> Session<FakeDevice> {
     let cfg = SessionConfig::new("fake0")
+        .baud(1_000_000)
+        .turnaround(Duration::from_millis(20))
         .hello_timeout(Duration::from_millis(300))
-        .upload_timeout(Duration::from_millis(500))
-        .retransmit_after(Duration::from_millis(100))
+        .max_probes(5)
         .render_timeout(Duration::from_millis(200));
     Session::new(FakeDevice::new(faults), cfg)
 }
@@ -260,6 +261,18 @@ fn upload_recovers_from_a_lost_chunk_via_bad_offset() {
     s.upload_scene(&image, &mut |e| events.push(e)).unwrap();
     assert_eq!(s.port_mut().scene, image);
     assert!(events.contains(&ProgressEvent::UploadRewound { offset: 1024 }), "{events:?}");
+}
+
+#[test]
+fn upload_ignores_a_late_no_scene_answer_to_an_earlier_render() {
+    // After a device reset the answers to render requests sent before it arrive during the
+    // re-upload; `NoScene` answers only renders, so it is not the upload's failure.
+    let mut s = session(Faults::default());
+    s.hello(&mut |_| {}).unwrap();
+    s.port_mut().emit(&Msg::Error { code: ErrorCode::NoScene, detail: 0, text: "no scene loaded" });
+    let image: Vec<u8> = (0..3000u32).map(|i| (i * 11) as u8).collect();
+    s.upload_scene(&image, &mut |_| {}).unwrap();
+    assert_eq!(s.port_mut().scene, image);
 }
 
 #[test]

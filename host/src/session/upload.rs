@@ -1,17 +1,21 @@
-//! Scene upload: `SceneBegin`, then a window of `SceneChunk`s, go-back-N on errors, until the
-//! device reports `Loaded`.
+//! Scene upload: windowed selective repeat (SPEC.md §3.14, [`super::transfer`]) to a device
+//! that advertises `WINDOWED`; otherwise `SceneChunk`s in order with go-back-N (§3.10).
 
 use std::io::{Read, Write};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use gridrt_shared::frame::{crc32, MAX_PAYLOAD};
-use gridrt_shared::msg::{ErrorCode, Msg, MsgType, SceneStatus};
+use gridrt_shared::frame::crc32;
+use gridrt_shared::msg::{feature, ErrorCode, Msg, MsgType, SceneStatus};
 
 use super::client::{Incoming, Session};
 use super::config::{MAX_CHUNK, MIN_CHUNK};
 use super::error::{SessionError, Stage};
 use super::progress::ProgressEvent;
+use super::transfer::Kind;
+
+/// Largest chunk of the in-order upload (its window is counted in chunks).
+const IN_ORDER_CHUNK: usize = 1024;
 
 impl<T: Read + Write> Session<T> {
     /// Discards incoming messages until the line has been quiet for `quiet` (at most `max`).
@@ -31,30 +35,50 @@ impl<T: Read + Write> Session<T> {
     /// Uploads a scene image and waits until the device has loaded it.
     ///
     /// When the device refuses the image, the answers to chunks still in flight are drained
-    /// (until the line is quiet for up to `retransmit_after`) before the error is returned,
-    /// so the session can go on with the next request.
+    /// (until the line is quiet for a derived wait) before the error is returned, so the
+    /// session can go on with the next request.
     pub fn upload_scene(&mut self, image: &[u8], progress: &mut dyn FnMut(ProgressEvent)) -> Result<(), SessionError> {
-        let r = self.upload_inner(image, progress);
+        let windowed = self.device.is_some_and(|d| d.features & feature::WINDOWED != 0);
+        let r = if windowed { self.upload_windowed(image, progress) } else { self.upload_in_order(image, progress) };
         if matches!(
             r,
             Err(SessionError::Device { .. } | SessionError::Protocol { .. } | SessionError::UploadStalled { .. })
         ) {
-            let quiet = self.cfg.retransmit_after.min(Duration::from_millis(250));
+            let quiet = self.cfg.answer_wait(MAX_CHUNK, 64);
             self.drain(Stage::Upload, quiet, 10 * quiet);
+        }
+        if r.is_ok() && self.scene.as_deref() != Some(image) {
+            // Kept for re-uploads after a device reset (SPEC.md §3.12).
+            self.scene = Some(Arc::from(image));
         }
         r
     }
 
-    fn upload_inner(&mut self, image: &[u8], progress: &mut dyn FnMut(ProgressEvent)) -> Result<(), SessionError> {
+    fn upload_windowed(&mut self, image: &[u8], progress: &mut dyn FnMut(ProgressEvent)) -> Result<(), SessionError> {
+        let total = u32::try_from(image.len()).map_err(|_| SessionError::BadInput {
+            port: self.cfg.port_name.clone(),
+            stage: Stage::Upload,
+            what: "scene image larger than 4 GiB".into(),
+        })?;
+        let crc = crc32(image);
+        progress(ProgressEvent::UploadStarted { total: total as u64 });
+        self.send_windowed(Kind::Scene, &Msg::SceneBegin { total_len: total, crc }, image, crc, progress)?;
+        progress(ProgressEvent::UploadFinished { total: total as u64 });
+        Ok(())
+    }
+
+    /// `SceneChunk`s in order, a window of [`super::SessionConfig::window`] chunks, back to
+    /// the device's offset on `BadOffset` or silence (go-back-N), smaller chunks on errors.
+    fn upload_in_order(&mut self, image: &[u8], progress: &mut dyn FnMut(ProgressEvent)) -> Result<(), SessionError> {
         let stage = Stage::Upload;
         let total = u32::try_from(image.len()).map_err(|_| SessionError::BadInput {
             port: self.cfg.port_name.clone(),
             stage,
             what: "scene image larger than 4 GiB".into(),
         })?;
-        let device_cap = self.device.map_or(MAX_CHUNK, |d| (d.max_payload as usize).saturating_sub(4));
-        let mut chunk = self.cfg.chunk_size.min(MAX_CHUNK).min(device_cap).clamp(1, MAX_PAYLOAD - 4);
-        let min_chunk = MIN_CHUNK.min(chunk);
+        let device_cap = self.device.map_or(IN_ORDER_CHUNK, |d| (d.max_payload as usize).saturating_sub(4));
+        let mut chunk = self.cfg.chunk_size.min(IN_ORDER_CHUNK).min(device_cap).max(1);
+        let min_chunk = (4 * MIN_CHUNK).min(chunk);
         let begin = Msg::SceneBegin { total_len: total, crc: crc32(image) };
 
         // A lone delimiter first: the device drops whatever noise it holds.
@@ -70,12 +94,6 @@ impl<T: Read + Write> Session<T> {
         // Answers still expected to chunks sent before a restart (ignored).
         let mut stale = 0usize;
         let mut last_progress = Instant::now();
-        // The retransmit interval adapts to the device (a board simulated cycle by cycle
-        // acknowledges a chunk only after seconds; resending sooner would only queue
-        // duplicates behind the originals): doubled after each timeout, and after an
-        // acknowledgement that came without one, twice its wait (at least `retransmit_after`).
-        let mut rto = self.cfg.retransmit_after.min(self.cfg.upload_timeout);
-        let mut timed_out = false;
         loop {
             // Fill the window.
             let window = (self.cfg.window.max(1) * chunk) as u32;
@@ -88,31 +106,25 @@ impl<T: Read + Write> Session<T> {
                 next = end as u32;
                 sent_hi = sent_hi.max(next);
             }
-            if stalls > self.cfg.max_rewinds {
+            if stalls > self.cfg.max_probes {
                 return Err(SessionError::UploadStalled {
                     port: self.cfg.port_name.clone(),
                     offset: acked,
                     rewinds: stalls,
+                    last_heard: self.last_heard(),
                 });
             }
-            let until = (Instant::now() + rto).min(last_progress + self.cfg.upload_timeout);
+            // Everything in flight has to cross before its acknowledgement can.
+            let wait = self.cfg.answer_wait((next - acked.min(next)) as usize + 32, 32);
             let in_flight = ((next - acked.min(next)) as usize).div_ceil(chunk.max(1));
             let mut restart = false;
-            match self.poll(stage, until)? {
+            match self.poll(stage, Instant::now() + wait)? {
                 Some(Incoming::SceneAck { next_offset, status }) => {
                     if next_offset > total {
                         return Err(self
                             .protocol(stage, format!("ack of offset {next_offset} beyond the image ({total} bytes)")));
                     }
                     if next_offset > acked {
-                        if !timed_out {
-                            let wait = last_progress.elapsed().saturating_mul(2);
-                            rto = wait.clamp(
-                                self.cfg.retransmit_after,
-                                self.cfg.upload_timeout.max(self.cfg.retransmit_after),
-                            );
-                        }
-                        timed_out = false;
                         acked = next_offset;
                         stalls = 0;
                         stale = 0;
@@ -127,10 +139,6 @@ impl<T: Read + Write> Session<T> {
                         if next_offset != total {
                             return Err(self
                                 .protocol(stage, format!("device reports Loaded at offset {next_offset} of {total}")));
-                        }
-                        // Kept for re-uploads after a device reset (SPEC.md §3.12).
-                        if self.scene.as_deref() != Some(image) {
-                            self.scene = Some(Arc::from(image));
                         }
                         progress(ProgressEvent::UploadFinished { total: total as u64 });
                         return Ok(());
@@ -185,30 +193,30 @@ impl<T: Read + Write> Session<T> {
                     self.link.device_resets += 1;
                     restart = true;
                 }
+                Some(Incoming::Error { code: ErrorCode::NoScene, .. }) => {
+                    // The device answers only render requests with `NoScene` (SPEC §3.12): this
+                    // is a late answer to one sent before the device reset, not to the upload.
+                }
                 Some(Incoming::Error { code, detail, text }) => return Err(self.device_err(stage, code, detail, text)),
                 Some(_) => {}
                 None => {
-                    let idle = last_progress.elapsed();
-                    if idle >= self.cfg.upload_timeout {
-                        return Err(SessionError::Timeout {
-                            port: self.cfg.port_name.clone(),
-                            stage,
-                            waited: idle,
-                            last_seq: self.last_rx_seq,
-                            sent_seq: self.tx_seq.wrapping_sub(1),
-                            what: format!("acknowledgement of scene offset {acked} of {total}"),
-                        });
-                    }
                     self.link.timeouts += 1;
-                    rto = rto.saturating_mul(2).min(self.cfg.upload_timeout);
-                    timed_out = true;
                     if next > acked {
-                        // Nothing acknowledged for a while: go back and resend, smaller.
+                        // Nothing acknowledged in time: go back and resend, smaller.
                         chunk = (chunk / 2).max(min_chunk);
                         stalls += 1;
                         next = acked;
                         rewound_to = Some(acked);
                         progress(ProgressEvent::UploadRewound { offset: acked as u64 });
+                    } else {
+                        stalls += 1;
+                    }
+                    if stalls > self.cfg.max_probes {
+                        return Err(self.timeout(
+                            stage,
+                            last_progress.elapsed(),
+                            format!("acknowledgement of scene offset {acked} of {total}"),
+                        ));
                     }
                 }
             }

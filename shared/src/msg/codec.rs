@@ -5,6 +5,7 @@ use super::device::DeviceInfo;
 use super::flash::FlashStatus;
 use super::message::{ErrorCode, Msg, MsgType, SceneStatus, MAX_ERROR_TEXT};
 use super::render::{PixelEncoding, Region, RenderRequest};
+use super::sack::{Sack, SackRanges, MAX_SACK_RANGES};
 use super::stats::STAT_ENTRY_LEN;
 use crate::bytes::{Overflow, Reader, Truncated, Writer};
 
@@ -110,6 +111,12 @@ impl<'a> Msg<'a> {
                 w.u8(status as u8)?;
                 w.bytes(&[0; 3])?;
             }
+            Self::SceneData { offset, data } | Self::FlashData { offset, data } => {
+                w.u32(offset)?;
+                w.bytes(data)?;
+            }
+            Self::SceneSack { status, sack } => write_sack(&mut w, status as u8, &sack)?,
+            Self::FlashSack { status, sack } => write_sack(&mut w, status as u8, &sack)?,
             Self::RenderRequest(r) => write_request(&mut w, &r)?,
             Self::RenderRegion { region, max_span, options, request } => {
                 write_region(&mut w, region)?;
@@ -220,6 +227,16 @@ impl<'a> Msg<'a> {
                 let _ = r.take(3)?;
                 Self::SceneAck { next_offset, status }
             }
+            MsgType::SceneData => Self::SceneData { offset: r.u32()?, data: r.rest() },
+            MsgType::SceneSack => {
+                let (status, sack) = read_sack(&mut r)?;
+                let status = match status {
+                    0 => SceneStatus::Receiving,
+                    1 => SceneStatus::Loaded,
+                    _ => return Err(MsgError::DecodeBadField),
+                };
+                Self::SceneSack { status, sack }
+            }
             MsgType::RenderRequest => Self::RenderRequest(read_request(&mut r)?),
             MsgType::RenderRegion => {
                 let region = read_region(&mut r)?;
@@ -274,6 +291,16 @@ impl<'a> Msg<'a> {
                 Self::FlashAck { next_offset, status, crc: r.u32()? }
             }
             MsgType::FlashBoot => Self::FlashBoot { crc: r.u32()? },
+            MsgType::FlashData => Self::FlashData { offset: r.u32()?, data: r.rest() },
+            MsgType::FlashSack => {
+                let (status, sack) = read_sack(&mut r)?;
+                let status = match status {
+                    0 => FlashStatus::Receiving,
+                    1 => FlashStatus::Verified,
+                    _ => return Err(MsgError::DecodeBadField),
+                };
+                Self::FlashSack { status, sack }
+            }
             MsgType::Error => {
                 let code = ErrorCode::from_code(r.u16()?);
                 let len = r.u16()? as usize;
@@ -326,6 +353,43 @@ fn read_request(r: &mut Reader<'_>) -> Result<RenderRequest, MsgError> {
     };
     let _ = r.take(3)?;
     Ok(req)
+}
+
+fn write_sack(w: &mut Writer<'_>, status: u8, s: &Sack) -> Result<(), MsgError> {
+    w.u32(s.next_offset)?;
+    w.u8(status)?;
+    w.u8(s.ranges.len() as u8)?;
+    w.u16(s.heard)?;
+    w.u16(s.window)?;
+    w.u16(0)?;
+    w.u32(s.crc)?;
+    for &(start, end) in s.ranges.as_slice() {
+        w.u16(start)?;
+        w.u16(end)?;
+    }
+    Ok(())
+}
+
+/// The status byte (checked by the caller, it differs per message) and the rest.
+fn read_sack(r: &mut Reader<'_>) -> Result<(u8, Sack), MsgError> {
+    let next_offset = r.u32()?;
+    let status = r.u8()?;
+    let count = r.u8()? as usize;
+    let heard = r.u16()?;
+    let window = r.u16()?;
+    let _ = r.u16()?;
+    let crc = r.u32()?;
+    if count > MAX_SACK_RANGES {
+        return Err(MsgError::DecodeBadField);
+    }
+    let mut ranges = SackRanges::new();
+    for _ in 0..count {
+        let (start, end) = (r.u16()?, r.u16()?);
+        if !ranges.push(start, end) {
+            return Err(MsgError::DecodeBadField);
+        }
+    }
+    Ok((status, Sack { next_offset, heard, window, crc, ranges }))
 }
 
 fn write_region(w: &mut Writer<'_>, g: Region) -> Result<(), MsgError> {

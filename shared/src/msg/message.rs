@@ -4,6 +4,7 @@
 use super::device::DeviceInfo;
 use super::flash::FlashStatus;
 use super::render::{PixelEncoding, Region, RenderRequest};
+use super::sack::Sack;
 
 /// Message type bytes (frame header byte 0).
 #[non_exhaustive]
@@ -20,6 +21,10 @@ pub enum MsgType {
     SceneChunk = 0x11,
     /// Device → host: scene bytes received so far.
     SceneAck = 0x12,
+    /// Host → device: bytes of the scene image, windowed (SPEC.md §3.14).
+    SceneData = 0x13,
+    /// Device → host: selective acknowledgement of `SceneData` (SPEC.md §3.14).
+    SceneSack = 0x14,
     /// Host → device: render one frame.
     RenderRequest = 0x20,
     /// Device → host: pixels of one row segment.
@@ -40,6 +45,10 @@ pub enum MsgType {
     FlashAck = 0x32,
     /// Host → bootloader: jump to the verified image.
     FlashBoot = 0x33,
+    /// Host → bootloader: bytes of the application image, windowed (SPEC.md §3.14).
+    FlashData = 0x34,
+    /// Bootloader → host: selective acknowledgement of `FlashData` (SPEC.md §3.14).
+    FlashSack = 0x35,
     /// Either direction: something went wrong.
     Error = 0x7F,
 }
@@ -53,6 +62,8 @@ impl MsgType {
             0x10 => Self::SceneBegin,
             0x11 => Self::SceneChunk,
             0x12 => Self::SceneAck,
+            0x13 => Self::SceneData,
+            0x14 => Self::SceneSack,
             0x20 => Self::RenderRequest,
             0x21 => Self::PixelSpan,
             0x22 => Self::FrameEnd,
@@ -63,6 +74,8 @@ impl MsgType {
             0x31 => Self::FlashChunk,
             0x32 => Self::FlashAck,
             0x33 => Self::FlashBoot,
+            0x34 => Self::FlashData,
+            0x35 => Self::FlashSack,
             0x7F => Self::Error,
             _ => return None,
         })
@@ -165,6 +178,21 @@ pub enum Msg<'a> {
         /// Loading state.
         status: SceneStatus,
     },
+    /// Host → device: image bytes at `offset`, any order inside the device's window
+    /// (SPEC.md §3.14); no data asks for a `SceneSack` only.
+    SceneData {
+        /// Offset of `data[0]` in the image.
+        offset: u32,
+        /// The bytes.
+        data: &'a [u8],
+    },
+    /// Device → host selective acknowledgement of a `SceneData`.
+    SceneSack {
+        /// Loading state (`Loaded` once the whole image is in and checked).
+        status: SceneStatus,
+        /// What the device holds.
+        sack: Sack,
+    },
     /// Host → device render request.
     RenderRequest(RenderRequest),
     /// Device → host pixels of row `y`, columns `x0..x0+count`.
@@ -265,6 +293,22 @@ pub enum Msg<'a> {
         /// CRC-32 of the image to start (must equal the verified one).
         crc: u32,
     },
+    /// Host → bootloader: image bytes at `offset`, any order inside the bootloader's window
+    /// (SPEC.md §3.14); no data asks for a `FlashSack` only.
+    FlashData {
+        /// Offset of `data[0]` in the image.
+        offset: u32,
+        /// The bytes.
+        data: &'a [u8],
+    },
+    /// Bootloader → host selective acknowledgement of a `FlashData`.
+    FlashSack {
+        /// `Receiving`, or `Verified` once the whole image is in memory and its CRC-32 read
+        /// back matched.
+        status: FlashStatus,
+        /// What the bootloader holds.
+        sack: Sack,
+    },
 }
 
 /// Longest error text.
@@ -279,6 +323,8 @@ impl<'a> Msg<'a> {
             Self::SceneBegin { .. } => MsgType::SceneBegin,
             Self::SceneChunk { .. } => MsgType::SceneChunk,
             Self::SceneAck { .. } => MsgType::SceneAck,
+            Self::SceneData { .. } => MsgType::SceneData,
+            Self::SceneSack { .. } => MsgType::SceneSack,
             Self::RenderRequest(_) => MsgType::RenderRequest,
             Self::PixelSpan { .. } => MsgType::PixelSpan,
             Self::FrameEnd { .. } => MsgType::FrameEnd,
@@ -289,6 +335,8 @@ impl<'a> Msg<'a> {
             Self::FlashChunk { .. } => MsgType::FlashChunk,
             Self::FlashAck { .. } => MsgType::FlashAck,
             Self::FlashBoot { .. } => MsgType::FlashBoot,
+            Self::FlashData { .. } => MsgType::FlashData,
+            Self::FlashSack { .. } => MsgType::FlashSack,
             Self::Error { .. } => MsgType::Error,
         }
     }

@@ -10,6 +10,7 @@
 //! | `device` | [`DeviceInfo`] and the [`feature`] bits |
 //! | `render` | [`RenderRequest`], [`render_flags`], [`Region`], [`region_options`], [`PixelEncoding`] |
 //! | `flash` | the bootloader's fields ([`FlashStatus`], [`FlashError`]) |
+//! | `sack` | the windowed transfers' acknowledgement ([`Sack`], [`SackRanges`]) |
 //! | `stats` | the [`stat`] keys and [`stat_entries`] |
 //! | `codec` | [`Msg::encode`], [`Msg::decode`], [`MsgError`] |
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
@@ -19,6 +20,7 @@ mod device;
 mod flash;
 mod message;
 mod render;
+mod sack;
 mod stats;
 
 pub use codec::MsgError;
@@ -29,4 +31,5 @@ pub use render::{
     region_options, render_flags, PixelEncoding, Region, RenderRequest, REGION_END_LEN, RENDER_REGION_LEN,
     RENDER_REQUEST_LEN,
 };
+pub use sack::{Sack, SackRanges, MAX_SACK_RANGES, SACK_HEAD_LEN, SACK_RANGE_LEN};
 pub use stats::{stat, stat_entries, STAT_ENTRY_LEN};

@@ -41,12 +41,13 @@ fn request(s: &Scene, enc: PixelEncoding, prim_ids: bool) -> RenderRequest {
 }
 
 fn config() -> SessionConfig {
+    // The in-process simulator is not paced: time the waits as for a fast line.
     SessionConfig::new("sim+faults")
+        .baud(3_000_000)
+        .turnaround(Duration::from_millis(20))
         .hello_timeout(Duration::from_secs(3))
-        .upload_timeout(Duration::from_secs(20))
-        .retransmit_after(Duration::from_millis(60))
         .render_timeout(Duration::from_secs(20))
-        .max_rewinds(10_000)
+        .max_probes(50)
 }
 
 fn png(f: &RenderedFrame) -> Vec<u8> {
@@ -202,7 +203,7 @@ fn a_dead_line_times_out_naming_port_stage_and_sequence_numbers() {
     // Everything from the device is lost once the faults are switched on.
     let mut port = FaultyPort::new(sim, Faults::default(), Faults { drop: 1.0, ..Faults::default() }, 7);
     port.active = false;
-    let cfg = config().retransmit_after(Duration::from_millis(20)).render_timeout(Duration::from_millis(300));
+    let cfg = config().max_probes(5).render_timeout(Duration::from_millis(300));
     let mut session = Session::new(port, cfg);
     session.hello(&mut |_| {}).unwrap();
     session.upload_scene(&s.image, &mut |_| {}).unwrap();

@@ -28,7 +28,8 @@ fn boards(n: usize, p: &PreparedScene, baud: Option<u32>) -> Vec<Session<SimPort
             port.set_timeout(Duration::from_millis(5));
             port.set_line_rate(baud);
             let cfg = SessionConfig::new(format!("sim{i}"))
-                .retransmit_after(Duration::from_millis(300))
+                .baud(baud.unwrap_or(3_000_000))
+                .turnaround(Duration::from_millis(20))
                 .render_timeout(Duration::from_secs(5));
             let mut s = Session::new(port, cfg);
             s.hello(&mut |_| {}).unwrap();
@@ -141,7 +142,9 @@ fn a_board_that_dies_mid_frame_costs_its_band_not_the_frame() {
     let mut dying = board(
         None,
         SessionConfig::new("dying")
-            .retransmit_after(Duration::from_millis(20))
+            .baud(3_000_000)
+            .turnaround(Duration::from_millis(10))
+            .max_probes(4)
             .render_timeout(Duration::from_millis(300)),
     );
     dying.port_mut().left = Some(5_000);

@@ -28,6 +28,15 @@ pub use config::{Backend, SimConfig, BOARD_LOOPBACK, SIM_MAX_VOXELS};
 pub use link::RtlLinkError;
 use link::SimLink;
 
+/// Points the simulated device keeps for splat frames (SPEC.md §6): 64 B each.
+pub const SIM_MAX_POINTS: usize = 1 << 17;
+
+/// Words of the simulated device's splat shape table (`TableConfig::DEVICE`).
+pub const SIM_TABLE_WORDS: usize = 81_920;
+
+/// The simulated device.
+type SimDevice<'a> = Device<SimLink<'a>, NoClock, SIM_MAX_VOXELS, SIM_MAX_POINTS, SIM_TABLE_WORDS>;
+
 /// What the host end sends to the device thread.
 enum Input {
     /// UART bytes.
@@ -90,8 +99,7 @@ fn run_device(config: SimConfig, input: Receiver<Input>, output: Sender<(u32, Ve
             Ok(l) => l,
             Err(e) => return fail(e),
         };
-        let mut device: Box<Device<SimLink<'_>, NoClock, SIM_MAX_VOXELS>> =
-            Box::new(Device::new(link, NoClock, config.device_info()));
+        let mut device: Box<SimDevice<'_>> = Box::new(Device::new(link, NoClock, config.device_info()));
         reset.muted.store(false, Ordering::Release);
         let epoch = reset.count.load(Ordering::Acquire);
         let mut sink = ChannelSink { out: &output, muted: &reset.muted, epoch };
@@ -202,8 +210,7 @@ pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfi
         let invalid = |e: String| io::Error::new(io::ErrorKind::InvalidInput, e);
         let program = link::rtl_program(&config).map_err(invalid)?;
         let link = link::open(&config, &mut backing, program.as_deref()).map_err(invalid)?;
-        let mut device: Box<Device<SimLink<'_>, NoClock, SIM_MAX_VOXELS>> =
-            Box::new(Device::new(link, NoClock, config.device_info()));
+        let mut device: Box<SimDevice<'_>> = Box::new(Device::new(link, NoClock, config.device_info()));
         let mut buf = [0u8; 4096];
         loop {
             let n = match port.read(&mut buf) {
@@ -499,6 +506,21 @@ mod reset_tests {
         let f = frames(&mut port, 1);
         assert!(matches!(Msg::decode(f[0].1, &f[0].2), Ok(Msg::Error { code: ErrorCode::NoScene, .. })), "{f:?}");
         assert_eq!(f[0].0, 1);
+    }
+
+    /// Issue 10 §3: the simulated PEs charge the kernel that runs, not GridRT's 648 cycles
+    /// for every kernel (docs/bench-accuracy.md, model cycles per test); a pipelined PE
+    /// issues a test per cycle whatever the kernel.
+    #[test]
+    fn simulated_pes_charge_the_running_kernels_cycles_per_test() {
+        use gridrt_coproc::{KernelKind, TimingProfile};
+        let issue =
+            |timing, kernel| SimConfig { timing, kernel, ..SimConfig::default() }.coproc().timing.test_issue_cycles;
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::Watertight), 1188);
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::Wald), 399);
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::MollerTrumbore), 675);
+        assert_eq!(issue(TimingProfile::PIPELINED, KernelKind::Watertight), 1);
+        assert_eq!(SimConfig::default().kernel, KernelKind::Watertight);
     }
 
     #[test]

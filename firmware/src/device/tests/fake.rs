@@ -2,7 +2,8 @@
 //! model: it checks packet framing strictly and answers with canned results.
 
 use crate::fsl::{FslLink, FslWord};
-use gridrt_shared::fsl::{self as wire, entry_from_words, op, FslError, ListEntry, RayResult};
+use gridrt_shared::fsl::{self as wire, entry_from_words, op, FslError, ListEntry, RayKind, RayResult};
+use gridrt_shared::math::Ray;
 use std::collections::VecDeque;
 use std::vec::Vec;
 
@@ -33,6 +34,8 @@ pub(super) struct FakeCoproc {
     pub(super) mode: Mode,
     /// Answer of any-hit queries.
     pub(super) shadow_hit: bool,
+    /// Answer rays through `FslLink::trace_direct` instead of the word stream.
+    pub(super) direct: bool,
     packet: Vec<u32>,
     out: VecDeque<FslWord>,
     pub(super) words_in: usize,
@@ -49,6 +52,7 @@ impl FakeCoproc {
         Self {
             mode: Mode::Normal,
             shadow_hit: false,
+            direct: false,
             packet: Vec::new(),
             out: VecDeque::new(),
             words_in: 0,
@@ -114,29 +118,13 @@ impl FakeCoproc {
                     t_max: f(7),
                     list,
                 };
-                let first = req.list.first().copied();
-                let kind = req.kind;
+                let r = self.result_of(&req);
                 self.rays.push(req);
                 match self.mode {
                     Mode::ErrorOnRay(w) => return self.answer(&[w]),
                     Mode::SilentOnRay => return,
                     _ => {}
                 }
-                let hit = kind == op::RAY_CLOSEST || self.shadow_hit;
-                let r = match (hit, first) {
-                    (true, Some(e)) => RayResult {
-                        hit: true,
-                        pe: e.pe,
-                        list_pos: 0,
-                        t: e.t_exit * 0.95,
-                        prim: e.voxel + 100,
-                        material: (e.voxel % 2) as u16,
-                        tests: n as u16,
-                        normal: [0.0, 0.0, 2.0],
-                        cycles: 648 * n as u32,
-                    },
-                    _ => RayResult { tests: n as u16, cycles: 648 * n as u32, ..RayResult::MISS },
-                };
                 self.answer(&r.to_words());
             }
             _ => {
@@ -148,6 +136,29 @@ impl FakeCoproc {
 }
 
 const RAY_HEADER: usize = wire::RAY_HEADER_WORDS;
+
+impl FakeCoproc {
+    /// The canned answer: a closest-hit query (or an any-hit one when `shadow_hit`) hits in
+    /// the first entry, 648 cycles per entry.
+    fn result_of(&self, req: &RayReq) -> RayResult {
+        let n = req.list.len();
+        let hit = req.kind == op::RAY_CLOSEST || self.shadow_hit;
+        match (hit, req.list.first()) {
+            (true, Some(e)) => RayResult {
+                hit: true,
+                pe: e.pe,
+                list_pos: 0,
+                t: e.t_exit * 0.95,
+                prim: e.voxel + 100,
+                material: (e.voxel % 2) as u16,
+                tests: n as u16,
+                normal: [0.0, 0.0, 2.0],
+                cycles: 648 * n as u32,
+            },
+            _ => RayResult { tests: n as u16, cycles: 648 * n as u32, ..RayResult::MISS },
+        }
+    }
+}
 
 impl FslLink for FakeCoproc {
     type Error = core::convert::Infallible;
@@ -161,5 +172,27 @@ impl FslLink for FakeCoproc {
     }
     fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
         self.out.pop_front().ok_or(nb::Error::WouldBlock)
+    }
+    /// With `direct` set, answers rays without words (the soft-core-only link's path).
+    fn trace_direct(
+        &mut self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+    ) -> Option<Result<RayResult, FslError>> {
+        if !self.direct {
+            return None;
+        }
+        let req = RayReq {
+            kind: kind.opcode(),
+            origin: ray.origin.to_array(),
+            dir: ray.dir.to_array(),
+            t_max,
+            list: list.to_vec(),
+        };
+        let r = self.result_of(&req);
+        self.rays.push(req);
+        Some(Ok(r))
     }
 }

@@ -2,7 +2,7 @@
 //! the boot banner, and what a failing UART does to a frame.
 
 use super::*;
-use gridrt_shared::msg::Region;
+use gridrt_shared::msg::{region_options, Region};
 use gridrt_shared::pixel;
 
 /// Decodes every colour span of `replies` into a `w`×`h` RGB888 canvas (untouched pixels
@@ -104,6 +104,38 @@ fn regions_reproduce_the_full_frame_pixel_for_pixel() {
     }
 }
 
+/// `SPAN_BYTES`: `max_span` limits each span's data bytes, not its pixels; the pixels are
+/// those of the full frame all the same.
+#[test]
+fn span_bytes_limit_the_data_of_each_span_not_its_pixels() {
+    let mut dev = loaded_device();
+    let req = request(40, 12, render_flags::SHADOWS);
+    let (full, _, _) = render_with(&mut dev, &req);
+    let region = Region::full(40, 12);
+    for (enc, limit) in [(PixelEncoding::Rle, 24u16), (PixelEncoding::Rle, 9), (PixelEncoding::Rgb888, 30)] {
+        let rq = RenderRequest { encoding: enc, ..req };
+        let options = region_options::SPAN_BYTES;
+        let r = send(&mut dev, &Msg::RenderRegion { region, max_span: limit, options, request: rq });
+        let (img, seen, end) = canvas(&r, 40, 12);
+        assert!(matches!(end, Some(Msg::RegionEnd { .. })), "{end:?}");
+        assert!(seen.iter().all(|&s| s));
+        assert_eq!(img, full, "{enc:?} ≤ {limit} B");
+        let mut longest_pixels = 0;
+        for x in &r {
+            if let Msg::PixelSpan { count, data, .. } = x.msg() {
+                assert!(data.len() <= limit as usize, "{enc:?}: {} B > {limit}", data.len());
+                longest_pixels = longest_pixels.max(count);
+            }
+        }
+        if enc == PixelEncoding::Rgb888 {
+            assert_eq!(longest_pixels, 10, "30 B of Rgb888");
+        } else if limit >= 24 {
+            // (A tighter limit leaves room for one worst-case pixel only.)
+            assert!(longest_pixels > limit, "{enc:?} ≤ {limit} B: runs make spans longer in pixels than in bytes");
+        }
+    }
+}
+
 #[test]
 fn regions_outside_the_image_name_the_field() {
     let mut dev = loaded_device();
@@ -191,6 +223,23 @@ fn crc_only_regions_send_no_spans_but_the_same_crc() {
         panic!()
     };
     assert_eq!((a, spans), (b, 0));
+}
+
+#[test]
+fn no_stats_regions_send_the_same_spans_and_end_without_stats() {
+    use gridrt_shared::msg::region_options::{CRC_ONLY, NO_STATS};
+    let mut dev = loaded_device();
+    let req = request(16, 9, render_flags::SHADOWS);
+    let region = Region { x0: 3, y0: 2, cols: 10, rows: 5 };
+    let full = send(&mut dev, &Msg::RenderRegion { region, max_span: 0, options: 0, request: req });
+    let lean = send(&mut dev, &Msg::RenderRegion { region, max_span: 0, options: NO_STATS, request: req });
+    let kinds = |r: &[Reply]| r.iter().map(|x| x.1).collect::<Vec<_>>();
+    let mut want = kinds(&full);
+    want.retain(|&k| k != MsgType::Stats as u8);
+    assert_eq!(kinds(&lean), want);
+    assert_eq!(full.last().unwrap().2, lean.last().unwrap().2, "same RegionEnd");
+    let bare = send(&mut dev, &Msg::RenderRegion { region, max_span: 0, options: NO_STATS | CRC_ONLY, request: req });
+    assert_eq!(kinds(&bare), [MsgType::RegionEnd as u8]);
 }
 
 /// A UART that takes `room` bytes, then fails every write.

@@ -120,6 +120,146 @@ fn coproc_error_on_load_rejects_the_scene() {
     assert!(!dev.scene_loaded());
 }
 
+// ---------------------------------------------------------------- windowed upload (§3.14)
+
+fn sack_of(r: &Reply) -> (SceneStatus, gridrt_shared::msg::Sack) {
+    match r.msg() {
+        Msg::SceneSack { status, sack } => (status, sack),
+        other => panic!("expected a SceneSack, got {other:?}"),
+    }
+}
+
+/// Sends `msg` as a frame with sequence number `seq`.
+fn send_seq(dev: &mut Dev, msg: &Msg<'_>, seq: u16) -> Vec<Reply> {
+    exchange(dev, &frame(msg, seq))
+}
+
+#[test]
+fn scene_data_in_any_order_loads_the_scene_and_every_frame_gets_a_sack() {
+    let img = scene_image([2, 2, 1], &materials());
+    let crc = crc32(&img);
+    let mut rng = ChaCha8Rng::seed_from_u64(0x5AC_0001);
+    for _ in 0..50 {
+        let mut dev = device();
+        send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc });
+        let mut pieces: Vec<(usize, usize)> = Vec::new();
+        let mut off = 0;
+        while off < img.len() {
+            let n = rng.gen_range(1..=40).min(img.len() - off);
+            pieces.push((off, n));
+            off += n;
+        }
+        // Shuffle within a few places, and send some twice: a lossy line's retransmissions.
+        for i in 0..pieces.len() {
+            let j = (i + rng.gen_range(0..4)).min(pieces.len() - 1);
+            pieces.swap(i, j);
+        }
+        let mut seq = 100u16;
+        let mut last = None;
+        let mut queue = pieces.clone();
+        while let Some((o, n)) = queue.first().copied() {
+            queue.remove(0);
+            seq += 1;
+            let r = send_seq(&mut dev, &Msg::SceneData { offset: o as u32, data: &img[o..o + n] }, seq);
+            assert_eq!(r.len(), 1, "{r:?}");
+            let (status, sack) = sack_of(&r[0]);
+            assert_eq!((sack.heard, sack.crc, sack.window as usize), (seq, crc, super::super::scene::UPLOAD_WINDOW));
+            // Anything the device did not take (table full) is sent again later.
+            let held = |p: usize| {
+                p < sack.next_offset as usize
+                    || sack.ranges.as_slice().iter().any(|&(a, b)| {
+                        (sack.next_offset as usize + a as usize..sack.next_offset as usize + b as usize).contains(&p)
+                    })
+            };
+            if !(o..o + n).all(held) {
+                queue.push((o, n));
+            }
+            last = Some(status);
+            if status == SceneStatus::Loaded {
+                break;
+            }
+        }
+        assert_eq!(last, Some(SceneStatus::Loaded));
+        assert!(dev.scene_loaded());
+        assert_eq!(dev.link().loads.len(), 2, "each PE block loaded once");
+        // The last Sack again for a late duplicate or a probe.
+        let r = send_seq(&mut dev, &Msg::SceneData { offset: 0, data: &[] }, 7);
+        let (status, sack) = sack_of(&r[0]);
+        assert_eq!((status, sack.next_offset, sack.heard, sack.crc), (SceneStatus::Loaded, img.len() as u32, 7, crc));
+    }
+}
+
+#[test]
+fn scene_sack_lists_the_ranges_held_above_a_gap() {
+    let img = scene_image([2, 2, 1], &materials());
+    let crc = crc32(&img);
+    let mut dev = device();
+    send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc });
+    let r = send_seq(&mut dev, &Msg::SceneData { offset: 0, data: &img[..20] }, 1);
+    assert_eq!(sack_of(&r[0]).1.next_offset, 20);
+    let r = send_seq(&mut dev, &Msg::SceneData { offset: 40, data: &img[40..60] }, 3);
+    let (status, s) = sack_of(&r[0]);
+    assert_eq!((status, s.next_offset, s.heard, s.ranges.as_slice()), (SceneStatus::Receiving, 20, 3, &[(20, 40)][..]));
+    // A duplicate changes nothing but `heard`.
+    let r = send_seq(&mut dev, &Msg::SceneData { offset: 45, data: &img[45..50] }, 4);
+    let (_, s) = sack_of(&r[0]);
+    assert_eq!((s.next_offset, s.heard, s.ranges.as_slice()), (20, 4, &[(20, 40)][..]));
+    // The gap filled: contiguous up to 60.
+    let r = send_seq(&mut dev, &Msg::SceneData { offset: 20, data: &img[20..40] }, 5);
+    let (_, s) = sack_of(&r[0]);
+    assert_eq!((s.next_offset, s.ranges.len()), (60, 0));
+}
+
+#[test]
+fn scene_data_past_the_end_rejects_the_upload_and_without_begin_is_unexpected() {
+    let mut dev = device();
+    let r = send(&mut dev, &Msg::SceneData { offset: 0, data: &[1, 2, 3] });
+    assert_eq!(error_of(&r[0]), (ErrorCode::UnexpectedMessage, MsgType::SceneData as u32));
+    let img = scene_image([2, 2, 1], &materials());
+    send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) });
+    let r = send(&mut dev, &Msg::SceneData { offset: img.len() as u32 - 2, data: &[0; 4] });
+    assert_eq!(error_of(&r[0]), (ErrorCode::SceneRejected, SceneError::TrailingBytes.code()));
+    let r = send(&mut dev, &Msg::SceneData { offset: 0, data: &img });
+    assert_eq!(error_of(&r[0]), (ErrorCode::UnexpectedMessage, MsgType::SceneData as u32));
+}
+
+#[test]
+fn a_new_scene_begin_forgets_the_loaded_upload() {
+    let img = scene_image([2, 2, 1], &materials());
+    let mut dev = loaded_device();
+    send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) });
+    let r = send(&mut dev, &Msg::SceneData { offset: 0, data: &[] });
+    let (status, s) = sack_of(&r[0]);
+    assert_eq!((status, s.next_offset), (SceneStatus::Receiving, 0));
+    assert!(!dev.scene_loaded());
+}
+
+#[test]
+fn data_frames_read_together_share_one_sack_and_a_later_corrupt_frame_is_reported_after_it() {
+    let img = scene_image([2, 2, 1], &materials());
+    let mut dev = device();
+    send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) });
+    let noise = [0x13u8, 0x37, 0x00]; // a corrupt frame
+    let d = |o: usize, n: usize, seq| frame(&Msg::SceneData { offset: o as u32, data: &img[o..o + n] }, seq);
+    // Corrupt, data, data: one Sack for frame 2 (the corrupt frame came before it: the Sack
+    // itself shows what is missing).
+    let batch = [noise.to_vec(), d(0, 10, 1), d(10, 10, 2)].concat();
+    let r = exchange(&mut dev, &batch);
+    assert_eq!(r.len(), 1, "{r:?}");
+    let (_, s) = sack_of(&r[0]);
+    assert_eq!((s.heard, s.next_offset), (2, 20));
+    // Data, corrupt: the Sack, then the report of the corrupt frame after it.
+    let batch = [d(20, 10, 3), noise.to_vec()].concat();
+    let r = exchange(&mut dev, &batch);
+    assert_eq!(r.len(), 2, "{r:?}");
+    assert_eq!(sack_of(&r[0]).1.heard, 3);
+    assert_eq!(error_of(&r[1]).0, ErrorCode::BadFrame);
+    // Data, then Hello: answered in order.
+    let batch = [d(30, 10, 4), frame(&Msg::Hello { protocol: 1 }, 5)].concat();
+    let r = exchange(&mut dev, &batch);
+    assert_eq!(r.iter().map(|x| x.1).collect::<Vec<_>>(), [MsgType::SceneSack as u8, MsgType::Version as u8]);
+}
+
 /// FRAME after CLEAR: a co-processor without a fixed-point frame answers `UnknownOpcode` and
 /// the scene still loads (SPEC §4.6); any other answer rejects the scene.
 #[test]

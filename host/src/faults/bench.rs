@@ -1,0 +1,184 @@
+//! `gridrt bench link --faults`: goodput of the scene upload and of the frame against the
+//! bit error rate, measured over a paced [`PtyRelay`](super::relay::PtyRelay), next to the
+//! selective-repeat bound (SPEC.md §3.14) for the chunk and span sizes in use.
+//!
+//! # What is measured
+//! For each bit error rate `b` (0 first: the reference), one whole session — hello, upload,
+//! frame — over the relay at `baud` with [`Faults::line`]`(b)` in both directions, to the
+//! simulated board. Goodput is payload bytes per second of wall time (the relay paces every
+//! byte, so wall time is wire time), as a share of the line rate `baud / 10`:
+//! - upload: the scene image's bytes over the upload time;
+//! - frame: the pixel data bytes the frame needs (its spans' encoded bytes in the clean run)
+//!   over the frame time.
+//!
+//! # The bound
+//! [`efficiency`] of selective repeat at the byte error rate `q = 1 − (1 − b)^8` plus the
+//! drop rate, for data frames (4-byte header, the upload) and span frames (10-byte header,
+//! the frame): at the best payload (the upper bound of any chunk size) and at the payload
+//! the run actually used (the last chunk size; the mean span). Acknowledgements, requests,
+//! `RegionEnd`s and the turnaround are not in it: measured goodput stays below it.
+
+use serde::Serialize;
+
+use super::run::LineRun;
+use super::Faults;
+use crate::session::estimate::{best_payload, byte_error_rate, efficiency};
+use crate::session::MAX_CHUNK;
+
+/// Header bytes of a data message (`offset`).
+const DATA_HEAD: usize = 4;
+/// Header bytes of a `PixelSpan`.
+const SPAN_HEAD: usize = 10;
+
+/// One bit error rate's results.
+#[derive(Debug, Clone, Serialize)]
+pub struct FaultRow {
+    /// Bit error rate (flips of data bits), both directions.
+    pub ber: f64,
+    /// Byte drop rate, both directions.
+    pub drop: f64,
+    /// Garbage burst rate per byte, both directions.
+    pub burst: f64,
+    /// Seconds to `Version`.
+    pub hello_s: f64,
+    /// Seconds of the upload.
+    pub upload_s: f64,
+    /// Seconds of the frame.
+    pub frame_s: f64,
+    /// Seconds from hello to the frame.
+    pub total_s: f64,
+    /// `total_s` over the clean run's.
+    pub total_ratio: f64,
+    /// `upload_s` over the clean run's.
+    pub upload_ratio: f64,
+    /// `frame_s` over the clean run's.
+    pub frame_ratio: f64,
+    /// Upload goodput over the line rate.
+    pub upload_goodput: f64,
+    /// Frame goodput over the line rate.
+    pub frame_goodput: f64,
+    /// Selective-repeat bound of the upload at the best chunk size.
+    pub upload_bound: f64,
+    /// Bound at the chunk size the run ended with.
+    pub upload_bound_in_use: f64,
+    /// The chunk size the run ended with (bytes).
+    pub upload_chunk: usize,
+    /// Bound of the frame at the best span payload.
+    pub frame_bound: f64,
+    /// Bound at the mean span payload of the run.
+    pub frame_bound_in_use: f64,
+    /// Mean span payload of the run (bytes).
+    pub frame_span_bytes: f64,
+    /// The image equals the clean run's, byte for byte.
+    pub identical: bool,
+    /// Chunks sent again.
+    pub chunks_resent: u64,
+    /// Pixel runs requested again.
+    pub runs_rerequested: u64,
+    /// Bits flipped, bytes dropped and bursts inserted, both directions together.
+    pub flips: u64,
+    /// Bytes dropped.
+    pub drops: u64,
+    /// Bursts inserted.
+    pub bursts: u64,
+}
+
+/// Byte error rate of a line with faults `f`: flips of the 8 data bits, plus drops.
+pub fn line_byte_error_rate(f: &Faults) -> f64 {
+    1.0 - (1.0 - byte_error_rate(f.ber)) * (1.0 - f.drop.clamp(0.0, 1.0))
+}
+
+/// The row of `run` at faults `f`, against the clean run `clean`, for a scene image of
+/// `image_bytes` bytes at `baud`; `upload_chunk` is the chunk size the upload ended with.
+pub fn fault_row(
+    f: &Faults,
+    run: &LineRun,
+    clean: &LineRun,
+    image_bytes: usize,
+    baud: u32,
+    upload_chunk: usize,
+) -> FaultRow {
+    let line = baud as f64 / 10.0;
+    let q = line_byte_error_rate(f);
+    let frame_payload = clean.link.span_data_bytes as f64;
+    let spans = run.link.spans_received.max(1) as f64;
+    let span_bytes = run.link.span_data_bytes as f64 / spans;
+    let n_up = best_payload(DATA_HEAD, q, 1, MAX_CHUNK);
+    let n_span = best_payload(SPAN_HEAD, q, 1, 2038);
+    let (up, down) = (run.up, run.down);
+    FaultRow {
+        ber: f.ber,
+        drop: f.drop,
+        burst: f.burst,
+        hello_s: run.hello_s,
+        upload_s: run.upload_s,
+        frame_s: run.frame_s,
+        total_s: run.total_s,
+        total_ratio: run.total_s / clean.total_s,
+        upload_ratio: run.upload_s / clean.upload_s,
+        frame_ratio: run.frame_s / clean.frame_s,
+        upload_goodput: image_bytes as f64 / run.upload_s / line,
+        frame_goodput: frame_payload / run.frame_s / line,
+        upload_bound: efficiency(n_up, DATA_HEAD, q),
+        upload_bound_in_use: efficiency(upload_chunk.max(1), DATA_HEAD, q),
+        upload_chunk,
+        frame_bound: efficiency(n_span, SPAN_HEAD, q),
+        frame_bound_in_use: efficiency(span_bytes.round().max(1.0) as usize, SPAN_HEAD, q),
+        frame_span_bytes: span_bytes,
+        identical: run.frame.rgb == clean.frame.rgb,
+        chunks_resent: run.link.upload_chunks_resent,
+        runs_rerequested: run.link.regions_resent,
+        flips: up.flips + down.flips,
+        drops: up.drops + down.drops,
+        bursts: up.bursts + down.bursts,
+    }
+}
+
+/// CSV of the rows (header first).
+pub fn csv(rows: &[FaultRow]) -> String {
+    let mut s = String::from(
+        "ber,drop,burst,hello_s,upload_s,frame_s,total_s,total_ratio,upload_ratio,frame_ratio,upload_goodput,upload_bound,upload_bound_in_use,upload_chunk,frame_goodput,frame_bound,frame_bound_in_use,frame_span_bytes,identical,chunks_resent,runs_rerequested,flips,drops,bursts\n",
+    );
+    for r in rows {
+        s.push_str(&format!(
+            "{:e},{:e},{:e},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.4},{:.4},{:.4},{},{:.4},{:.4},{:.4},{:.1},{},{},{},{},{},{}\n",
+            r.ber,
+            r.drop,
+            r.burst,
+            r.hello_s,
+            r.upload_s,
+            r.frame_s,
+            r.total_s,
+            r.total_ratio,
+            r.upload_ratio,
+            r.frame_ratio,
+            r.upload_goodput,
+            r.upload_bound,
+            r.upload_bound_in_use,
+            r.upload_chunk,
+            r.frame_goodput,
+            r.frame_bound,
+            r.frame_bound_in_use,
+            r.frame_span_bytes,
+            r.identical,
+            r.chunks_resent,
+            r.runs_rerequested,
+            r.flips,
+            r.drops,
+            r.bursts
+        ));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_line_error_rate_adds_drops_to_flips() {
+        let q = line_byte_error_rate(&Faults::line(1e-4));
+        assert!((q - (8e-4 + 1e-5)).abs() < 2e-6, "{q}");
+        assert_eq!(line_byte_error_rate(&Faults::default()), 0.0);
+    }
+}
