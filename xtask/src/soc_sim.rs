@@ -129,9 +129,6 @@ impl SimCmd {
             flash
                 .current_dir(crate::toolchain::repo_root())
                 .args(["run", "--quiet", "--package", "gridrt-host", "--bin", "gridrt", "--", "flash", "--port", &pty])
-                // The bootloader's answers come at the simulation's pace (its read-back CRC of
-                // the image takes seconds).
-                .args(["--reply-timeout", "120"])
                 .arg(&app);
             eprintln!("xtask: {}", display_command(&flash));
             let status = flash.status().context("running gridrt flash")?;

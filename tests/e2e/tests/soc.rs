@@ -151,7 +151,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     // Corrupted on the way: the bootloader reads the image back and refuses its CRC; an image
     // larger than main RAM is refused before a byte is written. The bootloader stays alive.
     let good = FlashImage::from_elf(&std::fs::read(&app).unwrap()).unwrap();
-    let cfg = FlashConfig { reply_timeout: Duration::from_secs(60), ..FlashConfig::new(sim.pty.clone()) };
+    let cfg = FlashConfig::new(sim.pty.clone());
     {
         let mut port = serial::open(&sim.pty, 115_200, serial::DEFAULT_READ_TIMEOUT).unwrap();
         let mut big = good.clone();
@@ -169,7 +169,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     eprintln!("refusals: {:.0} s", started.elapsed().as_secs_f64());
 
     let t = Instant::now();
-    let log = run(&gridrt, &["flash", "--port", &sim.pty, "--reply-timeout", "60", &app.display().to_string()]);
+    let log = run(&gridrt, &["flash", "--port", &sim.pty, &app.display().to_string()]);
     eprintln!("{log}flash: {:.0} s", t.elapsed().as_secs_f64());
     assert!(log.contains("verified") && log.contains("running    application"), "{log}");
     assert!(log.contains("on board 3: 4 PEs"), "the flashed app must answer, not the bootloader: {log}");
