@@ -6,6 +6,7 @@
 //!   [`ModelFreeClock`] subtracts the total from `mcycle`/`minstret` (see [`TimedLink`]).
 //! - fpga-soc: the real co-processor behind the AXI4-Stream FIFO ([`AxisLink`]); the plain
 //!   counters are the firmware's own.
+//! - litex: the RTL co-processor behind the SoC's CSR FIFOs (`CsrFifoLink`); plain counters.
 
 use core::cell::Cell;
 
@@ -201,6 +202,44 @@ mod axis {
             match self.0.nget_word() {
                 Ok((data, control)) => Ok(FslWord { data, control }),
                 Err(e) => Err(e.map(AxisLinkError)),
+            }
+        }
+    }
+}
+
+#[cfg(feature = "board-litex")]
+pub use csr_fifo::{CsrFifoLink, CsrFifoLinkError};
+
+#[cfg(feature = "board-litex")]
+mod csr_fifo {
+    use gridrt_firmware::bsp::coproc_csr::{CoprocCsr, CoprocCsrError};
+    use gridrt_firmware::bsp::Mmio;
+    use gridrt_firmware::fsl::{FslLink, FslWord, LinkError, LinkErrorKind};
+
+    /// A CSR FIFO error as a link error (always [`LinkErrorKind::Hardware`]).
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct CsrFifoLinkError(pub CoprocCsrError);
+
+    impl LinkError for CsrFifoLinkError {
+        fn kind(&self) -> LinkErrorKind {
+            LinkErrorKind::Hardware
+        }
+    }
+
+    /// The co-processor's CSR FIFOs in the LiteX SoC as an [`FslLink`] (control bit = tlast).
+    pub struct CsrFifoLink<M: Mmio>(pub CoprocCsr<M>);
+
+    impl<M: Mmio> FslLink for CsrFifoLink<M> {
+        type Error = CsrFifoLinkError;
+
+        fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
+            self.0.nput_word(word.data, word.control).map_err(|e| e.map(CsrFifoLinkError))
+        }
+
+        fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+            match self.0.nget_word() {
+                Ok((data, control)) => Ok(FslWord { data, control }),
+                Err(e) => Err(e.map(CsrFifoLinkError)),
             }
         }
     }

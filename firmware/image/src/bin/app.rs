@@ -7,7 +7,8 @@
 //!   work excluded from the per-stage counters (`link::TimedLink`); with the feature
 //!   `soft-core-only` there is no co-processor: the firmware calls the model's intersection
 //!   code itself (`DirectKernel`) and every instruction of it is counted;
-//! - fpga-soc: the real one behind the AXI4-Stream FIFO.
+//! - fpga-soc: the real one behind the AXI4-Stream FIFO;
+//! - litex: the RTL co-processor behind the LiteX SoC's CSR FIFOs.
 //!
 //! Stage counters come from `mcycle`/`minstret` (exact under QEMU's `-icount shift=0`).
 #![no_std]
@@ -64,21 +65,22 @@ fn main() -> ! {
         panic!("panic-test feature");
     }
 
+    let (pe_count, pe_mem_words) = board::coproc_config();
     let info = DeviceInfo {
         protocol: 0, // filled in by Device::new, like max_payload, voxel_capacity, features
         firmware: serve::firmware_version(),
         board: board::BOARD_ID,
         max_payload: 0,
-        pe_count: board::PE_COUNT,
+        pe_count,
         voxel_capacity: 0,
-        pe_mem_words: board::PE_MEM_WORDS,
+        pe_mem_words,
         features: 0,
     };
     let mut w = UartWriter(&mut console);
     w.put("device: ");
-    w.put_dec(board::PE_COUNT as u64);
+    w.put_dec(u64::from(pe_count));
     w.put(" PEs x ");
-    w.put_dec(board::PE_MEM_WORDS as u64);
+    w.put_dec(u64::from(pe_mem_words));
     w.put(" words, up to ");
     w.put_dec(board::MAX_VOXELS as u64);
     w.put(" voxels; speak SPEC.md frames now\r\n");
@@ -185,5 +187,22 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
     let _ = console.write_all(&[0]);
     let mut device: Device<_, _, { board::MAX_VOXELS }> = Device::new(AxisLink(fifo), CounterClock(CsrCounters), info);
+    serve(&mut device, console)
+}
+
+#[cfg(feature = "board-litex")]
+fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
+    use gridrt_firmware::bsp::coproc_csr::CoprocCsr;
+    use gridrt_firmware::bsp::VolatileMmio;
+    use gridrt_firmware::device::{CounterClock, Device};
+    use gridrt_firmware_image::link::CsrFifoLink;
+
+    // SAFETY: COPROC_BASE is the co-processor's CSR FIFOs (csr.json); owned here only.
+    let mut fifos = CoprocCsr::new(unsafe { VolatileMmio::new(board::COPROC_BASE) });
+    fifos.init();
+    // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
+    let _ = console.write_all(&[0]);
+    let mut device: Device<_, _, { board::MAX_VOXELS }> =
+        Device::new(CsrFifoLink(fifos), CounterClock(CsrCounters), info);
     serve(&mut device, console)
 }
