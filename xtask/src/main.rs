@@ -20,6 +20,7 @@ mod setup;
 mod soc;
 mod soc_build;
 mod soc_sim;
+mod soc_tools;
 mod toolchain;
 
 use clap::{Parser, Subcommand};

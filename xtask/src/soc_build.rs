@@ -5,7 +5,7 @@
 //! report, and how long the build took.
 
 use crate::firmware::{Bin, BuildOpts, Layout};
-use crate::soc::{build_firmware, python, result, run_logged, soc_target_dir, RtlDir};
+use crate::soc_tools::{build_firmware, python, result, run_logged, soc_target_dir, RtlDir};
 use crate::toolchain::{Target, ToolchainChoice};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};

@@ -8,7 +8,7 @@
 //! this command is killed.
 
 use crate::firmware::{Bin, BuildOpts, Layout};
-use crate::soc::{build_firmware, python, result, run_logged, soc_target_dir, RtlDir};
+use crate::soc_tools::{build_firmware, python, result, run_logged, soc_target_dir, RtlDir};
 use crate::toolchain::{display_command, Target, ToolchainChoice};
 use anyhow::{bail, Context, Result};
 use clap::Args;
