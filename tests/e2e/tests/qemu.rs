@@ -205,7 +205,7 @@ fn render_matches_loopback(test: &str, target: &str, apart_per_ray: f64) {
     // the value read back from the JSON may differ from the host's in the last bit.
     let want = total as f64 / 76_800.0;
     assert!((per_ray - want).abs() <= 4.0 * f64::EPSILON * want, "{per_ray} vs {want}");
-    // Under -icount shift=0 a cycle is an instruction: the frame totals agree to within two
+    // Under -icount shift=0 a cycle is an instruction: the frame totals agree to within four
     // (docs/bench-firmware.md),
     // and per stage mcycle and minstret differ
     // only because the two CSRs are read an instruction or two apart at each stage boundary,
@@ -224,7 +224,7 @@ fn render_matches_loopback(test: &str, target: &str, apart_per_ray: f64) {
         })
         .collect();
     eprintln!("{target}: |mcycle - minstret| per stage for {rays} rays: {apart:?}; frame: {cycles} cycles, {instret} instructions");
-    assert!(cycles.abs_diff(instret) <= 2, "{target}: frame totals {cycles} cycles, {instret} instructions");
+    assert!(cycles.abs_diff(instret) <= 4, "{target}: frame totals {cycles} cycles, {instret} instructions");
     for (stage, d) in apart {
         assert!(
             d as f64 <= apart_per_ray * rays as f64,
