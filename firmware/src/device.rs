@@ -21,9 +21,7 @@
 //! | `scene` | the scene store and the upload that loads it ([`SceneSink`](gridrt_shared::scene::SceneSink), LOAD_PE over FSL) | `fail` |
 //! | `raypath` | one ray's FSL request and response, drain after a failure | `stats`, `fail`, `scene` |
 //! | `request` | render request checks, field offsets, the validated job | `fail` |
-//! | `pixel` | one pixel: primary ray, shading, shadow and reflection rays | `stats`, `fail`, `scene`, `raypath` |
-//! | `farm` | [`RowFarm`]s: rows traced away from the device loop (a simulator's threads) | `stats`, `fail`, `scene`, `raypath`, `pixel` |
-//! | `pipeline` | the frame: plan, row loop, row interpolation, farmed rows; renders a job | all of the above |
+//! | `pipeline` | the per-pixel pipeline, plan and row interpolation; renders a job | all of the above |
 //! | `splat` | a `SPLATS` job: seed 001's splat path over the scene's points | `fail`, `request`, `scene`, `stats` |
 //! | `machine` | the [`Device`] state machine: frames in, answers out | all of the above |
 //!
@@ -31,10 +29,8 @@
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 mod fail;
-mod farm;
 mod machine;
 mod pipeline;
-mod pixel;
 mod raypath;
 mod request;
 mod scene;
@@ -43,7 +39,6 @@ mod splat;
 mod stats;
 
 pub use fail::{DETAIL_LINK_HARDWARE, DETAIL_LINK_OTHER, DETAIL_LINK_TIMEOUT};
-pub use farm::{NoFarm, RowDone, RowFarm, RowFault, RowTracer, Rows};
 pub use machine::{compiled_features, Device};
 pub use raypath::DEFAULT_POLLS;
 pub use request::MAX_IMAGE_DIM;

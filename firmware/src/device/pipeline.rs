@@ -10,21 +10,38 @@
 //! `reflections`, `textures`, `specular`) is refused with `Error{BadRequest}`.
 
 use super::fail::Fail;
-use super::farm::{RowDone, RowFarm, Rows};
-use super::pixel::{pixel, FrameCtx};
-use super::raypath::RayPath;
+use super::raypath::{RayClass, RayPath};
 use super::request::{field, Job};
 use super::scene::SceneStore;
 use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
+use crate::camera::Camera;
 use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
 use crate::pixels::{FrameTx, SpanEncoder, TxError};
-use core::ops::ControlFlow;
+use crate::shade::{self, Light, DEFAULT_ALBEDO};
 use embedded_io::Write;
+use gridrt_shared::fsl::RayKind;
+use gridrt_shared::math::Ray;
+#[cfg(feature = "textures")]
+use gridrt_shared::math::Vec3;
 use gridrt_shared::msg::{feature, render_flags, ErrorCode, Msg};
+#[cfg(feature = "textures")]
+use gridrt_shared::scene::{affine_point, TextureKind};
+use gridrt_shared::scene::{Material, MaterialModel, ReflectMode};
 
 /// Widest row the interpolation buffer holds.
 pub const MAX_INTERP_WIDTH: usize = 2048;
+
+/// Per-frame constants of the pixel pipeline.
+struct FrameCtx {
+    cam: Camera,
+    light: Light,
+    shadows: bool,
+    reflections: bool,
+    textures: bool,
+    specular: bool,
+    diag: f32,
+}
 
 /// The plan bits this build honours.
 const fn compiled_plan() -> u16 {
@@ -40,6 +57,123 @@ pub const fn pipeline_features() -> u32 {
     let t = if cfg!(feature = "textures") { feature::TEXTURES } else { 0 };
     let s = if cfg!(feature = "specular") { feature::SPECULAR } else { 0 };
     r | t | s | feature::INTERP | feature::ANALYTIC_PRIMITIVES
+}
+
+/// The texture-space point of a hit on primitive `prim` (the object table maps prim ids to
+/// objects), or `None` when no object holds it.
+#[cfg(feature = "textures")]
+fn object_point<const N: usize>(scene: &SceneStore<N>, prim: u32, p: Vec3) -> Option<[f32; 3]> {
+    let o = scene.objects.iter().find(|o| prim.checked_sub(o.first_prim).is_some_and(|k| k < o.prim_count))?;
+    Some(affine_point(&o.world_to_object, p.to_array()))
+}
+
+/// One pixel: the path of its primary ray through at most `max_depth` mirror bounces
+/// (module doc).
+// The arithmetic here is f32 shading on glam vectors, which the lint cannot tell from
+// integers; the integer work is the counters (`count`) and the bounce index.
+#[allow(clippy::arithmetic_side_effects)]
+fn pixel<L: FslLink, C: StageClock, const N: usize>(
+    path: &mut RayPath<L>,
+    scene: &SceneStore<N>,
+    clock: &C,
+    sw: &mut Stopwatch,
+    ctx: &FrameCtx,
+    x: u16,
+    y: u16,
+) -> Result<Sample, Fail> {
+    let lighting = &scene.lighting;
+    let mut ray = ctx.cam.primary_ray(x as u32, y as u32);
+    count(&mut path.stats.primary_rays, 1);
+    sw.lap(clock, &mut path.stats, Stage::RayGen);
+    let la = lighting.ambient_colour.map(|c| c * ctx.light.ambient);
+    let dl = shade::DirectLight {
+        pos: ctx.light.pos,
+        radiance: lighting.light_colour.map(|c| c * ctx.light.intensity),
+        specular: ctx.specular,
+    };
+    let lit = lighting.light_count > 0 && dl.radiance.iter().any(|&c| c != 0.0);
+    let depth = if ctx.reflections { lighting.max_depth.max(1) } else { 1 };
+    let mut acc = [0f32; 3];
+    let mut throughput = 1f32;
+    let (mut first_prim, mut first_t) = (interp::MISS, f32::INFINITY);
+    for bounce in 0..depth {
+        let class = if bounce == 0 { RayClass::Primary } else { RayClass::Reflection };
+        let hit = path.trace_as(scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, class)?;
+        let r = match hit {
+            Some(r) if r.hit => r,
+            _ => {
+                for (a, b) in acc.iter_mut().zip(lighting.background) {
+                    *a += throughput * b;
+                }
+                break;
+            }
+        };
+        if bounce == 0 {
+            first_prim = r.prim;
+            first_t = r.t;
+        }
+        let p = shade::hit_point(&ray, r.t);
+        let m = scene
+            .materials
+            .get(r.material as usize)
+            .copied()
+            .unwrap_or(Material { diffuse: DEFAULT_ALBEDO, reflect: 0.0 });
+        let ext = scene.material_model.get(r.material as usize).copied().unwrap_or(MaterialModel::MATTE);
+        #[allow(unused_mut)]
+        let mut cd = m.diffuse;
+        #[cfg(feature = "textures")]
+        if ctx.textures && ext.texture != TextureKind::None {
+            if let Some(po) = object_point(scene, r.prim, p) {
+                cd = crate::texture::sample(&ext, cd, po);
+            }
+        }
+        let Some(n) = shade::facing_normal(r.normal, ray.dir) else {
+            // Degenerate normal: no direction to light it from; ambient only.
+            for (a, b) in acc.iter_mut().zip(shade::outgoing(&ext, cd, la, None)) {
+                *a += throughput * b;
+            }
+            break;
+        };
+        let v = (-ray.dir).try_normalize().unwrap_or(n);
+        let mut direct = None;
+        if lit {
+            let e = shade::irradiance(lighting, n, p, dl.pos);
+            let spot = if e > 0.0 { shade::spot_factor(lighting, dl.pos, p) } else { 0.0 };
+            if e > 0.0 && spot > 0.0 {
+                let visible = if ctx.shadows {
+                    count(&mut path.stats.shadow_rays, 1);
+                    let sr = shade::shadow_ray(p, n, dl.pos, ctx.diag);
+                    sw.lap(clock, &mut path.stats, Stage::Shade);
+                    let blocker =
+                        path.trace_as(scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
+                    !blocker.is_some_and(|b| b.hit)
+                } else {
+                    true
+                };
+                if visible {
+                    direct = shade::direct(&ext, n, v, p, &dl, e * spot);
+                }
+            }
+        }
+        for (a, b) in acc.iter_mut().zip(shade::outgoing(&ext, cd, la, direct.as_ref())) {
+            *a += throughput * b;
+        }
+        sw.lap(clock, &mut path.stats, Stage::Shade);
+        if bounce.wrapping_add(1) == depth || ext.reflect_mode == ReflectMode::None {
+            break;
+        }
+        let refl = shade::reflectance(&ext, m.reflect, n.dot(v));
+        if refl.is_nan() || refl <= 0.0 {
+            break;
+        }
+        throughput *= refl;
+        count(&mut path.stats.reflection_rays, 1);
+        let origin = p + n * shade::shadow_epsilon(ctx.diag, p);
+        ray = Ray { origin, dir: ray.dir - n * (2.0 * ray.dir.dot(n)) };
+    }
+    let rgb = shade::to_rgb8(acc);
+    sw.lap(clock, &mut path.stats, Stage::Shade);
+    Ok(Sample { rgb, prim: first_prim, t: first_t })
 }
 
 /// Refuses a plan that names a stage missing from `compiled` (the build's plan bits).
@@ -59,35 +193,27 @@ pub(super) fn check_plan(flags: u16, compiled: u16) -> Result<(), &'static str> 
     Ok(())
 }
 
-/// The frame-rendering half of the device: the ray path, the stage clock, the span encoder,
-/// the row buffer of the interpolation and the row farm (`farm`).
-pub(super) struct Renderer<L, C, F> {
+/// The frame-rendering half of the device: the ray path, the stage clock, the span encoder
+/// and the row buffer of the interpolation.
+pub(super) struct Renderer<L, C> {
     /// The co-processor link, traversal list and frame counters.
     pub(super) path: RayPath<L>,
     clock: C,
     spans: SpanEncoder,
     /// Row buffer of the row interpolation.
     row: [Sample; MAX_INTERP_WIDTH],
-    farm: F,
 }
 
-impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
+impl<L: FslLink, C: StageClock> Renderer<L, C> {
     /// The stage clock (the splat path times its stages with it too).
     #[cfg(feature = "splats")]
     pub(super) fn clock(&self) -> &C {
         &self.clock
     }
 
-    /// A renderer over `link`, timed by `clock`, with rows traced by `farm` when it takes
-    /// them.
-    pub(super) fn new(link: L, clock: C, farm: F) -> Self {
-        Self {
-            path: RayPath::new(link),
-            clock,
-            spans: SpanEncoder::new(),
-            row: [Sample::default(); MAX_INTERP_WIDTH],
-            farm,
-        }
+    /// A renderer over `link`, timed by `clock`.
+    pub(super) fn new(link: L, clock: C) -> Self {
+        Self { path: RayPath::new(link), clock, spans: SpanEncoder::new(), row: [Sample::default(); MAX_INTERP_WIDTH] }
     }
 
     /// Renders `job` and sends its spans and `Stats` through `tx`; returns (spans, CRC of the
@@ -185,13 +311,6 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         self.path.stats.plan = plan as u64;
         let mut sw = Stopwatch::start(&self.clock);
         let (x1, y1) = (region.x0.saturating_add(region.cols), region.y0.saturating_add(region.rows));
-        if !interpolate {
-            let rows =
-                Rows { scene, ctx: &ctx, x0: region.x0, cols: region.cols, ys: region.y0..y1, polls: self.path.polls };
-            if let Some(r) = self.farmed(&rows, tx, out) {
-                return r;
-            }
-        }
         let mut counts = Counts::default();
         let mut ctl = StepControl::new(&params);
         for y in region.y0..y1 {
@@ -225,44 +344,6 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         self.path.stats.interpolated_pixels = counts.interpolated;
         self.path.stats.interp_retraces = counts.retraces;
         Ok(())
-    }
-
-    /// The rows of a frame without interpolation through the farm, sent as the loop of
-    /// [`pixels`](Self::pixels) sends them (the farm only exists with a clock that reads 0,
-    /// so the stage laps that loop takes add nothing); `None` when the farm does not take
-    /// the frame.
-    fn farmed<const N: usize>(
-        &mut self,
-        rows: &Rows<'_, N>,
-        tx: &mut FrameTx,
-        out: &mut impl Write,
-    ) -> Option<Result<(), Fail>> {
-        let (spans, stats) = (&mut self.spans, &mut self.path.stats);
-        let mut result = Ok(());
-        let x0 = rows.x0;
-        let mut sink = |row: RowDone<'_>| {
-            stats.accumulate(&row.stats);
-            let n = row.fault.map_or(row.samples.len(), |f| f.done);
-            for (x, s) in (x0..).zip(row.samples.iter().take(n)) {
-                if let Err(e) = spans.push(x, row.y, s.rgb, s.prim, tx, out) {
-                    result = Err(Fail::tx(e));
-                    return ControlFlow::Break(());
-                }
-                count(&mut stats.pixels, 1);
-            }
-            if let Some(f) = row.fault {
-                result = Err(f.fail);
-                return ControlFlow::Break(());
-            }
-            match spans.flush(tx, out) {
-                Ok(()) => ControlFlow::Continue(()),
-                Err(e) => {
-                    result = Err(Fail::tx(e));
-                    ControlFlow::Break(())
-                }
-            }
-        };
-        self.farm.render(&self.path.link, rows, &mut sink).then_some(result)
     }
 }
 
