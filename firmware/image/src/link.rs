@@ -10,7 +10,7 @@
 use core::cell::Cell;
 
 use gridrt_firmware::bsp::CycleCounter;
-use gridrt_firmware::device::{StageClock, StageCount};
+use gridrt_firmware::device::{StageClock, StageCount, StageStamp};
 use gridrt_firmware::fsl::{FslLink, FslWord};
 
 /// Counter time spent inside a co-processor model, shared by [`TimedLink`] (which adds to
@@ -117,7 +117,7 @@ pub fn wrapper_overhead<K: CycleCounter + Copy>(counter: K) -> u64 {
         let _ = core::hint::black_box(&mut link).put(FslWord { data: i, control: false }, 1);
     }
     let t1 = clock.now();
-    t1.instret.wrapping_sub(t0.instret).checked_div(u64::from(N)).unwrap_or(0)
+    u64::from(t1.instret.wrapping_sub(t0.instret)).checked_div(u64::from(N)).unwrap_or(0)
 }
 
 /// `mcycle`/`minstret` minus the time [`TimedLink`] excluded: the firmware's own counts.
@@ -134,11 +134,16 @@ impl<'e, K> ModelFreeClock<'e, K> {
 }
 
 impl<K: CycleCounter> StageClock for ModelFreeClock<'_, K> {
-    #[inline]
-    fn now(&self) -> StageCount {
-        let raw = read(&self.counter);
+    #[inline(always)]
+    fn now(&self) -> StageStamp {
+        let instret = self.counter.instret_lo();
+        let cycles = self.counter.cycles_lo();
         let ex = self.excluded.get();
-        StageCount { cycles: raw.cycles.wrapping_sub(ex.cycles), instret: raw.instret.wrapping_sub(ex.instret) }
+        // Low words: the stopwatch only takes wrapping differences.
+        StageStamp {
+            cycles: cycles.wrapping_sub(ex.cycles as u32),
+            instret: instret.wrapping_sub(ex.instret as u32),
+        }
     }
 }
 

@@ -15,19 +15,37 @@ pub struct StageCount {
 }
 
 impl StageCount {
-    fn since(self, earlier: Self) -> Self {
-        Self { cycles: self.cycles.wrapping_sub(earlier.cycles), instret: self.instret.wrapping_sub(earlier.instret) }
-    }
-    fn add(&mut self, d: Self) {
-        self.cycles = self.cycles.wrapping_add(d.cycles);
-        self.instret = self.instret.wrapping_add(d.instret);
+    #[inline(always)]
+    fn add(&mut self, d: StageStamp) {
+        self.cycles = self.cycles.wrapping_add(u64::from(d.cycles));
+        self.instret = self.instret.wrapping_add(u64::from(d.instret));
     }
 }
 
-/// Source of [`StageCount`]s (RISC-V `mcycle`/`minstret`, a board timer, or nothing).
+/// The low 32 bits of both counters: what a stage lap reads (one CSR read each on RV32,
+/// where a consistent 64-bit read is a three-instruction retry loop). A lap charges the
+/// wrapping difference of two stamps, which is exact while a lap lasts fewer than 2^32
+/// cycles: the pixel loop laps at least once per pixel, and a pixel's work is bounded
+/// (lists ≤ 765 entries, ≤ 8 bounces, every link wait ≤ `DEFAULT_POLLS` polls).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StageStamp {
+    /// Low word of `mcycle`.
+    pub cycles: u32,
+    /// Low word of `minstret`.
+    pub instret: u32,
+}
+
+impl StageStamp {
+    #[inline(always)]
+    fn since(self, earlier: Self) -> Self {
+        Self { cycles: self.cycles.wrapping_sub(earlier.cycles), instret: self.instret.wrapping_sub(earlier.instret) }
+    }
+}
+
+/// Source of [`StageStamp`]s (RISC-V `mcycle`/`minstret`, a board timer, or nothing).
 pub trait StageClock {
-    /// Current counter values.
-    fn now(&self) -> StageCount;
+    /// Current counter values (low words).
+    fn now(&self) -> StageStamp;
 }
 
 /// A clock that always reads zero: stage counters stay 0 and cost nothing.
@@ -36,8 +54,8 @@ pub struct NoClock;
 
 impl StageClock for NoClock {
     #[inline(always)]
-    fn now(&self) -> StageCount {
-        StageCount::default()
+    fn now(&self) -> StageStamp {
+        StageStamp::default()
     }
 }
 
@@ -46,9 +64,9 @@ impl StageClock for NoClock {
 pub struct CounterClock<T>(pub T);
 
 impl<T: crate::bsp::CycleCounter> StageClock for CounterClock<T> {
-    #[inline]
-    fn now(&self) -> StageCount {
-        StageCount { cycles: self.0.cycles(), instret: self.0.instret() }
+    #[inline(always)]
+    fn now(&self) -> StageStamp {
+        StageStamp { instret: self.0.instret_lo(), cycles: self.0.cycles_lo() }
     }
 }
 
@@ -193,7 +211,7 @@ impl FrameStats {
 
 /// Stage stopwatch: each lap charges the time since the previous lap to one stage.
 pub(super) struct Stopwatch {
-    last: StageCount,
+    last: StageStamp,
 }
 
 impl Stopwatch {
