@@ -225,7 +225,11 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         let prim_ids = req.flags & render_flags::PRIM_IDS != 0 && !job.crc_only;
         self.spans.begin_with(req.frame, prim_ids, req.encoding, job.max_span);
         self.spans.set_silent(job.crc_only);
+        let excluded = self.clock.excluded();
         self.pixels(scene, tx, job, out)?;
+        let now = self.clock.excluded();
+        self.path.stats.model_instructions = now.model.wrapping_sub(excluded.model);
+        self.path.stats.link_wrapper_instructions = now.link_wrapper.wrapping_sub(excluded.link_wrapper);
         let (spans, crc) = self.spans.finish();
         let entries = self.path.stats.to_bytes();
         // Only a write error stops the frame here (a `Stats` that does not fit a frame would be

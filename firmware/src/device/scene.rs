@@ -5,7 +5,7 @@
 //! one CLEAR, checking every ACK.
 
 use super::fail::Fail;
-use crate::dda::{GridDesc, MAX_GRID_DIM};
+use crate::dda::{GridDesc, WalkGrid, MAX_GRID_DIM};
 use crate::fsl::{FslLink, FslWord};
 use gridrt_shared::frame::Crc32Digest;
 use gridrt_shared::fsl::{self as wire, op};
@@ -24,6 +24,8 @@ pub(super) struct SceneStore<const N: usize> {
     pub(super) loaded: bool,
     /// Grid bounds and dimensions.
     pub(super) grid: GridDesc,
+    /// The grid's walk constants (computed once per scene).
+    pub(super) walk: WalkGrid,
     /// Voxels of the grid (the used prefix of `voxel_pe`).
     pub(super) voxels: usize,
     /// Owning PE of each voxel, or `EMPTY_VOXEL`.
@@ -41,9 +43,11 @@ pub(super) struct SceneStore<const N: usize> {
 impl<const N: usize> SceneStore<N> {
     /// No scene.
     pub(super) fn new() -> Self {
+        let grid = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [1; 3] };
         Self {
             loaded: false,
-            grid: GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [1; 3] },
+            grid,
+            walk: WalkGrid::new(&grid),
             voxels: 0,
             voxel_pe: [EMPTY_VOXEL; N],
             materials: heapless::Vec::new(),
@@ -179,6 +183,7 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
             return Err(SceneError::BadHeader);
         }
         self.store.grid = GridDesc { min: Vec3::from_array(h.bounds_min), max: Vec3::from_array(h.bounds_max), dims };
+        self.store.walk = WalkGrid::new(&self.store.grid);
         self.store.voxels = h.voxel_count() as usize;
         self.store.voxel_pe.fill(EMPTY_VOXEL);
         self.store.materials.clear();

@@ -42,10 +42,28 @@ impl StageStamp {
     }
 }
 
+/// Instructions a [`StageClock`] leaves out of every stage because they are not the
+/// firmware's, counted from an arbitrary origin (take differences). The emulated board runs
+/// the co-processor model on the soft-core behind a timed link: `model` is what ran inside
+/// its counter reads (the model and the call into it), `link_wrapper` the timed link's own
+/// instructions outside them.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ExcludedWork {
+    /// Instructions inside the excluded calls.
+    pub model: u64,
+    /// Instructions of the link wrapper outside them.
+    pub link_wrapper: u64,
+}
+
 /// Source of [`StageStamp`]s (RISC-V `mcycle`/`minstret`, a board timer, or nothing).
 pub trait StageClock {
     /// Current counter values (low words).
     fn now(&self) -> StageStamp;
+
+    /// What this clock excludes from the stages so far (nothing for a plain hart).
+    fn excluded(&self) -> ExcludedWork {
+        ExcludedWork::default()
+    }
 }
 
 /// A clock that always reads zero: stage counters stay 0 and cost nothing.
@@ -152,10 +170,15 @@ pub struct FrameStats {
     pub fsl_words_shadow: u64,
     /// FSL words (both directions) of reflection rays.
     pub fsl_words_reflection: u64,
+    /// Instructions the stage clock excluded as the co-processor model's ([`ExcludedWork`]).
+    pub model_instructions: u64,
+    /// Instructions the stage clock excluded as the link wrapper's ([`ExcludedWork`]).
+    pub link_wrapper_instructions: u64,
 }
 
-/// Stats entries of the pipeline plan (SPEC.md §3.13), after the per-stage counters.
-const PLAN_STATS: usize = 7;
+/// Stats entries of the pipeline plan (SPEC.md §3.13) and the excluded work (§3.8), after the
+/// per-stage counters.
+const PLAN_STATS: usize = 9;
 
 /// Number of entries in a `Msg::Stats`.
 pub const STAT_COUNT: usize = 10 + 2 * Stage::ALL.len() + PLAN_STATS;
@@ -188,6 +211,8 @@ impl FrameStats {
             (stat::FSL_WORDS_PRIMARY, self.fsl_words_primary),
             (stat::FSL_WORDS_SHADOW, self.fsl_words_shadow),
             (stat::FSL_WORDS_REFLECTION, self.fsl_words_reflection),
+            (stat::MODEL_INSTRUCTIONS, self.model_instructions),
+            (stat::LINK_WRAPPER_INSTRUCTIONS, self.link_wrapper_instructions),
         ];
         for (slot, v) in e.iter_mut().zip(base.into_iter().chain(stages).chain(plan)) {
             *slot = v;

@@ -38,6 +38,12 @@ pub mod stat {
     pub const FSL_WORDS_SHADOW: u8 = 0x25;
     /// FSL words (both directions) of reflection rays.
     pub const FSL_WORDS_REFLECTION: u8 = 0x26;
+    /// Instructions the stage counters exclude because a co-processor model ran them on the
+    /// soft-core (emulated board; SPEC.md §3.8).
+    pub const MODEL_INSTRUCTIONS: u8 = 0x27;
+    /// Instructions of the emulated board's link wrapper around the model that the stage
+    /// counters exclude (SPEC.md §3.8).
+    pub const LINK_WRAPPER_INSTRUCTIONS: u8 = 0x28;
 }
 
 /// Bytes per stats entry: key u8, value u64.

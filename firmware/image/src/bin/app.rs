@@ -115,13 +115,14 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
             gridrt_firmware_image::halt()
         }
     };
+    let excluded = Excluded::new();
+    excluded.calibrate(CsrCounters);
     let mut w = UartWriter(console);
     w.put("timed link: ");
-    w.put_dec(gridrt_firmware_image::link::wrapper_overhead(CsrCounters));
-    w.put(" instructions per FSL word stay in fsl_io (a hardware put/get is 1)\r\n");
+    w.put_dec(u64::from(excluded.wrapper_per_call()));
+    w.put(" instructions of the link wrapper per call into the co-processor model, excluded and reported (Stats)\r\n");
     // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
     let _ = console.write_all(&[0]);
-    let excluded = Excluded::new();
     let link = TimedLink::new(VirtualCoproc { model }, CsrCounters, &excluded);
     let clock = ModelFreeClock::new(CsrCounters, &excluded);
     // On the stack, which is most of RAM here (memory.x).

@@ -1,0 +1,192 @@
+//! The traversal list written straight into the words of an FSL ray request (SPEC.md §4.3).
+//!
+//! This is the f32 3D-DDA of [`Traversal`](super::Traversal) and the list builder of
+//! [`build_list`](super::build_list) fused into one loop, with everything that does not depend
+//! on the ray done once per scene ([`WalkGrid`]): grid validity, extents, voxel counts and
+//! every boundary plane. The arithmetic is the same, operation for operation, so it yields
+//! exactly the entries of [`build_list`](super::build_list) — same voxels, same PEs, same
+//! `t_exit` bits (pinned by `request_words_equal_build_list` over edge-case rays) — and the
+//! co-processor sees the same request.
+//!
+//! What it saves per ray: the grid checks, one `1/d` per axis (the clip's reciprocals are
+//! the walk's), `floorf` (the start cell is truncated after the clamp, which gives the same
+//! cell for every f32, NaN included), the boundary plane `min + k·size` per step (a table
+//! lookup of the same f32), the float validity tests (bit tests), and the list buffer (each
+//! entry is stored once, as its two request words).
+//!
+//! Numeric kernel: the tables are indexed by axis numbers (0..3) and plane numbers
+//! (0..=n ≤ 255, `n` checked by [`WalkGrid::new`]); the voxel map and the output words, which
+//! come from the scene upload and the caller, are accessed with `get`.
+
+use super::grid::{GridDesc, MAX_GRID_DIM};
+use gridrt_shared::fsl::VOXEL_MASK;
+use gridrt_shared::math::{gamma, Ray};
+use gridrt_shared::scene::EMPTY_VOXEL;
+
+/// Widening of the clip's exit, as in [`Aabb::clip`](gridrt_shared::math::Aabb::clip).
+const WIDEN: f32 = 1.0 + 2.0 * gamma(3);
+
+/// Planes per axis: `n + 1 ≤ MAX_GRID_DIM + 1`.
+const PLANES: usize = MAX_GRID_DIM as usize + 1;
+
+/// The grid as the f32 walk uses it, computed once per scene.
+#[derive(Debug, Clone)]
+pub struct WalkGrid {
+    /// [`GridDesc::is_valid`].
+    valid: bool,
+    min: [f32; 3],
+    max: [f32; 3],
+    /// `max − min`.
+    extent: [f32; 3],
+    /// Voxels per axis, as f32 and as i32.
+    nf: [f32; 3],
+    dims: [i32; 3],
+    /// Voxel-id step per axis: 1, nx, nx·ny.
+    stride: [u32; 3],
+    /// The walk's hard bound `nx + ny + nz`.
+    bound: u32,
+    /// Boundary plane k of axis a: `min + k·(extent/n)`, and exactly `max` for k = n.
+    planes: [[f32; PLANES]; 3],
+}
+
+/// `x` is neither infinite nor NaN (a bit test: no float compare on a soft-float core).
+#[inline(always)]
+fn finite(x: f32) -> bool {
+    x.to_bits() & 0x7F80_0000 != 0x7F80_0000
+}
+
+impl WalkGrid {
+    /// The walk constants of `grid`; an invalid grid ([`GridDesc::is_valid`]) walks nothing.
+    pub fn new(grid: &GridDesc) -> Self {
+        let mut w = Self {
+            valid: grid.is_valid(),
+            min: grid.min.to_array(),
+            max: grid.max.to_array(),
+            extent: [1.0; 3],
+            nf: [1.0; 3],
+            dims: [1; 3],
+            stride: [1, 0, 0],
+            bound: 0,
+            planes: [[0.0; PLANES]; 3],
+        };
+        if !w.valid {
+            return w;
+        }
+        let [nx, ny, nz] = grid.dims;
+        // Valid: 1 ≤ n ≤ 255 per axis, so none of these overflows.
+        w.stride = [1, nx, nx * ny];
+        w.bound = nx + ny + nz;
+        for a in 0..3 {
+            let n = grid.dims[a] as i32;
+            w.dims[a] = n;
+            w.nf[a] = n as f32;
+            let extent = w.max[a] - w.min[a];
+            w.extent[a] = extent;
+            // `Traversal`'s `Planes::plane`: the same f32 expression per plane.
+            let size = extent / n as f32;
+            for (k, p) in w.planes[a].iter_mut().enumerate().take(n as usize + 1) {
+                *p = if k as i32 >= n { w.max[a] } else { w.min[a] + k as f32 * size };
+            }
+        }
+        w
+    }
+
+    /// Walks `ray` over `[0, t_max]` and writes each non-empty voxel it crosses, in order, as
+    /// the two words of a request entry (`pe << 24 | voxel`, `t_exit` bits) into `words`;
+    /// returns the number of entries. `voxel_pe` is the scene's voxel → PE map
+    /// ([`EMPTY_VOXEL`] = empty; ids past its end count as empty). Stops when `words` is full,
+    /// like [`build_list`](super::build_list) at [`MAX_LIST`](super::MAX_LIST) entries.
+    pub fn write_entries(&self, voxel_pe: &[u8], ray: &Ray, t_max: f32, words: &mut [u32]) -> usize {
+        let o = ray.origin.to_array();
+        let d = ray.dir.to_array();
+        let zero_dir = (d[0].to_bits() | d[1].to_bits() | d[2].to_bits()) & 0x7FFF_FFFF == 0;
+        let valid_ray = o.iter().chain(d.iter()).all(|&c| finite(c)) && !zero_dir;
+        if !self.valid || !valid_ray || t_max.is_nan() {
+            return 0;
+        }
+        // The clip of `Aabb::clip` over [0, t_max].
+        let inv = [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]];
+        let (mut t0, mut t1) = (0.0f32, t_max);
+        for a in 0..3 {
+            let mut near = (self.min[a] - o[a]) * inv[a];
+            let mut far = (self.max[a] - o[a]) * inv[a];
+            if near > far {
+                core::mem::swap(&mut near, &mut far);
+            }
+            far *= WIDEN;
+            if near > t0 {
+                t0 = near;
+            }
+            if far < t1 {
+                t1 = far;
+            }
+            if t0 > t1 {
+                return 0;
+            }
+        }
+        if t1.is_nan() || t1 <= t0 || !finite(t0) {
+            return 0;
+        }
+        // `Traversal::new`: start cell, step and first boundary per axis.
+        let mut cell = [0i32; 3];
+        let mut step = [0i32; 3];
+        let mut t_next = [f32::INFINITY; 3];
+        for a in 0..3 {
+            let n = self.dims[a];
+            let entry = o[a] + d[a] * t0;
+            let rel = (entry - self.min[a]) / self.extent[a] * self.nf[a];
+            // Truncation instead of floor: both give the same cell after the clamp (below 0
+            // both clamp to 0; NaN casts to 0).
+            let c = (rel as i32).max(0).min(n - 1);
+            cell[a] = c;
+            if d[a] > 0.0 {
+                step[a] = 1;
+                t_next[a] = (self.planes[a][(c + 1) as usize] - o[a]) * inv[a];
+            } else if d[a] < 0.0 {
+                step[a] = -1;
+                t_next[a] = (self.planes[a][c as usize] - o[a]) * inv[a];
+            }
+        }
+        let mut voxel = cell[0] as u32 + self.stride[1] * cell[1] as u32 + self.stride[2] * cell[2] as u32;
+        let (mut t, t_end) = (t0, t1);
+        let mut out = words.chunks_exact_mut(2);
+        let mut entries = 0;
+        // `Walk::next`, bounded by nx + ny + nz voxels.
+        for _ in 0..self.bound {
+            let [tx, ty, tz] = t_next;
+            // Lowest axis wins ties.
+            let axis = if tx <= ty && tx <= tz {
+                0
+            } else if ty <= tz {
+                1
+            } else {
+                2
+            };
+            let t_cross = t_next[axis];
+            let t_exit = t_cross.min(t_end).max(t);
+            let pe = voxel_pe.get(voxel as usize).copied().unwrap_or(EMPTY_VOXEL);
+            if pe != EMPTY_VOXEL {
+                let Some(pair) = out.next() else { break };
+                pair.copy_from_slice(&[(voxel & VOXEL_MASK) | (pe as u32) << 24, t_exit.to_bits()]);
+                entries += 1;
+            }
+            // Ends at t_end, and at a NaN boundary (which compares neither way).
+            if t_cross.partial_cmp(&t_end) != Some(core::cmp::Ordering::Less) {
+                break;
+            }
+            let s = step[axis];
+            let c = cell[axis] + s;
+            if c < 0 || c >= self.dims[axis] {
+                break;
+            }
+            cell[axis] = c;
+            voxel = voxel.wrapping_add((s * self.stride[axis] as i32) as u32);
+            if s != 0 {
+                let k = if s > 0 { c + 1 } else { c };
+                t_next[axis] = (self.planes[axis][k as usize] - o[axis]) * inv[axis];
+            }
+            t = t_exit;
+        }
+        entries
+    }
+}
