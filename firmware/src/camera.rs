@@ -235,6 +235,14 @@ impl Camera {
         Ray { origin: self.eye, dir: self.forward + sx * self.right + sy * self.cam_up }
     }
 
+    /// The eye (origin of every primary ray).
+    pub fn eye(&self) -> Vec3 {
+        self.eye
+    }
+    /// `(half_w, half_h, W, H)`: the screen half-extents at distance 1 and the image size.
+    pub fn screen(&self) -> (f32, f32, f32, f32) {
+        (self.half_w, self.half_h, self.width, self.height)
+    }
     /// Unit viewing direction.
     pub fn forward(&self) -> Vec3 {
         self.forward

@@ -15,6 +15,7 @@ use super::request::{field, Job};
 use super::scene::SceneStore;
 use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
 use crate::camera::Camera;
+use crate::cull::BoxSpans;
 use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
 use crate::pixels::{FrameTx, SpanEncoder, TxError};
@@ -35,6 +36,10 @@ pub const MAX_INTERP_WIDTH: usize = 2048;
 /// Per-frame constants of the pixel pipeline.
 struct FrameCtx {
     cam: Camera,
+    /// Per row, the columns whose camera rays can enter the grid box.
+    spans: BoxSpans,
+    /// What a pixel whose camera ray misses everything gets: the background.
+    background: Sample,
     light: Light,
     shadows: bool,
     reflections: bool,
@@ -247,8 +252,12 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         check_plan(req.flags, compiled_plan()).map_err(|t| Fail::Plain(ErrorCode::BadRequest, field::FLAGS, t))?;
         let shadows =
             cfg!(feature = "shadows") && req.flags & render_flags::SHADOWS != 0 && scene.lighting.light_count > 0;
+        // A camera ray that sends nothing ends at bounce 0 with `acc = 0 + 1·background`.
+        let background = scene.lighting.background.map(|b| 0.0 + 1.0 * b);
         Ok(FrameCtx {
             cam: job.cam,
+            spans: BoxSpans::new(&job.cam, &scene.grid.aabb()),
+            background: Sample { rgb: shade::to_rgb8(background), prim: interp::MISS, t: f32::INFINITY },
             light: job.light,
             shadows,
             reflections: req.flags & render_flags::REFLECTIONS != 0 && scene.lighting.max_depth > 1,
@@ -256,6 +265,28 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
             specular: req.flags & render_flags::SPECULAR != 0,
             diag: scene.grid.aabb().diagonal().length(),
         })
+    }
+
+    /// Pixels `from..to` of row `y`, whose camera rays cannot enter the grid box: counted as
+    /// traced rays with empty lists (as tracing them would) and sent as one background run.
+    fn background(
+        &mut self,
+        bg: &Sample,
+        from: u16,
+        to: u16,
+        y: u16,
+        tx: &mut FrameTx,
+        out: &mut impl Write,
+    ) -> Result<(), Fail> {
+        let n = to.saturating_sub(from);
+        if n == 0 {
+            return Ok(());
+        }
+        let s = &mut self.path.stats;
+        for c in [&mut s.primary_rays, &mut s.culled_rays, &mut s.pixels] {
+            count(c, u64::from(n));
+        }
+        self.spans.push_run(from, y, n, bg.rgb, bg.prim, tx, out).map_err(Fail::tx)
     }
 
     /// Row-major render loop of `region`; returns early (frame aborted) on any co-processor
@@ -304,6 +335,10 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         let mut counts = Counts::default();
         let mut ctl = StepControl::new(&params);
         for y in region.y0..y1 {
+            // Columns outside the row's span see only the background (`crate::cull`).
+            let (lo, hi) = ctx.spans.row(y, req.width);
+            let lo = lo.clamp(region.x0, x1);
+            let hi = hi.clamp(lo, x1);
             if interpolate {
                 let w = region.cols as usize;
                 let before = counts;
@@ -311,7 +346,13 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
                 let row = self.row.get_mut(..w).unwrap_or(&mut []);
                 // `region` lies inside the image (≤ 4096 wide): x0 + xi does not wrap.
                 interp::fill_row(row, ctl.step, params.eps, &mut counts, |xi| {
-                    pixel(path, scene, clock, &mut sw, &ctx, region.x0.wrapping_add(xi as u16), y)
+                    let x = region.x0.wrapping_add(xi as u16);
+                    if x < lo || x >= hi {
+                        count(&mut path.stats.primary_rays, 1);
+                        count(&mut path.stats.culled_rays, 1);
+                        return Ok(ctx.background);
+                    }
+                    pixel(path, scene, clock, &mut sw, &ctx, x, y)
                 })?;
                 ctl.after_row(&before, &counts);
                 for (x, s) in (region.x0..x1).zip(self.row.iter()) {
@@ -320,12 +361,14 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
                 }
                 sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
             } else {
-                for x in region.x0..x1 {
+                self.background(&ctx.background, region.x0, lo, y, tx, out)?;
+                for x in lo..hi {
                     let s = pixel(&mut self.path, scene, &self.clock, &mut sw, &ctx, x, y)?;
                     self.spans.push(x, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
                     count(&mut self.path.stats.pixels, 1);
                     sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
                 }
+                self.background(&ctx.background, hi, x1, y, tx, out)?;
             }
             // Flush per row so the host sees progress while the next row renders.
             self.spans.flush(tx, out).map_err(Fail::tx)?;
