@@ -26,6 +26,11 @@ use gridrt_shared::scene::EMPTY_VOXEL;
 /// Widening of the clip's exit, as in [`Aabb::clip`](gridrt_shared::math::Aabb::clip).
 const WIDEN: f32 = 1.0 + 2.0 * gamma(3);
 
+/// Compare ray parameters on integer keys ([`KeyOrder`]) where that is exact: on soft-float
+/// cores (`cfg(soft_float)`, see the crate's build script), where a float comparison is a
+/// library call.
+const INTEGER_KEYS: bool = cfg!(soft_float);
+
 /// Planes per axis: `n + 1 ≤ MAX_GRID_DIM + 1`.
 const PLANES: usize = MAX_GRID_DIM as usize + 1;
 
@@ -97,6 +102,19 @@ impl WalkGrid {
     /// ([`EMPTY_VOXEL`] = empty; ids past its end count as empty). Stops when `words` is full,
     /// like [`build_list`](super::build_list) at [`MAX_LIST`](super::MAX_LIST) entries.
     pub fn write_entries(&self, voxel_pe: &[u8], ray: &Ray, t_max: f32, words: &mut [u32]) -> usize {
+        self.write_entries_in(INTEGER_KEYS, voxel_pe, ray, t_max, words)
+    }
+
+    /// [`write_entries`](Self::write_entries), comparing on integer keys where that is exact
+    /// (`keys`) or always in f32.
+    pub(super) fn write_entries_in(
+        &self,
+        keys: bool,
+        voxel_pe: &[u8],
+        ray: &Ray,
+        t_max: f32,
+        words: &mut [u32],
+    ) -> usize {
         let o = ray.origin.to_array();
         let d = ray.dir.to_array();
         let zero_dir = (d[0].to_bits() | d[1].to_bits() | d[2].to_bits()) & 0x7FFF_FFFF == 0;
@@ -128,62 +146,199 @@ impl WalkGrid {
             return 0;
         }
         // `Traversal::new`: start cell, step and first boundary per axis.
-        let mut cell = [0i32; 3];
-        let mut step = [0i32; 3];
-        let mut t_next = [f32::INFINITY; 3];
-        for a in 0..3 {
+        let mut axes = [Axis::default(); 3];
+        for (a, ax) in axes.iter_mut().enumerate() {
             let n = self.dims[a];
             let entry = o[a] + d[a] * t0;
             let rel = (entry - self.min[a]) / self.extent[a] * self.nf[a];
             // Truncation instead of floor: both give the same cell after the clamp (below 0
             // both clamp to 0; NaN casts to 0).
             let c = (rel as i32).max(0).min(n - 1);
-            cell[a] = c;
-            if d[a] > 0.0 {
-                step[a] = 1;
-                t_next[a] = (self.planes[a][(c + 1) as usize] - o[a]) * inv[a];
-            } else if d[a] < 0.0 {
-                step[a] = -1;
-                t_next[a] = (self.planes[a][c as usize] - o[a]) * inv[a];
+            *ax = Axis { cell: c, end: n, o: o[a], inv: inv[a], t_next: f32::INFINITY, ..Axis::default() };
+            // Direction 0: never stepped, the boundary stays at +∞.
+            if d[a] != 0.0 {
+                let (step, plane) = if d[a] > 0.0 { (1, c + 1) } else { (-1, c) };
+                ax.step = step;
+                ax.plane = plane;
+                ax.stride = step * self.stride[a] as i32;
+                ax.t_next = ax.crossing(&self.planes[a]);
             }
         }
-        let mut voxel = cell[0] as u32 + self.stride[1] * cell[1] as u32 + self.stride[2] * cell[2] as u32;
-        let (mut t, t_end) = (t0, t1);
+        let voxel = axes[0].cell as u32 + self.stride[1] * axes[1].cell as u32 + self.stride[2] * axes[2].cell as u32;
+        let walk = Walk { planes: &self.planes, voxel_pe, t0, t_end: t1, bound: self.bound };
+        // Without an infinite reciprocal no boundary can be NaN (finite · finite), and the
+        // comparisons may be made on integers (module doc); a soft-float core does so.
+        let no_nan = inv.iter().all(|&i| finite(i));
+        if no_nan && keys {
+            walk.run::<KeyOrder>(axes, voxel, words)
+        } else {
+            walk.run::<FloatOrder>(axes, voxel, words)
+        }
+    }
+}
+
+/// One axis of a walk: its cell, direction and next boundary.
+#[derive(Debug, Clone, Copy, Default)]
+struct Axis {
+    cell: i32,
+    /// Voxels on the axis (the cell must stay below).
+    end: i32,
+    /// −1, 0 or +1.
+    step: i32,
+    /// Index of the next boundary plane (`cell + 1` going up, `cell` going down).
+    plane: i32,
+    /// Voxel-id change of a step.
+    stride: i32,
+    o: f32,
+    inv: f32,
+    t_next: f32,
+}
+
+impl Axis {
+    /// The parameter of boundary plane `self.plane`: `(plane − o) · (1/d)`, from the table.
+    #[inline(always)]
+    fn crossing(&self, planes: &[f32; PLANES]) -> f32 {
+        (planes[self.plane as usize] - self.o) * self.inv
+    }
+
+    /// Steps into the next cell; false when that leaves the grid (the walk ends).
+    #[inline(always)]
+    fn advance(&mut self, planes: &[f32; PLANES], voxel: &mut u32) -> bool {
+        let c = self.cell + self.step;
+        if c < 0 || c >= self.end {
+            return false;
+        }
+        self.cell = c;
+        *voxel = voxel.wrapping_add(self.stride as u32);
+        if self.step != 0 {
+            self.plane += self.step;
+            self.t_next = self.crossing(planes);
+        }
+        true
+    }
+}
+
+/// How a walk compares ray parameters.
+trait Order {
+    /// `a <= b`.
+    fn le(a: f32, b: f32) -> bool;
+    /// `a < b`.
+    fn lt(a: f32, b: f32) -> bool;
+    /// `a.min(b)`.
+    fn min(a: f32, b: f32) -> f32;
+    /// `a.max(b)`.
+    fn max(a: f32, b: f32) -> f32;
+}
+
+/// IEEE comparisons, `f32::min`/`max` (NaN-ignoring), as `Traversal`.
+struct FloatOrder;
+
+impl Order for FloatOrder {
+    #[inline(always)]
+    fn le(a: f32, b: f32) -> bool {
+        a <= b
+    }
+    #[inline(always)]
+    fn lt(a: f32, b: f32) -> bool {
+        a < b
+    }
+    #[inline(always)]
+    fn min(a: f32, b: f32) -> f32 {
+        a.min(b)
+    }
+    #[inline(always)]
+    fn max(a: f32, b: f32) -> f32 {
+        a.max(b)
+    }
+}
+
+/// The same comparisons on integer keys of the bit patterns (±0 share key 0, negative values
+/// count down): exact for every f32 but NaN, and a few integer instructions where a soft-float
+/// core calls a comparison routine. `min`/`max` of two zeros of opposite sign may return
+/// either; as a list entry's exit distance, ±0 accept the same hits (SPEC.md §4.3).
+struct KeyOrder;
+
+#[inline(always)]
+fn key(x: f32) -> i32 {
+    let b = x.to_bits() as i32;
+    if b < 0 {
+        -(b & 0x7FFF_FFFF)
+    } else {
+        b
+    }
+}
+
+impl Order for KeyOrder {
+    #[inline(always)]
+    fn le(a: f32, b: f32) -> bool {
+        key(a) <= key(b)
+    }
+    #[inline(always)]
+    fn lt(a: f32, b: f32) -> bool {
+        key(a) < key(b)
+    }
+    #[inline(always)]
+    fn min(a: f32, b: f32) -> f32 {
+        if key(b) < key(a) {
+            b
+        } else {
+            a
+        }
+    }
+    #[inline(always)]
+    fn max(a: f32, b: f32) -> f32 {
+        if key(b) > key(a) {
+            b
+        } else {
+            a
+        }
+    }
+}
+
+/// The loop of `Walk::next`, once the start cell is known.
+struct Walk<'a> {
+    planes: &'a [[f32; PLANES]; 3],
+    voxel_pe: &'a [u8],
+    t0: f32,
+    t_end: f32,
+    bound: u32,
+}
+
+impl Walk<'_> {
+    #[inline(always)]
+    fn run<O: Order>(&self, axes: [Axis; 3], mut voxel: u32, words: &mut [u32]) -> usize {
+        let [mut x, mut y, mut z] = axes;
+        let [px, py, pz] = self.planes;
+        let (mut t, t_end) = (self.t0, self.t_end);
         let mut out = words.chunks_exact_mut(2);
         let mut entries = 0;
-        // `Walk::next`, bounded by nx + ny + nz voxels.
         for _ in 0..self.bound {
-            let [tx, ty, tz] = t_next;
             // Lowest axis wins ties.
-            let axis = if tx <= ty && tx <= tz {
-                0
-            } else if ty <= tz {
-                1
+            let (t_cross, axis) = if O::le(x.t_next, y.t_next) && O::le(x.t_next, z.t_next) {
+                (x.t_next, 0)
+            } else if O::le(y.t_next, z.t_next) {
+                (y.t_next, 1)
             } else {
-                2
+                (z.t_next, 2)
             };
-            let t_cross = t_next[axis];
-            let t_exit = t_cross.min(t_end).max(t);
-            let pe = voxel_pe.get(voxel as usize).copied().unwrap_or(EMPTY_VOXEL);
+            let t_exit = O::max(O::min(t_cross, t_end), t);
+            let pe = self.voxel_pe.get(voxel as usize).copied().unwrap_or(EMPTY_VOXEL);
             if pe != EMPTY_VOXEL {
                 let Some(pair) = out.next() else { break };
                 pair.copy_from_slice(&[(voxel & VOXEL_MASK) | (pe as u32) << 24, t_exit.to_bits()]);
                 entries += 1;
             }
             // Ends at t_end, and at a NaN boundary (which compares neither way).
-            if t_cross.partial_cmp(&t_end) != Some(core::cmp::Ordering::Less) {
+            if !O::lt(t_cross, t_end) {
                 break;
             }
-            let s = step[axis];
-            let c = cell[axis] + s;
-            if c < 0 || c >= self.dims[axis] {
+            let inside = match axis {
+                0 => x.advance(px, &mut voxel),
+                1 => y.advance(py, &mut voxel),
+                _ => z.advance(pz, &mut voxel),
+            };
+            if !inside {
                 break;
-            }
-            cell[axis] = c;
-            voxel = voxel.wrapping_add((s * self.stride[axis] as i32) as u32);
-            if s != 0 {
-                let k = if s > 0 { c + 1 } else { c };
-                t_next[axis] = (self.planes[axis][k as usize] - o[axis]) * inv[axis];
             }
             t = t_exit;
         }
