@@ -14,12 +14,12 @@ use super::raypath::{RayClass, RayPath};
 use super::request::{field, Job};
 use super::scene::SceneStore;
 use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
-use crate::camera::Camera;
+use crate::camera::{Camera, RowRays};
 use crate::cull::BoxSpans;
 use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
 use crate::pixels::{FrameTx, SpanEncoder, TxError};
-use crate::shade::{self, Light, DEFAULT_ALBEDO};
+use crate::shade::{self, DEFAULT_ALBEDO};
 use embedded_io::Write;
 use gridrt_shared::fsl::RayKind;
 use gridrt_shared::math::Ray;
@@ -40,12 +40,20 @@ struct FrameCtx {
     spans: BoxSpans,
     /// What a pixel whose camera ray misses everything gets: the background.
     background: Sample,
-    light: Light,
+    /// The ambient light `L_a` (ambient colour × ambient term).
+    ambient: [f32; 3],
+    /// The point light as the direct term uses it.
+    direct: shade::DirectLight,
+    /// The light reaches surfaces at all (a light with a non-zero radiance).
+    lit: bool,
+    /// The unit spot axis ([`shade::spot_axis`]).
+    spot_axis: Option<gridrt_shared::math::Vec3>,
     shadows: bool,
     reflections: bool,
     textures: bool,
     specular: bool,
-    diag: f32,
+    /// `1e-4 · |grid box diagonal|`, the per-scene term of the shadow-ray offset.
+    eps_diag: f32,
 }
 
 /// The plan bits this build honours.
@@ -83,20 +91,14 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
     clock: &C,
     sw: &mut Stopwatch,
     ctx: &FrameCtx,
+    row: &RowRays<'_>,
     x: u16,
-    y: u16,
 ) -> Result<Sample, Fail> {
     let lighting = &scene.lighting;
-    let mut ray = ctx.cam.primary_ray(x as u32, y as u32);
+    let mut ray = row.ray(x as u32);
     count(&mut path.stats.primary_rays, 1);
     sw.lap(clock, &mut path.stats, Stage::RayGen);
-    let la = lighting.ambient_colour.map(|c| c * ctx.light.ambient);
-    let dl = shade::DirectLight {
-        pos: ctx.light.pos,
-        radiance: lighting.light_colour.map(|c| c * ctx.light.intensity),
-        specular: ctx.specular,
-    };
-    let lit = lighting.light_count > 0 && dl.radiance.iter().any(|&c| c != 0.0);
+    let (la, dl, lit) = (ctx.ambient, &ctx.direct, ctx.lit);
     let depth = if ctx.reflections { lighting.max_depth.max(1) } else { 1 };
     let mut acc = [0f32; 3];
     let mut throughput = 1f32;
@@ -139,15 +141,17 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
             }
             break;
         };
-        let v = (-ray.dir).try_normalize().unwrap_or(n);
+        // The unit view vector, computed only for the models that read it.
+        let view = || crate::fmath::try_normalize(-ray.dir).unwrap_or(n);
         let mut direct = None;
         if lit {
-            let e = shade::irradiance(lighting, n, p, dl.pos);
-            let spot = if e > 0.0 { shade::spot_factor(lighting, dl.pos, p) } else { 0.0 };
-            if e > 0.0 && spot > 0.0 {
+            let (e, l) = shade::irradiance_toward(lighting, n, p, dl.pos);
+            let spot = if e > 0.0 { shade::spot_factor_on(lighting, ctx.spot_axis, dl.pos, p) } else { 0.0 };
+            // E > 0 has a light vector.
+            if let (true, Some(l)) = (e > 0.0 && spot > 0.0, l) {
                 let visible = if ctx.shadows {
                     count(&mut path.stats.shadow_rays, 1);
-                    let sr = shade::shadow_ray(p, n, dl.pos, ctx.diag);
+                    let sr = shade::shadow_ray_from(p, n, dl.pos, ctx.eps_diag);
                     sw.lap(clock, &mut path.stats, Stage::Shade);
                     let blocker =
                         path.trace_as(scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
@@ -156,7 +160,8 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
                     true
                 };
                 if visible {
-                    direct = shade::direct(&ext, n, v, p, &dl, e * spot);
+                    let v = if shade::direct_reads_view(&ext, dl) { view() } else { n };
+                    direct = Some(shade::direct_toward(&ext, n, v, l, dl, e * spot));
                 }
             }
         }
@@ -167,13 +172,13 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
         if bounce.wrapping_add(1) == depth || ext.reflect_mode == ReflectMode::None {
             break;
         }
-        let refl = shade::reflectance(&ext, m.reflect, n.dot(v));
+        let refl = shade::reflectance(&ext, m.reflect, n.dot(view()));
         if refl.is_nan() || refl <= 0.0 {
             break;
         }
         throughput *= refl;
         count(&mut path.stats.reflection_rays, 1);
-        let origin = p + n * shade::shadow_epsilon(ctx.diag, p);
+        let origin = p + n * shade::shadow_epsilon_from(ctx.eps_diag, p);
         ray = Ray { origin, dir: ray.dir - n * (2.0 * ray.dir.dot(n)) };
     }
     let rgb = shade::to_rgb8(acc);
@@ -254,16 +259,27 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
             cfg!(feature = "shadows") && req.flags & render_flags::SHADOWS != 0 && scene.lighting.light_count > 0;
         // A camera ray that sends nothing ends at bounce 0 with `acc = 0 + 1·background`.
         let background = scene.lighting.background.map(|b| 0.0 + 1.0 * b);
+        let lighting = &scene.lighting;
+        let light = job.light;
+        let direct = shade::DirectLight {
+            pos: light.pos,
+            radiance: lighting.light_colour.map(|c| c * light.intensity),
+            specular: req.flags & render_flags::SPECULAR != 0,
+        };
+        let diag = scene.grid.aabb().diagonal().length();
         Ok(FrameCtx {
             cam: job.cam,
+            ambient: lighting.ambient_colour.map(|c| c * light.ambient),
+            lit: lighting.light_count > 0 && direct.radiance.iter().any(|&c| c != 0.0),
+            direct,
+            spot_axis: shade::spot_axis(lighting),
+            eps_diag: shade::SHADOW_EPS_DIAG * diag,
             spans: BoxSpans::new(&job.cam, &scene.grid.aabb()),
             background: Sample { rgb: shade::to_rgb8(background), prim: interp::MISS, t: f32::INFINITY },
-            light: job.light,
             shadows,
             reflections: req.flags & render_flags::REFLECTIONS != 0 && scene.lighting.max_depth > 1,
             textures: req.flags & render_flags::TEXTURES != 0,
             specular: req.flags & render_flags::SPECULAR != 0,
-            diag: scene.grid.aabb().diagonal().length(),
         })
     }
 
@@ -339,6 +355,7 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
             let (lo, hi) = ctx.spans.row(y, req.width);
             let lo = lo.clamp(region.x0, x1);
             let hi = hi.clamp(lo, x1);
+            let rays = ctx.cam.row(y as u32);
             if interpolate {
                 let w = region.cols as usize;
                 let before = counts;
@@ -352,7 +369,7 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
                         count(&mut path.stats.culled_rays, 1);
                         return Ok(ctx.background);
                     }
-                    pixel(path, scene, clock, &mut sw, &ctx, x, y)
+                    pixel(path, scene, clock, &mut sw, &ctx, &rays, x)
                 })?;
                 ctl.after_row(&before, &counts);
                 for (x, s) in (region.x0..x1).zip(self.row.iter()) {
@@ -363,7 +380,7 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
             } else {
                 self.background(&ctx.background, region.x0, lo, y, tx, out)?;
                 for x in lo..hi {
-                    let s = pixel(&mut self.path, scene, &self.clock, &mut sw, &ctx, x, y)?;
+                    let s = pixel(&mut self.path, scene, &self.clock, &mut sw, &ctx, &rays, x)?;
                     self.spans.push(x, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
                     count(&mut self.path.stats.pixels, 1);
                     sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);

@@ -16,6 +16,7 @@
 //! not limited to 10 squarings; the mirror reflectance in Torrance–Sparrow mode uses ∠(n, v)
 //! (for the mirror direction the half vector *is* n).
 
+use crate::fmath::try_normalize;
 use gridrt_shared::math::Vec3;
 #[cfg(feature = "specular")]
 use gridrt_shared::scene::SpecularModel;
@@ -98,7 +99,7 @@ pub fn diffuse_brdf(ext: &MaterialModel, n: Vec3, l: Vec3, v: Vec3) -> f32 {
             // cos(φi − φo) from the tangent-plane projections.
             let lp = l - n * cos_i;
             let vp = v - n * cos_o;
-            let cos_phi = match (lp.try_normalize(), vp.try_normalize()) {
+            let cos_phi = match (try_normalize(lp), try_normalize(vp)) {
                 (Some(a), Some(b)) => a.dot(b).max(0.0),
                 _ => 0.0,
             };
@@ -116,7 +117,7 @@ pub fn diffuse_brdf(ext: &MaterialModel, n: Vec3, l: Vec3, v: Vec3) -> f32 {
 /// Specular BRDF value (0 without a specular model).
 #[cfg(feature = "specular")]
 pub fn specular_brdf(ext: &MaterialModel, n: Vec3, l: Vec3, v: Vec3) -> f32 {
-    let Some(h) = (l + v).try_normalize() else { return 0.0 };
+    let Some(h) = try_normalize(l + v) else { return 0.0 };
     let nh = n.dot(h).max(0.0);
     let d = (ext.exponent + 2.0) / TAU * crate::fmath::pow(nh, ext.exponent);
     match ext.specular_model {
@@ -161,13 +162,24 @@ pub struct DirectTerm {
 /// caller checks E > 0 and spot > 0 and traces the shadow ray first). `None` when the light
 /// sits on p.
 pub fn direct(ext: &MaterialModel, n: Vec3, v: Vec3, p: Vec3, light: &DirectLight, e_spot: f32) -> Option<DirectTerm> {
-    let l = (light.pos - p).try_normalize()?;
+    let l = try_normalize(light.pos - p)?;
+    Some(direct_toward(ext, n, v, l, light, e_spot))
+}
+
+/// True when [`direct_toward`] reads its view vector `v` (Oren–Nayar, or the specular
+/// stage); matte and Lambert surfaces without it do not, and the pipeline skips computing v.
+pub fn direct_reads_view(ext: &MaterialModel, light: &DirectLight) -> bool {
+    ext.diffuse_model == DiffuseModel::OrenNayar || (cfg!(feature = "specular") && light.specular)
+}
+
+/// [`direct`] with the unit light vector `l` the irradiance computed already.
+pub fn direct_toward(ext: &MaterialModel, n: Vec3, v: Vec3, l: Vec3, light: &DirectLight, e_spot: f32) -> DirectTerm {
     let diffuse = ext.kd * diffuse_brdf(ext, n, l, v);
     #[cfg(feature = "specular")]
     let specular = if light.specular { ext.ks * specular_brdf(ext, n, l, v) } else { 0.0 };
     #[cfg(not(feature = "specular"))]
     let specular = 0.0;
-    Some(DirectTerm { light: light.radiance.map(|c| e_spot * c), diffuse, specular })
+    DirectTerm { light: light.radiance.map(|c| e_spot * c), diffuse, specular }
 }
 
 /// Radiance leaving the surface towards the viewer (module doc): ambient `L_a` plus the

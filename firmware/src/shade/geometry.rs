@@ -1,6 +1,7 @@
 //! Hit geometry both shading and the shadow/reflection rays need: the hit point, the normal
 //! facing the ray, and the offset shadow-ray origin (docs/CONTRACTS.md § Shading).
 
+use crate::fmath::try_normalize;
 use gridrt_shared::math::{Ray, Vec3};
 
 /// Shadow rays end just before the light: t_max = 1 − 2^-10 on the direction `light − p'`,
@@ -24,21 +25,33 @@ pub fn hit_point(ray: &Ray, t: f32) -> Vec3 {
 /// ambient light only.
 #[inline]
 pub fn facing_normal(normal: [f32; 3], dir: Vec3) -> Option<Vec3> {
-    let n = Vec3::from_array(normal).try_normalize()?;
+    let n = try_normalize(Vec3::from_array(normal))?;
     Some(if n.dot(dir) > 0.0 { -n } else { n })
 }
 
 /// Shadow-origin offset ε = 1e-4 · |grid box diagonal| + 2^-20 · |p|∞.
 #[inline]
 pub fn shadow_epsilon(grid_diag_len: f32, p: Vec3) -> f32 {
-    SHADOW_EPS_DIAG * grid_diag_len + SHADOW_EPS_POS * p.abs().max_element()
+    shadow_epsilon_from(SHADOW_EPS_DIAG * grid_diag_len, p)
+}
+
+/// [`shadow_epsilon`] with its per-scene term `1e-4 · |grid box diagonal|` computed already.
+#[inline]
+pub fn shadow_epsilon_from(diag_term: f32, p: Vec3) -> f32 {
+    diag_term + SHADOW_EPS_POS * p.abs().max_element()
 }
 
 /// Shadow ray: origin p' = p + n·ε, direction L' = light − p' (not normalised); trace it
 /// over `[0, SHADOW_T_MAX]` as an any-hit query. The light is visible when nothing is hit.
 #[inline]
 pub fn shadow_ray(p: Vec3, n: Vec3, light_pos: Vec3, grid_diag_len: f32) -> Ray {
-    let origin = p + n * shadow_epsilon(grid_diag_len, p);
+    shadow_ray_from(p, n, light_pos, SHADOW_EPS_DIAG * grid_diag_len)
+}
+
+/// [`shadow_ray`] with the per-scene term of [`shadow_epsilon_from`].
+#[inline]
+pub fn shadow_ray_from(p: Vec3, n: Vec3, light_pos: Vec3, diag_term: f32) -> Ray {
+    let origin = p + n * shadow_epsilon_from(diag_term, p);
     Ray { origin, dir: light_pos - origin }
 }
 
