@@ -22,6 +22,7 @@
 //!   there [`Camera::has_fixed_raygen`] is false.
 
 use crate::fixed::{f32_to_fixed, fixed_to_f32, RayFormat};
+use crate::sfloat::{self, add, mul, sub, vadd, vscale};
 use gridrt_shared::math::{Ray, Vec3};
 
 /// Why a camera could not be built. Bad inputs are refused here so that no NaN ray is ever
@@ -247,8 +248,8 @@ impl Camera {
     /// order, `(forward + sx·right) + sy·cam_up`.
     #[inline(always)]
     fn dir_f32(&self, x: u32, sy_up: Vec3) -> Vec3 {
-        let sx = (2.0 * (x as f32 + 0.5) / self.width - 1.0) * self.half_w;
-        self.forward + sx * self.right + sy_up
+        let sx = mul(sub(mul(2.0, add(sfloat::u32_to_f32(x), 0.5)) / self.width, 1.0), self.half_w);
+        vadd(vadd(self.forward, vscale(self.right, sx)), sy_up)
     }
 
     /// The eye (origin of every primary ray).

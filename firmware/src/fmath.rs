@@ -17,8 +17,9 @@
 //! | [`pow`] (`x ≥ 0`) | `exp2(y·log2 x)`: atanh series for `log2`, Cephes `exp2f` polynomial | 2e-7·(1 + abs(y·log2 x)) relative |
 //!
 //! [`sqrt`], [`length`] and [`try_normalize`] are exact (the correctly rounded square root,
-//! glam's `length`/`try_normalize` operation for operation): on a core with the F extension
-//! one `fsqrt.s` instruction instead of libm's integer Goldschmidt iteration.
+//! glam's `length`/`try_normalize` operation for operation, with `crate::sfloat`'s
+//! arithmetic): on a core with the F extension one `fsqrt.s` instruction instead of libm's
+//! integer Goldschmidt iteration.
 //!
 //! Angles of [`sin_cos_turns`] and [`tan_turns`] are in *turns* (1 turn = 2π rad): the
 //! callers' arguments are turns already (`sin(2π·t)` of the textures, `tan(fov/2)` with the
@@ -31,6 +32,7 @@
 // source; the compiler rounds each to the nearest f32.
 #![allow(clippy::excessive_precision)]
 
+use crate::sfloat;
 use gridrt_shared::math::Vec3;
 
 const FRAC_PI_2: f32 = core::f32::consts::FRAC_PI_2;
@@ -58,7 +60,7 @@ pub fn sqrt(x: f32) -> f32 {
 /// `v.length()` of glam, with [`sqrt`].
 #[inline(always)]
 pub fn length(v: Vec3) -> f32 {
-    sqrt(v.dot(v))
+    sqrt(sfloat::dot(v, v))
 }
 
 /// `v.try_normalize()` of glam (`v · (1/|v|)` when that reciprocal is finite and positive),
@@ -66,8 +68,9 @@ pub fn length(v: Vec3) -> f32 {
 #[inline(always)]
 pub fn try_normalize(v: Vec3) -> Option<Vec3> {
     let rcp = 1.0 / length(v);
-    if rcp.is_finite() && rcp > 0.0 {
-        Some(v * rcp)
+    // Finite and > 0: the bits of +min subnormal ..= +MAX (a bit test, no float compare).
+    if rcp.to_bits().wrapping_sub(1) < 0x7F7F_FFFF {
+        Some(sfloat::vscale(v, rcp))
     } else {
         None
     }

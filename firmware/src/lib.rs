@@ -48,6 +48,7 @@ pub mod fmath;
 pub mod fsl;
 pub mod interp;
 pub mod pixels;
+pub mod sfloat;
 pub mod shade;
 pub mod text;
 #[cfg(feature = "textures")]

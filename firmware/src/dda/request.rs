@@ -19,6 +19,7 @@
 //! come from the scene upload and the caller, are accessed with `get`.
 
 use super::grid::{GridDesc, MAX_GRID_DIM};
+use crate::sfloat::{add, mul, sub, trunc_i32};
 use gridrt_shared::fsl::VOXEL_MASK;
 use gridrt_shared::math::{gamma, Ray};
 use gridrt_shared::scene::EMPTY_VOXEL;
@@ -48,6 +49,9 @@ pub struct WalkGrid {
     dims: [i32; 3],
     /// Voxel-id step per axis: 1, nx, nx·ny.
     stride: [u32; 3],
+    /// `(n / extent) · 2^16` per axis: the start cell in 16.16 fixed point without a division
+    /// ([`WalkGrid::start_cell`]); 0 where that is not exact.
+    scale16: [f32; 3],
     /// The walk's hard bound `nx + ny + nz`.
     bound: u32,
     /// Boundary plane k of axis a: `min + k·(extent/n)`, and exactly `max` for k = n.
@@ -71,6 +75,7 @@ impl WalkGrid {
             nf: [1.0; 3],
             dims: [1; 3],
             stride: [1, 0, 0],
+            scale16: [0.0; 3],
             bound: 0,
             planes: [[0.0; PLANES]; 3],
         };
@@ -87,6 +92,10 @@ impl WalkGrid {
             w.nf[a] = n as f32;
             let extent = w.max[a] - w.min[a];
             w.extent[a] = extent;
+            // 0 (no fast start cell) where n/extent is not a normal number or its 16.16 form
+            // overflows: there the error bound of `start_cell` does not hold.
+            let s = n as f32 / extent;
+            w.scale16[a] = if s.is_normal() && (s * 65536.0).is_finite() { s * 65536.0 } else { 0.0 };
             // `Traversal`'s `Planes::plane`: the same f32 expression per plane.
             let size = extent / n as f32;
             for (k, p) in w.planes[a].iter_mut().enumerate().take(n as usize + 1) {
@@ -122,63 +131,119 @@ impl WalkGrid {
         if !self.valid || !valid_ray || t_max.is_nan() {
             return 0;
         }
-        // The clip of `Aabb::clip` over [0, t_max].
         let inv = [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]];
+        // Without an infinite reciprocal no clip distance or boundary can be NaN (finite ·
+        // finite), and the comparisons may be made on integers (module doc); a soft-float core
+        // does so.
+        let no_nan = inv.iter().all(|&i| finite(i));
+        if no_nan && keys {
+            self.walk::<KeyOrder>(keys, voxel_pe, o, d, inv, t_max, words)
+        } else {
+            self.walk::<FloatOrder>(keys, voxel_pe, o, d, inv, t_max, words)
+        }
+    }
+
+    /// The start cell of `Traversal::new` on axis `a` from `q = entry − min`:
+    /// `trunc(q / extent · n)` clamped to `[0, n − 1]` (truncation instead of floor gives the
+    /// same cell after the clamp: below 0 both clamp to 0; NaN casts to 0).
+    ///
+    /// With `fast`, first without the division: `q · (n/extent)` differs from the formula's
+    /// value by at most 4 roundings of 2^-24 relative, below 2^-13 absolute for cells up to
+    /// 255, so it gives the same cell unless it lies within 2^-11 of a boundary 1..n−1; only
+    /// then (about one ray in a thousand) the formula runs.
+    #[inline(always)]
+    fn start_cell(&self, fast: bool, a: usize, q: f32) -> i32 {
+        let n = self.dims[a];
+        if fast && self.scale16[a].to_bits() != 0 {
+            // 16.16 fixed point (saturating; NaN → 0, which is cell 0 as in the formula).
+            let f = trunc_i32(mul(q, self.scale16[a]));
+            let frac = f & 0xFFFF;
+            let boundary = f.saturating_add(0x8000) >> 16;
+            let near = !(32..=0xFFFF - 32).contains(&frac);
+            if !near || boundary < 1 || boundary > n - 1 {
+                return (f >> 16).max(0).min(n - 1);
+            }
+        }
+        let rel = mul(q / self.extent[a], self.nf[a]);
+        trunc_i32(rel).max(0).min(n - 1)
+    }
+
+    /// The walk of a valid ray with reciprocals `inv`, comparing with `O`; `fast`: the start
+    /// cell without a division where that is exact ([`WalkGrid::start_cell`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn walk<O: Order>(
+        &self,
+        fast: bool,
+        voxel_pe: &[u8],
+        o: [f32; 3],
+        d: [f32; 3],
+        inv: [f32; 3],
+        t_max: f32,
+        words: &mut [u32],
+    ) -> usize {
+        // The clip of `Aabb::clip` over [0, t_max].
         let (mut t0, mut t1) = (0.0f32, t_max);
         for a in 0..3 {
-            let mut near = (self.min[a] - o[a]) * inv[a];
-            let mut far = (self.max[a] - o[a]) * inv[a];
-            if near > far {
+            let mut near = mul(sub(self.min[a], o[a]), inv[a]);
+            let mut far = mul(sub(self.max[a], o[a]), inv[a]);
+            if O::lt(far, near) {
                 core::mem::swap(&mut near, &mut far);
             }
-            far *= WIDEN;
-            if near > t0 {
+            far = mul(far, WIDEN);
+            if O::lt(t0, near) {
                 t0 = near;
             }
-            if far < t1 {
+            if O::lt(far, t1) {
                 t1 = far;
             }
-            if t0 > t1 {
+            if O::lt(t1, t0) {
                 return 0;
             }
         }
-        if t1.is_nan() || t1 <= t0 || !finite(t0) {
+        if t1.is_nan() || O::le(t1, t0) || !finite(t0) {
             return 0;
         }
         // `Traversal::new`: start cell, step and first boundary per axis.
-        let mut axes = [Axis::default(); 3];
-        for (a, ax) in axes.iter_mut().enumerate() {
+        // Built axis by axis as values (constant indices, no array initialisation).
+        let axis = |a: usize| {
             let n = self.dims[a];
-            let entry = o[a] + d[a] * t0;
-            let rel = (entry - self.min[a]) / self.extent[a] * self.nf[a];
-            // Truncation instead of floor: both give the same cell after the clamp (below 0
-            // both clamp to 0; NaN casts to 0).
-            let c = (rel as i32).max(0).min(n - 1);
-            *ax = Axis { cell: c, end: n, o: o[a], inv: inv[a], t_next: f32::INFINITY, ..Axis::default() };
-            // Direction 0: never stepped, the boundary stays at +∞.
-            if d[a] != 0.0 {
-                let (step, plane) = if d[a] > 0.0 { (1, c + 1) } else { (-1, c) };
-                ax.step = step;
-                ax.plane = plane;
-                ax.stride = step * self.stride[a] as i32;
+            let entry = add(o[a], mul(d[a], t0));
+            let cell = self.start_cell(fast, a, sub(entry, self.min[a]));
+            // Direction 0 (either sign): never stepped, the boundary stays at +∞. The sign
+            // bit of a non-zero direction is its direction.
+            let bits = d[a].to_bits();
+            let (step, plane) = if bits & 0x7FFF_FFFF == 0 {
+                (0, 0)
+            } else if bits & 0x8000_0000 == 0 {
+                (1, cell + 1)
+            } else {
+                (-1, cell)
+            };
+            let mut ax = Axis {
+                cell,
+                end: n,
+                step,
+                plane,
+                stride: step * self.stride[a] as i32,
+                o: o[a],
+                inv: inv[a],
+                t_next: f32::INFINITY,
+            };
+            if step != 0 {
                 ax.t_next = ax.crossing(&self.planes[a]);
             }
-        }
+            ax
+        };
+        let axes = [axis(0), axis(1), axis(2)];
         let voxel = axes[0].cell as u32 + self.stride[1] * axes[1].cell as u32 + self.stride[2] * axes[2].cell as u32;
         let walk = Walk { planes: &self.planes, voxel_pe, t0, t_end: t1, bound: self.bound };
-        // Without an infinite reciprocal no boundary can be NaN (finite · finite), and the
-        // comparisons may be made on integers (module doc); a soft-float core does so.
-        let no_nan = inv.iter().all(|&i| finite(i));
-        if no_nan && keys {
-            walk.run::<KeyOrder>(axes, voxel, words)
-        } else {
-            walk.run::<FloatOrder>(axes, voxel, words)
-        }
+        walk.run::<O>(axes, voxel, words)
     }
 }
 
 /// One axis of a walk: its cell, direction and next boundary.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy)]
 struct Axis {
     cell: i32,
     /// Voxels on the axis (the cell must stay below).
@@ -198,7 +263,7 @@ impl Axis {
     /// The parameter of boundary plane `self.plane`: `(plane − o) · (1/d)`, from the table.
     #[inline(always)]
     fn crossing(&self, planes: &[f32; PLANES]) -> f32 {
-        (planes[self.plane as usize] - self.o) * self.inv
+        mul(sub(planes[self.plane as usize], self.o), self.inv)
     }
 
     /// Steps into the next cell; false when that leaves the grid (the walk ends).

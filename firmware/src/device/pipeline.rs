@@ -19,6 +19,7 @@ use crate::cull::BoxSpans;
 use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
 use crate::pixels::{FrameTx, SpanEncoder, TxError};
+use crate::sfloat::{add, mul};
 use crate::shade::{self, DEFAULT_ALBEDO};
 use embedded_io::Write;
 use gridrt_shared::fsl::RayKind;
@@ -110,7 +111,7 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
             Some(r) if r.hit => r,
             _ => {
                 for (a, b) in acc.iter_mut().zip(lighting.background) {
-                    *a += throughput * b;
+                    *a = add(*a, mul(throughput, b));
                 }
                 break;
             }
@@ -161,12 +162,12 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
                 };
                 if visible {
                     let v = if shade::direct_reads_view(&ext, dl) { view() } else { n };
-                    direct = Some(shade::direct_toward(&ext, n, v, l, dl, e * spot));
+                    direct = Some(shade::direct_toward(&ext, n, v, l, dl, mul(e, spot)));
                 }
             }
         }
         for (a, b) in acc.iter_mut().zip(shade::outgoing(&ext, cd, la, direct.as_ref())) {
-            *a += throughput * b;
+            *a = add(*a, mul(throughput, b));
         }
         sw.lap(clock, &mut path.stats, Stage::Shade);
         if bounce.wrapping_add(1) == depth || ext.reflect_mode == ReflectMode::None {

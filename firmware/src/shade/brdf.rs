@@ -17,6 +17,7 @@
 //! (for the mirror direction the half vector *is* n).
 
 use crate::fmath::try_normalize;
+use crate::sfloat::{add, mul};
 use gridrt_shared::math::Vec3;
 #[cfg(feature = "specular")]
 use gridrt_shared::scene::SpecularModel;
@@ -179,19 +180,25 @@ pub fn direct_toward(ext: &MaterialModel, n: Vec3, v: Vec3, l: Vec3, light: &Dir
     let specular = if light.specular { ext.ks * specular_brdf(ext, n, l, v) } else { 0.0 };
     #[cfg(not(feature = "specular"))]
     let specular = 0.0;
-    DirectTerm { light: light.radiance.map(|c| e_spot * c), diffuse, specular }
+    DirectTerm { light: light.radiance.map(|c| mul(e_spot, c)), diffuse, specular }
 }
 
 /// Radiance leaving the surface towards the viewer (module doc): ambient `L_a` plus the
 /// direct term when the light is visible.
 pub fn outgoing(ext: &MaterialModel, cd: [f32; 3], la: [f32; 3], direct: Option<&DirectTerm>) -> [f32; 3] {
     [0, 1, 2].map(|k| match (ext.diffuse_model, direct) {
-        (DiffuseModel::Matte, None) => cd[k] * (ext.ka * la[k]),
-        (DiffuseModel::Matte, Some(d)) => {
-            cd[k] * (ext.ka * la[k] + d.light[k] * d.diffuse) + d.light[k] * (d.specular * ext.specular[k])
-        }
-        (_, None) => ext.ka * cd[k] * la[k],
-        (_, Some(d)) => ext.ka * cd[k] * la[k] + d.light[k] * (d.diffuse * cd[k] + d.specular * ext.specular[k]),
+        // `crate::sfloat`'s arithmetic, in the order of the formulas:
+        // cd·(ka·la), cd·(ka·la + D·kd) + D·(ks·cs), ka·cd·la, ka·cd·la + D·(kd·cd + ks·cs).
+        (DiffuseModel::Matte, None) => mul(cd[k], mul(ext.ka, la[k])),
+        (DiffuseModel::Matte, Some(d)) => add(
+            mul(cd[k], add(mul(ext.ka, la[k]), mul(d.light[k], d.diffuse))),
+            mul(d.light[k], mul(d.specular, ext.specular[k])),
+        ),
+        (_, None) => mul(mul(ext.ka, cd[k]), la[k]),
+        (_, Some(d)) => add(
+            mul(mul(ext.ka, cd[k]), la[k]),
+            mul(d.light[k], add(mul(d.diffuse, cd[k]), mul(d.specular, ext.specular[k]))),
+        ),
     })
 }
 

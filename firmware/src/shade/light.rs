@@ -3,6 +3,7 @@
 //! summary's erratum: the cone uses the spot axis, not n).
 
 use crate::fmath::try_normalize;
+use crate::sfloat;
 use gridrt_shared::math::Vec3;
 use gridrt_shared::scene::{Falloff, LightingRecord};
 
@@ -51,9 +52,9 @@ pub fn irradiance(lighting: &LightingRecord, n: Vec3, p: Vec3, light_pos: Vec3) 
 /// [`irradiance`] and the unit light vector `l = (light − p)/|light − p|` it used (`None`,
 /// with E = 0, when the light sits on p): the direct term reuses `l`.
 pub fn irradiance_toward(lighting: &LightingRecord, n: Vec3, p: Vec3, light_pos: Vec3) -> (f32, Option<Vec3>) {
-    let d = light_pos - p;
+    let d = sfloat::vsub(light_pos, p);
     let Some(l) = try_normalize(d) else { return (0.0, None) };
-    let cos = n.dot(l).max(0.0);
+    let cos = sfloat::dot(n, l).max(0.0);
     let e = match lighting.falloff {
         Falloff::None => cos,
         Falloff::InverseSquare => {
