@@ -65,7 +65,7 @@ pub fn length(v: Vec3) -> f32 {
 
 /// `v.try_normalize()` of glam (`v · (1/|v|)` when that reciprocal is finite and positive),
 /// with [`sqrt`].
-#[inline(always)]
+#[inline]
 pub fn try_normalize(v: Vec3) -> Option<Vec3> {
     let rcp = 1.0 / length(v);
     // Finite and > 0: the bits of +min subnormal ..= +MAX (a bit test, no float compare).

@@ -139,9 +139,23 @@ fn normal(abs: u32) -> bool {
 }
 
 /// `a + b` in integers when both are normal and the sum is normal, else the operator.
+/// Out of line: one copy (code budget), a call costs a few instructions.
+#[inline(never)]
+pub fn add_int(a: f32, b: f32) -> f32 {
+    add_inline(a, b)
+}
+
+/// `a · b` in integers when both are normal and the product is normal, else the operator.
+/// Out of line, as [`add_int`].
+#[inline(never)]
+pub fn mul_int(a: f32, b: f32) -> f32 {
+    mul_inline(a, b)
+}
+
+/// [`add_int`], inline.
 #[inline(always)]
 #[allow(clippy::arithmetic_side_effects)] // bounded by the normal-number ranges checked first
-pub fn add_int(a: f32, b: f32) -> f32 {
+fn add_inline(a: f32, b: f32) -> f32 {
     let (ua, ub) = (a.to_bits(), b.to_bits());
     let (aa, ab) = (ua & !SIGN, ub & !SIGN);
     if !normal(aa) || !normal(ab) {
@@ -196,10 +210,10 @@ pub fn add_int(a: f32, b: f32) -> f32 {
     f32::from_bits((x & SIGN) | (e as u32) << 23 | (m & FRAC))
 }
 
-/// `a · b` in integers when both are normal and the product is normal, else the operator.
+/// [`mul_int`], inline.
 #[inline(always)]
 #[allow(clippy::arithmetic_side_effects)] // bounded by the normal-number ranges checked first
-pub fn mul_int(a: f32, b: f32) -> f32 {
+fn mul_inline(a: f32, b: f32) -> f32 {
     let (ua, ub) = (a.to_bits(), b.to_bits());
     let (aa, ab) = (ua & !SIGN, ub & !SIGN);
     if !normal(aa) || !normal(ab) {

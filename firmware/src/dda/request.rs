@@ -27,7 +27,7 @@ use gridrt_shared::scene::EMPTY_VOXEL;
 /// Widening of the clip's exit, as in [`Aabb::clip`](gridrt_shared::math::Aabb::clip).
 const WIDEN: f32 = 1.0 + 2.0 * gamma(3);
 
-/// Compare ray parameters on integer keys ([`KeyOrder`]) where that is exact: on soft-float
+/// Compare ray parameters on integer keys ([`Order`]) where that is exact: on soft-float
 /// cores (`cfg(soft_float)`, see the crate's build script), where a float comparison is a
 /// library call.
 const INTEGER_KEYS: bool = cfg!(soft_float);
@@ -136,11 +136,7 @@ impl WalkGrid {
         // finite), and the comparisons may be made on integers (module doc); a soft-float core
         // does so.
         let no_nan = inv.iter().all(|&i| finite(i));
-        if no_nan && keys {
-            self.walk::<KeyOrder>(keys, voxel_pe, o, d, inv, t_max, words)
-        } else {
-            self.walk::<FloatOrder>(keys, voxel_pe, o, d, inv, t_max, words)
-        }
+        self.walk(Order { keys: no_nan && keys }, keys, voxel_pe, o, d, inv, t_max, words)
     }
 
     /// The start cell of `Traversal::new` on axis `a` from `q = entry − min`:
@@ -172,8 +168,9 @@ impl WalkGrid {
     /// cell without a division where that is exact ([`WalkGrid::start_cell`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn walk<O: Order>(
+    fn walk(
         &self,
+        ord: Order,
         fast: bool,
         voxel_pe: &[u8],
         o: [f32; 3],
@@ -187,21 +184,21 @@ impl WalkGrid {
         for a in 0..3 {
             let mut near = mul(sub(self.min[a], o[a]), inv[a]);
             let mut far = mul(sub(self.max[a], o[a]), inv[a]);
-            if O::lt(far, near) {
+            if ord.lt(far, near) {
                 core::mem::swap(&mut near, &mut far);
             }
             far = mul(far, WIDEN);
-            if O::lt(t0, near) {
+            if ord.lt(t0, near) {
                 t0 = near;
             }
-            if O::lt(far, t1) {
+            if ord.lt(far, t1) {
                 t1 = far;
             }
-            if O::lt(t1, t0) {
+            if ord.lt(t1, t0) {
                 return 0;
             }
         }
-        if t1.is_nan() || O::le(t1, t0) || !finite(t0) {
+        if t1.is_nan() || ord.le(t1, t0) || !finite(t0) {
             return 0;
         }
         // `Traversal::new`: start cell, step and first boundary per axis.
@@ -238,7 +235,7 @@ impl WalkGrid {
         let axes = [axis(0), axis(1), axis(2)];
         let voxel = axes[0].cell as u32 + self.stride[1] * axes[1].cell as u32 + self.stride[2] * axes[2].cell as u32;
         let walk = Walk { planes: &self.planes, voxel_pe, t0, t_end: t1, bound: self.bound };
-        walk.run::<O>(axes, voxel, words)
+        walk.run(ord, axes, voxel, words)
     }
 }
 
@@ -283,45 +280,17 @@ impl Axis {
     }
 }
 
-/// How a walk compares ray parameters.
-trait Order {
-    /// `a <= b`.
-    fn le(a: f32, b: f32) -> bool;
-    /// `a < b`.
-    fn lt(a: f32, b: f32) -> bool;
-    /// `a.min(b)`.
-    fn min(a: f32, b: f32) -> f32;
-    /// `a.max(b)`.
-    fn max(a: f32, b: f32) -> f32;
+/// How a walk compares ray parameters: IEEE comparisons and `f32::min`/`max` (NaN-ignoring),
+/// as `Traversal`, or (`keys`) the same comparisons on integer keys of the bit patterns (±0
+/// share key 0, negative values count down): exact for every f32 but NaN, and a few integer
+/// instructions where a soft-float core calls a comparison routine. With keys, `min`/`max` of
+/// two zeros of opposite sign may return either; as a list entry's exit distance, ±0 accept
+/// the same hits (SPEC.md §4.3). A run-time choice, not a type parameter: one copy of the
+/// walk (code budget); where `keys` is a constant (hard-float cores) the branches fold.
+#[derive(Clone, Copy)]
+struct Order {
+    keys: bool,
 }
-
-/// IEEE comparisons, `f32::min`/`max` (NaN-ignoring), as `Traversal`.
-struct FloatOrder;
-
-impl Order for FloatOrder {
-    #[inline(always)]
-    fn le(a: f32, b: f32) -> bool {
-        a <= b
-    }
-    #[inline(always)]
-    fn lt(a: f32, b: f32) -> bool {
-        a < b
-    }
-    #[inline(always)]
-    fn min(a: f32, b: f32) -> f32 {
-        a.min(b)
-    }
-    #[inline(always)]
-    fn max(a: f32, b: f32) -> f32 {
-        a.max(b)
-    }
-}
-
-/// The same comparisons on integer keys of the bit patterns (±0 share key 0, negative values
-/// count down): exact for every f32 but NaN, and a few integer instructions where a soft-float
-/// core calls a comparison routine. `min`/`max` of two zeros of opposite sign may return
-/// either; as a list entry's exit distance, ±0 accept the same hits (SPEC.md §4.3).
-struct KeyOrder;
 
 #[inline(always)]
 fn key(x: f32) -> i32 {
@@ -333,26 +302,42 @@ fn key(x: f32) -> i32 {
     }
 }
 
-impl Order for KeyOrder {
+impl Order {
+    /// `a <= b`.
     #[inline(always)]
-    fn le(a: f32, b: f32) -> bool {
-        key(a) <= key(b)
+    fn le(self, a: f32, b: f32) -> bool {
+        if self.keys {
+            key(a) <= key(b)
+        } else {
+            a <= b
+        }
     }
+    /// `a < b`.
     #[inline(always)]
-    fn lt(a: f32, b: f32) -> bool {
-        key(a) < key(b)
+    fn lt(self, a: f32, b: f32) -> bool {
+        if self.keys {
+            key(a) < key(b)
+        } else {
+            a < b
+        }
     }
+    /// `a.min(b)`.
     #[inline(always)]
-    fn min(a: f32, b: f32) -> f32 {
-        if key(b) < key(a) {
+    fn min(self, a: f32, b: f32) -> f32 {
+        if !self.keys {
+            a.min(b)
+        } else if key(b) < key(a) {
             b
         } else {
             a
         }
     }
+    /// `a.max(b)`.
     #[inline(always)]
-    fn max(a: f32, b: f32) -> f32 {
-        if key(b) > key(a) {
+    fn max(self, a: f32, b: f32) -> f32 {
+        if !self.keys {
+            a.max(b)
+        } else if key(b) > key(a) {
             b
         } else {
             a
@@ -371,7 +356,7 @@ struct Walk<'a> {
 
 impl Walk<'_> {
     #[inline(always)]
-    fn run<O: Order>(&self, axes: [Axis; 3], mut voxel: u32, words: &mut [u32]) -> usize {
+    fn run(&self, ord: Order, axes: [Axis; 3], mut voxel: u32, words: &mut [u32]) -> usize {
         let [mut x, mut y, mut z] = axes;
         let [px, py, pz] = self.planes;
         let (mut t, t_end) = (self.t0, self.t_end);
@@ -379,14 +364,14 @@ impl Walk<'_> {
         let mut entries = 0;
         for _ in 0..self.bound {
             // Lowest axis wins ties.
-            let (t_cross, axis) = if O::le(x.t_next, y.t_next) && O::le(x.t_next, z.t_next) {
+            let (t_cross, axis) = if ord.le(x.t_next, y.t_next) && ord.le(x.t_next, z.t_next) {
                 (x.t_next, 0)
-            } else if O::le(y.t_next, z.t_next) {
+            } else if ord.le(y.t_next, z.t_next) {
                 (y.t_next, 1)
             } else {
                 (z.t_next, 2)
             };
-            let t_exit = O::max(O::min(t_cross, t_end), t);
+            let t_exit = ord.max(ord.min(t_cross, t_end), t);
             let pe = self.voxel_pe.get(voxel as usize).copied().unwrap_or(EMPTY_VOXEL);
             if pe != EMPTY_VOXEL {
                 let Some(pair) = out.next() else { break };
@@ -394,7 +379,7 @@ impl Walk<'_> {
                 entries += 1;
             }
             // Ends at t_end, and at a NaN boundary (which compares neither way).
-            if !O::lt(t_cross, t_end) {
+            if !ord.lt(t_cross, t_end) {
                 break;
             }
             let inside = match axis {

@@ -31,6 +31,9 @@ use gridrt_shared::msg::{feature, render_flags, ErrorCode, Msg};
 use gridrt_shared::scene::{affine_point, TextureKind};
 use gridrt_shared::scene::{Material, MaterialModel, ReflectMode};
 
+/// The model of a material id the scene does not define.
+const MATTE: MaterialModel = MaterialModel::MATTE;
+
 /// Widest row the interpolation buffer holds.
 pub const MAX_INTERP_WIDTH: usize = 2048;
 
@@ -109,6 +112,12 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
         let hit = path.trace_as(scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, class)?;
         let r = match hit {
             Some(r) if r.hit => r,
+            // A camera ray that meets nothing is the frame's background, computed once with
+            // the same formula (`0 + 1·background`).
+            _ if bounce == 0 => {
+                sw.lap(clock, &mut path.stats, Stage::Shade);
+                return Ok(ctx.background);
+            }
             _ => {
                 for (a, b) in acc.iter_mut().zip(lighting.background) {
                     *a = add(*a, mul(throughput, b));
@@ -126,18 +135,19 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
             .get(r.material as usize)
             .copied()
             .unwrap_or(Material { diffuse: DEFAULT_ALBEDO, reflect: 0.0 });
-        let ext = scene.material_model.get(r.material as usize).copied().unwrap_or(MaterialModel::MATTE);
+        // By reference: the model is ~90 bytes, a copy per hit is a memcpy call.
+        let ext = scene.material_model.get(r.material as usize).unwrap_or(&MATTE);
         #[allow(unused_mut)]
         let mut cd = m.diffuse;
         #[cfg(feature = "textures")]
         if ctx.textures && ext.texture != TextureKind::None {
             if let Some(po) = object_point(scene, r.prim, p) {
-                cd = crate::texture::sample(&ext, cd, po);
+                cd = crate::texture::sample(ext, cd, po);
             }
         }
         let Some(n) = shade::facing_normal(r.normal, ray.dir) else {
             // Degenerate normal: no direction to light it from; ambient only.
-            for (a, b) in acc.iter_mut().zip(shade::outgoing(&ext, cd, la, None)) {
+            for (a, b) in acc.iter_mut().zip(shade::outgoing(ext, cd, la, None)) {
                 *a += throughput * b;
             }
             break;
@@ -161,19 +171,19 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
                     true
                 };
                 if visible {
-                    let v = if shade::direct_reads_view(&ext, dl) { view() } else { n };
-                    direct = Some(shade::direct_toward(&ext, n, v, l, dl, mul(e, spot)));
+                    let v = if shade::direct_reads_view(ext, dl) { view() } else { n };
+                    direct = Some(shade::direct_toward(ext, n, v, l, dl, mul(e, spot)));
                 }
             }
         }
-        for (a, b) in acc.iter_mut().zip(shade::outgoing(&ext, cd, la, direct.as_ref())) {
+        for (a, b) in acc.iter_mut().zip(shade::outgoing(ext, cd, la, direct.as_ref())) {
             *a = add(*a, mul(throughput, b));
         }
         sw.lap(clock, &mut path.stats, Stage::Shade);
         if bounce.wrapping_add(1) == depth || ext.reflect_mode == ReflectMode::None {
             break;
         }
-        let refl = shade::reflectance(&ext, m.reflect, n.dot(view()));
+        let refl = shade::reflectance(ext, m.reflect, n.dot(view()));
         if refl.is_nan() || refl <= 0.0 {
             break;
         }
