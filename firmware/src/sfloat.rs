@@ -188,9 +188,31 @@ fn add_inline(a: f32, b: f32) -> f32 {
         if m == 0 {
             return 0.0;
         }
-        let s = m.leading_zeros() - 5;
-        m <<= s;
-        e -= s as i32;
+        // Bring the leading 1 to bit 26 by a binary search: RV32IMAC has no count-leading-
+        // zeros instruction (`leading_zeros` is a 30-instruction bit trick there). Below
+        // exponent distance 2 this is a cancellation; above, one step at most.
+        if m < 1 << 25 {
+            if m < 1 << 11 {
+                m <<= 16;
+                e -= 16;
+            }
+            if m < 1 << 19 {
+                m <<= 8;
+                e -= 8;
+            }
+            if m < 1 << 23 {
+                m <<= 4;
+                e -= 4;
+            }
+            if m < 1 << 25 {
+                m <<= 2;
+                e -= 2;
+            }
+        }
+        if m < 1 << 26 {
+            m <<= 1;
+            e -= 1;
+        }
         if e <= 0 {
             return a + b;
         }
