@@ -15,7 +15,7 @@ secs="${1:-60}"
 shift || true
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-    targets=(host_frames device_commands scene_image)
+    targets=(host_frames device_commands scene_image ply)
 fi
 
 toolchain=(+nightly)

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# One-stop setup for a fresh machine: the emulated board (QEMU, socat) and the RISC-V
-# cross toolchain (rustup target, else Debian's rustc-web unpacked into .toolchain/).
+# One-stop setup for a fresh machine: the emulated board (QEMU, socat), the RISC-V
+# cross toolchain (rustup target, else Debian's rustc-web unpacked into .toolchain/) and
+# the HDL tools (Verilator; Yosys and nextpnr-ecp5 from pip).
 # Idempotent; the host tool itself needs only cargo.
 #
 #   bash scripts/setup.sh
@@ -8,3 +9,4 @@ set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 bash "$here/setup-qemu.sh"
 bash "$here/setup-riscv-toolchain.sh"
+bash "$here/setup-hdl.sh"

@@ -20,7 +20,9 @@ pub struct CoprocConfig {
     pub pe_mem_words: u32,
     /// Longest traversal list accepted, 1..=[`LIST_CAPACITY`].
     pub max_list: u16,
-    /// Cycle model.
+    /// Cycle model, charged as given. For kernel-true cycles build it with
+    /// [`TimingProfile::for_kernel`] of `kernel` and the number format the PEs run (the
+    /// loopback simulator and the emulated-board image do).
     pub timing: TimingProfile,
     /// Intersection kernel every PE runs.
     pub kernel: KernelKind,

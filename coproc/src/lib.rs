@@ -8,7 +8,8 @@
 //!   ([`Coprocessor::load_pe`], [`Coprocessor::trace`], [`Coprocessor::trace_untimed`]);
 //!   protocol violations become ERROR words, never guesses ([`coproc`] module doc).
 //! - [`timing`]: cycle accounting with the [`TimingProfile::GRIDRT`] (648 cycles/test at
-//!   50 MHz) and [`TimingProfile::PIPELINED`] profiles.
+//!   50 MHz), [`TimingProfile::PIPELINED`] and [`TimingProfile::RTL`] (the RTL co-processor,
+//!   measured) profiles.
 //! - [`isect`]: intersection kernels (watertight — default —, Möller–Trumbore, Wald,
 //!   Hanika–Keller, Cramer), each in every [`NumberFormat`] of [`numeric`] (f32 and two
 //!   checked fixed-point formats); [`Intersector`] selects one at run time.
@@ -39,7 +40,7 @@ pub mod timing;
 mod tests;
 
 pub use config::{ArbitrationRule, ConfigError, CoprocConfig, LIST_CAPACITY, OUT_QUEUE_WORDS};
-pub use coproc::{load_ack, CoprocStats, Coprocessor, TraceInfo, CLEAR_ACK, T_EXIT_REL_TOL};
+pub use coproc::{load_ack, CoprocStats, Coprocessor, TraceInfo, CLEAR_ACK, FRAME_ACK, T_EXIT_REL_TOL};
 pub use gridrt_shared::fsl::{FslError, FslWord, ListEntry, RayKind, RayResult};
 pub use gridrt_shared::math::Ray;
 pub use isect::{Intersector, Kernel, KernelKind, Record, RecordStatus};

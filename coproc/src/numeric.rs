@@ -152,9 +152,10 @@ impl FixedFrame {
     pub const IDENTITY: FixedFrame = FixedFrame { origin: [0.0; 3], scale: 1.0 };
 
     /// Hanika–Keller's positive box: `min` goes to 0 and the largest extent is scaled by the
-    /// largest power of two that keeps it ≤ `format.box_units()`. `None` for a non-finite or
-    /// inverted box; a box of zero extent gets scale 1. For f32 the frame is unused and
-    /// [`FixedFrame::IDENTITY`] is returned.
+    /// largest power of two that keeps it ≤ `format.box_units()`. The extent is the largest
+    /// `fl32(max − min)`, as the co-processor computes it from a FRAME packet (SPEC §4.6).
+    /// `None` for a non-finite or inverted box; a box of zero extent gets scale 1. For f32
+    /// the frame is unused and [`FixedFrame::IDENTITY`] is returned.
     pub fn for_box(min: [f32; 3], max: [f32; 3], format: NumberFormat) -> Option<Self> {
         if !format.is_fixed() {
             return Some(Self::IDENTITY);
@@ -162,13 +163,16 @@ impl FixedFrame {
         if min.iter().chain(max.iter()).any(|c| !c.is_finite()) || (0..3).any(|a| max[a] < min[a]) {
             return None;
         }
-        let extent = (0..3).map(|a| max[a] as f64 - min[a] as f64).fold(0.0f64, f64::max);
+        // The extent as the co-processor computes it from a FRAME box: f32 subtractions.
+        let extent = (0..3).map(|a| max[a] - min[a]).fold(0.0f32, f32::max);
         if extent <= 0.0 {
             return Some(Self { origin: min, scale: 1.0 });
         }
-        // frexp: units/extent = m·2^e with m ∈ [0.5, 1): 2^(e−1) ≤ units/extent.
-        let (_, e) = libm::frexp(format.box_units() / extent);
-        Some(Self { origin: min, scale: libm::ldexp(1.0, e - 1) })
+        // The largest 2^s with 2^s · extent ≤ units: s = log2(units) − ⌈log2 extent⌉
+        // (an infinite extent counts as 2^128).
+        let (_, units_exp) = libm::frexp(format.box_units());
+        let units_log2 = units_exp - 1;
+        Some(Self { origin: min, scale: libm::ldexp(1.0, units_log2 - ceil_log2(extent)) })
     }
 
     /// Frame coordinate of world point `p` (exact in f64 for f32 inputs of similar exponent;
@@ -197,6 +201,22 @@ impl FixedFrame {
         let norm = libm::ldexp(1.0, 1 - e);
         // t_frame: P = O + t·ds = O + (t / norm)·(ds·norm), so t_frame = t_world / norm.
         Some(([ds[0] * norm, ds[1] * norm, ds[2] * norm], 1.0 / norm))
+    }
+}
+
+/// `⌈log2 x⌉` of a positive f32 (128 for +∞), from its bits.
+fn ceil_log2(x: f32) -> i32 {
+    let bits = x.to_bits() & 0x7FFF_FFFF;
+    let field = (bits >> 23) as i32;
+    let frac = bits & 0x7F_FFFF;
+    if field == 0xFF {
+        128
+    } else if field == 0 {
+        // Subnormal: floor(log2) is the top set bit − 149; exact powers of two stay.
+        let floor = 31 - bits.leading_zeros() as i32 - 149;
+        floor + !bits.is_power_of_two() as i32
+    } else {
+        field - 127 + (frac != 0) as i32
     }
 }
 

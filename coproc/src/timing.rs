@@ -6,8 +6,9 @@
 //!
 //! # Timeline of one ray (what [`crate::Coprocessor::trace`] charges)
 //!
-//! 1. The request streams in at `word_in_cycles` per word (8 head words + 2 per entry).
-//! 2. When its last word arrives, every PE named in the list starts at time 0. Each PE works
+//! 1. The request streams in at `word_in_cycles` per word (8 head words + 2 per entry), then
+//!    `ray_setup_cycles` compute the per-ray constants every PE shares.
+//! 2. Then every PE named in the list starts at time 0. Each PE works
 //!    through *its own* entries in list order, one after the other: entry k starts when the
 //!    PE's previous entry has issued its last test, spends `voxel_setup_cycles` (voxel-table
 //!    lookup, ref-range loads), then issues its tests `test_issue_cycles` apart. Its result is
@@ -15,7 +16,10 @@
 //!    drain for a pipelined one).
 //! 3. The winner w is the first entry in list order with an accepted hit (the interrupt chain:
 //!    w suspends every PE after it and waits for "done" from those before it). The PE array
-//!    finishes at T = max(completion of entries 0..=w), or of every entry on a miss.
+//!    finishes at T = max(completion of entries 0..=w), or of every entry on a miss. A
+//!    RAY_ANY winner completes when the result of its first accepted test is known
+//!    (`PeTimeline::done_after`); its PE keeps issuing the entry's remaining tests until
+//!    then (it cannot know earlier), so every entry is scheduled with all its tests.
 //! 4. Tests charged = tests *started* before T. Entries 0..=w always finish; an entry after w
 //!    is charged the tests its PE had issued when the suspend arrived at T (a simplification:
 //!    suspend is taken as instantaneous and a started test counts in full).
@@ -54,6 +58,9 @@ pub struct TimingProfile {
     pub word_out_cycles: u32,
     /// Cycles to resolve the interrupt chain and commit the winning result, once per ray.
     pub arbitration_cycles: u32,
+    /// Cycles between the request's last word and the start of the PEs, once per ray (the
+    /// per-ray constants every PE shares; 0 when the PEs start at once).
+    pub ray_setup_cycles: u32,
 }
 
 /// GridRT's PE program, decoded (seed 004 §2.4 from thesis App. C.3) and costed with thesis
@@ -134,6 +141,7 @@ impl TimingProfile {
         word_in_cycles: 1,
         word_out_cycles: 1,
         arbitration_cycles: 4,
+        ray_setup_cycles: 0,
     };
 
     /// A fully pipelined PE: one test issued per cycle after a fill latency.
@@ -158,6 +166,32 @@ impl TimingProfile {
         word_in_cycles: 1,
         word_out_cycles: 1,
         arbitration_cycles: 2,
+        ray_setup_cycles: 0,
+    };
+
+    /// The RTL co-processor (rtl/README.md §4.5), measured in its Verilator simulation: the
+    /// RESULT words of `--coproc rtl` and of the model with this profile are identical, cycles
+    /// and test counts included (`rtl/tests/cosim.rs`). Its own clock is whatever the FPGA
+    /// closes (`cargo xtask rtl synth`); 50 MHz here, GridRT's, so figures compare directly.
+    /// - `voxel_setup_cycles = 1`: the voxel lookup happens while the list streams in; an
+    ///   entry's ref range is in the PE's queue, one cycle to take it.
+    /// - `test_latency_cycles = 56`: ref word and record reads (2 + 3), the 48-stage test
+    ///   (shear 4, edges 4, determinant and weights 5, depth 4, normalisation 2, a 27-step
+    ///   restoring divider, rounding), acceptance and the entry's winner (3).
+    /// - `ray_setup_cycles = 33`: the dominant axis, six f32 → fixed conversions and the two
+    ///   24-step shear divisions, and the start of the PEs.
+    /// - `arbitration_cycles = 7`: the first-hit decision, the winner's result and triangle
+    ///   (two memory reads), before the first RESULT word.
+    pub const RTL: TimingProfile = TimingProfile {
+        name: "rtl",
+        clock_hz: 50_000_000,
+        test_issue_cycles: 1,
+        test_latency_cycles: 56,
+        voxel_setup_cycles: 1,
+        word_in_cycles: 1,
+        word_out_cycles: 1,
+        arbitration_cycles: 7,
+        ray_setup_cycles: 33,
     };
 
     /// Sustained ray–triangle tests per second of `pes` PEs that are always busy
@@ -167,12 +201,14 @@ impl TimingProfile {
     }
 
     /// Cycles of a ray that do not depend on the tests: request words of a `list_len`-entry
-    /// list, result words and arbitration. (Voxel setup is charged on the PE timeline.)
+    /// list, ray setup, arbitration and the result words. (Voxel setup is charged on the PE
+    /// timeline.)
     pub fn ray_io_cycles(&self, list_len: usize) -> u64 {
         // Saturating: a list length comes off the link (bounded by `max_list` there).
         let words_in = (list_len as u64).saturating_mul(2).saturating_add(RAY_HEADER_WORDS as u64);
         words_in
             .saturating_mul(self.word_in_cycles as u64)
+            .saturating_add(self.ray_setup_cycles as u64)
             .saturating_add(self.arbitration_cycles as u64)
             .saturating_add((RESULT_WORDS as u64).saturating_mul(self.word_out_cycles as u64))
     }
@@ -302,6 +338,18 @@ impl<'a> PeTimeline<'a> {
         *clock = issue_end;
         let done = if tests > 0 { issue_end.saturating_add(p.test_latency_cycles as u64) } else { issue_end };
         EntryTime { first_issue, done }
+    }
+
+    /// When the result of the first `m` tests of an entry scheduled at `at` is known (a
+    /// RAY_ANY entry whose `m`-th test is its first accepted one).
+    pub fn done_after(&self, at: EntryTime, m: u32) -> u64 {
+        let p = self.profile;
+        let issue_end = at.first_issue.saturating_add((m as u64).saturating_mul(p.test_issue_cycles.max(1) as u64));
+        if m > 0 {
+            issue_end.saturating_add(p.test_latency_cycles as u64)
+        } else {
+            issue_end
+        }
     }
 
     /// Tests of an entry scheduled at `at` with `tests` tests that were started before `end`.

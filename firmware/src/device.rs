@@ -22,6 +22,7 @@
 //! | `raypath` | one ray's FSL request and response, drain after a failure | `stats`, `fail`, `scene` |
 //! | `request` | render request checks, field offsets, the validated job | `fail` |
 //! | `pipeline` | the per-pixel pipeline, plan and row interpolation; renders a job | all of the above |
+//! | `splat` | a `SPLATS` job: seed 001's splat path over the scene's points | `fail`, `request`, `scene`, `stats` |
 //! | `machine` | the [`Device`] state machine: frames in, answers out | all of the above |
 //!
 //! Each module uses only those listed before it in its row, never the other way round.
@@ -33,6 +34,8 @@ mod pipeline;
 mod raypath;
 mod request;
 mod scene;
+#[cfg(feature = "splats")]
+mod splat;
 mod stats;
 
 pub use fail::{DETAIL_LINK_HARDWARE, DETAIL_LINK_OTHER, DETAIL_LINK_TIMEOUT};

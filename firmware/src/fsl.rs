@@ -1,13 +1,17 @@
 //! The co-processor link: an FSL-style stream of 32-bit words with a control bit.
 //!
 //! [`FslLink`] mirrors MicroBlaze's `nput`/`nget` (non-blocking) and `put`/`get` (blocking)
-//! stream instructions. It has two implementations: the MMIO AXI4-Stream FIFO driver in
-//! [`crate::bsp`] (real board) and `VirtualCoproc` (the co-processor model linked into the
-//! image, for the loopback simulator and the emulated board). The one generic user is the
-//! ray path in [`crate::device`].
+//! stream instructions. It has three implementations: the MMIO AXI4-Stream FIFO driver in
+//! [`crate::bsp`] (real board), `VirtualCoproc` (the co-processor model linked into the
+//! image, for the loopback simulator and the emulated board) and `DirectKernel` (no
+//! co-processor: the firmware calls the intersection code itself, the soft-core-only
+//! configuration of `gridrt bench frame`). The one generic user is the ray path in
+//! [`crate::device`].
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 pub use gridrt_shared::fsl::FslWord;
+use gridrt_shared::fsl::{FslError, ListEntry, RayKind, RayResult};
+use gridrt_shared::math::Ray;
 
 /// Error kinds every link error maps to.
 #[non_exhaustive]
@@ -100,6 +104,26 @@ pub trait FslLink {
         }
         Ok((buf.len(), false))
     }
+
+    /// True for a link that answers rays itself ([`trace_direct`](FslLink::trace_direct) may
+    /// return `Some`): only then does the ray path decode its request words into a list for
+    /// it. A compile-time constant, so a co-processor link pays nothing.
+    const DIRECT: bool = false;
+
+    /// Answers a ray without the word stream, on the soft-core itself: `Some` only for a link
+    /// that is not a co-processor but the intersection code linked into the firmware
+    /// ([`DirectKernel`]); `None`, the default and the answer of every co-processor link, means
+    /// "send the request over FSL". The default compiles to nothing.
+    #[inline(always)]
+    fn trace_direct(
+        &mut self,
+        _kind: RayKind,
+        _ray: &Ray,
+        _t_max: f32,
+        _list: &[ListEntry],
+    ) -> Option<Result<RayResult, FslError>> {
+        None
+    }
 }
 
 impl<T: FslLink + ?Sized> FslLink for &mut T {
@@ -115,6 +139,17 @@ impl<T: FslLink + ?Sized> FslLink for &mut T {
     }
     fn get_packet(&mut self, buf: &mut [u32], max_polls: u32) -> Result<(usize, bool), BoundedError<Self::Error>> {
         (**self).get_packet(buf, max_polls)
+    }
+    const DIRECT: bool = T::DIRECT;
+    #[inline(always)]
+    fn trace_direct(
+        &mut self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+    ) -> Option<Result<RayResult, FslError>> {
+        (**self).trace_direct(kind, ray, t_max, list)
     }
 }
 
@@ -209,5 +244,47 @@ mod tests {
         // Nothing arrives: the poll budget runs out.
         assert_eq!(l.get_packet(&mut buf, 3), Err(BoundedError::Timeout));
         assert_eq!(l.get_packet(&mut [], 1), Ok((0, false)));
+    }
+}
+
+/// No co-processor: the firmware intersects each ray itself by calling the co-processor
+/// model's intersection code directly ([`Coprocessor::trace_untimed`](gridrt_coproc::Coprocessor::trace_untimed):
+/// the same voxel lookup, kernel and arbitration as the PEs, one entry after the other, no
+/// cycle model), through [`FslLink::trace_direct`]. No request or result words are packed
+/// or sent; every instruction of the intersection runs on the soft-core and is counted in
+/// the `fsl_io` stage (the stage that, with a co-processor, waits for the answer).
+///
+/// Scene loads (LOAD_PE, CLEAR) still go through the model's word interface, as with
+/// [`VirtualCoproc`]: the upload is not part of a frame.
+#[cfg(feature = "virtual-coproc")]
+pub struct DirectKernel<'m> {
+    /// The model whose memories hold the scene and whose intersection code runs.
+    pub model: gridrt_coproc::Coprocessor<'m>,
+}
+
+#[cfg(feature = "virtual-coproc")]
+impl FslLink for DirectKernel<'_> {
+    type Error = core::convert::Infallible;
+
+    fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
+        self.model.push(word);
+        Ok(())
+    }
+
+    fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+        self.model.pop().ok_or(nb::Error::WouldBlock)
+    }
+
+    const DIRECT: bool = true;
+
+    #[inline(always)]
+    fn trace_direct(
+        &mut self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+    ) -> Option<Result<RayResult, FslError>> {
+        Some(self.model.trace_untimed(kind, ray, t_max, list))
     }
 }

@@ -12,6 +12,7 @@
 //! | [`shade`] | shading of a hit: GridRT's matte surface, ViRAY's Lambert/Oren–Nayar/Blinn–Phong/Torrance–Sparrow, Fresnel, spotlight, shadow rays (CONTRACTS.md) |
 //! | [`texture`](mod@texture) | procedural textures, mappings, bilinear filtering (feature `textures`) |
 //! | [`interp`] | row interpolation (seed 003) |
+//! | [`splat`] | seed 001's point splats: shape table, code generator (the DSP), splat stage (the FPGA) |
 //! | [`pixels`] | frame encoder, pixel spans, running image CRC |
 //! | [`text`] | text output without `core::fmt` (error texts, banner, reports) |
 //! | [`device`] | the device state machine (UART frames ↔ FSL link) |
@@ -50,6 +51,7 @@ pub mod interp;
 pub mod pixels;
 pub mod sfloat;
 pub mod shade;
+pub mod splat;
 pub mod text;
 #[cfg(feature = "textures")]
 pub mod texture;

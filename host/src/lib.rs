@@ -12,8 +12,10 @@
 //! | [`flash`] | ELF → flash image, flashing through the bootloader (SPEC.md §3.11), progress events |
 //! | [`serial`] | opening serial ports (no flush on open) and listing them |
 //! | [`session`] | protocol client over any `Read + Write` byte transport, progress events |
+//! | [`native`] | the fast native ray path: firmware DDA + co-processor search laid out for a CPU (SIMD, threads), word-identical results |
 //! | [`multi`] | one frame on several boards: work queue of row bands, merged result |
 //! | [`link_bench`] | `gridrt bench link`: wire bytes, efficiency, compression, modelled frame time |
+//! | [`frame_bench`] | `gridrt bench frame`: whole-frame time on the modelled board (soft-core on QEMU, co-processor model, link), per configuration and target |
 //! | [`stats`] | JSON statistics |
 //! | [`plan`] | the pipeline plan (which stages a scene needs) and `--interp` |
 //!
@@ -25,12 +27,15 @@ pub mod bench_accuracy;
 pub mod camera;
 pub mod compare;
 pub mod flash;
+pub mod frame_bench;
 pub mod grid;
 pub mod image_format;
 pub mod link_bench;
 pub mod multi;
+pub mod native;
 pub mod pipeline;
 pub mod plan;
+pub mod points;
 pub mod reference;
 pub mod scene;
 pub mod serial;

@@ -11,7 +11,8 @@
 //! # The model
 //! - **Line rate**: 8N1, 10 bit times per byte: `baud / 10` bytes per second each way.
 //! - **Ray work** of a row = co-processor cycles the model reported ÷ 50 MHz (GridRT's PE
-//!   clock, `TimingProfile::GRIDRT`) + firmware instructions ÷ 50 MHz (a soft-core at the same
+//!   clock, `TimingProfile::GRIDRT` charged at the kernel that runs: watertight f32, 1188
+//!   cycles per test; `SimConfig::coproc`) + firmware instructions ÷ 50 MHz (a soft-core at the same
 //!   clock, CPI 1). Firmware instructions are estimated from the row's counters with the
 //!   per-stage costs measured on QEMU for riscv32imafc (BENCHMARKS.md, issue 3: 164 raygen +
 //!   279 shade per primary ray, 964 traverse per primary ray = 878 per traced ray, 620 FSL

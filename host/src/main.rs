@@ -26,7 +26,8 @@ enum Command {
     /// --reference the frame is compared with the independent f64 reference renderer.
     Render(cmd::render::Cmd),
     /// Benchmarks: `rays` (native primary-ray path, single thread), `accuracy` (kernels ×
-    /// number formats, time vs error), `skip` (pipeline skips, interpolation), `link` (UART).
+    /// number formats, time vs error), `skip` (pipeline skips, interpolation), `link` (UART),
+    /// `frame` (the whole frame on the modelled board).
     Bench(cmd::bench::Cmd),
     /// Flash an application ELF through the device's bootloader, verify it and start it.
     Flash(cmd::flash::Cmd),
@@ -101,5 +102,19 @@ mod tests {
         assert!(parse(&["--sim-devices", "2", "--port", "x"]).is_err());
         assert!(parse(&["--sim", "--encoding", "jpeg"]).is_err());
         assert!(Cli::try_parse_from(["gridrt", "bench", "link", "--out", "o", "--devices", "1,2"]).is_ok());
+        assert!(Cli::try_parse_from(["gridrt", "bench", "frame", "--scene", "a.obj", "--json", "f.json"]).is_ok());
+        assert!(Cli::try_parse_from(["gridrt", "bench", "frame", "--scene", "a.obj"]).is_err());
+        assert!(Cli::try_parse_from([
+            "gridrt",
+            "bench",
+            "frame",
+            "--scene",
+            "a.obj",
+            "--json",
+            "f.json",
+            "--encoding",
+            "jpeg"
+        ])
+        .is_err());
     }
 }

@@ -56,6 +56,7 @@ pub fn stat_name(key: u8) -> String {
         stat::FSL_WORDS_PRIMARY => "fsl_words_primary".into(),
         stat::FSL_WORDS_SHADOW => "fsl_words_shadow".into(),
         stat::FSL_WORDS_REFLECTION => "fsl_words_reflection".into(),
+        stat::RAYS_IN_FLIGHT => "rays_in_flight".into(),
         stat::MODEL_INSTRUCTIONS => "model_instructions".into(),
         stat::LINK_WRAPPER_INSTRUCTIONS => "link_wrapper_instructions".into(),
         k => {
@@ -109,6 +110,19 @@ impl ReferenceStats {
             reference_ms,
         }
     }
+}
+
+/// The simulated co-processor of a render (`render --sim`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CoprocFacts {
+    /// `model` (gridrt-coproc) or `rtl` (the RTL in Verilator).
+    pub coproc: String,
+    /// Intersection kernel (`KernelKind::name`).
+    pub kernel: String,
+    /// Number format (`NumberFormat::name`).
+    pub format: String,
+    /// Timing profile of the cycle counts (`rtl` for the RTL: its own cycles).
+    pub timing: String,
 }
 
 /// Statistics of one `gridrt render`.
@@ -170,6 +184,10 @@ pub struct RenderStats {
     pub upload_ms: f64,
     /// Render wall time.
     pub wall_ms: f64,
+    /// What computed in the simulator: co-processor, kernel, format, timing (absent for a
+    /// real board, which does not report them).
+    #[serde(flatten)]
+    pub coproc: Option<CoprocFacts>,
     /// Comparison with the reference (only with `--reference`).
     #[serde(flatten)]
     pub reference: Option<ReferenceStats>,
@@ -331,6 +349,7 @@ impl RenderStats {
             uart_bytes_rx: frame.bytes_rx,
             upload_ms: facts.upload_ms,
             wall_ms: frame.elapsed.as_secs_f64() * 1e3,
+            coproc: None,
             reference: None,
             pipeline: None,
             link: LinkReport { encoding: String::new(), baud: 0, modelled_link_s: 0.0, counters: frame.link.clone() },
@@ -391,7 +410,7 @@ pub struct BenchReport {
     pub ns_per_ray: f64,
     /// Million rays per second (best run).
     pub mrays_per_s: f64,
-    /// Always 1: the bench is single-threaded.
+    /// Threads of the timed run (`--threads`; the single-thread rate is reported beside it).
     pub threads: u32,
 }
 

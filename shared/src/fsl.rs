@@ -37,9 +37,11 @@ pub mod op {
     pub const RAY_ANY: u32 = 0x3;
     /// Host → co-processor: clear every PE memory.
     pub const CLEAR: u32 = 0x4;
+    /// Host → co-processor: the scene's grid box, which sets the fixed-point frame (7 words).
+    pub const FRAME: u32 = 0x5;
     /// Co-processor → host: ray result (8 words).
     pub const RESULT: u32 = 0x8;
-    /// Co-processor → host: acknowledgement of LOAD_PE / CLEAR (1 word).
+    /// Co-processor → host: acknowledgement of LOAD_PE / CLEAR / FRAME (1 word).
     pub const ACK: u32 = 0x9;
     /// Co-processor → host: protocol violation (1 word).
     pub const ERROR: u32 = 0xE;
@@ -51,6 +53,8 @@ pub const RAY_HEADER_WORDS: usize = 8;
 pub const ENTRY_WORDS: usize = 2;
 /// Words of a ray result.
 pub const RESULT_WORDS: usize = 8;
+/// Words of a FRAME packet: header, box min xyz, box max xyz.
+pub const FRAME_WORDS: usize = 7;
 /// Largest list a request may carry: the RESULT word reports the winning position in 12 bits.
 /// (The 3D-DDA bound nx+ny+nz with at most 255 cells per axis is 765.)
 pub const MAX_LIST_ENTRIES: usize = 0x0FFF;
@@ -111,6 +115,20 @@ pub const fn ack_word(acked: u32, pe: u8) -> u32 {
 
 /// The CLEAR packet (a single word).
 pub const CLEAR_WORD: u32 = op::CLEAR << 28;
+
+/// The FRAME packet (SPEC §4.6): header, then the grid box's minimum and maximum corners
+/// (f32 bits); the control bit goes on the last word.
+pub fn frame_packet(min: [f32; 3], max: [f32; 3]) -> [u32; FRAME_WORDS] {
+    [
+        op::FRAME << 28,
+        min[0].to_bits(),
+        min[1].to_bits(),
+        min[2].to_bits(),
+        max[0].to_bits(),
+        max[1].to_bits(),
+        max[2].to_bits(),
+    ]
+}
 
 /// Writes the 8-word request header: header word, origin xyz, direction xyz, t_max.
 ///
@@ -246,6 +264,11 @@ pub enum FslError {
     SceneNotLoaded,
     /// A ray origin, direction or distance is NaN or infinite, or the direction is zero.
     NonFiniteRay,
+    /// A FRAME box has a non-finite corner or an axis with max < min.
+    BadFrame,
+    /// A LOAD_PE image holds primitives the co-processor's kernel does not test (analytic
+    /// primitives with the fixed-point RTL kernel).
+    Unsupported,
     /// An ERROR word from the co-processor carried an unknown code.
     UnknownError,
 }
@@ -265,6 +288,8 @@ impl FslError {
             Self::PeImageMalformed => 9,
             Self::SceneNotLoaded => 10,
             Self::NonFiniteRay => 11,
+            Self::BadFrame => 12,
+            Self::Unsupported => 13,
             Self::UnknownError => 0xFFF,
         }
     }
@@ -283,6 +308,8 @@ impl FslError {
             9 => Self::PeImageMalformed,
             10 => Self::SceneNotLoaded,
             11 => Self::NonFiniteRay,
+            12 => Self::BadFrame,
+            13 => Self::Unsupported,
             _ => Self::UnknownError,
         }
     }
@@ -313,6 +340,8 @@ impl FslError {
             Self::PeImageMalformed => "malformed PE memory image",
             Self::SceneNotLoaded => "no scene loaded",
             Self::NonFiniteRay => "ray has NaN/inf components or a zero direction",
+            Self::BadFrame => "FRAME box is not finite or inverted",
+            Self::Unsupported => "PE image holds primitives this co-processor does not test",
             Self::UnknownError => "unknown error code",
         }
     }
@@ -398,7 +427,7 @@ mod tests {
 
     #[test]
     fn error_codes_round_trip() {
-        for code in 1..=11 {
+        for code in 1..=13 {
             assert_eq!(FslError::from_code(code).code(), code);
         }
         assert_eq!(FslError::from_code(999), FslError::UnknownError);

@@ -18,6 +18,7 @@ pub mod math;
 pub mod msg;
 pub mod pixel;
 pub mod scene;
+pub mod splat;
 
 /// Version of the UART protocol (frame header byte 1). Bumped on any incompatible change.
 pub const PROTOCOL_VERSION: u8 = 1;

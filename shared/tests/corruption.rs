@@ -478,8 +478,11 @@ fn scene_bad_header_fields() {
     for (i, spec) in cases.iter().enumerate() {
         assert_eq!(err_of(spec), Err(SceneError::BadHeader), "case {i}");
     }
-    // Flags and the reserved bytes 62..64 are ignored (and outside the body CRC).
-    assert_eq!(err_of(&ImageSpec { flags: 0xFFFF, reserved: 0xBEEF, ..t() }), Ok(()));
+    // Flags other than POINTS (bit 0, §5.10) and the reserved bytes 62..64 are ignored (and
+    // outside the body CRC); POINTS announces a section this image lacks.
+    assert_eq!(err_of(&ImageSpec { flags: 0xFFFE, reserved: 0xBEEF, ..t() }), Ok(()));
+    let (r, _, s) = stream(&ImageSpec { flags: 0x0001, ..t() }.build());
+    assert_eq!((r, s.is_done(), s.finish()), (Ok(()), false, Err(SceneError::Truncated)));
 }
 
 #[test]

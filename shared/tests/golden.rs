@@ -447,7 +447,7 @@ fn msg_stat_key_table() {
     ];
     assert_eq!(keys, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]);
     assert_eq!(stat::STAGE_BASE, 0x40);
-    assert_eq!((stat::MODEL_INSTRUCTIONS, stat::LINK_WRAPPER_INSTRUCTIONS), (0x27, 0x28));
+    assert_eq!((stat::MODEL_INSTRUCTIONS, stat::LINK_WRAPPER_INSTRUCTIONS), (0x28, 0x29));
 }
 
 #[test]
@@ -857,9 +857,29 @@ fn fsl_error_worked_example() {
         assert_eq!(FslError::from_code(c), e);
         assert_eq!(e.to_word(0xBEEF), 0xE000_BEEF | ((c as u32) << 16));
     }
-    for c in [0u16, 12, 0x7FF, 0xFFFF] {
+    for c in [0u16, 14, 0x7FF, 0xFFFF] {
         assert_eq!(FslError::from_code(c), FslError::UnknownError);
     }
+}
+
+/// §4.5 codes added with FRAME (§4.6): 12 `BadFrame`, 13 `Unsupported`.
+#[test]
+fn fsl_error_codes_of_frame_and_unsupported_primitives() {
+    assert_eq!(FslError::BadFrame.to_word(4), 0xE00C_0004);
+    assert_eq!(FslError::Unsupported.to_word(2), 0xE00D_0002);
+    assert_eq!(FslError::from_word(0xE00C_0004), (FslError::BadFrame, 4));
+    assert_eq!(FslError::from_word(0xE00D_0002), (FslError::Unsupported, 2));
+}
+
+/// §4.6 FRAME worked example: the box (−1, 0, 0.5)..(1, 2, 4.5), its ACK `95000000`.
+#[test]
+fn fsl_frame_worked_example() {
+    assert_eq!(fsl::op::FRAME, 0x5);
+    assert_eq!(
+        fsl::frame_packet([-1.0, 0.0, 0.5], [1.0, 2.0, 4.5]),
+        [0x5000_0000, 0xBF80_0000, 0x0000_0000, 0x3F00_0000, 0x3F80_0000, 0x4000_0000, 0x4090_0000]
+    );
+    assert_eq!(fsl::ack_word(fsl::op::FRAME, 0), 0x9500_0000);
 }
 
 // ---------------------------------------------------------------- §5 scene image

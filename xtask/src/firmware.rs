@@ -132,9 +132,11 @@ impl BuildOpts {
             .join(if self.debug { "debug" } else { "release" })
             .join(self.bin.name());
         // Feature sets share one output path; keep a copy per variant so that several
-        // variants (e.g. the bootloaded app and the bootloader for a flash test) coexist.
+        // variants (e.g. the bootloaded app and the bootloader for a flash test, or the
+        // soft-core-only app next to the default one) coexist.
+        let extra: String = self.features.iter().map(|f| format!("+{f}")).collect();
         let variant = built.with_file_name(format!(
-            "{}-{}{}{}",
+            "{}-{}{}{}{extra}",
             self.bin.name(),
             match board {
                 Board::QemuVirt => "qemu-virt",
@@ -143,13 +145,8 @@ impl BuildOpts {
             if self.layout == Layout::Bootloaded && self.bin == Bin::App { "-bootloaded" } else { "" },
             if self.minimal { "-minimal" } else { "" },
         ));
-        let variant = if self.features.is_empty() {
-            std::fs::copy(&built, &variant)
-                .map_err(|e| anyhow::anyhow!("copying {} to {}: {e}", built.display(), variant.display()))?;
-            variant
-        } else {
-            built
-        };
+        std::fs::copy(&built, &variant)
+            .map_err(|e| anyhow::anyhow!("copying {} to {}: {e}", built.display(), variant.display()))?;
         Ok(variant)
     }
 }

@@ -1,4 +1,4 @@
-//! `cargo xtask setup`: run the install scripts in scripts/.
+//! `cargo xtask setup`: run the install scripts in scripts/ (toolchain, QEMU, HDL tools).
 
 use crate::toolchain::run_script;
 use anyhow::Result;
@@ -12,6 +12,9 @@ pub struct Cmd {
     /// Skip QEMU and socat.
     #[arg(long)]
     no_qemu: bool,
+    /// Skip the HDL tools (Verilator, Yosys, nextpnr-ecp5).
+    #[arg(long)]
+    no_hdl: bool,
 }
 
 impl Cmd {
@@ -19,6 +22,9 @@ impl Cmd {
         run_script("setup-riscv-toolchain.sh", self.debian.then_some("--debian"))?;
         if !self.no_qemu {
             run_script("setup-qemu.sh", None)?;
+        }
+        if !self.no_hdl {
+            run_script("setup-hdl.sh", None)?;
         }
         Ok(())
     }

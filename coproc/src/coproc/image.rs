@@ -21,6 +21,8 @@ pub(super) struct PeSlot {
     pub(super) tris: u32,
     /// Offset of the primitive records.
     pub(super) prim_off: u32,
+    /// Analytic primitives P.
+    pub(super) prims: u32,
 }
 
 /// Checks a PE image beyond `PeImage::parse`: voxel ids strictly increasing (so lookups can
@@ -57,6 +59,7 @@ pub(super) fn validate_image(words: &[u32]) -> Option<PeSlot> {
         hdr: u32::try_from(img.header_words()).ok()?,
         tris: u32::try_from(img.triangle_count()).ok()?,
         prim_off: u32::try_from(img.primitive_offset()).ok()?,
+        prims: u32::try_from(img.primitive_count()).ok()?,
     })
 }
 

@@ -4,7 +4,7 @@
 
 use heapless::{Deque, Vec as HVec};
 
-use gridrt_shared::fsl::{self, op, FslError, FslWord, ListEntry, RayKind, RAY_HEADER_WORDS};
+use gridrt_shared::fsl::{self, op, FslError, FslWord, ListEntry, RayKind, FRAME_WORDS, RAY_HEADER_WORDS};
 use gridrt_shared::math::{Ray, Vec3};
 
 use super::pes::Pes;
@@ -17,6 +17,23 @@ pub const CLEAR_ACK: u32 = fsl::ack_word(op::CLEAR, 0);
 /// Reply to a successful LOAD_PE of `pe` (SPEC §4.4: `0x910000pe`).
 pub const fn load_ack(pe: u8) -> u32 {
     fsl::ack_word(op::LOAD_PE, pe)
+}
+
+/// Reply to FRAME (SPEC §4.6: `0x95000000`).
+pub const FRAME_ACK: u32 = fsl::ack_word(op::FRAME, 0);
+
+/// The FRAME box checks (SPEC §4.6): `Err(index)` of the first non-finite word (1..=6), else
+/// of the maximum word of the first axis with max < min (4 + axis).
+pub(super) fn check_frame_box(min: [f32; 3], max: [f32; 3]) -> Result<(), u16> {
+    let words = [min[0], min[1], min[2], max[0], max[1], max[2]];
+    // Word indices 1..=6 of the packet (small constants: no overflow).
+    if let Some(i) = (1u16..).zip(words).find_map(|(i, c)| (!c.is_finite()).then_some(i)) {
+        return Err(i);
+    }
+    match (4u16..).zip(min.iter().zip(&max)).find_map(|(i, (lo, hi))| (hi < lo).then_some(i)) {
+        Some(i) => Err(i),
+        None => Ok(()),
+    }
 }
 
 /// Receiver state of the inbound word stream.
@@ -32,6 +49,8 @@ enum Rx {
     LoadWords { pe: u8, declared: u32, got: u32 },
     /// Receiving a ray request; `idx` is the index of the next word in the packet.
     Ray { kind: RayKind, count: u16, idx: u32 },
+    /// Receiving a FRAME packet; `idx` is the index of the next word (1..=6).
+    Frame { idx: u32 },
 }
 
 /// The link side of the model: receiver state, the ray packet being received, the output
@@ -39,6 +58,7 @@ enum Rx {
 pub(super) struct Link {
     rx: Rx,
     head: [u32; RAY_HEADER_WORDS],
+    frame: [u32; FRAME_WORDS],
     pending: u32,
     list: HVec<ListEntry, LIST_CAPACITY>,
     out: Deque<FslWord, OUT_QUEUE_WORDS>,
@@ -53,7 +73,14 @@ impl core::fmt::Debug for Link {
 impl Link {
     /// Idle, with empty queues.
     pub(super) fn new() -> Self {
-        Self { rx: Rx::Idle, head: [0; RAY_HEADER_WORDS], pending: 0, list: HVec::new(), out: Deque::new() }
+        Self {
+            rx: Rx::Idle,
+            head: [0; RAY_HEADER_WORDS],
+            frame: [0; FRAME_WORDS],
+            pending: 0,
+            list: HVec::new(),
+            out: Deque::new(),
+        }
     }
 
     /// True while a packet is partly received (or being discarded after an error).
@@ -93,6 +120,7 @@ impl Link {
             Rx::LoadCount { pe } => self.on_load_count(pes, pe, w),
             Rx::LoadWords { pe, declared, got } => self.on_load_word(pes, pe, declared, got, w),
             Rx::Ray { kind, count, idx } => self.on_ray_word(pes, kind, count, idx, w),
+            Rx::Frame { idx } => self.on_frame_word(pes, idx, w),
         };
     }
 
@@ -150,8 +178,41 @@ impl Link {
                 self.list.clear();
                 Rx::Ray { kind, count, idx: 1 }
             }
+            op::FRAME => {
+                if ctl {
+                    return self.fail(pes, FslError::PacketTooShort, 0, true);
+                }
+                Rx::Frame { idx: 1 }
+            }
             other => self.fail(pes, FslError::UnknownOpcode, other as u16, ctl),
         }
+    }
+
+    /// FRAME words 1..=6: the box; at word 6 the box checks, then framing, then the frame.
+    fn on_frame_word(&mut self, pes: &mut Pes<'_>, idx: u32, w: FslWord) -> Rx {
+        let ctl = w.control;
+        if let Some(slot) = self.frame.get_mut(idx as usize) {
+            *slot = w.data;
+        }
+        const LAST: u32 = FRAME_WORDS as u32 - 1;
+        let last = LAST;
+        if idx < last {
+            if ctl {
+                return self.fail(pes, FslError::PacketTooShort, idx as u16, true);
+            }
+            return Rx::Frame { idx: idx.saturating_add(1) };
+        }
+        let f = |i: usize| f32::from_bits(self.frame.get(i).copied().unwrap_or(0));
+        let (min, max) = ([f(1), f(2), f(3)], [f(4), f(5), f(6)]);
+        if let Err(detail) = check_frame_box(min, max) {
+            return self.fail(pes, FslError::BadFrame, detail, ctl);
+        }
+        if !ctl {
+            return self.fail(pes, FslError::MissingControl, last as u16, false);
+        }
+        pes.set_frame_box(min, max);
+        self.emit(pes, FRAME_ACK, true);
+        Rx::Idle
     }
 
     fn on_load_count(&mut self, pes: &mut Pes<'_>, pe: u8, w: FslWord) -> Rx {

@@ -9,6 +9,7 @@
 //! |---|---|---|
 //! | LOAD_PE | `load_header(pe)`, word count N, N image words | [`load_ack`]`(pe)` |
 //! | CLEAR | `CLEAR_WORD` | [`CLEAR_ACK`] |
+//! | FRAME | `frame_packet(min, max)` (7 words): the grid box, which sets the fixed-point frame and empties every PE | [`FRAME_ACK`] |
 //! | RAY_CLOSEST / RAY_ANY | `ray_request_head` (8), then 2 words per entry (`entry_words`) | 8 words of `RayResult::to_words` |
 //!
 //! The last word of every packet, and only it, carries the control bit; so does the last
@@ -34,6 +35,8 @@
 //! | PeImageMalformed | LOAD last word: `PeImage::parse` fails, voxel ids not strictly increasing, or a material > 65535 | the PE id |
 //! | SceneNotLoaded | ray header while no PE holds a loaded image | 0 |
 //! | NonFiniteRay | ray word 7 (origin/dir NaN/inf, dir zero, t_max NaN) or entry word 1 (t_exit NaN) | index of the offending word |
+//! | BadFrame | FRAME word 6: a non-finite box word, or an axis with max < min | that word's index (4 + axis for an inverted axis) |
+//! | Unsupported | LOAD last word, after the image checks: the kernel does not test the image's analytic primitives (watertight fixed64-q23) | the PE id |
 //!
 //! A LOAD that fails for any reason after its header named a valid PE leaves that PE empty.
 //!
@@ -89,7 +92,7 @@ use link::Link;
 use pes::Pes;
 use search::Numerics;
 
-pub use link::{load_ack, CLEAR_ACK};
+pub use link::{load_ack, CLEAR_ACK, FRAME_ACK};
 pub use search::T_EXIT_REL_TOL;
 pub use stats::{CoprocStats, TraceInfo};
 
@@ -167,6 +170,15 @@ impl<'m> Coprocessor<'m> {
     pub fn set_number_format(&mut self, format: NumberFormat, frame: FixedFrame) {
         self.pes.numerics = Numerics { format, frame };
         self.pes.clear();
+    }
+
+    /// The FRAME packet's effect (SPEC §4.6): the frame of the grid box `min..max` for the
+    /// number format in force, and every PE empty. `Err(BadFrame)` for a non-finite or
+    /// inverted box (then nothing changes).
+    pub fn set_frame_box(&mut self, min: [f32; 3], max: [f32; 3]) -> Result<(), FslError> {
+        link::check_frame_box(min, max).map_err(|_| FslError::BadFrame)?;
+        self.pes.set_frame_box(min, max);
+        Ok(())
     }
 
     /// Counters.

@@ -10,6 +10,7 @@ use super::search::{Numerics, View};
 use super::stats::CoprocStats;
 use crate::config::{ArbitrationRule, CoprocConfig};
 use crate::isect::{with_kernel, Kernel, RecordStatus};
+use crate::numeric::FixedFrame;
 use crate::timing::PeTimeline;
 
 /// The PE array: configuration, memories, image slots, clocks and counters (everything but
@@ -60,6 +61,9 @@ impl Pes<'_> {
         let image = span(self.mem, base, len).ok_or(FslError::PeMemoryOverflow)?;
         let slot = validate_image(image).ok_or(FslError::PeImageMalformed)?;
         with_kernel!(self.cfg.kernel, self.numerics.format, K => {
+            if !K::TESTS_PRIMITIVES && slot.prims > 0 {
+                return Err(FslError::Unsupported);
+            }
             if !K::USES_IMAGE {
                 self.build_records::<K>(base, &slot)?;
             }
@@ -94,10 +98,17 @@ impl Pes<'_> {
         let rec_base = base.saturating_add(rec_off);
         for i in 0..tris {
             let src = tri_base.saturating_add(i.saturating_mul(TRIANGLE_WORDS));
-            let tri = record(record_at(self.mem, src).ok_or(FslError::PeImageMalformed)?);
+            let words = record_at(self.mem, src).ok_or(FslError::PeImageMalformed)?;
+            let (tri, prim) = (record(words), words.get(9).copied().unwrap_or(0));
             let dst = rec_base.saturating_add(i.saturating_mul(K::RECORD_WORDS));
             let out = span_mut(self.mem, dst, K::RECORD_WORDS).ok_or(FslError::PeMemoryOverflow)?;
-            let counter = match K::precompute(&tri, &frame, out) {
+            let status = K::precompute(&tri, &frame, out);
+            if K::PRIM_IN_RECORD {
+                if let Some(last) = out.last_mut() {
+                    *last = prim;
+                }
+            }
+            let counter = match status {
                 RecordStatus::Ok => continue,
                 RecordStatus::Degenerate => &mut self.stats.degenerate_records,
                 RecordStatus::Overflow => &mut self.stats.overflow_records,
@@ -110,6 +121,15 @@ impl Pes<'_> {
     pub(super) fn clear(&mut self) {
         self.slots = [PeSlot::default(); MAX_PES];
         self.loaded_pes = 0;
+    }
+
+    /// FRAME: the frame of the box for the number format in force (`FixedFrame::for_box`;
+    /// the box passed `check_frame_box`), and every PE empty (records depend on the frame).
+    pub(super) fn set_frame_box(&mut self, min: [f32; 3], max: [f32; 3]) {
+        if let Some(frame) = FixedFrame::for_box(min, max, self.numerics.format) {
+            self.numerics.frame = frame;
+        }
+        self.clear();
     }
 
     /// The timed path: validation, functional search, PE timeline, statistics.
@@ -134,11 +154,10 @@ impl Pes<'_> {
         let mut result = view.result_of(list, found, ray);
 
         // Timeline (module doc of `timing`): pass 1 finds the completion time T of entries
-        // 0..=w, pass 2 charges the tests every entry had started by T.
-        let tests_of = |k: usize, e: &ListEntry| match found {
-            Some(f) if f.k == k => f.tests_in_entry,
-            _ => view.lookup(e.pe, e.voxel).map_or(0, |r| r.count),
-        };
+        // 0..=w, pass 2 charges the tests every entry had started by T. Every entry is
+        // scheduled with all its tests (a PE does not know a RAY_ANY hit before its result
+        // comes out); the winner is done when the result of its last needed test is known.
+        let count_of = |e: &ListEntry| view.lookup(e.pe, e.voxel).map_or(0, |r| r.count);
         let last = found.map_or(list.len(), |f| f.k.saturating_add(1));
         let profile = self.cfg.timing;
         for e in list {
@@ -150,7 +169,13 @@ impl Pes<'_> {
         {
             let mut tl = PeTimeline::new(&profile, &mut self.clocks);
             for (k, e) in list.iter().enumerate().take(last) {
-                end = end.max(tl.schedule(e.pe, tests_of(k, e)).done);
+                let n = count_of(e);
+                let at = tl.schedule(e.pe, n);
+                let done = match found {
+                    Some(f) if f.k == k && f.tests_in_entry < n => tl.done_after(at, f.tests_in_entry),
+                    _ => at.done,
+                };
+                end = end.max(done);
             }
         }
         for e in list {
@@ -161,8 +186,8 @@ impl Pes<'_> {
         let mut tests = 0u64;
         {
             let mut tl = PeTimeline::new(&profile, &mut self.clocks);
-            for (k, e) in list.iter().enumerate() {
-                let n = tests_of(k, e);
+            for e in list {
+                let n = count_of(e);
                 let at = tl.schedule(e.pe, n);
                 tests = tests.saturating_add(tl.started_before(at, n, end) as u64);
             }

@@ -51,6 +51,16 @@ pub(super) struct Found {
     pub(super) tests_in_entry: u32,
 }
 
+/// The RESULT normal's NaN is always `0x7FC00000` (SPEC §4.4), whatever NaN the platform's
+/// arithmetic made (x86 gives `0xFFC00000` for inf − inf).
+fn canonical_nan(x: f32) -> f32 {
+    if x.is_nan() {
+        f32::from_bits(0x7FC0_0000)
+    } else {
+        x
+    }
+}
+
 #[inline(always)]
 fn accept(t: f32, t_max: f32, hi: f32) -> bool {
     t > 0.0 && t < t_max && t <= hi
@@ -313,7 +323,7 @@ impl View<'_> {
                 prim: words[1],
                 material: words[2] as u16,
                 tests: 0,
-                normal: crate::isect::analytic::normal(words, ray, f.t),
+                normal: crate::isect::analytic::normal(words, ray, f.t).map(canonical_nan),
                 cycles: 0,
             };
         }
@@ -327,7 +337,7 @@ impl View<'_> {
             prim: words[9],
             material: words[10] as u16,
             tests: 0,
-            normal: [n.x, n.y, n.z],
+            normal: [n.x, n.y, n.z].map(canonical_nan),
             cycles: 0,
         }
     }

@@ -33,6 +33,13 @@ pub trait Kernel {
     /// True when the record is the 9 vertex words at the start of the scene image's triangle
     /// record, so no load-time table is needed.
     const USES_IMAGE: bool;
+    /// True when the record's last word is a copy of the triangle's prim id (written by the
+    /// co-processor at load, not by [`Kernel::precompute`]), so that one read of the record
+    /// serves a test, ties included (the RTL's layout).
+    const PRIM_IN_RECORD: bool = false;
+    /// False for a kernel that does not test the analytic primitives of the scene image: a
+    /// LOAD_PE image holding any is refused (`FslError::Unsupported`).
+    const TESTS_PRIMITIVES: bool = true;
     /// Operations of one full test (no early exit), for the cycle model.
     const OPS: OpCount;
     /// Per-ray data computed once by [`Kernel::prepare`].

@@ -64,6 +64,7 @@ pub mod moller_trumbore;
 pub mod wald;
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod watertight;
+pub mod watertight_q23;
 
 pub mod kernel;
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -78,7 +79,7 @@ use gridrt_shared::math::{Ray, Vec3};
 /// Runs `$body` with `$K` bound to the kernel type of (`$kind`, `$format`).
 macro_rules! with_kernel {
     ($kind:expr, $format:expr, $K:ident => $body:expr) => {{
-        use $crate::isect::{cramer, hanika_keller, moller_trumbore, wald, watertight, KernelKind};
+        use $crate::isect::{cramer, hanika_keller, moller_trumbore, wald, watertight, watertight_q23, KernelKind};
         use $crate::numeric::{NumberFormat, Q16, Q23};
         match ($kind, $format) {
             (KernelKind::Watertight, NumberFormat::F32) => {
@@ -86,7 +87,7 @@ macro_rules! with_kernel {
                 $body
             }
             (KernelKind::Watertight, NumberFormat::Fixed64Q23) => {
-                type $K = watertight::WatertightFx<Q23>;
+                type $K = watertight_q23::WatertightQ23;
                 $body
             }
             (KernelKind::Watertight, NumberFormat::Fixed32Q16) => {
@@ -302,7 +303,10 @@ mod tests {
             assert_eq!(is.intersect_tri(&parallel, &tri, f32::INFINITY), Ok(None), "{is:?} parallel");
             assert_eq!(is.intersect_tri(&towards, &degenerate, f32::INFINITY), Ok(None), "{is:?} degenerate");
             assert_eq!(is.intersect_tri(&outside, &tri, f32::INFINITY), Ok(None), "{is:?} outside");
-            assert_eq!(is.intersect_tri(&towards, &tri, 0.5), Ok(None), "{is:?} bound");
+            // The bound is only an early-out: a kernel rejects the hit at t = 1 or returns it
+            // for the caller's acceptance rule to reject (watertight fixed64-q23 has none).
+            let bounded = is.intersect_tri(&towards, &tri, 0.5);
+            assert!(matches!(bounded, Ok(None) | Ok(Some(1.0))), "{is:?} bound: {bounded:?}");
             let rec = is.precompute(&degenerate);
             if is.kind == KernelKind::Wald || is.kind == KernelKind::HanikaKeller {
                 assert_eq!(rec.status, RecordStatus::Degenerate, "{is:?}");
@@ -359,9 +363,11 @@ mod tests {
     fn fixed_point_overflow_is_reported_not_wrapped() {
         let tri = [v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
         for is in all().filter(|is| is.format.is_fixed()) {
-            // Just inside the format's range the hit is exact; beyond it, overflow.
-            let (inside, beyond) = match is.format {
-                NumberFormat::Fixed32Q16 => (1.0e4, 1.0e5),
+            // Just inside the format's range the hit is exact; beyond it, overflow. The RTL's
+            // watertight kernel takes origins within ±1024 frame units (here ±512 world).
+            let (inside, beyond) = match (is.kind, is.format) {
+                (_, NumberFormat::Fixed32Q16) => (1.0e4, 1.0e5),
+                (KernelKind::Watertight, _) => (500.0, 600.0),
                 _ => (1.0e5, 1.0e13),
             };
             let ok = Ray { origin: v(0.25, 0.25, -inside), dir: v(0.0, 0.0, 1.0) };
@@ -388,7 +394,13 @@ mod tests {
             assert_eq!(KernelKind::from_name(k.name()), Some(k));
             for f in NumberFormat::ALL {
                 let bytes = k.bytes_per_triangle(f);
-                let want = if matches!(k, KernelKind::Wald | KernelKind::HanikaKeller) { 40 } else { 36 };
+                // Projection records carry an axis word; the RTL's watertight fixed64-q23
+                // record a copy of the prim id.
+                let want = match (k, f) {
+                    (KernelKind::Wald | KernelKind::HanikaKeller, _) => 40,
+                    (KernelKind::Watertight, NumberFormat::Fixed64Q23) => 40,
+                    _ => 36,
+                };
                 assert_eq!(bytes, want, "{k:?} {f:?}");
                 assert!(k.record_words(f) <= MAX_RECORD_WORDS);
                 assert_eq!(k.uses_image(f), f == NumberFormat::F32 && want == 36);

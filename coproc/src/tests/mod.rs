@@ -1,6 +1,7 @@
 //! Crate tests: scene builders shared by the protocol, arbitration, timing and property tests.
 
 mod arbitration;
+mod frame;
 mod property;
 mod protocol;
 mod timing;

@@ -75,7 +75,7 @@ fn every_violation_is_answered_with_one_error_word_and_the_link_resynchronises()
     nan_tmax[7] = nan;
 
     let cases: Vec<(&str, Vec<FslWord>, FslError, u16)> = vec![
-        ("unknown opcode, one word", vec![FslWord::last(0x5000_0000)], FslError::UnknownOpcode, 5),
+        ("unknown opcode, one word", vec![FslWord::last(0x6000_0000)], FslError::UnknownOpcode, 6),
         ("unknown opcode, longer packet", framed(&[0x7000_0001, 1, 2]), FslError::UnknownOpcode, 7),
         ("control bit in the ray head", framed(&head(1)[..4]), FslError::PacketTooShort, 3),
         (

@@ -41,6 +41,11 @@ mod imp {
     /// The 69 451-triangle Stanford bunny needs 391 928 words per PE on a 4-PE grid
     /// (`bun_zipper_res4`: 8 139), so every test scene fits.
     pub const PE_MEM_WORDS: u32 = 1 << 19;
+    /// Points of a point cloud the app keeps for splat frames (SPEC.md §6), 64 B each with
+    /// their bucket node: 4 MiB of the stack.
+    pub const MAX_POINTS: usize = 1 << 16;
+    /// Words of the splat path's shape table (`TableConfig::DEVICE`: 320 KiB).
+    pub const TABLE_WORDS: usize = 81_920;
 
     /// QEMU `virt`'s SiFive test device: a write ends the emulation.
     const SIFIVE_TEST_BASE: usize = 0x0010_0000;

@@ -7,14 +7,22 @@ use super::fail::{Fail, Text, Trunc};
 use super::pipeline::{self, Renderer};
 use super::request::{self, Target};
 use super::scene::{SceneStore, Upload};
+#[cfg(feature = "splats")]
+use super::splat;
 use super::stats::{FrameStats, StageClock};
 use crate::fsl::FslLink;
 use crate::pixels::FrameTx;
+#[cfg(feature = "splats")]
+use crate::pixels::SpanEncoder;
+#[cfg(feature = "splats")]
+use crate::splat::SplatEngine;
 use crate::text::TextOut;
 use core::ops::ControlFlow;
 use embedded_io::Write;
 use gridrt_shared::frame::{FrameAccumulator, FrameError, Received, MAX_PAYLOAD};
-use gridrt_shared::msg::{feature, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, RenderRequest, SceneStatus};
+use gridrt_shared::msg::{
+    feature, render_flags, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, RenderRequest, SceneStatus,
+};
 
 /// Feature bits of this build.
 pub const fn compiled_features() -> u32 {
@@ -29,12 +37,17 @@ pub const fn compiled_features() -> u32 {
 
 /// Everything but the receive buffer (split so a received frame can borrow that buffer
 /// while the handler mutates the rest).
-struct Core<L, C, const N: usize> {
+struct Core<L, C, const N: usize, const P: usize, const T: usize> {
     render: Renderer<L, C>,
     info: DeviceInfo,
     tx: FrameTx,
     scene: SceneStore<N>,
     upload: Option<Upload>,
+    /// The point cloud, shape table and stage of `SPLATS` frames, and their span encoder.
+    #[cfg(feature = "splats")]
+    splat: SplatEngine<P, T>,
+    #[cfg(feature = "splats")]
+    splat_spans: SpanEncoder,
 }
 
 /// The device: feed it UART bytes, it answers through an [`embedded_io::Write`].
@@ -44,12 +57,23 @@ struct Core<L, C, const N: usize> {
 /// end message or `Error`, which would need the output that just failed). An answer outside
 /// a frame whose write failed is lost. Either way the host, which waits for every answer,
 /// times out and asks again.
-pub struct Device<L: FslLink, C: StageClock, const MAX_VOXELS: usize> {
+///
+/// `MAX_POINTS` and `TABLE_WORDS` size the splat path (SPEC.md §6): a device with either at
+/// 0 (the default) has none and does not advertise `feature::SPLATS`.
+pub struct Device<
+    L: FslLink,
+    C: StageClock,
+    const MAX_VOXELS: usize,
+    const MAX_POINTS: usize = 0,
+    const TABLE_WORDS: usize = 0,
+> {
     rx: FrameAccumulator,
-    core: Core<L, C, MAX_VOXELS>,
+    core: Core<L, C, MAX_VOXELS, MAX_POINTS, TABLE_WORDS>,
 }
 
-impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS> {
+impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize, const MAX_POINTS: usize, const TABLE_WORDS: usize>
+    Device<L, C, MAX_VOXELS, MAX_POINTS, TABLE_WORDS>
+{
     /// A device with no scene. `info` supplies firmware version, board, PE count and PE memory
     /// size (0 = unknown, not checked); protocol, max payload, voxel capacity (= MAX_VOXELS)
     /// and feature bits are filled in here.
@@ -58,7 +82,8 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
             protocol: gridrt_shared::PROTOCOL_VERSION as u16,
             max_payload: MAX_PAYLOAD as u16,
             voxel_capacity: u32::try_from(MAX_VOXELS).unwrap_or(u32::MAX),
-            features: compiled_features(),
+            features: compiled_features()
+                | if cfg!(feature = "splats") && MAX_POINTS > 0 && TABLE_WORDS > 0 { feature::SPLATS } else { 0 },
             ..info
         };
         Self {
@@ -69,6 +94,10 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
                 tx: FrameTx::new(),
                 scene: SceneStore::new(),
                 upload: None,
+                #[cfg(feature = "splats")]
+                splat: SplatEngine::new(),
+                #[cfg(feature = "splats")]
+                splat_spans: SpanEncoder::new(),
             },
         }
     }
@@ -136,7 +165,7 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize> Device<L, C, MAX_VOXELS
     }
 }
 
-impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
+impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize> Core<L, C, N, P, T> {
     fn send(&mut self, msg: &Msg<'_>, out: &mut impl Write) {
         // Fails on a write error (counted by `tx`, see `Device::write_errors`) or a firmware
         // bug (message larger than a frame): nothing to report either with.
@@ -217,7 +246,11 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
             return self.error(ErrorCode::BadOffset, expected, "scene chunk out of order", out);
         }
         let path = &mut self.render.path;
-        if let Err((e, failure)) = up.feed(data, &mut path.link, path.polls, &mut self.scene, &self.info) {
+        #[cfg(feature = "splats")]
+        let points: &mut dyn crate::splat::PointSink = &mut self.splat;
+        #[cfg(not(feature = "splats"))]
+        let points: &mut dyn crate::splat::PointSink = &mut crate::splat::NoPoints;
+        if let Err((e, failure)) = up.feed(data, &mut path.link, path.polls, &mut self.scene, points, &self.info) {
             self.upload = None;
             self.scene.loaded = false;
             let mut t = Text::new();
@@ -248,8 +281,29 @@ impl<L: FslLink, C: StageClock, const N: usize> Core<L, C, N> {
     /// and the end message (`FrameEnd` / `RegionEnd`), or one `Error` when it is refused or
     /// the frame fails.
     fn render(&mut self, req: &RenderRequest, target: Target, out: &mut impl Write) {
-        let result = request::job(self.scene.loaded, req, target)
-            .and_then(|job| self.render.frame(&self.scene, &mut self.tx, &job, out));
+        let splats = req.flags & render_flags::SPLATS != 0;
+        let result = request::job(self.scene.loaded, req, target).and_then(|job| {
+            if splats {
+                #[cfg(feature = "splats")]
+                return splat::render(
+                    &mut self.splat,
+                    &self.scene,
+                    self.render.clock(),
+                    &mut self.splat_spans,
+                    &mut self.tx,
+                    &job,
+                    out,
+                );
+                #[cfg(not(feature = "splats"))]
+                return Err(super::fail::Fail::Plain(
+                    ErrorCode::BadRequest,
+                    6,
+                    "this firmware was built without the splat path (feature `splats`)",
+                ));
+            } else {
+                self.render.frame(&self.scene, &mut self.tx, &job, out)
+            }
+        });
         let (spans, crc) = match result {
             Ok(v) => v,
             Err(f) => return self.abort(f, out),

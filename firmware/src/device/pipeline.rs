@@ -226,6 +226,12 @@ pub(super) struct Renderer<L, C> {
 }
 
 impl<L: FslLink, C: StageClock> Renderer<L, C> {
+    /// The stage clock (the splat path times its stages with it too).
+    #[cfg(feature = "splats")]
+    pub(super) fn clock(&self) -> &C {
+        &self.clock
+    }
+
     /// A renderer over `link`, timed by `clock`.
     pub(super) fn new(link: L, clock: C) -> Self {
         Self { path: RayPath::new(link), clock, spans: SpanEncoder::new(), row: [Sample::default(); MAX_INTERP_WIDTH] }

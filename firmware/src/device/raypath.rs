@@ -2,7 +2,8 @@
 //! (GridRT seed 004 §1.4 with the extended request of `shared::fsl`, SPEC.md §4): the walk
 //! writes the list entries straight into the request words (`dda::WalkGrid`), the head goes
 //! in front, and the request leaves as one packet (8 head words and 2 words per entry,
-//! control bit on the last); the 8 result words come back as one packet.
+//! control bit on the last); the 8 result words come back as one packet. A link that is the
+//! kernel itself (no co-processor, `FslLink::trace_direct`) answers without words.
 //! A ray whose list is empty sends nothing. Every wait is a bounded poll; a failed exchange
 //! drains stale answer words so the next request starts clean. Each ray's FSL words are
 //! charged to its class (primary, shadow, reflection) in [`FrameStats`].
@@ -12,7 +13,9 @@ use super::scene::SceneStore;
 use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
 use crate::dda::MAX_LIST;
 use crate::fsl::FslLink;
-use gridrt_shared::fsl::{self as wire, op, RayKind, RayResult, ENTRY_WORDS, RAY_HEADER_WORDS, RESULT_WORDS};
+use gridrt_shared::fsl::{
+    self as wire, op, FslError, ListEntry, RayKind, RayResult, ENTRY_WORDS, RAY_HEADER_WORDS, RESULT_WORDS,
+};
 use gridrt_shared::math::Ray;
 
 /// Default poll budget of every blocking FSL put/get (≈ 4 M polls: seconds on a 50 MHz
@@ -68,16 +71,25 @@ impl<L: FslLink> RayPath<L> {
         class: RayClass,
     ) -> Result<Option<RayResult>, Fail> {
         let map = scene.voxel_pe.get(..scene.voxels).unwrap_or(&[]);
-        let (head, entries) = self.request.split_at_mut(RAY_HEADER_WORDS);
+        let entries = self.request.get_mut(RAY_HEADER_WORDS..).unwrap_or(&mut []);
         let n = scene.walk.write_entries(map, ray, t_max, entries);
         sw.lap(clock, &mut self.stats, Stage::Traverse);
         if n == 0 {
             count(&mut self.stats.culled_rays, 1);
             return Ok(None);
         }
-        // n ≤ MAX_LIST (the walk stops at the buffer's end): the casts and sums are exact.
-        head.copy_from_slice(&wire::ray_request_head(kind, ray.origin.to_array(), ray.dir.to_array(), t_max, n as u16));
-        let r = self.exchange(RAY_HEADER_WORDS.wrapping_add(ENTRY_WORDS.wrapping_mul(n)), class);
+        let r = if L::DIRECT { self.trace_direct(kind, ray, t_max, n) } else { None };
+        let r = match r {
+            Some(answer) => self.direct(answer, n),
+            None => {
+                // n ≤ MAX_LIST (the walk stops at the buffer's end): the casts and sums are exact.
+                let head = wire::ray_request_head(kind, ray.origin.to_array(), ray.dir.to_array(), t_max, n as u16);
+                if let Some(h) = self.request.get_mut(..RAY_HEADER_WORDS) {
+                    h.copy_from_slice(&head);
+                }
+                self.exchange(RAY_HEADER_WORDS.wrapping_add(ENTRY_WORDS.wrapping_mul(n)), class)
+            }
+        };
         sw.lap(clock, &mut self.stats, Stage::FslIo);
         if r.is_err() {
             self.drain();
@@ -117,6 +129,30 @@ impl<L: FslLink> RayPath<L> {
         let r = RayResult::from_words(&words).map_err(|_| Fail::Word(words[0], "ray result"))?;
         count(&mut s.intersection_tests, r.tests as u64);
         count(&mut s.coproc_cycles, r.cycles as u64);
+        Ok(r)
+    }
+
+    /// A link that is the kernel itself ([`FslLink::DIRECT`]): the `n` entries the walk wrote,
+    /// decoded into a list for [`FslLink::trace_direct`].
+    fn trace_direct(&mut self, kind: RayKind, ray: &Ray, t_max: f32, n: usize) -> Option<Result<RayResult, FslError>> {
+        let mut list = [ListEntry { voxel: 0, pe: 0, t_exit: 0.0 }; MAX_LIST];
+        let words = self.request.get(RAY_HEADER_WORDS..).unwrap_or(&[]);
+        for (e, w) in list.iter_mut().zip(words.chunks_exact(ENTRY_WORDS)).take(n) {
+            if let [w0, w1] = *w {
+                *e = wire::entry_from_words(w0, w1);
+            }
+        }
+        self.link.trace_direct(kind, ray, t_max, list.get(..n).unwrap_or(&[]))
+    }
+
+    /// Counts a ray the link answered without the word stream, like [`exchange`](Self::exchange)
+    /// counts one it sent (no FSL words).
+    fn direct(&mut self, answer: Result<RayResult, FslError>, entries: usize) -> Result<RayResult, Fail> {
+        let r = answer.map_err(|e| Fail::Word(e.to_word(0), "ray result"))?;
+        count(&mut self.stats.coproc_rays, 1);
+        count(&mut self.stats.list_entries, entries as u64);
+        count(&mut self.stats.intersection_tests, r.tests as u64);
+        count(&mut self.stats.coproc_cycles, r.cycles as u64);
         Ok(r)
     }
 

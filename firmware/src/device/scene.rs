@@ -7,12 +7,14 @@
 use super::fail::Fail;
 use crate::dda::{GridDesc, WalkGrid, MAX_GRID_DIM};
 use crate::fsl::{FslLink, FslWord};
+use crate::splat::PointSink;
 use gridrt_shared::frame::Crc32Digest;
-use gridrt_shared::fsl::{self as wire, op};
+use gridrt_shared::fsl::{self as wire, op, FslError};
 use gridrt_shared::math::Vec3;
 use gridrt_shared::msg::DeviceInfo;
 use gridrt_shared::scene::{
-    LightingRecord, Material, MaterialModel, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream, EMPTY_VOXEL,
+    LightingRecord, Material, MaterialModel, ObjectRecord, PointRecord, PointsHead, SceneError, SceneHeader, SceneSink,
+    SceneStream, EMPTY_VOXEL,
 };
 
 /// Largest material table the device holds.
@@ -84,15 +86,17 @@ impl Upload {
         self.next >= self.total_len
     }
 
-    /// Feeds the chunk at [`next`](Self::next) through the scene parser into `store`, forwarding
-    /// PE blocks to the co-processor over `link`. On failure returns the scene error and,
-    /// when the link or the co-processor caused it, that failure.
+    /// Feeds the chunk at [`next`](Self::next) through the scene parser into `store` (the
+    /// point section into `points`), forwarding PE blocks to the co-processor over `link`. On
+    /// failure returns the scene error and, when the link or the co-processor caused it, that
+    /// failure.
     pub(super) fn feed<L: FslLink, const N: usize>(
         &mut self,
         data: &[u8],
         link: &mut L,
         polls: u32,
         store: &mut SceneStore<N>,
+        points: &mut dyn PointSink,
         info: &DeviceInfo,
     ) -> Result<(), (SceneError, Option<Fail>)> {
         let end = (self.next as u64).saturating_add(data.len() as u64);
@@ -102,7 +106,7 @@ impl Upload {
         self.digest.update(data);
         let total_len = self.total_len;
         let mut loader =
-            Loader { link, store, info, polls, total_len, words_left: &mut self.pe_words_left, failure: None };
+            Loader { link, store, points, info, polls, total_len, words_left: &mut self.pe_words_left, failure: None };
         match self.stream.feed(data, &mut loader) {
             Ok(()) => {
                 self.next = end as u32;
@@ -132,6 +136,7 @@ impl Upload {
 struct Loader<'a, L: FslLink, const N: usize> {
     link: &'a mut L,
     store: &'a mut SceneStore<N>,
+    points: &'a mut dyn PointSink,
     info: &'a DeviceInfo,
     polls: u32,
     total_len: u32,
@@ -164,6 +169,27 @@ impl<L: FslLink, const N: usize> Loader<'_, L, N> {
     }
 }
 
+impl<L: FslLink, const N: usize> Loader<'_, L, N> {
+    /// The answer to FRAME: ACK, or `UnknownOpcode` from a co-processor without a fixed-point
+    /// frame (SPEC §4.6: both work); anything else fails the load.
+    fn expect_frame_ack(&mut self) -> Result<(), SceneError> {
+        match self.link.get(self.polls) {
+            Ok(w) if wire::opcode(w.data) == op::ACK => Ok(()),
+            Ok(w) if FslError::from_word(w.data).0 == FslError::UnknownOpcode && wire::opcode(w.data) == op::ERROR => {
+                Ok(())
+            }
+            Ok(w) => {
+                self.failure = Some(Fail::Word(w.data, "FRAME"));
+                Err(SceneError::Rejected)
+            }
+            Err(e) => {
+                self.failure = Some(Fail::link(e, "FRAME"));
+                Err(SceneError::Rejected)
+            }
+        }
+    }
+}
+
 impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
     fn header(&mut self, h: &SceneHeader) -> Result<(), SceneError> {
         let dims = h.dims.map(u32::from);
@@ -190,9 +216,17 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
         self.store.material_model.clear();
         self.store.objects.clear();
         self.store.lighting = LightingRecord::default();
-        // The co-processor's old scene goes now: CLEAR, then one LOAD_PE per block.
+        self.points.clear();
+        // The co-processor's old scene goes now: CLEAR, FRAME (the grid box, from which a
+        // fixed-point co-processor takes its frame), then one LOAD_PE per block.
         self.put(FslWord::last(wire::CLEAR_WORD), "CLEAR")?;
-        self.expect_ack("CLEAR")
+        self.expect_ack("CLEAR")?;
+        let frame = wire::frame_packet(h.bounds_min, h.bounds_max);
+        let last = frame.len().saturating_sub(1);
+        for (i, &w) in frame.iter().enumerate() {
+            self.put(FslWord { data: w, control: i == last }, "FRAME")?;
+        }
+        self.expect_frame_ack()
     }
 
     fn voxel_map(&mut self, first: u32, owners: &[u8]) -> Result<(), SceneError> {
@@ -238,5 +272,13 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
             return Err(SceneError::BadPeBlock);
         }
         self.expect_ack("LOAD_PE")
+    }
+
+    fn points_begin(&mut self, head: &PointsHead) -> Result<(), SceneError> {
+        self.points.begin(head)
+    }
+
+    fn point(&mut self, _index: u32, p: PointRecord) -> Result<(), SceneError> {
+        self.points.push(&p)
     }
 }

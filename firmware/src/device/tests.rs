@@ -369,6 +369,25 @@ fn ray_missing_the_grid_costs_zero_fsl_words() {
 }
 
 #[test]
+fn a_link_that_answers_rays_directly_gets_no_ray_words_and_the_same_frame() {
+    let req = request(4, 3, render_flags::SHADOWS | render_flags::PRIM_IDS);
+    let mut over_fsl = loaded_device();
+    let fsl = rendered(&send(&mut over_fsl, &Msg::RenderRequest(req)), 4, 3);
+    let mut direct = loaded_device();
+    direct.link_mut().direct = true;
+    let words_after_load = direct.link().words_in;
+    let d = rendered(&send(&mut direct, &Msg::RenderRequest(req)), 4, 3);
+    assert_eq!(direct.link().words_in, words_after_load);
+    assert_eq!(direct.link().rays, over_fsl.link().rays);
+    assert_eq!((d.rgb, d.ids), (fsl.rgb, fsl.ids));
+    assert_eq!((d.stats[&stat::FSL_WORDS_OUT], d.stats[&stat::FSL_WORDS_IN]), (0, 0));
+    assert!(fsl.stats[&stat::FSL_WORDS_OUT] > 0);
+    for k in [stat::COPROC_RAYS, stat::LIST_ENTRIES, stat::INTERSECTION_TESTS, stat::COPROC_CYCLES, stat::CULLED_RAYS] {
+        assert_eq!(d.stats[&k], fsl.stats[&k], "stat {k}");
+    }
+}
+
+#[test]
 fn coproc_error_word_aborts_the_frame_with_an_error_message_then_device_recovers() {
     let mut dev = loaded_device();
     let word = FslError::VoxelNotLoaded.to_word(3);

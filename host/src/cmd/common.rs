@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use gridrt_coproc::{KernelKind, TimingProfile};
+use gridrt_coproc::{KernelKind, NumberFormat, TimingProfile};
 use gridrt_host::grid::PeMapping;
 use gridrt_host::scene::Scene;
 
@@ -92,17 +92,114 @@ impl From<Mapping> for PeMapping {
     }
 }
 
-/// Co-processor model choices (simulator and bench).
+/// Co-processor choices of the simulator (and the bench).
 #[derive(Debug, Clone, clap::Args)]
-#[command(next_help_heading = "Co-processor model")]
+#[command(next_help_heading = "Co-processor")]
 pub struct ModelOptions {
-    /// Intersection kernel every PE runs (f32; `gridrt bench accuracy` compares the
-    /// fixed-point formats).
-    #[arg(long, visible_alias = "isect", value_enum, default_value_t = Kernel::Watertight)]
-    pub kernel: Kernel,
-    /// Cycle model of the simulator (does not affect the image).
-    #[arg(long, value_enum, default_value_t = Timing::Gridrt)]
-    pub timing: Timing,
+    /// What computes in the simulator: the Rust model, or the RTL co-processor in Verilator
+    /// (built on first use by `cargo xtask rtl sim`; watertight in fixed64-q23, its own
+    /// cycles).
+    #[arg(long, value_enum, default_value_t = Coproc::Model)]
+    pub coproc: Coproc,
+    /// Intersection kernel every PE runs [default: watertight].
+    #[arg(long, visible_alias = "isect", value_enum)]
+    pub kernel: Option<Kernel>,
+    /// Number format of the kernel [default: f32; with --coproc rtl: fixed64-q23].
+    #[arg(long, value_enum)]
+    pub format: Option<Format>,
+    /// Cycle model of the simulator (does not affect the image) [default: gridrt; with
+    /// --coproc rtl: rtl, the RTL's measured cycles].
+    #[arg(long, value_enum)]
+    pub timing: Option<Timing>,
+}
+
+impl ModelOptions {
+    /// The simulated board: `pes` PEs of `pe_mem_words` words (default: the simulator's, or
+    /// the RTL build's 16 384), with the chosen co-processor. The RTL computes one pair,
+    /// watertight / fixed64-q23, with its own timing: asking it for another is an error.
+    pub fn sim_config(&self, pes: u16, pe_mem_words: Option<u32>) -> anyhow::Result<gridrt_loopback::SimConfig> {
+        let kernel = self.kernel.unwrap_or(Kernel::Watertight);
+        match self.coproc {
+            Coproc::Model => {
+                let d = gridrt_loopback::SimConfig::default();
+                Ok(gridrt_loopback::SimConfig {
+                    pe_count: pes,
+                    pe_mem_words: pe_mem_words.unwrap_or(d.pe_mem_words),
+                    timing: self.timing.unwrap_or(Timing::Gridrt).into(),
+                    kernel: kernel.into(),
+                    format: self.format.unwrap_or(Format::F32).into(),
+                    ..d
+                })
+            }
+            Coproc::Rtl => {
+                let rtl = gridrt_loopback::SimConfig::RTL;
+                let format = self.format.unwrap_or(Format::Fixed64Q23);
+                if KernelKind::from(kernel) != rtl.kernel || NumberFormat::from(format) != rtl.format {
+                    anyhow::bail!(
+                        "--coproc rtl computes {} / {}; use --coproc model for --kernel {} --format {}",
+                        rtl.kernel.name(),
+                        rtl.format.name(),
+                        KernelKind::from(kernel).name(),
+                        NumberFormat::from(format).name()
+                    );
+                }
+                if self.timing.is_some_and(|t| t != Timing::Rtl) {
+                    anyhow::bail!("--coproc rtl counts its own cycles: --timing rtl (or leave it out)");
+                }
+                Ok(gridrt_loopback::SimConfig {
+                    pe_count: pes,
+                    pe_mem_words: pe_mem_words.unwrap_or(rtl.pe_mem_words),
+                    ..rtl
+                })
+            }
+        }
+    }
+
+    /// Kernel, format and timing for the stats: what `config` computes with.
+    pub fn facts(config: &gridrt_loopback::SimConfig) -> gridrt_host::stats::CoprocFacts {
+        gridrt_host::stats::CoprocFacts {
+            coproc: match config.backend {
+                gridrt_loopback::Backend::Model => "model",
+                gridrt_loopback::Backend::Rtl => "rtl",
+            }
+            .to_string(),
+            kernel: config.kernel.name().to_string(),
+            format: config.format.name().to_string(),
+            timing: config.timing.name.to_string(),
+        }
+    }
+}
+
+/// Co-processors of the simulator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Coproc {
+    /// The Rust model (gridrt-coproc).
+    Model,
+    /// The RTL (rtl/hdl) in Verilator.
+    Rtl,
+}
+
+/// Number formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// IEEE-754 single precision.
+    F32,
+    /// Q8.23 fixed point in the scene's box, wide intermediates (the RTL's format).
+    #[value(name = "fixed64-q23")]
+    Fixed64Q23,
+    /// Q15.16 fixed point, 32-bit intermediates.
+    #[value(name = "fixed32-q16")]
+    Fixed32Q16,
+}
+
+impl From<Format> for NumberFormat {
+    fn from(f: Format) -> Self {
+        match f {
+            Format::F32 => NumberFormat::F32,
+            Format::Fixed64Q23 => NumberFormat::Fixed64Q23,
+            Format::Fixed32Q16 => NumberFormat::Fixed32Q16,
+        }
+    }
 }
 
 /// Intersection kernels.
@@ -135,10 +232,13 @@ impl From<Kernel> for KernelKind {
 /// Cycle models.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Timing {
-    /// GridRT's multi-cycle PE: 648 cycles per test at 50 MHz.
+    /// GridRT's multi-cycle PE at 50 MHz, charged at the running kernel's cycles per test
+    /// (watertight f32: 1188; GridRT's own program: 648).
     Gridrt,
     /// A pipelined PE.
     Pipelined,
+    /// The RTL co-processor's measured timeline (rtl/README.md §4.5).
+    Rtl,
 }
 
 impl From<Timing> for TimingProfile {
@@ -146,6 +246,7 @@ impl From<Timing> for TimingProfile {
         match t {
             Timing::Gridrt => TimingProfile::GRIDRT,
             Timing::Pipelined => TimingProfile::PIPELINED,
+            Timing::Rtl => TimingProfile::RTL,
         }
     }
 }

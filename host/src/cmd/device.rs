@@ -28,7 +28,7 @@ pub struct Cmd {
     /// Processing elements of the simulated co-processor.
     #[arg(long, default_value_t = 4, value_name = "N")]
     pes: u16,
-    /// Words of memory per PE [default: the simulator's 1048576].
+    /// Words of memory per PE [default: the simulator's 1048576; with --coproc rtl: 16384].
     #[arg(long, value_name = "W")]
     pe_mem_words: Option<u32>,
     #[clap(flatten)]
@@ -38,14 +38,8 @@ pub struct Cmd {
 impl Cmd {
     /// Runs the command.
     pub fn run(self) -> anyhow::Result<()> {
-        let defaults = gridrt_loopback::SimConfig::default();
-        let config = gridrt_loopback::SimConfig {
-            pe_count: self.pes,
-            pe_mem_words: self.pe_mem_words.unwrap_or(defaults.pe_mem_words),
-            timing: self.model.timing.into(),
-            kernel: self.model.kernel.into(),
-            ..defaults
-        };
+        let config = self.model.sim_config(self.pes, self.pe_mem_words)?;
+        gridrt_loopback::prepare(&config).map_err(anyhow::Error::msg)?;
         let port = serial::open(&self.port, self.baud, Duration::from_millis(200))?;
         eprintln!(
             "gridrt device: simulated board ({} PEs x {} words) on {}; Ctrl-C to stop",

@@ -2,11 +2,15 @@
 
 pub mod bench;
 pub mod bench_accuracy;
+pub mod bench_frame;
 pub mod bench_link;
+pub mod bench_rays;
 pub mod bench_skip;
+pub mod bench_splat;
 pub mod common;
 pub mod device;
 pub mod flash;
 pub mod ports;
 pub mod progress;
 pub mod render;
+mod render_points;

@@ -14,7 +14,7 @@ use gridrt_host::plan::{Interp, Plan};
 use gridrt_host::reference::{self, Reference, Stages};
 use gridrt_host::scene::Scene;
 use gridrt_host::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
-use gridrt_host::stats::{LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
+use gridrt_host::stats::{CoprocFacts, LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
 use gridrt_shared::msg::PixelEncoding;
 
 use super::common::{ModelOptions, PortOptions, SceneOptions};
@@ -32,17 +32,17 @@ const PORT_READ_TIMEOUT: Duration = Duration::from_millis(50);
 #[derive(Debug, clap::Parser)]
 pub struct Cmd {
     #[clap(flatten)]
-    port: PortOptions,
+    pub(super) port: PortOptions,
     #[clap(flatten)]
-    scene: SceneOptions,
+    pub(super) scene: SceneOptions,
     #[clap(flatten)]
-    model: ModelOptions,
+    pub(super) model: ModelOptions,
     /// Image width in pixels [default: the scene file's camera, else 320].
     #[arg(long, help_heading = "Frame")]
-    width: Option<u16>,
+    pub(super) width: Option<u16>,
     /// Image height in pixels [default: the scene file's camera, else 240].
     #[arg(long, help_heading = "Frame")]
-    height: Option<u16>,
+    pub(super) height: Option<u16>,
     /// Do not trace shadow rays.
     #[arg(long, help_heading = "Frame")]
     no_shadows: bool,
@@ -59,24 +59,45 @@ pub struct Cmd {
     /// Pixel encoding on the UART (SPEC.md §3.7.1): `rle` is lossless and several times
     /// smaller on typical frames, `rgb565` is lossy.
     #[arg(long, value_enum, default_value_t = Encoding::Rgb888, help_heading = "Link")]
-    encoding: Encoding,
+    pub(super) encoding: Encoding,
     /// Rows per request (0 = the whole frame on one board; about eight bands per board
     /// with several boards). Smaller bands cost less when a device resets.
     #[arg(long, default_value_t = 0, value_name = "ROWS", help_heading = "Link")]
-    band_rows: u16,
+    pub(super) band_rows: u16,
     /// Output PNG.
     #[arg(long, value_name = "PNG", help_heading = "Output")]
-    out: PathBuf,
+    pub(super) out: PathBuf,
     /// Write statistics as JSON here.
     #[arg(long, value_name = "JSON", help_heading = "Output")]
-    stats: Option<PathBuf>,
+    pub(super) stats: Option<PathBuf>,
     /// Also render with the f64 reference renderer and compare (asks the device for
     /// primitive ids too).
     #[arg(long, help_heading = "Output")]
-    reference: bool,
+    pub(super) reference: bool,
     /// Also write the reference image here (implies --reference).
     #[arg(long, value_name = "PNG", help_heading = "Output")]
-    reference_out: Option<PathBuf>,
+    pub(super) reference_out: Option<PathBuf>,
+    /// Render a mesh as a point cloud (seed 001 splats): its vertices with averaged normals
+    /// and radii from density. A PLY with vertices and no faces is a point cloud anyway.
+    #[arg(long, help_heading = "Point clouds")]
+    pub(super) points: bool,
+    /// How several boards share a point cloud: `rows` (bands of rows from a shared queue) or
+    /// `points` (sort-last: each board a random subset, composited by depth).
+    #[arg(long, value_enum, default_value_t = Split::Rows, help_heading = "Point clouds")]
+    pub(super) split: Split,
+    /// Depth-test splats per pixel (each splat's plane) instead of one Z per splat as in
+    /// seed 001.
+    #[arg(long, help_heading = "Point clouds")]
+    pub(super) pixel_depth: bool,
+}
+
+/// `--split` choices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Split {
+    /// Bands of rows.
+    Rows,
+    /// Random point subsets, composited by depth (sort-last).
+    Points,
 }
 
 /// `--encoding` choices.
@@ -109,42 +130,68 @@ impl Cmd {
                 std::fs::create_dir_all(dir).with_context(|| format!("creating output folder {}", dir.display()))?;
             }
         }
-        let mesh = self.scene.load()?;
+        let input = gridrt_host::points::load(&self.scene.scene, self.points)
+            .with_context(|| format!("loading scene {}", self.scene.scene.display()))?;
+        let mesh = match input {
+            gridrt_host::points::Input::Scene(s) => *s,
+            gridrt_host::points::Input::Cloud(cloud) => return self.run_cloud(cloud),
+        };
         if !self.port.port.is_empty() {
-            let mut ports = Vec::new();
-            for path in &self.port.port {
-                let port = serialport::new(path, self.port.baud)
-                    .timeout(PORT_READ_TIMEOUT)
-                    .open()
-                    .with_context(|| format!("opening serial port {path}"))?;
-                ports.push((port, path.clone()));
-            }
-            self.run_on(ports, mesh)
+            self.run_on(self.open_ports()?, mesh, None)
         } else {
-            let defaults = gridrt_loopback::SimConfig::default();
-            let config = gridrt_loopback::SimConfig {
-                pe_count: self.scene.pes,
-                pe_mem_words: self.scene.pe_mem_words.unwrap_or(defaults.pe_mem_words),
-                timing: self.model.timing.into(),
-                kernel: self.model.kernel.into(),
-                ..defaults
-            };
-            let n = self.port.sim_devices.unwrap_or(1);
-            let ports = (0..n)
-                .map(|i| {
-                    let mut port = gridrt_loopback::spawn(config);
-                    port.set_timeout(PORT_READ_TIMEOUT);
-                    if self.port.sim_paced {
-                        port.set_line_rate(Some(self.port.baud));
-                    }
-                    (port, if n == 1 { "sim".to_string() } else { format!("sim{i}") })
-                })
-                .collect();
-            self.run_on(ports, mesh)
+            let config = self.model.sim_config(self.scene.pes, self.scene.pe_mem_words)?;
+            if config.backend == gridrt_loopback::Backend::Rtl {
+                eprintln!("rtl        building or reusing the Verilator co-processor (cargo xtask rtl sim) …");
+            }
+            gridrt_loopback::prepare(&config).map_err(anyhow::Error::msg).context("the RTL co-processor")?;
+            self.run_on(self.sim_ports(config), mesh, Some(ModelOptions::facts(&config)))
         }
     }
 
-    fn run_on<T: Read + Write + Send>(&self, ports: Vec<(T, String)>, loaded: Scene) -> anyhow::Result<()> {
+    /// A point cloud: the same ports, the splat path (`render_points`).
+    fn run_cloud(&self, cloud: gridrt_host::points::PointCloud) -> anyhow::Result<()> {
+        if !self.port.port.is_empty() {
+            return self.run_points(self.open_ports()?, cloud);
+        }
+        let config = self.model.sim_config(self.scene.pes, self.scene.pe_mem_words)?;
+        gridrt_loopback::prepare(&config).map_err(anyhow::Error::msg).context("the RTL co-processor")?;
+        self.run_points(self.sim_ports(config), cloud)
+    }
+
+    /// The serial ports of `--port`, opened at `--baud`.
+    fn open_ports(&self) -> anyhow::Result<Vec<(Box<dyn serialport::SerialPort>, String)>> {
+        let mut ports = Vec::new();
+        for path in &self.port.port {
+            let port = serialport::new(path, self.port.baud)
+                .timeout(PORT_READ_TIMEOUT)
+                .open()
+                .with_context(|| format!("opening serial port {path}"))?;
+            ports.push((port, path.clone()));
+        }
+        Ok(ports)
+    }
+
+    /// `--sim-devices` simulated boards (one by default), paced at `--baud` with `--sim-paced`.
+    fn sim_ports(&self, config: gridrt_loopback::SimConfig) -> Vec<(gridrt_loopback::SimPort, String)> {
+        let n = self.port.sim_devices.unwrap_or(1);
+        (0..n)
+            .map(|i| {
+                let mut port = gridrt_loopback::spawn(config);
+                port.set_timeout(PORT_READ_TIMEOUT);
+                if self.port.sim_paced {
+                    port.set_line_rate(Some(self.port.baud));
+                }
+                (port, if n == 1 { "sim".to_string() } else { format!("sim{i}") })
+            })
+            .collect()
+    }
+
+    fn run_on<T: Read + Write + Send>(
+        &self,
+        ports: Vec<(T, String)>,
+        loaded: Scene,
+        coproc: Option<CoprocFacts>,
+    ) -> anyhow::Result<()> {
         let total_start = Instant::now();
         let mut sessions: Vec<Session<T>> = ports
             .into_iter()
@@ -271,6 +318,7 @@ impl Cmd {
             upload_ms,
         };
         let mut stats = RenderStats::new(&facts, &prepared.grid, &frame);
+        stats.coproc = coproc;
         stats.pipeline = Some(PipelineStats::new(&plan.names(), self.interp, &frame));
         let baud = self.port.baud;
         let modelled_link_s = if devices.is_empty() {
@@ -311,7 +359,7 @@ impl Cmd {
     }
 }
 
-fn write_png(path: &PathBuf, w: u16, h: u16, rgb: Vec<u8>) -> anyhow::Result<()> {
+pub(super) fn write_png(path: &PathBuf, w: u16, h: u16, rgb: Vec<u8>) -> anyhow::Result<()> {
     let img = image::RgbImage::from_raw(w as u32, h as u32, rgb).context("image buffer has the wrong size")?;
     img.save(path).with_context(|| format!("writing {}", path.display()))
 }

@@ -34,7 +34,7 @@ pub use mesh::{is_degenerate, Bounds, LoadStats, Mesh, Triangle, DEFAULT_MATERIA
 pub use mesh_file::load_mesh;
 pub use model::Scene;
 pub use obj::{load_obj, load_obj_bytes};
-pub use ply::{load_ply, load_ply_bytes};
+pub use ply::{load_ply, load_ply_bytes, load_ply_vertices, load_ply_vertices_bytes, PlyVertices};
 
 /// Why a scene could not be loaded: a mesh file's error or a scene file's.
 #[derive(Debug, thiserror::Error)]

@@ -52,6 +52,18 @@ impl Scalar {
     fn is_integer(self) -> bool {
         !matches!(self, Self::F32 | Self::F64)
     }
+    /// The value that means "full" for a colour of this type (1 for floats).
+    fn full_scale(self) -> f64 {
+        match self {
+            Self::U8 => 255.0,
+            Self::I8 => 127.0,
+            Self::U16 => 65535.0,
+            Self::I16 => 32767.0,
+            Self::U32 => u32::MAX as f64,
+            Self::I32 => i32::MAX as f64,
+            Self::F32 | Self::F64 => 1.0,
+        }
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -85,6 +97,63 @@ const MAX_FACE_VERTICES: u64 = 1024;
 
 /// Loads PLY data already in memory; `name` labels errors.
 pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError> {
+    let parsed = parse(name, bytes)?;
+    Mesh::from_triangles(name, parsed.tris, vec![DEFAULT_MATERIAL])
+}
+
+/// The vertices of a PLY file with their optional per-vertex attributes (found by property
+/// name): what a point cloud is made of.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PlyVertices {
+    /// `x y z`.
+    pub pos: Vec<[f32; 3]>,
+    /// `nx ny nz` (or `normal_x normal_y normal_z`), when the file has all three.
+    pub normal: Option<Vec<[f32; 3]>>,
+    /// `radius`, when present.
+    pub radius: Option<Vec<f32>>,
+    /// `red green blue` (or `r g b`, `diffuse_red …`) in [0, 1]: integer types are divided by
+    /// their largest value (255 for `uchar`), floats clamped.
+    pub colour: Option<Vec<[f32; 3]>>,
+    /// Faces the file declares (0 for a point cloud).
+    pub faces: u64,
+}
+
+/// Loads a PLY file's vertices and their attributes; faces are counted, not kept.
+pub fn load_ply_vertices(path: &Path) -> Result<PlyVertices, SceneLoadError> {
+    let bytes = read_file(path)?;
+    load_ply_vertices_bytes(path, &bytes)
+}
+
+/// [`load_ply_vertices`] of data already in memory; `name` labels errors.
+pub fn load_ply_vertices_bytes(name: &Path, bytes: &[u8]) -> Result<PlyVertices, SceneLoadError> {
+    let p = parse(name, bytes)?;
+    Ok(PlyVertices { pos: p.vertices, normal: p.normal, radius: p.radius, colour: p.colour, faces: p.faces })
+}
+
+/// Everything `parse` reads.
+struct Parsed {
+    vertices: Vec<[f32; 3]>,
+    normal: Option<Vec<[f32; 3]>>,
+    radius: Option<Vec<f32>>,
+    colour: Option<Vec<[f32; 3]>>,
+    tris: Vec<Triangle>,
+    faces: u64,
+}
+
+/// Index of the first scalar property named one of `names`.
+fn scalar_index(el: &Element, names: &[&str]) -> Option<usize> {
+    names.iter().find_map(|n| el.props.iter().position(|p| p.name == *n && matches!(p.kind, PropKind::Scalar(_))))
+}
+
+/// Indices of three scalar properties, if all are present under one of the name sets.
+fn triple_index(el: &Element, sets: &[[&str; 3]]) -> Option<[usize; 3]> {
+    sets.iter().find_map(|set| {
+        let [a, b, c] = set.map(|n| scalar_index(el, &[n]));
+        Some([a?, b?, c?])
+    })
+}
+
+fn parse(name: &Path, bytes: &[u8]) -> Result<Parsed, SceneLoadError> {
     let path = name.to_path_buf();
     let malformed = |at: Location, reason: String| SceneLoadError::Malformed { path: path.clone(), at, reason };
 
@@ -166,6 +235,19 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
         .map(|n| elements[vertex_el].props.iter().position(|p| p.name == *n && matches!(p.kind, PropKind::Scalar(_))))
         .collect::<Option<_>>()
         .ok_or_else(|| malformed(Location::File, "vertex element lacks scalar x, y and z".into()))?;
+    let vel = &elements[vertex_el];
+    let normal_idx = triple_index(vel, &[["nx", "ny", "nz"], ["normal_x", "normal_y", "normal_z"]]);
+    let radius_idx = scalar_index(vel, &["radius"]);
+    let colour_idx = triple_index(
+        vel,
+        &[["red", "green", "blue"], ["r", "g", "b"], ["diffuse_red", "diffuse_green", "diffuse_blue"]],
+    );
+    let colour_scale: [f64; 3] = colour_idx.map_or([1.0; 3], |ix| {
+        ix.map(|i| match vel.props[i].kind {
+            PropKind::Scalar(t) => t.full_scale(),
+            PropKind::List { .. } => 1.0,
+        })
+    });
     let face_el = elements.iter().position(|e| e.name == "face");
     let face_idx = match face_el {
         Some(f) => Some(
@@ -187,7 +269,11 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
         PlyFormat::BinaryBe => Box::new(BinarySource { bytes, pos, big_endian: true }),
     };
     let mut vertices: Vec<[f32; 3]> = Vec::new();
+    let mut normals: Vec<[f32; 3]> = Vec::new();
+    let mut radii: Vec<f32> = Vec::new();
+    let mut colours: Vec<[f32; 3]> = Vec::new();
     let mut tris: Vec<Triangle> = Vec::new();
+    let mut faces = 0u64;
     for (ei, el) in elements.iter().enumerate() {
         for k in 0..el.count {
             let loc = |src: &dyn ValueSource| {
@@ -203,6 +289,7 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
                 )
             };
             let mut xyz = [0.0f32; 3];
+            let (mut nrm, mut rad, mut rgb) = ([0.0f32; 3], 0.0f32, [0.0f32; 3]);
             let mut face: Vec<i64> = Vec::new();
             src.begin_record();
             let record_at = loc(src.as_ref());
@@ -215,6 +302,15 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
                         if ei == vertex_el {
                             if let Some(axis) = xyz_idx.iter().position(|&x| x == pi) {
                                 xyz[axis] = v as f32;
+                            }
+                            if let Some(axis) = normal_idx.and_then(|ix| ix.iter().position(|&x| x == pi)) {
+                                nrm[axis] = v as f32;
+                            }
+                            if radius_idx == Some(pi) {
+                                rad = v as f32;
+                            }
+                            if let Some(axis) = colour_idx.and_then(|ix| ix.iter().position(|&x| x == pi)) {
+                                rgb[axis] = (v / colour_scale[axis]).clamp(0.0, 1.0) as f32;
                             }
                         }
                     }
@@ -248,11 +344,24 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
             }
             src.end_record().map_err(|r| malformed(loc(src.as_ref()), r))?;
             if ei == vertex_el {
-                if xyz.iter().any(|c| !c.is_finite()) {
+                if xyz.iter().chain(nrm.iter()).any(|c| !c.is_finite())
+                    || !rad.is_finite()
+                    || rgb.iter().any(|c| c.is_nan())
+                {
                     return Err(SceneLoadError::NonFinite { path: path.clone(), at: record_at });
                 }
                 vertices.push(xyz);
+                if normal_idx.is_some() {
+                    normals.push(nrm);
+                }
+                if radius_idx.is_some() {
+                    radii.push(rad);
+                }
+                if colour_idx.is_some() {
+                    colours.push(rgb);
+                }
             } else if Some(ei) == face_el {
+                faces += 1;
                 if face.len() < 3 {
                     // Points and lines have no area: count them as dropped triangles.
                     tris.push(Triangle { v: [[0.0; 3]; 3], material: 0 });
@@ -275,7 +384,14 @@ pub fn load_ply_bytes(name: &Path, bytes: &[u8]) -> Result<Mesh, SceneLoadError>
             }
         }
     }
-    Mesh::from_triangles(name, tris, vec![DEFAULT_MATERIAL])
+    Ok(Parsed {
+        vertices,
+        normal: normal_idx.map(|_| normals),
+        radius: radius_idx.map(|_| radii),
+        colour: colour_idx.map(|_| colours),
+        tris,
+        faces,
+    })
 }
 
 /// Reads typed values from the PLY body in either encoding.

@@ -263,6 +263,18 @@ fn upload_recovers_from_a_lost_chunk_via_bad_offset() {
 }
 
 #[test]
+fn upload_ignores_a_late_no_scene_answer_to_an_earlier_render() {
+    // After a device reset the answers to render requests sent before it arrive during the
+    // re-upload; `NoScene` answers only renders, so it is not the upload's failure.
+    let mut s = session(Faults::default());
+    s.hello(&mut |_| {}).unwrap();
+    s.port_mut().emit(&Msg::Error { code: ErrorCode::NoScene, detail: 0, text: "no scene loaded" });
+    let image: Vec<u8> = (0..3000u32).map(|i| (i * 11) as u8).collect();
+    s.upload_scene(&image, &mut |_| {}).unwrap();
+    assert_eq!(s.port_mut().scene, image);
+}
+
+#[test]
 fn upload_recovers_when_the_last_chunk_is_lost() {
     // No later chunk provokes a BadOffset: the retransmit timer must resend.
     let mut s = session(Faults { drop_chunk_at: Some(2048), ..Default::default() });

@@ -171,6 +171,10 @@ impl<T: Read + Write> Session<T> {
                     self.link.device_resets += 1;
                     restart = true;
                 }
+                Some(Incoming::Error { code: ErrorCode::NoScene, .. }) => {
+                    // The device answers only render requests with `NoScene` (SPEC §3.12): this
+                    // is a late answer to one sent before the device reset, not to the upload.
+                }
                 Some(Incoming::Error { code, detail, text }) => return Err(self.device_err(stage, code, detail, text)),
                 Some(_) => {}
                 None => {

@@ -45,4 +45,7 @@ pub mod feature {
     pub const RGB565: u32 = 1 << 9;
     /// The device sends `Rle` spans.
     pub const RLE: u32 = 1 << 10;
+    /// Point clouds (SPEC.md §6): the device loads a scene image's point section and renders
+    /// [`render_flags::SPLATS`](crate::msg::render_flags::SPLATS) frames.
+    pub const SPLATS: u32 = 1 << 21;
 }

@@ -85,6 +85,14 @@ pub mod render_flags {
     pub const INTERP_EPS_SHIFT: u32 = 10;
     /// Mask of the EPS field.
     pub const INTERP_EPS_MASK: u16 = 0x1F << INTERP_EPS_SHIFT;
+    /// Render the scene's point section as splats (seed 001, SPEC.md §6) instead of tracing
+    /// rays. With it, [`PRIM_IDS`] asks for each pixel's depth instead of a primitive id, the
+    /// ray-stage bits (shadows, reflections, textures, specular) are ignored and the
+    /// interpolation step must be 0.
+    pub const SPLATS: u16 = 1 << 15;
+    /// With [`SPLATS`]: depth-test per pixel (each splat's plane) instead of one Z per splat
+    /// as in the seed. The bit is [`INTERP_ADAPTIVE`]'s, which means nothing for splats.
+    pub const SPLAT_PIXEL_DEPTH: u16 = 1 << 5;
 
     /// The interpolation bits for step `l` (0..=15) and threshold `eps` (0..=31).
     pub const fn interp(step: u8, eps: u8, adaptive: bool) -> u16 {

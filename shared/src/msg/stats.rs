@@ -38,12 +38,32 @@ pub mod stat {
     pub const FSL_WORDS_SHADOW: u8 = 0x25;
     /// FSL words (both directions) of reflection rays.
     pub const FSL_WORDS_REFLECTION: u8 = 0x26;
+    /// Rays the firmware keeps in flight in the co-processor (its ray-queue depth). Absent
+    /// or 0 means 1: one ray at a time, the soft-core waiting for every result.
+    pub const RAYS_IN_FLIGHT: u8 = 0x27;
     /// Instructions the stage counters exclude because a co-processor model ran them on the
     /// soft-core (emulated board; SPEC.md §3.8).
-    pub const MODEL_INSTRUCTIONS: u8 = 0x27;
+    pub const MODEL_INSTRUCTIONS: u8 = 0x28;
     /// Instructions of the emulated board's link wrapper around the model that the stage
     /// counters exclude (SPEC.md §3.8).
-    pub const LINK_WRAPPER_INSTRUCTIONS: u8 = 0x28;
+    pub const LINK_WRAPPER_INSTRUCTIONS: u8 = 0x29;
+    /// Splat frames (SPEC.md §6): points the code generator transformed.
+    pub const SPLAT_POINTS: u8 = 0x30;
+    /// Splat codewords sent to the splat stage (one per 8×8 tile).
+    pub const SPLAT_CODEWORDS: u8 = 0x31;
+    /// Points culled (behind the eye, off the region, edge-on, or too small to cover a pixel).
+    pub const SPLAT_CULLED: u8 = 0x32;
+    /// Points whose screen radius exceeded the shape table and was clamped to its largest size.
+    pub const SPLAT_CLAMPED: u8 = 0x33;
+    /// Command words (shift, load, ambient) sent to the splat stage.
+    pub const SPLAT_COMMANDS: u8 = 0x34;
+    /// Box pixels the splat stage depth-tested.
+    pub const SPLAT_FRAGMENTS: u8 = 0x35;
+    /// Instructions (`minstret`) of the code generator (transform, table lookup, codewords,
+    /// Y buckets): the key of stage 5 (`STAGE_BASE + 10`); its cycles are the next key.
+    pub const STAGE_SPLAT_CODEGEN: u8 = STAGE_BASE + 10;
+    /// Instructions of the splat stage (decode, depth test, stripe buffer): stage 6.
+    pub const STAGE_SPLAT_STAGE: u8 = STAGE_BASE + 12;
 }
 
 /// Bytes per stats entry: key u8, value u64.

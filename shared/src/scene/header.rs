@@ -16,7 +16,8 @@ pub struct SceneHeader {
     pub bounds_max: [f32; 3],
     /// Number of materials (each a colour record and a model record).
     pub material_count: u16,
-    /// Flags; none defined yet, written 0, ignored by readers.
+    /// Flags ([`scene_flags`](super::scene_flags)): bit 0 `POINTS` (a point section follows the PE
+    /// blocks); other bits written 0, ignored by readers.
     pub flags: u16,
     /// Primitives in the scene (triangles + analytic); global prim ids are below it.
     pub triangle_count: u32,

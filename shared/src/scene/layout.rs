@@ -68,6 +68,8 @@ pub enum SceneError {
     /// A record (material model, object, lighting, primitive) has an out-of-range enum or
     /// value.
     BadRecord,
+    /// The point section holds more points than this device can hold (SPEC.md §5.10).
+    TooManyPoints,
 }
 
 impl SceneError {
@@ -88,6 +90,7 @@ impl SceneError {
             Self::NonFinite => 12,
             Self::Rejected => 13,
             Self::BadRecord => 14,
+            Self::TooManyPoints => 15,
         }
     }
 
@@ -108,6 +111,7 @@ impl SceneError {
             Self::NonFinite => "NaN or infinite value in scene image",
             Self::Rejected => "scene piece rejected by the loader",
             Self::BadRecord => "scene record field out of range",
+            Self::TooManyPoints => "more points than the device can hold",
         }
     }
 }

@@ -3,6 +3,7 @@
 //! ```text
 //! header (64 B) ‖ voxel→PE map (nx·ny·nz B, padded to 4) ‖ material colours (16 B each)
 //! ‖ material models (96 B each) ‖ objects (64 B each) ‖ lighting (80 B) ‖ PE blocks
+//! [‖ point section (32 B head + 32 B per point), when the header has `scene_flags::POINTS`]
 //! ```
 //! A PE block is `pe u16 ‖ reserved u16 ‖ words u32 ‖ words × u32` where the words are the PE's
 //! memory image ([`PeImage`]), loaded verbatim over FSL with a LOAD_PE packet. A mesh-only
@@ -16,6 +17,7 @@
 //! | `lights` | [`LightingRecord`] |
 //! | `geometry` | triangle and analytic-primitive records, objects, affine maps |
 //! | `pe_image` | [`PeImage`], the PE memory image |
+//! | `points` | [`PointsHead`], [`PointRecord`]: the point section (flag [`scene_flags::POINTS`]) |
 //! | `stream` | [`SceneStream`], the streaming parser, and [`SceneSink`] |
 
 // Link-facing: every index and every sum on received values is checked (issue 9).
@@ -27,6 +29,7 @@ mod layout;
 mod lights;
 mod materials;
 mod pe_image;
+mod points;
 mod stream;
 
 pub use geometry::{
@@ -41,6 +44,7 @@ pub use layout::{
 pub use lights::{Falloff, LightingRecord};
 pub use materials::{DiffuseModel, Mapping, Material, MaterialModel, ReflectMode, SpecularModel, TextureKind};
 pub use pe_image::PeImage;
+pub use points::{scene_flags, PointRecord, PointsHead, POINTS_HEAD_LEN, POINT_LEN};
 pub use stream::{SceneSink, SceneStream};
 
 #[cfg(test)]

@@ -7,13 +7,15 @@ use super::header::SceneHeader;
 use super::layout::{SceneError, EMPTY_VOXEL, HEADER_LEN, LIGHTING_LEN, MATERIAL_LEN, MATERIAL_MODEL_LEN, OBJECT_LEN};
 use super::lights::LightingRecord;
 use super::materials::{Material, MaterialModel};
+use super::points::{scene_flags, PointRecord, PointsHead, POINTS_HEAD_LEN, POINT_LEN};
 use crate::bytes::Reader;
 use crate::frame::Crc32Digest;
 
 /// Receiver of a streamed scene image. Every call may refuse with an error, which aborts
 /// the stream. Calls arrive in this order: `header`, `voxel_map` (possibly in several pieces,
 /// padding excluded), `material` × count, `material_model` × count, `object` × count,
-/// `lighting`, then per PE `pe_begin`, `pe_word` × words, `pe_end`.
+/// `lighting`, then per PE `pe_begin`, `pe_word` × words, `pe_end`, and, when the header has
+/// [`scene_flags::POINTS`], `points_begin` and `point` × count.
 pub trait SceneSink {
     /// The validated header.
     fn header(&mut self, header: &SceneHeader) -> Result<(), SceneError>;
@@ -39,6 +41,14 @@ pub trait SceneSink {
     fn lighting(&mut self, _lighting: LightingRecord) -> Result<(), SceneError> {
         Ok(())
     }
+    /// The point section's head (after the last PE block; SPEC.md §5.10).
+    fn points_begin(&mut self, _head: &PointsHead) -> Result<(), SceneError> {
+        Ok(())
+    }
+    /// Point record `index`.
+    fn point(&mut self, _index: u32, _point: PointRecord) -> Result<(), SceneError> {
+        Ok(())
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -51,6 +61,8 @@ enum Stage {
     Lighting,
     PeBlockHead,
     PeWords,
+    PointsHead,
+    Points,
     Done,
     Failed,
 }
@@ -69,6 +81,7 @@ pub struct SceneStream {
     index: u32,
     next_pe: u16,
     words_left: u32,
+    points_left: u32,
     crc: Crc32Digest,
 }
 
@@ -90,6 +103,7 @@ impl SceneStream {
             index: 0,
             next_pe: 0,
             words_left: 0,
+            points_left: 0,
             crc: Crc32Digest::default(),
         }
     }
@@ -271,6 +285,33 @@ impl SceneStream {
                     }
                 }
             }
+            Stage::PointsHead => {
+                let h = self.header.ok_or(SceneError::BadHeader)?;
+                if self.stage_bytes(bytes, POINTS_HEAD_LEN) {
+                    let head = PointsHead::parse(self.staging.get(..POINTS_HEAD_LEN).unwrap_or(&[]))?;
+                    sink.points_begin(&head)?;
+                    self.staged = 0;
+                    self.index = 0;
+                    self.points_left = head.count;
+                    self.stage = Stage::Points;
+                    if head.count == 0 {
+                        self.finish_image(&h)?;
+                    }
+                }
+            }
+            Stage::Points => {
+                let h = self.header.ok_or(SceneError::BadHeader)?;
+                if self.stage_bytes(bytes, POINT_LEN) {
+                    let p = PointRecord::parse(self.staging.get(..POINT_LEN).unwrap_or(&[]), h.material_count)?;
+                    sink.point(self.index, p)?;
+                    self.staged = 0;
+                    self.index = self.index.saturating_add(1);
+                    self.points_left = self.points_left.saturating_sub(1);
+                    if self.points_left == 0 {
+                        self.finish_image(&h)?;
+                    }
+                }
+            }
             Stage::Done => return Err(SceneError::TrailingBytes),
             Stage::Failed => return Err(SceneError::Rejected),
         }
@@ -293,6 +334,15 @@ impl SceneStream {
             self.stage = Stage::PeBlockHead;
             return Ok(());
         }
+        if h.flags & scene_flags::POINTS != 0 {
+            self.stage = Stage::PointsHead;
+            return Ok(());
+        }
+        self.finish_image(h)
+    }
+
+    /// After the last section: the image must end here and its body CRC match.
+    fn finish_image(&mut self, h: &SceneHeader) -> Result<(), SceneError> {
         if self.offset != h.total_len {
             return Err(SceneError::BadHeader);
         }

@@ -7,6 +7,13 @@
 //! GRIDRT_SKIP_TOOLS=qemu,socat cargo test --workspace    # or GRIDRT_SKIP_TOOLS=all
 //! ```
 //!
+//! `verilator` is accepted too; the co-simulation tests (gridrt-rtl, `gridrt render --coproc
+//! rtl`) check it with `gridrt_rtl::sim::require_verilator`, the same rule:
+//!
+//! ```sh
+//! GRIDRT_SKIP_TOOLS=verilator cargo test --workspace
+//! ```
+//!
 //! A skipped test passes, so it says so where a user looks: one line per test on the real
 //! standard error (libtest captures only `print!`/`eprint!`, not direct writes), which shows
 //! in the `cargo test` output next to the test's `ok`. A test that runs says which tool
@@ -15,7 +22,7 @@
 use std::io::Write as _;
 use std::process::Command;
 
-/// Comma-separated tools whose tests are skipped (`qemu`, `socat`, or `all`).
+/// Comma-separated tools whose tests are skipped (`qemu`, `socat`, `verilator`, or `all`).
 pub const SKIP_VAR: &str = "GRIDRT_SKIP_TOOLS";
 
 /// Start of the line a test skipped by [`SKIP_VAR`] writes.
@@ -31,17 +38,20 @@ pub enum Tool {
     Qemu,
     /// `socat`: linked pseudo-terminal pairs.
     Socat,
+    /// `verilator`: the RTL co-simulation.
+    Verilator,
 }
 
 impl Tool {
     /// Every tool, in the order [`SKIP_VAR`] lists them.
-    pub const ALL: [Tool; 2] = [Tool::Qemu, Tool::Socat];
+    pub const ALL: [Tool; 3] = [Tool::Qemu, Tool::Socat, Tool::Verilator];
 
     /// The name [`SKIP_VAR`] uses.
     pub fn key(self) -> &'static str {
         match self {
             Tool::Qemu => "qemu",
             Tool::Socat => "socat",
+            Tool::Verilator => "verilator",
         }
     }
 
@@ -50,6 +60,7 @@ impl Tool {
         match self {
             Tool::Qemu => "qemu-system-riscv32",
             Tool::Socat => "socat",
+            Tool::Verilator => "verilator",
         }
     }
 
@@ -57,6 +68,15 @@ impl Tool {
         match self {
             Tool::Qemu => "--version",
             Tool::Socat => "-V",
+            Tool::Verilator => "--version",
+        }
+    }
+
+    /// The script that installs it.
+    pub fn install_script(self) -> &'static str {
+        match self {
+            Tool::Qemu | Tool::Socat => "scripts/setup-qemu.sh",
+            Tool::Verilator => "scripts/setup-hdl.sh",
         }
     }
 
@@ -112,9 +132,10 @@ pub fn require(test: &str, tool: Tool) -> bool {
             true
         }
         None => panic!(
-            "{test}: {} is not installed or does not run; install it with scripts/setup-qemu.sh, \
+            "{test}: {} is not installed or does not run; install it with {}, \
              or skip the tests that need it with {SKIP_VAR}={}",
             tool.program(),
+            tool.install_script(),
             tool.key()
         ),
     }
@@ -135,8 +156,9 @@ mod tests {
         assert_eq!(parse_skip_list(""), Ok(vec![]));
         assert_eq!(parse_skip_list("qemu"), Ok(vec![Tool::Qemu]));
         assert_eq!(parse_skip_list(" SOCAT , qemu,socat"), Ok(vec![Tool::Socat, Tool::Qemu]));
+        assert_eq!(parse_skip_list("verilator"), Ok(vec![Tool::Verilator]));
         assert_eq!(parse_skip_list("all"), Ok(Tool::ALL.to_vec()));
         let e = parse_skip_list("qemu,qemuu").unwrap_err();
-        assert!(e.contains("unknown tool `qemuu`") && e.contains("known: qemu, socat, all"), "{e}");
+        assert!(e.contains("unknown tool `qemuu`") && e.contains("known: qemu, socat, verilator, all"), "{e}");
     }
 }

@@ -4,7 +4,7 @@
 //!
 //! - `qemu_render_matches_loopback_riscv32imac` / `_riscv32imafc`: `cargo xtask firmware
 //!   --target T` builds the app (the co-processor model linked in as a virtual co-processor),
-//!   `cargo xtask qemu` boots it, and `gridrt render --port <pty>` of `bun_zipper_res4.obj`
+//!   QEMU boots it (`gridrt-qemu`, the launcher of `cargo xtask qemu`), and `gridrt render --port <pty>` of `bun_zipper_res4.obj`
 //!   must equal `gridrt render --sim` of the same scene and configuration, byte for byte, on
 //!   both targets: both sides run the same firmware and co-processor code in IEEE-754
 //!   binary32, which Rust never contracts into FMAs, so soft float (riscv32imac), hard float
@@ -15,7 +15,10 @@
 //!   (CRC of the original announced) and an image linked outside the application region are
 //!   refused with their reasons while the bootloader stays alive; then `gridrt flash` writes
 //!   the app built with `--layout bootloaded`, verifies and starts it, and the app renders.
-//!
+//! - `qemu_and_loopback_do_the_same_work_for_the_same_frame` (issue 10): through the runs of
+//!   `gridrt bench frame`, a 48×36 frame on the riscv32imafc image and on the loopback have
+//!   the same work counters (rays, list entries, FSL words, tests) and kernel-true cycles;
+//!   the soft-core-only image does the same rays and lists without FSL words.
 //! - `socat_pty_device_renders`: `gridrt device --port` serves the simulated board on one end
 //!   of a `socat` pty pair and `gridrt render --port` on the other end gets the same image as
 //!   `render --sim`.
@@ -23,11 +26,9 @@
 //! A missing `qemu-system-riscv32` or `socat` fails these tests; `GRIDRT_SKIP_TOOLS=qemu,socat`
 //! skips them and says so in the test output ([`gridrt_e2e::tools`]).
 
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
-use std::sync::mpsc;
-use std::sync::{Mutex, OnceLock};
+use std::process::{Child, Command, Output};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use gridrt_e2e::tools::{require, Tool};
@@ -63,13 +64,12 @@ fn check(out: Output, what: &str) -> String {
 /// Firmware builds share one cargo output path per binary: one at a time.
 static BUILD: Mutex<()> = Mutex::new(());
 
-/// `cargo xtask firmware ARGS`; returns the ELF path it prints.
+/// `cargo xtask firmware ARGS` (test profile, see [`cargo`]); returns the ELF path.
 fn build_firmware(args: &[&str]) -> PathBuf {
     let _guard = BUILD.lock().unwrap_or_else(|e| e.into_inner());
-    let out = cargo("run").args(["--package", "xtask", "--", "firmware", "--jobs", "2"]).args(args).output().unwrap();
-    let stdout = check(out, &format!("cargo xtask firmware {}", args.join(" ")));
-    let elf = stdout.lines().find_map(|l| l.strip_prefix("ELF: ")).expect("xtask prints the ELF path");
-    PathBuf::from(elf.trim())
+    let args: Vec<&str> = ["--jobs", "2"].iter().chain(args).copied().collect();
+    gridrt_qemu::build_firmware(&repo_root(), &["--quiet", "--profile", "test"], &args)
+        .unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The `gridrt` binary (built once, dev profile).
@@ -96,41 +96,20 @@ fn run_gridrt(args: &[&str]) -> String {
     check(out, &format!("gridrt {}", args.join(" ")))
 }
 
-/// A QEMU `virt` machine started by `cargo xtask qemu`, its UART on a pty.
+/// A QEMU `virt` machine (the launcher `cargo xtask qemu` uses), its UART on a held pty;
+/// stopped when dropped.
 struct Qemu {
-    child: Child,
+    _machine: gridrt_qemu::Machine,
     pty: String,
 }
 
 impl Qemu {
     fn boot(elf: &Path) -> Self {
-        let mut child = cargo("run")
-            .args(["--package", "xtask", "--", "qemu", "--timeout-s", "170", "--elf"])
-            .arg(elf)
-            .stdout(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let (tx, rx) = mpsc::channel();
-        let stdout = child.stdout.take().unwrap();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if let Some(p) = line.strip_prefix("serial: ") {
-                    let _ = tx.send(p.trim().to_string());
-                } else {
-                    eprintln!("qemu: {line}");
-                }
-            }
-        });
-        let pty = rx.recv_timeout(Duration::from_secs(60)).expect("cargo xtask qemu prints the pty within 60 s");
-        Self { child, pty }
-    }
-}
-
-impl Drop for Qemu {
-    fn drop(&mut self) {
-        // `cargo run` exec()s xtask, whose QEMU dies with it (PR_SET_PDEATHSIG).
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        let machine = gridrt_qemu::Launch::new(elf)
+            .boot(Arc::new(|_, line| eprintln!("qemu: {line}")))
+            .unwrap_or_else(|e| panic!("booting {}: {e}", elf.display()));
+        let pty = machine.pty().expect("QEMU names its pty").to_string();
+        Self { _machine: machine, pty }
     }
 }
 
@@ -263,6 +242,104 @@ fn qemu_render_matches_loopback_riscv32imac() {
 #[test]
 fn qemu_render_matches_loopback_riscv32imafc() {
     render_matches_loopback("qemu_render_matches_loopback_riscv32imafc", "riscv32imafc", 1.54);
+}
+
+/// Issue 10's must-show: a QEMU run and the loopback give the same work counters for the
+/// same frame (rays, list entries, FSL words, tests), through the runs `gridrt bench frame`
+/// uses, on a small frame. The soft-core-only image (no co-processor) does the same rays and
+/// lists without a single FSL word, and runs only the tests up to each winner.
+#[test]
+fn qemu_and_loopback_do_the_same_work_for_the_same_frame() {
+    use gridrt_coproc::TimingProfile;
+    use gridrt_host::frame_bench::{prepare, run_on_loopback, run_on_qemu, work_differences};
+    use gridrt_shared::msg::{stat, PixelEncoding};
+
+    let test = "qemu_and_loopback_do_the_same_work_for_the_same_frame";
+    if !require(test, Tool::Qemu) {
+        return;
+    }
+    let coproc = build_firmware(&["--target", "riscv32imafc", "--bin", "app"]);
+    let direct = build_firmware(&["--target", "riscv32imafc", "--bin", "app", "--features", "soft-core-only"]);
+    let (prepared, req, _) = prepare(Path::new(&scene()), 48, 36, PixelEncoding::Rle).unwrap();
+    let quiet = &mut |_| {};
+    let q = run_on_qemu(&coproc, &prepared, &req, "qemu", quiet).unwrap();
+    let s = run_on_loopback(TimingProfile::GRIDRT, &prepared, &req, "loopback", quiet).unwrap();
+    let work = |r: &gridrt_host::frame_bench::DeviceRun| {
+        [
+            stat::PRIMARY_RAYS,
+            stat::SHADOW_RAYS,
+            stat::COPROC_RAYS,
+            stat::LIST_ENTRIES,
+            stat::FSL_WORDS_OUT,
+            stat::FSL_WORDS_IN,
+            stat::INTERSECTION_TESTS,
+        ]
+        .map(|k| r.stat(k))
+    };
+    eprintln!(
+        "work (rays, shadow rays, co-processor rays, list entries, FSL words out/in, tests): QEMU {:?}, loopback {:?}",
+        work(&q),
+        work(&s)
+    );
+    assert!(work(&q).iter().all(|&v| v > 0), "a frame that exercises every counter: {:?}", work(&q));
+    assert_eq!(work_differences(&q, &s), vec![]);
+    assert_eq!(q.stat(stat::COPROC_CYCLES), s.stat(stat::COPROC_CYCLES), "kernel-true cycles on both sides");
+    assert_eq!(q.frame.rgb, s.frame.rgb);
+    assert!(q.wrapper_per_word.is_some_and(|k| k > 0), "the timed link announces its cost: {}", q.banner);
+
+    let d = run_on_qemu(&direct, &prepared, &req, "qemu soft-core-only", quiet).unwrap();
+    for k in [stat::PRIMARY_RAYS, stat::SHADOW_RAYS, stat::COPROC_RAYS, stat::CULLED_RAYS, stat::LIST_ENTRIES] {
+        assert_eq!(d.stat(k), s.stat(k), "{}", gridrt_host::stats::stat_name(k));
+    }
+    assert_eq!((d.stat(stat::FSL_WORDS_OUT), d.stat(stat::FSL_WORDS_IN)), (0, 0));
+    assert!(
+        d.stat(stat::INTERSECTION_TESTS) > 0 && d.stat(stat::INTERSECTION_TESTS) <= s.stat(stat::INTERSECTION_TESTS)
+    );
+    assert_eq!(d.frame.rgb, s.frame.rgb);
+    assert_eq!(d.wrapper_per_word, None);
+}
+
+/// Issue 15: the QEMU firmware renders a splat frame of a point cloud (seed 001's code
+/// generator and splat stage on the soft-core) byte-identical to `render --sim`, and reports
+/// its instructions per splat.
+#[test]
+fn qemu_splat_frame_matches_loopback_riscv32imac() {
+    let test = "qemu_splat_frame_matches_loopback_riscv32imac";
+    if !require(test, Tool::Qemu) {
+        return;
+    }
+    let elf = build_firmware(&["--target", "riscv32imac", "--bin", "app"]);
+    gridrt();
+    let dir = tempdir(test);
+    let cloud = gridrt_host::points::synthetic::torus_and_sphere(3000, 0x0E2E_0015);
+    let ply = dir.join("cloud.ply");
+    std::fs::write(&ply, gridrt_host::points::synthetic::write_ply(&cloud, true)).unwrap();
+    let qemu = Qemu::boot(&elf);
+    let p = |name: &str| dir.join(name).display().to_string();
+    let (q_png, q_json, s_png, s_json) = (p("q.png"), p("q.json"), p("s.png"), p("s.json"));
+    let ply_s = ply.display().to_string();
+    let common = ["--scene", &ply_s, "--width", "160", "--height", "120"];
+    let start = Instant::now();
+    let q = [&["render", "--port", &qemu.pty, "--timeout", "90", "--out", &q_png, "--stats", &q_json][..], &common]
+        .concat();
+    eprintln!("{}", run_gridrt(&q));
+    eprintln!("device splat render: {:.1} s", start.elapsed().as_secs_f64());
+    let s = [&["render", "--sim", "--out", &s_png, "--stats", &s_json][..], &common].concat();
+    run_gridrt(&s);
+    let (qi, si) = (read_rgb(&dir.join("q.png")), read_rgb(&dir.join("s.png")));
+    let cmp = compare(&qi, &si, None, None).unwrap();
+    assert!(cmp.identical, "QEMU splat frame differs from the simulator's: {cmp:?}");
+    let qs: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("q.json")).unwrap()).unwrap();
+    let ss: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("s.json")).unwrap()).unwrap();
+    for k in ["transformed", "codewords", "culled", "clamped", "fragments"] {
+        assert_eq!(qs["splat"][k], ss["splat"][k], "{k}");
+    }
+    let per_splat = qs["splat"]["instructions_per_splat"].as_f64().expect("QEMU counts instructions per splat");
+    assert!(
+        qs["splat"]["codegen_instructions"].as_u64().unwrap() > 0
+            && qs["splat"]["stage_instructions"].as_u64().unwrap() > 0
+    );
+    eprintln!("riscv32imac: {per_splat:.0} instructions per splat: {}", qs["splat"]);
 }
 
 #[test]

@@ -1,12 +1,14 @@
-//! Loopback simulator: the firmware's device loop and the co-processor model in one process.
+//! Loopback simulator: the firmware's device loop and the co-processor in one process.
 //!
 //! The host reaches the simulated board only through [`SimPort`], an in-memory byte stream
 //! with the same blocking/timeout behaviour as a serial port: the device thread sees UART
-//! bytes, the co-processor sees FSL words, and nothing else crosses.
+//! bytes, the co-processor sees FSL words, and nothing else crosses. The co-processor is the
+//! Rust model ([`Backend::Model`]) or the RTL in Verilator ([`Backend::Rtl`], a child process
+//! built by `cargo xtask rtl sim`).
 //!
 //! ```text
-//! host ──bytes──► SimPort ══channel══► device thread: Device<VirtualCoproc> ──FSL──► Coprocessor
-//!      ◄─bytes──         ◄═channel══                 (firmware logic)              (PE model)
+//! host ──bytes──► SimPort ══channel══► device thread: Device<SimLink> ──FSL──► Coprocessor model
+//!      ◄─bytes──         ◄═channel══                 (firmware logic)       or RTL (Verilator)
 //! ```
 
 use std::io;
@@ -16,77 +18,24 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use gridrt_coproc::{CoprocConfig, Coprocessor, KernelKind, TimingProfile};
 use gridrt_firmware::device::{Device, NoClock};
 use gridrt_firmware::embedded_io::{self, ErrorType};
-use gridrt_firmware::fsl::VirtualCoproc;
-use gridrt_shared::frame::MAX_PAYLOAD;
-use gridrt_shared::msg::DeviceInfo;
 
-/// Largest grid the simulated device accepts (voxels): 128³.
-pub const SIM_MAX_VOXELS: usize = 1 << 21;
+mod config;
+mod link;
 
-/// Board id the simulator reports in its Version message.
-pub const BOARD_LOOPBACK: u8 = 0;
+pub use config::{Backend, SimConfig, BOARD_LOOPBACK, SIM_MAX_VOXELS};
+pub use link::RtlLinkError;
+use link::SimLink;
 
-/// Configuration of the simulated board.
-#[derive(Debug, Clone, Copy)]
-pub struct SimConfig {
-    /// Processing elements of the co-processor.
-    pub pe_count: u16,
-    /// Memory per PE in 32-bit words.
-    pub pe_mem_words: u32,
-    /// Longest traversal list the co-processor accepts.
-    pub max_list: u16,
-    /// Cycle model.
-    pub timing: TimingProfile,
-    /// Intersection kernel run by every PE.
-    pub kernel: KernelKind,
-}
+/// Points the simulated device keeps for splat frames (SPEC.md §6): 64 B each.
+pub const SIM_MAX_POINTS: usize = 1 << 17;
 
-impl Default for SimConfig {
-    fn default() -> Self {
-        Self {
-            pe_count: 4,
-            pe_mem_words: 1 << 20,
-            max_list: 1024,
-            timing: TimingProfile::GRIDRT,
-            kernel: KernelKind::default(),
-        }
-    }
-}
+/// Words of the simulated device's splat shape table (`TableConfig::DEVICE`).
+pub const SIM_TABLE_WORDS: usize = 81_920;
 
-impl SimConfig {
-    /// The co-processor configuration for this board.
-    pub fn coproc(&self) -> CoprocConfig {
-        CoprocConfig {
-            pe_count: self.pe_count,
-            pe_mem_words: self.pe_mem_words,
-            max_list: self.max_list,
-            timing: self.timing,
-            kernel: self.kernel,
-        }
-    }
-
-    /// What the simulated device reports in its Version message.
-    pub fn device_info(&self) -> DeviceInfo {
-        let v = |s: &str| s.parse::<u8>().unwrap_or(0);
-        DeviceInfo {
-            protocol: gridrt_shared::PROTOCOL_VERSION as u16,
-            firmware: [
-                v(env!("CARGO_PKG_VERSION_MAJOR")),
-                v(env!("CARGO_PKG_VERSION_MINOR")),
-                v(env!("CARGO_PKG_VERSION_PATCH")),
-            ],
-            board: BOARD_LOOPBACK,
-            max_payload: MAX_PAYLOAD as u16,
-            pe_count: self.pe_count,
-            voxel_capacity: SIM_MAX_VOXELS as u32,
-            pe_mem_words: self.pe_mem_words,
-            features: 0,
-        }
-    }
-}
+/// The simulated device.
+type SimDevice<'a> = Device<SimLink<'a>, NoClock, SIM_MAX_VOXELS, SIM_MAX_POINTS, SIM_TABLE_WORDS>;
 
 /// What the host end sends to the device thread.
 enum Input {
@@ -132,20 +81,25 @@ impl embedded_io::Write for ChannelSink<'_> {
 /// memories), boots a fresh one and sends its banner (`Device::announce`).
 fn run_device(config: SimConfig, input: Receiver<Input>, output: Sender<(u32, Vec<u8>)>, reset: Arc<ResetState>) {
     let coproc_config = config.coproc();
-    let mut backing = vec![0u32; coproc_config.required_backing_words()];
+    let mut backing =
+        vec![0u32; if config.backend == Backend::Model { coproc_config.required_backing_words() } else { 0 }];
+    // The board cannot start without its co-processor: say so on the line, like firmware
+    // would, then stop.
+    let fail = |what: String| {
+        let _ = output.send((0, format!("loopback: {what}\n").into_bytes()));
+    };
+    let program = match link::rtl_program(&config) {
+        Ok(p) => p,
+        Err(e) => return fail(e),
+    };
     let mut booted_before = false;
     loop {
         backing.fill(0);
-        let model = match Coprocessor::new(coproc_config, &mut backing) {
-            Ok(m) => m,
-            Err(e) => {
-                // The board cannot start; report it on the line like firmware would, then stop.
-                let _ = output.send((0, format!("loopback: invalid co-processor configuration: {e:?}\n").into_bytes()));
-                return;
-            }
+        let link = match link::open(&config, &mut backing, program.as_deref()) {
+            Ok(l) => l,
+            Err(e) => return fail(e),
         };
-        let mut device: Box<Device<VirtualCoproc<'_>, NoClock, SIM_MAX_VOXELS>> =
-            Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
+        let mut device: Box<SimDevice<'_>> = Box::new(Device::new(link, NoClock, config.device_info()));
         reset.muted.store(false, Ordering::Release);
         let epoch = reset.count.load(Ordering::Acquire);
         let mut sink = ChannelSink { out: &output, muted: &reset.muted, epoch };
@@ -251,12 +205,12 @@ fn is_timeout(e: &io::Error) -> bool {
 pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfig) -> io::Result<()> {
     let run = move || -> io::Result<()> {
         let coproc_config = config.coproc();
-        let mut backing = vec![0u32; coproc_config.required_backing_words()];
-        let model = Coprocessor::new(coproc_config, &mut backing).map_err(|e| {
-            io::Error::new(io::ErrorKind::InvalidInput, format!("invalid co-processor configuration: {e:?}"))
-        })?;
-        let mut device: Box<Device<VirtualCoproc<'_>, NoClock, SIM_MAX_VOXELS>> =
-            Box::new(Device::new(VirtualCoproc { model }, NoClock, config.device_info()));
+        let words = if config.backend == Backend::Model { coproc_config.required_backing_words() } else { 0 };
+        let mut backing = vec![0u32; words];
+        let invalid = |e: String| io::Error::new(io::ErrorKind::InvalidInput, e);
+        let program = link::rtl_program(&config).map_err(invalid)?;
+        let link = link::open(&config, &mut backing, program.as_deref()).map_err(invalid)?;
+        let mut device: Box<SimDevice<'_>> = Box::new(Device::new(link, NoClock, config.device_info()));
         let mut buf = [0u8; 4096];
         loop {
             let n = match port.read(&mut buf) {
@@ -280,6 +234,13 @@ pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfi
             .join()
             .unwrap_or_else(|_| Err(io::Error::other("simulated device thread panicked")))
     })
+}
+
+/// Makes what `config` needs before a board starts: for [`Backend::Rtl`], the Verilator build
+/// (`cargo xtask rtl sim`, tens of seconds the first time, then cached). [`spawn`] does it
+/// too, but on the device thread, where a long build looks like a silent board to the host.
+pub fn prepare(config: &SimConfig) -> Result<(), String> {
+    link::rtl_program(config).map(|_| ())
 }
 
 /// Starts a simulated board in its own thread and returns the host's end of its UART.
@@ -545,6 +506,21 @@ mod reset_tests {
         let f = frames(&mut port, 1);
         assert!(matches!(Msg::decode(f[0].1, &f[0].2), Ok(Msg::Error { code: ErrorCode::NoScene, .. })), "{f:?}");
         assert_eq!(f[0].0, 1);
+    }
+
+    /// Issue 10 §3: the simulated PEs charge the kernel that runs, not GridRT's 648 cycles
+    /// for every kernel (docs/bench-accuracy.md, model cycles per test); a pipelined PE
+    /// issues a test per cycle whatever the kernel.
+    #[test]
+    fn simulated_pes_charge_the_running_kernels_cycles_per_test() {
+        use gridrt_coproc::{KernelKind, TimingProfile};
+        let issue =
+            |timing, kernel| SimConfig { timing, kernel, ..SimConfig::default() }.coproc().timing.test_issue_cycles;
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::Watertight), 1188);
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::Wald), 399);
+        assert_eq!(issue(TimingProfile::GRIDRT, KernelKind::MollerTrumbore), 675);
+        assert_eq!(issue(TimingProfile::PIPELINED, KernelKind::Watertight), 1);
+        assert_eq!(SimConfig::default().kernel, KernelKind::Watertight);
     }
 
     #[test]

@@ -4,7 +4,9 @@
 //! then [`serve`]: UART bytes in → `Device::feed` → frames out. The co-processor is
 //! - qemu-virt: the co-processor model linked in as a virtual co-processor, its PE memories
 //!   a static array in .bss (`board::PE_COUNT` × `board::PE_MEM_WORDS`), with the model's own
-//!   work excluded from the per-stage counters (`link::TimedLink`);
+//!   work excluded from the per-stage counters (`link::TimedLink`); with the feature
+//!   `soft-core-only` there is no co-processor: the firmware calls the model's intersection
+//!   code itself (`DirectKernel`) and every instruction of it is counted;
 //! - fpga-soc: the real one behind the AXI4-Stream FIFO.
 //!
 //! Stage counters come from `mcycle`/`minstret` (exact under QEMU's `-icount shift=0`).
@@ -86,23 +88,21 @@ fn main() -> ! {
 #[cfg(feature = "board-qemu-virt")]
 fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     use core::fmt::Write as _;
-    use gridrt_coproc::{CoprocConfig, Coprocessor, KernelKind, TimingProfile, LIST_CAPACITY};
-    use gridrt_firmware::device::Device;
-    use gridrt_firmware::fsl::VirtualCoproc;
-    use gridrt_firmware_image::link::{Excluded, ModelFreeClock, TimedLink};
+    use gridrt_coproc::{CoprocConfig, Coprocessor, KernelKind, NumberFormat, TimingProfile, LIST_CAPACITY};
 
     const WORDS: usize = board::PE_COUNT as usize * board::PE_MEM_WORDS as usize;
     /// The PE memories of the virtual co-processor (zeroed .bss).
     static mut PE_MEMORY: [u32; WORDS] = [0; WORDS];
 
     // The same model configuration as the loopback simulator's default (`render --sim`),
-    // so both render the same image.
+    // so both render the same image and report the same kernel-true cycles.
+    let kernel = KernelKind::default();
     let config = CoprocConfig {
         pe_count: board::PE_COUNT,
         pe_mem_words: board::PE_MEM_WORDS,
         max_list: LIST_CAPACITY as u16,
-        timing: TimingProfile::GRIDRT,
-        kernel: KernelKind::default(),
+        timing: TimingProfile::GRIDRT.for_kernel(kernel, NumberFormat::F32),
+        kernel,
     };
     // SAFETY: `run` is called once and never returns: this is the only reference ever made.
     let backing: &'static mut [u32] = unsafe { &mut *core::ptr::addr_of_mut!(PE_MEMORY) };
@@ -115,9 +115,21 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
             gridrt_firmware_image::halt()
         }
     };
+    serve_model(console, info, model)
+}
+
+/// The co-processor model linked in as a virtual co-processor; its own work and the wrapper
+/// that excludes it (calibrated at boot) are excluded from the stage counters and reported.
+#[cfg(all(feature = "board-qemu-virt", not(feature = "soft-core-only")))]
+fn serve_model(console: &mut board::Console, info: DeviceInfo, model: gridrt_coproc::Coprocessor<'static>) -> ! {
+    use gridrt_firmware::device::Device;
+    use gridrt_firmware::fsl::VirtualCoproc;
+    use gridrt_firmware_image::link::{Excluded, ModelFreeClock, TimedLink};
+
     let excluded = Excluded::new();
     excluded.calibrate(CsrCounters);
     let mut w = UartWriter(console);
+    w.put("co-processor: model behind the timed link, its work excluded from the stage counters\r\n");
     w.put("timed link: ");
     w.put_dec(u64::from(excluded.wrapper_per_call()));
     w.put(" instructions of the link wrapper per call into the co-processor model, excluded and reported (Stats)\r\n");
@@ -126,7 +138,24 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     let link = TimedLink::new(VirtualCoproc { model }, CsrCounters, &excluded);
     let clock = ModelFreeClock::new(CsrCounters, &excluded);
     // On the stack, which is most of RAM here (memory.x).
-    let mut device: Device<_, _, { board::MAX_VOXELS }> = Device::new(link, clock, info);
+    let mut device: Device<_, _, { board::MAX_VOXELS }, { board::MAX_POINTS }, { board::TABLE_WORDS }> =
+        Device::new(link, clock, info);
+    serve(&mut device, console)
+}
+
+/// No co-processor: the firmware calls the intersection code itself and every instruction
+/// of it is counted (`gridrt bench frame`'s soft-core-only configuration).
+#[cfg(all(feature = "board-qemu-virt", feature = "soft-core-only"))]
+fn serve_model(console: &mut board::Console, info: DeviceInfo, model: gridrt_coproc::Coprocessor<'static>) -> ! {
+    use gridrt_firmware::device::{CounterClock, Device};
+    use gridrt_firmware::fsl::DirectKernel;
+
+    UartWriter(console).put("co-processor: none, the soft-core intersects (counted in fsl_io)\r\n");
+    // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
+    let _ = console.write_all(&[0]);
+    let link = DirectKernel { model };
+    // On the stack, which is most of RAM here (memory.x).
+    let mut device: Device<_, _, { board::MAX_VOXELS }> = Device::new(link, CounterClock(CsrCounters), info);
     serve(&mut device, console)
 }
 

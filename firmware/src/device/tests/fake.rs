@@ -2,7 +2,8 @@
 //! model: it checks packet framing strictly and answers with canned results.
 
 use crate::fsl::{FslLink, FslWord};
-use gridrt_shared::fsl::{self as wire, entry_from_words, op, FslError, ListEntry, RayResult};
+use gridrt_shared::fsl::{self as wire, entry_from_words, op, FslError, ListEntry, RayKind, RayResult};
+use gridrt_shared::math::Ray;
 use std::collections::VecDeque;
 use std::vec::Vec;
 
@@ -16,6 +17,8 @@ pub(super) enum Mode {
     ErrorOnLoad(u32),
     /// Never answer ray packets (the device must time out).
     SilentOnRay,
+    /// Answer FRAME packets with this ERROR word (an older co-processor: `UnknownOpcode`).
+    ErrorOnFrame(u32),
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -31,10 +34,14 @@ pub(super) struct FakeCoproc {
     pub(super) mode: Mode,
     /// Answer of any-hit queries.
     pub(super) shadow_hit: bool,
+    /// Answer rays through `FslLink::trace_direct` instead of the word stream.
+    pub(super) direct: bool,
     packet: Vec<u32>,
     out: VecDeque<FslWord>,
     pub(super) words_in: usize,
     pub(super) clears: usize,
+    /// FRAME boxes received: min xyz, max xyz.
+    pub(super) frames: Vec<[f32; 6]>,
     pub(super) loads: Vec<(u8, Vec<u32>)>,
     pub(super) rays: Vec<RayReq>,
     pub(super) violations: Vec<&'static str>,
@@ -45,10 +52,12 @@ impl FakeCoproc {
         Self {
             mode: Mode::Normal,
             shadow_hit: false,
+            direct: false,
             packet: Vec::new(),
             out: VecDeque::new(),
             words_in: 0,
             clears: 0,
+            frames: Vec::new(),
             loads: Vec::new(),
             rays: Vec::new(),
             violations: Vec::new(),
@@ -71,6 +80,18 @@ impl FakeCoproc {
                 }
                 self.clears += 1;
                 self.answer(&[ack]);
+            }
+            op::FRAME => {
+                if p.len() != wire::FRAME_WORDS {
+                    self.violations.push("FRAME length");
+                    return self.answer(&[FslError::PacketTooShort.to_word(0)]);
+                }
+                let f = |i: usize| f32::from_bits(p[i]);
+                self.frames.push([f(1), f(2), f(3), f(4), f(5), f(6)]);
+                match self.mode {
+                    Mode::ErrorOnFrame(w) => self.answer(&[w]),
+                    _ => self.answer(&[wire::ack_word(op::FRAME, 0)]),
+                }
             }
             op::LOAD_PE => {
                 let count = p.get(1).copied().unwrap_or(u32::MAX) as usize;
@@ -97,29 +118,13 @@ impl FakeCoproc {
                     t_max: f(7),
                     list,
                 };
-                let first = req.list.first().copied();
-                let kind = req.kind;
+                let r = self.result_of(&req);
                 self.rays.push(req);
                 match self.mode {
                     Mode::ErrorOnRay(w) => return self.answer(&[w]),
                     Mode::SilentOnRay => return,
                     _ => {}
                 }
-                let hit = kind == op::RAY_CLOSEST || self.shadow_hit;
-                let r = match (hit, first) {
-                    (true, Some(e)) => RayResult {
-                        hit: true,
-                        pe: e.pe,
-                        list_pos: 0,
-                        t: e.t_exit * 0.95,
-                        prim: e.voxel + 100,
-                        material: (e.voxel % 2) as u16,
-                        tests: n as u16,
-                        normal: [0.0, 0.0, 2.0],
-                        cycles: 648 * n as u32,
-                    },
-                    _ => RayResult { tests: n as u16, cycles: 648 * n as u32, ..RayResult::MISS },
-                };
                 self.answer(&r.to_words());
             }
             _ => {
@@ -131,6 +136,29 @@ impl FakeCoproc {
 }
 
 const RAY_HEADER: usize = wire::RAY_HEADER_WORDS;
+
+impl FakeCoproc {
+    /// The canned answer: a closest-hit query (or an any-hit one when `shadow_hit`) hits in
+    /// the first entry, 648 cycles per entry.
+    fn result_of(&self, req: &RayReq) -> RayResult {
+        let n = req.list.len();
+        let hit = req.kind == op::RAY_CLOSEST || self.shadow_hit;
+        match (hit, req.list.first()) {
+            (true, Some(e)) => RayResult {
+                hit: true,
+                pe: e.pe,
+                list_pos: 0,
+                t: e.t_exit * 0.95,
+                prim: e.voxel + 100,
+                material: (e.voxel % 2) as u16,
+                tests: n as u16,
+                normal: [0.0, 0.0, 2.0],
+                cycles: 648 * n as u32,
+            },
+            _ => RayResult { tests: n as u16, cycles: 648 * n as u32, ..RayResult::MISS },
+        }
+    }
+}
 
 impl FslLink for FakeCoproc {
     type Error = core::convert::Infallible;
@@ -144,5 +172,30 @@ impl FslLink for FakeCoproc {
     }
     fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
         self.out.pop_front().ok_or(nb::Error::WouldBlock)
+    }
+    // May answer directly (`direct`); otherwise `trace_direct` declines and the words go out.
+    const DIRECT: bool = true;
+
+    /// With `direct` set, answers rays without words (the soft-core-only link's path).
+    fn trace_direct(
+        &mut self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+    ) -> Option<Result<RayResult, FslError>> {
+        if !self.direct {
+            return None;
+        }
+        let req = RayReq {
+            kind: kind.opcode(),
+            origin: ray.origin.to_array(),
+            dir: ray.dir.to_array(),
+            t_max,
+            list: list.to_vec(),
+        };
+        let r = self.result_of(&req);
+        self.rays.push(req);
+        Some(Ok(r))
     }
 }

@@ -20,6 +20,9 @@ fn scene_upload_clears_then_loads_every_pe_block_and_acks_every_chunk() {
     let fake = dev.link();
     assert_eq!(fake.clears, 1);
     assert!(fake.violations.is_empty(), "{:?}", fake.violations);
+    let h = SceneHeader::parse(&img).unwrap();
+    let b = (h.bounds_min, h.bounds_max);
+    assert_eq!(fake.frames, vec![[b.0[0], b.0[1], b.0[2], b.1[0], b.1[1], b.1[2]]], "FRAME: the header's grid box");
     assert_eq!(fake.loads.len(), 2);
     for (pe, (hdr, words)) in fake.loads.iter().enumerate() {
         assert_eq!(*hdr, wire::load_header(pe as u8) as u8);
@@ -115,4 +118,19 @@ fn coproc_error_on_load_rejects_the_scene() {
     let Msg::Error { text, .. } = r[0].msg() else { panic!() };
     assert!(text.contains("PE memory"), "{text}");
     assert!(!dev.scene_loaded());
+}
+
+/// FRAME after CLEAR: a co-processor without a fixed-point frame answers `UnknownOpcode` and
+/// the scene still loads (SPEC §4.6); any other answer rejects the scene.
+#[test]
+fn frame_refused_as_unknown_still_loads_other_errors_reject_the_scene() {
+    let img = scene_image([2, 2, 1], &materials());
+    for (word, loads) in [(FslError::UnknownOpcode.to_word(5), true), (FslError::BadFrame.to_word(4), false)] {
+        let mut dev = device();
+        dev.link_mut().mode = Mode::ErrorOnFrame(word);
+        let r = upload(&mut dev, &img, 64);
+        assert_eq!(dev.scene_loaded(), loads, "{word:08x}: {r:?}");
+        assert_eq!(dev.link().frames.len(), 1);
+        assert_eq!(dev.link().loads.len(), if loads { 2 } else { 0 }, "{word:08x}");
+    }
 }

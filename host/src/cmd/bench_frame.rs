@@ -1,0 +1,252 @@
+//! `gridrt bench frame`: the whole-frame time on the modelled board, per configuration ×
+//! soft-core target (model and measurements: [`gridrt_host::frame_bench`]).
+//!
+//! Builds the firmware images with `cargo xtask firmware` (run it from the repository),
+//! boots each on QEMU, renders the frame over its UART, renders it on the loopback simulator
+//! per co-processor profile and natively, checks every image against the f64 reference, and
+//! writes the rows as JSON (`--json`) and, with `--out DIR`, `frame.csv` and `frame.svg`.
+
+use std::path::PathBuf;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Context};
+use gridrt_host::frame_bench::{
+    run_bench, write_csv, write_svg, BenchEvent, BenchOptions, Configuration, CpuProfile, FrameReport, Target,
+};
+use gridrt_host::session::ProgressEvent;
+
+use super::render::Encoding;
+
+/// Arguments.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Scene file (.obj, .ply, or a .toml scene file).
+    #[arg(long, value_name = "PATH")]
+    scene: PathBuf,
+    /// Frame width.
+    #[arg(long, default_value_t = 320)]
+    width: u16,
+    /// Frame height.
+    #[arg(long, default_value_t = 240)]
+    height: u16,
+    /// Clock of the soft-core and the co-processor (one clock domain), MHz.
+    #[arg(long, default_value_t = 100.0, value_name = "MHZ")]
+    clock_mhz: f64,
+    /// Line rate of the UART (8N1).
+    #[arg(long, default_value_t = 921_600)]
+    baud: u32,
+    /// Pixel encoding of the answer.
+    #[arg(long, value_enum, default_value_t = Encoding::Rle)]
+    encoding: Encoding,
+    /// Write the report here (JSON).
+    #[arg(long, value_name = "JSON")]
+    json: PathBuf,
+    /// Also write frame.csv and frame.svg (stacked bars) here.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Configurations, in report order: soft-core-only, gridrt, pipelined, host-native.
+    #[arg(long, value_delimiter = ',', default_value = "soft-core-only,gridrt,pipelined,host-native")]
+    configs: Vec<String>,
+    /// Soft-core targets: riscv32imac, riscv32imafc.
+    #[arg(long, value_delimiter = ',', default_value = "riscv32imac,riscv32imafc")]
+    targets: Vec<String>,
+    /// Soft-core profile: picorv32 (CPI 4.1, documented) or cpi1 (one instruction per cycle).
+    #[arg(long, default_value = "picorv32", value_name = "NAME")]
+    cpu_profile: String,
+    /// Bytes the board's UART holds while the line drains them (16: the NS16550A / UART Lite
+    /// FIFO the firmware fills by polling).
+    #[arg(long, default_value_t = 16, value_name = "BYTES")]
+    tx_buffer: u64,
+    /// host-native: untimed frames before the timed ones.
+    #[arg(long, default_value_t = 1)]
+    native_warmup: u32,
+    /// host-native: timed frames (the best is reported).
+    #[arg(long, default_value_t = 3)]
+    native_runs: u32,
+    /// The gridrt repository (builds the firmware images with `cargo xtask firmware`).
+    #[arg(long, default_value = ".", value_name = "DIR")]
+    repo: PathBuf,
+}
+
+/// Prints steps as they start and, at most every 5 s, how far an upload or render is; a
+/// ticker thread says what is still running when nothing was printed for 10 s (a render on
+/// QEMU reports its rows only at the end), so a long run is never silent, with or without a
+/// terminal.
+struct Reporter {
+    started: Instant,
+    last: Instant,
+    /// What runs now.
+    current: String,
+    done: bool,
+}
+
+impl Reporter {
+    fn say(&mut self, line: &str) {
+        eprintln!("[{:6.1} s] {line}", self.started.elapsed().as_secs_f64());
+        self.last = Instant::now();
+    }
+
+    fn handle(&mut self, e: BenchEvent) {
+        match e {
+            BenchEvent::Step(s) => {
+                self.current = s.clone();
+                self.say(&s);
+            }
+            BenchEvent::Session { run, event } => {
+                let line = match event {
+                    ProgressEvent::UploadStarted { total } => Some(format!("{run}: uploading {total} B")),
+                    ProgressEvent::RenderStarted { width, height } => {
+                        Some(format!("{run}: rendering {width}×{height}"))
+                    }
+                    ProgressEvent::Uploaded { bytes, total } if self.last.elapsed() >= Duration::from_secs(5) => {
+                        Some(format!("{run}: uploaded {bytes} of {total} B"))
+                    }
+                    ProgressEvent::RowReceived { rows_done, .. } if self.last.elapsed() >= Duration::from_secs(5) => {
+                        Some(format!("{run}: {rows_done} rows received"))
+                    }
+                    ProgressEvent::Resend { region } => Some(format!("{run}: re-requesting {region:?}")),
+                    ProgressEvent::DeviceReset => Some(format!("{run}: device reset")),
+                    _ => None,
+                };
+                if let Some(l) = line {
+                    self.current = l.clone();
+                    self.say(&l);
+                }
+            }
+        }
+    }
+
+    /// Runs on its own thread until `done`: a line when nothing was said for 10 s.
+    fn tick(shared: &Mutex<Reporter>) {
+        loop {
+            std::thread::sleep(Duration::from_secs(1));
+            let mut r = shared.lock().unwrap_or_else(|e| e.into_inner());
+            if r.done {
+                return;
+            }
+            if r.last.elapsed() >= Duration::from_secs(10) {
+                let line = format!("{} (still running)", r.current);
+                r.say(&line);
+            }
+        }
+    }
+}
+
+impl Args {
+    /// Runs the bench.
+    pub fn run(self) -> anyhow::Result<()> {
+        let configs = self
+            .configs
+            .iter()
+            .map(|c| {
+                Configuration::parse(c).ok_or_else(|| {
+                    let known: Vec<_> = Configuration::ALL.iter().map(|c| c.name()).collect();
+                    anyhow!("unknown configuration `{c}` (known: {})", known.join(", "))
+                })
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let targets = self
+            .targets
+            .iter()
+            .map(|t| Target::parse(t).ok_or_else(|| anyhow!("unknown target `{t}` (known: riscv32imac, riscv32imafc)")))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let cpu = CpuProfile::parse(&self.cpu_profile).ok_or_else(|| {
+            let known: Vec<_> = CpuProfile::ALL.iter().map(|p| p.name).collect();
+            anyhow!("unknown soft-core profile `{}` (known: {})", self.cpu_profile, known.join(", "))
+        })?;
+        if !(self.clock_mhz > 0.0 && self.clock_mhz.is_finite()) || self.baud == 0 {
+            bail!("--clock-mhz and --baud must be positive");
+        }
+        if configs.iter().any(|c| c.on_soft_core()) && !self.repo.join("firmware/image/Cargo.toml").is_file() {
+            bail!(
+                "{} is not the gridrt repository: the soft-core configurations build their firmware with \
+                 `cargo xtask firmware` (run from the repository, or give --repo DIR)",
+                self.repo.display()
+            );
+        }
+        for path in std::iter::once(self.json.parent()).flatten().chain(self.out.as_deref()) {
+            if !path.as_os_str().is_empty() {
+                std::fs::create_dir_all(path).with_context(|| format!("creating {}", path.display()))?;
+            }
+        }
+        let opt = BenchOptions {
+            scene: self.scene.clone(),
+            width: self.width,
+            height: self.height,
+            clock_mhz: self.clock_mhz,
+            baud: self.baud,
+            encoding: self.encoding.into(),
+            tx_buffer_bytes: self.tx_buffer,
+            cpu,
+            configs,
+            targets,
+            native_warmup: self.native_warmup,
+            native_runs: self.native_runs,
+            repo: self.repo.clone(),
+        };
+        let reporter =
+            Mutex::new(Reporter { started: Instant::now(), last: Instant::now(), current: String::new(), done: false });
+        let lock = || reporter.lock().unwrap_or_else(|e| e.into_inner());
+        // The bench runs on this thread: QEMU dies with the thread that booted it.
+        let report = std::thread::scope(|s| {
+            s.spawn(|| Reporter::tick(&reporter));
+            let r = run_bench(&opt, &mut |e| lock().handle(e));
+            lock().done = true;
+            r
+        })?;
+        std::fs::write(&self.json, serde_json::to_string_pretty(&report)? + "\n")
+            .with_context(|| format!("writing {}", self.json.display()))?;
+        if let Some(dir) = &self.out {
+            write_csv(&dir.join("frame.csv"), &report)
+                .with_context(|| format!("writing {}/frame.csv", dir.display()))?;
+            write_svg(&dir.join("frame.svg"), &report)
+                .map_err(|e| anyhow!("writing {}/frame.svg: {e}", dir.display()))?;
+        }
+        print_table(&report);
+        let mut wrote = vec![self.json.display().to_string()];
+        if let Some(dir) = &self.out {
+            wrote.push(format!("{}/{{frame.csv, frame.svg}}", dir.display()));
+        }
+        println!("wrote {}", wrote.join(", "));
+        Ok(())
+    }
+}
+
+fn print_table(r: &FrameReport) {
+    println!(
+        "{} {}×{}, {} MHz, {} baud, {}, {} (CPI {}), upload {} B = {:.0} ms (not in the frame)",
+        r.scene,
+        r.width,
+        r.height,
+        r.clock_mhz,
+        r.baud,
+        r.encoding,
+        r.cpu_profile,
+        r.cpi,
+        r.upload_bytes.unwrap_or(0),
+        r.upload_ms.unwrap_or(0.0)
+    );
+    println!(
+        "{:<15} {:<13} {:>10} {:>10} {:>10} {:>9} {:>10} {:>8}  {:<10}",
+        "config", "target", "instr/ray", "cpu ms", "coproc ms", "link ms", "frame ms", "fps", "image"
+    );
+    for row in &r.rows {
+        let image = if row.identical {
+            "identical".to_string()
+        } else {
+            row.psnr_db.map_or_else(|| "?".into(), |p| format!("{p:.1} dB"))
+        };
+        println!(
+            "{:<15} {:<13} {:>10} {:>10.1} {:>10.1} {:>9.1} {:>10.1} {:>8.2}  {image}",
+            row.config,
+            row.target,
+            row.instructions_per_primary_ray.map_or_else(|| "-".into(), |v| format!("{v:.0}")),
+            row.cpu_ms,
+            row.coproc_ms,
+            row.link_ms,
+            row.frame_ms,
+            row.fps
+        );
+    }
+}

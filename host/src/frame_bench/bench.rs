@@ -1,0 +1,202 @@
+//! The bench itself: the frame, the reference, the runs, the cross-checks and the rows.
+
+use std::path::Path;
+
+use gridrt_coproc::TimingProfile;
+use gridrt_shared::msg::{stat, PixelEncoding, RenderRequest};
+
+use super::report::{self, FrameReport};
+use super::run::{self, run_native, run_on_loopback, run_on_qemu, work_differences, DeviceRun};
+use super::setup::{kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, FrameBenchError};
+use crate::compare::compare;
+use crate::grid::GridParams;
+use crate::pipeline::PreparedScene;
+use crate::plan::Plan;
+use crate::reference::{self, Reference, Stages};
+
+/// The scene prepared for the qemu-virt board's PEs, and the render request of the frame:
+/// the scene's view at `width`×`height`, the stages it needs (as `gridrt render` derives
+/// them), `encoding`.
+pub fn prepare(
+    scene: &Path,
+    width: u16,
+    height: u16,
+    encoding: PixelEncoding,
+) -> Result<(PreparedScene, RenderRequest, Plan), FrameBenchError> {
+    let loaded = crate::scene::load(scene)?;
+    let params =
+        GridParams { pe_count: run::QEMU_PE_COUNT, pe_mem_words: run::QEMU_PE_MEM_WORDS, ..GridParams::default() };
+    let prepared = PreparedScene::new(loaded, &params)?;
+    let plan = Plan::derive(&prepared.scene);
+    let settings = prepared.scene.settings.with_size(width, height).with_shadows(plan.shadows);
+    let mut req = settings.to_request(1);
+    req.flags |= plan.flags();
+    req.encoding = encoding;
+    Ok((prepared, req, plan))
+}
+
+/// Runs every configuration × target of `opt` (`frame_bench` module docs) and assembles the
+/// report.
+pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Result<FrameReport, FrameBenchError> {
+    let (prepared, req, plan) = prepare(&opt.scene, opt.width, opt.height, opt.encoding)?;
+    progress(BenchEvent::Step(format!(
+        "{}: {} triangles, grid {:?}, {} PEs; {}×{}, plan [{}]",
+        opt.scene.display(),
+        prepared.grid.triangle_count,
+        prepared.grid.dims,
+        prepared.grid.pe_count,
+        opt.width,
+        opt.height,
+        plan.names().join(", ")
+    )));
+
+    progress(BenchEvent::Step("f64 reference render".into()));
+    let start = std::time::Instant::now();
+    let settings = prepared.scene.settings.with_size(opt.width, opt.height).with_shadows(plan.shadows);
+    let stages = Stages {
+        shadows: plan.shadows,
+        reflections: plan.reflections,
+        textures: plan.textures,
+        specular: plan.specular,
+    };
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(2);
+    let reference =
+        reference::render(&Reference::new(&prepared.scene, &prepared.grid.bounds), &settings, stages, threads);
+    let reference_ms = start.elapsed().as_secs_f64() * 1e3;
+    let check = |rgb: &[u8]| compare(rgb, &reference.rgb, None, None);
+
+    // Co-processor cycles per profile, on the loopback.
+    let mut models: Vec<(Configuration, DeviceRun)> = Vec::new();
+    for &c in &opt.configs {
+        if let CoprocCycles::Model(profile) = c.coproc() {
+            models.push((c, run_on_loopback(profile, &prepared, &req, c.name(), progress)?));
+        }
+    }
+
+    let mut runs = Vec::new();
+    let wants = |c: Configuration| opt.configs.contains(&c);
+    let with_coproc = opt.configs.iter().any(|c| matches!(c.coproc(), CoprocCycles::Model(_)));
+    for &target in &opt.targets {
+        let mut variants: Vec<bool> = Vec::new();
+        if with_coproc {
+            variants.push(false);
+        }
+        if wants(Configuration::SoftCoreOnly) {
+            variants.push(true);
+        }
+        for direct in variants {
+            let extra: &[&str] = if direct { &["--features", "soft-core-only"] } else { &[] };
+            let label = format!("{} {}", target.name(), variant_name(direct));
+            progress(BenchEvent::Step(format!(
+                "{label}: cargo xtask firmware --target {} {}",
+                target.name(),
+                extra.join(" ")
+            )));
+            let mut args = vec!["--target", target.name(), "--jobs", "2"];
+            args.extend_from_slice(extra);
+            let elf = gridrt_qemu::build_firmware(&opt.repo, &["--quiet"], &args)
+                .map_err(|e| FrameBenchError::Build(e.to_string()))?;
+            let run = run_on_qemu(&elf, &prepared, &req, &label, progress)?;
+            runs.push((target, direct, run));
+        }
+    }
+    // The same frame, the same work: every QEMU run against the loopback with GridRT's
+    // profile (the configuration's run, or one for the check alone).
+    if !runs.is_empty() {
+        let checked;
+        let sim = match models.iter().find(|(c, _)| *c == Configuration::Gridrt) {
+            Some((_, r)) => r,
+            None => {
+                checked = run_on_loopback(TimingProfile::GRIDRT, &prepared, &req, "check", progress)?;
+                &checked
+            }
+        };
+        for (target, direct, run) in &runs {
+            check_same_work(&format!("{} {}", target.name(), variant_name(*direct)), run, sim, *direct)?;
+        }
+    }
+
+    let native = if wants(Configuration::HostNative) {
+        Some(run_native(&prepared, &req, opt.native_warmup, opt.native_runs, progress)?)
+    } else {
+        None
+    };
+
+    let mut rows = Vec::new();
+    for &c in &opt.configs {
+        match c.coproc() {
+            CoprocCycles::HostWall => {
+                if let Some(n) = &native {
+                    rows.push(report::native_row(n, &check(&n.frame.rgb)?));
+                }
+            }
+            cycles => {
+                for &target in &opt.targets {
+                    let direct = c == Configuration::SoftCoreOnly;
+                    let Some((_, _, run)) = runs.iter().find(|(t, d, _)| *t == target && *d == direct) else {
+                        continue;
+                    };
+                    let model = match cycles {
+                        CoprocCycles::Model(p) => models.iter().find(|(m, _)| *m == c).map(|(_, r)| (p, r)),
+                        _ => None,
+                    };
+                    rows.push(report::device_row(c, target, run, model, &check(&run.frame.rgb)?, opt));
+                }
+            }
+        }
+    }
+    // The loopback's upload has no resends (QEMU's slow UART makes some): the scene's wire bytes.
+    let upload_bytes = models.first().map(|m| m.1.upload_bytes).or(runs.first().map(|r| r.2.upload_bytes));
+    let (kind, format) = kernel();
+    Ok(FrameReport {
+        scene: opt.scene.display().to_string(),
+        width: opt.width,
+        height: opt.height,
+        clock_mhz: opt.clock_mhz,
+        baud: opt.baud,
+        encoding: format!("{:?}", opt.encoding).to_lowercase(),
+        kernel: format!("{kind:?}").to_lowercase(),
+        number_format: format!("{format:?}").to_lowercase(),
+        triangles: prepared.grid.triangle_count,
+        grid: prepared.grid.dims,
+        pe_count: prepared.grid.pe_count,
+        plan: plan.names().iter().map(|s| s.to_string()).collect(),
+        tx_buffer_bytes: opt.tx_buffer_bytes,
+        cpu_profile: opt.cpu.name.to_string(),
+        cpi: opt.cpu.cpi,
+        cpi_citation: opt.cpu.citation.to_string(),
+        upload_bytes,
+        upload_ms: upload_bytes.map(|b| b as f64 * 10.0 / opt.baud.max(1) as f64 * 1e3),
+        reference_ms,
+        qemu: gridrt_qemu::version(),
+        rows,
+    })
+}
+
+/// The image of a soft-core run: with the co-processor model, or soft-core-only.
+fn variant_name(direct: bool) -> &'static str {
+    if direct {
+        "soft-core-only"
+    } else {
+        "co-processor"
+    }
+}
+
+/// Fails unless the QEMU run `run` did the work of the loopback run `sim` (GridRT's profile)
+/// for the same frame: the same work counters, cycles and image; a soft-core-only run sends
+/// no FSL words and runs its own tests (up to each winner), so those are not compared.
+fn check_same_work(label: &str, run: &DeviceRun, sim: &DeviceRun, direct: bool) -> Result<(), FrameBenchError> {
+    let mut diff = work_differences(run, sim);
+    if direct {
+        diff.retain(|(k, _, _)| !k.starts_with("fsl_words") && k != "intersection_tests");
+    } else if run.stat(stat::COPROC_CYCLES) != sim.stat(stat::COPROC_CYCLES) {
+        diff.push(("coproc_cycles".into(), run.stat(stat::COPROC_CYCLES), sim.stat(stat::COPROC_CYCLES)));
+    }
+    let images = if run.frame.rgb == sim.frame.rgb { "" } else { " (and the images differ)" };
+    if diff.is_empty() && images.is_empty() {
+        return Ok(());
+    }
+    Err(FrameBenchError::Mismatch(format!(
+        "{label} on QEMU and the loopback did different work for the same frame: {diff:?}{images}"
+    )))
+}

@@ -1,0 +1,52 @@
+//! `gridrt bench frame`: the whole-frame time on the modelled board (soft-core,
+//! co-processor and UART link, with what overlaps), per configuration and soft-core target,
+//! with every image checked against the f64 reference.
+//!
+//! # What is measured, what is modelled
+//! - **Instructions** (measured): each firmware image boots on QEMU `virt` with
+//!   `-icount shift=0` and renders the frame over its UART; the device's per-stage
+//!   `minstret` counters (raygen, traverse, FSL I/O, shade, encode) are the counts. On
+//!   qemu-virt the co-processor model runs on the same hart behind a timed link that excludes
+//!   its work; the link wrapper's own instructions (measured at boot, per FSL word, printed in
+//!   the banner) are reported on a line of their own and not charged to the firmware.
+//! - **Co-processor cycles** (modelled): the loopback simulator renders the same frame with
+//!   the configuration's timing profile at the kernel and number format that ran
+//!   ([`gridrt_coproc::TimingProfile::for_kernel`]). The bench refuses to report when the
+//!   QEMU run and the loopback did different work (rays, list entries, FSL words, tests).
+//! - **Soft-core cycles** (modelled): instructions × the CPI of a named soft-core profile
+//!   ([`CpuProfile`]; `cpu_source` = `"cpi-model"`). A cycle-accurate soft-core run (the
+//!   LiteX SoC issue) will replace it with measured `mcycle` (`cpu_source` = `"rtl"`).
+//! - **Link** (modelled): wire bytes of the render, both directions, at the baud rate (8N1).
+//!   The scene upload is not part of the frame; its bytes and modelled time are reported
+//!   apart.
+//! - **Frame**: the [`timeline`] of those, with the overlaps written down there.
+//! - **host-native** (measured): the same firmware code with the intersection called
+//!   directly, compiled for this CPU, wall time of the best of several frames, single thread:
+//!   the host-only comparison. No link.
+//!
+//! # Configurations
+//! [`Configuration`]: `soft-core-only` (no co-processor: the firmware calls the kernel itself
+//! and every instruction is counted), `gridrt` (GridRT's multi-cycle PEs), `pipelined`, and
+//! `host-native`. See [`Configuration`] for how `rtl` plugs in.
+//!
+//! | module | what | uses |
+//! |---|---|---|
+//! | `setup` | targets, configurations, the soft-core profile, options, events, errors | — |
+//! | [`timeline`] | per-frame quantities → frame time, the overlaps, hand-checked tests | — |
+//! | [`run`] | one frame on QEMU, on the loopback, natively; work-counter comparison | `setup` |
+//! | `report` | the rows, JSON, CSV and the SVG of stacked bars | `setup`, `run`, `timeline` |
+//! | `bench` | the bench: reference, runs, cross-checks, rows | `setup`, `run`, `report` |
+
+mod bench;
+mod report;
+pub mod run;
+mod setup;
+#[cfg(test)]
+mod tests;
+pub mod timeline;
+
+pub use bench::{prepare, run_bench};
+pub use report::{critical_path, write_csv, write_svg, FrameReport, FrameRow};
+pub use run::{run_native, run_on_loopback, run_on_qemu, work_differences, DeviceRun};
+pub use setup::{kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, CpuProfile, FrameBenchError, Target};
+pub use timeline::{timeline, FrameWork, Timeline};

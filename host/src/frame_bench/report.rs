@@ -1,0 +1,441 @@
+//! The report of `gridrt bench frame`: one row per configuration × target, and its CSV and
+//! SVG (stacked bars of the frame's critical path).
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use gridrt_coproc::TimingProfile;
+use gridrt_firmware::device::Stage;
+use gridrt_shared::msg::stat;
+use serde::Serialize;
+
+use super::run::DeviceRun;
+use super::setup::{kernel, BenchOptions, Configuration, Target};
+use super::timeline::{timeline, FrameWork};
+use crate::compare::Comparison;
+use crate::stats::stage_name;
+
+/// The whole report (`--json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameReport {
+    /// Scene file.
+    pub scene: String,
+    /// Frame width.
+    pub width: u16,
+    /// Frame height.
+    pub height: u16,
+    /// Clock of the soft-core and the co-processor.
+    pub clock_mhz: f64,
+    /// Line rate (8N1).
+    pub baud: u32,
+    /// Pixel encoding of the answer.
+    pub encoding: String,
+    /// Intersection kernel every configuration runs.
+    pub kernel: String,
+    /// Its number format.
+    pub number_format: String,
+    /// Triangles of the scene.
+    pub triangles: u32,
+    /// Grid resolution.
+    pub grid: [u16; 3],
+    /// PEs.
+    pub pe_count: u16,
+    /// Stages the frame runs.
+    pub plan: Vec<String>,
+    /// Bytes the board's UART holds while the line drains them (the timeline's buffer).
+    pub tx_buffer_bytes: u64,
+    /// Soft-core profile of the modelled rows.
+    pub cpu_profile: String,
+    /// Its cycles per instruction.
+    pub cpi: f64,
+    /// Where the CPI comes from.
+    pub cpi_citation: String,
+    /// Wire bytes of the scene upload (both directions), not part of any frame: the
+    /// loopback's, without the resends QEMU's slow UART causes.
+    pub upload_bytes: Option<u64>,
+    /// The upload at the baud rate (modelled).
+    pub upload_ms: Option<f64>,
+    /// Time of the f64 reference render on this machine.
+    pub reference_ms: f64,
+    /// `qemu-system-riscv32 --version`.
+    pub qemu: Option<String>,
+    /// One row per configuration × target.
+    pub rows: Vec<FrameRow>,
+}
+
+/// One configuration on one target.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameRow {
+    /// Configuration name.
+    pub config: String,
+    /// Soft-core target (`riscv32imac`, `riscv32imafc`), or this CPU's architecture.
+    pub target: String,
+    /// Firmware instructions of the frame per primary ray (the link wrapper excluded).
+    pub instructions_per_primary_ray: Option<f64>,
+    /// `"qemu"` (QEMU `-icount shift=0`); later `"rtl"`; `null` for host-native.
+    pub instructions_source: Option<String>,
+    /// Soft-core busy time (modelled), or the measured wall time (host-native).
+    pub cpu_ms: f64,
+    /// Co-processor time of the frame (modelled).
+    pub coproc_ms: f64,
+    /// Line time of the render, both directions (modelled).
+    pub link_ms: f64,
+    /// The frame ([`timeline`]), or the measured wall time (host-native).
+    pub frame_ms: f64,
+    /// Frames per second.
+    pub fps: f64,
+    /// PSNR against the f64 reference, `null` when identical.
+    pub psnr_db: Option<f64>,
+    /// Byte-identical to the f64 reference.
+    pub identical: bool,
+    /// `"model"` or `"measured"`.
+    pub frame_ms_source: String,
+    /// Soft-core profile (`null` for host-native).
+    pub cpu_profile: Option<String>,
+    /// Its CPI.
+    pub cpi: Option<f64>,
+    /// `"cpi-model"` (instructions × CPI); `"rtl"` once a cycle-accurate soft-core run exists.
+    pub cpu_source: Option<String>,
+    /// Firmware instructions of the frame (the link wrapper excluded).
+    pub instructions: Option<u64>,
+    /// Per stage (`raygen`, `traverse`, `fsl_io`, `shade`, `encode`), per primary ray. With a
+    /// co-processor `fsl_io` is the firmware's puts and gets (the wrapper taken out); in
+    /// `soft-core-only` it holds the intersection itself (no FSL words).
+    pub instructions_per_primary_ray_by_stage: Option<BTreeMap<String, f64>>,
+    /// The qemu-virt link wrapper's own instructions in the frame (not charged above).
+    pub link_wrapper_instructions: Option<u64>,
+    /// The same per primary ray.
+    pub link_wrapper_instructions_per_primary_ray: Option<f64>,
+    /// Co-processor timing profile, with its kernel-true cycles per test.
+    pub coproc_profile: Option<String>,
+    /// Cycles per ray–triangle test of that profile for the kernel that ran.
+    pub coproc_test_cycles: Option<u32>,
+    /// Co-processor cycles of the frame.
+    pub coproc_cycles: u64,
+    /// Rays in flight in the co-processor (from the device, 1 when it does not say).
+    pub rays_in_flight: u32,
+    /// Co-processor time the soft-core waits for with one ray in flight.
+    pub coproc_wait_ms: f64,
+    /// Soft-core and co-processor together.
+    pub work_ms: f64,
+    /// Line time hidden behind the work.
+    pub link_hidden_ms: f64,
+    /// Camera rays.
+    pub primary_rays: u64,
+    /// Shadow rays.
+    pub shadow_rays: u64,
+    /// Rays intersected (by the co-processor or, soft-core-only, by the firmware).
+    pub coproc_rays: u64,
+    /// Traversal-list entries.
+    pub list_entries: u64,
+    /// FSL words, both directions.
+    pub fsl_words: u64,
+    /// Ray–triangle tests (charged by the co-processor; run by the soft-core).
+    pub intersection_tests: u64,
+    /// Host → device wire bytes of the render.
+    pub link_bytes_tx: u64,
+    /// Device → host wire bytes of the render.
+    pub link_bytes_rx: u64,
+    /// Wall time of the run on this machine: QEMU's render, or the native frame.
+    pub wall_ms: f64,
+}
+
+fn per_stage(run: &DeviceRun, wrapper: u64) -> (u64, BTreeMap<String, f64>) {
+    let primary = run.stat(stat::PRIMARY_RAYS).max(1) as f64;
+    let mut total = 0u64;
+    let by_stage = Stage::ALL
+        .iter()
+        .map(|&s| {
+            let mut n = run.stat(s.instret_key());
+            if s == Stage::FslIo {
+                n = n.saturating_sub(wrapper);
+            }
+            total += n;
+            (stage_name(s).to_string(), n as f64 / primary)
+        })
+        .collect();
+    (total, by_stage)
+}
+
+/// The qemu-virt link wrapper's instructions in the frame, and how many of them the `fsl_io`
+/// counter still holds. An image that excludes the wrapper itself reports it
+/// ([`stat::LINK_WRAPPER_INSTRUCTIONS`], none left in `fsl_io`); an older one leaves it in
+/// `fsl_io` and prints its cost per FSL word in the banner (every wrapped put and get is one
+/// word: the virtual co-processor never makes the firmware poll).
+fn link_wrapper(run: &DeviceRun) -> (Option<u64>, u64) {
+    let reported = run.frame.stats.get(&stat::LINK_WRAPPER_INSTRUCTIONS).copied();
+    if reported.is_some() {
+        return (reported, 0);
+    }
+    let words = run.stat(stat::FSL_WORDS_OUT) + run.stat(stat::FSL_WORDS_IN);
+    let banner = run.wrapper_per_word.map(|k| k * words);
+    (banner, banner.unwrap_or(0))
+}
+
+/// `psnr_db` and `identical` of a comparison with the reference.
+fn quality(c: &Comparison) -> (Option<f64>, bool) {
+    (c.psnr_db, c.identical)
+}
+
+/// The row of a configuration on the soft-core: instructions from the QEMU run `run`,
+/// co-processor cycles from the loopback run `model` with its profile.
+pub(crate) fn device_row(
+    config: Configuration,
+    target: Target,
+    run: &DeviceRun,
+    model: Option<(TimingProfile, &DeviceRun)>,
+    cmp: &Comparison,
+    opt: &BenchOptions,
+) -> FrameRow {
+    let words = run.stat(stat::FSL_WORDS_OUT) + run.stat(stat::FSL_WORDS_IN);
+    let (wrapper, in_fsl_io) = link_wrapper(run);
+    let (instructions, by_stage) = per_stage(run, in_fsl_io);
+    let primary = run.stat(stat::PRIMARY_RAYS).max(1) as f64;
+    let (profile, coproc_cycles) = match model {
+        Some((p, sim)) => (Some(p.for_kernel(kernel().0, kernel().1)), sim.stat(stat::COPROC_CYCLES)),
+        None => (None, 0),
+    };
+    let work = FrameWork {
+        cpu_cycles: instructions as f64 * opt.cpu.cpi,
+        coproc_cycles: coproc_cycles as f64,
+        coproc_request_cycles: profile.map_or(0.0, |p| run.stat(stat::FSL_WORDS_OUT) as f64 * p.word_in_cycles as f64),
+        coproc_rays: run.stat(stat::COPROC_RAYS),
+        rays_in_flight: run.rays_in_flight(),
+        clock_hz: opt.clock_mhz * 1e6,
+        baud: opt.baud,
+        request_bytes: run.frame.bytes_tx,
+        answer_bytes: run.frame.bytes_rx,
+        tail_bytes: run.tail_bytes,
+        bursts: run.frame.spans_reported as u64,
+        tx_buffer_bytes: opt.tx_buffer_bytes,
+    };
+    let t = timeline(&work);
+    let (psnr_db, identical) = quality(cmp);
+    FrameRow {
+        config: config.name().into(),
+        target: target.name().into(),
+        instructions_per_primary_ray: Some(instructions as f64 / primary),
+        instructions_source: Some("qemu".into()),
+        cpu_ms: t.cpu_s * 1e3,
+        coproc_ms: t.coproc_s * 1e3,
+        link_ms: t.link_s * 1e3,
+        frame_ms: t.frame_s * 1e3,
+        fps: t.fps(),
+        psnr_db,
+        identical,
+        frame_ms_source: "model".into(),
+        cpu_profile: Some(opt.cpu.name.into()),
+        cpi: Some(opt.cpu.cpi),
+        cpu_source: Some("cpi-model".into()),
+        instructions: Some(instructions),
+        instructions_per_primary_ray_by_stage: Some(by_stage),
+        link_wrapper_instructions: wrapper,
+        link_wrapper_instructions_per_primary_ray: wrapper.map(|w| w as f64 / primary),
+        coproc_profile: profile.map(|p| p.name.to_string()),
+        coproc_test_cycles: profile.map(|p| p.test_issue_cycles),
+        coproc_cycles,
+        rays_in_flight: work.rays_in_flight,
+        coproc_wait_ms: t.coproc_wait_s * 1e3,
+        work_ms: t.work_s * 1e3,
+        link_hidden_ms: t.link_hidden_s * 1e3,
+        primary_rays: run.stat(stat::PRIMARY_RAYS),
+        shadow_rays: run.stat(stat::SHADOW_RAYS),
+        coproc_rays: run.stat(stat::COPROC_RAYS),
+        list_entries: run.stat(stat::LIST_ENTRIES),
+        fsl_words: words,
+        intersection_tests: run.stat(stat::INTERSECTION_TESTS),
+        link_bytes_tx: run.frame.bytes_tx,
+        link_bytes_rx: run.frame.bytes_rx,
+        wall_ms: run.wall_ms,
+    }
+}
+
+/// The host-native row: measured wall time, no link.
+pub(crate) fn native_row(run: &DeviceRun, cmp: &Comparison) -> FrameRow {
+    let (psnr_db, identical) = quality(cmp);
+    let ms = run.wall_ms;
+    FrameRow {
+        config: Configuration::HostNative.name().into(),
+        target: std::env::consts::ARCH.into(),
+        instructions_per_primary_ray: None,
+        instructions_source: None,
+        cpu_ms: ms,
+        coproc_ms: 0.0,
+        link_ms: 0.0,
+        frame_ms: ms,
+        fps: if ms > 0.0 { 1e3 / ms } else { f64::INFINITY },
+        psnr_db,
+        identical,
+        frame_ms_source: "measured".into(),
+        cpu_profile: None,
+        cpi: None,
+        cpu_source: None,
+        instructions: None,
+        instructions_per_primary_ray_by_stage: None,
+        link_wrapper_instructions: None,
+        link_wrapper_instructions_per_primary_ray: None,
+        coproc_profile: None,
+        coproc_test_cycles: None,
+        coproc_cycles: 0,
+        rays_in_flight: 1,
+        coproc_wait_ms: 0.0,
+        work_ms: ms,
+        link_hidden_ms: 0.0,
+        primary_rays: run.stat(stat::PRIMARY_RAYS),
+        shadow_rays: run.stat(stat::SHADOW_RAYS),
+        coproc_rays: run.stat(stat::COPROC_RAYS),
+        list_entries: run.stat(stat::LIST_ENTRIES),
+        fsl_words: 0,
+        intersection_tests: run.stat(stat::INTERSECTION_TESTS),
+        link_bytes_tx: 0,
+        link_bytes_rx: 0,
+        wall_ms: ms,
+    }
+}
+
+fn opt_num(v: Option<f64>, digits: usize) -> String {
+    v.map_or_else(String::new, |v| format!("{v:.digits$}"))
+}
+
+/// Writes the rows as CSV (one line per row; per-stage instructions per primary ray as
+/// columns).
+pub fn write_csv(path: &Path, report: &FrameReport) -> std::io::Result<()> {
+    let stages: Vec<&str> = Stage::ALL.iter().map(|&s| stage_name(s)).collect();
+    let mut s = String::from(
+        "config,target,instructions_per_primary_ray,instructions_source,cpu_ms,coproc_ms,link_ms,frame_ms,fps,psnr_db,identical,frame_ms_source,",
+    );
+    for st in &stages {
+        let _ = write!(s, "{st}_per_primary_ray,");
+    }
+    s.push_str("link_wrapper_per_primary_ray,coproc_profile,coproc_test_cycles,coproc_cycles,rays_in_flight,coproc_wait_ms,work_ms,link_hidden_ms,cpu_profile,cpi,intersection_tests,wall_ms\n");
+    for r in &report.rows {
+        let _ = write!(
+            s,
+            "{},{},{},{},{:.3},{:.3},{:.3},{:.3},{:.4},{},{},{},",
+            r.config,
+            r.target,
+            opt_num(r.instructions_per_primary_ray, 1),
+            r.instructions_source.as_deref().unwrap_or(""),
+            r.cpu_ms,
+            r.coproc_ms,
+            r.link_ms,
+            r.frame_ms,
+            r.fps,
+            opt_num(r.psnr_db, 2),
+            r.identical,
+            r.frame_ms_source
+        );
+        for st in &stages {
+            let v = r.instructions_per_primary_ray_by_stage.as_ref().and_then(|m| m.get(*st).copied());
+            let _ = write!(s, "{},", opt_num(v, 1));
+        }
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{:.1}",
+            opt_num(r.link_wrapper_instructions_per_primary_ray, 1),
+            r.coproc_profile.as_deref().unwrap_or(""),
+            r.coproc_test_cycles.map_or_else(String::new, |c| c.to_string()),
+            r.coproc_cycles,
+            r.rays_in_flight,
+            r.coproc_wait_ms,
+            r.work_ms,
+            r.link_hidden_ms,
+            r.cpu_profile.as_deref().unwrap_or(""),
+            opt_num(r.cpi, 2),
+            r.intersection_tests,
+            r.wall_ms
+        );
+    }
+    std::fs::write(path, s)
+}
+
+/// The three parts of a row's frame time that add up to it: soft-core busy, co-processor
+/// not hidden behind it, link not hidden behind the work (ms).
+pub fn critical_path(r: &FrameRow) -> [f64; 3] {
+    let cpu = r.cpu_ms.min(r.work_ms);
+    [cpu, (r.work_ms - cpu).max(0.0), (r.frame_ms - r.work_ms).max(0.0)]
+}
+
+/// Writes an SVG of horizontal stacked bars: per row, the frame time split into
+/// [`critical_path`]'s parts, its total written at the end.
+pub fn write_svg(path: &Path, report: &FrameReport) -> Result<(), String> {
+    use plotters::prelude::*;
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    let e = |e: &dyn std::fmt::Display| e.to_string();
+    let n = report.rows.len().max(1);
+    let height = 140 + 46 * n as u32;
+    let root = SVGBackend::new(path, (980, height)).into_drawing_area();
+    root.fill(&WHITE).map_err(|x| e(&x))?;
+    let xmax = report.rows.iter().map(|r| r.frame_ms).fold(1e-3, f64::max) * 1.25;
+    let labels: Vec<String> = report.rows.iter().map(|r| format!("{} / {}", r.config, r.target)).collect();
+    let name = Path::new(&report.scene).file_name().map_or(report.scene.clone(), |s| s.to_string_lossy().into_owned());
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!(
+                "Frame time, {name} {}×{}, {} MHz, {} baud, {} (CPI {})",
+                report.width, report.height, report.clock_mhz, report.baud, report.cpu_profile, report.cpi
+            ),
+            ("sans-serif", 18),
+        )
+        .margin(14)
+        .x_label_area_size(40)
+        .y_label_area_size(230)
+        .build_cartesian_2d(0f64..xmax, 0f64..n as f64)
+        .map_err(|x| e(&x))?;
+    chart
+        .configure_mesh()
+        .disable_y_mesh()
+        .y_labels(n * 2 + 1)
+        .y_label_formatter(&|y| {
+            let k = y - 0.5;
+            if (k - k.round()).abs() < 1e-6 && k >= 0.0 {
+                labels.get(n - 1 - k.round() as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        })
+        .x_desc("frame time (ms); modelled except host-native (measured wall time)")
+        .draw()
+        .map_err(|x| e(&x))?;
+    let parts = [
+        ("soft-core", RGBColor(70, 110, 200)),
+        ("co-processor, not overlapped", RGBColor(230, 140, 40)),
+        ("UART, not overlapped", RGBColor(90, 170, 90)),
+    ];
+    for (k, &(label, colour)) in parts.iter().enumerate() {
+        let bars: Vec<_> = report
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let p = critical_path(r);
+                let x0: f64 = p[..k].iter().sum();
+                let y = (n - 1 - i) as f64;
+                Rectangle::new([(x0, y + 0.15), (x0 + p[k], y + 0.85)], colour.filled())
+            })
+            .collect();
+        chart
+            .draw_series(bars)
+            .map_err(|x| e(&x))?
+            .label(label)
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], colour.filled()));
+    }
+    chart
+        .draw_series(report.rows.iter().enumerate().map(|(i, r)| {
+            let y = (n - 1 - i) as f64 + 0.5;
+            let q = if r.identical { "identical".to_string() } else { opt_num(r.psnr_db, 1) + " dB" };
+            let style = ("sans-serif", 13).into_font().into_text_style(&root).pos(Pos::new(HPos::Left, VPos::Center));
+            Text::new(format!(" {:.1} ms ({:.2} fps, {q})", r.frame_ms, r.fps), (r.frame_ms, y), style)
+        }))
+        .map_err(|x| e(&x))?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.85))
+        .draw()
+        .map_err(|x| e(&x))?;
+    root.present().map_err(|x| e(&x))?;
+    Ok(())
+}

@@ -1,0 +1,224 @@
+//! What a frame bench is asked for: targets, configurations, the soft-core profile, the
+//! options, the progress events and the errors.
+
+use std::path::PathBuf;
+
+use gridrt_coproc::{KernelKind, NumberFormat, TimingProfile};
+use gridrt_shared::msg::PixelEncoding;
+use serde::Serialize;
+
+use crate::session::ProgressEvent;
+
+/// A soft-core instruction set the firmware is built for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Target {
+    /// RV32IMAC: soft float.
+    Riscv32imac,
+    /// RV32IMAFC: single-precision hard float.
+    Riscv32imafc,
+}
+
+impl Target {
+    /// Both, in report order.
+    pub const ALL: [Target; 2] = [Target::Riscv32imac, Target::Riscv32imafc];
+
+    /// Its name (also `cargo xtask firmware --target`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::Riscv32imac => "riscv32imac",
+            Target::Riscv32imafc => "riscv32imafc",
+        }
+    }
+
+    /// Parses [`Target::name`].
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|t| t.name() == s)
+    }
+}
+
+/// A configuration of the board a row describes.
+///
+/// To add the RTL co-processor (issue 11): a variant `Rtl` whose [`CoprocCycles`] is a new
+/// `CoprocCycles::Rtl`, filled by running the RTL simulation on the same frame (where
+/// `run_bench` runs the loopback for `Model` profiles). Rows, the timeline, JSON, CSV and
+/// the plot then take it as they take `pipelined`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Configuration {
+    /// No co-processor: the firmware intersects by itself with the same kernel.
+    SoftCoreOnly,
+    /// GridRT's multi-cycle PEs, at the kernel-true cycles per test.
+    Gridrt,
+    /// The pipelined PE profile.
+    Pipelined,
+    /// The native path on this CPU, wall time.
+    HostNative,
+}
+
+/// Where a configuration's co-processor time comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CoprocCycles {
+    /// No co-processor (the soft-core intersects).
+    None,
+    /// The loopback simulator with this profile (made kernel-true by the simulator).
+    Model(TimingProfile),
+    /// Not modelled: wall time on this CPU.
+    HostWall,
+}
+
+impl Configuration {
+    /// Every configuration, in report order.
+    pub const ALL: [Configuration; 4] =
+        [Configuration::SoftCoreOnly, Configuration::Gridrt, Configuration::Pipelined, Configuration::HostNative];
+
+    /// Its name in reports and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Configuration::SoftCoreOnly => "soft-core-only",
+            Configuration::Gridrt => "gridrt",
+            Configuration::Pipelined => "pipelined",
+            Configuration::HostNative => "host-native",
+        }
+    }
+
+    /// Parses [`Configuration::name`].
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| c.name() == s)
+    }
+
+    /// Where its co-processor time comes from.
+    pub fn coproc(self) -> CoprocCycles {
+        match self {
+            Configuration::SoftCoreOnly => CoprocCycles::None,
+            Configuration::Gridrt => CoprocCycles::Model(TimingProfile::GRIDRT),
+            Configuration::Pipelined => CoprocCycles::Model(TimingProfile::PIPELINED),
+            Configuration::HostNative => CoprocCycles::HostWall,
+        }
+    }
+
+    /// True when it runs on the soft-core (QEMU-measured instructions).
+    pub fn on_soft_core(self) -> bool {
+        self != Configuration::HostNative
+    }
+}
+
+/// A soft-core timing profile: cycles = instructions × `cpi`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CpuProfile {
+    /// Name (`--cpu-profile`).
+    pub name: &'static str,
+    /// Cycles per instruction.
+    pub cpi: f64,
+    /// Where the CPI comes from.
+    pub citation: &'static str,
+}
+
+impl CpuProfile {
+    /// PicoRV32, the one RV32 soft-core whose documentation states a CPI.
+    pub const PICORV32: CpuProfile = CpuProfile {
+        name: "picorv32",
+        cpi: 4.1,
+        citation: "YosysHQ/picorv32 README: \"For the Dhrystone benchmark the average CPI is 4.100\" \
+                   (ENABLE_FAST_MUL, ENABLE_DIV, BARREL_SHIFTER, look-ahead memory interface; \
+                   5.232 without it). PicoRV32 has no FPU: for riscv32imafc the CPI is applied to \
+                   the F instructions too, an assumption",
+    };
+
+    /// One instruction per cycle: an in-order scalar core that never stalls, the bound of any
+    /// single-issue soft-core (VexRiscv documents 1.44 DMIPS/MHz, not a CPI; the SoC issue
+    /// measures it).
+    pub const CPI1: CpuProfile = CpuProfile {
+        name: "cpi1",
+        cpi: 1.0,
+        citation: "definition: a single-issue core that never stalls (upper bound of a scalar soft-core's speed)",
+    };
+
+    /// The presets.
+    pub const ALL: [CpuProfile; 2] = [CpuProfile::PICORV32, CpuProfile::CPI1];
+
+    /// Parses [`CpuProfile::name`].
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name == s)
+    }
+}
+
+/// What `gridrt bench frame` measures.
+#[derive(Debug, Clone)]
+pub struct BenchOptions {
+    /// Scene file.
+    pub scene: PathBuf,
+    /// Frame width.
+    pub width: u16,
+    /// Frame height.
+    pub height: u16,
+    /// Clock of the soft-core and the co-processor, MHz.
+    pub clock_mhz: f64,
+    /// Line rate.
+    pub baud: u32,
+    /// Pixel encoding.
+    pub encoding: PixelEncoding,
+    /// Bytes the UART holds while the line drains them (`timeline`).
+    pub tx_buffer_bytes: u64,
+    /// Soft-core profile.
+    pub cpu: CpuProfile,
+    /// Configurations, in report order.
+    pub configs: Vec<Configuration>,
+    /// Soft-core targets, in report order.
+    pub targets: Vec<Target>,
+    /// host-native: untimed frames first, then the best of `native_runs`.
+    pub native_warmup: u32,
+    /// host-native: timed frames.
+    pub native_runs: u32,
+    /// The repository (to build the firmware images with `cargo xtask firmware`).
+    pub repo: PathBuf,
+}
+
+/// What the bench reports while it works.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BenchEvent {
+    /// A step starts.
+    Step(String),
+    /// Progress of a session (upload, render) of run `run`.
+    Session {
+        /// Which run.
+        run: String,
+        /// The event.
+        event: ProgressEvent,
+    },
+}
+
+/// Why the bench could not report.
+#[derive(Debug, thiserror::Error)]
+pub enum FrameBenchError {
+    /// The scene did not load.
+    #[error("loading the scene: {0}")]
+    Scene(#[from] crate::scene::LoadError),
+    /// The grid could not be built.
+    #[error("building the grid: {0}")]
+    Grid(#[from] crate::grid::GridError),
+    /// A session failed.
+    #[error(transparent)]
+    Session(#[from] crate::session::SessionError),
+    /// The pty could not be opened.
+    #[error(transparent)]
+    Serial(#[from] crate::serial::SerialError),
+    /// An image did not build.
+    #[error("building the firmware: {0}")]
+    Build(String),
+    /// QEMU failed.
+    #[error("QEMU: {0}")]
+    Qemu(String),
+    /// A device or run failed otherwise.
+    #[error("{0}")]
+    Device(String),
+    /// Two runs of the same frame disagree.
+    #[error("{0}")]
+    Mismatch(String),
+    /// Images could not be compared.
+    #[error(transparent)]
+    Compare(#[from] crate::compare::CompareError),
+}
+
+/// The kernel every configuration runs (the image's, the simulator's default).
+pub fn kernel() -> (KernelKind, NumberFormat) {
+    (KernelKind::default(), NumberFormat::F32)
+}

@@ -1,0 +1,216 @@
+//! The bench's rows and JSON on a small frame, without QEMU: the loopback stands in for the
+//! QEMU run (same device code), with per-stage instruction counters set by hand.
+
+use std::path::Path;
+
+use gridrt_coproc::TimingProfile;
+use gridrt_firmware::device::Stage;
+use gridrt_shared::msg::{stat, PixelEncoding};
+
+use super::report::{device_row, native_row};
+use super::*;
+use crate::compare::compare;
+
+fn res4() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/scenes/bun_zipper_res4.obj"))
+}
+
+fn options() -> BenchOptions {
+    BenchOptions {
+        scene: res4().into(),
+        width: 16,
+        height: 12,
+        clock_mhz: 100.0,
+        baud: 921_600,
+        encoding: PixelEncoding::Rle,
+        tx_buffer_bytes: 16,
+        cpu: CpuProfile::PICORV32,
+        configs: Configuration::ALL.to_vec(),
+        targets: Target::ALL.to_vec(),
+        native_warmup: 0,
+        native_runs: 1,
+        repo: ".".into(),
+    }
+}
+
+/// Every field issue 10 names, plus the ones this bench adds, with the arithmetic of a
+/// co-processor row worked out from its inputs.
+#[test]
+fn a_device_row_charges_the_firmware_without_the_wrapper_and_serialises_every_issue_field() {
+    let opt = options();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let quiet = &mut |_| {};
+    let mut run = run_on_loopback(TimingProfile::GRIDRT, &prepared, &req, "t", quiet).unwrap();
+    let sim = run.clone();
+    // As if QEMU had counted: 1000 instructions per stage, the wrapper 30 per FSL word.
+    for s in Stage::ALL {
+        run.frame.stats.insert(s.instret_key(), 1000 + run.stat(stat::FSL_WORDS_OUT) * 100);
+    }
+    run.wrapper_per_word = Some(30);
+    let words = run.stat(stat::FSL_WORDS_OUT) + run.stat(stat::FSL_WORDS_IN);
+    assert!(words > 0 && 30 * words < 1000 + run.stat(stat::FSL_WORDS_OUT) * 100);
+    let cmp = compare(&run.frame.rgb, &run.frame.rgb, None, None).unwrap();
+    let row =
+        device_row(Configuration::Gridrt, Target::Riscv32imafc, &run, Some((TimingProfile::GRIDRT, &sim)), &cmp, &opt);
+
+    let per_stage = 1000 + run.stat(stat::FSL_WORDS_OUT) * 100;
+    let instructions = 5 * per_stage - 30 * words;
+    assert_eq!(row.instructions, Some(instructions));
+    assert_eq!(row.link_wrapper_instructions, Some(30 * words));
+    let primary = run.stat(stat::PRIMARY_RAYS) as f64;
+    assert_eq!(primary, 16.0 * 12.0);
+    assert!((row.instructions_per_primary_ray.unwrap() - instructions as f64 / primary).abs() < 1e-9);
+    // 4.1 cycles per instruction at 100 MHz.
+    assert!((row.cpu_ms - instructions as f64 * 4.1 / 100e6 * 1e3).abs() < 1e-9, "{row:?}");
+    // Kernel-true: watertight f32 on GridRT's PE.
+    assert_eq!(row.coproc_test_cycles, Some(1188));
+    assert_eq!(row.coproc_cycles, sim.stat(stat::COPROC_CYCLES));
+    assert!((row.coproc_ms - row.coproc_cycles as f64 / 100e6 * 1e3).abs() < 1e-9);
+    let link_bytes = (run.frame.bytes_tx + run.frame.bytes_rx) as f64;
+    assert!((row.link_ms - link_bytes * 10.0 / 921_600.0 * 1e3).abs() < 1e-9);
+    // One ray in flight: frame = request + cpu + wait + answer − hidden.
+    assert_eq!(row.rays_in_flight, 1);
+    let want = run.frame.bytes_tx as f64 * 10.0 / 921_600.0 * 1e3
+        + row.cpu_ms
+        + row.coproc_wait_ms
+        + run.frame.bytes_rx as f64 * 10.0 / 921_600.0 * 1e3
+        - row.link_hidden_ms;
+    assert!((row.frame_ms - want).abs() < 1e-9, "{} vs {want}", row.frame_ms);
+    assert!((row.fps - 1e3 / row.frame_ms).abs() < 1e-9);
+    let parts = critical_path(&row);
+    assert!((parts.iter().sum::<f64>() - row.frame_ms).abs() < 1e-9);
+
+    let v = serde_json::to_value(&row).unwrap();
+    for key in [
+        "config",
+        "target",
+        "instructions_per_primary_ray",
+        "instructions_source",
+        "cpu_ms",
+        "coproc_ms",
+        "link_ms",
+        "frame_ms",
+        "fps",
+        "psnr_db",
+        "identical",
+        "cpu_profile",
+        "cpi",
+        "cpu_source",
+        "link_wrapper_instructions_per_primary_ray",
+        "instructions_per_primary_ray_by_stage",
+    ] {
+        assert!(v.get(key).is_some(), "row lacks {key}: {v}");
+    }
+    assert_eq!(v["config"], "gridrt");
+    assert_eq!(v["target"], "riscv32imafc");
+    assert_eq!(v["instructions_source"], "qemu");
+    assert_eq!(v["cpu_source"], "cpi-model");
+    assert_eq!(v["psnr_db"], serde_json::Value::Null);
+    assert_eq!(v["identical"], true);
+    let stages = v["instructions_per_primary_ray_by_stage"].as_object().unwrap();
+    assert_eq!(stages.len(), 5);
+    assert!((stages["fsl_io"].as_f64().unwrap() - (per_stage - 30 * words) as f64 / primary).abs() < 1e-9);
+}
+
+/// The host-native run is the soft-core-only firmware compiled for this CPU: the same image
+/// as the loopback, the tests only up to each winner, and a row with no instruction source.
+#[test]
+fn host_native_renders_the_loopbacks_image_and_reports_measured_wall_time() {
+    let opt = options();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let quiet = &mut |_| {};
+    let sim = run_on_loopback(TimingProfile::GRIDRT, &prepared, &req, "t", quiet).unwrap();
+    let native = run_native(&prepared, &req, 0, 2, quiet).unwrap();
+    assert_eq!(native.frame.rgb, sim.frame.rgb);
+    for k in [stat::PRIMARY_RAYS, stat::SHADOW_RAYS, stat::COPROC_RAYS, stat::LIST_ENTRIES] {
+        assert_eq!(native.stat(k), sim.stat(k), "{}", crate::stats::stat_name(k));
+    }
+    assert_eq!(native.stat(stat::FSL_WORDS_OUT), 0);
+    assert!(native.stat(stat::INTERSECTION_TESTS) <= sim.stat(stat::INTERSECTION_TESTS));
+    assert!(native.wall_ms > 0.0);
+    let cmp = compare(&native.frame.rgb, &sim.frame.rgb, None, None).unwrap();
+    let v = serde_json::to_value(native_row(&native, &cmp)).unwrap();
+    assert_eq!(v["config"], "host-native");
+    assert_eq!(v["instructions_source"], serde_json::Value::Null);
+    assert_eq!(v["instructions_per_primary_ray"], serde_json::Value::Null);
+    assert_eq!(v["frame_ms_source"], "measured");
+    assert_eq!(v["frame_ms"], v["cpu_ms"]);
+    assert_eq!(v["link_ms"], 0.0);
+}
+
+/// The CSV has the issue's columns and a line per row; the SVG a bar label per row.
+#[test]
+fn csv_and_svg_have_a_line_and_a_bar_label_per_row() {
+    let opt = options();
+    let (prepared, req, _) = prepare(res4(), 8, 6, opt.encoding).unwrap();
+    let quiet = &mut |_| {};
+    let sim = run_on_loopback(TimingProfile::PIPELINED, &prepared, &req, "t", quiet).unwrap();
+    let cmp = compare(&sim.frame.rgb, &sim.frame.rgb, None, None).unwrap();
+    let rows = vec![
+        device_row(
+            Configuration::Pipelined,
+            Target::Riscv32imac,
+            &sim,
+            Some((TimingProfile::PIPELINED, &sim)),
+            &cmp,
+            &opt,
+        ),
+        native_row(&sim, &cmp),
+    ];
+    let report = FrameReport {
+        scene: "tests/scenes/bun_zipper_res4.obj".into(),
+        width: 8,
+        height: 6,
+        clock_mhz: 100.0,
+        baud: 921_600,
+        encoding: "rle".into(),
+        kernel: "watertight".into(),
+        number_format: "f32".into(),
+        triangles: 946,
+        grid: [11, 11, 9],
+        pe_count: 4,
+        plan: vec!["shadows".into()],
+        tx_buffer_bytes: 16,
+        cpu_profile: "picorv32".into(),
+        cpi: 4.1,
+        cpi_citation: String::new(),
+        upload_bytes: Some(1),
+        upload_ms: Some(0.0),
+        reference_ms: 0.0,
+        qemu: None,
+        rows,
+    };
+    let dir = std::env::temp_dir().join(format!("gridrt-frame-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    write_csv(&dir.join("frame.csv"), &report).unwrap();
+    write_svg(&dir.join("frame.svg"), &report).unwrap();
+    let csv = std::fs::read_to_string(dir.join("frame.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3, "{csv}");
+    assert!(lines[0].starts_with(
+        "config,target,instructions_per_primary_ray,instructions_source,cpu_ms,coproc_ms,link_ms,frame_ms,fps,psnr_db,identical"
+    ));
+    assert!(lines[1].starts_with("pipelined,riscv32imac,") && lines[2].starts_with("host-native,"), "{csv}");
+    let columns = lines[0].split(',').count();
+    assert!(lines.iter().all(|l| l.split(',').count() == columns), "{csv}");
+    let svg = std::fs::read_to_string(dir.join("frame.svg")).unwrap();
+    for label in ["pipelined / riscv32imac", "host-native / ", "soft-core", "UART, not overlapped"] {
+        assert!(svg.contains(label), "the plot lacks {label}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn configurations_targets_and_profiles_parse_their_names() {
+    for c in Configuration::ALL {
+        assert_eq!(Configuration::parse(c.name()), Some(c));
+    }
+    assert_eq!(Configuration::parse("rtl"), None);
+    for t in Target::ALL {
+        assert_eq!(Target::parse(t.name()), Some(t));
+    }
+    assert_eq!(CpuProfile::parse("picorv32").map(|p| p.cpi), Some(4.1));
+    assert_eq!(CpuProfile::parse("cpi1").map(|p| p.cpi), Some(1.0));
+    assert!(matches!(Configuration::Gridrt.coproc(), CoprocCycles::Model(p) if p == TimingProfile::GRIDRT));
+    assert_eq!(Configuration::SoftCoreOnly.coproc(), CoprocCycles::None);
+}

@@ -1,0 +1,72 @@
+//! Issue-11 acceptance through the real binary: `gridrt render --sim --coproc rtl` with no
+//! further flags renders the 64×48 bun_zipper_res4 frame, its stats record the kernel and
+//! format, and the PNG is byte-identical to `--coproc model` with that kernel and format (with
+//! `--timing rtl` even the test and cycle counts are the same).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn scene() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj")
+}
+
+/// Renders with `flags`; returns the PNG bytes and the stats.
+fn render(tag: &str, flags: &[&str]) -> (Vec<u8>, serde_json::Value) {
+    let dir = std::env::temp_dir().join(format!("gridrt-cli-rtl-{}-{tag}", std::process::id()));
+    let (png, json) = (dir.join("a.png"), dir.join("a.json"));
+    let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
+        .args(["render", "--sim", "--scene"])
+        .arg(scene())
+        .args(["--width", "64", "--height", "48", "--out"])
+        .arg(&png)
+        .arg("--stats")
+        .arg(&json)
+        .args(flags)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "gridrt {flags:?} failed: {}", String::from_utf8_lossy(&out.stderr));
+    let bytes = std::fs::read(&png).unwrap();
+    let stats = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    (bytes, stats)
+}
+
+#[test]
+fn rtl_frame_is_byte_identical_to_the_model_with_its_kernel_and_format() {
+    if !gridrt_rtl::sim::require_verilator("rtl_frame_is_byte_identical_to_the_model_with_its_kernel_and_format") {
+        return;
+    }
+    let (rtl_png, rtl) = render("rtl", &["--coproc", "rtl"]);
+    assert_eq!(rtl["coproc"], "rtl");
+    let (kernel, format) = (rtl["kernel"].as_str().unwrap(), rtl["format"].as_str().unwrap());
+    assert_eq!((kernel, format), ("watertight", "fixed64-q23"));
+    assert_eq!(rtl["timing"], "rtl");
+    assert!(rtl["coproc_rays"].as_u64().unwrap() > 500, "the bunny must be in view: {rtl}");
+    let (model_png, model) =
+        render("model", &["--coproc", "model", "--kernel", kernel, "--format", format, "--timing", "rtl"]);
+    assert_eq!(model["coproc"], "model");
+    assert!(rtl_png == model_png, "PNGs differ");
+    for key in ["coproc_rays", "list_entries", "fsl_words", "intersection_tests", "coproc_cycles"] {
+        assert_eq!(rtl[key], model[key], "{key}");
+    }
+}
+
+#[test]
+fn rtl_refuses_another_kernel_or_format() {
+    for flags in [
+        &["--coproc", "rtl", "--format", "f32"][..],
+        &["--coproc", "rtl", "--kernel", "wald"],
+        &["--coproc", "rtl", "--timing", "gridrt"],
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
+            .args(["render", "--sim", "--scene"])
+            .arg(scene())
+            .args(["--out", "/nonexistent/never.png"])
+            .args(flags)
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{flags:?} must fail");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("--coproc rtl"), "{flags:?}: {err}");
+    }
+}

@@ -1,0 +1,778 @@
+// ctrl: the co-processor's protocol engine (SPEC.md §4, rtl/README.md §4.1).
+//
+// Receives request words, checks them in the model's order (`gridrt_coproc::coproc` module
+// doc: content checks of a word before its framing check; the first violation answers with
+// one ERROR word, then words are discarded up to the next control bit), and runs the packet:
+// LOAD_PE streams the image into the PE's memory while validating it and converting each
+// triangle (tri_loader); FRAME sets the fixed-point frame; CLEAR empties the PEs; a ray
+// looks up each list entry's voxel as it arrives, then runs the ray setup, starts the PEs,
+// arbitrates in list order and sends the RESULT. Replies go through a 16-word output FIFO;
+// the request stream stalls (s_tready low) while a packet executes or the FIFO lacks room.
+module ctrl #(
+    parameter int PES = 4,
+    parameter int WORDS = 16384,
+    parameter int MAX_LIST = 256
+) (
+    input  logic                        clk,
+    input  logic                        rst,
+    // Request stream (FSL: tlast = control bit).
+    input  logic [31:0]                 s_tdata,
+    input  logic                        s_tlast,
+    input  logic                        s_tvalid,
+    output logic                        s_tready,
+    // Response stream.
+    output logic [31:0]                 m_tdata,
+    output logic                        m_tlast,
+    output logic                        m_tvalid,
+    input  logic                        m_tready,
+    output logic                        idle,
+    // PE memories (controller side).
+    output logic [PES-1:0][$clog2(WORDS)-1:0] pe_a_addr,
+    output logic [PES-1:0]              pe_a_we,
+    output logic [31:0]                 pe_a_wdata,
+    input  logic [PES-1:0][31:0]        pe_a_rdata,
+    output logic [PES-1:0][$clog2(WORDS)-1:0] pe_b_addr,
+    output logic [PES-1:0][15:0]        pe_b_we,
+    output logic [511:0]                pe_b_wdata,
+    input  logic [PES-1:0][511:0]       pe_b_rdata,
+    output logic [PES-1:0][$clog2(WORDS)-1:0] pe_ref_off,
+    output logic [PES-1:0][$clog2(WORDS)-1:0] pe_rec_off,
+    // Entry queues.
+    output logic                        pe_ray_begin,
+    output logic [PES-1:0]              pe_q_push,
+    output logic [$clog2(MAX_LIST)-1:0] pe_q_k,
+    output logic [$clog2(WORDS)-1:0]    pe_q_first,
+    output logic [$clog2(WORDS)-1:0]    pe_q_count,
+    output logic [31:0]                 pe_q_hi,
+    // Execution.
+    output logic                        pe_start,
+    output logic                        pe_stop,
+    output logic                        pe_any,
+    output logic [31:0]                 pe_t_max,
+    output logic [2:0][33:0]            pe_o,
+    output logic [1:0]                  pe_kz,
+    output logic signed [24:0]          pe_sx, pe_sy,
+    output logic                        pe_dz_neg,
+    output logic [23:0]                 pe_dz_abs,
+    output logic signed [9:0]           pe_texp,
+    output logic                        pe_ray_overflow,
+    input  logic [PES-1:0][31:0]        pe_issued,
+    input  logic [PES-1:0]              pe_ev0_valid,
+    input  logic [PES-1:0][$clog2(MAX_LIST)-1:0] pe_ev0_k,
+    input  logic [PES-1:0]              pe_ev1_valid,
+    input  logic [PES-1:0][$clog2(MAX_LIST)-1:0] pe_ev1_k,
+    input  logic [PES-1:0]              pe_ev1_hit,
+    output logic [$clog2(MAX_LIST)-1:0] pe_res_k,
+    input  logic [PES-1:0][31:0]        pe_res_t,
+    input  logic [PES-1:0][$clog2(WORDS)-1:0] pe_res_tri
+);
+    localparam int AW = $clog2(WORDS);
+    localparam int KW = $clog2(MAX_LIST);
+    localparam int PW = (PES > 1) ? $clog2(PES) : 1;
+
+    // Opcodes (SPEC §4.1) and error codes (§4.5).
+    localparam logic [3:0] OP_LOAD = 4'h1, OP_CLOSEST = 4'h2, OP_ANY = 4'h3, OP_CLEAR = 4'h4, OP_FRAME = 4'h5;
+    localparam logic [11:0] E_UNKNOWN_OPCODE = 12'd1, E_TOO_SHORT = 12'd2, E_MISSING_CONTROL = 12'd3,
+        E_PE_RANGE = 12'd4, E_VOXEL_NOT_LOADED = 12'd6, E_LIST_TOO_LONG = 12'd7, E_MEM_OVERFLOW = 12'd8,
+        E_MALFORMED = 12'd9, E_NOT_LOADED = 12'd10, E_NON_FINITE = 12'd11, E_BAD_FRAME = 12'd12,
+        E_UNSUPPORTED = 12'd13;
+    localparam logic [31:0] PE_IMAGE_TAG = 32'hFFFF_0002;
+
+    // ================================================================ output FIFO
+    logic [32:0] fifo [16];
+    logic [4:0]  f_count;
+    logic [3:0]  f_rd, f_wr;
+    logic        push;
+    logic [32:0] push_word;
+    assign m_tvalid = f_count != 0;
+    assign {m_tlast, m_tdata} = fifo[f_rd];
+    always_ff @(posedge clk) begin
+        if (rst) begin
+            f_count <= '0;
+            f_rd <= '0;
+            f_wr <= '0;
+        end else begin
+            if (push) begin
+                fifo[f_wr] <= push_word;
+                f_wr <= f_wr + 1'b1;
+            end
+            if (m_tvalid && m_tready) f_rd <= f_rd + 1'b1;
+            f_count <= f_count + 5'(push) - 5'(m_tvalid && m_tready);
+        end
+    end
+
+    // ================================================================ state
+    typedef enum logic [2:0] { RX_IDLE, RX_DISCARD, RX_LOAD_COUNT, RX_LOAD_WORDS, RX_RAY, RX_FRAME } rx_t;
+    typedef enum logic [3:0] {
+        BZ_NONE, BZ_LOOKUP, BZ_HI, BZ_TRI, BZ_LOAD_FINISH, BZ_FRAME, BZ_SETUP, BZ_EXEC, BZ_RESULT
+    } busy_t;
+    rx_t   rx;
+    busy_t busy;
+    logic  word_ctl;        // control bit of the word that caused the busy phase
+    logic [15:0] word_idx;  // its index in the packet
+
+    assign s_tready = busy == BZ_NONE && f_count <= 5'd7 && !rst;
+    assign idle = busy == BZ_NONE && f_count == 0 && !push;
+    logic accept;
+    assign accept = s_tvalid && s_tready;
+
+    // Per-PE image layout.
+    logic [PES-1:0]         loaded;
+    logic [PES-1:0][AW-1:0] pe_voxels, pe_tri_off;
+
+    // Frame (reset: identity, s = 0, min = 0).
+    logic signed [9:0]  frame_s;
+    logic [2:0][54:0]   frame_qm;
+    logic [2:0]         frame_huge;
+
+    // ================================================================ helpers
+    function automatic [31:0] err_word(input [11:0] code, input [15:0] detail);
+        err_word = {4'hE, code, detail};
+    endfunction
+    function automatic is_finite(input [31:0] f);
+        is_finite = f[30:23] != 8'hFF;
+    endfunction
+    function automatic is_nan(input [31:0] f);
+        is_nan = f[30:23] == 8'hFF && f[22:0] != 0;
+    endfunction
+
+    // ================================================================ ray request registers
+    logic              ray_any;
+    logic [15:0]       ray_count;      // list entries n
+    logic [15:0]       ray_idx;        // index of the next word in the packet
+    logic [2:0][31:0]  ray_org, ray_dir;
+    logic [31:0]       ray_tmax;
+    logic [KW-1:0]     ent_k;          // entry being received
+    logic [PW-1:0]     ent_pe;
+    logic [23:0]       ent_voxel;
+    logic [AW-1:0]     ent_first, ent_count;
+    logic [31:0]       ent_texit;
+
+    // Lookup (binary search of the voxel table, entries at 5 + 3i: id, first, count).
+    logic [AW:0]  lk_lo, lk_hi, lk_mid;
+    logic [3:0]   lk_step;
+
+    // t_exit slack: hi = fl32(t_exit * (1 + 2^-12)).
+    logic        hi_in, hi_out;
+    logic [31:0] hi_y;
+    f32_mul u_hi (.clk, .in_valid(hi_in), .a(ent_texit), .b(32'h3F80_0800), .out_valid(hi_out), .y(hi_y));
+
+    // ================================================================ loader
+    logic [PW-1:0]  ld_pe;
+    logic [AW:0]    ld_n;           // declared image words (<= WORDS)
+    logic [AW:0]    ld_i;           // image index of the next word
+    logic [31:0]    ld_t, ld_v, ld_r, ld_p;
+    logic [37:0]    ld_vox_end, ld_ref_end, ld_tri_end, ld_need;
+    logic           ld_tag_ok, ld_bad, ld_have_prev;
+    logic [31:0]    ld_prev_id, ld_first;
+    logic [1:0]     ld_sub3;
+    logic [3:0]     ld_sub11, ld_sub16;
+    logic [AW:0]    ld_tri_base;    // image index of the current triangle
+    logic [AW+4:0]  ld_tri_count;   // triangles seen (record index)
+    logic [8:0][31:0] ld_v9;
+    logic [31:0]    ld_prim;
+    logic           ld_last;        // the triangle being processed ended the image
+    logic           tl_start, tl_done;
+    logic [8:0][31:0] tl_coord;
+    logic [2:0][31:0] tl_normal;
+    logic [1:0]     tl_wr;          // normal words written so far
+    tri_loader u_tri (.clk, .start(tl_start), .v(ld_v9), .frame_s, .frame_qm, .frame_huge,
+                      .done(tl_done), .coord(tl_coord), .normal(tl_normal));
+
+    // ================================================================ frame computation
+    logic [5:0][31:0]  fr_box;         // min xyz, max xyz
+    logic [4:0]        fr_step;
+    logic              fr_sub_in, fr_sub_out;
+    logic [31:0]       fr_sub_a, fr_sub_b, fr_sub_y, fr_ext;
+    logic signed [9:0] fr_s;
+    logic [31:0]       fr_cv_x;
+    logic signed [54:0] fr_cv_q;
+    logic              fr_cv_huge;
+    f32_addsub u_fr_sub (.clk, .in_valid(fr_sub_in), .a(fr_sub_a), .b(fr_sub_b), .sub(1'b1),
+                         .out_valid(fr_sub_out), .y(fr_sub_y));
+    f32_to_fixed u_fr_cv (.x(fr_cv_x), .k(fr_s + 10'sd23), .q(fr_cv_q), .huge(fr_cv_huge));
+    always_comb begin
+        fr_sub_in = busy == BZ_FRAME && fr_step >= 5'd1 && fr_step <= 5'd3;
+        fr_sub_a = fr_box[3 + int'(fr_step) - 1];
+        fr_sub_b = fr_box[int'(fr_step) - 1];
+        fr_cv_x = fr_box[(fr_step >= 5'd8 && fr_step <= 5'd10) ? int'(fr_step) - 8 : 0];
+    end
+
+    // ================================================================ ray setup
+    logic rs_start, rs_done, rs_overflow;
+    logic [2:0][33:0] rs_o;
+    ray_setup u_setup (.clk, .start(rs_start), .org(ray_org), .dir(ray_dir), .frame_s, .frame_qm, .frame_huge,
+                       .done(rs_done), .o(rs_o), .kz(pe_kz), .sx(pe_sx), .sy(pe_sy), .dz_neg(pe_dz_neg),
+                       .dz_abs(pe_dz_abs), .texp(pe_texp), .overflow(rs_overflow));
+    assign pe_o = rs_o;
+    assign pe_ray_overflow = rs_overflow;
+
+    // ================================================================ arbiter
+    logic [MAX_LIST-1:0] done_q, hit_q, mask_n;
+    logic [31:0]         ray_cnt;
+    logic [2:0]          ex_step;      // exec sub-steps before arbitration
+    logic [34:0]         issued_sum, issued_prev;
+    logic [KW-1:0]       win_k;
+    logic [PW-1:0]       win_pe;
+    logic                win_hit;
+    logic [15:0]         win_tests;
+    logic [3:0]          res_step;
+    logic [PW-1:0]       ent_pe_of [MAX_LIST];
+
+    logic [KW:0] first_hit, first_open;
+    first_set #(.N(MAX_LIST)) u_first_hit (.bits(done_q & hit_q), .index(first_hit));
+    first_set #(.N(MAX_LIST)) u_first_open (.bits(~done_q & mask_n), .index(first_open));
+    always_comb begin
+        issued_sum = '0;
+        for (int p = 0; p < PES; p++) issued_sum = issued_sum + 35'(pe_issued[p]);
+    end
+
+    // ================================================================ main FSM
+    always_ff @(posedge clk) begin
+        logic [3:0]  op;
+        logic        ctl;
+        logic [31:0] w;
+        push <= 1'b0;
+        pe_a_we <= '0;
+        pe_b_we <= '0;
+        pe_q_push <= '0;
+        pe_ray_begin <= 1'b0;
+        pe_start <= 1'b0;
+        pe_stop <= 1'b0;
+        hi_in <= 1'b0;
+        tl_start <= 1'b0;
+        rs_start <= 1'b0;
+        ray_cnt <= ray_cnt + 1;
+        issued_prev <= issued_sum;
+        for (int p = 0; p < PES; p++) begin
+            if (pe_ev0_valid[p]) done_q[pe_ev0_k[p]] <= 1'b1;
+            if (pe_ev1_valid[p]) begin
+                done_q[pe_ev1_k[p]] <= 1'b1;
+                hit_q[pe_ev1_k[p]] <= pe_ev1_hit[p];
+            end
+        end
+        if (rst) begin
+            rx <= RX_IDLE;
+            busy <= BZ_NONE;
+            tl_wr <= 2'd0;
+            pe_b_wdata <= '0;
+            loaded <= '0;
+            frame_s <= '0;
+            frame_qm <= '0;
+            frame_huge <= '0;
+        end else if (accept) begin
+            // ------------------------------------------------ one request word
+            w = s_tdata;
+            ctl = s_tlast;
+            op = w[31:28];
+            case (rx)
+                RX_IDLE: begin
+                    case (op)
+                        OP_LOAD: begin
+                            if (w[7:0] >= 8'(PES)) begin
+                                fail(E_PE_RANGE, 16'(w[7:0]), ctl);
+                            end else begin
+                                ld_pe <= PW'(w[7:0]);
+                                loaded[PW'(w[7:0])] <= 1'b0;
+                                if (ctl) fail(E_TOO_SHORT, 16'd0, 1'b1);
+                                else rx <= RX_LOAD_COUNT;
+                            end
+                        end
+                        OP_CLEAR: begin
+                            if (!ctl) begin
+                                fail(E_MISSING_CONTROL, 16'd0, 1'b0);
+                            end else begin
+                                loaded <= '0;
+                                reply({4'h9, OP_CLEAR, 24'd0});
+                            end
+                        end
+                        OP_CLOSEST, OP_ANY: begin
+                            if (loaded == 0) fail(E_NOT_LOADED, 16'd0, ctl);
+                            else if (w[15:0] > 16'(MAX_LIST)) fail(E_LIST_TOO_LONG, 16'(MAX_LIST), ctl);
+                            else if (ctl) fail(E_TOO_SHORT, 16'd0, 1'b1);
+                            else begin
+                                ray_any <= op == OP_ANY;
+                                ray_count <= w[15:0];
+                                ray_idx <= 16'd1;
+                                ent_k <= '0;
+                                pe_ray_begin <= 1'b1;
+                                rx <= RX_RAY;
+                            end
+                        end
+                        OP_FRAME: begin
+                            if (ctl) fail(E_TOO_SHORT, 16'd0, 1'b1);
+                            else begin
+                                ray_idx <= 16'd1;
+                                rx <= RX_FRAME;
+                            end
+                        end
+                        default: fail(E_UNKNOWN_OPCODE, 16'(op), ctl);
+                    endcase
+                end
+                RX_DISCARD: if (ctl) rx <= RX_IDLE;
+                RX_LOAD_COUNT: begin
+                    if (w > 32'(WORDS)) begin
+                        fail(E_MEM_OVERFLOW, 16'(ld_pe), ctl);
+                    end else if (w == 0) begin
+                        if (!ctl) fail(E_MISSING_CONTROL, 16'd1, 1'b0);
+                        else begin
+                            // An empty image: loaded, no voxels.
+                            loaded[ld_pe] <= 1'b1;
+                            pe_voxels[ld_pe] <= '0;
+                            reply({4'h9, OP_LOAD, 16'd0, 8'(ld_pe)});
+                            rx <= RX_IDLE;
+                        end
+                    end else if (ctl) begin
+                        fail(E_TOO_SHORT, 16'd1, 1'b1);
+                    end else begin
+                        ld_n <= (AW+1)'(w);
+                        ld_i <= '0;
+                        ld_tag_ok <= 1'b0;
+                        ld_bad <= 1'b0;
+                        ld_have_prev <= 1'b0;
+                        ld_tri_count <= '0;
+                        rx <= RX_LOAD_WORDS;
+                    end
+                end
+                RX_LOAD_WORDS: load_word(w, ctl);
+                RX_RAY: ray_word(w, ctl);
+                RX_FRAME: begin
+                    fr_box[ray_idx - 16'd1] <= w;
+                    if (ray_idx == 16'd6) begin
+                        logic [15:0]  bad;
+                        logic [191:0] box;
+                        box = {w, fr_box[4], fr_box[3], fr_box[2], fr_box[1], fr_box[0]};
+                        bad = 16'd0;
+                        for (int i = 5; i >= 0; i--) if (!is_finite(box[32*i +: 32])) bad = 16'(i + 1);
+                        if (bad == 0) begin
+                            for (int a = 2; a >= 0; a--)
+                                if (f32_lt(box[32*(3 + a) +: 32], box[32*a +: 32])) bad = 16'(4 + a);
+                        end
+                        if (bad != 0) fail(E_BAD_FRAME, bad, ctl);
+                        else if (!ctl) fail(E_MISSING_CONTROL, 16'd6, 1'b0);
+                        else begin
+                            fr_step <= 5'd1;
+                            busy <= BZ_FRAME;
+                            rx <= RX_IDLE;
+                        end
+                    end else if (ctl) begin
+                        fail(E_TOO_SHORT, ray_idx, 1'b1);
+                    end else begin
+                        ray_idx <= ray_idx + 16'd1;
+                    end
+                end
+                default: rx <= RX_IDLE;
+            endcase
+        end else begin
+            // ------------------------------------------------ busy phases
+            case (busy)
+                BZ_LOOKUP: lookup_step();
+                BZ_HI: begin
+                    if (hi_out) begin
+                        pe_q_push[ent_pe] <= 1'b1;
+                        pe_q_k <= ent_k;
+                        pe_q_first <= ent_first;
+                        pe_q_count <= ent_count;
+                        pe_q_hi <= hi_y;
+                        ent_pe_of[ent_k] <= ent_pe;
+                        ent_k <= ent_k + 1'b1;
+                        busy <= BZ_NONE;
+                        if (32'(ent_k) + 1 == 32'(ray_count)) begin
+                            if (!word_ctl) fail(E_MISSING_CONTROL, word_idx, 1'b0);
+                            else begin_exec();
+                        end else if (word_ctl) begin
+                            fail(E_TOO_SHORT, word_idx, 1'b1);
+                        end else begin
+                            ray_idx <= ray_idx + 16'd1;
+                        end
+                    end
+                end
+                BZ_TRI: tri_step();
+                BZ_LOAD_FINISH: load_finish();
+                BZ_FRAME: frame_step();
+                BZ_SETUP: begin
+                    if (rs_done) begin
+                        pe_start <= 1'b1;
+                        done_q <= '0;
+                        hit_q <= '0;
+                        ex_step <= 3'd0;
+                        busy <= BZ_EXEC;
+                    end
+                end
+                BZ_EXEC: begin
+                    // pe_start is seen by the PEs in the cycle after it is set (exec cycle
+                    // -1); exec cycle 0 is their first setup; arbitration starts in cycle 1.
+                    if (ex_step < 3'd2) begin
+                        ex_step <= ex_step + 3'd1;
+                    end else if ((first_hit < first_open) || (first_open == (KW+1)'(MAX_LIST))) begin
+                        win_hit <= first_hit != (KW+1)'(MAX_LIST) && first_hit < first_open;
+                        win_k <= KW'(first_hit);
+                        win_pe <= ent_pe_of[KW'(first_hit)];
+                        win_tests <= (issued_prev > 35'd65535) ? 16'hFFFF : 16'(issued_prev);
+                        pe_stop <= 1'b1;
+                        res_step <= 4'd0;
+                        busy <= BZ_RESULT;
+                    end
+                end
+                BZ_RESULT: result_step();
+                default: ;
+            endcase
+        end
+    end
+
+    // ================================================================ tasks
+    task automatic reply(input [31:0] word);
+        push <= 1'b1;
+        push_word <= {1'b1, word};
+    endtask
+
+    // One ERROR word, then the packet is over (control bit seen) or discarded to the next one.
+    task automatic fail(input [11:0] code, input [15:0] detail, input ctl);
+        reply(err_word(code, detail));
+        rx <= ctl ? RX_IDLE : RX_DISCARD;
+        busy <= BZ_NONE;
+    endtask
+
+    function automatic f32_lt(input [31:0] a, input [31:0] b);
+        // a < b for non-NaN values (±0 equal).
+        if (a[30:0] == 0 && b[30:0] == 0) f32_lt = 1'b0;
+        else if (a[31] != b[31]) f32_lt = a[31];
+        else if (!a[31]) f32_lt = a[30:0] < b[30:0];
+        else f32_lt = a[30:0] > b[30:0];
+    endfunction
+
+    // ---------------------------------------------------------------- LOAD_PE image words
+    task automatic load_word(input [31:0] w, input ctl);
+        logic [AW:0]  i;
+        logic [15:0]  index;
+        logic [37:0]  i38;
+        logic         tri_end_word;
+        i = ld_i;
+        i38 = 38'(i);
+        index = 16'(i) + 16'd2;
+        tri_end_word = 1'b0;
+        pe_a_addr[ld_pe] <= AW'(i);
+        pe_a_we[ld_pe] <= 1'b1;
+        pe_a_wdata <= w;
+        ld_i <= i + 1'b1;
+        // Header.
+        if (i == 0) ld_tag_ok <= w == PE_IMAGE_TAG;
+        if (i == 1) ld_t <= w;
+        if (i == 2) ld_v <= w;
+        if (i == 3) ld_r <= w;
+        if (i == 4) begin
+            logic [37:0] ve, re, te;
+            ld_p <= w;
+            ve = 38'd5 + 38'(ld_v) * 38'd3;
+            re = ve + 38'(ld_r);
+            te = re + 38'(ld_t) * 38'd11;
+            ld_vox_end <= ve;
+            ld_ref_end <= re;
+            ld_tri_end <= te;
+            ld_need <= te + 38'(w) * 38'd16;
+            ld_sub3 <= '0;
+            ld_sub11 <= '0;
+            ld_sub16 <= '0;
+        end
+        if (i >= 5) begin
+            if (i38 < ld_vox_end) begin
+                // Voxel table: ids strictly increasing, first + count <= R.
+                case (ld_sub3)
+                    2'd0: begin
+                        if (ld_have_prev && w <= ld_prev_id) ld_bad <= 1'b1;
+                        ld_prev_id <= w;
+                        ld_have_prev <= 1'b1;
+                    end
+                    2'd1: ld_first <= w;
+                    default: if (33'(ld_first) + 33'(w) > 33'(ld_r)) ld_bad <= 1'b1;
+                endcase
+                ld_sub3 <= (ld_sub3 == 2'd2) ? 2'd0 : ld_sub3 + 2'd1;
+            end else if (i38 < ld_ref_end) begin
+                if (33'(w) >= 33'(ld_t) + 33'(ld_p)) ld_bad <= 1'b1;
+            end else if (i38 < ld_tri_end) begin
+                // Triangle: 9 finite vertex words, prim, material <= 65535.
+                if (ld_sub11 == 4'd0) ld_tri_base <= i;
+                if (ld_sub11 <= 4'd8) begin
+                    if (!is_finite(w)) ld_bad <= 1'b1;
+                    ld_v9[ld_sub11] <= w;
+                end
+                if (ld_sub11 == 4'd9) ld_prim <= w;
+                if (ld_sub11 == 4'd10) begin
+                    if (w > 32'd65535) ld_bad <= 1'b1;
+                    tri_end_word = 1'b1;
+                end
+                ld_sub11 <= (ld_sub11 == 4'd10) ? 4'd0 : ld_sub11 + 4'd1;
+            end else if (i38 < ld_need) begin
+                // Analytic primitive: kind 1..5, material <= 65535, transform finite.
+                case (ld_sub16)
+                    4'd0: if (w == 0 || w > 32'd5) ld_bad <= 1'b1;
+                    4'd1: ;
+                    4'd2: if (w > 32'd65535) ld_bad <= 1'b1;
+                    4'd15: ;
+                    default: if (!is_finite(w)) ld_bad <= 1'b1;
+                endcase
+                ld_sub16 <= ld_sub16 + 4'd1;
+            end
+        end
+        // Framing.
+        if (i + 1'b1 == ld_n) begin
+            if (!ctl) begin
+                fail(E_MISSING_CONTROL, index, 1'b0);
+            end else begin
+                rx <= RX_IDLE;
+                ld_last <= 1'b1;
+                if (tri_end_word) begin
+                    tl_start <= 1'b1;
+                    busy <= BZ_TRI;
+                end else begin
+                    busy <= BZ_LOAD_FINISH;
+                end
+            end
+        end else if (ctl) begin
+            fail(E_TOO_SHORT, index, 1'b1);
+        end else if (tri_end_word) begin
+            ld_last <= 1'b0;
+            tl_start <= 1'b1;
+            busy <= BZ_TRI;
+        end
+    endtask
+
+    // ---------------------------------------------------------------- triangle records
+    // After tri_loader: the record (9 coordinates + prim) at n + 10t through port B, the
+    // normal over vertex a's three words through port A.
+    task automatic tri_step();
+        if (tl_done) begin
+            logic [AW+5:0] addr;
+            addr = (AW+6)'(ld_n) + (AW+6)'(ld_tri_count) * (AW+6)'(10);
+            if (addr + (AW+6)'(10) <= (AW+6)'(WORDS)) begin
+                pe_b_addr[ld_pe] <= AW'(addr);
+                pe_b_we[ld_pe] <= 16'h03FF;
+                for (int j = 0; j < 9; j++) pe_b_wdata[32*j +: 32] <= tl_coord[j];
+                pe_b_wdata[32*9 +: 32] <= ld_prim;
+            end
+            ld_tri_count <= ld_tri_count + 1'b1;
+            pe_a_addr[ld_pe] <= AW'(ld_tri_base);
+            pe_a_we[ld_pe] <= 1'b1;
+            pe_a_wdata <= tl_normal[0];
+            tl_wr <= 2'd1;
+        end else if (tl_wr != 0) begin
+            pe_a_addr[ld_pe] <= AW'(ld_tri_base) + AW'(tl_wr);
+            pe_a_we[ld_pe] <= 1'b1;
+            pe_a_wdata <= tl_normal[tl_wr];
+            if (tl_wr == 2'd2) begin
+                tl_wr <= 2'd0;
+                busy <= ld_last ? BZ_LOAD_FINISH : BZ_NONE;
+            end else begin
+                tl_wr <= tl_wr + 2'd1;
+            end
+        end
+    endtask
+
+    // ---------------------------------------------------------------- LOAD_PE end
+    task automatic load_finish();
+        logic [37:0] n38;
+        n38 = 38'(ld_n);
+        busy <= BZ_NONE;
+        if (ld_n < 5 || !ld_tag_ok || ld_need != n38 || ld_bad) begin
+            reply(err_word(E_MALFORMED, 16'(ld_pe)));
+        end else if (ld_p != 0) begin
+            reply(err_word(E_UNSUPPORTED, 16'(ld_pe)));
+        end else if (n38 + 38'(ld_t) * 38'd10 > 38'(WORDS)) begin
+            reply(err_word(E_MEM_OVERFLOW, 16'(ld_pe)));
+        end else begin
+            loaded[ld_pe] <= 1'b1;
+            pe_voxels[ld_pe] <= AW'(ld_v);
+            pe_ref_off[ld_pe] <= AW'(ld_vox_end);
+            pe_tri_off[ld_pe] <= AW'(ld_ref_end);
+            pe_rec_off[ld_pe] <= AW'(ld_n);
+            reply({4'h9, OP_LOAD, 16'd0, 8'(ld_pe)});
+        end
+    endtask
+
+    // ---------------------------------------------------------------- FRAME computation
+    task automatic frame_step();
+        fr_step <= fr_step + 5'd1;
+        // Steps 1-3 issue max - min; results in steps 4-6; extent kept as the largest.
+        if (fr_step == 5'd4) fr_ext <= fr_sub_y;
+        if (fr_step == 5'd5 || fr_step == 5'd6) if (fr_sub_y[30:0] > fr_ext[30:0]) fr_ext <= fr_sub_y;
+        if (fr_step == 5'd7) begin
+            // s = 4 - ceil(log2 extent); 0 for a zero extent.
+            logic signed [9:0] e;
+            logic              pow2;
+            logic [4:0]        msb;
+            msb = 5'd0;
+            for (int i = 0; i < 23; i++) if (fr_ext[i]) msb = 5'(i);
+            if (fr_ext[30:23] == 8'hFF) begin
+                e = 10'sd128;
+                pow2 = 1'b1;
+            end else if (fr_ext[30:23] != 0) begin
+                e = $signed({2'b00, fr_ext[30:23]}) - 10'sd127;
+                pow2 = fr_ext[22:0] == 0;
+            end else begin
+                e = $signed({5'd0, msb}) - 10'sd149;
+                pow2 = (fr_ext[22:0] & (fr_ext[22:0] - 23'd1)) == 0;
+            end
+            fr_s <= (fr_ext[30:0] == 0) ? 10'sd0 : (pow2 ? 10'sd4 - e : 10'sd3 - e);
+        end
+        if (fr_step >= 5'd8 && fr_step <= 5'd10) begin
+            frame_qm[2'(fr_step - 5'd8)] <= fr_cv_q;
+            frame_huge[2'(fr_step - 5'd8)] <= fr_cv_huge;
+        end
+        if (fr_step == 5'd10) begin
+            frame_s <= fr_s;
+            loaded <= '0;
+            reply({4'h9, OP_FRAME, 24'd0});
+            busy <= BZ_NONE;
+        end
+    endtask
+
+    // ---------------------------------------------------------------- ray words
+    task automatic ray_word(input [31:0] w, input ctl);
+        logic [15:0] idx;
+        idx = ray_idx;
+        if (idx <= 16'd7) begin
+            if (idx >= 16'd1 && idx <= 16'd3) ray_org[idx - 16'd1] <= w;
+            if (idx >= 16'd4 && idx <= 16'd6) ray_dir[idx - 16'd4] <= w;
+            if (idx == 16'd7) begin
+                logic [15:0]  bad;
+                logic [191:0] c;
+                c = {ray_dir, ray_org};
+                bad = 16'd0;
+                for (int i = 5; i >= 0; i--) if (!is_finite(c[32*i +: 32])) bad = 16'(i + 1);
+                if (bad == 0 && ray_dir[0][30:0] == 0 && ray_dir[1][30:0] == 0 && ray_dir[2][30:0] == 0) bad = 16'd4;
+                if (bad == 0 && is_nan(w)) bad = 16'd7;
+                ray_tmax <= w;
+                if (bad != 0) fail(E_NON_FINITE, bad, ctl);
+                else if (ray_count == 0) begin
+                    if (!ctl) fail(E_MISSING_CONTROL, 16'd7, 1'b0);
+                    else begin_exec();
+                end else if (ctl) fail(E_TOO_SHORT, 16'd7, 1'b1);
+                else ray_idx <= idx + 16'd1;
+            end else if (ctl) begin
+                fail(E_TOO_SHORT, idx, 1'b1);
+            end else begin
+                ray_idx <= idx + 16'd1;
+            end
+        end else if (!idx[0]) begin
+            // Entry word 0: PE range, then the voxel lookup (then framing, after it).
+            if (w[31:24] >= 8'(PES)) begin
+                fail(E_PE_RANGE, 16'(w[31:24]), ctl);
+            end else begin
+                ent_pe <= PW'(w[31:24]);
+                ent_voxel <= w[23:0];
+                word_ctl <= ctl;
+                word_idx <= idx;
+                lk_lo <= '0;
+                lk_hi <= (AW+1)'(pe_voxels[PW'(w[31:24])]);
+                lk_step <= loaded[PW'(w[31:24])] ? 4'd1 : 4'd15;
+                busy <= BZ_LOOKUP;
+            end
+        end else begin
+            // Entry word 1: t_exit must not be NaN; hi = fl32(t_exit (1 + 2^-12)).
+            if (is_nan(w)) begin
+                fail(E_NON_FINITE, idx, ctl);
+            end else begin
+                ent_texit <= w;
+                hi_in <= 1'b1;
+                word_ctl <= ctl;
+                word_idx <= idx;
+                busy <= BZ_HI;
+            end
+        end
+    endtask
+
+    // Binary search, one probe per 4 cycles: address, two cycles of read latency, compare.
+    task automatic lookup_step();
+        logic [AW:0] mid;
+        mid = lk_lo + ((lk_hi - lk_lo) >> 1);
+        case (lk_step)
+            4'd1: begin
+                if (lk_lo >= lk_hi) begin
+                    lk_step <= 4'd15;
+                end else begin
+                    lk_mid <= mid;
+                    pe_a_addr[ent_pe] <= AW'(5) + AW'(mid) * AW'(3);
+                    lk_step <= 4'd2;
+                end
+            end
+            4'd2: lk_step <= 4'd3;
+            4'd3: lk_step <= 4'd4;
+            4'd4: begin
+                if (pe_a_rdata[ent_pe] < 32'(ent_voxel)) begin
+                    lk_lo <= lk_mid + 1'b1;
+                    lk_step <= 4'd1;
+                end else if (pe_a_rdata[ent_pe] > 32'(ent_voxel)) begin
+                    lk_hi <= lk_mid;
+                    lk_step <= 4'd1;
+                end else begin
+                    pe_a_addr[ent_pe] <= AW'(6) + AW'(lk_mid) * AW'(3);
+                    lk_step <= 4'd5;
+                end
+            end
+            4'd5: begin
+                pe_a_addr[ent_pe] <= AW'(7) + AW'(lk_mid) * AW'(3);
+                lk_step <= 4'd6;
+            end
+            4'd6: lk_step <= 4'd7;
+            4'd7: begin
+                ent_first <= AW'(pe_a_rdata[ent_pe]);
+                lk_step <= 4'd8;
+            end
+            4'd8: begin
+                ent_count <= AW'(pe_a_rdata[ent_pe]);
+                busy <= BZ_NONE;
+                if (word_ctl) fail(E_TOO_SHORT, word_idx, 1'b1);
+                else ray_idx <= ray_idx + 16'd1;
+            end
+            default: fail(E_VOXEL_NOT_LOADED, 16'(ent_k), word_ctl);
+        endcase
+    endtask
+
+    // The request is complete: ray setup, then the PEs.
+    task automatic begin_exec();
+        rx <= RX_IDLE;
+        rs_start <= 1'b1;
+        ray_cnt <= 32'd0;
+        pe_any <= ray_any;
+        pe_t_max <= ray_tmax;
+        mask_n <= '0;
+        for (int k = 0; k < MAX_LIST; k++) if (32'(k) < 32'(ray_count)) mask_n[k] <= 1'b1;
+        busy <= BZ_SETUP;
+    endtask
+
+    // The result: the winner's t and triangle (PE result memory), then its normal, prim
+    // and material (one 11-word window read), then 8 words.
+    task automatic result_step();
+        res_step <= res_step + 4'd1;
+        case (res_step)
+            4'd0: pe_res_k <= win_k;
+            4'd1: ;
+            4'd2: pe_b_addr[win_pe] <= pe_tri_off[win_pe] + AW'(pe_res_tri[win_pe]) * AW'(11);
+            4'd3: ;
+            default: ;
+        endcase
+        if (res_step >= 4'd5 && res_step <= 4'd12) begin
+            logic [511:0] wnd;
+            logic [31:0]  word;
+            wnd = pe_b_rdata[win_pe];
+            case (res_step)
+                4'd5: word = {4'h8, win_hit ? 12'(win_k) : 12'd0, win_hit ? 8'(win_pe) : 8'd0, 7'd0, win_hit};
+                4'd6: word = win_hit ? pe_res_t[win_pe] : 32'h7F80_0000;
+                4'd7: word = win_hit ? wnd[32*9 +: 32] : 32'd0;
+                4'd8: word = {win_tests, win_hit ? wnd[32*10 +: 16] : 16'd0};
+                4'd9: word = win_hit ? wnd[0 +: 32] : 32'd0;
+                4'd10: word = win_hit ? wnd[32 +: 32] : 32'd0;
+                4'd11: word = win_hit ? wnd[64 +: 32] : 32'd0;
+                default: begin
+                    // cycles = request words + busy cycles + result words (one per cycle).
+                    logic [35:0] c;
+                    c = 36'd16 + 36'(ray_count) * 36'd2 + 36'(ray_cnt) - 36'd7;
+                    word = (c > 36'hFFFF_FFFF) ? 32'hFFFF_FFFF : 32'(c);
+                end
+            endcase
+            push <= 1'b1;
+            push_word <= {res_step == 4'd12, word};
+            if (res_step == 4'd12) busy <= BZ_NONE;
+        end
+    endtask
+endmodule

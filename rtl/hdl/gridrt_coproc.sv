@@ -1,0 +1,86 @@
+// gridrt_coproc: the GridRT ray-intersection co-processor (SPEC.md §4; rtl/README.md).
+//
+// Two AXI4-Stream-style word streams carry the FSL packets: s_axis (requests, from the
+// soft-core) and m_axis (replies). The FSL control bit is tlast. FSL's "full" on the
+// request side is !s_axis_tready, its "exists" on the reply side is m_axis_tvalid (§4.1 of
+// the README). `idle` is high when the co-processor waits for input with nothing to send.
+//
+// Parameters: PES processing elements (1..16), PE_MEM_WORDS words per PE (16 banks of
+// PE_MEM_WORDS/16), MAX_LIST longest traversal list. Bit-exact twin: gridrt-coproc with
+// kernel watertight, format fixed64-q23 (see rtl/README.md §3 for the arithmetic).
+module gridrt_coproc #(
+    parameter int PES = 4,
+    parameter int PE_MEM_WORDS = 16384,
+    parameter int MAX_LIST = 256
+) (
+    input  logic        clk,
+    input  logic        rst,
+    input  logic [31:0] s_axis_tdata,
+    input  logic        s_axis_tlast,
+    input  logic        s_axis_tvalid,
+    output logic        s_axis_tready,
+    output logic [31:0] m_axis_tdata,
+    output logic        m_axis_tlast,
+    output logic        m_axis_tvalid,
+    input  logic        m_axis_tready,
+    output logic        idle
+);
+    localparam int AW = $clog2(PE_MEM_WORDS);
+    localparam int KW = $clog2(MAX_LIST);
+    // DSP plan per PE (rtl/README.md §5): the edge and depth products in MULT18X18D blocks
+    // (36 per PE), the shear and denominator products in fabric.
+    localparam bit DSP_SHEAR = 0, DSP_EDGE = 1, DSP_DEPTH = 1, DSP_DEN = 0;
+
+    logic [PES-1:0][AW-1:0]  a_addr, b_addr, ref_off, rec_off;
+    logic [PES-1:0]          a_we;
+    logic [31:0]             a_wdata;
+    logic [PES-1:0][31:0]    a_rdata, issued, res_t;
+    logic [PES-1:0][15:0]    b_we;
+    logic [511:0]            b_wdata;
+    logic [PES-1:0][511:0]   b_rdata;
+    logic                    ray_begin, start, stop, any, dz_neg, ray_overflow;
+    logic [PES-1:0]          q_push, ev0_valid, ev1_valid, ev1_hit;
+    logic [KW-1:0]           q_k, res_k;
+    logic [AW-1:0]           q_first, q_count;
+    logic [31:0]             q_hi, t_max;
+    logic [2:0][33:0]        o;
+    logic [1:0]              kz;
+    logic signed [24:0]      sx, sy;
+    logic [23:0]             dz_abs;
+    logic signed [9:0]       texp;
+    logic [PES-1:0][KW-1:0]  ev0_k, ev1_k;
+    logic [PES-1:0][AW-1:0]  res_tri;
+
+    ctrl #(.PES(PES), .WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST)) u_ctrl (
+        .clk, .rst,
+        .s_tdata(s_axis_tdata), .s_tlast(s_axis_tlast), .s_tvalid(s_axis_tvalid), .s_tready(s_axis_tready),
+        .m_tdata(m_axis_tdata), .m_tlast(m_axis_tlast), .m_tvalid(m_axis_tvalid), .m_tready(m_axis_tready),
+        .idle,
+        .pe_a_addr(a_addr), .pe_a_we(a_we), .pe_a_wdata(a_wdata), .pe_a_rdata(a_rdata),
+        .pe_b_addr(b_addr), .pe_b_we(b_we), .pe_b_wdata(b_wdata), .pe_b_rdata(b_rdata),
+        .pe_ref_off(ref_off), .pe_rec_off(rec_off),
+        .pe_ray_begin(ray_begin), .pe_q_push(q_push), .pe_q_k(q_k), .pe_q_first(q_first),
+        .pe_q_count(q_count), .pe_q_hi(q_hi),
+        .pe_start(start), .pe_stop(stop), .pe_any(any), .pe_t_max(t_max), .pe_o(o), .pe_kz(kz),
+        .pe_sx(sx), .pe_sy(sy), .pe_dz_neg(dz_neg), .pe_dz_abs(dz_abs), .pe_texp(texp),
+        .pe_ray_overflow(ray_overflow), .pe_issued(issued),
+        .pe_ev0_valid(ev0_valid), .pe_ev0_k(ev0_k), .pe_ev1_valid(ev1_valid), .pe_ev1_k(ev1_k),
+        .pe_ev1_hit(ev1_hit), .pe_res_k(res_k), .pe_res_t(res_t), .pe_res_tri(res_tri));
+
+    for (genvar p = 0; p < PES; p++) begin : g_pe
+        pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST), .DSP_SHEAR(DSP_SHEAR), .DSP_EDGE(DSP_EDGE),
+             .DSP_DEPTH(DSP_DEPTH), .DSP_DEN(DSP_DEN)) u_pe (
+            .clk, .rst,
+            .c_a_addr(a_addr[p]), .c_a_we(a_we[p]), .c_a_wdata(a_wdata), .a_rdata(a_rdata[p]),
+            .c_b_addr(b_addr[p]), .c_b_we(b_we[p]), .c_b_wdata(b_wdata), .b_rdata(b_rdata[p]),
+            .ref_off(ref_off[p]), .rec_off(rec_off[p]),
+            .ray_begin, .q_push(q_push[p]), .q_k, .q_first, .q_count, .q_hi,
+            .start, .stop, .any, .t_max,
+            .o0($signed(o[0])), .o1($signed(o[1])), .o2($signed(o[2])), .kz, .sx, .sy, .dz_neg, .dz_abs,
+            .texp, .ray_overflow,
+            .issued(issued[p]),
+            .ev0_valid(ev0_valid[p]), .ev0_k(ev0_k[p]), .ev1_valid(ev1_valid[p]), .ev1_k(ev1_k[p]),
+            .ev1_hit(ev1_hit[p]),
+            .res_k, .res_t(res_t[p]), .res_tri(res_tri[p]));
+    end
+endmodule

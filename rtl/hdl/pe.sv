@@ -1,0 +1,267 @@
+// pe: one processing element: its memory, its queue of list entries, the test issue loop,
+// the intersection pipeline and the per-entry result (rtl/README.md §4.3).
+//
+// Timeline of a ray (the model's `PeTimeline` with voxel_setup_cycles = 1, issue interval
+// 1): `start` in cycle -1; in cycle 0 the PE sets up its first entry. An entry set up in
+// cycle c issues its n tests in cycles c+1 .. c+n and the next entry is set up in cycle
+// c+n+1. An entry with no tests is done in cycle c+1 (event in cycle c); an entry with
+// tests is done LAT_TEST cycles after its last issue, or, for RAY_ANY, after the issue of
+// its first accepted test. `issued` counts the issues of the current ray.
+module pe #(
+    parameter int WORDS = 16384,
+    parameter int MAX_LIST = 256,
+    parameter bit DSP_SHEAR = 0,
+    parameter bit DSP_EDGE = 1,
+    parameter bit DSP_DEPTH = 1,
+    parameter bit DSP_DEN = 0
+) (
+    input  logic                         clk,
+    input  logic                         rst,
+    // Memory access of the controller (load, voxel lookup, result fetch); ignored while
+    // the PE executes a ray.
+    input  logic [$clog2(WORDS)-1:0]     c_a_addr,
+    input  logic                         c_a_we,
+    input  logic [31:0]                  c_a_wdata,
+    output logic [31:0]                  a_rdata,
+    input  logic [$clog2(WORDS)-1:0]     c_b_addr,
+    input  logic [15:0]                  c_b_we,
+    input  logic [511:0]                 c_b_wdata,
+    output logic [511:0]                 b_rdata,
+    // Image layout (valid while loaded).
+    input  logic [$clog2(WORDS)-1:0]     ref_off,
+    input  logic [$clog2(WORDS)-1:0]     rec_off,
+    // Entry queue, filled while the request streams in.
+    input  logic                         ray_begin,  // empties the queue
+    input  logic                         q_push,
+    input  logic [$clog2(MAX_LIST)-1:0]  q_k,
+    input  logic [$clog2(WORDS)-1:0]     q_first,
+    input  logic [$clog2(WORDS)-1:0]     q_count,
+    input  logic [31:0]                  q_hi,
+    // Execution.
+    input  logic                         start,
+    input  logic                         stop,
+    input  logic                         any,        // RAY_ANY
+    input  logic [31:0]                  t_max,
+    input  logic signed [33:0]           o0, o1, o2,
+    input  logic [1:0]                   kz,
+    input  logic signed [24:0]           sx, sy,
+    input  logic                         dz_neg,
+    input  logic [23:0]                  dz_abs,
+    input  logic signed [9:0]            texp,
+    input  logic                         ray_overflow,
+    output logic [31:0]                  issued,
+    // Entry-done events (0: entries without tests, 1: from the result stage).
+    output logic                         ev0_valid,
+    output logic [$clog2(MAX_LIST)-1:0]  ev0_k,
+    output logic                         ev1_valid,
+    output logic [$clog2(MAX_LIST)-1:0]  ev1_k,
+    output logic                         ev1_hit,
+    // Result of entry k (hit distance, local triangle), read after the ray.
+    input  logic [$clog2(MAX_LIST)-1:0]  res_k,
+    output logic [31:0]                  res_t,
+    output logic [$clog2(WORDS)-1:0]     res_tri
+);
+    localparam int AW = $clog2(WORDS);
+    localparam int KW = $clog2(MAX_LIST);
+
+    // ---------------------------------------------------------------- memory and ports
+    logic        active;   // executing a ray: the issue loop owns both ports
+    logic [AW-1:0] x_a_addr, x_b_addr;
+    pe_mem #(.WORDS(WORDS)) u_mem (
+        .clk,
+        .a_addr(active ? x_a_addr : c_a_addr), .a_we(!active && c_a_we), .a_wdata(c_a_wdata), .a_rdata,
+        .b_addr(active ? x_b_addr : c_b_addr), .b_we(active ? 16'd0 : c_b_we), .b_wdata(c_b_wdata), .b_rdata);
+
+    // ---------------------------------------------------------------- entry queue
+    logic [KW+2*AW-1:0] q_mem [MAX_LIST];
+    logic [KW+2*AW-1:0] q_rdata;
+    logic [KW:0]        q_n, q_raddr;
+    logic [31:0]        hi_mem [MAX_LIST];
+    always_ff @(posedge clk) begin
+        if (q_push) begin
+            q_mem[q_n[KW-1:0]] <= {q_k, q_first, q_count};
+            hi_mem[q_k] <= q_hi;
+        end
+        q_rdata <= q_mem[q_raddr[KW-1:0]];
+    end
+
+    // ---------------------------------------------------------------- issue loop
+    typedef enum logic [1:0] { S_IDLE, S_SETUP, S_ISSUE } state_t;
+    state_t        state;
+    logic [KW-1:0] cur_k;
+    logic [AW-1:0] cur_first, cur_count, cur_i;
+    logic          epoch;
+    logic          iss_valid, iss_last;
+    logic [KW-1:0] iss_k;
+    always_ff @(posedge clk) begin
+        ev0_valid <= 1'b0;
+        iss_valid <= 1'b0;
+        if (rst) begin
+            state <= S_IDLE;
+            active <= 1'b0;
+            q_n <= '0;
+            q_raddr <= '0;
+            epoch <= 1'b0;
+            issued <= 32'd0;
+        end else begin
+            if (ray_begin) begin
+                q_n <= '0;
+                q_raddr <= '0;
+            end else if (q_push) begin
+                q_n <= q_n + 1'b1;
+            end
+            if (start) begin
+                state <= S_SETUP;
+                active <= 1'b1;
+                epoch <= !epoch;
+                issued <= 32'd0;
+            end else if (stop) begin
+                state <= S_IDLE;
+                active <= 1'b0;
+                q_raddr <= '0;
+            end else begin
+                case (state)
+                    S_SETUP: begin
+                        if (q_raddr == q_n) begin
+                            state <= S_IDLE;
+                        end else begin
+                            {cur_k, cur_first, cur_count} <= q_rdata;
+                            cur_i <= '0;
+                            q_raddr <= q_raddr + 1'b1;
+                            if (q_rdata[AW-1:0] == 0) begin
+                                ev0_valid <= 1'b1;
+                                ev0_k <= q_rdata[KW+2*AW-1 -: KW];
+                            end else begin
+                                state <= S_ISSUE;
+                            end
+                        end
+                    end
+                    S_ISSUE: begin
+                        iss_valid <= 1'b1;
+                        iss_last <= cur_i == cur_count - 1'b1;
+                        iss_k <= cur_k;
+                        x_a_addr <= ref_off + cur_first + cur_i;
+                        issued <= issued + 1;
+                        cur_i <= cur_i + 1'b1;
+                        if (cur_i == cur_count - 1'b1) state <= S_SETUP;
+                    end
+                    default: ;
+                endcase
+            end
+        end
+    end
+
+    // A test issued in cycle c presents its ref address (x_a_addr) and its tag in cycle c+1;
+    // the ref word arrives in c+3, the record window in c+6 (pe_mem latency 2 per port).
+    logic [KW+1:0] tag_p2;
+    logic          v_p2;
+    delay #(.W(KW+3), .N(2)) u_dp2 (.clk, .d({iss_valid, epoch, iss_last, iss_k}), .q({v_p2, tag_p2}));
+    logic [AW-1:0] ref_tri;
+    assign ref_tri = a_rdata[AW-1:0];
+    always_ff @(posedge clk) x_b_addr <= rec_off + (AW'(ref_tri) << 3) + (AW'(ref_tri) << 1);
+
+    // Stage P3-P5: port B (record window) -> intersection pipeline.
+    logic [KW+1:0] tag_p5;
+    logic [AW-1:0] tri_p5;
+    logic          v_p5;
+    delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk, .d({v_p2, tag_p2, ref_tri}), .q({v_p5, tag_p5, tri_p5}));
+
+    localparam int TAG_W = KW + 2 + AW + 32;
+    logic               is_valid;
+    logic [TAG_W-1:0]   is_tag;
+    logic [1:0]         is_kind;
+    logic [31:0]        is_t;
+    isect_pipe #(.TAG_W(TAG_W), .DSP_SHEAR(DSP_SHEAR), .DSP_EDGE(DSP_EDGE), .DSP_DEPTH(DSP_DEPTH), .DSP_DEN(DSP_DEN)) u_isect (
+        .clk, .in_valid(v_p5), .in_tag({tag_p5, tri_p5, b_rdata[32*9 +: 32]}), .rec(b_rdata[287:0]),
+        .o0, .o1, .o2, .kz, .sx, .sy, .dz_neg, .dz_abs, .texp, .ray_overflow,
+        .out_valid(is_valid), .out_tag(is_tag), .kind(is_kind), .t(is_t));
+
+    // ---------------------------------------------------------------- result stage
+    // R0: register, read the entry's hi bound.
+    logic          r0_valid, r0_hit, r0_last;
+    logic [KW-1:0] r0_k;
+    logic [AW-1:0] r0_tri;
+    logic [31:0]   r0_t, r0_prim, r0_hi;
+    always_ff @(posedge clk) begin
+        r0_valid <= is_valid && active && is_tag[TAG_W-1] == epoch;
+        r0_hit <= is_kind == 2'd1;
+        {r0_last, r0_k} <= is_tag[TAG_W-2 -: KW+1];
+        r0_tri <= is_tag[32 +: AW];
+        r0_prim <= is_tag[31:0];
+        r0_t <= is_t;
+        r0_hi <= hi_mem[is_tag[TAG_W-3 -: KW]];
+    end
+
+    // R1: the acceptance rule 0 < t < t_max and t <= hi (t is positive and finite).
+    logic          r1_valid, r1_acc, r1_last;
+    logic [KW-1:0] r1_k;
+    logic [AW-1:0] r1_tri;
+    logic [31:0]   r1_t, r1_prim;
+    always_ff @(posedge clk) begin
+        r1_valid <= r0_valid && active;
+        r1_acc <= r0_hit && !t_max[31] && r0_t[30:0] < t_max[30:0] && !r0_hi[31] && r0_t[30:0] <= r0_hi[30:0];
+        r1_last <= r0_last;
+        r1_k <= r0_k;
+        r1_tri <= r0_tri;
+        r1_t <= r0_t;
+        r1_prim <= r0_prim;
+    end
+
+    // R2: the entry's winner. Closest: smallest t, ties to the lowest prim id, reported
+    // after the entry's last test. Any: the first accepted test, reported at once.
+    logic          best_valid, resolved;
+    logic [31:0]   best_t, best_prim;
+    logic [AW-1:0] best_tri;
+    logic [31:0]   res_t_mem [MAX_LIST];
+    logic [AW-1:0] res_tri_mem [MAX_LIST];
+    always_ff @(posedge clk) begin
+        logic          take, emit, hit;
+        logic [31:0]   t_out;
+        logic [AW-1:0] tri_out;
+        ev1_valid <= 1'b0;
+        take = 1'b0;
+        emit = 1'b0;
+        hit = 1'b0;
+        t_out = best_t;
+        tri_out = best_tri;
+        if (start) begin
+            best_valid <= 1'b0;
+            resolved <= 1'b0;
+        end else if (r1_valid && active) begin
+            if (any) begin
+                if (r1_acc && !resolved) begin
+                    emit = 1'b1;
+                    hit = 1'b1;
+                    t_out = r1_t;
+                    tri_out = r1_tri;
+                end else if (r1_last && !resolved) begin
+                    emit = 1'b1;
+                end
+                resolved <= r1_last ? 1'b0 : (resolved || r1_acc);
+            end else begin
+                take = r1_acc && (!best_valid || r1_t < best_t || (r1_t == best_t && r1_prim < best_prim));
+                if (r1_last) begin
+                    emit = 1'b1;
+                    hit = best_valid || take;
+                    t_out = take ? r1_t : best_t;
+                    tri_out = take ? r1_tri : best_tri;
+                    best_valid <= 1'b0;
+                end else if (take) begin
+                    best_valid <= 1'b1;
+                    best_t <= r1_t;
+                    best_prim <= r1_prim;
+                    best_tri <= r1_tri;
+                end
+            end
+        end
+        if (emit) begin
+            ev1_valid <= 1'b1;
+            ev1_k <= r1_k;
+            ev1_hit <= hit;
+            res_t_mem[r1_k] <= t_out;
+            res_tri_mem[r1_k] <= tri_out;
+        end
+        res_t <= res_t_mem[res_k];
+        res_tri <= res_tri_mem[res_k];
+    end
+endmodule

@@ -1,0 +1,130 @@
+// ray_setup: the per-ray constants every PE shares (rtl/README.md §3.2; twin: `twin::setup`).
+//
+// From the f32 origin and direction and the frame: the dominant axis kz (pbrt-v4's
+// max_dimension), the direction Q(d, 23 - E) with E = floor(log2 |d_kz|), the origin
+// Q(o, s + 23) - Q(min) (overflow outside +-2^33), the shear trunc(-d * 2^23 / dz) for x
+// and y (two restoring dividers), and the t exponent -s - E. Takes LATENCY cycles from
+// `start` to `done` whatever the input.
+module ray_setup (
+    input  logic                clk,
+    input  logic                start,
+    input  logic [2:0][31:0]    org,
+    input  logic [2:0][31:0]    dir,
+    input  logic signed [9:0]   frame_s,
+    input  logic [2:0][54:0]    frame_qm,   // signed elements
+    input  logic [2:0]          frame_huge,
+    output logic                done,
+    output logic [2:0][33:0]    o,          // signed elements
+    output logic [1:0]          kz,
+    output logic signed [24:0]  sx, sy,
+    output logic                dz_neg,
+    output logic [23:0]         dz_abs,
+    output logic signed [9:0]   texp,
+    output logic                overflow
+);
+    localparam int LATENCY = 30;
+
+    // One converter, used for the three direction and then the three origin components.
+    logic [31:0]        cv_x;
+    logic signed [9:0]  cv_k;
+    logic signed [54:0] cv_q;
+    logic               cv_huge;
+    f32_to_fixed u_cv (.x(cv_x), .k(cv_k), .q(cv_q), .huge(cv_huge));
+
+    logic [5:0]         step;      // 0 idle; 1.. running
+    logic signed [9:0]  e_max;
+    logic signed [24:0] d [3];     // world order
+    logic [23:0]        den;
+    logic [23:0]        rx, ry;    // partial remainders (< den)
+    logic [23:0]        qx, qy;
+    logic               sx_neg, sy_neg;
+
+    function automatic [30:0] mag(input [31:0] f);
+        mag = f[30:0];
+    endfunction
+
+    always_comb begin
+        cv_x = 32'd0;
+        cv_k = 10'sd0;
+        if (step >= 6'd2 && step <= 6'd4) begin
+            cv_x = dir[2'(step - 6'd2)];
+            cv_k = 10'sd23 - e_max;
+        end else if (step >= 6'd5 && step <= 6'd7) begin
+            cv_x = org[2'(step - 6'd5)];
+            cv_k = frame_s + 10'sd23;
+        end
+    end
+
+    always_ff @(posedge clk) begin
+        done <= 1'b0;
+        if (start) begin
+            step <= 6'd1;
+            overflow <= 1'b0;
+        end else if (step != 0) begin
+            step <= (step == 6'(LATENCY)) ? 6'd0 : step + 6'd1;
+            if (step == 6'd1) begin
+                // max_dimension: x if |x| >= |y| and |x| >= |z|, else y if |y| >= |z|, else z.
+                logic [1:0] k;
+                logic [31:0] dk;
+                if (mag(dir[0]) >= mag(dir[1]) && mag(dir[0]) >= mag(dir[2])) k = 2'd0;
+                else if (mag(dir[1]) >= mag(dir[2])) k = 2'd1;
+                else k = 2'd2;
+                kz <= k;
+                dk = dir[k];
+                if (dk[30:23] != 0) begin
+                    e_max <= $signed({2'b00, dk[30:23]}) - 10'sd127;
+                end else begin
+                    logic [4:0] msb;
+                    msb = 5'd0;
+                    for (int i = 0; i < 23; i++) if (dk[i]) msb = 5'(i);
+                    e_max <= $signed({5'd0, msb}) - 10'sd149;
+                end
+            end
+            if (step >= 6'd2 && step <= 6'd4) d[2'(step - 6'd2)] <= 25'(cv_q);
+            if (step >= 6'd5 && step <= 6'd7) begin
+                logic signed [55:0] oo;
+                oo = 56'(cv_q) - 56'($signed(frame_qm[2'(step - 6'd5)]));
+                if (cv_huge || frame_huge[2'(step - 6'd5)] || oo >= 56'sh2_0000_0000 || oo <= -56'sh2_0000_0000)
+                    overflow <= 1'b1;
+                o[2'(step - 6'd5)] <= 34'(oo);
+            end
+            if (step == 6'd5) begin
+                // Permute the direction (kz=0: y,z,x; kz=1: z,x,y; kz=2: x,y,z) and set up the
+                // two divisions trunc(-dx * 2^23 / dz), trunc(-dy * 2^23 / dz).
+                logic signed [24:0] px, py, pz;
+                case (kz)
+                    2'd0: begin px = d[1]; py = d[2]; pz = d[0]; end
+                    2'd1: begin px = d[2]; py = d[0]; pz = d[1]; end
+                    default: begin px = d[0]; py = d[1]; pz = d[2]; end
+                endcase
+                den <= (pz < 0) ? 24'(-pz) : 24'(pz);
+                dz_neg <= pz < 0;
+                dz_abs <= (pz < 0) ? 24'(-pz) : 24'(pz);
+                // -d/dz is negative when d and dz have the same sign (d = 0 gives q = 0).
+                sx_neg <= (px < 0) == (pz < 0);
+                sy_neg <= (py < 0) == (pz < 0);
+                rx <= (px < 0) ? 24'(-px) : 24'(px);
+                ry <= (py < 0) ? 24'(-py) : 24'(py);
+                qx <= '0;
+                qy <= '0;
+                texp <= -frame_s - e_max;
+            end
+            if (step >= 6'd6 && step <= 6'd29) begin
+                // Restoring division of |d| * 2^23 by |dz|, quotient bit 23 first: the
+                // remainder starts as |d| (the dividend's bits above 2^23), then doubles.
+                logic [24:0] r1, r2;
+                r1 = (step == 6'd6) ? {1'b0, rx} : {rx, 1'b0};
+                r2 = (step == 6'd6) ? {1'b0, ry} : {ry, 1'b0};
+                if (r1 >= {1'b0, den}) begin rx <= 24'(r1 - {1'b0, den}); qx <= {qx[22:0], 1'b1}; end
+                else begin rx <= 24'(r1); qx <= {qx[22:0], 1'b0}; end
+                if (r2 >= {1'b0, den}) begin ry <= 24'(r2 - {1'b0, den}); qy <= {qy[22:0], 1'b1}; end
+                else begin ry <= 24'(r2); qy <= {qy[22:0], 1'b0}; end
+            end
+            if (step == 6'(LATENCY)) begin
+                sx <= sx_neg ? -$signed({1'b0, qx}) : $signed({1'b0, qx});
+                sy <= sy_neg ? -$signed({1'b0, qy}) : $signed({1'b0, qy});
+                done <= 1'b1;
+            end
+        end
+    end
+endmodule

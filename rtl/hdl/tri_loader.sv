@@ -1,0 +1,130 @@
+// tri_loader: what LOAD_PE computes for one triangle (rtl/README.md §4.4; twin:
+// `twin::record`, model: `geometric_normal`).
+//
+// - The record: the 9 frame coordinates Q(v, s + 23) - Q(min), POISON (0x80000000) where
+//   one does not fit i32; if none overflowed and the quantised vertices are collinear
+//   (exact integer cross product zero) all 9 are 0. Word 9 is the prim id.
+// - The normal (b - a) x (c - a) in f32 (RNE), as glam's Vec3 computes it.
+// Takes LATENCY cycles from `start` to `done`.
+module tri_loader (
+    input  logic               clk,
+    input  logic               start,
+    input  logic [8:0][31:0]   v,          // ax ay az bx by bz cx cy cz (f32)
+    input  logic signed [9:0]  frame_s,
+    input  logic [2:0][54:0]   frame_qm,   // signed elements
+    input  logic [2:0]         frame_huge,
+    output logic               done,
+    output logic [8:0][31:0]   coord,
+    output logic [2:0][31:0]   normal
+);
+    localparam int LATENCY = 26;
+
+    logic [5:0] step;
+
+    // ---------------------------------------------------------------- conversions (1..9)
+    logic [31:0]        cv_x;
+    logic signed [54:0] cv_q;
+    logic               cv_huge;
+    logic [3:0]         ci;
+    assign ci = 4'(step - 6'd1);
+    assign cv_x = (step >= 6'd1 && step <= 6'd9) ? v[ci] : 32'd0;
+    f32_to_fixed u_cv (.x(cv_x), .k(frame_s + 10'sd23), .q(cv_q), .huge(cv_huge));
+
+    logic        ovf;
+    logic [31:0] c [9];
+
+    // ---------------------------------------------------------------- f32 units
+    logic        add_in, add_out, mul_in, mul_out;
+    logic [31:0] add_a, add_b, add_y, mul_a, mul_b, mul_y;
+    f32_addsub u_add (.clk, .in_valid(add_in), .a(add_a), .b(add_b), .sub(1'b1), .out_valid(add_out), .y(add_y));
+    f32_mul u_mul (.clk, .in_valid(mul_in), .a(mul_a), .b(mul_b), .out_valid(mul_out), .y(mul_y));
+    logic [31:0] dd [6];    // d1 = b - a (0..2), d2 = c - a (3..5)
+    logic [31:0] pp [6];    // cross-product terms
+    // Subtractions issued in steps 1..6 (d), 19..21 (n); products in steps 10..15.
+    always_comb begin
+        add_in = 1'b0;
+        add_a = 32'd0;
+        add_b = 32'd0;
+        mul_in = 1'b0;
+        mul_a = 32'd0;
+        mul_b = 32'd0;
+        if (step >= 6'd1 && step <= 6'd6) begin
+            add_in = 1'b1;
+            add_a = v[3 + int'(step) - 1];
+            add_b = v[(int'(step) - 1) % 3];
+        end else if (step >= 6'd19 && step <= 6'd21) begin
+            add_in = 1'b1;
+            add_a = pp[2 * (int'(step) - 19)];
+            add_b = pp[2 * (int'(step) - 19) + 1];
+        end
+        // x = d1y*d2z - d2y*d1z, y = d1z*d2x - d2z*d1x, z = d1x*d2y - d2x*d1y
+        case (step)
+            6'd10: begin mul_in = 1'b1; mul_a = dd[1]; mul_b = dd[5]; end
+            6'd11: begin mul_in = 1'b1; mul_a = dd[4]; mul_b = dd[2]; end
+            6'd12: begin mul_in = 1'b1; mul_a = dd[2]; mul_b = dd[3]; end
+            6'd13: begin mul_in = 1'b1; mul_a = dd[5]; mul_b = dd[0]; end
+            6'd14: begin mul_in = 1'b1; mul_a = dd[0]; mul_b = dd[4]; end
+            6'd15: begin mul_in = 1'b1; mul_a = dd[3]; mul_b = dd[1]; end
+            default: ;
+        endcase
+    end
+
+    // ---------------------------------------------------------------- degenerate test
+    // e1 = c1 - c0, e2 = c2 - c0 (33-bit); n = e1 x e2 == 0 (six exact products).
+    logic signed [32:0] e1 [3], e2 [3];
+    logic signed [32:0] ma, mb;
+    logic signed [65:0] mp;
+    mul_pipe #(.A_W(33), .B_W(33), .USE_DSP(1)) u_dm (.clk, .a(ma), .b(mb), .p(mp));
+    always_comb begin
+        ma = '0;
+        mb = '0;
+        case (step)
+            6'd11: begin ma = e1[1]; mb = e2[2]; end
+            6'd12: begin ma = e1[2]; mb = e2[1]; end
+            6'd13: begin ma = e1[2]; mb = e2[0]; end
+            6'd14: begin ma = e1[0]; mb = e2[2]; end
+            6'd15: begin ma = e1[0]; mb = e2[1]; end
+            6'd16: begin ma = e1[1]; mb = e2[0]; end
+            default: ;
+        endcase
+    end
+    logic signed [65:0] dp [6];
+    logic               degenerate;
+
+    always_ff @(posedge clk) begin
+        done <= 1'b0;
+        if (start) begin
+            step <= 6'd1;
+            ovf <= 1'b0;
+        end else if (step != 0) begin
+            step <= (step == 6'(LATENCY)) ? 6'd0 : step + 6'd1;
+            if (step >= 6'd1 && step <= 6'd9) begin
+                logic signed [55:0] x;
+                x = 56'(cv_q) - 56'($signed(frame_qm[2'(ci % 4'd3)]));
+                if (cv_huge || frame_huge[2'(ci % 4'd3)] || x > 56'sh7FFF_FFFF || x < -56'sh7FFF_FFFF) begin
+                    c[ci] <= 32'h8000_0000;
+                    ovf <= 1'b1;
+                end else begin
+                    c[ci] <= 32'(x);
+                end
+            end
+            if (step == 6'd10) begin
+                for (int a = 0; a < 3; a++) begin
+                    e1[a] <= 33'($signed(c[3 + a])) - 33'($signed(c[a]));
+                    e2[a] <= 33'($signed(c[6 + a])) - 33'($signed(c[a]));
+                end
+            end
+            // Product issued in step s is ready in step s + 3.
+            if (step >= 6'd14 && step <= 6'd19) dp[3'(step - 6'd14)] <= mp;
+            if (step == 6'd20)
+                degenerate <= dp[0] == dp[1] && dp[2] == dp[3] && dp[4] == dp[5];
+            if (add_out && step >= 6'd4 && step <= 6'd9) dd[3'(step - 6'd4)] <= add_y;
+            if (mul_out) pp[3'(step - 6'd13)] <= mul_y;
+            if (add_out && step >= 6'd22 && step <= 6'd24) normal[2'(step - 6'd22)] <= add_y;
+            if (step == 6'(LATENCY)) begin
+                for (int i = 0; i < 9; i++) coord[i] <= (!ovf && degenerate) ? 32'd0 : c[i];
+                done <= 1'b1;
+            end
+        end
+    end
+endmodule

@@ -1,0 +1,118 @@
+// Co-simulation of the co-processor RTL (rtl/hdl/gridrt_coproc.sv) behind a pipe, driven by
+// gridrt-rtl (rtl/src/sim.rs). Protocol over stdin/stdout, u32 little-endian:
+//
+//   1, data, control   queue one request word (FSL word; control = tlast)
+//   2                  run until every queued word is consumed and the co-processor is idle;
+//                      answer n, then n x (data, control): the reply words it produced
+//   3                  answer the cycle counters: total lo, hi, busy lo, hi (busy = not idle)
+//   0 / end of input   exit
+//
+// Options: --stall PERCENT drops s_axis_tvalid and m_axis_tready at random in that share of
+// cycles (handshake stress; the results must not change), --seed N for that generator.
+#include <cstring>
+#include <deque>
+#include <random>
+#include <string>
+#include <vector>
+#include "Vgridrt_coproc.h"
+#include "io.h"
+#include "verilated.h"
+
+namespace {
+
+// A drain that runs this many cycles without finishing means the RTL hangs.
+constexpr uint64_t kWatchdogCycles = 200'000'000;
+
+struct Word {
+    uint32_t data;
+    uint32_t control;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    Verilated::commandArgs(argc, argv);
+    int stall = 0;
+    uint64_t seed = 1;
+    for (int i = 1; i + 1 < argc; i++) {
+        if (!std::strcmp(argv[i], "--stall")) stall = std::stoi(argv[i + 1]);
+        if (!std::strcmp(argv[i], "--seed")) seed = std::stoull(argv[i + 1]);
+    }
+    std::mt19937_64 rng(seed);
+    auto* top = new Vgridrt_coproc;
+    uint64_t cycles = 0, busy = 0;
+    auto tick = [&]() {
+        top->clk = 0;
+        top->eval();
+        top->clk = 1;
+        top->eval();
+        cycles++;
+    };
+    top->rst = 1;
+    top->s_axis_tvalid = 0;
+    top->m_axis_tready = 0;
+    for (int i = 0; i < 4; i++) tick();
+    top->rst = 0;
+
+    std::deque<Word> in;
+    std::vector<Word> out;
+    for (;;) {
+        uint32_t cmd;
+        if (!io::read_u32(cmd) || cmd == 0) break;
+        if (cmd == 1) {
+            Word w;
+            if (!io::read_u32(w.data) || !io::read_u32(w.control)) break;
+            in.push_back(w);
+        } else if (cmd == 2) {
+            uint64_t start = cycles;
+            for (;;) {
+                // Inputs for this cycle (set before the rising edge).
+                bool offer = !in.empty() && !(stall && int(rng() % 100) < stall);
+                bool take = !(stall && int(rng() % 100) < stall);
+                top->s_axis_tvalid = offer;
+                if (offer) {
+                    top->s_axis_tdata = in.front().data;
+                    top->s_axis_tlast = in.front().control & 1;
+                }
+                top->m_axis_tready = take;
+                top->clk = 0;
+                top->eval();
+                bool accepted = offer && top->s_axis_tready;
+                bool emitted = take && top->m_axis_tvalid;
+                if (emitted) out.push_back({top->m_axis_tdata, top->m_axis_tlast});
+                bool was_idle = top->idle;
+                top->clk = 1;
+                top->eval();
+                cycles++;
+                if (accepted) in.pop_front();
+                if (!was_idle) busy++;
+                if (in.empty() && top->idle && !top->m_axis_tvalid) break;
+                if (cycles - start > kWatchdogCycles) {
+                    std::fprintf(stderr, "coproc sim: no progress after %llu cycles\n",
+                                 (unsigned long long)(cycles - start));
+                    return 2;
+                }
+            }
+            top->s_axis_tvalid = 0;
+            io::write_u32(uint32_t(out.size()));
+            for (const Word& w : out) {
+                io::write_u32(w.data);
+                io::write_u32(w.control);
+            }
+            out.clear();
+            io::flush();
+        } else if (cmd == 3) {
+            io::write_u32(uint32_t(cycles));
+            io::write_u32(uint32_t(cycles >> 32));
+            io::write_u32(uint32_t(busy));
+            io::write_u32(uint32_t(busy >> 32));
+            io::flush();
+        } else {
+            std::fprintf(stderr, "coproc sim: unknown command %u\n", cmd);
+            return 1;
+        }
+    }
+    top->final();
+    delete top;
+    return 0;
+}

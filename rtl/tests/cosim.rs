@@ -1,0 +1,230 @@
+//! The co-processor RTL against the model (watertight, fixed64-q23, `rtl` timing), word for
+//! word through the Verilator build: random rays over random scenes (10⁵ in all), in several
+//! fixed-point frames (FRAME packets), and with the stream handshakes stalled at random.
+
+mod support;
+
+use gridrt_coproc::{Coprocessor, FslWord, RayKind};
+use gridrt_rtl::sim::{default_programs, require_verilator, CoprocSim, RtlParams};
+use gridrt_shared::math::{Ray, Vec3};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use support::*;
+
+fn sim(stall: Option<(u32, u64)>) -> CoprocSim {
+    let programs = default_programs().unwrap_or_else(|e| panic!("{e}"));
+    CoprocSim::spawn(&programs.coproc, stall).unwrap()
+}
+
+/// Sends a packet to the RTL and to the model; their replies must be the same words.
+fn exchange(s: &mut CoprocSim, m: &mut Coprocessor, packet: &[FslWord], what: &dyn Fn() -> String) -> Vec<FslWord> {
+    let got = run_rtl(s, packet);
+    let want = run_model(m, packet);
+    assert_eq!(got, want, "{}", what());
+    got
+}
+
+/// What a batch of rays saw.
+#[derive(Debug, Default)]
+struct Tally {
+    rays: usize,
+    hits: usize,
+    any: usize,
+}
+
+/// Where the random scenes lie: the box `center ± ext`, announced by a FRAME packet or left
+/// in the reset frame (the identity).
+#[derive(Debug, Clone, Copy)]
+struct Place {
+    center: Vec3,
+    ext: f32,
+    frame_packet: bool,
+}
+
+/// `rounds` random scenes at `place`, `rays` random rays each; every reply of the RTL equals
+/// the model's.
+fn random_rays(
+    s: &mut CoprocSim,
+    m: &mut Coprocessor,
+    rng: &mut ChaCha8Rng,
+    rounds: usize,
+    rays: usize,
+    place: Place,
+) -> Tally {
+    let Place { center, ext, frame_packet } = place;
+    let mut tally = Tally::default();
+    if frame_packet {
+        let (min, max) = ((center - Vec3::splat(ext)).to_array(), (center + Vec3::splat(ext)).to_array());
+        let ack = exchange(s, m, &support::frame_packet(min, max), &|| format!("FRAME {min:?} {max:?}"));
+        assert_eq!(ack, framed(&[0x9500_0000]));
+    }
+    for round in 0..rounds {
+        let mut scene = random_scene(rng, 4, ext);
+        for pe in &mut scene {
+            for t in &mut pe.tris {
+                t.v = t.v.map(|v| v + center);
+            }
+        }
+        for (pe, p) in scene.iter().enumerate() {
+            let img = p.image();
+            assert_valid(&img);
+            let ack = exchange(s, m, &load_packet(pe as u8, &img), &|| format!("round {round} load {pe}"));
+            assert_eq!(ack, framed(&[0x9100_0000 | pe as u32]), "round {round} load {pe}");
+        }
+        for _ in 0..rays {
+            let origin =
+                center + Vec3::new(rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0)) * ext;
+            let pe = &scene[rng.gen_range(0..scene.len())];
+            let t = pe.tris[rng.gen_range(0..pe.tris.len())];
+            // Interior points, and points on the edge a-b (shared with a neighbour).
+            let (b1, b2) = if rng.gen_bool(0.3) {
+                (rng.gen_range(0.0f32..1.0), 0.0)
+            } else {
+                (rng.gen_range(-0.1f32..0.7), rng.gen_range(-0.1f32..0.7))
+            };
+            let target = t.v[0] + (t.v[1] - t.v[0]) * b1 + (t.v[2] - t.v[0]) * b2;
+            let dir = if rng.gen_bool(0.8) {
+                target - origin
+            } else {
+                Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0))
+            };
+            if dir == Vec3::ZERO {
+                continue;
+            }
+            let ray = Ray { origin, dir };
+            let list = random_list(rng, &scene, 12);
+            let kind = if rng.gen_bool(0.3) { RayKind::Any } else { RayKind::Closest };
+            let t_max = if rng.gen_bool(0.7) { f32::INFINITY } else { rng.gen_range(0.0f32..3.0) * ext };
+            let what = || format!("round {round}: {kind:?} {ray:?} t_max {t_max} list {list:?}");
+            let got = exchange(s, m, &ray_packet(kind, &ray, t_max, &list), &what);
+            assert_eq!(got.len(), 8, "{}", what());
+            tally.rays += 1;
+            tally.hits += (got[0].data & 1) as usize;
+            tally.any += (kind == RayKind::Any) as usize;
+        }
+    }
+    tally
+}
+
+/// 10⁵ random rays (two simulator processes in parallel, 50 000 each): RESULT words equal
+/// the model's, cycles and test counts included.
+#[test]
+fn hundred_thousand_random_rays_give_the_models_result_words() {
+    if !require_verilator("hundred_thousand_random_rays_give_the_models_result_words") {
+        return;
+    }
+    let _ = default_programs();
+    let tallies: Vec<Tally> = std::thread::scope(|sc| {
+        let jobs: Vec<_> = (0..2u64)
+            .map(|j| {
+                sc.spawn(move || {
+                    let mut s = sim(None);
+                    let mut m = model(RtlParams::default());
+                    let mut rng = rng(0xC0510 + j);
+                    random_rays(
+                        &mut s,
+                        &mut m,
+                        &mut rng,
+                        100,
+                        500,
+                        Place { center: Vec3::ZERO, ext: 4.0, frame_packet: false },
+                    )
+                })
+            })
+            .collect();
+        jobs.into_iter().map(|j| j.join().unwrap()).collect()
+    });
+    let rays: usize = tallies.iter().map(|t| t.rays).sum();
+    let hits: usize = tallies.iter().map(|t| t.hits).sum();
+    assert!(rays >= 99_000, "{rays} rays");
+    assert!(hits > rays / 5, "{hits} hits of {rays}");
+}
+
+/// FRAME packets set the fixed-point frame of the loads and rays after them: scenes far from
+/// the origin, tiny and huge, each in its own frame.
+#[test]
+fn frames_from_frame_packets_give_the_models_result_words() {
+    if !require_verilator("frames_from_frame_packets_give_the_models_result_words") {
+        return;
+    }
+    let mut s = sim(None);
+    let mut m = model(RtlParams::default());
+    let mut rng = rng(0xF4A3E);
+    for (center, ext) in [
+        (Vec3::new(1000.0, -2000.0, 5.5), 3.0),
+        (Vec3::new(0.001, 0.002, -0.003), 1e-4),
+        (Vec3::new(-3e5, 1e5, 2e5), 4e4),
+        (Vec3::new(0.3, 0.7, 0.1), 0.37),
+        (Vec3::ZERO, 1e-30),
+    ] {
+        let t = random_rays(&mut s, &mut m, &mut rng, 3, 300, Place { center, ext, frame_packet: true });
+        assert!(t.hits > t.rays / 10, "{center:?} ± {ext}: {t:?}");
+    }
+}
+
+/// The stream handshakes (s_axis_tvalid, m_axis_tready) dropped in 40 % of the cycles at
+/// random change nothing in the replies.
+#[test]
+fn stalled_handshakes_do_not_change_the_replies() {
+    if !require_verilator("stalled_handshakes_do_not_change_the_replies") {
+        return;
+    }
+    let mut s = sim(Some((40, 7)));
+    let mut m = model(RtlParams::default());
+    let mut rng = rng(0x57A11);
+    let t = random_rays(
+        &mut s,
+        &mut m,
+        &mut rng,
+        4,
+        250,
+        Place { center: Vec3::new(2.0, 1.0, -1.0), ext: 2.0, frame_packet: true },
+    );
+    assert!(t.hits > 100 && t.any > 100, "{t:?}");
+}
+
+/// FRAME checks its box (SPEC §4.6): non-finite words and inverted axes are ERROR 12 with the
+/// word's index, framing errors as for every packet, and a good FRAME empties the PEs — the
+/// model's answers, word for word.
+#[test]
+fn frame_packet_errors_and_effects() {
+    if !require_verilator("frame_packet_errors_and_effects") {
+        return;
+    }
+    let mut s = sim(None);
+    let mut m = model(RtlParams::default());
+    let mut x = |p: &[FslWord], what: &str| exchange(&mut s, &mut m, p, &|| what.to_string());
+    let bad = |code: u32, detail: u32| framed(&[0xE000_0000 | code << 16 | detail]);
+    let ok = support::frame_packet([0.0; 3], [1.0; 3]);
+    assert_eq!(x(&ok, "ok"), framed(&[0x9500_0000]));
+    for i in 1..7 {
+        let mut p = ok.clone();
+        p[i].data = if i % 2 == 0 { f32::NAN.to_bits() } else { f32::INFINITY.to_bits() };
+        assert_eq!(x(&p, &format!("non-finite word {i}")), bad(12, i as u32));
+    }
+    for a in 0..3 {
+        let mut p = ok.clone();
+        p[4 + a].data = (-1.0f32).to_bits();
+        assert_eq!(x(&p, &format!("inverted axis {a}")), bad(12, 4 + a as u32));
+    }
+    let mut p = ok.clone();
+    p[3].control = true;
+    assert_eq!(x(&p[..4], "control at word 3"), bad(2, 3));
+    let mut p = ok.clone();
+    p[6].control = false;
+    p.push(FslWord::last(0));
+    assert_eq!(x(&p, "missing control"), bad(3, 6));
+    // A load, then FRAME: the PE is empty again.
+    let mut rng = rng(1);
+    let scene = random_scene(&mut rng, 1, 0.5);
+    assert_eq!(x(&load_packet(0, &scene[0].image()), "load"), framed(&[0x9100_0000]));
+    assert_eq!(x(&ok, "frame"), framed(&[0x9500_0000]));
+    let ray = Ray { origin: Vec3::splat(0.5), dir: Vec3::X };
+    assert_eq!(x(&ray_packet(RayKind::Closest, &ray, 1.0, &[]), "ray"), bad(10, 0));
+    // Analytic primitives: refused by the fixed-point kernel (ERROR 13).
+    let mut img = scene[0].image();
+    img[4] = 1;
+    img.extend([1, 7, 0]);
+    img.extend([0.5f32.to_bits(), 0, 0, 0, 0, 0.5f32.to_bits(), 0, 0, 0, 0, 0.5f32.to_bits(), 0, 0]);
+    assert_eq!(x(&load_packet(0, &img), "analytic primitive"), bad(13, 0));
+}

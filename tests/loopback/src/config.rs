@@ -1,0 +1,106 @@
+//! The simulated board's configuration: the co-processor behind the FSL link (model or RTL)
+//! and what the board reports in its Version message.
+
+use gridrt_coproc::{CoprocConfig, KernelKind, NumberFormat, TimingProfile};
+use gridrt_shared::frame::MAX_PAYLOAD;
+use gridrt_shared::msg::DeviceInfo;
+
+/// Largest grid the simulated device accepts (voxels): 128³.
+pub const SIM_MAX_VOXELS: usize = 1 << 21;
+
+/// Board id the simulator reports in its Version message.
+pub const BOARD_LOOPBACK: u8 = 0;
+
+/// Configuration of the simulated board.
+#[derive(Debug, Clone, Copy)]
+pub struct SimConfig {
+    /// Processing elements of the co-processor.
+    pub pe_count: u16,
+    /// Memory per PE in 32-bit words.
+    pub pe_mem_words: u32,
+    /// Longest traversal list the co-processor accepts.
+    pub max_list: u16,
+    /// Cycle model. A multi-cycle profile is charged at the cycles per test of `kernel` in
+    /// `format`, what the simulated PEs run ([`SimConfig::coproc`]).
+    pub timing: TimingProfile,
+    /// Intersection kernel run by every PE.
+    pub kernel: KernelKind,
+    /// Number format of the kernel.
+    pub format: NumberFormat,
+    /// What computes: the model, or the RTL (which has its own kernel, format and timing).
+    pub backend: Backend,
+}
+
+/// The co-processor of a simulated board.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Backend {
+    /// The Rust model (`gridrt-coproc`).
+    #[default]
+    Model,
+    /// The RTL (`rtl/hdl/`) in Verilator: watertight, fixed64-q23, the `rtl` timing.
+    Rtl,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self {
+            pe_count: 4,
+            pe_mem_words: 1 << 20,
+            max_list: 1024,
+            timing: TimingProfile::GRIDRT,
+            kernel: KernelKind::default(),
+            format: NumberFormat::F32,
+            backend: Backend::Model,
+        }
+    }
+}
+
+impl SimConfig {
+    /// The board with the RTL co-processor as `cargo xtask rtl sim` builds it by default:
+    /// 4 PEs of 16 384 words, lists of 256; watertight in fixed64-q23 with the `rtl` timing
+    /// (what the model must be set to for the same images and cycles).
+    pub const RTL: SimConfig = SimConfig {
+        pe_count: 4,
+        pe_mem_words: 16_384,
+        max_list: 256,
+        timing: TimingProfile::RTL,
+        kernel: KernelKind::Watertight,
+        format: NumberFormat::Fixed64Q23,
+        backend: Backend::Rtl,
+    };
+}
+
+impl SimConfig {
+    /// The co-processor configuration for this board. Its cycles are kernel-true: the
+    /// profile's test cost is that of the kernel that runs, in the format it runs in
+    /// ([`TimingProfile::for_kernel`]), e.g. 1188 cycles per watertight f32 test on GridRT's
+    /// PE instead of the 648 of GridRT's own program. Pipelined profiles are unchanged.
+    pub fn coproc(&self) -> CoprocConfig {
+        CoprocConfig {
+            pe_count: self.pe_count,
+            pe_mem_words: self.pe_mem_words,
+            max_list: self.max_list,
+            timing: self.timing.for_kernel(self.kernel, self.format),
+            kernel: self.kernel,
+        }
+    }
+
+    /// What the simulated device reports in its Version message.
+    pub fn device_info(&self) -> DeviceInfo {
+        let v = |s: &str| s.parse::<u8>().unwrap_or(0);
+        DeviceInfo {
+            protocol: gridrt_shared::PROTOCOL_VERSION as u16,
+            firmware: [
+                v(env!("CARGO_PKG_VERSION_MAJOR")),
+                v(env!("CARGO_PKG_VERSION_MINOR")),
+                v(env!("CARGO_PKG_VERSION_PATCH")),
+            ],
+            board: BOARD_LOOPBACK,
+            max_payload: MAX_PAYLOAD as u16,
+            pe_count: self.pe_count,
+            voxel_capacity: SIM_MAX_VOXELS as u32,
+            pe_mem_words: self.pe_mem_words,
+            features: 0,
+        }
+    }
+}

