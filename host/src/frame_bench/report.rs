@@ -164,9 +164,9 @@ fn per_stage(run: &DeviceRun, wrapper: u64) -> (u64, BTreeMap<String, f64>) {
 /// `fsl_io` and prints its cost per FSL word in the banner (every wrapped put and get is one
 /// word: the virtual co-processor never makes the firmware poll).
 fn link_wrapper(run: &DeviceRun) -> (Option<u64>, u64) {
-    let reported = run.frame.stats.get(&stat::LINK_WRAPPER_INSTRUCTIONS).copied();
-    if reported.is_some() {
-        return (reported, 0);
+    let reported = run.stat(stat::LINK_WRAPPER_INSTRUCTIONS);
+    if reported > 0 {
+        return (Some(reported), 0);
     }
     let words = run.stat(stat::FSL_WORDS_OUT) + run.stat(stat::FSL_WORDS_IN);
     let banner = run.wrapper_per_word.map(|k| k * words);
