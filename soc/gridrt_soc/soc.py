@@ -6,7 +6,7 @@
 - ROM (``rom``, 32 KiB at 0x0000_0000, the reset vector): the gridrt bootloader, from the
   bitstream / the simulation's ROM image.
 - SRAM (``sram``, 16 KiB at 0x1000_0000): the bootloader's data and stack.
-- Main RAM (``main_ram``, 192 KiB of block RAM at 0x4000_0000): the application region; the
+- Main RAM (``main_ram``, 256 KiB of block RAM at 0x4000_0000): the application region; the
   bootloader writes the application here (``gridrt flash``), which then uses all of it.
 - CSRs (0xF000_0000, uncached): ``ctrl``, ``identifier_mem``, ``uart`` (LiteX UART, 64-byte
   FIFOs, a read of ``rxtx`` pops), ``timer0``, ``coproc`` (``coproc.GridrtCoprocCSR``; its
@@ -26,7 +26,7 @@ KIB = 1024
 # Sizes of the memory map (board_files writes them into the firmware's linker scripts).
 ROM_SIZE = 32 * KIB
 SRAM_SIZE = 16 * KIB
-MAIN_RAM_SIZE = 192 * KIB
+MAIN_RAM_SIZE = 256 * KIB
 
 # Every target runs the system clock at this frequency (the simulation nominally), so that
 # csr.json and the firmware's board files are the same for all of them.

@@ -94,4 +94,15 @@ pub trait CycleCounter {
     fn cycles(&self) -> u64;
     /// Instructions retired (`minstret`; exact under QEMU `-icount shift=0`).
     fn instret(&self) -> u64;
+    /// The low 32 bits of [`cycles`](Self::cycles) (on RV32 one CSR read instead of a
+    /// consistent 64-bit read).
+    #[inline(always)]
+    fn cycles_lo(&self) -> u32 {
+        self.cycles() as u32
+    }
+    /// The low 32 bits of [`instret`](Self::instret).
+    #[inline(always)]
+    fn instret_lo(&self) -> u32 {
+        self.instret() as u32
+    }
 }

@@ -168,6 +168,21 @@ fn per_stage(run: &DeviceRun, wrapper: u64) -> (u64, BTreeMap<String, f64>) {
     (total, by_stage)
 }
 
+/// The qemu-virt link wrapper's instructions in the frame, and how many of them the `fsl_io`
+/// counter still holds. An image that excludes the wrapper itself reports it
+/// ([`stat::LINK_WRAPPER_INSTRUCTIONS`], none left in `fsl_io`); an older one leaves it in
+/// `fsl_io` and prints its cost per FSL word in the banner (every wrapped put and get is one
+/// word: the virtual co-processor never makes the firmware poll).
+fn link_wrapper(run: &DeviceRun) -> (Option<u64>, u64) {
+    let reported = run.stat(stat::LINK_WRAPPER_INSTRUCTIONS);
+    if reported > 0 {
+        return (Some(reported), 0);
+    }
+    let words = run.stat(stat::FSL_WORDS_OUT) + run.stat(stat::FSL_WORDS_IN);
+    let banner = run.wrapper_per_word.map(|k| k * words);
+    (banner, banner.unwrap_or(0))
+}
+
 /// `psnr_db` and `identical` of a comparison with the reference.
 fn quality(c: &Comparison) -> (Option<f64>, bool) {
     (c.psnr_db, c.identical)
@@ -184,10 +199,8 @@ pub(crate) fn device_row(
     opt: &BenchOptions,
 ) -> FrameRow {
     let words = run.stat(stat::FSL_WORDS_OUT) + run.stat(stat::FSL_WORDS_IN);
-    // Every wrapped put and get is one word: the virtual co-processor never makes the
-    // firmware poll.
-    let wrapper = run.wrapper_per_word.map(|k| k * words);
-    let (instructions, by_stage) = per_stage(run, wrapper.unwrap_or(0));
+    let (wrapper, in_fsl_io) = link_wrapper(run);
+    let (instructions, by_stage) = per_stage(run, in_fsl_io);
     let primary = run.stat(stat::PRIMARY_RAYS).max(1) as f64;
     let (kind, format) = config.kernel();
     let (profile, coproc_cycles) = match model {

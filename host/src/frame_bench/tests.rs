@@ -33,6 +33,27 @@ fn options() -> BenchOptions {
     }
 }
 
+/// An image that excludes its link wrapper itself reports it as a stat: the row takes that
+/// and leaves `fsl_io` as counted (the banner's per-word cost is not subtracted again).
+#[test]
+fn a_wrapper_the_device_reports_is_not_taken_out_twice() {
+    let opt = options();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let quiet = &mut |_| {};
+    let mut run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
+    let sim = run.clone();
+    for s in Stage::ALL {
+        run.frame.stats.insert(s.instret_key(), 1000);
+    }
+    run.frame.stats.insert(stat::LINK_WRAPPER_INSTRUCTIONS, 777);
+    run.wrapper_per_word = Some(30);
+    let cmp = compare(&run.frame.rgb, &run.frame.rgb, None, None).unwrap();
+    let row =
+        device_row(Configuration::Gridrt, Target::Riscv32imafc, &run, Some((TimingProfile::GRIDRT, &sim)), &cmp, &opt);
+    assert_eq!(row.instructions, Some(5 * 1000));
+    assert_eq!(row.link_wrapper_instructions, Some(777));
+}
+
 /// Every field issue 10 names, plus the ones this bench adds, with the arithmetic of a
 /// co-processor row worked out from its inputs.
 #[test]

@@ -127,29 +127,25 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     serve_model(console, info, model)
 }
 
-/// The co-processor model linked in as a virtual co-processor; its own work is excluded from
-/// the stage counters, the wrapper that excludes it is measured and announced.
+/// The co-processor model linked in as a virtual co-processor; its own work and the wrapper
+/// that excludes it (calibrated at boot) are excluded from the stage counters and reported.
 #[cfg(all(feature = "board-qemu-virt", not(feature = "soft-core-only")))]
 fn serve_model(console: &mut board::Console, info: DeviceInfo, model: gridrt_coproc::Coprocessor<'static>) -> ! {
     use gridrt_firmware::device::Device;
     use gridrt_firmware::fsl::VirtualCoproc;
-    use gridrt_firmware_image::link::{wrapper_cost, Excluded, ModelFreeClock, TimedLink};
+    use gridrt_firmware_image::link::{Excluded, ModelFreeClock, TimedLink};
 
-    let cost = wrapper_cost(CsrCounters);
+    let excluded = Excluded::new();
+    excluded.calibrate(CsrCounters);
     let mut w = UartWriter(console);
     w.put("co-processor: model behind the timed link, its work excluded from the stage counters\r\n");
     #[cfg(feature = "coproc-rtl")]
     w.put("co-processor kernel: the RTL's (watertight, fixed64-q23, rtl timing)\r\n");
     w.put("timed link: ");
-    w.put_dec(cost.timed_put);
-    w.put(" instructions per FSL word stay in fsl_io, ");
-    w.put_dec(cost.wrapper());
-    w.put(" of them the wrapper's (a bare put: ");
-    w.put_dec(cost.bare_put);
-    w.put("; a hardware put/get is 1)\r\n");
+    w.put_dec(u64::from(excluded.wrapper_per_call()));
+    w.put(" instructions of the link wrapper per call into the co-processor model, excluded and reported (Stats)\r\n");
     // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
     let _ = console.write_all(&[0]);
-    let excluded = Excluded::new();
     let link = TimedLink::new(VirtualCoproc { model }, CsrCounters, &excluded);
     let clock = ModelFreeClock::new(CsrCounters, &excluded);
     // On the stack, which is most of RAM here (memory.x).
