@@ -27,42 +27,16 @@
 //! skips them and says so in the test output ([`gridrt_e2e::tools`]).
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::process::{Child, Command};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use gridrt_e2e::builds::{gridrt, repo_root, run_gridrt, BUILD};
 use gridrt_e2e::tools::{require, Tool};
 use gridrt_host::compare::compare;
 use gridrt_host::flash::{flash, FlashConfig, FlashError, FlashImage};
 use gridrt_host::serial;
 use gridrt_shared::msg;
-
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().expect("repo root")
-}
-
-/// Cargo for the helper builds (`cargo SUBCOMMAND --quiet --profile test`). They use the
-/// `test` profile: `cargo test` has already built every dependency with it, so only the
-/// binaries themselves are compiled.
-fn cargo(subcommand: &str) -> Command {
-    let mut c = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
-    c.current_dir(repo_root()).args([subcommand, "--quiet", "--profile", "test"]);
-    c
-}
-
-fn check(out: Output, what: &str) -> String {
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{what} failed ({}):\n--- stdout\n{stdout}\n--- stderr\n{}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    stdout
-}
-
-/// Firmware builds share one cargo output path per binary: one at a time.
-static BUILD: Mutex<()> = Mutex::new(());
 
 /// `cargo xtask firmware ARGS` (test profile, see [`cargo`]); returns the ELF path.
 fn build_firmware(args: &[&str]) -> PathBuf {
@@ -70,30 +44,6 @@ fn build_firmware(args: &[&str]) -> PathBuf {
     let args: Vec<&str> = ["--jobs", "2"].iter().chain(args).copied().collect();
     gridrt_qemu::build_firmware(&repo_root(), &["--quiet", "--profile", "test"], &args)
         .unwrap_or_else(|e| panic!("{e}"))
-}
-
-/// The `gridrt` binary (built once, dev profile).
-fn gridrt() -> &'static Path {
-    static BIN: OnceLock<PathBuf> = OnceLock::new();
-    BIN.get_or_init(|| {
-        let _guard = BUILD.lock().unwrap_or_else(|e| e.into_inner());
-        let out = cargo("build")
-            .args(["--package", "gridrt-host", "--bin", "gridrt", "--message-format=json-render-diagnostics"])
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "cargo build --bin gridrt failed:\n{}", String::from_utf8_lossy(&out.stderr));
-        String::from_utf8_lossy(&out.stdout)
-            .lines()
-            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-            .filter(|v| v["reason"] == "compiler-artifact" && v["target"]["name"] == "gridrt")
-            .find_map(|v| v["executable"].as_str().map(PathBuf::from))
-            .expect("cargo reports the gridrt executable")
-    })
-}
-
-fn run_gridrt(args: &[&str]) -> String {
-    let out = Command::new(gridrt()).args(args).current_dir(repo_root()).output().unwrap();
-    check(out, &format!("gridrt {}", args.join(" ")))
 }
 
 /// A QEMU `virt` machine (the launcher `cargo xtask qemu` uses), its UART on a held pty;

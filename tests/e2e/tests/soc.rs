@@ -21,7 +21,7 @@
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Child, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -38,54 +38,13 @@ const HEIGHT: &str = "24";
 /// Seconds the simulation may run in all (flash, upload and render of the small frame).
 const SIM_TIMEOUT_S: u32 = 2400;
 
-fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().expect("repo root")
-}
-
-/// `cargo SUBCOMMAND --quiet --profile test` in the repository (the `test` profile: `cargo
-/// test` has built every dependency with it already).
-fn cargo(subcommand: &str) -> Command {
-    let mut c = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
-    c.current_dir(repo_root()).args([subcommand, "--quiet", "--profile", "test"]);
-    c
-}
-
-fn check(out: Output, what: &str) -> String {
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "{what} failed ({}):\n--- stdout\n{stdout}\n--- stderr\n{}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    stdout
-}
-
 /// `cargo xtask firmware ARGS`; the ELF path it prints.
+use gridrt_e2e::builds::{cargo, check, repo_root, run_gridrt};
+
 fn build_firmware(args: &[&str]) -> PathBuf {
     let out = cargo("run").args(["--package", "xtask", "--", "firmware", "--jobs", "2"]).args(args).output().unwrap();
     let stdout = check(out, &format!("cargo xtask firmware {}", args.join(" ")));
     PathBuf::from(stdout.lines().find_map(|l| l.strip_prefix("ELF: ")).expect("xtask prints the ELF path").trim())
-}
-
-/// The `gridrt` binary (test profile).
-fn gridrt() -> PathBuf {
-    let out = cargo("build")
-        .args(["--package", "gridrt-host", "--bin", "gridrt", "--message-format=json-render-diagnostics"])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "cargo build --bin gridrt failed:\n{}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-        .filter(|v| v["reason"] == "compiler-artifact" && v["target"]["name"] == "gridrt")
-        .find_map(|v| v["executable"].as_str().map(PathBuf::from))
-        .expect("cargo reports the gridrt executable")
-}
-
-fn run(gridrt: &Path, args: &[&str]) -> String {
-    let out = Command::new(gridrt).args(args).current_dir(repo_root()).output().unwrap();
-    check(out, &format!("gridrt {}", args.join(" ")))
 }
 
 /// The SoC simulation started by `cargo xtask soc sim`, its UART on a pty.
@@ -143,7 +102,6 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
         return;
     }
-    let gridrt = gridrt();
     let app = build_firmware(&["--board", "litex", "--bin", "app", "--layout", "bootloaded"]);
     let sim = SocSim::start();
     let started = Instant::now();
@@ -169,7 +127,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     eprintln!("refusals: {:.0} s", started.elapsed().as_secs_f64());
 
     let t = Instant::now();
-    let log = run(&gridrt, &["flash", "--port", &sim.pty, &app.display().to_string()]);
+    let log = run_gridrt(&["flash", "--port", &sim.pty, &app.display().to_string()]);
     eprintln!("{log}flash: {:.0} s", t.elapsed().as_secs_f64());
     assert!(log.contains("verified") && log.contains("running    application"), "{log}");
     assert!(log.contains("on board 3: 4 PEs"), "the flashed app must answer, not the bootloader: {log}");
@@ -186,7 +144,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     let (soc_out, soc_stats) = (p(&soc_png), p(&soc_json));
     soc_args.extend(frame);
     soc_args.extend(["--out", &soc_out, "--stats", &soc_stats]);
-    eprintln!("{}", run(&gridrt, &soc_args));
+    eprintln!("{}", run_gridrt(&soc_args));
     eprintln!(
         "soc render: {:.0} s (simulation running {:.0} s)",
         t.elapsed().as_secs_f64(),
@@ -197,7 +155,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     let mut rtl_args = vec!["render", "--sim", "--coproc", "rtl"];
     rtl_args.extend(frame);
     rtl_args.extend(["--out", &sim_out, "--stats", &sim_stats]);
-    run(&gridrt, &rtl_args);
+    run_gridrt(&rtl_args);
 
     let rgb = |path: &Path| image::open(path).unwrap().to_rgb8().into_raw();
     let cmp = compare(&rgb(&soc_png), &rgb(&sim_png), None, None).unwrap();
@@ -213,7 +171,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     model_args.extend(["--format", "fixed64-q23", "--timing", "rtl"]);
     model_args.extend(frame);
     model_args.extend(["--out", &model_out, "--stats", &model_stats]);
-    run(&gridrt, &model_args);
+    run_gridrt(&model_args);
     assert_eq!(std::fs::read(&soc_png).unwrap(), std::fs::read(&model_png).unwrap(), "SoC vs --coproc model PNG bytes");
 
     let (soc, rtl) = (json(&soc_json), json(&sim_json));
