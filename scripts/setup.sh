@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # One-stop setup for a fresh machine: the emulated board (QEMU, socat), the RISC-V
-# cross toolchain (rustup target, else Debian's rustc-web unpacked into .toolchain/) and
-# the HDL tools (Verilator; Yosys and nextpnr-ecp5 from pip).
+# cross toolchain (rustup target, else Debian's rustc-web unpacked into .toolchain/), the HDL
+# tools (Verilator; Yosys and nextpnr-ecp5 from pip) and the LiteX SoC's (LiteX and its
+# simulation libraries in .toolchain/soc-venv/).
 # Idempotent; the host tool itself needs only cargo.
 #
 #   bash scripts/setup.sh
@@ -10,3 +11,4 @@ here="$(cd "$(dirname "$0")" && pwd)"
 bash "$here/setup-qemu.sh"
 bash "$here/setup-riscv-toolchain.sh"
 bash "$here/setup-hdl.sh"
+bash "$here/setup-soc.sh"

@@ -15,14 +15,17 @@ use std::{
 };
 
 /// (cargo feature env var, board name, standalone app map, bootloaded app map,
-/// bootloader map), relative to this crate.
-const BOARDS: &[(&str, &str, &str, &str, &str)] = &[
+/// bootloader map, files the maps `INCLUDE`), relative to this crate.
+type Board = (&'static str, &'static str, &'static str, &'static str, &'static str, &'static [&'static str]);
+
+const BOARDS: &[Board] = &[
     (
         "CARGO_FEATURE_BOARD_QEMU_VIRT",
         "qemu-virt",
         "../../memory.x",
         "boards/qemu-virt-bootloaded.x",
         "boards/qemu-virt-bootloader.x",
+        &[],
     ),
     (
         "CARGO_FEATURE_BOARD_FPGA_SOC",
@@ -30,6 +33,17 @@ const BOARDS: &[(&str, &str, &str, &str, &str)] = &[
         "boards/fpga-soc.x",
         "boards/fpga-soc-bootloaded.x",
         "boards/fpga-soc-bootloader.x",
+        &[],
+    ),
+    // The LiteX SoC (soc/): the application lives in main RAM in both layouts; the memory
+    // regions are generated from the SoC's csr.json (litex-regions.x).
+    (
+        "CARGO_FEATURE_BOARD_LITEX",
+        "litex",
+        "boards/litex.x",
+        "boards/litex.x",
+        "boards/litex-bootloader.x",
+        &["boards/litex-regions.x"],
     ),
 ];
 
@@ -45,7 +59,7 @@ fn main() {
     let out_dir = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
 
     let selected: Vec<_> = BOARDS.iter().filter(|(feature, ..)| env::var_os(feature).is_some()).collect();
-    let &&(_, board, standalone, bootloaded, bootloader) = match selected.as_slice() {
+    let &&(_, board, standalone, bootloaded, bootloader, includes) = match selected.as_slice() {
         [one] => one,
         _ => panic!(
             "ERROR(gridrt-firmware-image): enable exactly one board feature (got {}); \
@@ -60,6 +74,10 @@ fn main() {
     // binary gets its own memory map first, then link.x.
     copy(&manifest_dir, &out_dir, app_map, "memory.x");
     copy(&manifest_dir, &out_dir, bootloader, "bootloader-memory.x");
+    for include in includes {
+        let name = Path::new(include).file_name().and_then(|n| n.to_str()).expect("an include is a file name");
+        copy(&manifest_dir, &out_dir, include, name);
+    }
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rustc-link-search={}", out_dir.display());
     for (bin, map) in [("app", "memory.x"), ("bootloader", "bootloader-memory.x")] {

@@ -22,6 +22,7 @@
 //!   there [`Camera::has_fixed_raygen`] is false.
 
 use crate::fixed::{f32_to_fixed, fixed_to_f32, RayFormat};
+use crate::sfloat::{self, add, mul, sub, vadd, vscale};
 use gridrt_shared::math::{Ray, Vec3};
 
 /// Why a camera could not be built. Bad inputs are refused here so that no NaN ray is ever
@@ -223,6 +224,13 @@ impl Camera {
         }
     }
 
+    /// The rays of row `y`: [`Camera::primary_ray`] with the row's terms computed once.
+    #[inline]
+    pub fn row(&self, y: u32) -> RowRays<'_> {
+        let sy = (1.0 - 2.0 * (y as f32 + 0.5) / self.height) * self.half_h;
+        RowRays { cam: self, y, sy_up: sy * self.cam_up }
+    }
+
     /// True when fixed-point ray generation is available for this camera.
     pub fn has_fixed_raygen(&self) -> bool {
         self.fixed.is_some()
@@ -230,11 +238,28 @@ impl Camera {
 
     #[inline]
     fn primary_ray_f32(&self, x: u32, y: u32) -> Ray {
+        // Kept spelled out: the row form (`dir_f32`) is pinned against it.
         let sx = (2.0 * (x as f32 + 0.5) / self.width - 1.0) * self.half_w;
         let sy = (1.0 - 2.0 * (y as f32 + 0.5) / self.height) * self.half_h;
         Ray { origin: self.eye, dir: self.forward + sx * self.right + sy * self.cam_up }
     }
 
+    /// The f32 formula with the row term `sy·cam_up` given: the same operations in the same
+    /// order, `(forward + sx·right) + sy·cam_up`.
+    #[inline(always)]
+    fn dir_f32(&self, x: u32, sy_up: Vec3) -> Vec3 {
+        let sx = mul(sub(mul(2.0, add(sfloat::u32_to_f32(x), 0.5)) / self.width, 1.0), self.half_w);
+        vadd(vadd(self.forward, vscale(self.right, sx)), sy_up)
+    }
+
+    /// The eye (origin of every primary ray).
+    pub fn eye(&self) -> Vec3 {
+        self.eye
+    }
+    /// `(half_w, half_h, W, H)`: the screen half-extents at distance 1 and the image size.
+    pub fn screen(&self) -> (f32, f32, f32, f32) {
+        (self.half_w, self.half_h, self.width, self.height)
+    }
     /// Unit viewing direction.
     pub fn forward(&self) -> Vec3 {
         self.forward
@@ -249,6 +274,26 @@ impl Camera {
     }
 }
 
+/// The primary rays of one row (from [`Camera::row`]): per pixel the column's terms only.
+#[derive(Debug, Clone, Copy)]
+pub struct RowRays<'a> {
+    cam: &'a Camera,
+    y: u32,
+    /// `sy · cam_up` of the row.
+    sy_up: Vec3,
+}
+
+impl RowRays<'_> {
+    /// [`Camera::primary_ray`]`(x, y)` of this row, bit for bit.
+    #[inline]
+    pub fn ray(&self, x: u32) -> Ray {
+        match (RayFormat::DEFAULT, &self.cam.fixed) {
+            (RayFormat::Fixed, Some(f)) => Ray { origin: self.cam.eye, dir: f.direction(x, self.y) },
+            _ => Ray { origin: self.cam.eye, dir: self.cam.dir_f32(x, self.sy_up) },
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -257,6 +302,35 @@ mod tests {
 
     fn cam(w: u32, h: u32) -> Camera {
         Camera::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 90.0, w, h).unwrap()
+    }
+
+    /// A row's rays are the camera's rays bit for bit (random cameras, sizes and pixels,
+    /// pixels outside the image included).
+    #[test]
+    fn row_rays_equal_primary_rays() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0xCA3E_0002);
+        let mut checked = 0;
+        for _ in 0..500 {
+            let v = |rng: &mut ChaCha8Rng| {
+                Vec3::new(rng.gen_range(-50.0..50.0), rng.gen_range(-50.0..50.0), rng.gen_range(-50.0..50.0))
+            };
+            let (eye, target, up) = (v(&mut rng), v(&mut rng), v(&mut rng));
+            let fov = rng.gen_range(1.0..170.0f32);
+            let (w, h) = (rng.gen_range(1..4097u32), rng.gen_range(1..4097u32));
+            let Ok(c) = Camera::new(eye, target, up, fov, w, h) else { continue };
+            for _ in 0..20 {
+                let y = rng.gen_range(0..h + 8);
+                let row = c.row(y);
+                for _ in 0..20 {
+                    let x = rng.gen_range(0..w + 8);
+                    let (a, b) = (row.ray(x), c.primary_ray(x, y));
+                    assert_eq!(a.origin.to_array().map(f32::to_bits), b.origin.to_array().map(f32::to_bits));
+                    assert_eq!(a.dir.to_array().map(f32::to_bits), b.dir.to_array().map(f32::to_bits), "{x} {y}");
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 100_000, "{checked}");
     }
 
     #[test]

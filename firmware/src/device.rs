@@ -43,7 +43,9 @@ pub use machine::{compiled_features, Device};
 pub use raypath::DEFAULT_POLLS;
 pub use request::MAX_IMAGE_DIM;
 pub use scene::{MAX_MATERIALS, MAX_OBJECTS};
-pub use stats::{CounterClock, FrameStats, NoClock, Stage, StageClock, StageCount, STAT_COUNT};
+pub use stats::{
+    CounterClock, ExcludedWork, FrameStats, NoClock, Stage, StageClock, StageCount, StageStamp, STAT_COUNT,
+};
 
 #[cfg(test)]
 #[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers

@@ -16,6 +16,11 @@
 //! | [`acos`] | `atan2(√((1−c)(1+c)), c)` | 3e-7 rad absolute |
 //! | [`pow`] (`x ≥ 0`) | `exp2(y·log2 x)`: atanh series for `log2`, Cephes `exp2f` polynomial | 2e-7·(1 + abs(y·log2 x)) relative |
 //!
+//! [`sqrt`], [`length`] and [`try_normalize`] are exact (the correctly rounded square root,
+//! glam's `length`/`try_normalize` operation for operation, with `crate::sfloat`'s
+//! arithmetic): on a core with the F extension one `fsqrt.s` instruction instead of libm's
+//! integer Goldschmidt iteration.
+//!
 //! Angles of [`sin_cos_turns`] and [`tan_turns`] are in *turns* (1 turn = 2π rad): the
 //! callers' arguments are turns already (`sin(2π·t)` of the textures, `tan(fov/2)` with the
 //! field of view in degrees = `fov/720` turns), and the reduction of a turn is exact in `f32`.
@@ -27,10 +32,49 @@
 // source; the compiler rounds each to the nearest f32.
 #![allow(clippy::excessive_precision)]
 
+use crate::sfloat;
+use gridrt_shared::math::Vec3;
+
 const FRAC_PI_2: f32 = core::f32::consts::FRAC_PI_2;
 const FRAC_PI_4: f32 = core::f32::consts::FRAC_PI_4;
 const PI: f32 = core::f32::consts::PI;
 const TAU: f32 = core::f32::consts::TAU;
+
+/// The correctly rounded square root (IEEE 754): `fsqrt.s` on a RISC-V core with an FPU, libm
+/// elsewhere (the same value; NaN for negative arguments).
+#[inline(always)]
+pub fn sqrt(x: f32) -> f32 {
+    #[cfg(all(target_arch = "riscv32", not(soft_float)))]
+    {
+        let r: f32;
+        // SAFETY: one FPU instruction on registers; no memory, no stack, flags only.
+        unsafe { core::arch::asm!("fsqrt.s {r}, {x}", r = out(freg) r, x = in(freg) x, options(pure, nomem, nostack)) };
+        r
+    }
+    #[cfg(not(all(target_arch = "riscv32", not(soft_float))))]
+    {
+        libm::sqrtf(x)
+    }
+}
+
+/// `v.length()` of glam, with [`sqrt`].
+#[inline(always)]
+pub fn length(v: Vec3) -> f32 {
+    sqrt(sfloat::dot(v, v))
+}
+
+/// `v.try_normalize()` of glam (`v · (1/|v|)` when that reciprocal is finite and positive),
+/// with [`sqrt`].
+#[inline]
+pub fn try_normalize(v: Vec3) -> Option<Vec3> {
+    let rcp = 1.0 / length(v);
+    // Finite and > 0: the bits of +min subnormal ..= +MAX (a bit test, no float compare).
+    if rcp.to_bits().wrapping_sub(1) < 0x7F7F_FFFF {
+        Some(sfloat::vscale(v, rcp))
+    } else {
+        None
+    }
+}
 
 /// `t = q/4 + r` with `q = round(4t)` (as an integer mod 4 is all that matters) and
 /// `r ∈ [−1/8, 1/8]`, exact for every finite `t` (`q/4` and `t` are multiples of `ulp(t)`).

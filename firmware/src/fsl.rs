@@ -80,6 +80,36 @@ pub trait FslLink {
         Err(BoundedError::Timeout)
     }
 
+    /// Puts a whole packet: every word of `words` with [`put`](FslLink::put), the control bit
+    /// on the last one (an empty slice puts nothing). A link with stream registers overrides
+    /// this to write the packet in one go; the words on the wire are the same.
+    fn put_packet(&mut self, words: &[u32], max_polls: u32) -> Result<(), BoundedError<Self::Error>> {
+        let Some((&last, body)) = words.split_last() else { return Ok(()) };
+        for &w in body {
+            self.put(FslWord::data(w), max_polls)?;
+        }
+        self.put(FslWord::last(last), max_polls)
+    }
+
+    /// Gets one packet into `buf`: words with [`get`](FslLink::get) until one carries the
+    /// control bit or `buf` is full. Returns the number of words read and whether the last
+    /// of them carried the control bit (false: `buf` filled up first, or `buf` is empty).
+    fn get_packet(&mut self, buf: &mut [u32], max_polls: u32) -> Result<(usize, bool), BoundedError<Self::Error>> {
+        for (n, slot) in (1..).zip(buf.iter_mut()) {
+            let w = self.get(max_polls)?;
+            *slot = w.data;
+            if w.control {
+                return Ok((n, true));
+            }
+        }
+        Ok((buf.len(), false))
+    }
+
+    /// True for a link that answers rays itself ([`trace_direct`](FslLink::trace_direct) may
+    /// return `Some`): only then does the ray path decode its request words into a list for
+    /// it. A compile-time constant, so a co-processor link pays nothing.
+    const DIRECT: bool = false;
+
     /// Answers a ray without the word stream, on the soft-core itself: `Some` only for a link
     /// that is not a co-processor but the intersection code linked into the firmware
     /// ([`DirectKernel`]); `None`, the default and the answer of every co-processor link, means
@@ -104,6 +134,13 @@ impl<T: FslLink + ?Sized> FslLink for &mut T {
     fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
         (**self).nget()
     }
+    fn put_packet(&mut self, words: &[u32], max_polls: u32) -> Result<(), BoundedError<Self::Error>> {
+        (**self).put_packet(words, max_polls)
+    }
+    fn get_packet(&mut self, buf: &mut [u32], max_polls: u32) -> Result<(usize, bool), BoundedError<Self::Error>> {
+        (**self).get_packet(buf, max_polls)
+    }
+    const DIRECT: bool = T::DIRECT;
     #[inline(always)]
     fn trace_direct(
         &mut self,
@@ -187,6 +224,8 @@ impl FslLink for DirectKernel<'_> {
         self.model.pop().ok_or(nb::Error::WouldBlock)
     }
 
+    const DIRECT: bool = true;
+
     #[inline(always)]
     fn trace_direct(
         &mut self,
@@ -196,5 +235,56 @@ impl FslLink for DirectKernel<'_> {
         list: &[ListEntry],
     ) -> Option<Result<RayResult, FslError>> {
         Some(self.model.trace_untimed(kind, ray, t_max, list))
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
+mod tests {
+    use super::*;
+    use std::collections::VecDeque;
+
+    /// Records what is put; plays back scripted words (`None` = one `WouldBlock`).
+    #[derive(Default)]
+    struct Script {
+        put: Vec<FslWord>,
+        get: VecDeque<Option<FslWord>>,
+    }
+
+    impl FslLink for Script {
+        type Error = core::convert::Infallible;
+        fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
+            self.put.push(word);
+            Ok(())
+        }
+        fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+            self.get.pop_front().flatten().ok_or(nb::Error::WouldBlock)
+        }
+    }
+
+    #[test]
+    fn a_packet_carries_the_control_bit_on_its_last_word_only() {
+        let mut l = Script::default();
+        l.put_packet(&[1, 2, 3], 1).unwrap();
+        l.put_packet(&[], 1).unwrap();
+        l.put_packet(&[4], 1).unwrap();
+        let want = [FslWord::data(1), FslWord::data(2), FslWord::last(3), FslWord::last(4)];
+        assert_eq!(l.put, want);
+    }
+
+    #[test]
+    fn a_packet_is_read_up_to_its_control_bit_or_the_end_of_the_buffer() {
+        let mut l = Script::default();
+        l.get.extend([Some(FslWord::data(7)), None, Some(FslWord::last(8)), Some(FslWord::data(9))]);
+        let mut buf = [0; 4];
+        assert_eq!(l.get_packet(&mut buf, 2), Ok((2, true)));
+        assert_eq!(buf[..2], [7, 8]);
+        // The next packet has no control bit within the buffer: it stops there.
+        l.get.extend([Some(FslWord::data(10))]);
+        assert_eq!(l.get_packet(&mut buf[..2], 1), Ok((2, false)));
+        assert_eq!(buf[..2], [9, 10]);
+        // Nothing arrives: the poll budget runs out.
+        assert_eq!(l.get_packet(&mut buf, 3), Err(BoundedError::Timeout));
+        assert_eq!(l.get_packet(&mut [], 1), Ok((0, false)));
     }
 }

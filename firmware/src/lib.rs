@@ -5,6 +5,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`camera`] | pinhole camera (CONTRACTS.md) |
+//! | [`cull`] | per-row spans of the pixels whose camera rays can enter the grid box |
 //! | [`dda`] | 3D-DDA grid traversal in f32 and in fixed point (feature `fixed-raygen`), traversal lists (Amanatides & Woo 1987) |
 //! | [`fixed`] | exact f32 ↔ fixed-point conversions, the ray-generation/DDA format switch |
 //! | [`fmath`] | `f32` polynomial sin/cos/tan/atan2/acos/pow (no libm trigonometry, no `f64`) |
@@ -40,6 +41,7 @@ pub use embedded_io;
 pub mod boot;
 pub mod bsp;
 pub mod camera;
+pub mod cull;
 pub mod dda;
 pub mod device;
 pub mod fixed;
@@ -47,6 +49,7 @@ pub mod fmath;
 pub mod fsl;
 pub mod interp;
 pub mod pixels;
+pub mod sfloat;
 pub mod shade;
 pub mod splat;
 pub mod text;

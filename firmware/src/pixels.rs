@@ -17,6 +17,11 @@ use gridrt_shared::frame::{encode_frame, Crc32Digest, FrameError, MAX_ENCODED, M
 use gridrt_shared::msg::{Msg, MsgError, PixelEncoding};
 use gridrt_shared::pixel::{self, RleEncoder, RLE_MAX_FINISH_BYTES, RLE_MAX_PUSH_BYTES};
 
+/// Most bytes a run of at most [`MAX_RLE_SPAN_PIXELS`] pixels adds to an `Rle` span: its
+/// first pixel, one full RUN_LONG (a span is shorter than `RUN_LONG_MAX` pixels, so at most
+/// one), and the span's end.
+const RLE_MAX_RUN_BYTES: usize = RLE_MAX_PUSH_BYTES + 2 + RLE_MAX_FINISH_BYTES;
+
 /// Bytes of a `PixelSpan` payload before the pixel data.
 pub const SPAN_HEADER_LEN: usize = 10;
 
@@ -269,6 +274,61 @@ impl SpanEncoder {
         Ok(())
     }
 
+    /// Adds `n` pixels of colour `rgb` and primitive `prim` from (x, y) rightwards: the pixels
+    /// of `n` [`push`](Self::push)es, and for `Rle` without primitive ids at the cost of
+    /// one per span (the run is encoded at once and the CRC taken over a repeated pattern);
+    /// the spans may be cut elsewhere than per pixel, never longer.
+    #[allow(clippy::too_many_arguments)] // `push`'s arguments and the run length
+    pub fn push_run<W: Write + ?Sized>(
+        &mut self,
+        x: u16,
+        y: u16,
+        n: u16,
+        rgb: [u8; 3],
+        prim: u32,
+        tx: &mut FrameTx,
+        out: &mut W,
+    ) -> Result<(), TxError> {
+        if self.encoding != PixelEncoding::Rle || self.prim_ids {
+            for x in (x..).take(n as usize) {
+                self.push(x, y, rgb, prim, tx, out)?;
+            }
+            return Ok(());
+        }
+        let mut pattern = [0u8; 3 * 16];
+        for c in pattern.chunks_exact_mut(3) {
+            c.copy_from_slice(&rgb);
+        }
+        let (mut x, mut left) = (x as usize, n as usize);
+        // Bounded: each round takes at least one pixel (a flushed span is empty).
+        while left > 0 {
+            let continues = self.count > 0 && y == self.y && x == (self.x0 as usize).saturating_add(self.count);
+            let room = self.len.saturating_add(RLE_MAX_RUN_BYTES) <= MAX_SPAN_DATA;
+            if self.count > 0 && (!continues || self.count >= self.span_len || !room) {
+                self.flush(tx, out)?;
+            }
+            if self.count == 0 {
+                self.y = y;
+                self.x0 = x as u16;
+            }
+            let k = left.min(self.span_len.saturating_sub(self.count)).max(1);
+            let dst = self.data.get_mut(self.len..).unwrap_or(&mut []);
+            let written =
+                self.rle.push_run(rgb, k as u32, dst).map_err(|_| TxError::Msg(MsgError::EncodeBufferTooSmall))?;
+            self.len = self.len.saturating_add(written);
+            let mut crc_left = k;
+            while crc_left > 0 {
+                let c = crc_left.min(16);
+                self.crc.update(pattern.get(..c.saturating_mul(3)).unwrap_or(&[]));
+                crc_left = crc_left.saturating_sub(c);
+            }
+            self.count = self.count.saturating_add(k);
+            x = x.saturating_add(k);
+            left = left.saturating_sub(k);
+        }
+        Ok(())
+    }
+
     /// Sends the pending span (and its `PrimId32` span), if any.
     pub fn flush<W: Write + ?Sized>(&mut self, tx: &mut FrameTx, out: &mut W) -> Result<(), TxError> {
         let n = core::mem::take(&mut self.count);
@@ -427,6 +487,71 @@ pub(crate) mod tests {
                 }
             }
             assert_eq!(got, image);
+        }
+    }
+
+    /// Decodes the colour spans of `wire` into an image of `w`×`h` RGB888 pixels.
+    fn decode_image(wire: &[u8], w: usize, h: usize) -> Vec<u8> {
+        let mut img = vec![0u8; 3 * w * h];
+        for (_, kind, payload) in frames(wire) {
+            let Msg::PixelSpan { y, x0, count, encoding, data, .. } = Msg::decode(kind, &payload).unwrap() else {
+                panic!()
+            };
+            let at = 3 * (y as usize * w + x0 as usize);
+            let dst = &mut img[at..at + 3 * count as usize];
+            match encoding {
+                PixelEncoding::Rgb888 => dst.copy_from_slice(data),
+                PixelEncoding::Rgb565 => {
+                    for (d, c) in dst.chunks_mut(3).zip(data.chunks(2)) {
+                        d.copy_from_slice(&pixel::rgb565_unpack(u16::from_le_bytes([c[0], c[1]])));
+                    }
+                }
+                PixelEncoding::Rle => pixel::rle_decode(count as usize, data, dst).unwrap(),
+                PixelEncoding::PrimId32 => {}
+                _ => panic!(),
+            }
+        }
+        img
+    }
+
+    /// Runs pushed at once give the image and the CRC of their pixels pushed one by one, in
+    /// every encoding, with and without primitive ids, with spans of every length limit.
+    #[test]
+    fn runs_give_the_pixels_and_crc_of_single_pushes() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5EA1_0001);
+        let (w, h) = (700u16, 5u16);
+        for encoding in [PixelEncoding::Rgb888, PixelEncoding::Rgb565, PixelEncoding::Rle] {
+            for (prim_ids, max_span) in [(false, 0), (true, 0), (false, 37), (false, 1)] {
+                let (mut a, mut b) = (SpanEncoder::new(), SpanEncoder::new());
+                let (mut ta, mut tb) = (FrameTx::new(), FrameTx::new());
+                let (mut wa, mut wb) = (Vec::new(), Vec::new());
+                a.begin_with(3, prim_ids, encoding, max_span);
+                b.begin_with(3, prim_ids, encoding, max_span);
+                for y in 0..h {
+                    let mut x = 0u16;
+                    while x < w {
+                        let n =
+                            (if rng.gen_bool(0.5) { rng.gen_range(1..4) } else { rng.gen_range(1..400) }).min(w - x);
+                        let rgb = if rng.gen_bool(0.5) { [20, 20, 31] } else { rng.gen() };
+                        for i in 0..n {
+                            a.push(x + i, y, rgb, 9, &mut ta, &mut wa).unwrap();
+                        }
+                        b.push_run(x, y, n, rgb, 9, &mut tb, &mut wb).unwrap();
+                        x += n;
+                    }
+                    a.flush(&mut ta, &mut wa).unwrap();
+                    b.flush(&mut tb, &mut wb).unwrap();
+                }
+                let (ca, cb) = (a.finish().1, b.finish().1);
+                assert_eq!(ca, cb, "{encoding:?} {prim_ids} {max_span}");
+                assert_eq!(decode_image(&wa, w as usize, h as usize), decode_image(&wb, w as usize, h as usize));
+                if encoding != PixelEncoding::Rle || prim_ids {
+                    assert_eq!(wa, wb, "the same spans");
+                } else {
+                    assert!(wb.len() <= wa.len(), "runs take no more bytes: {} vs {}", wb.len(), wa.len());
+                }
+            }
         }
     }
 

@@ -58,8 +58,10 @@ fn request(encoding: PixelEncoding) -> RenderRequest {
 fn config() -> SessionConfig {
     SessionConfig::new("fuzz")
         .hello_timeout(Duration::from_millis(1))
-        .upload_timeout(Duration::from_millis(1))
-        .retransmit_after(Duration::from_millis(1))
+        // Every other wait derives from the line rate (SPEC §3.14): a fast line, short waits.
+        .baud(10_000_000)
+        .turnaround(Duration::from_millis(1))
+        .max_probes(2)
         .render_timeout(Duration::from_millis(2))
         .max_requests_per_band(4)
 }

@@ -57,6 +57,8 @@ pub fn stat_name(key: u8) -> String {
         stat::FSL_WORDS_SHADOW => "fsl_words_shadow".into(),
         stat::FSL_WORDS_REFLECTION => "fsl_words_reflection".into(),
         stat::RAYS_IN_FLIGHT => "rays_in_flight".into(),
+        stat::MODEL_INSTRUCTIONS => "model_instructions".into(),
+        stat::LINK_WRAPPER_INSTRUCTIONS => "link_wrapper_instructions".into(),
         k => {
             // Per-stage counters, keyed as the firmware sends them (`device::Stage`).
             for s in Stage::ALL {

@@ -143,6 +143,35 @@ impl RleEncoder {
         Ok(n)
     }
 
+    /// Adds `n` pixels of colour `p`: the same bytes as `n` calls of [`push`](Self::push), at
+    /// the cost of one. Writes at most `RLE_MAX_PUSH_BYTES + 2·⌈n / RUN_LONG_MAX⌉` bytes. On
+    /// [`PixelError::BufferTooSmall`] the state is unchanged (bytes of `out` may have been
+    /// overwritten).
+    pub fn push_run(&mut self, p: [u8; 3], n: u32, out: &mut [u8]) -> Result<usize, PixelError> {
+        if n == 0 {
+            return Ok(0);
+        }
+        let mut next = *self;
+        let mut len = next.push(p, out)?;
+        // The other n − 1 pixels repeat `prev`: the run grows, and a full RUN_LONG is
+        // written when the next pixel would overflow it (as `push` does).
+        let mut left = n.saturating_sub(1);
+        while left > 0 {
+            if next.run < RUN_LONG_MAX {
+                let k = left.min(u32::from(RUN_LONG_MAX.saturating_sub(next.run)));
+                next.run = next.run.saturating_add(k as u16);
+                left = left.saturating_sub(k);
+            } else {
+                let tail = out.get_mut(len..).ok_or(PixelError::BufferTooSmall)?;
+                len = len.saturating_add(next.flush_run(tail)?);
+                next.run = 1;
+                left = left.saturating_sub(1);
+            }
+        }
+        *self = next;
+        Ok(len)
+    }
+
     /// Ends the span: writes a pending run; returns the bytes written. The encoder is reset
     /// (on [`PixelError::BufferTooSmall`] it is unchanged).
     pub fn finish(&mut self, out: &mut [u8]) -> Result<usize, PixelError> {
@@ -324,6 +353,33 @@ mod tests {
             let mut out = vec![0u8; 3 * px.len()];
             rle_decode(px.len(), &buf[..n], &mut out).unwrap();
             proptest::prop_assert_eq!(out, px.iter().flatten().copied().collect::<Vec<_>>());
+        }
+
+        /// A run pushed at once writes the bytes of its pixels pushed one by one.
+        #[test]
+        fn rle_run_equals_its_pixels(
+            before in proptest::collection::vec(proptest::prop_oneof![proptest::strategy::Just([7u8, 7, 7]), proptest::prelude::any::<[u8; 3]>()], 0..40),
+            p in proptest::prop_oneof![proptest::strategy::Just([7u8, 7, 7]), proptest::prelude::any::<[u8; 3]>()],
+            n in proptest::prop_oneof![0u32..200, 8100u32..8300, 16_380u32..16_390],
+        ) {
+            let (mut a, mut b) = (RleEncoder::new(), RleEncoder::new());
+            let (mut wa, mut wb) = (Vec::new(), Vec::new());
+            let mut buf = [0u8; 64];
+            for &q in &before {
+                let k = a.push(q, &mut buf).unwrap();
+                wa.extend_from_slice(&buf[..k]);
+                b = a;
+            }
+            wb.clone_from(&wa);
+            for _ in 0..n {
+                let k = a.push(p, &mut buf).unwrap();
+                wa.extend_from_slice(&buf[..k]);
+            }
+            let k = b.push_run(p, n, &mut buf).unwrap();
+            proptest::prop_assert!(k <= RLE_MAX_PUSH_BYTES + 2 * n.div_ceil(RUN_LONG_MAX as u32) as usize);
+            wb.extend_from_slice(&buf[..k]);
+            proptest::prop_assert_eq!(a, b);
+            proptest::prop_assert_eq!(wa, wb);
         }
 
         #[test]

@@ -473,6 +473,7 @@ fn msg_stat_key_table() {
     ];
     assert_eq!(keys, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]);
     assert_eq!(stat::STAGE_BASE, 0x40);
+    assert_eq!((stat::MODEL_INSTRUCTIONS, stat::LINK_WRAPPER_INSTRUCTIONS), (0x28, 0x29));
 }
 
 #[test]

@@ -42,3 +42,31 @@ pub fn print_sections(path: &Path) -> Result<()> {
 fn name_is_placeholder(section: &object::Section<'_, '_>) -> bool {
     section.name() == Ok(".text.dummy")
 }
+
+/// The loadable bytes of an ELF as a memory image: `(address of the first byte, bytes)`,
+/// from the lowest to the highest physical address of its `PT_LOAD` segments with file
+/// data, gaps zero-filled (as `gridrt flash` sends them; a ROM image the same way).
+pub fn load_image(path: &Path) -> Result<(u64, Vec<u8>)> {
+    use object::read::elf::{ElfFile32, ProgramHeader};
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let file =
+        ElfFile32::<object::Endianness>::parse(&*bytes).with_context(|| format!("parsing {}", path.display()))?;
+    let endian = file.endian();
+    let mut segments = vec![];
+    for ph in file.elf_program_headers() {
+        if ph.p_type(endian) != object::elf::PT_LOAD || ph.p_filesz(endian) == 0 {
+            continue;
+        }
+        let data =
+            ph.data(endian, &*bytes).map_err(|()| anyhow::anyhow!("{}: segment outside the file", path.display()))?;
+        segments.push((u64::from(ph.p_paddr(endian)), data));
+    }
+    let base = segments.iter().map(|s| s.0).min().with_context(|| format!("{}: nothing to load", path.display()))?;
+    let end = segments.iter().map(|s| s.0 + s.1.len() as u64).max().unwrap_or(base);
+    let mut image = vec![0u8; usize::try_from(end - base)?];
+    for (addr, data) in segments {
+        let off = usize::try_from(addr - base)?;
+        image[off..off + data.len()].copy_from_slice(data);
+    }
+    Ok((base, image))
+}

@@ -13,6 +13,9 @@ pub enum Board {
     QemuVirt,
     /// Small FPGA SoC: BRAM at 0x0, AXI UART Lite, AXI4-Stream FIFO (boards/fpga-soc.x).
     FpgaSoc,
+    /// The LiteX SoC of soc/ (VexRiscv RV32IMAC, LiteX UART, the RTL co-processor): the
+    /// bootloader in ROM, the app in main RAM (boards/litex*.x, from the SoC's csr.json).
+    Litex,
 }
 
 impl Board {
@@ -20,6 +23,16 @@ impl Board {
         match self {
             Board::QemuVirt => "board-qemu-virt",
             Board::FpgaSoc => "board-fpga-soc",
+            Board::Litex => "board-litex",
+        }
+    }
+
+    /// The name in the banner, the ELF copies and `--board`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Board::QemuVirt => "qemu-virt",
+            Board::FpgaSoc => "fpga-soc",
+            Board::Litex => "litex",
         }
     }
 }
@@ -91,10 +104,7 @@ impl BuildOpts {
             "xtask: building {} for {} on {} with the {}",
             self.bin.name(),
             self.target.triple(),
-            match board {
-                Board::QemuVirt => "qemu-virt",
-                Board::FpgaSoc => "fpga-soc",
-            },
+            board.name(),
             tc.describe()
         );
         let mut features = vec![board.feature().to_string()];
@@ -138,10 +148,7 @@ impl BuildOpts {
         let variant = built.with_file_name(format!(
             "{}-{}{}{}{extra}",
             self.bin.name(),
-            match board {
-                Board::QemuVirt => "qemu-virt",
-                Board::FpgaSoc => "fpga-soc",
-            },
+            board.name(),
             if self.layout == Layout::Bootloaded && self.bin == Bin::App { "-bootloaded" } else { "" },
             if self.minimal { "-minimal" } else { "" },
         ));

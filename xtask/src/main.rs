@@ -1,11 +1,13 @@
 //! `cargo xtask`: project automation that plain cargo cannot express.
 //!
-//! - `cargo xtask setup`     install the RISC-V toolchain, QEMU and the HDL tools (scripts/)
+//! - `cargo xtask setup`     install the RISC-V toolchain, QEMU, the HDL tools and the SoC's (scripts/)
 //! - `cargo xtask firmware`  build a soft-core image (firmware/image) and print its sections
 //! - `cargo xtask qemu`      boot an image on QEMU `virt` with its UART on a pseudo-terminal
 //!   (`--bin bootloader` boots the bootloader, `--elf PATH` any image; prints `serial: PTY`)
 //! - `cargo xtask rtl sim`   verilate the co-processor RTL (cached) for the co-simulation
 //! - `cargo xtask rtl synth` synthesise it for the ECP5-85F (Yosys + nextpnr-ecp5), JSON report
+//! - `cargo xtask soc`       the LiteX SoC (soc/): `sim` in Verilator (prints `serial: PTY`),
+//!   `build --board ulx3s` a bitstream, `board-files` the firmware's memory map from csr.json
 //!
 //! One file per subcommand; `toolchain.rs` decides how to cross-compile.
 
@@ -15,6 +17,10 @@ mod qemu;
 mod rtl;
 mod rtl_synth;
 mod setup;
+mod soc;
+mod soc_build;
+mod soc_sim;
+mod soc_tools;
 mod toolchain;
 
 use clap::{Parser, Subcommand};
@@ -28,7 +34,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// Install the RISC-V Rust toolchain (rustup target, else Debian packages), QEMU and the HDL tools.
+    /// Install the RISC-V Rust toolchain (rustup target, else Debian packages), QEMU, the HDL
+    /// tools and the LiteX SoC's.
     Setup(setup::Cmd),
     /// Build a firmware image for the soft-core and print its section sizes.
     Firmware(firmware::Cmd),
@@ -36,6 +43,8 @@ enum Cmd {
     Qemu(qemu::Cmd),
     /// The co-processor RTL: Verilator co-simulation build, ECP5 synthesis.
     Rtl(rtl::Cmd),
+    /// The LiteX SoC: Verilator simulation, ECP5 bitstream, board files from csr.json.
+    Soc(soc::Cmd),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -44,5 +53,6 @@ fn main() -> anyhow::Result<()> {
         Cmd::Firmware(cmd) => cmd.run(),
         Cmd::Qemu(cmd) => cmd.run(),
         Cmd::Rtl(cmd) => cmd.run(),
+        Cmd::Soc(cmd) => cmd.run(),
     }
 }

@@ -1,4 +1,4 @@
-//! `cargo xtask setup`: run the install scripts in scripts/ (toolchain, QEMU, HDL tools).
+//! `cargo xtask setup`: run the install scripts in scripts/ (toolchain, QEMU, HDL tools, the SoC's).
 
 use crate::toolchain::run_script;
 use anyhow::Result;
@@ -15,6 +15,9 @@ pub struct Cmd {
     /// Skip the HDL tools (Verilator, Yosys, nextpnr-ecp5).
     #[arg(long)]
     no_hdl: bool,
+    /// Skip the LiteX SoC's tools (LiteX and its simulation libraries, the ECP5 flow for the SoC).
+    #[arg(long)]
+    no_soc: bool,
 }
 
 impl Cmd {
@@ -25,6 +28,9 @@ impl Cmd {
         }
         if !self.no_hdl {
             run_script("setup-hdl.sh", None)?;
+        }
+        if !self.no_soc {
+            run_script("setup-soc.sh", None)?;
         }
         Ok(())
     }

@@ -1,6 +1,10 @@
 //! Board constants and the console, selected by the `board-*` feature.
 
-#[cfg(all(feature = "board-qemu-virt", feature = "board-fpga-soc"))]
+#[cfg(any(
+    all(feature = "board-qemu-virt", feature = "board-fpga-soc"),
+    all(feature = "board-qemu-virt", feature = "board-litex"),
+    all(feature = "board-fpga-soc", feature = "board-litex"),
+))]
 compile_error!("enable exactly one board-* feature");
 
 #[cfg(feature = "board-qemu-virt")]
@@ -46,6 +50,11 @@ mod imp {
     pub const MAX_POINTS: usize = 1 << 16;
     /// Words of the splat path's shape table (`TableConfig::DEVICE`: 320 KiB).
     pub const TABLE_WORDS: usize = 81_920;
+
+    /// The co-processor's configuration, `(PEs, words per PE)`.
+    pub fn coproc_config() -> (u16, u32) {
+        (PE_COUNT, PE_MEM_WORDS)
+    }
 
     /// QEMU `virt`'s SiFive test device: a write ends the emulation.
     const SIFIVE_TEST_BASE: usize = 0x0010_0000;
@@ -98,7 +107,97 @@ mod imp {
     /// Words per PE memory in the block design (GridRT: 8192).
     pub const PE_MEM_WORDS: u32 = 8192;
 
+    /// The co-processor's configuration, `(PEs, words per PE)`.
+    pub fn coproc_config() -> (u16, u32) {
+        (PE_COUNT, PE_MEM_WORDS)
+    }
+
     /// Nothing to exit from on hardware: the caller halts.
+    pub fn exit_failure(_code: u16) {}
+}
+
+#[cfg(feature = "board-litex")]
+mod imp {
+    use crate::litex_map as map;
+    use gridrt_firmware::bsp::coproc_csr::{regs as coproc_regs, CoprocCsr};
+    use gridrt_firmware::bsp::litex_uart::{regs as uart_regs, LitexUart};
+    use gridrt_firmware::bsp::VolatileMmio;
+
+    /// Board name, as printed in the banner and accepted by `cargo xtask --board`.
+    pub const NAME: &str = "litex";
+    /// The LiteX UART (csr.json `uart`; baud rate fixed in the gateware).
+    pub const CONSOLE_BASE: usize = map::uart::BASE;
+    /// The co-processor's CSR FIFOs (csr.json `coproc`).
+    pub const COPROC_BASE: usize = map::coproc::BASE;
+
+    /// True when the register at absolute address `addr` sits at `offset` from `base`.
+    const fn at(addr: usize, base: usize, offset: usize) -> bool {
+        addr.wrapping_sub(base) == offset
+    }
+
+    // The drivers address registers by offset from the base; the SoC's csr.json says where
+    // each register is. Disagreement (a changed LiteX core, a changed SoC) fails the build.
+    const _: () = {
+        use map::{coproc, uart};
+        assert!(at(uart::RXTX, uart::BASE, uart_regs::RXTX), "LiteX UART: RXTX");
+        assert!(at(uart::TXFULL, uart::BASE, uart_regs::TXFULL), "LiteX UART: TXFULL");
+        assert!(at(uart::RXEMPTY, uart::BASE, uart_regs::RXEMPTY), "LiteX UART: RXEMPTY");
+        assert!(at(uart::EV_PENDING, uart::BASE, uart_regs::EV_PENDING), "LiteX UART: EV_PENDING");
+        assert!(at(uart::EV_ENABLE, uart::BASE, uart_regs::EV_ENABLE), "LiteX UART: EV_ENABLE");
+        assert!(at(uart::TXEMPTY, uart::BASE, uart_regs::TXEMPTY), "LiteX UART: TXEMPTY");
+        assert!(1 << uart::EV_PENDING_RX_OFFSET == uart_regs::EV_RX, "LiteX UART: EV_RX");
+        assert!(1 << uart::EV_PENDING_TX_OFFSET == uart_regs::EV_TX, "LiteX UART: EV_TX");
+        assert!(at(coproc::REQ, coproc::BASE, coproc_regs::REQ), "co-processor: REQ");
+        assert!(at(coproc::REQ_LAST, coproc::BASE, coproc_regs::REQ_LAST), "co-processor: REQ_LAST");
+        assert!(at(coproc::RSP, coproc::BASE, coproc_regs::RSP), "co-processor: RSP");
+        assert!(at(coproc::STATUS, coproc::BASE, coproc_regs::STATUS), "co-processor: STATUS");
+        assert!(at(coproc::CTRL, coproc::BASE, coproc_regs::CTRL), "co-processor: CTRL");
+        assert!(at(coproc::PES, coproc::BASE, coproc_regs::PES), "co-processor: PES");
+        assert!(at(coproc::PE_MEM_WORDS, coproc::BASE, coproc_regs::PE_MEM_WORDS), "co-processor: PE_MEM_WORDS");
+        assert!(coproc::STATUS_REQ_SPACE_OFFSET == coproc_regs::STATUS_REQ_SPACE_OFFSET);
+        assert!(coproc::STATUS_REQ_SPACE_SIZE == coproc_regs::STATUS_LEVEL_BITS);
+        assert!(coproc::STATUS_RSP_LEVEL_OFFSET == coproc_regs::STATUS_RSP_LEVEL_OFFSET);
+        assert!(coproc::STATUS_RSP_LEVEL_SIZE == coproc_regs::STATUS_LEVEL_BITS);
+        assert!(1 << coproc::STATUS_RSP_LAST_OFFSET == coproc_regs::STATUS_RSP_LAST);
+        assert!(1 << coproc::STATUS_IDLE_OFFSET == coproc_regs::STATUS_IDLE);
+        assert!(1 << coproc::STATUS_REQ_OVERFLOW_OFFSET == coproc_regs::STATUS_REQ_OVERFLOW);
+        assert!(1 << coproc::STATUS_RSP_UNDERFLOW_OFFSET == coproc_regs::STATUS_RSP_UNDERFLOW);
+        assert!(1 << coproc::CTRL_RESET_OFFSET == coproc_regs::CTRL_RESET);
+    };
+
+    /// The console UART type of this board.
+    pub type Console = LitexUart<VolatileMmio>;
+
+    /// A handle on the console registers, without touching the device.
+    ///
+    /// # Safety
+    ///
+    /// Creates an alias of the console: only use it where the owner cannot run any more
+    /// (trap and panic reports), or create it once at start-up.
+    pub unsafe fn console_unchecked() -> Console {
+        // SAFETY: CONSOLE_BASE is the SoC's UART (csr.json, through litex_map).
+        LitexUart::new(unsafe { VolatileMmio::new(CONSOLE_BASE) })
+    }
+
+    /// Turns the UART's interrupts off; bytes already received stay.
+    pub fn init_console(console: &mut Console) {
+        console.init();
+    }
+    /// Board id in `Msg::Version` (SPEC.md §3.2).
+    pub const BOARD_ID: u8 = 3;
+    /// Largest grid the app accepts (voxels): 16³ doubled. The voxel map lives on the stack
+    /// in main RAM with the rest of the device state (boards/litex.x).
+    pub const MAX_VOXELS: usize = 1 << 13;
+
+    /// The co-processor's configuration, `(PEs, words per PE)`, as the SoC was built: read
+    /// from its CSRs, so one image serves every build of the SoC.
+    pub fn coproc_config() -> (u16, u32) {
+        // SAFETY: two read-only configuration registers of the co-processor's CSR block;
+        // reading them has no side effect on the FIFOs.
+        CoprocCsr::new(unsafe { VolatileMmio::new(COPROC_BASE) }).config()
+    }
+
+    /// Nothing to exit from on hardware or in the simulation: the caller halts.
     pub fn exit_failure(_code: u16) {}
 }
 

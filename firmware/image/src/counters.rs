@@ -14,4 +14,12 @@ impl CycleCounter for CsrCounters {
     fn instret(&self) -> u64 {
         riscv::register::minstret::read64()
     }
+    #[inline(always)]
+    fn cycles_lo(&self) -> u32 {
+        riscv::register::mcycle::read() as u32
+    }
+    #[inline(always)]
+    fn instret_lo(&self) -> u32 {
+        riscv::register::minstret::read() as u32
+    }
 }

@@ -13,6 +13,8 @@
 pub mod board;
 pub mod counters;
 pub mod link;
+#[cfg(feature = "board-litex")]
+pub mod litex_map;
 pub mod serve;
 pub mod trap;
 

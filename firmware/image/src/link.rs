@@ -6,54 +6,125 @@
 //!   [`ModelFreeClock`] subtracts the total from `mcycle`/`minstret` (see [`TimedLink`]).
 //! - fpga-soc: the real co-processor behind the AXI4-Stream FIFO ([`AxisLink`]); the plain
 //!   counters are the firmware's own.
+//! - litex: the RTL co-processor behind the SoC's CSR FIFOs (`CsrFifoLink`); plain counters.
 
 use core::cell::Cell;
 
 use gridrt_firmware::bsp::CycleCounter;
-use gridrt_firmware::device::{StageClock, StageCount};
-use gridrt_firmware::fsl::{FslLink, FslWord};
+use gridrt_firmware::device::{ExcludedWork, StageClock, StageStamp};
+use gridrt_firmware::fsl::{BoundedError, FslLink, FslWord};
 
 /// Counter time spent inside a co-processor model, shared by [`TimedLink`] (which adds to
-/// it) and [`ModelFreeClock`] (which subtracts it).
+/// it) and [`ModelFreeClock`] (which subtracts it), and the number of timed calls.
 #[derive(Debug, Default)]
-pub struct Excluded(Cell<StageCount>);
+pub struct Excluded {
+    cycles: Cell<u64>,
+    instret: Cell<u64>,
+    calls: Cell<u64>,
+    /// Instructions of [`TimedLink`] per timed call outside its counter reads.
+    wrapper: Cell<u32>,
+}
 
 impl Excluded {
-    /// Nothing excluded yet.
+    /// Nothing excluded yet; no wrapper cost known (see [`Excluded::calibrate`]).
     pub const fn new() -> Self {
-        Self(Cell::new(StageCount { cycles: 0, instret: 0 }))
+        Self { cycles: Cell::new(0), instret: Cell::new(0), calls: Cell::new(0), wrapper: Cell::new(0) }
     }
 
-    /// Total time excluded so far.
-    pub fn get(&self) -> StageCount {
-        self.0.get()
+    /// Instructions inside the timed calls (the model's work and the wrapper's own inside
+    /// its counter reads) and the wrapper's instructions outside them (calls × the
+    /// calibrated cost), since boot.
+    pub fn totals(&self) -> ExcludedWork {
+        let wrapper = self.calls.get().wrapping_mul(u64::from(self.wrapper.get()));
+        ExcludedWork { model: self.instret.get(), link_wrapper: wrapper }
     }
 
-    fn add(&self, from: StageCount, to: StageCount) {
-        let t = self.0.get();
-        self.0.set(StageCount {
-            cycles: t.cycles.wrapping_add(to.cycles.wrapping_sub(from.cycles)),
-            instret: t.instret.wrapping_add(to.instret.wrapping_sub(from.instret)),
-        });
+    /// Measures the wrapper's own instructions per timed call that fall outside its counter
+    /// reads (its call, the first read's set-up, the bookkeeping after the second read) and
+    /// subtracts them from then on, so that the FSL I/O stage holds only the firmware's own
+    /// work: `N` packet puts through a [`TimedLink`] over a link that does nothing, minus `N`
+    /// through that link directly, per call. Deterministic code: the same count every boot.
+    pub fn calibrate<K: CycleCounter + Copy>(&self, counter: K) {
+        const N: u32 = 16;
+        let probe = Excluded::new();
+        let clock = ModelFreeClock::new(counter, &probe);
+        let mut timed = TimedLink::new(Null, counter, &probe);
+        let t0 = clock.now();
+        put_empty(&mut timed, N);
+        let t1 = clock.now();
+        put_empty(&mut Null, N);
+        let t2 = clock.now();
+        let wrapped = t1.instret.wrapping_sub(t0.instret);
+        let plain = t2.instret.wrapping_sub(t1.instret);
+        self.wrapper.set(wrapped.saturating_sub(plain).checked_div(N).unwrap_or(0));
+    }
+
+    /// The calibrated instructions per call ([`Excluded::calibrate`]).
+    pub fn wrapper_per_call(&self) -> u32 {
+        self.wrapper.get()
+    }
+
+    #[inline(always)]
+    fn add(&self, from: StageStamp, to: StageStamp) {
+        let (c, i) = (self.cycles.get(), self.instret.get());
+        self.cycles.set(c.wrapping_add(u64::from(to.cycles.wrapping_sub(from.cycles))));
+        self.instret.set(i.wrapping_add(u64::from(to.instret.wrapping_sub(from.instret))));
+        self.calls.set(self.calls.get().wrapping_add(1));
     }
 }
 
-fn read<K: CycleCounter>(k: &K) -> StageCount {
+/// A link that takes and gives everything at once, for [`Excluded::calibrate`].
+struct Null;
+
+impl FslLink for Null {
+    type Error = core::convert::Infallible;
+    fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
+        core::hint::black_box(word);
+        Ok(())
+    }
+    fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+        Ok(FslWord { data: 0, control: true })
+    }
+}
+
+#[inline(never)]
+fn put_empty<L: FslLink>(link: &mut L, n: u32) {
+    for _ in 0..n {
+        let _ = core::hint::black_box(&mut *link).put_packet(core::hint::black_box(&[]), 1);
+    }
+}
+
+#[inline(always)]
+fn read<K: CycleCounter>(k: &K) -> StageStamp {
     // instret first, then cycles, in both reads: the two measurement points are symmetric.
-    let instret = k.instret();
-    StageCount { cycles: k.cycles(), instret }
+    let instret = k.instret_lo();
+    StageStamp { cycles: k.cycles_lo(), instret }
 }
 
-/// A link whose every `nput`/`nget` is timed and added to an [`Excluded`] total.
+/// What a word costs the firmware on a board with stream registers: one store of the word to
+/// the transmit register (and, for an answer, one load from the receive register into the
+/// buffer). The emulated board has no such registers, so [`TimedLink`] stores each word of a
+/// packet to this RAM word before handing the packet to the model, and loads and stores each
+/// answer word once after taking it.
+static STREAM_REGISTER: StreamRegister = StreamRegister(core::cell::UnsafeCell::new(0));
+
+struct StreamRegister(core::cell::UnsafeCell<u32>);
+
+// SAFETY: single hart, no interrupts touch it; only volatile accesses whose values are
+// never used for anything but the access itself.
+unsafe impl Sync for StreamRegister {}
+
+/// A link whose every call into the inner link (the co-processor model) is timed and added
+/// to an [`Excluded`] total.
 ///
-/// What is excluded: everything between the counter reads around the call into the inner
-/// link, i.e. the co-processor model's own work (executing a packet happens inside the
-/// `nput` of its last word) plus the model's call/return. What stays in the firmware's
-/// FSL I/O stage: the firmware's own loop, the `FslLink::put`/`get` poll wrappers, and
-/// this wrapper's call and counter reads (a few tens of instructions per word on rv32,
-/// where a 64-bit CSR read is a 3-instruction retry loop; a real FSL `put`/`get` is one
-/// instruction). The FSL I/O numbers are therefore an upper bound of the firmware's cost
-/// per word, and every other stage is exact.
+/// What is excluded: everything between the counter reads around a call into the inner link,
+/// i.e. the co-processor model's own work (executing a packet happens inside the put of its
+/// last word) plus the model's call/return, and (once [`Excluded::calibrate`] ran) the
+/// wrapper's own instructions outside those reads, a fixed count per call. What stays in the
+/// firmware's FSL I/O stage: the firmware's own code, and for whole packets
+/// ([`put_packet`](FslLink::put_packet) / [`get_packet`](FslLink::get_packet), what the ray
+/// path uses) one volatile store or load per word, the cost of a stream register. Both
+/// excluded parts are reported (`Msg::Stats`, [`Excluded::totals`]), never charged.
 pub struct TimedLink<'e, L, K> {
     inner: L,
     counter: K,
@@ -90,60 +161,34 @@ impl<L: FslLink, K: CycleCounter> FslLink for TimedLink<'_, L, K> {
         self.excluded.add(t0, read(&self.counter));
         r
     }
-}
 
-/// Instructions per FSL word that stay in the firmware's `fsl_io` count around the model
-/// (measured at boot on this hart; [`wrapper_cost`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct WrapperCost {
-    /// A `put` through [`TimedLink`] into a link that does nothing: the poll loop, the call
-    /// and the wrapper (its counter reads and bookkeeping).
-    pub timed_put: u64,
-    /// The same `put` without [`TimedLink`].
-    pub bare_put: u64,
-}
-
-impl WrapperCost {
-    /// The wrapper's own instructions per FSL word: what [`TimedLink`] adds to a `put` or
-    /// `get`. Not the firmware's work: `gridrt bench frame` reports it on a line of its own
-    /// and takes it out of `fsl_io` (the virtual co-processor never makes the firmware
-    /// poll, so every put and get is one wrapped call per word).
-    pub fn wrapper(&self) -> u64 {
-        self.timed_put.saturating_sub(self.bare_put)
-    }
-}
-
-/// Measures [`WrapperCost`]: 64 `put`s into a link that does nothing, with and without
-/// [`TimedLink`]. The app prints it in its banner (`timed link: ...`); `gridrt bench frame`
-/// reads it from there.
-pub fn wrapper_cost<K: CycleCounter + Copy>(counter: K) -> WrapperCost {
-    struct Null;
-    impl FslLink for Null {
-        type Error = core::convert::Infallible;
-        fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
-            core::hint::black_box(word);
-            Ok(())
+    #[inline(always)]
+    fn put_packet(&mut self, words: &[u32], max_polls: u32) -> Result<(), BoundedError<Self::Error>> {
+        for &w in words {
+            // SAFETY: a plain RAM word (see `STREAM_REGISTER`).
+            unsafe { STREAM_REGISTER.0.get().write_volatile(w) };
         }
-        fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
-            Ok(FslWord { data: 0, control: false })
-        }
+        let t0 = read(&self.counter);
+        let r = self.inner.put_packet(words, max_polls);
+        self.excluded.add(t0, read(&self.counter));
+        r
     }
-    let excluded = Excluded::new();
-    let clock = ModelFreeClock::new(counter, &excluded);
-    let timed_put = instructions_per_put(&clock, &mut TimedLink::new(Null, counter, &excluded));
-    let bare_put = instructions_per_put(&clock, &mut Null);
-    WrapperCost { timed_put, bare_put }
-}
 
-/// Instructions per `put` into `link`, over 64 puts.
-fn instructions_per_put<C: StageClock, L: FslLink>(clock: &C, link: &mut L) -> u64 {
-    const N: u32 = 64;
-    let t0 = clock.now();
-    for i in 0..N {
-        let _ = core::hint::black_box(&mut *link).put(FslWord { data: i, control: false }, 1);
+    #[inline(always)]
+    fn get_packet(&mut self, buf: &mut [u32], max_polls: u32) -> Result<(usize, bool), BoundedError<Self::Error>> {
+        let t0 = read(&self.counter);
+        let r = self.inner.get_packet(buf, max_polls);
+        self.excluded.add(t0, read(&self.counter));
+        if let Ok((n, _)) = r {
+            for slot in buf.iter_mut().take(n) {
+                let p: *mut u32 = slot;
+                // SAFETY: `p` is a valid, aligned, exclusive reference: one load and one store
+                // of the word, as a read of the receive register into `buf` would do.
+                unsafe { p.write_volatile(p.read_volatile()) };
+            }
+        }
+        r
     }
-    let t1 = clock.now();
-    t1.instret.wrapping_sub(t0.instret).checked_div(u64::from(N)).unwrap_or(0)
 }
 
 /// `mcycle`/`minstret` minus the time [`TimedLink`] excluded: the firmware's own counts.
@@ -160,11 +205,23 @@ impl<'e, K> ModelFreeClock<'e, K> {
 }
 
 impl<K: CycleCounter> StageClock for ModelFreeClock<'_, K> {
-    #[inline]
-    fn now(&self) -> StageCount {
-        let raw = read(&self.counter);
-        let ex = self.excluded.get();
-        StageCount { cycles: raw.cycles.wrapping_sub(ex.cycles), instret: raw.instret.wrapping_sub(ex.instret) }
+    #[inline(always)]
+    fn now(&self) -> StageStamp {
+        let instret = self.counter.instret_lo();
+        let cycles = self.counter.cycles_lo();
+        let ex = self.excluded;
+        // Low words: the stopwatch only takes wrapping differences. The wrapper's cost
+        // outside its reads is charged at one cycle per instruction (exact under QEMU's
+        // `-icount shift=0`).
+        let wrapper = (ex.calls.get() as u32).wrapping_mul(ex.wrapper.get());
+        StageStamp {
+            cycles: cycles.wrapping_sub(ex.cycles.get() as u32).wrapping_sub(wrapper),
+            instret: instret.wrapping_sub(ex.instret.get() as u32).wrapping_sub(wrapper),
+        }
+    }
+
+    fn excluded(&self) -> ExcludedWork {
+        self.excluded.totals()
     }
 }
 
@@ -201,6 +258,44 @@ mod axis {
             match self.0.nget_word() {
                 Ok((data, control)) => Ok(FslWord { data, control }),
                 Err(e) => Err(e.map(AxisLinkError)),
+            }
+        }
+    }
+}
+
+#[cfg(feature = "board-litex")]
+pub use csr_fifo::{CsrFifoLink, CsrFifoLinkError};
+
+#[cfg(feature = "board-litex")]
+mod csr_fifo {
+    use gridrt_firmware::bsp::coproc_csr::{CoprocCsr, CoprocCsrError};
+    use gridrt_firmware::bsp::Mmio;
+    use gridrt_firmware::fsl::{FslLink, FslWord, LinkError, LinkErrorKind};
+
+    /// A CSR FIFO error as a link error (always [`LinkErrorKind::Hardware`]).
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub struct CsrFifoLinkError(pub CoprocCsrError);
+
+    impl LinkError for CsrFifoLinkError {
+        fn kind(&self) -> LinkErrorKind {
+            LinkErrorKind::Hardware
+        }
+    }
+
+    /// The co-processor's CSR FIFOs in the LiteX SoC as an [`FslLink`] (control bit = tlast).
+    pub struct CsrFifoLink<M: Mmio>(pub CoprocCsr<M>);
+
+    impl<M: Mmio> FslLink for CsrFifoLink<M> {
+        type Error = CsrFifoLinkError;
+
+        fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
+            self.0.nput_word(word.data, word.control).map_err(|e| e.map(CsrFifoLinkError))
+        }
+
+        fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+            match self.0.nget_word() {
+                Ok((data, control)) => Ok(FslWord { data, control }),
+                Err(e) => Err(e.map(CsrFifoLinkError)),
             }
         }
     }

@@ -1,4 +1,5 @@
-//! Board support: register access, byte UARTs, the AXI4-Stream FIFO link, counters.
+//! Board support: register access, byte UARTs, the co-processor links (AXI4-Stream FIFO,
+//! LiteX CSR FIFOs), counters.
 //!
 //! Every driver here is generic over [`Mmio`], so the same code runs on the soft-core
 //! (through [`VolatileMmio`]) and in host unit tests (through the register-level mock in
@@ -9,6 +10,8 @@
 //! | [`ns16550::Ns16550`] | NS16550A UART | QEMU `virt` (0x1000_0000) |
 //! | [`uartlite::UartLite`] | Xilinx AXI UART Lite (PG142) | FPGA SoC console/host link |
 //! | [`axis_fifo::AxisFifo`] | Xilinx AXI4-Stream FIFO (PG080) | FPGA SoC FSL-style link to the co-processor |
+//! | [`litex_uart::LitexUart`] | LiteX UART (`litex/soc/cores/uart.py`) | LiteX SoC (`soc/`) console/host link |
+//! | [`coproc_csr::CoprocCsr`] | the co-processor's CSR FIFOs (`soc/gridrt_soc/coproc.py`) | LiteX SoC FSL-style link to the co-processor |
 //!
 //! Register offsets and bit values live only in each driver's `regs.rs`; above that
 //! layer no magic numbers appear.
@@ -26,6 +29,8 @@
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 pub mod axis_fifo;
+pub mod coproc_csr;
+pub mod litex_uart;
 pub mod mmio;
 #[cfg(test)]
 #[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
@@ -89,4 +94,15 @@ pub trait CycleCounter {
     fn cycles(&self) -> u64;
     /// Instructions retired (`minstret`; exact under QEMU `-icount shift=0`).
     fn instret(&self) -> u64;
+    /// The low 32 bits of [`cycles`](Self::cycles) (on RV32 one CSR read instead of a
+    /// consistent 64-bit read).
+    #[inline(always)]
+    fn cycles_lo(&self) -> u32 {
+        self.cycles() as u32
+    }
+    /// The low 32 bits of [`instret`](Self::instret).
+    #[inline(always)]
+    fn instret_lo(&self) -> u32 {
+        self.instret() as u32
+    }
 }

@@ -414,3 +414,57 @@ fn build_list_keeps_only_non_empty_voxels_with_their_pe_and_exit() {
     assert_eq!(build_list(&g, &map, &miss, 0.0, f32::INFINITY, &mut list), 0);
     assert!(list.is_empty());
 }
+
+/// The fused walk of the device writes exactly the entries of `build_list` (f32): same
+/// voxels, PEs and `t_exit` bits (±0 alike), with f32 and with integer-key comparisons, over
+/// the awkward rays of `random_case` (planes, zero components, origins inside and on faces,
+/// limited t ranges), with random empty voxels, maps shorter than the grid, and a full output
+/// buffer.
+#[test]
+fn request_words_equal_build_list() {
+    let mut rng = ChaCha8Rng::seed_from_u64(0x5EED_0A11);
+    let mut list = TraversalList::new();
+    let mut words = vec![0u32; 2 * MAX_LIST];
+    let mut nonempty = 0;
+    for i in 0..40_000 {
+        let case = random_case(&mut rng, if i % 10 == 0 { 40 } else { 8 });
+        let g = &case.grid;
+        let voxels = g.voxel_count() as usize;
+        let fill = rng.gen_range(0.0..1.0f64);
+        let mut map: Vec<u8> =
+            (0..voxels).map(|_| if rng.gen_bool(fill) { rng.gen_range(0..4) } else { EMPTY_VOXEL }).collect();
+        if i % 7 == 0 {
+            map.truncate(rng.gen_range(0..=voxels));
+        }
+        let walk = WalkGrid::new(g);
+        build_list_in(RayFormat::F32, g, &map, &case.ray, 0.0, case.tmax, &mut list);
+        let cap = if i % 13 == 0 { rng.gen_range(0..4) } else { MAX_LIST };
+        // ±0 exit distances are one value here (the integer-key comparisons may return either
+        // zero; both accept the same hits).
+        let zero = |w: u32| if w == 0x8000_0000 { 0 } else { w };
+        let want: Vec<[u32; 2]> =
+            list.iter().take(cap).map(|e| gridrt_shared::fsl::entry_words(*e)).map(|[a, b]| [a, zero(b)]).collect();
+        for keys in [false, true] {
+            let n = walk.write_entries_in(keys, &map, &case.ray, case.tmax, &mut words[..2 * cap]);
+            let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
+            assert_eq!(got, want, "keys {keys}: {:?} {:?} t_max {}", g, case.ray, case.tmax);
+            nonempty += (n > 0) as u32;
+        }
+    }
+    assert!(nonempty > 20_000, "{nonempty}");
+    // An invalid grid, ray or t_max walks nothing (as `build_list`).
+    let bad = GridDesc { min: Vec3::ONE, max: Vec3::ZERO, dims: [2, 2, 2] };
+    let r = Ray { origin: Vec3::splat(-1.0), dir: Vec3::ONE };
+    assert_eq!(WalkGrid::new(&bad).write_entries(&[0; 8], &r, f32::INFINITY, &mut words), 0);
+    let good = WalkGrid::new(&GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [2, 2, 2] });
+    // The diagonal through the corners: ties step x, then y, then z (zero-length voxels included).
+    assert_eq!(good.write_entries(&[0; 8], &r, f32::INFINITY, &mut words), 4);
+    for (o, d, t_max) in [
+        (Vec3::new(f32::NAN, -1.0, -1.0), Vec3::ONE, f32::INFINITY),
+        (Vec3::splat(-1.0), Vec3::new(1.0, f32::INFINITY, 1.0), f32::INFINITY),
+        (Vec3::splat(-1.0), Vec3::new(-0.0, 0.0, -0.0), f32::INFINITY),
+        (Vec3::splat(-1.0), Vec3::ONE, f32::NAN),
+    ] {
+        assert_eq!(good.write_entries(&[0; 8], &Ray { origin: o, dir: d }, t_max, &mut words), 0, "{o} {d} {t_max}");
+    }
+}

@@ -14,11 +14,13 @@ use super::raypath::{RayClass, RayPath};
 use super::request::{field, Job};
 use super::scene::SceneStore;
 use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
-use crate::camera::Camera;
+use crate::camera::{Camera, RowRays};
+use crate::cull::BoxSpans;
 use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
 use crate::pixels::{FrameTx, SpanEncoder, TxError};
-use crate::shade::{self, Light, DEFAULT_ALBEDO};
+use crate::sfloat::{add, mul};
+use crate::shade::{self, DEFAULT_ALBEDO};
 use embedded_io::Write;
 use gridrt_shared::fsl::RayKind;
 use gridrt_shared::math::Ray;
@@ -29,18 +31,33 @@ use gridrt_shared::msg::{feature, render_flags, ErrorCode, Msg};
 use gridrt_shared::scene::{affine_point, TextureKind};
 use gridrt_shared::scene::{Material, MaterialModel, ReflectMode};
 
+/// The model of a material id the scene does not define.
+const MATTE: MaterialModel = MaterialModel::MATTE;
+
 /// Widest row the interpolation buffer holds.
 pub const MAX_INTERP_WIDTH: usize = 2048;
 
 /// Per-frame constants of the pixel pipeline.
 struct FrameCtx {
     cam: Camera,
-    light: Light,
+    /// Per row, the columns whose camera rays can enter the grid box.
+    spans: BoxSpans,
+    /// What a pixel whose camera ray misses everything gets: the background.
+    background: Sample,
+    /// The ambient light `L_a` (ambient colour × ambient term).
+    ambient: [f32; 3],
+    /// The point light as the direct term uses it.
+    direct: shade::DirectLight,
+    /// The light reaches surfaces at all (a light with a non-zero radiance).
+    lit: bool,
+    /// The unit spot axis ([`shade::spot_axis`]).
+    spot_axis: Option<gridrt_shared::math::Vec3>,
     shadows: bool,
     reflections: bool,
     textures: bool,
     specular: bool,
-    diag: f32,
+    /// `1e-4 · |grid box diagonal|`, the per-scene term of the shadow-ray offset.
+    eps_diag: f32,
 }
 
 /// The plan bits this build honours.
@@ -78,20 +95,14 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
     clock: &C,
     sw: &mut Stopwatch,
     ctx: &FrameCtx,
+    row: &RowRays<'_>,
     x: u16,
-    y: u16,
 ) -> Result<Sample, Fail> {
     let lighting = &scene.lighting;
-    let mut ray = ctx.cam.primary_ray(x as u32, y as u32);
+    let mut ray = row.ray(x as u32);
     count(&mut path.stats.primary_rays, 1);
     sw.lap(clock, &mut path.stats, Stage::RayGen);
-    let la = lighting.ambient_colour.map(|c| c * ctx.light.ambient);
-    let dl = shade::DirectLight {
-        pos: ctx.light.pos,
-        radiance: lighting.light_colour.map(|c| c * ctx.light.intensity),
-        specular: ctx.specular,
-    };
-    let lit = lighting.light_count > 0 && dl.radiance.iter().any(|&c| c != 0.0);
+    let (la, dl, lit) = (ctx.ambient, &ctx.direct, ctx.lit);
     let depth = if ctx.reflections { lighting.max_depth.max(1) } else { 1 };
     let mut acc = [0f32; 3];
     let mut throughput = 1f32;
@@ -101,9 +112,15 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
         let hit = path.trace_as(scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, class)?;
         let r = match hit {
             Some(r) if r.hit => r,
+            // A camera ray that meets nothing is the frame's background, computed once with
+            // the same formula (`0 + 1·background`).
+            _ if bounce == 0 => {
+                sw.lap(clock, &mut path.stats, Stage::Shade);
+                return Ok(ctx.background);
+            }
             _ => {
                 for (a, b) in acc.iter_mut().zip(lighting.background) {
-                    *a += throughput * b;
+                    *a = add(*a, mul(throughput, b));
                 }
                 break;
             }
@@ -118,31 +135,34 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
             .get(r.material as usize)
             .copied()
             .unwrap_or(Material { diffuse: DEFAULT_ALBEDO, reflect: 0.0 });
-        let ext = scene.material_model.get(r.material as usize).copied().unwrap_or(MaterialModel::MATTE);
+        // By reference: the model is ~90 bytes, a copy per hit is a memcpy call.
+        let ext = scene.material_model.get(r.material as usize).unwrap_or(&MATTE);
         #[allow(unused_mut)]
         let mut cd = m.diffuse;
         #[cfg(feature = "textures")]
         if ctx.textures && ext.texture != TextureKind::None {
             if let Some(po) = object_point(scene, r.prim, p) {
-                cd = crate::texture::sample(&ext, cd, po);
+                cd = crate::texture::sample(ext, cd, po);
             }
         }
         let Some(n) = shade::facing_normal(r.normal, ray.dir) else {
             // Degenerate normal: no direction to light it from; ambient only.
-            for (a, b) in acc.iter_mut().zip(shade::outgoing(&ext, cd, la, None)) {
+            for (a, b) in acc.iter_mut().zip(shade::outgoing(ext, cd, la, None)) {
                 *a += throughput * b;
             }
             break;
         };
-        let v = (-ray.dir).try_normalize().unwrap_or(n);
+        // The unit view vector, computed only for the models that read it.
+        let view = || crate::fmath::try_normalize(-ray.dir).unwrap_or(n);
         let mut direct = None;
         if lit {
-            let e = shade::irradiance(lighting, n, p, dl.pos);
-            let spot = if e > 0.0 { shade::spot_factor(lighting, dl.pos, p) } else { 0.0 };
-            if e > 0.0 && spot > 0.0 {
+            let (e, l) = shade::irradiance_toward(lighting, n, p, dl.pos);
+            let spot = if e > 0.0 { shade::spot_factor_on(lighting, ctx.spot_axis, dl.pos, p) } else { 0.0 };
+            // E > 0 has a light vector.
+            if let (true, Some(l)) = (e > 0.0 && spot > 0.0, l) {
                 let visible = if ctx.shadows {
                     count(&mut path.stats.shadow_rays, 1);
-                    let sr = shade::shadow_ray(p, n, dl.pos, ctx.diag);
+                    let sr = shade::shadow_ray_from(p, n, dl.pos, ctx.eps_diag);
                     sw.lap(clock, &mut path.stats, Stage::Shade);
                     let blocker =
                         path.trace_as(scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
@@ -151,24 +171,25 @@ fn pixel<L: FslLink, C: StageClock, const N: usize>(
                     true
                 };
                 if visible {
-                    direct = shade::direct(&ext, n, v, p, &dl, e * spot);
+                    let v = if shade::direct_reads_view(ext, dl) { view() } else { n };
+                    direct = Some(shade::direct_toward(ext, n, v, l, dl, mul(e, spot)));
                 }
             }
         }
-        for (a, b) in acc.iter_mut().zip(shade::outgoing(&ext, cd, la, direct.as_ref())) {
-            *a += throughput * b;
+        for (a, b) in acc.iter_mut().zip(shade::outgoing(ext, cd, la, direct.as_ref())) {
+            *a = add(*a, mul(throughput, b));
         }
         sw.lap(clock, &mut path.stats, Stage::Shade);
         if bounce.wrapping_add(1) == depth || ext.reflect_mode == ReflectMode::None {
             break;
         }
-        let refl = shade::reflectance(&ext, m.reflect, n.dot(v));
+        let refl = shade::reflectance(ext, m.reflect, n.dot(view()));
         if refl.is_nan() || refl <= 0.0 {
             break;
         }
         throughput *= refl;
         count(&mut path.stats.reflection_rays, 1);
-        let origin = p + n * shade::shadow_epsilon(ctx.diag, p);
+        let origin = p + n * shade::shadow_epsilon_from(ctx.eps_diag, p);
         ray = Ray { origin, dir: ray.dir - n * (2.0 * ray.dir.dot(n)) };
     }
     let rgb = shade::to_rgb8(acc);
@@ -236,7 +257,11 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
             self.spans.begin_with(req.frame, prim_ids, req.encoding, job.max_span);
         }
         self.spans.set_silent(job.crc_only);
+        let excluded = self.clock.excluded();
         self.pixels(scene, tx, job, out)?;
+        let now = self.clock.excluded();
+        self.path.stats.model_instructions = now.model.wrapping_sub(excluded.model);
+        self.path.stats.link_wrapper_instructions = now.link_wrapper.wrapping_sub(excluded.link_wrapper);
         let (spans, crc) = self.spans.finish();
         if job.no_stats {
             return Ok((spans, crc));
@@ -257,15 +282,52 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         check_plan(req.flags, compiled_plan()).map_err(|t| Fail::Plain(ErrorCode::BadRequest, field::FLAGS, t))?;
         let shadows =
             cfg!(feature = "shadows") && req.flags & render_flags::SHADOWS != 0 && scene.lighting.light_count > 0;
+        // A camera ray that sends nothing ends at bounce 0 with `acc = 0 + 1·background`.
+        let background = scene.lighting.background.map(|b| 0.0 + 1.0 * b);
+        let lighting = &scene.lighting;
+        let light = job.light;
+        let direct = shade::DirectLight {
+            pos: light.pos,
+            radiance: lighting.light_colour.map(|c| c * light.intensity),
+            specular: req.flags & render_flags::SPECULAR != 0,
+        };
+        let diag = scene.grid.aabb().diagonal().length();
         Ok(FrameCtx {
             cam: job.cam,
-            light: job.light,
+            ambient: lighting.ambient_colour.map(|c| c * light.ambient),
+            lit: lighting.light_count > 0 && direct.radiance.iter().any(|&c| c != 0.0),
+            direct,
+            spot_axis: shade::spot_axis(lighting),
+            eps_diag: shade::SHADOW_EPS_DIAG * diag,
+            spans: BoxSpans::new(&job.cam, &scene.grid.aabb()),
+            background: Sample { rgb: shade::to_rgb8(background), prim: interp::MISS, t: f32::INFINITY },
             shadows,
             reflections: req.flags & render_flags::REFLECTIONS != 0 && scene.lighting.max_depth > 1,
             textures: req.flags & render_flags::TEXTURES != 0,
             specular: req.flags & render_flags::SPECULAR != 0,
-            diag: scene.grid.aabb().diagonal().length(),
         })
+    }
+
+    /// Pixels `from..to` of row `y`, whose camera rays cannot enter the grid box: counted as
+    /// traced rays with empty lists (as tracing them would) and sent as one background run.
+    fn background(
+        &mut self,
+        bg: &Sample,
+        from: u16,
+        to: u16,
+        y: u16,
+        tx: &mut FrameTx,
+        out: &mut impl Write,
+    ) -> Result<(), Fail> {
+        let n = to.saturating_sub(from);
+        if n == 0 {
+            return Ok(());
+        }
+        let s = &mut self.path.stats;
+        for c in [&mut s.primary_rays, &mut s.culled_rays, &mut s.pixels] {
+            count(c, u64::from(n));
+        }
+        self.spans.push_run(from, y, n, bg.rgb, bg.prim, tx, out).map_err(Fail::tx)
     }
 
     /// Row-major render loop of `region`; returns early (frame aborted) on any co-processor
@@ -314,6 +376,11 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         let mut counts = Counts::default();
         let mut ctl = StepControl::new(&params);
         for y in region.y0..y1 {
+            // Columns outside the row's span see only the background (`crate::cull`).
+            let (lo, hi) = ctx.spans.row(y, req.width);
+            let lo = lo.clamp(region.x0, x1);
+            let hi = hi.clamp(lo, x1);
+            let rays = ctx.cam.row(y as u32);
             if interpolate {
                 let w = region.cols as usize;
                 let before = counts;
@@ -321,7 +388,13 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
                 let row = self.row.get_mut(..w).unwrap_or(&mut []);
                 // `region` lies inside the image (≤ 4096 wide): x0 + xi does not wrap.
                 interp::fill_row(row, ctl.step, params.eps, &mut counts, |xi| {
-                    pixel(path, scene, clock, &mut sw, &ctx, region.x0.wrapping_add(xi as u16), y)
+                    let x = region.x0.wrapping_add(xi as u16);
+                    if x < lo || x >= hi {
+                        count(&mut path.stats.primary_rays, 1);
+                        count(&mut path.stats.culled_rays, 1);
+                        return Ok(ctx.background);
+                    }
+                    pixel(path, scene, clock, &mut sw, &ctx, &rays, x)
                 })?;
                 ctl.after_row(&before, &counts);
                 for (x, s) in (region.x0..x1).zip(self.row.iter()) {
@@ -330,12 +403,14 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
                 }
                 sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
             } else {
-                for x in region.x0..x1 {
-                    let s = pixel(&mut self.path, scene, &self.clock, &mut sw, &ctx, x, y)?;
+                self.background(&ctx.background, region.x0, lo, y, tx, out)?;
+                for x in lo..hi {
+                    let s = pixel(&mut self.path, scene, &self.clock, &mut sw, &ctx, &rays, x)?;
                     self.spans.push(x, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
                     count(&mut self.path.stats.pixels, 1);
                     sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
                 }
+                self.background(&ctx.background, hi, x1, y, tx, out)?;
             }
             // Flush per row so the host sees progress while the next row renders.
             self.spans.flush(tx, out).map_err(Fail::tx)?;

@@ -5,7 +5,7 @@
 //! one CLEAR, checking every ACK.
 
 use super::fail::Fail;
-use crate::dda::{GridDesc, MAX_GRID_DIM};
+use crate::dda::{GridDesc, WalkGrid, MAX_GRID_DIM};
 use crate::fsl::{FslLink, FslWord};
 use crate::splat::PointSink;
 use gridrt_shared::frame::Crc32Digest;
@@ -36,6 +36,8 @@ pub(super) struct SceneStore<const N: usize> {
     pub(super) loaded: bool,
     /// Grid bounds and dimensions.
     pub(super) grid: GridDesc,
+    /// The grid's walk constants (computed once per scene).
+    pub(super) walk: WalkGrid,
     /// Voxels of the grid (the used prefix of `voxel_pe`).
     pub(super) voxels: usize,
     /// Owning PE of each voxel, or `EMPTY_VOXEL`.
@@ -53,9 +55,11 @@ pub(super) struct SceneStore<const N: usize> {
 impl<const N: usize> SceneStore<N> {
     /// No scene.
     pub(super) fn new() -> Self {
+        let grid = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [1; 3] };
         Self {
             loaded: false,
-            grid: GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [1; 3] },
+            grid,
+            walk: WalkGrid::new(&grid),
             voxels: 0,
             voxel_pe: [EMPTY_VOXEL; N],
             materials: heapless::Vec::new(),
@@ -284,6 +288,7 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
             return Err(SceneError::BadHeader);
         }
         self.store.grid = GridDesc { min: Vec3::from_array(h.bounds_min), max: Vec3::from_array(h.bounds_max), dims };
+        self.store.walk = WalkGrid::new(&self.store.grid);
         self.store.voxels = h.voxel_count() as usize;
         self.store.voxel_pe.fill(EMPTY_VOXEL);
         self.store.materials.clear();

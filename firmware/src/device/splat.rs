@@ -113,9 +113,20 @@ pub(super) fn render<const N: usize, const P: usize, const T: usize, C: StageClo
     let mut st = SplatStats::default();
     let mut encode = [0u64; 2];
     let mut pixels = 0u64;
+    // The stage clock gives the low words of the counters (32-bit stamps, wrapping): the
+    // pass takes differences of 64-bit readings, extended here from the wrapping deltas.
+    let last = core::cell::Cell::new(clock.now());
+    let total = core::cell::Cell::new([0u64; 2]);
     let now = || {
         let c = clock.now();
-        [c.cycles, c.instret]
+        let l = last.replace(c);
+        let [cy, ir] = total.get();
+        let t = [
+            cy.wrapping_add(u64::from(c.cycles.wrapping_sub(l.cycles))),
+            ir.wrapping_add(u64::from(c.instret.wrapping_sub(l.instret))),
+        ];
+        total.set(t);
+        t
     };
     if let Some((view, light)) = view_of(engine, scene, job) {
         let pass = Pass { x0: region.x0, y0: region.y0, columns: region.cols, rows: region.rows };

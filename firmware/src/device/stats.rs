@@ -15,19 +15,55 @@ pub struct StageCount {
 }
 
 impl StageCount {
-    fn since(self, earlier: Self) -> Self {
-        Self { cycles: self.cycles.wrapping_sub(earlier.cycles), instret: self.instret.wrapping_sub(earlier.instret) }
-    }
-    fn add(&mut self, d: Self) {
-        self.cycles = self.cycles.wrapping_add(d.cycles);
-        self.instret = self.instret.wrapping_add(d.instret);
+    #[inline(always)]
+    fn add(&mut self, d: StageStamp) {
+        self.cycles = self.cycles.wrapping_add(u64::from(d.cycles));
+        self.instret = self.instret.wrapping_add(u64::from(d.instret));
     }
 }
 
-/// Source of [`StageCount`]s (RISC-V `mcycle`/`minstret`, a board timer, or nothing).
+/// The low 32 bits of both counters: what a stage lap reads (one CSR read each on RV32,
+/// where a consistent 64-bit read is a three-instruction retry loop). A lap charges the
+/// wrapping difference of two stamps, which is exact while a lap lasts fewer than 2^32
+/// cycles: the pixel loop laps at least once per pixel, and a pixel's work is bounded
+/// (lists ≤ 765 entries, ≤ 8 bounces, every link wait ≤ `DEFAULT_POLLS` polls).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StageStamp {
+    /// Low word of `mcycle`.
+    pub cycles: u32,
+    /// Low word of `minstret`.
+    pub instret: u32,
+}
+
+impl StageStamp {
+    #[inline(always)]
+    fn since(self, earlier: Self) -> Self {
+        Self { cycles: self.cycles.wrapping_sub(earlier.cycles), instret: self.instret.wrapping_sub(earlier.instret) }
+    }
+}
+
+/// Instructions a [`StageClock`] leaves out of every stage because they are not the
+/// firmware's, counted from an arbitrary origin (take differences). The emulated board runs
+/// the co-processor model on the soft-core behind a timed link: `model` is what ran inside
+/// its counter reads (the model and the call into it), `link_wrapper` the timed link's own
+/// instructions outside them.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ExcludedWork {
+    /// Instructions inside the excluded calls.
+    pub model: u64,
+    /// Instructions of the link wrapper outside them.
+    pub link_wrapper: u64,
+}
+
+/// Source of [`StageStamp`]s (RISC-V `mcycle`/`minstret`, a board timer, or nothing).
 pub trait StageClock {
-    /// Current counter values.
-    fn now(&self) -> StageCount;
+    /// Current counter values (low words).
+    fn now(&self) -> StageStamp;
+
+    /// What this clock excludes from the stages so far (nothing for a plain hart).
+    fn excluded(&self) -> ExcludedWork {
+        ExcludedWork::default()
+    }
 }
 
 /// A clock that always reads zero: stage counters stay 0 and cost nothing.
@@ -36,8 +72,8 @@ pub struct NoClock;
 
 impl StageClock for NoClock {
     #[inline(always)]
-    fn now(&self) -> StageCount {
-        StageCount::default()
+    fn now(&self) -> StageStamp {
+        StageStamp::default()
     }
 }
 
@@ -46,9 +82,9 @@ impl StageClock for NoClock {
 pub struct CounterClock<T>(pub T);
 
 impl<T: crate::bsp::CycleCounter> StageClock for CounterClock<T> {
-    #[inline]
-    fn now(&self) -> StageCount {
-        StageCount { cycles: self.0.cycles(), instret: self.0.instret() }
+    #[inline(always)]
+    fn now(&self) -> StageStamp {
+        StageStamp { instret: self.0.instret_lo(), cycles: self.0.cycles_lo() }
     }
 }
 
@@ -134,10 +170,15 @@ pub struct FrameStats {
     pub fsl_words_shadow: u64,
     /// FSL words (both directions) of reflection rays.
     pub fsl_words_reflection: u64,
+    /// Instructions the stage clock excluded as the co-processor model's ([`ExcludedWork`]).
+    pub model_instructions: u64,
+    /// Instructions the stage clock excluded as the link wrapper's ([`ExcludedWork`]).
+    pub link_wrapper_instructions: u64,
 }
 
-/// Stats entries of the pipeline plan (SPEC.md §3.13), after the per-stage counters.
-const PLAN_STATS: usize = 7;
+/// Stats entries of the pipeline plan (SPEC.md §3.13) and the excluded work (§3.8), after the
+/// per-stage counters.
+const PLAN_STATS: usize = 9;
 
 /// Number of entries in a `Msg::Stats`.
 pub const STAT_COUNT: usize = 10 + 2 * Stage::ALL.len() + PLAN_STATS;
@@ -170,6 +211,8 @@ impl FrameStats {
             (stat::FSL_WORDS_PRIMARY, self.fsl_words_primary),
             (stat::FSL_WORDS_SHADOW, self.fsl_words_shadow),
             (stat::FSL_WORDS_REFLECTION, self.fsl_words_reflection),
+            (stat::MODEL_INSTRUCTIONS, self.model_instructions),
+            (stat::LINK_WRAPPER_INSTRUCTIONS, self.link_wrapper_instructions),
         ];
         for (slot, v) in e.iter_mut().zip(base.into_iter().chain(stages).chain(plan)) {
             *slot = v;
@@ -193,7 +236,7 @@ impl FrameStats {
 
 /// Stage stopwatch: each lap charges the time since the previous lap to one stage.
 pub(super) struct Stopwatch {
-    last: StageCount,
+    last: StageStamp,
 }
 
 impl Stopwatch {

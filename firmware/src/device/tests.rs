@@ -499,19 +499,20 @@ fn device_to_host_messages_and_unknown_types_are_unexpected() {
 
 /// A clock that advances by a fixed amount per read: stage counters must add up to the
 /// total of all laps.
+/// It starts just below 2^32, so laps across the wrap of the 32-bit stamps are charged too.
 struct TickClock(core::cell::Cell<u64>);
 impl StageClock for TickClock {
-    fn now(&self) -> StageCount {
+    fn now(&self) -> StageStamp {
         let t = self.0.get() + 10;
         self.0.set(t);
-        StageCount { cycles: t, instret: t / 2 }
+        StageStamp { cycles: t as u32, instret: (t / 2) as u32 }
     }
 }
 
 #[test]
 fn stage_counters_are_reported_under_stage_keys() {
     let mut dev: Device<FakeCoproc, TickClock, VOXELS> =
-        Device::new(FakeCoproc::new(), TickClock(Default::default()), info());
+        Device::new(FakeCoproc::new(), TickClock((u64::from(u32::MAX) - 95).into()), info());
     let mut w = Wire::new();
     let img = scene_image([2, 2, 1], &materials());
     dev.feed(&frame(&Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) }, 0), &mut w);

@@ -16,6 +16,8 @@
 //! not limited to 10 squarings; the mirror reflectance in Torrance–Sparrow mode uses ∠(n, v)
 //! (for the mirror direction the half vector *is* n).
 
+use crate::fmath::try_normalize;
+use crate::sfloat::{add, mul};
 use gridrt_shared::math::Vec3;
 #[cfg(feature = "specular")]
 use gridrt_shared::scene::SpecularModel;
@@ -98,7 +100,7 @@ pub fn diffuse_brdf(ext: &MaterialModel, n: Vec3, l: Vec3, v: Vec3) -> f32 {
             // cos(φi − φo) from the tangent-plane projections.
             let lp = l - n * cos_i;
             let vp = v - n * cos_o;
-            let cos_phi = match (lp.try_normalize(), vp.try_normalize()) {
+            let cos_phi = match (try_normalize(lp), try_normalize(vp)) {
                 (Some(a), Some(b)) => a.dot(b).max(0.0),
                 _ => 0.0,
             };
@@ -116,7 +118,7 @@ pub fn diffuse_brdf(ext: &MaterialModel, n: Vec3, l: Vec3, v: Vec3) -> f32 {
 /// Specular BRDF value (0 without a specular model).
 #[cfg(feature = "specular")]
 pub fn specular_brdf(ext: &MaterialModel, n: Vec3, l: Vec3, v: Vec3) -> f32 {
-    let Some(h) = (l + v).try_normalize() else { return 0.0 };
+    let Some(h) = try_normalize(l + v) else { return 0.0 };
     let nh = n.dot(h).max(0.0);
     let d = (ext.exponent + 2.0) / TAU * crate::fmath::pow(nh, ext.exponent);
     match ext.specular_model {
@@ -161,25 +163,42 @@ pub struct DirectTerm {
 /// caller checks E > 0 and spot > 0 and traces the shadow ray first). `None` when the light
 /// sits on p.
 pub fn direct(ext: &MaterialModel, n: Vec3, v: Vec3, p: Vec3, light: &DirectLight, e_spot: f32) -> Option<DirectTerm> {
-    let l = (light.pos - p).try_normalize()?;
+    let l = try_normalize(light.pos - p)?;
+    Some(direct_toward(ext, n, v, l, light, e_spot))
+}
+
+/// True when [`direct_toward`] reads its view vector `v` (Oren–Nayar, or the specular
+/// stage); matte and Lambert surfaces without it do not, and the pipeline skips computing v.
+pub fn direct_reads_view(ext: &MaterialModel, light: &DirectLight) -> bool {
+    ext.diffuse_model == DiffuseModel::OrenNayar || (cfg!(feature = "specular") && light.specular)
+}
+
+/// [`direct`] with the unit light vector `l` the irradiance computed already.
+pub fn direct_toward(ext: &MaterialModel, n: Vec3, v: Vec3, l: Vec3, light: &DirectLight, e_spot: f32) -> DirectTerm {
     let diffuse = ext.kd * diffuse_brdf(ext, n, l, v);
     #[cfg(feature = "specular")]
     let specular = if light.specular { ext.ks * specular_brdf(ext, n, l, v) } else { 0.0 };
     #[cfg(not(feature = "specular"))]
     let specular = 0.0;
-    Some(DirectTerm { light: light.radiance.map(|c| e_spot * c), diffuse, specular })
+    DirectTerm { light: light.radiance.map(|c| mul(e_spot, c)), diffuse, specular }
 }
 
 /// Radiance leaving the surface towards the viewer (module doc): ambient `L_a` plus the
 /// direct term when the light is visible.
 pub fn outgoing(ext: &MaterialModel, cd: [f32; 3], la: [f32; 3], direct: Option<&DirectTerm>) -> [f32; 3] {
     [0, 1, 2].map(|k| match (ext.diffuse_model, direct) {
-        (DiffuseModel::Matte, None) => cd[k] * (ext.ka * la[k]),
-        (DiffuseModel::Matte, Some(d)) => {
-            cd[k] * (ext.ka * la[k] + d.light[k] * d.diffuse) + d.light[k] * (d.specular * ext.specular[k])
-        }
-        (_, None) => ext.ka * cd[k] * la[k],
-        (_, Some(d)) => ext.ka * cd[k] * la[k] + d.light[k] * (d.diffuse * cd[k] + d.specular * ext.specular[k]),
+        // `crate::sfloat`'s arithmetic, in the order of the formulas:
+        // cd·(ka·la), cd·(ka·la + D·kd) + D·(ks·cs), ka·cd·la, ka·cd·la + D·(kd·cd + ks·cs).
+        (DiffuseModel::Matte, None) => mul(cd[k], mul(ext.ka, la[k])),
+        (DiffuseModel::Matte, Some(d)) => add(
+            mul(cd[k], add(mul(ext.ka, la[k]), mul(d.light[k], d.diffuse))),
+            mul(d.light[k], mul(d.specular, ext.specular[k])),
+        ),
+        (_, None) => mul(mul(ext.ka, cd[k]), la[k]),
+        (_, Some(d)) => add(
+            mul(mul(ext.ka, cd[k]), la[k]),
+            mul(d.light[k], add(mul(d.diffuse, cd[k]), mul(d.specular, ext.specular[k]))),
+        ),
     })
 }
 

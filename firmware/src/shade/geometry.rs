@@ -1,6 +1,8 @@
 //! Hit geometry both shading and the shadow/reflection rays need: the hit point, the normal
 //! facing the ray, and the offset shadow-ray origin (docs/CONTRACTS.md § Shading).
 
+use crate::fmath::try_normalize;
+use crate::sfloat::{add, dot, mul, vadd, vscale, vsub};
 use gridrt_shared::math::{Ray, Vec3};
 
 /// Shadow rays end just before the light: t_max = 1 − 2^-10 on the direction `light − p'`,
@@ -16,7 +18,7 @@ pub const SHADOW_EPS_POS: f32 = 1.0 / (1u32 << 20) as f32;
 /// Hit point `p = o + t·d` (d not normalised).
 #[inline]
 pub fn hit_point(ray: &Ray, t: f32) -> Vec3 {
-    ray.origin + ray.dir * t
+    vadd(ray.origin, vscale(ray.dir, t))
 }
 
 /// Unit shading normal, flipped to face the ray (two-sided: if n·d > 0 then n = −n).
@@ -24,22 +26,46 @@ pub fn hit_point(ray: &Ray, t: f32) -> Vec3 {
 /// ambient light only.
 #[inline]
 pub fn facing_normal(normal: [f32; 3], dir: Vec3) -> Option<Vec3> {
-    let n = Vec3::from_array(normal).try_normalize()?;
-    Some(if n.dot(dir) > 0.0 { -n } else { n })
+    let n = try_normalize(Vec3::from_array(normal))?;
+    Some(if dot(n, dir) > 0.0 { -n } else { n })
+}
+
+/// `p.abs().max_element()` of glam: on the bits (the order of non-negative floats) when no
+/// component is NaN, else glam's NaN-ignoring `max`.
+#[inline(always)]
+fn max_abs(p: Vec3) -> f32 {
+    let b = p.to_array().map(|c| c.to_bits() & 0x7FFF_FFFF);
+    if b.iter().all(|&x| x <= 0x7F80_0000) {
+        f32::from_bits(b[0].max(b[1]).max(b[2]))
+    } else {
+        p.abs().max_element()
+    }
 }
 
 /// Shadow-origin offset ε = 1e-4 · |grid box diagonal| + 2^-20 · |p|∞.
 #[inline]
 pub fn shadow_epsilon(grid_diag_len: f32, p: Vec3) -> f32 {
-    SHADOW_EPS_DIAG * grid_diag_len + SHADOW_EPS_POS * p.abs().max_element()
+    shadow_epsilon_from(SHADOW_EPS_DIAG * grid_diag_len, p)
+}
+
+/// [`shadow_epsilon`] with its per-scene term `1e-4 · |grid box diagonal|` computed already.
+#[inline]
+pub fn shadow_epsilon_from(diag_term: f32, p: Vec3) -> f32 {
+    add(diag_term, mul(SHADOW_EPS_POS, max_abs(p)))
 }
 
 /// Shadow ray: origin p' = p + n·ε, direction L' = light − p' (not normalised); trace it
 /// over `[0, SHADOW_T_MAX]` as an any-hit query. The light is visible when nothing is hit.
 #[inline]
 pub fn shadow_ray(p: Vec3, n: Vec3, light_pos: Vec3, grid_diag_len: f32) -> Ray {
-    let origin = p + n * shadow_epsilon(grid_diag_len, p);
-    Ray { origin, dir: light_pos - origin }
+    shadow_ray_from(p, n, light_pos, SHADOW_EPS_DIAG * grid_diag_len)
+}
+
+/// [`shadow_ray`] with the per-scene term of [`shadow_epsilon_from`].
+#[inline]
+pub fn shadow_ray_from(p: Vec3, n: Vec3, light_pos: Vec3, diag_term: f32) -> Ray {
+    let origin = vadd(p, vscale(n, shadow_epsilon_from(diag_term, p)));
+    Ray { origin, dir: vsub(light_pos, origin) }
 }
 
 #[cfg(test)]

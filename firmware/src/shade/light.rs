@@ -2,6 +2,8 @@
 //! irradiance factor with its falloff, and ViRAY's spotlight cone (seed 000 §4.6, with the
 //! summary's erratum: the cone uses the spot axis, not n).
 
+use crate::fmath::try_normalize;
+use crate::sfloat;
 use gridrt_shared::math::Vec3;
 use gridrt_shared::scene::{Falloff, LightingRecord};
 
@@ -16,10 +18,21 @@ pub struct Light {
     pub ambient: f32,
 }
 
+/// The unit spot axis of the light; `None` for an omnidirectional light. The same for every
+/// hit of a frame: the pipeline computes it once.
+pub fn spot_axis(lighting: &LightingRecord) -> Option<Vec3> {
+    try_normalize(Vec3::from_array(lighting.spot_dir))
+}
+
 /// Spotlight factor at p (1 for an omnidirectional light).
 pub fn spot_factor(lighting: &LightingRecord, light_pos: Vec3, p: Vec3) -> f32 {
-    let Some(axis) = Vec3::from_array(lighting.spot_dir).try_normalize() else { return 1.0 };
-    let Some(dir) = (p - light_pos).try_normalize() else { return 0.0 };
+    spot_factor_on(lighting, spot_axis(lighting), light_pos, p)
+}
+
+/// [`spot_factor`] with the frame's [`spot_axis`].
+pub fn spot_factor_on(lighting: &LightingRecord, axis: Option<Vec3>, light_pos: Vec3, p: Vec3) -> f32 {
+    let Some(axis) = axis else { return 1.0 };
+    let Some(dir) = try_normalize(p - light_pos) else { return 0.0 };
     let c = axis.dot(dir);
     let (co, ci) = (lighting.cos_outer, lighting.cos_inner);
     if ci > co {
@@ -33,20 +46,27 @@ pub fn spot_factor(lighting: &LightingRecord, light_pos: Vec3, p: Vec3) -> f32 {
 
 /// Irradiance factor E / |light colour|: `max(n·l, 0)` times the falloff.
 pub fn irradiance(lighting: &LightingRecord, n: Vec3, p: Vec3, light_pos: Vec3) -> f32 {
-    let d = light_pos - p;
-    let r2 = d.length_squared();
-    let Some(l) = d.try_normalize() else { return 0.0 };
-    let cos = n.dot(l).max(0.0);
-    match lighting.falloff {
+    irradiance_toward(lighting, n, p, light_pos).0
+}
+
+/// [`irradiance`] and the unit light vector `l = (light − p)/|light − p|` it used (`None`,
+/// with E = 0, when the light sits on p): the direct term reuses `l`.
+pub fn irradiance_toward(lighting: &LightingRecord, n: Vec3, p: Vec3, light_pos: Vec3) -> (f32, Option<Vec3>) {
+    let d = sfloat::vsub(light_pos, p);
+    let Some(l) = try_normalize(d) else { return (0.0, None) };
+    let cos = sfloat::dot(n, l).max(0.0);
+    let e = match lighting.falloff {
         Falloff::None => cos,
         Falloff::InverseSquare => {
+            let r2 = d.length_squared();
             if r2 > 0.0 {
                 cos / r2
             } else {
                 0.0
             }
         }
-    }
+    };
+    (e, Some(l))
 }
 
 #[cfg(test)]

@@ -23,12 +23,14 @@ mod geometry;
 mod light;
 
 pub use brdf::{
-    diffuse_brdf, direct, fresnel_conductor, fresnel_dielectric, outgoing, reflectance, DirectLight, DirectTerm,
+    diffuse_brdf, direct, direct_reads_view, direct_toward, fresnel_conductor, fresnel_dielectric, outgoing,
+    reflectance, DirectLight, DirectTerm,
 };
 #[cfg(feature = "specular")]
 pub use brdf::{fresnel, specular_brdf};
 pub use colour::{clamp01, to_rgb8, to_u8, BACKGROUND, DEFAULT_ALBEDO};
 pub use geometry::{
-    facing_normal, hit_point, shadow_epsilon, shadow_ray, SHADOW_EPS_DIAG, SHADOW_EPS_POS, SHADOW_T_MAX,
+    facing_normal, hit_point, shadow_epsilon, shadow_epsilon_from, shadow_ray, shadow_ray_from, SHADOW_EPS_DIAG,
+    SHADOW_EPS_POS, SHADOW_T_MAX,
 };
-pub use light::{irradiance, spot_factor, Light};
+pub use light::{irradiance, irradiance_toward, spot_axis, spot_factor, spot_factor_on, Light};

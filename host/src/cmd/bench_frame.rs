@@ -30,7 +30,8 @@ pub struct Args {
     /// Frame height.
     #[arg(long, default_value_t = 240)]
     height: u16,
-    /// Clock of the soft-core and the co-processor (one clock domain), MHz.
+    /// Clock of the soft-core and the co-processor (one clock domain), MHz; the `rtl`
+    /// configuration's co-processor runs at its profile's clock (no synthesised fmax yet).
     #[arg(long, default_value_t = 100.0, value_name = "MHZ")]
     clock_mhz: f64,
     /// Line rate of the UART (8N1).
@@ -45,8 +46,8 @@ pub struct Args {
     /// Also write frame.csv and frame.svg (stacked bars) here.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Configurations, in report order: soft-core-only, gridrt, pipelined, host-native.
-    #[arg(long, value_delimiter = ',', default_value = "soft-core-only,gridrt,pipelined,host-native")]
+    /// Configurations, in report order: soft-core-only, gridrt, pipelined, rtl, host-native.
+    #[arg(long, value_delimiter = ',', default_value = "soft-core-only,gridrt,pipelined,rtl,host-native")]
     configs: Vec<String>,
     /// Soft-core targets: riscv32imac, riscv32imafc.
     #[arg(long, value_delimiter = ',', default_value = "riscv32imac,riscv32imafc")]

@@ -215,13 +215,14 @@ fn pump(mut src: File, mut dst: File, byte_time: Option<Duration>, mut ch: Fault
             out.extend_from_slice(&leaving);
             ch.injected.bytes += leaving.len() as u64;
         }
-        write_all(&mut dst, &out, shared);
+        // Counted before the bytes leave: whoever reads them also sees them counted.
         if ch.injected != counted {
             counted = ch.injected;
             if let Ok(mut g) = shared.injected.lock() {
                 g[k] = counted;
             }
         }
+        write_all(&mut dst, &out, shared);
     }
 }
 

@@ -2,12 +2,11 @@
 
 use std::path::Path;
 
-use gridrt_coproc::TimingProfile;
 use gridrt_shared::msg::{stat, PixelEncoding, RenderRequest};
 
 use super::report::{self, FrameReport};
 use super::run::{self, run_native, run_on_loopback, run_on_qemu, work_differences, DeviceRun};
-use super::setup::{kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, FrameBenchError};
+use super::setup::{kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, FrameBenchError, Image, Target};
 use crate::compare::compare;
 use crate::grid::GridParams;
 use crate::pipeline::PreparedScene;
@@ -65,58 +64,54 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
     let reference_ms = start.elapsed().as_secs_f64() * 1e3;
     let check = |rgb: &[u8]| compare(rgb, &reference.rgb, None, None);
 
-    // Co-processor cycles per profile, on the loopback.
+    // Co-processor cycles per profile, on the loopback, at the configuration's kernel.
     let mut models: Vec<(Configuration, DeviceRun)> = Vec::new();
     for &c in &opt.configs {
         if let CoprocCycles::Model(profile) = c.coproc() {
-            models.push((c, run_on_loopback(profile, &prepared, &req, c.name(), progress)?));
+            models.push((c, run_on_loopback(profile, c.kernel(), &prepared, &req, c.name(), progress)?));
         }
     }
 
-    let mut runs = Vec::new();
-    let wants = |c: Configuration| opt.configs.contains(&c);
-    let with_coproc = opt.configs.iter().any(|c| matches!(c.coproc(), CoprocCycles::Model(_)));
+    // One QEMU run per firmware image the configurations need, per target.
+    let mut images: Vec<Image> = Vec::new();
+    for image in opt.configs.iter().filter_map(|c| c.image()) {
+        if !images.contains(&image) {
+            images.push(image);
+        }
+    }
+    let mut runs: Vec<(Target, Image, DeviceRun)> = Vec::new();
     for &target in &opt.targets {
-        let mut variants: Vec<bool> = Vec::new();
-        if with_coproc {
-            variants.push(false);
-        }
-        if wants(Configuration::SoftCoreOnly) {
-            variants.push(true);
-        }
-        for direct in variants {
-            let extra: &[&str] = if direct { &["--features", "soft-core-only"] } else { &[] };
-            let label = format!("{} {}", target.name(), variant_name(direct));
-            progress(BenchEvent::Step(format!(
-                "{label}: cargo xtask firmware --target {} {}",
-                target.name(),
-                extra.join(" ")
-            )));
+        for &image in &images {
+            let label = format!("{} {}", target.name(), image.name());
             let mut args = vec!["--target", target.name(), "--jobs", "2"];
-            args.extend_from_slice(extra);
+            for f in image.features() {
+                args.extend_from_slice(&["--features", f]);
+            }
+            progress(BenchEvent::Step(format!("{label}: cargo xtask firmware {}", args.join(" "))));
             let elf = gridrt_qemu::build_firmware(&opt.repo, &["--quiet"], &args)
                 .map_err(|e| FrameBenchError::Build(e.to_string()))?;
             let run = run_on_qemu(&elf, &prepared, &req, &label, progress)?;
-            runs.push((target, direct, run));
+            runs.push((target, image, run));
         }
     }
-    // The same frame, the same work: every QEMU run against the loopback with GridRT's
-    // profile (the configuration's run, or one for the check alone).
-    if !runs.is_empty() {
-        let checked;
-        let sim = match models.iter().find(|(c, _)| *c == Configuration::Gridrt) {
-            Some((_, r)) => r,
-            None => {
-                checked = run_on_loopback(TimingProfile::GRIDRT, &prepared, &req, "check", progress)?;
-                &checked
-            }
-        };
-        for (target, direct, run) in &runs {
-            check_same_work(&format!("{} {}", target.name(), variant_name(*direct)), run, sim, *direct)?;
+    // The same frame, the same work: every QEMU run against the loopback of its kernel
+    // (GridRT's profile for the default images, the rtl profile for the RTL's), the
+    // configuration's run or one for the check alone.
+    let mut checks: Vec<(Configuration, DeviceRun)> = Vec::new();
+    for (target, image, run) in &mut runs {
+        let against = if *image == Image::CoprocRtl { Configuration::Rtl } else { Configuration::Gridrt };
+        if !models.iter().chain(&checks).any(|(c, _)| *c == against) {
+            let CoprocCycles::Model(profile) = against.coproc() else { continue };
+            let sim = run_on_loopback(profile, against.kernel(), &prepared, &req, "check", progress)?;
+            checks.push((against, sim));
+        }
+        if let Some((_, sim)) = models.iter().chain(&checks).find(|(c, _)| *c == against) {
+            check_same_work(&format!("{} {}", target.name(), image.name()), run, sim, *image)?;
+            clean_line(run, sim);
         }
     }
 
-    let native = if wants(Configuration::HostNative) {
+    let native = if opt.configs.contains(&Configuration::HostNative) {
         Some(run_native(&prepared, &req, opt.native_warmup, opt.native_runs, progress)?)
     } else {
         None
@@ -132,8 +127,7 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
             }
             cycles => {
                 for &target in &opt.targets {
-                    let direct = c == Configuration::SoftCoreOnly;
-                    let Some((_, _, run)) = runs.iter().find(|(t, d, _)| *t == target && *d == direct) else {
+                    let Some((_, _, run)) = runs.iter().find(|(t, i, _)| *t == target && Some(*i) == c.image()) else {
                         continue;
                     };
                     let model = match cycles {
@@ -173,21 +167,23 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
     })
 }
 
-/// The image of a soft-core run: with the co-processor model, or soft-core-only.
-fn variant_name(direct: bool) -> &'static str {
-    if direct {
-        "soft-core-only"
-    } else {
-        "co-processor"
-    }
+/// The link bytes of `run` become those of the loopback run `sim` of the same frame (proved
+/// the same work and image): QEMU's slow UART makes the session re-request regions, and
+/// those resent bytes are not the frame's on a clean line.
+fn clean_line(run: &mut DeviceRun, sim: &DeviceRun) {
+    run.frame.bytes_tx = sim.frame.bytes_tx;
+    run.frame.bytes_rx = sim.frame.bytes_rx;
+    run.frame.spans_reported = sim.frame.spans_reported;
+    run.tail_bytes = sim.tail_bytes;
 }
 
-/// Fails unless the QEMU run `run` did the work of the loopback run `sim` (GridRT's profile)
-/// for the same frame: the same work counters, cycles and image; a soft-core-only run sends
-/// no FSL words and runs its own tests (up to each winner), so those are not compared.
-fn check_same_work(label: &str, run: &DeviceRun, sim: &DeviceRun, direct: bool) -> Result<(), FrameBenchError> {
+/// Fails unless the QEMU run `run` of `image` did the work of the loopback run `sim` (the
+/// image's kernel and profile) for the same frame: the same work counters, cycles and image;
+/// a soft-core-only run sends no FSL words and runs its own tests (up to each winner), so
+/// those are not compared.
+fn check_same_work(label: &str, run: &DeviceRun, sim: &DeviceRun, image: Image) -> Result<(), FrameBenchError> {
     let mut diff = work_differences(run, sim);
-    if direct {
+    if image == Image::SoftCoreOnly {
         diff.retain(|(k, _, _)| !k.starts_with("fsl_words") && k != "intersection_tests");
     } else if run.stat(stat::COPROC_CYCLES) != sim.stat(stat::COPROC_CYCLES) {
         diff.push(("coproc_cycles".into(), run.stat(stat::COPROC_CYCLES), sim.stat(stat::COPROC_CYCLES)));

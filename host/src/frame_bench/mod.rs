@@ -11,12 +11,15 @@
 //!   the banner) are reported on a line of their own and not charged to the firmware.
 //! - **Co-processor cycles** (modelled): the loopback simulator renders the same frame with
 //!   the configuration's timing profile at the kernel and number format that ran
-//!   ([`gridrt_coproc::TimingProfile::for_kernel`]). The bench refuses to report when the
-//!   QEMU run and the loopback did different work (rays, list entries, FSL words, tests).
+//!   ([`gridrt_coproc::TimingProfile::for_kernel`]). The bench refuses to report when a
+//!   QEMU run and the loopback with its image's kernel did different work (rays, list
+//!   entries, FSL words, tests), cycles or images.
 //! - **Soft-core cycles** (modelled): instructions × the CPI of a named soft-core profile
 //!   ([`CpuProfile`]; `cpu_source` = `"cpi-model"`). A cycle-accurate soft-core run (the
 //!   LiteX SoC issue) will replace it with measured `mcycle` (`cpu_source` = `"rtl"`).
-//! - **Link** (modelled): wire bytes of the render, both directions, at the baud rate (8N1).
+//! - **Link** (modelled): wire bytes of the render, both directions, at the baud rate (8N1),
+//!   as the loopback sends them for the same frame (QEMU's slow UART makes the host
+//!   re-request regions; those resent bytes are not the frame's).
 //!   The scene upload is not part of the frame; its bytes and modelled time are reported
 //!   apart.
 //! - **Frame**: the [`timeline`] of those, with the overlaps written down there.
@@ -26,8 +29,9 @@
 //!
 //! # Configurations
 //! [`Configuration`]: `soft-core-only` (no co-processor: the firmware calls the kernel itself
-//! and every instruction is counted), `gridrt` (GridRT's multi-cycle PEs), `pipelined`, and
-//! `host-native`. See [`Configuration`] for how `rtl` plugs in.
+//! and every instruction is counted), `gridrt` (GridRT's multi-cycle PEs), `pipelined`, `rtl`
+//! (the RTL co-processor's kernel, format and cycles, on its own QEMU image; its clock is the
+//! profile's until a synthesis reports an fmax), and `host-native`.
 //!
 //! | module | what | uses |
 //! |---|---|---|
@@ -48,5 +52,7 @@ pub mod timeline;
 pub use bench::{prepare, run_bench};
 pub use report::{critical_path, write_csv, write_svg, FrameReport, FrameRow};
 pub use run::{run_native, run_on_loopback, run_on_qemu, work_differences, DeviceRun};
-pub use setup::{kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, CpuProfile, FrameBenchError, Target};
+pub use setup::{
+    kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, CpuProfile, FrameBenchError, Image, Target,
+};
 pub use timeline::{timeline, FrameWork, Timeline};

@@ -31,7 +31,7 @@ pub struct FrameReport {
     pub baud: u32,
     /// Pixel encoding of the answer.
     pub encoding: String,
-    /// Intersection kernel every configuration runs.
+    /// Intersection kernel of every configuration but `rtl` (each row names its own).
     pub kernel: String,
     /// Its number format.
     pub number_format: String,
@@ -107,10 +107,18 @@ pub struct FrameRow {
     pub link_wrapper_instructions: Option<u64>,
     /// The same per primary ray.
     pub link_wrapper_instructions_per_primary_ray: Option<f64>,
+    /// Intersection kernel and number format that ran (`watertight/f32`; the RTL's
+    /// `watertight/fixed64q23` in the `rtl` row).
+    pub kernel: Option<String>,
     /// Co-processor timing profile, with its kernel-true cycles per test.
     pub coproc_profile: Option<String>,
     /// Cycles per ray–triangle test of that profile for the kernel that ran.
     pub coproc_test_cycles: Option<u32>,
+    /// Clock the co-processor cycles are converted at, MHz.
+    pub coproc_clock_mhz: Option<f64>,
+    /// Where that clock comes from (`--clock-mhz`, or the `rtl` profile's while no synthesis
+    /// of the RTL has an fmax).
+    pub coproc_clock_source: Option<String>,
     /// Co-processor cycles of the frame.
     pub coproc_cycles: u64,
     /// Rays in flight in the co-processor (from the device, 1 when it does not say).
@@ -125,6 +133,8 @@ pub struct FrameRow {
     pub primary_rays: u64,
     /// Shadow rays.
     pub shadow_rays: u64,
+    /// Reflection rays.
+    pub reflection_rays: u64,
     /// Rays intersected (by the co-processor or, soft-core-only, by the firmware).
     pub coproc_rays: u64,
     /// Traversal-list entries.
@@ -158,6 +168,21 @@ fn per_stage(run: &DeviceRun, wrapper: u64) -> (u64, BTreeMap<String, f64>) {
     (total, by_stage)
 }
 
+/// The qemu-virt link wrapper's instructions in the frame, and how many of them the `fsl_io`
+/// counter still holds. An image that excludes the wrapper itself reports it
+/// ([`stat::LINK_WRAPPER_INSTRUCTIONS`], none left in `fsl_io`); an older one leaves it in
+/// `fsl_io` and prints its cost per FSL word in the banner (every wrapped put and get is one
+/// word: the virtual co-processor never makes the firmware poll).
+fn link_wrapper(run: &DeviceRun) -> (Option<u64>, u64) {
+    let reported = run.stat(stat::LINK_WRAPPER_INSTRUCTIONS);
+    if reported > 0 {
+        return (Some(reported), 0);
+    }
+    let words = run.stat(stat::FSL_WORDS_OUT) + run.stat(stat::FSL_WORDS_IN);
+    let banner = run.wrapper_per_word.map(|k| k * words);
+    (banner, banner.unwrap_or(0))
+}
+
 /// `psnr_db` and `identical` of a comparison with the reference.
 fn quality(c: &Comparison) -> (Option<f64>, bool) {
     (c.psnr_db, c.identical)
@@ -174,16 +199,17 @@ pub(crate) fn device_row(
     opt: &BenchOptions,
 ) -> FrameRow {
     let words = run.stat(stat::FSL_WORDS_OUT) + run.stat(stat::FSL_WORDS_IN);
-    // Every wrapped put and get is one word: the virtual co-processor never makes the
-    // firmware poll.
-    let wrapper = run.wrapper_per_word.map(|k| k * words);
-    let (instructions, by_stage) = per_stage(run, wrapper.unwrap_or(0));
+    let (wrapper, in_fsl_io) = link_wrapper(run);
+    let (instructions, by_stage) = per_stage(run, in_fsl_io);
     let primary = run.stat(stat::PRIMARY_RAYS).max(1) as f64;
+    let (kind, format) = config.kernel();
     let (profile, coproc_cycles) = match model {
-        Some((p, sim)) => (Some(p.for_kernel(kernel().0, kernel().1)), sim.stat(stat::COPROC_CYCLES)),
+        Some((p, sim)) => (Some(p.for_kernel(kind, format)), sim.stat(stat::COPROC_CYCLES)),
         None => (None, 0),
     };
+    let (coproc_clock_hz, coproc_clock_source) = config.coproc_clock(opt.clock_mhz);
     let work = FrameWork {
+        coproc_clock_hz,
         cpu_cycles: instructions as f64 * opt.cpu.cpi,
         coproc_cycles: coproc_cycles as f64,
         coproc_request_cycles: profile.map_or(0.0, |p| run.stat(stat::FSL_WORDS_OUT) as f64 * p.word_in_cycles as f64),
@@ -219,8 +245,11 @@ pub(crate) fn device_row(
         instructions_per_primary_ray_by_stage: Some(by_stage),
         link_wrapper_instructions: wrapper,
         link_wrapper_instructions_per_primary_ray: wrapper.map(|w| w as f64 / primary),
+        kernel: Some(kernel_name(kind, format)),
         coproc_profile: profile.map(|p| p.name.to_string()),
         coproc_test_cycles: profile.map(|p| p.test_issue_cycles),
+        coproc_clock_mhz: profile.map(|_| coproc_clock_hz / 1e6),
+        coproc_clock_source: profile.map(|_| coproc_clock_source.to_string()),
         coproc_cycles,
         rays_in_flight: work.rays_in_flight,
         coproc_wait_ms: t.coproc_wait_s * 1e3,
@@ -228,6 +257,7 @@ pub(crate) fn device_row(
         link_hidden_ms: t.link_hidden_s * 1e3,
         primary_rays: run.stat(stat::PRIMARY_RAYS),
         shadow_rays: run.stat(stat::SHADOW_RAYS),
+        reflection_rays: run.stat(stat::REFLECTION_RAYS),
         coproc_rays: run.stat(stat::COPROC_RAYS),
         list_entries: run.stat(stat::LIST_ENTRIES),
         fsl_words: words,
@@ -236,6 +266,11 @@ pub(crate) fn device_row(
         link_bytes_rx: run.frame.bytes_rx,
         wall_ms: run.wall_ms,
     }
+}
+
+/// `kind/format` as reports name them.
+fn kernel_name(kind: gridrt_coproc::KernelKind, format: gridrt_coproc::NumberFormat) -> String {
+    format!("{kind:?}/{format:?}").to_lowercase()
 }
 
 /// The host-native row: measured wall time, no link.
@@ -262,8 +297,11 @@ pub(crate) fn native_row(run: &DeviceRun, cmp: &Comparison) -> FrameRow {
         instructions_per_primary_ray_by_stage: None,
         link_wrapper_instructions: None,
         link_wrapper_instructions_per_primary_ray: None,
+        kernel: Some(kernel_name(kernel().0, kernel().1)),
         coproc_profile: None,
         coproc_test_cycles: None,
+        coproc_clock_mhz: None,
+        coproc_clock_source: None,
         coproc_cycles: 0,
         rays_in_flight: 1,
         coproc_wait_ms: 0.0,
@@ -271,6 +309,7 @@ pub(crate) fn native_row(run: &DeviceRun, cmp: &Comparison) -> FrameRow {
         link_hidden_ms: 0.0,
         primary_rays: run.stat(stat::PRIMARY_RAYS),
         shadow_rays: run.stat(stat::SHADOW_RAYS),
+        reflection_rays: run.stat(stat::REFLECTION_RAYS),
         coproc_rays: run.stat(stat::COPROC_RAYS),
         list_entries: run.stat(stat::LIST_ENTRIES),
         fsl_words: 0,
@@ -295,7 +334,7 @@ pub fn write_csv(path: &Path, report: &FrameReport) -> std::io::Result<()> {
     for st in &stages {
         let _ = write!(s, "{st}_per_primary_ray,");
     }
-    s.push_str("link_wrapper_per_primary_ray,coproc_profile,coproc_test_cycles,coproc_cycles,rays_in_flight,coproc_wait_ms,work_ms,link_hidden_ms,cpu_profile,cpi,intersection_tests,wall_ms\n");
+    s.push_str("link_wrapper_per_primary_ray,kernel,coproc_profile,coproc_test_cycles,coproc_clock_mhz,coproc_cycles,rays_in_flight,coproc_wait_ms,work_ms,link_hidden_ms,cpu_profile,cpi,intersection_tests,wall_ms\n");
     for r in &report.rows {
         let _ = write!(
             s,
@@ -319,10 +358,12 @@ pub fn write_csv(path: &Path, report: &FrameReport) -> std::io::Result<()> {
         }
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{:.1}",
+            "{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{},{},{},{:.1}",
             opt_num(r.link_wrapper_instructions_per_primary_ray, 1),
+            r.kernel.as_deref().unwrap_or(""),
             r.coproc_profile.as_deref().unwrap_or(""),
             r.coproc_test_cycles.map_or_else(String::new, |c| c.to_string()),
+            opt_num(r.coproc_clock_mhz, 1),
             r.coproc_cycles,
             r.rays_in_flight,
             r.coproc_wait_ms,

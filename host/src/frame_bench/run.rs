@@ -7,7 +7,7 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use gridrt_coproc::{Coprocessor, TimingProfile};
+use gridrt_coproc::{Coprocessor, KernelKind, NumberFormat, TimingProfile};
 use gridrt_firmware::device::{Device, NoClock};
 use gridrt_firmware::embedded_io::{self, ErrorType};
 use gridrt_firmware::fsl::DirectKernel;
@@ -173,17 +173,27 @@ fn read_banner(port: &mut dyn Read, timeout: Duration) -> Result<String, String>
     Err(format!("no banner within {} s (got {:?})", timeout.as_secs(), String::from_utf8_lossy(&text)))
 }
 
-/// Renders `req` on the loopback simulator with `timing` (kernel-true, [`SimConfig::coproc`])
-/// and the qemu-virt board's PEs.
+/// Renders `req` on the loopback simulator with `timing`, its PEs running `kernel`
+/// (intersection kernel and number format; cycles kernel-true, [`SimConfig::coproc`]), and
+/// the qemu-virt board's PEs.
 pub fn run_on_loopback(
     timing: TimingProfile,
+    kernel: (KernelKind, NumberFormat),
     prepared: &PreparedScene,
     req: &RenderRequest,
     run: &str,
     progress: &mut dyn FnMut(BenchEvent),
 ) -> Result<DeviceRun, FrameBenchError> {
-    progress(BenchEvent::Step(format!("{run}: loopback simulator, {} profile", timing.name)));
-    let config = SimConfig { pe_count: QEMU_PE_COUNT, pe_mem_words: QEMU_PE_MEM_WORDS, timing, ..SimConfig::default() };
+    let (kind, format) = kernel;
+    progress(BenchEvent::Step(format!("{run}: loopback simulator, {} profile, {kind:?} {format:?}", timing.name)));
+    let config = SimConfig {
+        pe_count: QEMU_PE_COUNT,
+        pe_mem_words: QEMU_PE_MEM_WORDS,
+        timing,
+        kernel: kind,
+        format,
+        ..SimConfig::default()
+    };
     let mut port = gridrt_loopback::spawn(config);
     port.set_timeout(Duration::from_millis(20));
     let cfg = SessionConfig::new("sim").render_timeout(STAGE_TIMEOUT);

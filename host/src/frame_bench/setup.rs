@@ -37,11 +37,6 @@ impl Target {
 }
 
 /// A configuration of the board a row describes.
-///
-/// To add the RTL co-processor (issue 11): a variant `Rtl` whose [`CoprocCycles`] is a new
-/// `CoprocCycles::Rtl`, filled by running the RTL simulation on the same frame (where
-/// `run_bench` runs the loopback for `Model` profiles). Rows, the timeline, JSON, CSV and
-/// the plot then take it as they take `pipelined`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Configuration {
     /// No co-processor: the firmware intersects by itself with the same kernel.
@@ -50,6 +45,9 @@ pub enum Configuration {
     Gridrt,
     /// The pipelined PE profile.
     Pipelined,
+    /// The RTL co-processor (`rtl/`): its kernel and number format (watertight, fixed64-q23)
+    /// and [`TimingProfile::RTL`], which matches its Verilator simulation to the cycle.
+    Rtl,
     /// The native path on this CPU, wall time.
     HostNative,
 }
@@ -65,10 +63,47 @@ pub enum CoprocCycles {
     HostWall,
 }
 
+/// The firmware image a soft-core configuration runs on QEMU (`cargo xtask firmware`
+/// features).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Image {
+    /// The virtual co-processor with the default kernel (watertight f32).
+    Coproc,
+    /// The virtual co-processor with the RTL's kernel, format and timing (`coproc-rtl`).
+    CoprocRtl,
+    /// No co-processor (`soft-core-only`).
+    SoftCoreOnly,
+}
+
+impl Image {
+    /// The image's extra cargo features.
+    pub fn features(self) -> &'static [&'static str] {
+        match self {
+            Image::Coproc => &[],
+            Image::CoprocRtl => &["coproc-rtl"],
+            Image::SoftCoreOnly => &["soft-core-only"],
+        }
+    }
+
+    /// Its name in progress lines and errors.
+    pub fn name(self) -> &'static str {
+        match self {
+            Image::Coproc => "co-processor",
+            Image::CoprocRtl => "co-processor (rtl kernel)",
+            Image::SoftCoreOnly => "soft-core-only",
+        }
+    }
+}
+
 impl Configuration {
     /// Every configuration, in report order.
-    pub const ALL: [Configuration; 4] =
-        [Configuration::SoftCoreOnly, Configuration::Gridrt, Configuration::Pipelined, Configuration::HostNative];
+    pub const ALL: [Configuration; 5] = [
+        Configuration::SoftCoreOnly,
+        Configuration::Gridrt,
+        Configuration::Pipelined,
+        Configuration::Rtl,
+        Configuration::HostNative,
+    ];
 
     /// Its name in reports and on the command line.
     pub fn name(self) -> &'static str {
@@ -76,6 +111,7 @@ impl Configuration {
             Configuration::SoftCoreOnly => "soft-core-only",
             Configuration::Gridrt => "gridrt",
             Configuration::Pipelined => "pipelined",
+            Configuration::Rtl => "rtl",
             Configuration::HostNative => "host-native",
         }
     }
@@ -91,7 +127,40 @@ impl Configuration {
             Configuration::SoftCoreOnly => CoprocCycles::None,
             Configuration::Gridrt => CoprocCycles::Model(TimingProfile::GRIDRT),
             Configuration::Pipelined => CoprocCycles::Model(TimingProfile::PIPELINED),
+            Configuration::Rtl => CoprocCycles::Model(TimingProfile::RTL),
             Configuration::HostNative => CoprocCycles::HostWall,
+        }
+    }
+
+    /// The intersection kernel and number format it runs: the RTL's for `rtl`, [`kernel`]
+    /// otherwise.
+    pub fn kernel(self) -> (KernelKind, NumberFormat) {
+        match self {
+            Configuration::Rtl => (KernelKind::Watertight, NumberFormat::Fixed64Q23),
+            _ => kernel(),
+        }
+    }
+
+    /// The firmware image its soft-core instructions are measured on (`None`: host-native).
+    pub fn image(self) -> Option<Image> {
+        match self {
+            Configuration::SoftCoreOnly => Some(Image::SoftCoreOnly),
+            Configuration::Gridrt | Configuration::Pipelined => Some(Image::Coproc),
+            Configuration::Rtl => Some(Image::CoprocRtl),
+            Configuration::HostNative => None,
+        }
+    }
+
+    /// The co-processor's clock, Hz, and where it comes from: the bench's `--clock-mhz` (one
+    /// clock domain with the soft-core), except `rtl`, which runs at its profile's clock
+    /// because no synthesis of the RTL has reported an fmax yet (BENCHMARKS.md "Co-processor
+    /// RTL").
+    pub fn coproc_clock(self, clock_mhz: f64) -> (f64, &'static str) {
+        match self {
+            Configuration::Rtl => {
+                (TimingProfile::RTL.clock_hz as f64, "the rtl profile's clock (no synthesised fmax of the RTL yet)")
+            }
+            _ => (clock_mhz * 1e6, "--clock-mhz (one clock domain with the soft-core)"),
         }
     }
 
@@ -218,7 +287,7 @@ pub enum FrameBenchError {
     Compare(#[from] crate::compare::CompareError),
 }
 
-/// The kernel every configuration runs (the image's, the simulator's default).
+/// The kernel every configuration but `rtl` runs (the image's, the simulator's default).
 pub fn kernel() -> (KernelKind, NumberFormat) {
     (KernelKind::default(), NumberFormat::F32)
 }

@@ -33,6 +33,27 @@ fn options() -> BenchOptions {
     }
 }
 
+/// An image that excludes its link wrapper itself reports it as a stat: the row takes that
+/// and leaves `fsl_io` as counted (the banner's per-word cost is not subtracted again).
+#[test]
+fn a_wrapper_the_device_reports_is_not_taken_out_twice() {
+    let opt = options();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let quiet = &mut |_| {};
+    let mut run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
+    let sim = run.clone();
+    for s in Stage::ALL {
+        run.frame.stats.insert(s.instret_key(), 1000);
+    }
+    run.frame.stats.insert(stat::LINK_WRAPPER_INSTRUCTIONS, 777);
+    run.wrapper_per_word = Some(30);
+    let cmp = compare(&run.frame.rgb, &run.frame.rgb, None, None).unwrap();
+    let row =
+        device_row(Configuration::Gridrt, Target::Riscv32imafc, &run, Some((TimingProfile::GRIDRT, &sim)), &cmp, &opt);
+    assert_eq!(row.instructions, Some(5 * 1000));
+    assert_eq!(row.link_wrapper_instructions, Some(777));
+}
+
 /// Every field issue 10 names, plus the ones this bench adds, with the arithmetic of a
 /// co-processor row worked out from its inputs.
 #[test]
@@ -40,7 +61,7 @@ fn a_device_row_charges_the_firmware_without_the_wrapper_and_serialises_every_is
     let opt = options();
     let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
     let quiet = &mut |_| {};
-    let mut run = run_on_loopback(TimingProfile::GRIDRT, &prepared, &req, "t", quiet).unwrap();
+    let mut run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
     let sim = run.clone();
     // As if QEMU had counted: 1000 instructions per stage, the wrapper 30 per FSL word.
     for s in Stage::ALL {
@@ -119,7 +140,7 @@ fn host_native_renders_the_loopbacks_image_and_reports_measured_wall_time() {
     let opt = options();
     let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
     let quiet = &mut |_| {};
-    let sim = run_on_loopback(TimingProfile::GRIDRT, &prepared, &req, "t", quiet).unwrap();
+    let sim = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
     let native = run_native(&prepared, &req, 0, 2, quiet).unwrap();
     assert_eq!(native.frame.rgb, sim.frame.rgb);
     for k in [stat::PRIMARY_RAYS, stat::SHADOW_RAYS, stat::COPROC_RAYS, stat::LIST_ENTRIES] {
@@ -144,7 +165,7 @@ fn csv_and_svg_have_a_line_and_a_bar_label_per_row() {
     let opt = options();
     let (prepared, req, _) = prepare(res4(), 8, 6, opt.encoding).unwrap();
     let quiet = &mut |_| {};
-    let sim = run_on_loopback(TimingProfile::PIPELINED, &prepared, &req, "t", quiet).unwrap();
+    let sim = run_on_loopback(TimingProfile::PIPELINED, kernel(), &prepared, &req, "t", quiet).unwrap();
     let cmp = compare(&sim.frame.rgb, &sim.frame.rgb, None, None).unwrap();
     let rows = vec![
         device_row(
@@ -205,7 +226,8 @@ fn configurations_targets_and_profiles_parse_their_names() {
     for c in Configuration::ALL {
         assert_eq!(Configuration::parse(c.name()), Some(c));
     }
-    assert_eq!(Configuration::parse("rtl"), None);
+    assert_eq!(Configuration::parse("rtl"), Some(Configuration::Rtl));
+    assert_eq!(Configuration::parse("rtl-synth"), None);
     for t in Target::ALL {
         assert_eq!(Target::parse(t.name()), Some(t));
     }
@@ -213,4 +235,36 @@ fn configurations_targets_and_profiles_parse_their_names() {
     assert_eq!(CpuProfile::parse("cpi1").map(|p| p.cpi), Some(1.0));
     assert!(matches!(Configuration::Gridrt.coproc(), CoprocCycles::Model(p) if p == TimingProfile::GRIDRT));
     assert_eq!(Configuration::SoftCoreOnly.coproc(), CoprocCycles::None);
+}
+
+/// The `rtl` row is the RTL's: its kernel and format (the image of `--coproc rtl`), the cycles
+/// of [`TimingProfile::RTL`] on the loopback, converted at that profile's clock (no fmax
+/// yet), while the soft-core keeps `--clock-mhz`; every other configuration keeps its kernel.
+#[test]
+fn the_rtl_row_runs_the_rtls_kernel_and_charges_its_profile_at_its_own_clock() {
+    use gridrt_coproc::{KernelKind, NumberFormat};
+    assert!(matches!(Configuration::Rtl.coproc(), CoprocCycles::Model(p) if p == TimingProfile::RTL));
+    assert_eq!(Configuration::Rtl.kernel(), (KernelKind::Watertight, NumberFormat::Fixed64Q23));
+    assert_eq!(Configuration::Rtl.image(), Some(Image::CoprocRtl));
+    assert_eq!(Image::CoprocRtl.features(), &["coproc-rtl"]);
+    for c in [Configuration::SoftCoreOnly, Configuration::Gridrt, Configuration::Pipelined] {
+        assert_eq!(c.kernel(), kernel(), "{c:?}");
+    }
+
+    let opt = options();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let quiet = &mut |_| {};
+    let sim = run_on_loopback(TimingProfile::RTL, Configuration::Rtl.kernel(), &prepared, &req, "t", quiet).unwrap();
+    let cmp = compare(&sim.frame.rgb, &sim.frame.rgb, None, None).unwrap();
+    let row = device_row(Configuration::Rtl, Target::Riscv32imafc, &sim, Some((TimingProfile::RTL, &sim)), &cmp, &opt);
+    assert_eq!(row.kernel.as_deref(), Some("watertight/fixed64q23"));
+    assert_eq!(row.coproc_profile.as_deref(), Some("rtl"));
+    assert_eq!(row.coproc_test_cycles, Some(1));
+    assert_eq!(row.coproc_clock_mhz, Some(50.0));
+    assert!(row.coproc_clock_source.as_deref().unwrap().contains("no synthesised fmax"));
+    assert!(row.coproc_cycles > 0);
+    // Co-processor cycles at 50 MHz, soft-core cycles at the bench's 100 MHz.
+    assert!((row.coproc_ms - row.coproc_cycles as f64 / 50e6 * 1e3).abs() < 1e-9, "{row:?}");
+    let instructions = row.instructions.unwrap() as f64;
+    assert!((row.cpu_ms - instructions * 4.1 / 100e6 * 1e3).abs() < 1e-9, "{row:?}");
 }

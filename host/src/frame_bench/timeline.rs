@@ -4,7 +4,8 @@
 //! # What overlaps with what
 //! 1. **Request in.** The host's `RenderRequest` crosses the line before the device starts:
 //!    serial, `request_bytes · 10 / baud` (8N1).
-//! 2. **Soft-core and co-processor.** The soft-core puts each ray's request words as it
+//! 2. **Soft-core and co-processor** (each on its own clock: one domain by default, the `rtl`
+//!    configuration's co-processor on its profile's). The soft-core puts each ray's request words as it
 //!    builds them; the co-processor takes them at its FSL rate meanwhile, so the request
 //!    streaming (`coproc_request_cycles`) hides behind the soft-core's own put instructions,
 //!    which `cpu_cycles` already counts. The rest of a ray's co-processor time (voxel setup,
@@ -48,8 +49,10 @@ pub struct FrameWork {
     pub coproc_rays: u64,
     /// Rays the firmware keeps in flight in the co-processor (1: one at a time).
     pub rays_in_flight: u32,
-    /// Clock of the soft-core and the co-processor (one clock domain), Hz.
+    /// Clock of the soft-core, Hz.
     pub clock_hz: f64,
+    /// Clock of the co-processor, Hz (the soft-core's in one clock domain).
+    pub coproc_clock_hz: f64,
     /// Line rate, baud (8N1: 10 bit times per byte).
     pub baud: u32,
     /// Host → device wire bytes of the render (the request).
@@ -97,10 +100,11 @@ impl Timeline {
 /// The timeline of `w` (module docs).
 pub fn timeline(w: &FrameWork) -> Timeline {
     let hz = w.clock_hz.max(1.0);
+    let coproc_hz = w.coproc_clock_hz.max(1.0);
     let byte_s = 10.0 / w.baud.max(1) as f64;
     let cpu_s = w.cpu_cycles / hz;
-    let coproc_s = w.coproc_cycles / hz;
-    let coproc_wait_s = (w.coproc_cycles - w.coproc_request_cycles).max(0.0) / hz;
+    let coproc_s = w.coproc_cycles / coproc_hz;
+    let coproc_wait_s = (w.coproc_cycles - w.coproc_request_cycles).max(0.0) / coproc_hz;
     let work_s = if w.rays_in_flight <= 1 || w.coproc_rays == 0 {
         cpu_s + coproc_wait_s
     } else {
@@ -148,6 +152,7 @@ mod tests {
             coproc_rays: 1,
             rays_in_flight: 1,
             clock_hz: 100e6,
+            coproc_clock_hz: 100e6,
             baud: 10_000_000,
             request_bytes: 100,
             answer_bytes: 100,
@@ -167,6 +172,12 @@ mod tests {
         // work: the whole work hides. Frame = 1000 + 49.88 + 1000 − 49.88 = 2000 µs.
         let t = timeline(&FrameWork { baud: 1_000_000, ..w });
         assert!(close(t.link_hidden_s, 49.88e-6) && close(t.frame_s, 2000e-6), "{t:?}");
+        // A co-processor on its own 50 MHz clock: its 1000 cycles take 20 µs, the wait 988
+        // cycles = 19.76 µs; the soft-core's 40 µs stay. Work = 59.76 µs, hidden 16 µs,
+        // frame = 100 + 59.76 + 100 − 16 = 243.76 µs.
+        let t = timeline(&FrameWork { coproc_clock_hz: 50e6, ..w });
+        assert!(close(t.cpu_s, 40e-6) && close(t.coproc_s, 20e-6) && close(t.coproc_wait_s, 19.76e-6), "{t:?}");
+        assert!(close(t.work_s, 59.76e-6) && close(t.frame_s, 243.76e-6), "{t:?}");
     }
 
     /// A 4×2 frame with a ray queue: the soft-core and the PEs overlap.
@@ -186,6 +197,7 @@ mod tests {
             coproc_rays: 4,
             rays_in_flight: 1,
             clock_hz: 100e6,
+            coproc_clock_hz: 100e6,
             baud: 10_000_000,
             request_bytes: 100,
             answer_bytes: 150,
@@ -221,6 +233,7 @@ mod tests {
             coproc_rays: 0,
             rays_in_flight: 4,
             clock_hz: 50e6,
+            coproc_clock_hz: 50e6,
             baud: 100_000,
             request_bytes: 10,
             answer_bytes: 30,

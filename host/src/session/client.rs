@@ -347,9 +347,16 @@ impl<T: Read + Write> Session<T> {
                         progress(ProgressEvent::Connected(info));
                         return Ok(info);
                     }
-                    Incoming::Error { code: ErrorCode::BadFrame, .. } => {} // noise before our Hello
-                    Incoming::Error { code, detail, text } => return Err(self.device_err(stage, code, detail, text)),
-                    _ => {} // stale traffic from an earlier session
+                    Incoming::Error { code: ErrorCode::UnexpectedMessage, detail, text }
+                        if detail == MsgType::Hello as u32 =>
+                    {
+                        // The one error that answers Hello: the device does not speak it.
+                        return Err(self.device_err(stage, ErrorCode::UnexpectedMessage, detail, text));
+                    }
+                    // Noise before our Hello, or stale traffic from an earlier session: an
+                    // earlier host may have left answers unread (e.g. a bootloader's refusal
+                    // of the data that followed a refused FlashBegin).
+                    _ => {}
                 }
             }
         }

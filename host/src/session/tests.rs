@@ -264,6 +264,17 @@ fn upload_recovers_from_a_lost_chunk_via_bad_offset() {
 }
 
 #[test]
+fn hello_skips_errors_an_earlier_session_left_unread() {
+    // A bootloader refuses a FlashBegin, then the probe that followed it (`NotBegun`); the
+    // host that sent them stopped at the first refusal, so the second waits in the line.
+    let mut s = session(Faults::default());
+    s.port_mut().emit(&Msg::Error { code: ErrorCode::FlashRejected, detail: 2, text: "flash data without FlashBegin" });
+    s.port_mut().emit(&Msg::Error { code: ErrorCode::NoScene, detail: 0, text: "no scene loaded" });
+    let info = s.hello(&mut |_| {}).unwrap();
+    assert_eq!(info.pe_count, 4);
+}
+
+#[test]
 fn upload_ignores_a_late_no_scene_answer_to_an_earlier_render() {
     // After a device reset the answers to render requests sent before it arrive during the
     // re-upload; `NoScene` answers only renders, so it is not the upload's failure.

@@ -41,6 +41,12 @@ pub mod stat {
     /// Rays the firmware keeps in flight in the co-processor (its ray-queue depth). Absent
     /// or 0 means 1: one ray at a time, the soft-core waiting for every result.
     pub const RAYS_IN_FLIGHT: u8 = 0x27;
+    /// Instructions the stage counters exclude because a co-processor model ran them on the
+    /// soft-core (emulated board; SPEC.md §3.8).
+    pub const MODEL_INSTRUCTIONS: u8 = 0x28;
+    /// Instructions of the emulated board's link wrapper around the model that the stage
+    /// counters exclude (SPEC.md §3.8).
+    pub const LINK_WRAPPER_INSTRUCTIONS: u8 = 0x29;
     /// Splat frames (SPEC.md §6): points the code generator transformed.
     pub const SPLAT_POINTS: u8 = 0x30;
     /// Splat codewords sent to the splat stage (one per 8×8 tile).

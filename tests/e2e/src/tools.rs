@@ -1,28 +1,29 @@
-//! External tools a test needs (QEMU, socat), and the one way to do without them.
+//! External tools a test needs (QEMU, socat, Verilator, LiteX), and the one way to do without
+//! them.
 //!
 //! A test that needs a tool calls [`require`] first. The tool missing is a test failure, with
 //! the install script named. Only an explicit opt-out skips such tests:
 //!
 //! ```sh
-//! GRIDRT_SKIP_TOOLS=qemu,socat cargo test --workspace    # or GRIDRT_SKIP_TOOLS=all
+//! GRIDRT_SKIP_TOOLS=qemu,socat,verilator,litex cargo test --workspace    # or GRIDRT_SKIP_TOOLS=all
 //! ```
 //!
-//! `verilator` is accepted too; the co-simulation tests (gridrt-rtl, `gridrt render --coproc
-//! rtl`) check it with `gridrt_rtl::sim::require_verilator`, the same rule:
-//!
-//! ```sh
-//! GRIDRT_SKIP_TOOLS=verilator cargo test --workspace
-//! ```
+//! The co-simulation tests (gridrt-rtl, `gridrt render --coproc rtl`) check `verilator` with
+//! `gridrt_rtl::sim::require_verilator`, the same rule.
 //!
 //! A skipped test passes, so it says so where a user looks: one line per test on the real
 //! standard error (libtest captures only `print!`/`eprint!`, not direct writes), which shows
 //! in the `cargo test` output next to the test's `ok`. A test that runs says which tool
 //! version it uses, the same way; `.ci/run` counts both kinds of line.
+//!
+//! The SoC simulation test is slow (minutes), so it also waits for an opt-in,
+//! `GRIDRT_SOC_SIM=1` ([`soc_sim_opted_in`]); `.ci/run` gives it.
 
 use std::io::Write as _;
 use std::process::Command;
 
-/// Comma-separated tools whose tests are skipped (`qemu`, `socat`, `verilator`, or `all`).
+/// Comma-separated tools whose tests are skipped (`qemu`, `socat`, `verilator`, `litex`, or
+/// `all`).
 pub const SKIP_VAR: &str = "GRIDRT_SKIP_TOOLS";
 
 /// Start of the line a test skipped by [`SKIP_VAR`] writes.
@@ -38,13 +39,16 @@ pub enum Tool {
     Qemu,
     /// `socat`: linked pseudo-terminal pairs.
     Socat,
-    /// `verilator`: the RTL co-simulation.
+    /// `verilator`: the RTL co-simulation and the LiteX SoC's simulation.
     Verilator,
+    /// LiteX and its simulation libraries in the project's `.toolchain/soc-venv/` (checked with
+    /// `scripts/setup-soc.sh --check`).
+    Litex,
 }
 
 impl Tool {
     /// Every tool, in the order [`SKIP_VAR`] lists them.
-    pub const ALL: [Tool; 3] = [Tool::Qemu, Tool::Socat, Tool::Verilator];
+    pub const ALL: [Tool; 4] = [Tool::Qemu, Tool::Socat, Tool::Verilator, Tool::Litex];
 
     /// The name [`SKIP_VAR`] uses.
     pub fn key(self) -> &'static str {
@@ -52,6 +56,7 @@ impl Tool {
             Tool::Qemu => "qemu",
             Tool::Socat => "socat",
             Tool::Verilator => "verilator",
+            Tool::Litex => "litex",
         }
     }
 
@@ -61,28 +66,43 @@ impl Tool {
             Tool::Qemu => "qemu-system-riscv32",
             Tool::Socat => "socat",
             Tool::Verilator => "verilator",
+            Tool::Litex => "scripts/setup-soc.sh",
         }
     }
 
-    fn version_arg(self) -> &'static str {
-        match self {
-            Tool::Qemu => "--version",
-            Tool::Socat => "-V",
-            Tool::Verilator => "--version",
-        }
-    }
-
-    /// The script that installs it.
-    pub fn install_script(self) -> &'static str {
+    /// The script that installs the tool.
+    pub fn setup_script(self) -> &'static str {
         match self {
             Tool::Qemu | Tool::Socat => "scripts/setup-qemu.sh",
             Tool::Verilator => "scripts/setup-hdl.sh",
+            Tool::Litex => "scripts/setup-soc.sh",
+        }
+    }
+
+    fn version_command(self) -> Command {
+        match self {
+            Tool::Qemu | Tool::Verilator => {
+                let mut c = Command::new(self.program());
+                c.arg("--version");
+                c
+            }
+            Tool::Socat => {
+                let mut c = Command::new(self.program());
+                c.arg("-V");
+                c
+            }
+            Tool::Litex => {
+                let repo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+                let mut c = Command::new("bash");
+                c.arg(repo.join(self.program())).arg("--check");
+                c
+            }
         }
     }
 
     /// First line of the tool's version text, or `None` when it does not run.
     pub fn version(self) -> Option<String> {
-        let out = Command::new(self.program()).arg(self.version_arg()).output().ok()?;
+        let out = self.version_command().output().ok()?;
         if !out.status.success() {
             return None;
         }
@@ -135,10 +155,27 @@ pub fn require(test: &str, tool: Tool) -> bool {
             "{test}: {} is not installed or does not run; install it with {}, \
              or skip the tests that need it with {SKIP_VAR}={}",
             tool.program(),
-            tool.install_script(),
+            tool.setup_script(),
             tool.key()
         ),
     }
+}
+
+/// Opts in to the SoC simulation test (`GRIDRT_SOC_SIM=1`): a soft-core simulated cycle by
+/// cycle takes minutes, so `cargo test --workspace` runs it only when asked (`.ci/run` asks).
+pub const SOC_SIM_VAR: &str = "GRIDRT_SOC_SIM";
+
+/// Start of the line a test that waits for an opt-in writes when it is not given.
+pub const NOT_OPTED_IN: &str = "SKIPPED without opt-in";
+
+/// True when [`SOC_SIM_VAR`] is `1`; otherwise `test` should return at once (a line on
+/// standard error says it was skipped and how to run it).
+pub fn soc_sim_opted_in(test: &str) -> bool {
+    if std::env::var(SOC_SIM_VAR).is_ok_and(|v| v.trim() == "1") {
+        return true;
+    }
+    say(&format!("{test}: {NOT_OPTED_IN} {SOC_SIM_VAR}=1 (the SoC simulation takes minutes)"));
+    false
 }
 
 /// One line on the process's standard error, past libtest's output capture, in one write
@@ -159,6 +196,7 @@ mod tests {
         assert_eq!(parse_skip_list("verilator"), Ok(vec![Tool::Verilator]));
         assert_eq!(parse_skip_list("all"), Ok(Tool::ALL.to_vec()));
         let e = parse_skip_list("qemu,qemuu").unwrap_err();
-        assert!(e.contains("unknown tool `qemuu`") && e.contains("known: qemu, socat, verilator, all"), "{e}");
+        assert!(e.contains("unknown tool `qemuu`") && e.contains("known: qemu, socat, verilator, litex, all"), "{e}");
+        assert_eq!(parse_skip_list("litex,verilator"), Ok(vec![Tool::Litex, Tool::Verilator]));
     }
 }

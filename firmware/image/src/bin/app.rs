@@ -7,7 +7,8 @@
 //!   work excluded from the per-stage counters (`link::TimedLink`); with the feature
 //!   `soft-core-only` there is no co-processor: the firmware calls the model's intersection
 //!   code itself (`DirectKernel`) and every instruction of it is counted;
-//! - fpga-soc: the real one behind the AXI4-Stream FIFO.
+//! - fpga-soc: the real one behind the AXI4-Stream FIFO;
+//! - litex: the RTL co-processor behind the LiteX SoC's CSR FIFOs.
 //!
 //! Stage counters come from `mcycle`/`minstret` (exact under QEMU's `-icount shift=0`).
 #![no_std]
@@ -64,21 +65,22 @@ fn main() -> ! {
         panic!("panic-test feature");
     }
 
+    let (pe_count, pe_mem_words) = board::coproc_config();
     let info = DeviceInfo {
         protocol: 0, // filled in by Device::new, like max_payload, voxel_capacity, features
         firmware: serve::firmware_version(),
         board: board::BOARD_ID,
         max_payload: 0,
-        pe_count: board::PE_COUNT,
+        pe_count,
         voxel_capacity: 0,
-        pe_mem_words: board::PE_MEM_WORDS,
+        pe_mem_words,
         features: 0,
     };
     let mut w = UartWriter(&mut console);
     w.put("device: ");
-    w.put_dec(board::PE_COUNT as u64);
+    w.put_dec(u64::from(pe_count));
     w.put(" PEs x ");
-    w.put_dec(board::PE_MEM_WORDS as u64);
+    w.put_dec(u64::from(pe_mem_words));
     w.put(" words, up to ");
     w.put_dec(board::MAX_VOXELS as u64);
     w.put(" voxels; speak SPEC.md frames now\r\n");
@@ -88,25 +90,30 @@ fn main() -> ! {
 #[cfg(feature = "board-qemu-virt")]
 fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     use core::fmt::Write as _;
-    use gridrt_coproc::{CoprocConfig, Coprocessor, KernelKind, NumberFormat, TimingProfile, LIST_CAPACITY};
+    use gridrt_coproc::{CoprocConfig, Coprocessor, FixedFrame, KernelKind, NumberFormat, TimingProfile, LIST_CAPACITY};
 
     const WORDS: usize = board::PE_COUNT as usize * board::PE_MEM_WORDS as usize;
     /// The PE memories of the virtual co-processor (zeroed .bss).
     static mut PE_MEMORY: [u32; WORDS] = [0; WORDS];
 
     // The same model configuration as the loopback simulator's default (`render --sim`),
-    // so both render the same image and report the same kernel-true cycles.
-    let kernel = KernelKind::default();
+    // so both render the same image and report the same kernel-true cycles; with
+    // `coproc-rtl`, the RTL co-processor's kernel, number format and timing
+    // (`SimConfig::RTL` of the loopback: the same image and cycles as `--coproc rtl`).
+    #[cfg(not(feature = "coproc-rtl"))]
+    let (kernel, format, timing) = (KernelKind::default(), NumberFormat::F32, TimingProfile::GRIDRT);
+    #[cfg(feature = "coproc-rtl")]
+    let (kernel, format, timing) = (KernelKind::Watertight, NumberFormat::Fixed64Q23, TimingProfile::RTL);
     let config = CoprocConfig {
         pe_count: board::PE_COUNT,
         pe_mem_words: board::PE_MEM_WORDS,
         max_list: LIST_CAPACITY as u16,
-        timing: TimingProfile::GRIDRT.for_kernel(kernel, NumberFormat::F32),
+        timing: timing.for_kernel(kernel, format),
         kernel,
     };
     // SAFETY: `run` is called once and never returns: this is the only reference ever made.
     let backing: &'static mut [u32] = unsafe { &mut *core::ptr::addr_of_mut!(PE_MEMORY) };
-    let model = match Coprocessor::new(config, backing) {
+    let mut model = match Coprocessor::new(config, backing) {
         Ok(m) => m,
         Err(e) => {
             let _ = writeln!(UartWriter(console), "\r\nFATAL: co-processor model configuration refused: {e}; halted\r");
@@ -115,30 +122,30 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
             gridrt_firmware_image::halt()
         }
     };
+    // The frame itself comes with the scene (the firmware's FRAME packet).
+    model.set_number_format(format, FixedFrame::IDENTITY);
     serve_model(console, info, model)
 }
 
-/// The co-processor model linked in as a virtual co-processor; its own work is excluded from
-/// the stage counters, the wrapper that excludes it is measured and announced.
+/// The co-processor model linked in as a virtual co-processor; its own work and the wrapper
+/// that excludes it (calibrated at boot) are excluded from the stage counters and reported.
 #[cfg(all(feature = "board-qemu-virt", not(feature = "soft-core-only")))]
 fn serve_model(console: &mut board::Console, info: DeviceInfo, model: gridrt_coproc::Coprocessor<'static>) -> ! {
     use gridrt_firmware::device::Device;
     use gridrt_firmware::fsl::VirtualCoproc;
-    use gridrt_firmware_image::link::{wrapper_cost, Excluded, ModelFreeClock, TimedLink};
+    use gridrt_firmware_image::link::{Excluded, ModelFreeClock, TimedLink};
 
-    let cost = wrapper_cost(CsrCounters);
+    let excluded = Excluded::new();
+    excluded.calibrate(CsrCounters);
     let mut w = UartWriter(console);
     w.put("co-processor: model behind the timed link, its work excluded from the stage counters\r\n");
+    #[cfg(feature = "coproc-rtl")]
+    w.put("co-processor kernel: the RTL's (watertight, fixed64-q23, rtl timing)\r\n");
     w.put("timed link: ");
-    w.put_dec(cost.timed_put);
-    w.put(" instructions per FSL word stay in fsl_io, ");
-    w.put_dec(cost.wrapper());
-    w.put(" of them the wrapper's (a bare put: ");
-    w.put_dec(cost.bare_put);
-    w.put("; a hardware put/get is 1)\r\n");
+    w.put_dec(u64::from(excluded.wrapper_per_call()));
+    w.put(" instructions of the link wrapper per call into the co-processor model, excluded and reported (Stats)\r\n");
     // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
     let _ = console.write_all(&[0]);
-    let excluded = Excluded::new();
     let link = TimedLink::new(VirtualCoproc { model }, CsrCounters, &excluded);
     let clock = ModelFreeClock::new(CsrCounters, &excluded);
     // On the stack, which is most of RAM here (memory.x).
@@ -176,5 +183,22 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
     let _ = console.write_all(&[0]);
     let mut device: Device<_, _, { board::MAX_VOXELS }> = Device::new(AxisLink(fifo), CounterClock(CsrCounters), info);
+    serve(&mut device, console)
+}
+
+#[cfg(feature = "board-litex")]
+fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
+    use gridrt_firmware::bsp::coproc_csr::CoprocCsr;
+    use gridrt_firmware::bsp::VolatileMmio;
+    use gridrt_firmware::device::{CounterClock, Device};
+    use gridrt_firmware_image::link::CsrFifoLink;
+
+    // SAFETY: COPROC_BASE is the co-processor's CSR FIFOs (csr.json); owned here only.
+    let mut fifos = CoprocCsr::new(unsafe { VolatileMmio::new(board::COPROC_BASE) });
+    fifos.init();
+    // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
+    let _ = console.write_all(&[0]);
+    let mut device: Device<_, _, { board::MAX_VOXELS }> =
+        Device::new(CsrFifoLink(fifos), CounterClock(CsrCounters), info);
     serve(&mut device, console)
 }

