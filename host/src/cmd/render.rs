@@ -186,14 +186,10 @@ impl Cmd {
             .collect()
     }
 
-    fn run_on<T: Read + Write + Send>(
-        &self,
-        ports: Vec<(T, String)>,
-        loaded: Scene,
-        coproc: Option<CoprocFacts>,
-    ) -> anyhow::Result<()> {
-        let total_start = Instant::now();
-        let mut sessions: Vec<Session<T>> = ports
+    /// One session per port, with the line rate, turnaround, render timeout and band height
+    /// of the command line.
+    pub(super) fn sessions<T: Read + Write>(&self, ports: Vec<(T, String)>) -> Vec<Session<T>> {
+        ports
             .into_iter()
             .map(|(port, name)| {
                 let cfg = SessionConfig::new(name)
@@ -203,7 +199,17 @@ impl Cmd {
                     .band_rows(self.band_rows);
                 Session::new(port, cfg)
             })
-            .collect();
+            .collect()
+    }
+
+    fn run_on<T: Read + Write + Send>(
+        &self,
+        ports: Vec<(T, String)>,
+        loaded: Scene,
+        coproc: Option<CoprocFacts>,
+    ) -> anyhow::Result<()> {
+        let total_start = Instant::now();
+        let mut sessions = self.sessions(ports);
         let mut progress = CliProgress::default();
         let mut on_event = |e| progress.handle(e);
 

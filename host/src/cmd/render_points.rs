@@ -12,7 +12,7 @@ use gridrt_host::grid::GridParams;
 use gridrt_host::multi::render_multi;
 use gridrt_host::points::{self, PointCloud, RadiusSource, SplatReport, MAX_SPLAT_WIDTH};
 use gridrt_host::reference::{self, Reference, Stages};
-use gridrt_host::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
+use gridrt_host::session::{ProgressEvent, RenderedFrame};
 use gridrt_host::stats::{LinkReport, ReferenceStats, RenderStats, SceneFacts};
 use gridrt_shared::msg::feature;
 
@@ -30,15 +30,7 @@ impl Cmd {
         cloud: PointCloud,
     ) -> anyhow::Result<()> {
         let total_start = Instant::now();
-        let mut sessions: Vec<Session<T>> = ports
-            .into_iter()
-            .map(|(port, name)| {
-                let cfg = SessionConfig::new(name)
-                    .render_timeout(Duration::from_secs_f64(self.port.timeout.max(0.1)))
-                    .band_rows(self.band_rows);
-                Session::new(port, cfg)
-            })
-            .collect();
+        let mut sessions = self.sessions(ports);
         let mut progress = CliProgress::default();
         let mut on_event = |e| progress.handle(e);
         let mut info = None;

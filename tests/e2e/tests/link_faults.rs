@@ -88,7 +88,7 @@ fn run(
     s.upload_scene(&scene.image, &mut |_| {}).unwrap();
     s.port_mut().active = true;
     let f = s.render(req, &mut |_| {}).unwrap_or_else(|e| panic!("render failed: {e}"));
-    let injected = s.port_mut().injected;
+    let injected = s.port_mut().injected();
     let total = s.link_stats().clone();
     (f, injected, total)
 }
