@@ -21,7 +21,8 @@
 //! | `scene` | the scene store and the upload that loads it ([`SceneSink`](gridrt_shared::scene::SceneSink), LOAD_PE over FSL) | `fail` |
 //! | `raypath` | one ray's FSL request and response, drain after a failure | `stats`, `fail`, `scene` |
 //! | `request` | render request checks, field offsets, the validated job | `fail` |
-//! | `pipeline` | the per-pixel pipeline, plan and row interpolation; renders a job | all of the above |
+//! | `pipeline` | the per-pixel pipeline, plan, row loop and row interpolation; renders a job, its rows on a [`RowFarm`] when one takes them | all of the above |
+//! | `farm` | [`RowTracer`]: a farm's rows traced through `pipeline`'s pixel on a link of their own; [`NoFarm`] | `stats`, `raypath`, `pipeline` |
 //! | `splat` | a `SPLATS` job: seed 001's splat path over the scene's points | `fail`, `request`, `scene`, `stats` |
 //! | `machine` | the [`Device`] state machine: frames in, answers out | all of the above |
 //!
@@ -29,6 +30,7 @@
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 mod fail;
+mod farm;
 mod machine;
 mod pipeline;
 mod raypath;
@@ -39,7 +41,9 @@ mod splat;
 mod stats;
 
 pub use fail::{DETAIL_LINK_HARDWARE, DETAIL_LINK_OTHER, DETAIL_LINK_TIMEOUT};
+pub use farm::{NoFarm, RowTracer};
 pub use machine::{compiled_features, Device};
+pub use pipeline::{RowDone, RowFarm, RowFault, Rows};
 pub use raypath::DEFAULT_POLLS;
 pub use request::MAX_IMAGE_DIM;
 pub use scene::{MAX_MATERIALS, MAX_OBJECTS};

@@ -238,6 +238,24 @@ impl FslLink for DirectKernel<'_> {
     }
 }
 
+/// A ray port onto the co-processor model (`Coprocessor::ray_port`): a second link to the
+/// same loaded PEs, for a simulator's row farm.
+#[cfg(feature = "virtual-coproc")]
+impl FslLink for gridrt_coproc::RayPort<'_> {
+    type Error = core::convert::Infallible;
+
+    #[inline]
+    fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
+        self.push(word);
+        Ok(())
+    }
+
+    #[inline]
+    fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+        self.pop().ok_or(nb::Error::WouldBlock)
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
 mod tests {

@@ -7,7 +7,7 @@ use heapless::{Deque, Vec as HVec};
 use gridrt_shared::fsl::{self, op, FslError, FslWord, ListEntry, RayKind, FRAME_WORDS, RAY_HEADER_WORDS};
 use gridrt_shared::math::{Ray, Vec3};
 
-use super::pes::Pes;
+use super::pes::{PeMem, Pes};
 use super::search::View;
 use crate::config::{LIST_CAPACITY, OUT_QUEUE_WORDS};
 
@@ -106,8 +106,22 @@ impl Link {
     }
 
     /// Consumes one inbound word; executes a packet when its last word arrives.
-    pub(super) fn push(&mut self, pes: &mut Pes<'_>, w: FslWord) {
+    pub(super) fn push(&mut self, pes: &mut Pes<impl PeMem>, w: FslWord) {
         pes.stats.words_in = pes.stats.words_in.saturating_add(1);
+        if let Rx::Ray { kind, count, idx } = self.rx {
+            // Mid-packet only the word index moves: update it in place. (Storing the whole
+            // state back through the stack stalled store forwarding on every word, ~8 % of
+            // a simulated frame.)
+            match self.on_ray_word(pes, kind, count, idx, w) {
+                Rx::Ray { idx: next, .. } => {
+                    if let Rx::Ray { idx, .. } = &mut self.rx {
+                        *idx = next;
+                    }
+                }
+                other => self.rx = other,
+            }
+            return;
+        }
         self.rx = match self.rx {
             Rx::Idle => self.on_first_word(pes, w),
             Rx::Discard => {
@@ -124,7 +138,7 @@ impl Link {
         };
     }
 
-    fn emit(&mut self, pes: &mut Pes<'_>, data: u32, control: bool) {
+    fn emit(&mut self, pes: &mut Pes<impl PeMem>, data: u32, control: bool) {
         if self.out.push_back(FslWord { data, control }).is_err() {
             pes.stats.out_dropped = pes.stats.out_dropped.saturating_add(1);
         } else {
@@ -133,7 +147,7 @@ impl Link {
     }
 
     /// Reports `e` and picks the next state: packet over if `control`, else resynchronise.
-    fn fail(&mut self, pes: &mut Pes<'_>, e: FslError, detail: u16, control: bool) -> Rx {
+    fn fail(&mut self, pes: &mut Pes<impl PeMem>, e: FslError, detail: u16, control: bool) -> Rx {
         pes.stats.errors = pes.stats.errors.saturating_add(1);
         self.emit(pes, e.to_word(detail), true);
         if control {
@@ -143,13 +157,17 @@ impl Link {
         }
     }
 
-    fn on_first_word(&mut self, pes: &mut Pes<'_>, w: FslWord) -> Rx {
+    fn on_first_word(&mut self, pes: &mut Pes<impl PeMem>, w: FslWord) -> Rx {
         let ctl = w.control;
         match fsl::opcode(w.data) {
             op::LOAD_PE => {
                 let pe = w.data as u8;
                 if pe as u16 >= pes.cfg.pe_count {
                     return self.fail(pes, FslError::PeOutOfRange, pe as u16, ctl);
+                }
+                if pes.mem.words_mut().is_none() {
+                    // A ray port shares the PE memories read-only.
+                    return self.fail(pes, FslError::Unsupported, pe as u16, ctl);
                 }
                 pes.begin_load(pe);
                 if ctl {
@@ -189,7 +207,7 @@ impl Link {
     }
 
     /// FRAME words 1..=6: the box; at word 6 the box checks, then framing, then the frame.
-    fn on_frame_word(&mut self, pes: &mut Pes<'_>, idx: u32, w: FslWord) -> Rx {
+    fn on_frame_word(&mut self, pes: &mut Pes<impl PeMem>, idx: u32, w: FslWord) -> Rx {
         let ctl = w.control;
         if let Some(slot) = self.frame.get_mut(idx as usize) {
             *slot = w.data;
@@ -215,7 +233,7 @@ impl Link {
         Rx::Idle
     }
 
-    fn on_load_count(&mut self, pes: &mut Pes<'_>, pe: u8, w: FslWord) -> Rx {
+    fn on_load_count(&mut self, pes: &mut Pes<impl PeMem>, pe: u8, w: FslWord) -> Rx {
         let n = w.data;
         if n > pes.cfg.pe_mem_words {
             return self.fail(pes, FslError::PeMemoryOverflow, pe as u16, w.control);
@@ -232,10 +250,10 @@ impl Link {
         Rx::LoadWords { pe, declared: n, got: 0 }
     }
 
-    fn on_load_word(&mut self, pes: &mut Pes<'_>, pe: u8, declared: u32, got: u32, w: FslWord) -> Rx {
+    fn on_load_word(&mut self, pes: &mut Pes<impl PeMem>, pe: u8, declared: u32, got: u32, w: FslWord) -> Rx {
         let at = pes.base(pe).saturating_add(got as usize);
         // `declared ≤ pe_mem_words` was checked, so this slot exists; stay safe regardless.
-        let Some(slot) = pes.mem.get_mut(at) else {
+        let Some(slot) = pes.mem.words_mut().and_then(|m| m.get_mut(at)) else {
             return self.fail(pes, FslError::PeMemoryOverflow, pe as u16, w.control);
         };
         *slot = w.data;
@@ -255,7 +273,7 @@ impl Link {
         Rx::LoadWords { pe, declared, got }
     }
 
-    fn complete_load(&mut self, pes: &mut Pes<'_>, pe: u8, len: usize) -> Rx {
+    fn complete_load(&mut self, pes: &mut Pes<impl PeMem>, pe: u8, len: usize) -> Rx {
         match pes.finish_load(pe, len) {
             Ok(()) => {
                 self.emit(pes, load_ack(pe), true);
@@ -265,7 +283,7 @@ impl Link {
         }
     }
 
-    fn on_ray_word(&mut self, pes: &mut Pes<'_>, kind: RayKind, count: u16, idx: u32, w: FslWord) -> Rx {
+    fn on_ray_word(&mut self, pes: &mut Pes<impl PeMem>, kind: RayKind, count: u16, idx: u32, w: FslWord) -> Rx {
         let ctl = w.control;
         let index = idx.min(u16::MAX as u32) as u16;
         let next = Rx::Ray { kind, count, idx: idx.saturating_add(1) };
@@ -328,18 +346,14 @@ impl Link {
         (ray, f(7))
     }
 
-    fn execute(&mut self, pes: &mut Pes<'_>, kind: RayKind) -> Rx {
+    fn execute(&mut self, pes: &mut Pes<impl PeMem>, kind: RayKind) -> Rx {
         let (ray, t_max) = self.head_ray();
-        match pes.trace_timed(kind, &ray, t_max, &self.list) {
-            Ok(r) => {
-                let words = r.to_words();
-                let last = words.len().saturating_sub(1);
-                for (i, &wd) in words.iter().enumerate() {
-                    self.emit(pes, wd, i == last);
-                }
-                Rx::Idle
-            }
-            Err((e, d)) => self.fail(pes, e, d, true),
+        // Every word of the packet passed its check on arrival.
+        let words = pes.trace_validated(kind, &ray, t_max, &self.list).to_words();
+        let last = words.len().saturating_sub(1);
+        for (i, &wd) in words.iter().enumerate() {
+            self.emit(pes, wd, i == last);
         }
+        Rx::Idle
     }
 }

@@ -73,6 +73,8 @@
 //! | `link` | the FSL word interface: packet receiver, resynchronisation, reply queue | `pes`, `search` |
 //!
 //! [`Coprocessor`] (this module) owns a `pes::Pes` and a `link::Link` and is the public API.
+//! [`RayPort`] is a second `Link` over the same PE memories, shared read-only, so a simulator
+//! can trace rays on several threads and get the co-processor's own answers.
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 mod image;
@@ -89,7 +91,7 @@ use crate::config::{ArbitrationRule, ConfigError, CoprocConfig};
 use crate::numeric::{FixedFrame, NumberFormat};
 use image::PeSlot;
 use link::Link;
-use pes::Pes;
+use pes::{PeMem, Pes};
 use search::Numerics;
 
 pub use link::{load_ack, CLEAR_ACK, FRAME_ACK};
@@ -98,7 +100,7 @@ pub use stats::{CoprocStats, TraceInfo};
 
 /// The co-processor model. Holds no allocation: PE memories live in the caller's `backing`.
 pub struct Coprocessor<'m> {
-    pes: Pes<'m>,
+    pes: Pes<&'m mut [u32]>,
     link: Link,
 }
 
@@ -200,7 +202,7 @@ impl<'m> Coprocessor<'m> {
     pub fn pe_image(&self, pe: u8) -> Option<&[u32]> {
         let slot = self.pes.slots.get(pe as usize).filter(|s| s.loaded)?;
         let base = self.pes.base(pe);
-        image::span(self.pes.mem, base, slot.len as usize)
+        image::span(self.pes.mem.words(), base, slot.len as usize)
     }
 
     /// Number of PEs holding a loaded image.
@@ -234,7 +236,7 @@ impl<'m> Coprocessor<'m> {
             return Err(FslError::PeMemoryOverflow);
         }
         let base = self.pes.base(pe);
-        let dst = image::span_mut(self.pes.mem, base, words.len()).ok_or(FslError::PeMemoryOverflow)?;
+        let dst = image::span_mut(&mut self.pes.mem[..], base, words.len()).ok_or(FslError::PeMemoryOverflow)?;
         dst.copy_from_slice(words);
         self.pes.finish_load(pe, words.len())
     }
@@ -306,5 +308,63 @@ impl<'m> Coprocessor<'m> {
     /// Consumes one inbound word; executes a packet when its last word arrives.
     pub fn push(&mut self, w: FslWord) {
         self.link.push(&mut self.pes, w);
+    }
+
+    /// A second word interface onto this co-processor's loaded PE memories, read-only, for
+    /// tracing rays on several threads (see [`RayPort`]).
+    pub fn ray_port(&self) -> RayPort<'_> {
+        let p = &self.pes;
+        RayPort {
+            pes: Pes {
+                cfg: p.cfg,
+                mem: p.mem.words(),
+                slots: p.slots,
+                loaded_pes: p.loaded_pes,
+                rule: p.rule,
+                numerics: p.numerics,
+                clocks: [0; MAX_PES],
+                stats: CoprocStats::default(),
+            },
+            link: Link::new(),
+        }
+    }
+}
+
+/// A word interface of its own onto a [`Coprocessor`]'s PE memories, which it shares
+/// read-only: a ray packet gets the answer, word for word (cycles and test counts included),
+/// that the co-processor itself would give, because a ray's trace depends only on the
+/// packet, the loaded images, the number format and the arbitration rule, all of which the
+/// port copies or borrows when it is made. Its counters are its own ([`RayPort::stats`]).
+///
+/// A port cannot change what the PEs hold: it answers LOAD_PE with
+/// `FslError::Unsupported`; CLEAR and FRAME empty the port's own view of the PEs (its
+/// later rays get `SceneNotLoaded`), never the co-processor's.
+pub struct RayPort<'a> {
+    pes: Pes<&'a [u32]>,
+    link: Link,
+}
+
+impl core::fmt::Debug for RayPort<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("RayPort").field("link", &self.link).field("stats", &self.pes.stats).finish_non_exhaustive()
+    }
+}
+
+impl RayPort<'_> {
+    /// Consumes one inbound word; executes a packet when its last word arrives.
+    #[inline]
+    pub fn push(&mut self, w: FslWord) {
+        self.link.push(&mut self.pes, w);
+    }
+
+    /// Dequeues the next outbound word.
+    #[inline]
+    pub fn pop(&mut self) -> Option<FslWord> {
+        self.link.pop()
+    }
+
+    /// This port's counters.
+    pub fn stats(&self) -> &CoprocStats {
+        &self.pes.stats
     }
 }

@@ -8,16 +8,42 @@ use gridrt_shared::scene::{MAX_PES, TRIANGLE_WORDS};
 use super::image::{record, record_at, span, span_mut, validate_image, PeSlot};
 use super::search::{Numerics, View};
 use super::stats::CoprocStats;
-use crate::config::{ArbitrationRule, CoprocConfig};
+use crate::config::{ArbitrationRule, CoprocConfig, LIST_CAPACITY};
 use crate::isect::{with_kernel, Kernel, RecordStatus};
 use crate::numeric::FixedFrame;
 use crate::timing::PeTimeline;
 
+/// PE memory: the co-processor's own, or a read-only share of it (a [`super::RayPort`]).
+pub(super) trait PeMem {
+    /// Every PE's words.
+    fn words(&self) -> &[u32];
+    /// Every PE's words for a LOAD; `None` when the memory is shared read-only.
+    fn words_mut(&mut self) -> Option<&mut [u32]>;
+}
+
+impl PeMem for &mut [u32] {
+    fn words(&self) -> &[u32] {
+        self
+    }
+    fn words_mut(&mut self) -> Option<&mut [u32]> {
+        Some(self)
+    }
+}
+
+impl PeMem for &[u32] {
+    fn words(&self) -> &[u32] {
+        self
+    }
+    fn words_mut(&mut self) -> Option<&mut [u32]> {
+        None
+    }
+}
+
 /// The PE array: configuration, memories, image slots, clocks and counters (everything but
 /// the link buffers, so a buffered list can be traced in place).
-pub(super) struct Pes<'m> {
+pub(super) struct Pes<M> {
     pub(super) cfg: CoprocConfig,
-    pub(super) mem: &'m mut [u32],
+    pub(super) mem: M,
     pub(super) slots: [PeSlot; MAX_PES],
     pub(super) loaded_pes: u16,
     pub(super) rule: ArbitrationRule,
@@ -26,12 +52,12 @@ pub(super) struct Pes<'m> {
     pub(super) stats: CoprocStats,
 }
 
-impl Pes<'_> {
+impl<M: PeMem> Pes<M> {
     pub(super) fn view(&self) -> View<'_> {
         let numerics = self.numerics;
         View {
             cfg: &self.cfg,
-            mem: self.mem,
+            mem: self.mem.words(),
             slots: &self.slots,
             loaded_pes: self.loaded_pes,
             rule: self.rule,
@@ -58,7 +84,7 @@ impl Pes<'_> {
     /// table after them if it needs one (module doc), and installs them.
     pub(super) fn finish_load(&mut self, pe: u8, len: usize) -> Result<(), FslError> {
         let base = self.base(pe);
-        let image = span(self.mem, base, len).ok_or(FslError::PeMemoryOverflow)?;
+        let image = span(self.mem.words(), base, len).ok_or(FslError::PeMemoryOverflow)?;
         let slot = validate_image(image).ok_or(FslError::PeImageMalformed)?;
         with_kernel!(self.cfg.kernel, self.numerics.format, K => {
             if !K::TESTS_PRIMITIVES && slot.prims > 0 {
@@ -98,10 +124,11 @@ impl Pes<'_> {
         let rec_base = base.saturating_add(rec_off);
         for i in 0..tris {
             let src = tri_base.saturating_add(i.saturating_mul(TRIANGLE_WORDS));
-            let words = record_at(self.mem, src).ok_or(FslError::PeImageMalformed)?;
+            let words = record_at(self.mem.words(), src).ok_or(FslError::PeImageMalformed)?;
             let (tri, prim) = (record(words), words.get(9).copied().unwrap_or(0));
             let dst = rec_base.saturating_add(i.saturating_mul(K::RECORD_WORDS));
-            let out = span_mut(self.mem, dst, K::RECORD_WORDS).ok_or(FslError::PeMemoryOverflow)?;
+            let mem = self.mem.words_mut().ok_or(FslError::Unsupported)?;
+            let out = span_mut(mem, dst, K::RECORD_WORDS).ok_or(FslError::PeMemoryOverflow)?;
             let status = K::precompute(&tri, &frame, out);
             if K::PRIM_IN_RECORD {
                 if let Some(last) = out.last_mut() {
@@ -140,16 +167,22 @@ impl Pes<'_> {
         t_max: f32,
         list: &[ListEntry],
     ) -> Result<RayResult, (FslError, u16)> {
+        self.view().validate(ray, t_max, list)?;
+        Ok(self.trace_validated(kind, ray, t_max, list))
+    }
+
+    /// [`trace_timed`](Self::trace_timed) of a request that passed `View::validate` (the link
+    /// checks every word of a packet as it arrives: the same checks).
+    pub(super) fn trace_validated(&mut self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> RayResult {
         let numerics = self.numerics;
         let view = View {
             cfg: &self.cfg,
-            mem: self.mem,
+            mem: self.mem.words(),
             slots: &self.slots,
             loaded_pes: self.loaded_pes,
             rule: self.rule,
             numerics,
         };
-        view.validate(ray, t_max, list)?;
         let (found, info) = view.search_dyn(kind, ray, t_max, list);
         let mut result = view.result_of(list, found, ray);
 
@@ -157,7 +190,13 @@ impl Pes<'_> {
         // 0..=w, pass 2 charges the tests every entry had started by T. Every entry is
         // scheduled with all its tests (a PE does not know a RAY_ANY hit before its result
         // comes out); the winner is done when the result of its last needed test is known.
-        let count_of = |e: &ListEntry| view.lookup(e.pe, e.voxel).map_or(0, |r| r.count);
+        // Each entry's test count, looked up once for both passes (a heapless vector: no
+        // zeroing of the whole capacity per ray). `list` fits: the request checks hold it
+        // to `max_list` ≤ LIST_CAPACITY.
+        let mut counts: heapless::Vec<u32, LIST_CAPACITY> = heapless::Vec::new();
+        for e in list {
+            let _ = counts.push(view.lookup(e.pe, e.voxel).map_or(0, |r| r.count));
+        }
         let last = found.map_or(list.len(), |f| f.k.saturating_add(1));
         let profile = self.cfg.timing;
         for e in list {
@@ -168,8 +207,7 @@ impl Pes<'_> {
         let mut end = 0u64;
         {
             let mut tl = PeTimeline::new(&profile, &mut self.clocks);
-            for (k, e) in list.iter().enumerate().take(last) {
-                let n = count_of(e);
+            for (k, (e, &n)) in list.iter().zip(&counts).enumerate().take(last) {
                 let at = tl.schedule(e.pe, n);
                 let done = match found {
                     Some(f) if f.k == k && f.tests_in_entry < n => tl.done_after(at, f.tests_in_entry),
@@ -186,8 +224,7 @@ impl Pes<'_> {
         let mut tests = 0u64;
         {
             let mut tl = PeTimeline::new(&profile, &mut self.clocks);
-            for e in list {
-                let n = count_of(e);
+            for (e, &n) in list.iter().zip(&counts) {
                 let at = tl.schedule(e.pe, n);
                 tests = tests.saturating_add(tl.started_before(at, n, end) as u64);
             }
@@ -201,6 +238,6 @@ impl Pes<'_> {
         s.tests = s.tests.saturating_add(tests);
         s.cycles = s.cycles.saturating_add(cycles);
         s.overflows = s.overflows.saturating_add(info.overflows);
-        Ok(result)
+        result
     }
 }

@@ -389,3 +389,46 @@ fn golden_spec_acceptance_limit_constant() {
     assert_eq!((1.0f32 + T_EXIT_REL_TOL).to_bits(), 0x3F80_0800);
     assert_eq!((1.5f32 * (1.0 + T_EXIT_REL_TOL)).to_bits(), 0x3FC0_0C00);
 }
+
+/// A ray port answers every ray packet, good or bad, with the words the co-processor
+/// itself gives (cycles and test counts included), and cannot load a PE.
+#[test]
+fn ray_port_answers_word_for_word_like_its_coprocessor_and_refuses_loads() {
+    use rand::SeedableRng;
+    let scene = GridScene::random(7, 40);
+    let map = |id: u32| (id % 3) as u8;
+    let mut backing = Vec::new();
+    let mut cp = loaded(config(3, 4096), &mut backing, &scene.images(3, map));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(14);
+    let mut packets = Vec::new();
+    for i in 0..300 {
+        let (ray, t_max) = random_ray(&mut rng);
+        let kind = if i % 3 == 0 { RayKind::Any } else { RayKind::Closest };
+        let mut list = scene.list(&ray, map);
+        if i % 50 == 7 {
+            list.push(entry(6, 2, 1.0)); // not loaded on PE 2 (or mapped elsewhere): an ERROR word
+        }
+        packets.push(ray_packet(kind, &ray, t_max, &list));
+    }
+    let mut from_cp = Vec::new();
+    for p in &packets {
+        push_all(&mut cp, p);
+        from_cp.push(drain(&mut cp));
+    }
+    let mut port = cp.ray_port();
+    let mut from_port = Vec::new();
+    for p in &packets {
+        p.iter().for_each(|&w| port.push(w));
+        from_port.push(core::iter::from_fn(|| port.pop()).collect::<Vec<_>>());
+    }
+    assert_eq!(from_port, from_cp);
+    assert!(from_cp.iter().any(|r| r.len() == 1), "some packets must be refused");
+    assert_eq!(port.stats().rays, cp.stats().rays);
+    let img = scene.images(3, map).remove(0);
+    load_packet(0, &img).iter().for_each(|&w| port.push(w));
+    assert_eq!(
+        core::iter::from_fn(|| port.pop()).collect::<Vec<_>>(),
+        [FslWord::last(FslError::Unsupported.to_word(0))]
+    );
+    assert!(cp.is_pe_loaded(0));
+}

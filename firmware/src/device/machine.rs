@@ -4,12 +4,13 @@
 //! are the sibling modules this one drives.
 
 use super::fail::{Fail, Text, Trunc};
-use super::pipeline::{self, Renderer};
+use super::farm::NoFarm;
+use super::pipeline::{self, Renderer, RowFarm};
 use super::request::{self, Target};
 use super::scene::{Reorder, SceneStore, Upload, UPLOAD_WINDOW};
 #[cfg(feature = "splats")]
 use super::splat;
-use super::stats::{FrameStats, StageClock};
+use super::stats::{FrameStats, NoClock, StageClock};
 use crate::fsl::FslLink;
 use crate::pixels::FrameTx;
 #[cfg(feature = "splats")]
@@ -38,8 +39,8 @@ pub const fn compiled_features() -> u32 {
 
 /// Everything but the receive buffer (split so a received frame can borrow that buffer
 /// while the handler mutates the rest).
-struct Core<L, C, const N: usize, const P: usize, const T: usize> {
-    render: Renderer<L, C>,
+struct Core<L, C, const N: usize, const P: usize, const T: usize, F> {
+    render: Renderer<L, C, F>,
     info: DeviceInfo,
     tx: FrameTx,
     scene: SceneStore<N>,
@@ -77,15 +78,19 @@ struct Held {
 ///
 /// `MAX_POINTS` and `TABLE_WORDS` size the splat path (SPEC.md §6): a device with either at
 /// 0 (the default) has none and does not advertise `feature::SPLATS`.
+///
+/// A simulator may hand the rows of a frame to a [`RowFarm`] ([`Device::with_farm`]); the
+/// firmware has none ([`NoFarm`]).
 pub struct Device<
     L: FslLink,
     C: StageClock,
     const MAX_VOXELS: usize,
     const MAX_POINTS: usize = 0,
     const TABLE_WORDS: usize = 0,
+    F: RowFarm<L> = NoFarm,
 > {
     rx: FrameAccumulator,
-    core: Core<L, C, MAX_VOXELS, MAX_POINTS, TABLE_WORDS>,
+    core: Core<L, C, MAX_VOXELS, MAX_POINTS, TABLE_WORDS, F>,
 }
 
 impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize, const MAX_POINTS: usize, const TABLE_WORDS: usize>
@@ -95,6 +100,31 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize, const MAX_POINTS: usize
     /// size (0 = unknown, not checked); protocol, max payload, voxel capacity (= MAX_VOXELS)
     /// and feature bits are filled in here.
     pub fn new(link: L, clock: C, info: DeviceInfo) -> Self {
+        Device::build(link, clock, info, NoFarm)
+    }
+}
+
+impl<L: FslLink, const MAX_VOXELS: usize, const MAX_POINTS: usize, const TABLE_WORDS: usize, F: RowFarm<L>>
+    Device<L, NoClock, MAX_VOXELS, MAX_POINTS, TABLE_WORDS, F>
+{
+    /// A device whose frames without row interpolation are traced by `farm` (when it takes
+    /// them), sending the same bytes as [`Device::new`]'s. Only without stage clocks: a
+    /// farm's rows are not timed.
+    pub fn with_farm(link: L, info: DeviceInfo, farm: F) -> Self {
+        Device::build(link, NoClock, info, farm)
+    }
+}
+
+impl<
+        L: FslLink,
+        C: StageClock,
+        const MAX_VOXELS: usize,
+        const MAX_POINTS: usize,
+        const TABLE_WORDS: usize,
+        F: RowFarm<L>,
+    > Device<L, C, MAX_VOXELS, MAX_POINTS, TABLE_WORDS, F>
+{
+    fn build(link: L, clock: C, info: DeviceInfo, farm: F) -> Self {
         let info = DeviceInfo {
             protocol: gridrt_shared::PROTOCOL_VERSION as u16,
             max_payload: MAX_PAYLOAD as u16,
@@ -106,7 +136,7 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize, const MAX_POINTS: usize
         Self {
             rx: FrameAccumulator::new(),
             core: Core {
-                render: Renderer::new(link, clock),
+                render: Renderer::new(link, clock, farm),
                 info,
                 tx: FrameTx::new(),
                 scene: SceneStore::new(),
@@ -187,7 +217,7 @@ impl<L: FslLink, C: StageClock, const MAX_VOXELS: usize, const MAX_POINTS: usize
     }
 }
 
-impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize> Core<L, C, N, P, T> {
+impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, F: RowFarm<L>> Core<L, C, N, P, T, F> {
     /// Sends the answers held back, in the order they belong: the `SceneSack`, then the
     /// report of a corrupt frame that came after its data frame.
     fn flush(&mut self, out: &mut impl Write) {

@@ -8,6 +8,10 @@
 //! any-hit queries; a ray whose list is empty (it misses the grid box or meets only empty
 //! voxels) costs no FSL words. A plan bit whose stage is compiled out (cargo features
 //! `reflections`, `textures`, `specular`) is refused with `Error{BadRequest}`.
+//!
+//! A frame without row interpolation may have its rows traced away from the device loop by
+//! a [`RowFarm`] (a simulator's threads, `super::farm`): each row's pixels through the same
+//! [`pixel`], handed back in order and sent as the device's own loop sends them.
 
 use super::fail::Fail;
 use super::raypath::{RayClass, RayPath};
@@ -21,6 +25,7 @@ use crate::interp::{self, Counts, Sample, StepControl};
 use crate::pixels::{FrameTx, SpanEncoder, TxError};
 use crate::sfloat::{add, mul};
 use crate::shade::{self, DEFAULT_ALBEDO};
+use core::ops::{ControlFlow, Range};
 use embedded_io::Write;
 use gridrt_shared::fsl::RayKind;
 use gridrt_shared::math::Ray;
@@ -38,7 +43,7 @@ const MATTE: MaterialModel = MaterialModel::MATTE;
 pub const MAX_INTERP_WIDTH: usize = 2048;
 
 /// Per-frame constants of the pixel pipeline.
-struct FrameCtx {
+pub(super) struct FrameCtx {
     cam: Camera,
     /// Per row, the columns whose camera rays can enter the grid box.
     spans: BoxSpans,
@@ -58,6 +63,18 @@ struct FrameCtx {
     specular: bool,
     /// `1e-4 · |grid box diagonal|`, the per-scene term of the shadow-ray offset.
     eps_diag: f32,
+}
+
+impl FrameCtx {
+    /// The columns of row `y` within `x0..x1` whose camera rays can enter the grid box (the
+    /// others see only the background, `crate::cull`) and the row's camera rays.
+    #[inline(always)]
+    pub(super) fn row(&self, y: u16, width: u16, x0: u16, x1: u16) -> (Range<u16>, RowRays<'_>) {
+        let (lo, hi) = self.spans.row(y, width);
+        let lo = lo.clamp(x0, x1);
+        let hi = hi.clamp(lo, x1);
+        (lo..hi, self.cam.row(y as u32))
+    }
 }
 
 /// The plan bits this build honours.
@@ -89,7 +106,7 @@ fn object_point<const N: usize>(scene: &SceneStore<N>, prim: u32, p: Vec3) -> Op
 // The arithmetic here is f32 shading on glam vectors, which the lint cannot tell from
 // integers; the integer work is the counters (`count`) and the bounce index.
 #[allow(clippy::arithmetic_side_effects)]
-fn pixel<L: FslLink, C: StageClock, const N: usize>(
+pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
     path: &mut RayPath<L>,
     scene: &SceneStore<N>,
     clock: &C,
@@ -214,27 +231,106 @@ pub(super) fn check_plan(flags: u16, compiled: u16) -> Result<(), &'static str> 
     Ok(())
 }
 
-/// The frame-rendering half of the device: the ray path, the stage clock, the span encoder
-/// and the row buffer of the interpolation.
-pub(super) struct Renderer<L, C> {
+/// The rows of one frame a [`RowFarm`] is asked to trace: the region's rows, each over the
+/// columns its camera rays can enter the grid box through ([`Rows::columns`]).
+pub struct Rows<'a, const N: usize> {
+    pub(super) scene: &'a SceneStore<N>,
+    pub(super) ctx: &'a FrameCtx,
+    /// Image width (the culling spans depend on it).
+    pub(super) width: u16,
+    pub(super) x0: u16,
+    pub(super) x1: u16,
+    pub(super) ys: Range<u16>,
+    pub(super) polls: u32,
+}
+
+impl<const N: usize> Rows<'_, N> {
+    /// The rows, top to bottom.
+    pub fn ys(&self) -> Range<u16> {
+        self.ys.clone()
+    }
+
+    /// Most samples a row has (the region's width).
+    pub fn width(&self) -> usize {
+        self.x1.wrapping_sub(self.x0) as usize
+    }
+
+    /// The columns of row `y` that are traced; the rest of the region's row is background.
+    pub fn columns(&self, y: u16) -> Range<u16> {
+        self.ctx.row(y, self.width, self.x0, self.x1).0
+    }
+}
+
+/// A pixel of a row failed: the frame stops there, as it does in the device loop.
+#[derive(Debug, Clone, Copy)]
+pub struct RowFault {
+    /// Samples of the row done before the failing pixel.
+    pub(super) done: usize,
+    pub(super) fail: Fail,
+}
+
+impl RowFault {
+    /// Samples of the row done before the failing pixel.
+    pub fn done(&self) -> usize {
+        self.done
+    }
+}
+
+/// One traced row, handed to the device.
+pub struct RowDone<'s> {
+    /// The row.
+    pub y: u16,
+    /// The samples of its [`Rows::columns`] (all of them unless `fault`).
+    pub samples: &'s [Sample],
+    /// The failure that stopped the row, if any.
+    pub fault: Option<RowFault>,
+    /// What tracing the row counted (`RowTracer::take_stats` after it).
+    pub stats: FrameStats,
+}
+
+/// Traces the rows of a frame for the device, possibly on other threads.
+pub trait RowFarm<L> {
+    /// Traces every row of `rows` and hands each to `sink` in order, top to bottom; stops
+    /// after a row with a fault or when `sink` breaks. Returns `false` without calling `sink`
+    /// when it does not take this frame (e.g. `link` is not one it can share): the device
+    /// then renders the frame on `link` itself.
+    fn render<const N: usize>(
+        &mut self,
+        link: &L,
+        rows: &Rows<'_, N>,
+        sink: &mut dyn FnMut(RowDone<'_>) -> ControlFlow<()>,
+    ) -> bool;
+}
+
+/// The frame-rendering half of the device: the ray path, the stage clock, the span encoder,
+/// the row buffer of the interpolation and the row farm.
+pub(super) struct Renderer<L, C, F> {
     /// The co-processor link, traversal list and frame counters.
     pub(super) path: RayPath<L>,
     clock: C,
     spans: SpanEncoder,
     /// Row buffer of the row interpolation.
     row: [Sample; MAX_INTERP_WIDTH],
+    farm: F,
 }
 
-impl<L: FslLink, C: StageClock> Renderer<L, C> {
+impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
     /// The stage clock (the splat path times its stages with it too).
     #[cfg(feature = "splats")]
     pub(super) fn clock(&self) -> &C {
         &self.clock
     }
 
-    /// A renderer over `link`, timed by `clock`.
-    pub(super) fn new(link: L, clock: C) -> Self {
-        Self { path: RayPath::new(link), clock, spans: SpanEncoder::new(), row: [Sample::default(); MAX_INTERP_WIDTH] }
+    /// A renderer over `link`, timed by `clock`, with rows traced by `farm` when it takes
+    /// them.
+    pub(super) fn new(link: L, clock: C, farm: F) -> Self {
+        Self {
+            path: RayPath::new(link),
+            clock,
+            spans: SpanEncoder::new(),
+            row: [Sample::default(); MAX_INTERP_WIDTH],
+            farm,
+        }
     }
 
     /// Renders `job` and sends its spans and `Stats` through `tx`; returns (spans, CRC of the
@@ -308,8 +404,8 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         })
     }
 
-    /// Pixels `from..to` of row `y`, whose camera rays cannot enter the grid box: counted as
-    /// traced rays with empty lists (as tracing them would) and sent as one background run.
+    /// Pixels `from..to` of row `y`, whose camera rays cannot enter the grid box
+    /// ([`background_run`]).
     fn background(
         &mut self,
         bg: &Sample,
@@ -319,15 +415,7 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         tx: &mut FrameTx,
         out: &mut impl Write,
     ) -> Result<(), Fail> {
-        let n = to.saturating_sub(from);
-        if n == 0 {
-            return Ok(());
-        }
-        let s = &mut self.path.stats;
-        for c in [&mut s.primary_rays, &mut s.culled_rays, &mut s.pixels] {
-            count(c, u64::from(n));
-        }
-        self.spans.push_run(from, y, n, bg.rgb, bg.prim, tx, out).map_err(Fail::tx)
+        background_run(&mut self.spans, &mut self.path.stats, bg, from, to, y, tx, out)
     }
 
     /// Row-major render loop of `region`; returns early (frame aborted) on any co-processor
@@ -373,14 +461,26 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         self.path.stats.plan = plan as u64;
         let mut sw = Stopwatch::start(&self.clock);
         let (x1, y1) = (region.x0.saturating_add(region.cols), region.y0.saturating_add(region.rows));
+        if !interpolate {
+            let rows = Rows {
+                scene,
+                ctx: &ctx,
+                width: req.width,
+                x0: region.x0,
+                x1,
+                ys: region.y0..y1,
+                polls: self.path.polls,
+            };
+            if let Some(r) = self.farmed(&rows, tx, out) {
+                return r;
+            }
+        }
         let mut counts = Counts::default();
         let mut ctl = StepControl::new(&params);
         for y in region.y0..y1 {
             // Columns outside the row's span see only the background (`crate::cull`).
-            let (lo, hi) = ctx.spans.row(y, req.width);
-            let lo = lo.clamp(region.x0, x1);
-            let hi = hi.clamp(lo, x1);
-            let rays = ctx.cam.row(y as u32);
+            let (cols, rays) = ctx.row(y, req.width, region.x0, x1);
+            let (lo, hi) = (cols.start, cols.end);
             if interpolate {
                 let w = region.cols as usize;
                 let before = counts;
@@ -420,6 +520,79 @@ impl<L: FslLink, C: StageClock> Renderer<L, C> {
         self.path.stats.interp_retraces = counts.retraces;
         Ok(())
     }
+
+    /// The rows of a frame without interpolation through the farm, sent as the loop of
+    /// [`pixels`](Self::pixels) sends them (a farm only exists with a clock that reads 0, so
+    /// the stage laps of that loop add nothing); `None` when the farm does not take the
+    /// frame.
+    fn farmed<const N: usize>(
+        &mut self,
+        rows: &Rows<'_, N>,
+        tx: &mut FrameTx,
+        out: &mut impl Write,
+    ) -> Option<Result<(), Fail>> {
+        let (spans, path) = (&mut self.spans, &mut self.path);
+        let (link, stats) = (&path.link, &mut path.stats);
+        let mut result = Ok(());
+        let mut sink = |row: RowDone<'_>| {
+            result = farmed_row(spans, stats, rows, &row, tx, out);
+            if result.is_ok() {
+                ControlFlow::Continue(())
+            } else {
+                ControlFlow::Break(())
+            }
+        };
+        self.farm.render(link, rows, &mut sink).then_some(result)
+    }
+}
+
+/// Sends a farmed row as the device loop sends a row: the background before its traced
+/// columns, their samples, the background after, then the flush.
+fn farmed_row<const N: usize>(
+    spans: &mut SpanEncoder,
+    stats: &mut FrameStats,
+    rows: &Rows<'_, N>,
+    row: &RowDone<'_>,
+    tx: &mut FrameTx,
+    out: &mut impl Write,
+) -> Result<(), Fail> {
+    stats.accumulate(&row.stats);
+    let (bg, y) = (&rows.ctx.background, row.y);
+    let cols = rows.columns(y);
+    background_run(spans, stats, bg, rows.x0, cols.start, y, tx, out)?;
+    let n = row.fault.map_or(cols.len(), |f| f.done);
+    for (x, s) in cols.clone().zip(row.samples.iter().take(n)) {
+        spans.push(x, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
+        count(&mut stats.pixels, 1);
+    }
+    if let Some(f) = row.fault {
+        return Err(f.fail);
+    }
+    background_run(spans, stats, bg, cols.end, rows.x1, y, tx, out)?;
+    spans.flush(tx, out).map_err(Fail::tx)
+}
+
+/// Pixels `from..to` of row `y`, whose camera rays cannot enter the grid box: counted as
+/// traced rays with empty lists (as tracing them would) and sent as one background run.
+#[allow(clippy::too_many_arguments)]
+fn background_run(
+    spans: &mut SpanEncoder,
+    stats: &mut FrameStats,
+    bg: &Sample,
+    from: u16,
+    to: u16,
+    y: u16,
+    tx: &mut FrameTx,
+    out: &mut impl Write,
+) -> Result<(), Fail> {
+    let n = to.saturating_sub(from);
+    if n == 0 {
+        return Ok(());
+    }
+    for c in [&mut stats.primary_rays, &mut stats.culled_rays, &mut stats.pixels] {
+        count(c, u64::from(n));
+    }
+    spans.push_run(from, y, n, bg.rgb, bg.prim, tx, out).map_err(Fail::tx)
 }
 
 #[cfg(test)]

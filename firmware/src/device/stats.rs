@@ -184,6 +184,55 @@ const PLAN_STATS: usize = 9;
 pub const STAT_COUNT: usize = 10 + 2 * Stage::ALL.len() + PLAN_STATS;
 
 impl FrameStats {
+    /// Adds every counter of `o` (all but `plan`) to this one's, as if this frame had also
+    /// done `o`'s work.
+    pub fn accumulate(&mut self, o: &FrameStats) {
+        let FrameStats {
+            primary_rays,
+            shadow_rays,
+            coproc_rays,
+            culled_rays,
+            fsl_words_out,
+            fsl_words_in,
+            list_entries,
+            intersection_tests,
+            coproc_cycles,
+            pixels,
+            stages,
+            reflection_rays,
+            interpolated_pixels,
+            interp_retraces,
+            plan: _,
+            fsl_words_primary,
+            fsl_words_shadow,
+            fsl_words_reflection,
+            model_instructions,
+            link_wrapper_instructions,
+        } = *o;
+        count(&mut self.primary_rays, primary_rays);
+        count(&mut self.shadow_rays, shadow_rays);
+        count(&mut self.coproc_rays, coproc_rays);
+        count(&mut self.culled_rays, culled_rays);
+        count(&mut self.fsl_words_out, fsl_words_out);
+        count(&mut self.fsl_words_in, fsl_words_in);
+        count(&mut self.list_entries, list_entries);
+        count(&mut self.intersection_tests, intersection_tests);
+        count(&mut self.coproc_cycles, coproc_cycles);
+        count(&mut self.pixels, pixels);
+        for (s, d) in self.stages.iter_mut().zip(stages) {
+            count(&mut s.cycles, d.cycles);
+            count(&mut s.instret, d.instret);
+        }
+        count(&mut self.reflection_rays, reflection_rays);
+        count(&mut self.interpolated_pixels, interpolated_pixels);
+        count(&mut self.interp_retraces, interp_retraces);
+        count(&mut self.fsl_words_primary, fsl_words_primary);
+        count(&mut self.fsl_words_shadow, fsl_words_shadow);
+        count(&mut self.fsl_words_reflection, fsl_words_reflection);
+        count(&mut self.model_instructions, model_instructions);
+        count(&mut self.link_wrapper_instructions, link_wrapper_instructions);
+    }
+
     /// (key, value) pairs in the order they are sent.
     pub fn entries(&self) -> [(u8, u64); STAT_COUNT] {
         let mut e = [(0u8, 0u64); STAT_COUNT];

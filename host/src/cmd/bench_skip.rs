@@ -4,7 +4,8 @@
 //! `--out DIR`: `skip.csv` (rays, FSL words per ray kind, co-processor cycles and modeled
 //! time with each stage on/off, plus the grid-box cull), `interp.csv` and `interp.svg`
 //! (traced pixels against PSNR over a grid of (l, EPS)), `viray.json` (the 1920×1080 demo
-//! frame: modeled time at ViRAY's 320 MHz and native simulation wall time).
+//! frame: modeled time at ViRAY's 320 MHz and native simulation wall time on every core and on
+//! one thread, with the load average at the time).
 //!
 //! Modeled time, two models:
 //! - `viray_model_ms`: rays ÷ ViRAY's throughput (158.29 M rays/s at 320 MHz, seed 000 §5:
@@ -53,7 +54,8 @@ pub struct Args {
     /// Frame height.
     #[arg(long, default_value_t = 240)]
     height: u16,
-    /// Also render the demo at 1920×1080 (a few seconds).
+    /// Also render the demo at 1920×1080 (a few seconds), on every core and then on one
+    /// thread.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     full_hd: bool,
 }
@@ -247,6 +249,12 @@ impl Args {
             let start = Instant::now();
             let f = board.render(&req)?;
             let wall = start.elapsed().as_secs_f64();
+            // The same frame on a board that traces on its device thread alone, right after.
+            let mut one = SimBoard::new(gridrt_loopback::SimConfig { threads: 1, ..sim_config() }, &prepared)?;
+            let start = Instant::now();
+            let f1 = one.render(&req)?;
+            let wall_one = start.elapsed().as_secs_f64();
+            let identical = f1.rgb == f.rgb && f1.stats == f.stats;
             let mut req_i = req;
             req_i.flags |= Interp { step: 3, eps: 8, adaptive: false }.flags();
             let fi = board.render(&req_i)?;
@@ -265,6 +273,11 @@ impl Args {
                 "viray_model_ms": rays(&f) as f64 / VIRAY_RAYS_PER_S * 1e3,
                 "coproc_model_ms_320mhz": coproc_ms(&f),
                 "native_sim_wall_s": wall,
+                "native_sim_threads": rayon::current_num_threads(),
+                "native_sim_wall_s_one_thread": wall_one,
+                "native_sim_thread_speedup": wall_one / wall,
+                "native_sim_identical_to_one_thread": identical,
+                "load_average_1min": load_average(),
                 "viray_hls_csim_s": VIRAY_CSIM_S,
                 "interp_3_8": {
                     "traced_fraction": g(&fi, stat::PRIMARY_RAYS) as f64 / (1920.0 * 1080.0),
@@ -278,6 +291,11 @@ impl Args {
         }
         Ok(())
     }
+}
+
+/// The 1-minute load average (Linux `/proc/loadavg`), to read wall times against.
+fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg").ok()?.split_whitespace().next()?.parse().ok()
 }
 
 /// The demo scene without its light, reflections, textures and specular terms.

@@ -116,6 +116,10 @@ pub struct ModelOptions {
     /// --coproc rtl: rtl, the RTL's measured cycles].
     #[arg(long, value_enum)]
     pub timing: Option<Timing>,
+    /// Threads the simulated board traces a frame's rows on (0 = every core; 1 = the
+    /// device thread alone, as firmware does). The bytes it sends do not depend on it.
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub sim_threads: u16,
 }
 
 impl ModelOptions {
@@ -133,6 +137,7 @@ impl ModelOptions {
                     timing: self.timing.unwrap_or(Timing::Gridrt).into(),
                     kernel: kernel.into(),
                     format: self.format.unwrap_or(Format::F32).into(),
+                    threads: self.sim_threads,
                     ..d
                 })
             }

@@ -126,6 +126,9 @@ struct Waiting {
     last: Instant,
     /// When the device reported a corrupt frame before answering, if it did.
     nak: Option<Instant>,
+    /// Pixels of the requested region not arrived yet, kept up to date span by span (a
+    /// full scan of the region per message made a 1080p frame quadratic).
+    missing: u64,
 }
 
 /// Result of one band.
@@ -224,7 +227,7 @@ impl<T: Read + Write> Session<T> {
             let options = if max_span != 0 { options | region_options::SPAN_BYTES } else { options };
             self.send(stage, &Msg::RenderRegion { region: gap, max_span, options, request: *req })?;
             self.link.regions_requested += 1;
-            let mut waiting = Waiting { last: Instant::now(), nak: None };
+            let mut waiting = Waiting { last: Instant::now(), nak: None, missing: canvas.missing_in(gap) };
             let outcome = loop {
                 let w = self.wait_region(
                     req,
@@ -334,7 +337,7 @@ impl<T: Read + Write> Session<T> {
                 // The device found a corrupt frame before answering: most likely our request.
                 // Send it again unless spans start to flow within a turnaround.
                 Some(at) => at + self.cfg.turnaround + self.cfg.answer_wait(0, 64),
-                None => last + self.quiet_limit(att.got_any, canvas.complete(region)),
+                None => last + self.quiet_limit(att.got_any, waiting.missing == 0),
             };
             let before = self.bytes_rx;
             let msg = self.poll(stage, limit.min(tick))?;
@@ -358,8 +361,13 @@ impl<T: Read + Write> Session<T> {
             match m {
                 Incoming::PixelSpan { frame, y, x0, count, encoding, data } if frame == req.frame => {
                     self.pace.frame = self.pace.frame.max(wire_len(data.len() + 10));
+                    // The span's pixels inside the region: what it may complete there.
+                    let inside = row_overlap(region, y, x0, count);
+                    let before = inside.map_or(0, |r| canvas.missing_in(r));
                     att.new_pixels +=
                         canvas.place(y, x0, count, encoding, &data).map_err(|w| self.protocol(stage, w))?;
+                    let after = inside.map_or(0, |r| canvas.missing_in(r));
+                    waiting.missing = waiting.missing.saturating_sub(before.saturating_sub(after));
                     if encoding.is_colour() {
                         self.link.spans_received += 1;
                         self.link.span_data_bytes += data.len() as u64;
@@ -476,6 +484,16 @@ impl<T: Read + Write> Session<T> {
     }
 }
 
+/// The part of row `y`, columns `x0..x0 + count`, that lies in `r`, as a one-row region.
+fn row_overlap(r: Region, y: u16, x0: u16, count: u16) -> Option<Region> {
+    if y < r.y0 || y - r.y0 >= r.rows {
+        return None;
+    }
+    let a = x0.max(r.x0);
+    let b = (x0 as u32 + count as u32).min(r.x0 as u32 + r.cols as u32);
+    (u32::from(a) < b).then(|| Region { x0: a, y0: y, cols: (b - u32::from(a)) as u16, rows: 1 })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -499,5 +517,18 @@ mod tests {
         assert_eq!(group_runs(&runs, 3.0, 10.0, &c), Region { x0: 10, y0: 3, cols: 10, rows: 1 });
         // Free pixels: one rectangle.
         assert_eq!(group_runs(&runs, 0.0, 10.0, &c), Region { x0: 10, y0: 3, cols: 50, rows: 6 });
+    }
+
+    #[test]
+    fn a_span_overlaps_a_region_only_within_its_rows_and_columns() {
+        let r = Region { x0: 10, y0: 5, cols: 20, rows: 3 };
+        assert_eq!(row_overlap(r, 6, 0, 15), Some(Region { x0: 10, y0: 6, cols: 5, rows: 1 }));
+        assert_eq!(row_overlap(r, 7, 25, 100), Some(Region { x0: 25, y0: 7, cols: 5, rows: 1 }));
+        assert_eq!(row_overlap(r, 5, 12, 3), Some(Region { x0: 12, y0: 5, cols: 3, rows: 1 }));
+        assert_eq!(row_overlap(r, 4, 10, 20), None);
+        assert_eq!(row_overlap(r, 8, 10, 20), None);
+        assert_eq!(row_overlap(r, 6, 0, 10), None);
+        assert_eq!(row_overlap(r, 6, 30, 10), None);
+        assert_eq!(row_overlap(r, 6, u16::MAX, u16::MAX), None);
     }
 }

@@ -29,6 +29,11 @@ pub struct SimConfig {
     pub format: NumberFormat,
     /// What computes: the model, or the RTL (which has its own kernel, format and timing).
     pub backend: Backend,
+    /// Threads that trace a frame's rows: 0 = every core (rayon's global pool, shared by
+    /// every board of the process), 1 = the device thread alone, as the firmware does. The
+    /// UART bytes are the same either way. Frames with row interpolation, and the RTL
+    /// backend, always run on the device thread.
+    pub threads: u16,
 }
 
 /// The co-processor of a simulated board.
@@ -51,6 +56,7 @@ impl Default for SimConfig {
             kernel: KernelKind::default(),
             format: NumberFormat::F32,
             backend: Backend::Model,
+            threads: 0,
         }
     }
 }
@@ -67,6 +73,7 @@ impl SimConfig {
         kernel: KernelKind::Watertight,
         format: NumberFormat::Fixed64Q23,
         backend: Backend::Rtl,
+        threads: 1,
     };
 }
 

@@ -22,9 +22,11 @@ use gridrt_firmware::device::{Device, NoClock};
 use gridrt_firmware::embedded_io::{self, ErrorType};
 
 mod config;
+mod farm;
 mod link;
 
 pub use config::{Backend, SimConfig, BOARD_LOOPBACK, SIM_MAX_VOXELS};
+use farm::SimFarm;
 pub use link::RtlLinkError;
 use link::SimLink;
 
@@ -34,8 +36,9 @@ pub const SIM_MAX_POINTS: usize = 1 << 17;
 /// Words of the simulated device's splat shape table (`TableConfig::DEVICE`).
 pub const SIM_TABLE_WORDS: usize = 81_920;
 
-/// The simulated device.
-type SimDevice<'a> = Device<SimLink<'a>, NoClock, SIM_MAX_VOXELS, SIM_MAX_POINTS, SIM_TABLE_WORDS>;
+/// The simulated device: the firmware's device loop on the simulator's link, its frames'
+/// rows traced by the row farm.
+type SimDevice<'a> = Device<SimLink<'a>, NoClock, SIM_MAX_VOXELS, SIM_MAX_POINTS, SIM_TABLE_WORDS, SimFarm>;
 
 /// What the host end sends to the device thread.
 enum Input {
@@ -99,7 +102,8 @@ fn run_device(config: SimConfig, input: Receiver<Input>, output: Sender<(u32, Ve
             Ok(l) => l,
             Err(e) => return fail(e),
         };
-        let mut device: Box<SimDevice<'_>> = Box::new(Device::new(link, NoClock, config.device_info()));
+        let mut device: Box<SimDevice<'_>> =
+            Box::new(Device::with_farm(link, config.device_info(), SimFarm::new(config.threads)));
         reset.muted.store(false, Ordering::Release);
         let epoch = reset.count.load(Ordering::Acquire);
         let mut sink = ChannelSink { out: &output, muted: &reset.muted, epoch };
@@ -210,7 +214,8 @@ pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfi
         let invalid = |e: String| io::Error::new(io::ErrorKind::InvalidInput, e);
         let program = link::rtl_program(&config).map_err(invalid)?;
         let link = link::open(&config, &mut backing, program.as_deref()).map_err(invalid)?;
-        let mut device: Box<SimDevice<'_>> = Box::new(Device::new(link, NoClock, config.device_info()));
+        let mut device: Box<SimDevice<'_>> =
+            Box::new(Device::with_farm(link, config.device_info(), SimFarm::new(config.threads)));
         let mut buf = [0u8; 4096];
         loop {
             let n = match port.read(&mut buf) {
@@ -234,6 +239,12 @@ pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfi
             .join()
             .unwrap_or_else(|_| Err(io::Error::other("simulated device thread panicked")))
     })
+}
+
+/// Frames whose rows were traced on the row farm's threads (`SimConfig::threads` ≠ 1) so
+/// far in this process, by every board: lets a test or bench see that the farm ran.
+pub fn farmed_frames() -> u64 {
+    farm::FARMED_FRAMES.load(std::sync::atomic::Ordering::Relaxed)
 }
 
 /// Makes what `config` needs before a board starts: for [`Backend::Rtl`], the Verilator build
