@@ -152,6 +152,47 @@ pub fn mul_int(a: f32, b: f32) -> f32 {
     mul_inline(a, b)
 }
 
+/// The operator's sum, for the operands and results the integer path leaves out. Cold and out
+/// of line, so the integer path needs no stack frame (the call is a tail call).
+#[cold]
+#[inline(never)]
+fn add_slow(a: f32, b: f32) -> f32 {
+    a + b
+}
+
+/// The operator's product, as [`add_slow`].
+#[cold]
+#[inline(never)]
+fn mul_slow(a: f32, b: f32) -> f32 {
+    a * b
+}
+
+/// Rounds a significand `m` with its leading 1 at bit `23 + G` and `G` bits below the last
+/// kept bit (sticky folded into the lowest) to nearest, ties to even: adding `2^(G−1) − 1`
+/// plus the last kept bit carries exactly when the dropped bits exceed half, or equal it with
+/// an odd last bit. The result lies in `[2^23, 2^24]`; 2^24 (a carry out of the significand)
+/// packs as the next binade with [`pack`].
+#[inline(always)]
+#[allow(clippy::arithmetic_side_effects)] // m < 2^31: no overflow
+fn round_even<const G: u32>(m: u32) -> u32 {
+    (m + ((1 << (G - 1)) - 1) + ((m >> G) & 1)) >> G
+}
+
+/// The bits of `sign · m · 2^(e − 127 − 23)` for a biased exponent `e ≥ 1` and `m` in
+/// `[2^23, 2^24]`: the leading 1 of `m` adds itself to the exponent field (so a rounding
+/// carry to 2^24 moves to the next binade by itself). `None` when that reaches the exponent
+/// field of infinities (the caller then takes the operator's result).
+#[inline(always)]
+#[allow(clippy::arithmetic_side_effects)] // e ≤ 510, m ≤ 2^24: below 2^32
+fn pack(sign: u32, e: u32, m: u32) -> Option<f32> {
+    let r = ((e - 1) << 23) + m;
+    if r >= 0x7F80_0000 {
+        None
+    } else {
+        Some(f32::from_bits(sign | r))
+    }
+}
+
 /// [`add_int`], inline.
 #[inline(always)]
 #[allow(clippy::arithmetic_side_effects)] // bounded by the normal-number ranges checked first
@@ -159,7 +200,7 @@ fn add_inline(a: f32, b: f32) -> f32 {
     let (ua, ub) = (a.to_bits(), b.to_bits());
     let (aa, ab) = (ua & !SIGN, ub & !SIGN);
     if !normal(aa) || !normal(ab) {
-        return a + b;
+        return add_slow(a, b);
     }
     // x: the operand of larger magnitude (its sign is the result's).
     let (x, ax, ay) = if aa >= ab { (ua, aa, ab) } else { (ub, ab, aa) };
@@ -214,22 +255,13 @@ fn add_inline(a: f32, b: f32) -> f32 {
             e -= 1;
         }
         if e <= 0 {
-            return a + b;
+            return add_slow(a, b);
         }
     }
-    let low = m & 7;
-    m >>= 3;
-    if low > 4 || (low == 4 && m & 1 == 1) {
-        m += 1;
-        if m == 1 << 24 {
-            m >>= 1;
-            e += 1;
-        }
+    match pack(x & SIGN, e as u32, round_even::<3>(m)) {
+        Some(r) => r,
+        None => add_slow(a, b),
     }
-    if e >= 255 {
-        return a + b;
-    }
-    f32::from_bits((x & SIGN) | (e as u32) << 23 | (m & FRAC))
 }
 
 /// [`mul_int`], inline.
@@ -239,30 +271,29 @@ fn mul_inline(a: f32, b: f32) -> f32 {
     let (ua, ub) = (a.to_bits(), b.to_bits());
     let (aa, ab) = (ua & !SIGN, ub & !SIGN);
     if !normal(aa) || !normal(ab) {
-        return a * b;
+        return mul_slow(a, b);
     }
-    let e = (aa >> 23) as i32 + (ab >> 23) as i32 - 127;
-    // The exact product of the 24-bit significands: [2^46, 2^48).
-    let p = u64::from((aa & FRAC) | EXP_ONE) * u64::from((ab & FRAC) | EXP_ONE);
-    let (mut m, rem, half, mut e) = if p >> 47 != 0 {
-        ((p >> 24) as u32, p as u32 & 0xFF_FFFF, 1u32 << 23, e + 1)
+    // Biased exponent of the product when the significands' product is below 2: 2 ..= 381.
+    let mut e = (aa >> 23) + (ab >> 23);
+    // Significands with the leading 1 at bits 31 and 30: the product is in [2^61, 2^63), its
+    // high word in [2^29, 2^31).
+    let p = u64::from(((aa & FRAC) | EXP_ONE) << 8) * u64::from(((ab & FRAC) | EXP_ONE) << 7);
+    let (hi, lo) = ((p >> 32) as u32, p as u32);
+    // The leading 1 to bit 30, seven bits below the last kept one, the rest sticky in bit 0.
+    let m = if hi >= 1 << 30 {
+        e += 1;
+        hi | u32::from(lo != 0)
     } else {
-        ((p >> 23) as u32, p as u32 & FRAC, 1u32 << 22, e)
+        hi << 1 | u32::from(lo != 0)
     };
-    if e <= 0 {
-        return a * b;
+    // Below 128 the product is subnormal or underflows (the operator rounds it).
+    if e <= 127 {
+        return mul_slow(a, b);
     }
-    if rem > half || (rem == half && m & 1 == 1) {
-        m += 1;
-        if m == 1 << 24 {
-            m >>= 1;
-            e += 1;
-        }
+    match pack((ua ^ ub) & SIGN, e - 127, round_even::<7>(m)) {
+        Some(r) => r,
+        None => mul_slow(a, b),
     }
-    if e >= 255 {
-        return a * b;
-    }
-    f32::from_bits(((ua ^ ub) & SIGN) | (e as u32) << 23 | (m & FRAC))
 }
 
 #[cfg(test)]
