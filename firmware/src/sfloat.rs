@@ -20,6 +20,8 @@ const EXP_ONE: u32 = 0x0080_0000;
 const NORMAL_SPAN: u32 = 0x7F00_0000;
 const FRAC: u32 = 0x007F_FFFF;
 const SIGN: u32 = 0x8000_0000;
+/// `|x|` bits of +∞: below it, finite.
+const INF: u32 = 0x7F80_0000;
 
 /// `a + b`.
 #[inline(always)]
@@ -152,18 +154,34 @@ pub fn mul_int(a: f32, b: f32) -> f32 {
     mul_inline(a, b)
 }
 
-/// The operator's sum, for the operands and results the integer path leaves out. Cold and out
-/// of line, so the integer path needs no stack frame (the call is a tail call).
-#[cold]
+/// The sum for the operands and results the integer path leaves out: a zero operand with a
+/// finite other one in integers (camera vectors and accumulators have zero components, so
+/// this is common), the rest by the operator. Out of line, so the integer path needs no
+/// stack frame (the call is a tail call).
 #[inline(never)]
 fn add_slow(a: f32, b: f32) -> f32 {
+    let (ua, ub) = (a.to_bits(), b.to_bits());
+    let (aa, ab) = (ua & !SIGN, ub & !SIGN);
+    if ab == 0 && aa < INF {
+        // x + ±0 = x for x ≠ 0; ±0 + ±0 is −0 only when both are −0 (ties to even).
+        return if aa != 0 { a } else { f32::from_bits(ua & ub) };
+    }
+    if aa == 0 && ab < INF {
+        return b;
+    }
     a + b
 }
 
-/// The operator's product, as [`add_slow`].
-#[cold]
+/// The product for the operands and results the integer path leaves out: a zero times a
+/// finite number in integers (the zero with the sign of the product), the rest by the
+/// operator. Out of line, as [`add_slow`].
 #[inline(never)]
 fn mul_slow(a: f32, b: f32) -> f32 {
+    let (ua, ub) = (a.to_bits(), b.to_bits());
+    let (aa, ab) = (ua & !SIGN, ub & !SIGN);
+    if (aa == 0 && ab < INF) || (ab == 0 && aa < INF) {
+        return f32::from_bits((ua ^ ub) & SIGN);
+    }
     a * b
 }
 
