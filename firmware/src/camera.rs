@@ -248,7 +248,7 @@ impl Camera {
     /// order, `(forward + sx·right) + sy·cam_up`.
     #[inline(always)]
     fn dir_f32(&self, x: u32, sy_up: Vec3) -> Vec3 {
-        let sx = mul(sub(mul(2.0, add(sfloat::u32_to_f32(x), 0.5)) / self.width, 1.0), self.half_w);
+        let sx = mul(sub(sfloat::div(mul(2.0, add(sfloat::u32_to_f32(x), 0.5)), self.width), 1.0), self.half_w);
         vadd(vadd(self.forward, vscale(self.right, sx)), sy_up)
     }
 

@@ -49,6 +49,16 @@ pub fn mul(a: f32, b: f32) -> f32 {
     }
 }
 
+/// `a / b`.
+#[inline(always)]
+pub fn div(a: f32, b: f32) -> f32 {
+    if cfg!(soft_float) {
+        div_int(a, b)
+    } else {
+        a / b
+    }
+}
+
 /// `a + b` of glam's `Vec3`.
 #[inline(always)]
 pub fn vadd(a: Vec3, b: Vec3) -> Vec3 {
@@ -183,6 +193,83 @@ fn mul_slow(a: f32, b: f32) -> f32 {
         return f32::from_bits((ua ^ ub) & SIGN);
     }
     a * b
+}
+
+/// `a / b` in integers when both are normal and the quotient is normal, else the operator:
+/// a reciprocal of the divisor's significand from a 64-entry table and two Newton–Raphson
+/// steps in 32-bit fixed point (multiplies only: a soft-core's divider takes ~32 cycles per
+/// `divu`), the quotient from it, then corrected against its exact remainder, so the
+/// rounding is the operator's whatever the estimate's error.
+#[inline(never)]
+#[allow(clippy::arithmetic_side_effects)] // bounded by the normal-number ranges checked first
+pub fn div_int(a: f32, b: f32) -> f32 {
+    let (ua, ub) = (a.to_bits(), b.to_bits());
+    let (aa, ab) = (ua & !SIGN, ub & !SIGN);
+    if !normal(aa) || !normal(ab) {
+        return div_slow(a, b);
+    }
+    let mut e = (aa >> 23) as i32 - (ab >> 23) as i32 + 127;
+    let mut x = (aa & FRAC) | EXP_ONE;
+    let y = (ab & FRAC) | EXP_ONE;
+    // x in [y, 2y): the quotient q = floor(x·2^24 / y) lies in [2^24, 2^25).
+    if x < y {
+        x <<= 1;
+        e -= 1;
+    }
+    if e <= 0 {
+        return div_slow(a, b);
+    }
+    // y' = y·2^-24 in [1/2, 1) as 0.32 fixed point; r ≈ 1/y' in 2.30, from below after the
+    // first step (Newton's iteration for 1/y' never overshoots, truncation only lowers it).
+    let yq = y << 8;
+    let mut r = u32::from(RECIP[(yq >> 25 & 63) as usize]) << 15;
+    // Two steps r·(2 − y'·r), written out (a loop costs a counter at opt-level "s"):
+    // t = y'·r in 2.30, r < 2^31 and 2 − y'r ≤ 1 + 2^-6, so the shifts fit.
+    let t = mulhi(yq, r);
+    r = mulhi(r << 1, ((1 << 31) - t) << 1);
+    let t = mulhi(yq, r);
+    r = mulhi(r << 1, ((1 << 31) - t) << 1);
+    // q from below: x·r·2^5 truncated (r is within 2^-26 of 1/y', so q is the floor or one
+    // below it), then up to the exact floor by the remainder.
+    let mut q = mulhi(x << 7, r) >> 5;
+    // The remainder x·2^24 − q·y is below 2^32: exact in wrapping arithmetic.
+    let mut rem = (x << 24).wrapping_sub(q.wrapping_mul(y));
+    if rem >= y {
+        rem -= y;
+        q += 1;
+    }
+    if rem >= y {
+        return div_slow(a, b);
+    }
+    match pack((ua ^ ub) & SIGN, e as u32, round_even::<2>(q << 1 | u32::from(rem != 0))) {
+        Some(r) => r,
+        None => div_slow(a, b),
+    }
+}
+
+/// The high word of the 64-bit product (`mulhu`).
+#[inline(always)]
+fn mulhi(a: u32, b: u32) -> u32 {
+    ((u64::from(a) * u64::from(b)) >> 32) as u32
+}
+
+/// `round(2^15 / y')` at the middle of each of 64 equal steps of y' in [1/2, 1): the start of
+/// [`div_int`]'s reciprocal, about 7 bits.
+const RECIP: [u16; 64] = {
+    let mut t = [0u16; 64];
+    let mut i = 0;
+    while i < 64 {
+        // y' = (129 + 2i)/256: 2^15/y' = 2^23/(129 + 2i), rounded.
+        t[i] = ((1u32 << 24) / (129 + 2 * i as u32)).div_ceil(2) as u16;
+        i += 1;
+    }
+    t
+};
+
+/// The quotient for the operands and results [`div_int`] leaves out: the operator.
+#[inline(never)]
+fn div_slow(a: f32, b: f32) -> f32 {
+    a / b
 }
 
 /// Rounds a significand `m` with its leading 1 at bit `23 + G` and `G` bits below the last
@@ -369,6 +456,20 @@ mod tests {
             assert!(same(add_int(a, b), a + b), "{a:e} + {b:e}: {:e} != {:e}", add_int(a, b), a + b);
             assert!(same(add_int(a, -b), a - b), "{a:e} - {b:e}");
             assert!(same(mul_int(a, b), a * b), "{a:e} * {b:e}: {:e} != {:e}", mul_int(a, b), a * b);
+        }
+        for i in 0..4_000_000u32 {
+            let seed = f32::from_bits(rng.gen::<u32>() & !SIGN | 0x3F00_0000);
+            let a = operand(&mut rng, seed);
+            let b = operand(&mut rng, a);
+            let (a, b) = if i & 1 == 0 { (a, b) } else { (b, a) };
+            assert!(same(div_int(a, b), a / b), "{a:e} / {b:e}: {:e} != {:e}", div_int(a, b), a / b);
+        }
+        // Every divisor significand against 1 and against the largest numerator significand.
+        for m in 0..1u32 << 23 {
+            let b = f32::from_bits(0x3F80_0000 | m);
+            assert!(same(div_int(1.0, b), 1.0 / b), "1 / {b:e}");
+            let a = f32::from_bits(0x3FFF_FFFF);
+            assert!(same(div_int(a, b), a / b), "{a:e} / {b:e}");
         }
         // x − x is +0 under ties-to-even, as the operator gives.
         assert_eq!(add_int(1.5, -1.5).to_bits(), 0);

@@ -19,7 +19,7 @@
 //! come from the scene upload and the caller, are accessed with `get`.
 
 use super::grid::{GridDesc, MAX_GRID_DIM};
-use crate::sfloat::{add, mul, sub, trunc_i32};
+use crate::sfloat::{add, div, mul, sub, trunc_i32};
 use gridrt_shared::fsl::VOXEL_MASK;
 use gridrt_shared::math::{gamma, Ray};
 use gridrt_shared::scene::EMPTY_VOXEL;
@@ -131,7 +131,7 @@ impl WalkGrid {
         if !self.valid || !valid_ray || t_max.is_nan() {
             return 0;
         }
-        let inv = [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]];
+        let inv = [div(1.0, d[0]), div(1.0, d[1]), div(1.0, d[2])];
         // Without an infinite reciprocal no clip distance or boundary can be NaN (finite ·
         // finite), and the comparisons may be made on integers (module doc); a soft-float core
         // does so.
