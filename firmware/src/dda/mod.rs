@@ -36,7 +36,7 @@ pub use fixed::{DdaOverflow, FixedTraversal};
 pub use float::Traversal;
 pub use grid::{GridDesc, VoxelStep, MAX_GRID_DIM};
 pub use list::{build_list, build_list_in, TraversalList, MAX_LIST};
-pub use request::WalkGrid;
+pub use request::{OriginPlanes, WalkGrid};
 
 #[cfg(test)]
 mod tests;

@@ -58,6 +58,29 @@ pub struct WalkGrid {
     planes: [[f32; PLANES]; 3],
 }
 
+/// The walk's subtractions that depend only on the ray origin, for one origin: `plane − o` for
+/// every boundary plane and the clip's `min − o`, `max − o` ([`WalkGrid::origin_planes`]).
+/// Every camera ray of a frame starts at the eye, so a walk from this table
+/// ([`WalkGrid::write_entries_from`]) does one multiplication per boundary where it did a
+/// subtraction and a multiplication: the same f32 operations on the same operands, the same
+/// entries bit for bit.
+#[derive(Debug, Clone)]
+pub struct OriginPlanes {
+    /// The bits of the origin and of the grid (`min`, `max`, voxels per axis) the table is
+    /// for; `None`: no table yet.
+    key: Option<[u32; 12]>,
+    /// `min − o` and `max − o` per axis.
+    clip: [[f32; 2]; 3],
+    /// `plane − o` per axis and plane.
+    diff: [[f32; PLANES]; 3],
+}
+
+impl Default for OriginPlanes {
+    fn default() -> Self {
+        Self { key: None, clip: [[0.0; 2]; 3], diff: [[0.0; PLANES]; 3] }
+    }
+}
+
 /// `x` is neither infinite nor NaN (a bit test: no float compare on a soft-float core).
 #[inline(always)]
 fn finite(x: f32) -> bool {
@@ -114,11 +137,12 @@ impl WalkGrid {
         self.write_entries_in(INTEGER_KEYS, voxel_pe, ray, t_max, words)
     }
 
-    /// [`write_entries`](Self::write_entries), comparing on integer keys where that is exact
-    /// (`keys`) or always in f32.
-    pub(super) fn write_entries_in(
+    /// [`write_entries_in`](Self::write_entries_in) with the origin's subtractions from
+    /// `table` (the caller checked it is this ray's).
+    pub(super) fn write_entries_with(
         &self,
         keys: bool,
+        table: Option<&OriginPlanes>,
         voxel_pe: &[u8],
         ray: &Ray,
         t_max: f32,
@@ -136,7 +160,64 @@ impl WalkGrid {
         // finite), and the comparisons may be made on integers (module doc); a soft-float core
         // does so.
         let no_nan = inv.iter().all(|&i| finite(i));
-        self.walk(Order { keys: no_nan && keys }, keys, voxel_pe, o, d, inv, t_max, words)
+        self.walk(Order { keys: no_nan && keys }, keys, table, voxel_pe, o, d, inv, t_max, words)
+    }
+
+    /// [`write_entries`](Self::write_entries), comparing on integer keys where that is exact
+    /// (`keys`) or always in f32.
+    pub(super) fn write_entries_in(
+        &self,
+        keys: bool,
+        voxel_pe: &[u8],
+        ray: &Ray,
+        t_max: f32,
+        words: &mut [u32],
+    ) -> usize {
+        self.write_entries_with(keys, None, voxel_pe, ray, t_max, words)
+    }
+
+    /// What an [`OriginPlanes`] for rays from `o` on this grid is keyed by.
+    fn origin_key(&self, o: [f32; 3]) -> [u32; 12] {
+        let mut k = [0u32; 12];
+        for a in 0..3 {
+            k[a] = o[a].to_bits();
+            k[3 + a] = self.min[a].to_bits();
+            k[6 + a] = self.max[a].to_bits();
+            k[9 + a] = self.dims[a] as u32;
+        }
+        k
+    }
+
+    /// Makes `table` the [`OriginPlanes`] of rays from `origin` on this grid, unless it is
+    /// already (a few comparisons; the table itself costs a subtraction per plane).
+    pub fn origin_planes(&self, origin: [f32; 3], table: &mut OriginPlanes) {
+        let key = self.origin_key(origin);
+        if table.key == Some(key) {
+            return;
+        }
+        for a in 0..3 {
+            let o = origin[a];
+            table.clip[a] = [sub(self.min[a], o), sub(self.max[a], o)];
+            let n = self.dims[a].clamp(0, PLANES as i32 - 1) as usize;
+            for (d, &p) in table.diff[a].iter_mut().zip(&self.planes[a]).take(n + 1) {
+                *d = sub(p, o);
+            }
+        }
+        table.key = Some(key);
+    }
+
+    /// [`write_entries`](Self::write_entries), taking the subtractions from `table` when it
+    /// is the [`OriginPlanes`] of this ray's origin on this grid (the same entries either way).
+    pub fn write_entries_from(
+        &self,
+        table: &OriginPlanes,
+        voxel_pe: &[u8],
+        ray: &Ray,
+        t_max: f32,
+        words: &mut [u32],
+    ) -> usize {
+        let from = table.key == Some(self.origin_key(ray.origin.to_array()));
+        self.write_entries_with(INTEGER_KEYS, from.then_some(table), voxel_pe, ray, t_max, words)
     }
 
     /// The start cell of `Traversal::new` on axis `a` from `q = entry − min`:
@@ -172,6 +253,7 @@ impl WalkGrid {
         &self,
         ord: Order,
         fast: bool,
+        table: Option<&OriginPlanes>,
         voxel_pe: &[u8],
         o: [f32; 3],
         d: [f32; 3],
@@ -182,8 +264,12 @@ impl WalkGrid {
         // The clip of `Aabb::clip` over [0, t_max].
         let (mut t0, mut t1) = (0.0f32, t_max);
         for a in 0..3 {
-            let mut near = mul(sub(self.min[a], o[a]), inv[a]);
-            let mut far = mul(sub(self.max[a], o[a]), inv[a]);
+            let [dn, df] = match table {
+                Some(t) => t.clip[a],
+                None => [sub(self.min[a], o[a]), sub(self.max[a], o[a])],
+            };
+            let mut near = mul(dn, inv[a]);
+            let mut far = mul(df, inv[a]);
             if ord.lt(far, near) {
                 core::mem::swap(&mut near, &mut far);
             }
@@ -203,6 +289,12 @@ impl WalkGrid {
         }
         // `Traversal::new`: start cell, step and first boundary per axis.
         // Built axis by axis as values (constant indices, no array initialisation).
+        // The planes a crossing is computed from: `plane − o` from the table, else the planes.
+        let planes = match table {
+            Some(t) => &t.diff,
+            None => &self.planes,
+        };
+        let pre = table.is_some();
         let axis = |a: usize| {
             let n = self.dims[a];
             let entry = add(o[a], mul(d[a], t0));
@@ -224,17 +316,18 @@ impl WalkGrid {
                 plane,
                 stride: step * self.stride[a] as i32,
                 o: o[a],
+                pre,
                 inv: inv[a],
                 t_next: f32::INFINITY,
             };
             if step != 0 {
-                ax.t_next = ax.crossing(&self.planes[a]);
+                ax.t_next = ax.crossing(&planes[a]);
             }
             ax
         };
         let axes = [axis(0), axis(1), axis(2)];
         let voxel = axes[0].cell as u32 + self.stride[1] * axes[1].cell as u32 + self.stride[2] * axes[2].cell as u32;
-        let walk = Walk { planes: &self.planes, voxel_pe, t0, t_end: t1, bound: self.bound };
+        let walk = Walk { planes, voxel_pe, t0, t_end: t1, bound: self.bound };
         walk.run(ord, axes, voxel, words)
     }
 }
@@ -252,15 +345,19 @@ struct Axis {
     /// Voxel-id change of a step.
     stride: i32,
     o: f32,
+    /// The planes are `plane − o` already ([`OriginPlanes`]).
+    pre: bool,
     inv: f32,
     t_next: f32,
 }
 
 impl Axis {
-    /// The parameter of boundary plane `self.plane`: `(plane − o) · (1/d)`, from the table.
+    /// The parameter of boundary plane `self.plane`: `(plane − o) · (1/d)`, from the table
+    /// (of planes, or of `plane − o`).
     #[inline(always)]
     fn crossing(&self, planes: &[f32; PLANES]) -> f32 {
-        mul(sub(planes[self.plane as usize], self.o), self.inv)
+        let p = planes[self.plane as usize];
+        mul(if self.pre { p } else { sub(p, self.o) }, self.inv)
     }
 
     /// Steps into the next cell; false when that leaves the grid (the walk ends).
