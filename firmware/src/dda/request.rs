@@ -66,9 +66,14 @@ pub struct WalkGrid {
 /// entries bit for bit.
 #[derive(Debug, Clone)]
 pub struct OriginPlanes {
+    /// The table holds values (else it is to be built before use).
+    filled: bool,
     /// The bits of the origin and of the grid (`min`, `max`, voxels per axis) the table is
-    /// for; `None`: no table yet.
-    key: Option<[u32; 12]>,
+    /// for.
+    origin: [u32; 3],
+    min: [u32; 3],
+    max: [u32; 3],
+    dims: [u32; 3],
     /// `min − o` and `max − o` per axis.
     clip: [[f32; 2]; 3],
     /// `plane − o` per axis and plane.
@@ -77,7 +82,15 @@ pub struct OriginPlanes {
 
 impl Default for OriginPlanes {
     fn default() -> Self {
-        Self { key: None, clip: [[0.0; 2]; 3], diff: [[0.0; PLANES]; 3] }
+        Self {
+            filled: false,
+            origin: [0; 3],
+            min: [0; 3],
+            max: [0; 3],
+            dims: [0; 3],
+            clip: [[0.0; 2]; 3],
+            diff: [[0.0; PLANES]; 3],
+        }
     }
 }
 
@@ -176,48 +189,54 @@ impl WalkGrid {
         self.write_entries_with(keys, None, voxel_pe, ray, t_max, words)
     }
 
-    /// What an [`OriginPlanes`] for rays from `o` on this grid is keyed by.
-    fn origin_key(&self, o: [f32; 3]) -> [u32; 12] {
-        let mut k = [0u32; 12];
+    /// `table` is the [`OriginPlanes`] of rays from `origin` on this grid (word comparisons:
+    /// a derived `==` on arrays is a byte-wise `memcmp` call on a soft-core).
+    #[inline(always)]
+    fn origin_table_fits(&self, origin: [f32; 3], table: &OriginPlanes) -> bool {
+        let mut diff = u32::from(!table.filled);
         for a in 0..3 {
-            k[a] = o[a].to_bits();
-            k[3 + a] = self.min[a].to_bits();
-            k[6 + a] = self.max[a].to_bits();
-            k[9 + a] = self.dims[a] as u32;
+            diff |= (table.origin[a] ^ origin[a].to_bits())
+                | (table.min[a] ^ self.min[a].to_bits())
+                | (table.max[a] ^ self.max[a].to_bits())
+                | (table.dims[a] ^ self.dims[a] as u32);
         }
-        k
+        diff == 0
     }
 
-    /// Makes `table` the [`OriginPlanes`] of rays from `origin` on this grid, unless it is
-    /// already (a few comparisons; the table itself costs a subtraction per plane).
-    pub fn origin_planes(&self, origin: [f32; 3], table: &mut OriginPlanes) {
-        let key = self.origin_key(origin);
-        if table.key == Some(key) {
-            return;
-        }
+    /// Makes `table` the [`OriginPlanes`] of rays from `origin` on this grid: a subtraction
+    /// per plane.
+    pub(super) fn fill_origin_planes(&self, origin: [f32; 3], table: &mut OriginPlanes) {
         for a in 0..3 {
             let o = origin[a];
+            table.origin[a] = o.to_bits();
+            table.min[a] = self.min[a].to_bits();
+            table.max[a] = self.max[a].to_bits();
+            table.dims[a] = self.dims[a] as u32;
             table.clip[a] = [sub(self.min[a], o), sub(self.max[a], o)];
             let n = self.dims[a].clamp(0, PLANES as i32 - 1) as usize;
             for (d, &p) in table.diff[a].iter_mut().zip(&self.planes[a]).take(n + 1) {
                 *d = sub(p, o);
             }
         }
-        table.key = Some(key);
+        table.filled = true;
     }
 
-    /// [`write_entries`](Self::write_entries), taking the subtractions from `table` when it
-    /// is the [`OriginPlanes`] of this ray's origin on this grid (the same entries either way).
+    /// [`write_entries`](Self::write_entries) for rays that mostly share an origin (camera
+    /// rays): the subtractions that depend only on the origin come from `table`, which is
+    /// rebuilt first when it is not this ray's origin's on this grid. The same entries.
     pub fn write_entries_from(
         &self,
-        table: &OriginPlanes,
+        table: &mut OriginPlanes,
         voxel_pe: &[u8],
         ray: &Ray,
         t_max: f32,
         words: &mut [u32],
     ) -> usize {
-        let from = table.key == Some(self.origin_key(ray.origin.to_array()));
-        self.write_entries_with(INTEGER_KEYS, from.then_some(table), voxel_pe, ray, t_max, words)
+        let origin = ray.origin.to_array();
+        if !self.origin_table_fits(origin, table) {
+            self.fill_origin_planes(origin, table);
+        }
+        self.write_entries_with(INTEGER_KEYS, Some(table), voxel_pe, ray, t_max, words)
     }
 
     /// The start cell of `Traversal::new` on axis `a` from `q = entry − min`:

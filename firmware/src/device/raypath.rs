@@ -82,8 +82,7 @@ impl<L: FslLink> RayPath<L> {
         let entries = self.request.get_mut(RAY_HEADER_WORDS..).unwrap_or(&mut []);
         // Camera rays share the eye: their walks take `plane − o` from one table per frame.
         let n = if let RayClass::Primary = class {
-            scene.walk.origin_planes(ray.origin.to_array(), &mut self.eye_planes);
-            scene.walk.write_entries_from(&self.eye_planes, map, ray, t_max, entries)
+            scene.walk.write_entries_from(&mut self.eye_planes, map, ray, t_max, entries)
         } else {
             scene.walk.write_entries(map, ray, t_max, entries)
         };
