@@ -80,8 +80,9 @@ impl<L: FslLink> RayPath<L> {
     ) -> Result<Option<RayResult>, Fail> {
         let map = scene.voxel_pe.get(..scene.voxels).unwrap_or(&[]);
         let entries = self.request.get_mut(RAY_HEADER_WORDS..).unwrap_or(&mut []);
-        // Camera rays share the eye: their walks take `plane − o` from one table per frame.
-        let n = if let RayClass::Primary = class {
+        // Camera rays share the eye: on a soft-float core their walks take `plane − o` from
+        // one table per frame (with an FPU the subtraction costs less than the table's check).
+        let n = if cfg!(soft_float) && matches!(class, RayClass::Primary) {
             scene.walk.write_entries_from(&mut self.eye_planes, map, ray, t_max, entries)
         } else {
             scene.walk.write_entries(map, ray, t_max, entries)
