@@ -78,6 +78,9 @@ pub struct OriginPlanes {
     clip: [[f32; 2]; 3],
     /// `plane − o` per axis and plane.
     diff: [[f32; PLANES]; 3],
+    /// Per axis: a ray from this origin that enters the box through a face of the axis
+    /// starts in the cell at that face ([`WalkGrid::fill_origin_planes`]).
+    face_cell: [bool; 3],
 }
 
 impl Default for OriginPlanes {
@@ -90,6 +93,7 @@ impl Default for OriginPlanes {
             dims: [0; 3],
             clip: [[0.0; 2]; 3],
             diff: [[0.0; PLANES]; 3],
+            face_cell: [false; 3],
         }
     }
 }
@@ -220,6 +224,15 @@ impl WalkGrid {
             for (d, &p) in table.diff[a].iter_mut().zip(&self.planes[a]).take(n + 1) {
                 *d = sub(p, o);
             }
+            // A ray entering through the face `f` (min or max) of axis a at t0 = (f − o)·(1/d)
+            // (each rounded) has its entry o + d·t0 within 4.1u·|f − o| + 1.01u·|f| of f, u =
+            // 2^-24, and the start cell's formula (q/extent)·n is then off its exact value (0 or
+            // n) by at most n·(5.3u·A/extent + 4.1u), A the largest of |min − o|, |max − o|,
+            // |min|, |max|: below 1, so the cell is the face's, when A·n ≤ extent·2^19 (a
+            // factor 2 to spare for the roundings of this test).
+            let abs = |x: f32| f32::from_bits(x.to_bits() & !0x8000_0000);
+            let largest = abs(table.clip[a][0]).max(abs(table.clip[a][1])).max(abs(self.min[a])).max(abs(self.max[a]));
+            table.face_cell[a] = mul(largest, self.nf[a]) <= mul(self.extent[a], 524_288.0);
         }
         table.filled = true;
     }
@@ -285,6 +298,8 @@ impl WalkGrid {
     ) -> usize {
         // The clip of `Aabb::clip` over [0, t_max].
         let (mut t0, mut t1) = (0.0f32, t_max);
+        // The axis through whose face the ray enters (t0 > 0), and whether that is the max face.
+        let mut face: Option<(usize, bool)> = None;
         for a in 0..3 {
             let [dn, df] = match table {
                 Some(t) => t.clip[a],
@@ -292,12 +307,14 @@ impl WalkGrid {
             };
             let mut near = mul(dn, inv[a]);
             let mut far = mul(df, inv[a]);
-            if ord.lt(far, near) {
+            let swapped = ord.lt(far, near);
+            if swapped {
                 core::mem::swap(&mut near, &mut far);
             }
             far = mul(far, WIDEN);
             if ord.lt(t0, near) {
                 t0 = near;
+                face = Some((a, swapped));
             }
             if ord.lt(far, t1) {
                 t1 = far;
@@ -319,8 +336,21 @@ impl WalkGrid {
         let pre = table.is_some();
         let axis = |a: usize| {
             let n = self.dims[a];
-            let entry = add(o[a], mul(d[a], t0));
-            let cell = self.start_cell(fast, a, sub(entry, self.min[a]));
+            let cell = match (face, table) {
+                // Entered through a face of this axis, and the table's bound holds: the
+                // formula gives the face's cell (`OriginPlanes::face_cell`).
+                (Some((f, max_face)), Some(t)) if f == a && t.face_cell[a] => {
+                    if max_face {
+                        n - 1
+                    } else {
+                        0
+                    }
+                }
+                _ => {
+                    let entry = add(o[a], mul(d[a], t0));
+                    self.start_cell(fast, a, sub(entry, self.min[a]))
+                }
+            };
             // Direction 0 (either sign): never stepped, the boundary stays at +∞. The sign
             // bit of a non-zero direction is its direction.
             let bits = d[a].to_bits();
