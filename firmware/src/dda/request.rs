@@ -201,8 +201,8 @@ impl WalkGrid {
     #[inline(always)]
     fn origin_table_fits(&self, origin: [f32; 3], table: &OriginPlanes) -> bool {
         let mut diff = u32::from(!table.filled);
-        for a in 0..3 {
-            diff |= (table.origin[a] ^ origin[a].to_bits())
+        for (a, o) in origin.iter().enumerate() {
+            diff |= (table.origin[a] ^ o.to_bits())
                 | (table.min[a] ^ self.min[a].to_bits())
                 | (table.max[a] ^ self.max[a].to_bits())
                 | (table.dims[a] ^ self.dims[a] as u32);
@@ -213,8 +213,7 @@ impl WalkGrid {
     /// Makes `table` the [`OriginPlanes`] of rays from `origin` on this grid: a subtraction
     /// per plane.
     pub(super) fn fill_origin_planes(&self, origin: [f32; 3], table: &mut OriginPlanes) {
-        for a in 0..3 {
-            let o = origin[a];
+        for (a, &o) in origin.iter().enumerate() {
             table.origin[a] = o.to_bits();
             table.min[a] = self.min[a].to_bits();
             table.max[a] = self.max[a].to_bits();
