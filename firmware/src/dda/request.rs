@@ -59,7 +59,8 @@ pub struct WalkGrid {
 }
 
 /// The walk's subtractions that depend only on the ray origin, for one origin: `plane − o` for
-/// every boundary plane and the clip's `min − o`, `max − o` ([`WalkGrid::origin_planes`]).
+/// every boundary plane and the clip's `min − o`, `max − o`, built by
+/// [`WalkGrid::write_entries_from`] when its ray has another origin or grid.
 /// Every camera ray of a frame starts at the eye, so a walk from this table
 /// ([`WalkGrid::write_entries_from`]) does one multiplication per boundary where it did a
 /// subtraction and a multiplication: the same f32 operations on the same operands, the same
@@ -79,7 +80,7 @@ pub struct OriginPlanes {
     /// `plane − o` per axis and plane.
     diff: [[f32; PLANES]; 3],
     /// Per axis: a ray from this origin that enters the box through a face of the axis
-    /// starts in the cell at that face ([`WalkGrid::fill_origin_planes`]).
+    /// starts in the cell at that face (the bound is in `WalkGrid::fill_origin_planes`).
     face_cell: [bool; 3],
 }
 
