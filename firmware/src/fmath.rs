@@ -67,7 +67,7 @@ pub fn length(v: Vec3) -> f32 {
 /// with [`sqrt`].
 #[inline]
 pub fn try_normalize(v: Vec3) -> Option<Vec3> {
-    let rcp = 1.0 / length(v);
+    let rcp = sfloat::div(1.0, length(v));
     // Finite and > 0: the bits of +min subnormal ..= +MAX (a bit test, no float compare).
     if rcp.to_bits().wrapping_sub(1) < 0x7F7F_FFFF {
         Some(sfloat::vscale(v, rcp))

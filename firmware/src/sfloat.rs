@@ -20,6 +20,8 @@ const EXP_ONE: u32 = 0x0080_0000;
 const NORMAL_SPAN: u32 = 0x7F00_0000;
 const FRAC: u32 = 0x007F_FFFF;
 const SIGN: u32 = 0x8000_0000;
+/// `|x|` bits of +∞: below it, finite.
+const INF: u32 = 0x7F80_0000;
 
 /// `a + b`.
 #[inline(always)]
@@ -44,6 +46,16 @@ pub fn mul(a: f32, b: f32) -> f32 {
         mul_int(a, b)
     } else {
         a * b
+    }
+}
+
+/// `a / b`.
+#[inline(always)]
+pub fn div(a: f32, b: f32) -> f32 {
+    if cfg!(soft_float) {
+        div_int(a, b)
+    } else {
+        a / b
     }
 }
 
@@ -152,6 +164,140 @@ pub fn mul_int(a: f32, b: f32) -> f32 {
     mul_inline(a, b)
 }
 
+/// The sum for the operands and results the integer path leaves out: a zero operand with a
+/// finite other one in integers (camera vectors and accumulators have zero components, so
+/// this is common), the rest by the operator. Out of line, so the integer path needs no
+/// stack frame (the call is a tail call).
+#[inline(never)]
+fn add_slow(a: f32, b: f32) -> f32 {
+    let (ua, ub) = (a.to_bits(), b.to_bits());
+    let (aa, ab) = (ua & !SIGN, ub & !SIGN);
+    if ab == 0 && aa < INF {
+        // x + ±0 = x for x ≠ 0; ±0 + ±0 is −0 only when both are −0 (ties to even).
+        return if aa != 0 { a } else { f32::from_bits(ua & ub) };
+    }
+    if aa == 0 && ab < INF {
+        return b;
+    }
+    a + b
+}
+
+/// The product for the operands and results the integer path leaves out: a zero times a
+/// finite number in integers (the zero with the sign of the product), the rest by the
+/// operator. Out of line, as [`add_slow`].
+#[inline(never)]
+fn mul_slow(a: f32, b: f32) -> f32 {
+    let (ua, ub) = (a.to_bits(), b.to_bits());
+    let (aa, ab) = (ua & !SIGN, ub & !SIGN);
+    if (aa == 0 && ab < INF) || (ab == 0 && aa < INF) {
+        return f32::from_bits((ua ^ ub) & SIGN);
+    }
+    a * b
+}
+
+/// `a / b` in integers when both are normal and the quotient is normal, else the operator:
+/// a reciprocal of the divisor's significand from a 64-entry table and two Newton–Raphson
+/// steps in 32-bit fixed point (multiplies only: a soft-core's divider takes ~32 cycles per
+/// `divu`), the quotient from it, then corrected against its exact remainder, so the
+/// rounding is the operator's whatever the estimate's error.
+#[inline(never)]
+#[allow(clippy::arithmetic_side_effects)] // bounded by the normal-number ranges checked first
+pub fn div_int(a: f32, b: f32) -> f32 {
+    let (ua, ub) = (a.to_bits(), b.to_bits());
+    let (aa, ab) = (ua & !SIGN, ub & !SIGN);
+    if !normal(aa) || !normal(ab) {
+        return div_slow(a, b);
+    }
+    let mut e = (aa >> 23) as i32 - (ab >> 23) as i32 + 127;
+    let mut x = (aa & FRAC) | EXP_ONE;
+    let y = (ab & FRAC) | EXP_ONE;
+    // x in [y, 2y): the quotient q = floor(x·2^24 / y) lies in [2^24, 2^25).
+    if x < y {
+        x <<= 1;
+        e -= 1;
+    }
+    if e <= 0 {
+        return div_slow(a, b);
+    }
+    // y' = y·2^-24 in [1/2, 1) as 0.32 fixed point; r ≈ 1/y' in 2.30, from below after the
+    // first step (Newton's iteration for 1/y' never overshoots, truncation only lowers it).
+    let yq = y << 8;
+    let mut r = u32::from(RECIP[(yq >> 25 & 63) as usize]) << 15;
+    // Two steps r·(2 − y'·r), written out (a loop costs a counter at opt-level "s"):
+    // t = y'·r in 2.30, r < 2^31 and 2 − y'r ≤ 1 + 2^-6, so the shifts fit.
+    let t = mulhi(yq, r);
+    r = mulhi(r << 1, ((1 << 31) - t) << 1);
+    let t = mulhi(yq, r);
+    r = mulhi(r << 1, ((1 << 31) - t) << 1);
+    // q from below: x·r·2^5 truncated (r is within 2^-26 of 1/y', so q is the floor or one
+    // below it), then up to the exact floor by the remainder.
+    let mut q = mulhi(x << 7, r) >> 5;
+    // The remainder x·2^24 − q·y is below 2^32: exact in wrapping arithmetic.
+    let mut rem = (x << 24).wrapping_sub(q.wrapping_mul(y));
+    if rem >= y {
+        rem -= y;
+        q += 1;
+    }
+    if rem >= y {
+        return div_slow(a, b);
+    }
+    match pack((ua ^ ub) & SIGN, e as u32, round_even::<2>(q << 1 | u32::from(rem != 0))) {
+        Some(r) => r,
+        None => div_slow(a, b),
+    }
+}
+
+/// The high word of the 64-bit product (`mulhu`).
+#[inline(always)]
+fn mulhi(a: u32, b: u32) -> u32 {
+    ((u64::from(a) * u64::from(b)) >> 32) as u32
+}
+
+/// `round(2^15 / y')` at the middle of each of 64 equal steps of y' in [1/2, 1): the start of
+/// [`div_int`]'s reciprocal, about 7 bits.
+const RECIP: [u16; 64] = {
+    let mut t = [0u16; 64];
+    let mut i = 0;
+    while i < 64 {
+        // y' = (129 + 2i)/256: 2^15/y' = 2^23/(129 + 2i), rounded.
+        t[i] = ((1u32 << 24) / (129 + 2 * i as u32)).div_ceil(2) as u16;
+        i += 1;
+    }
+    t
+};
+
+/// The quotient for the operands and results [`div_int`] leaves out: the operator.
+#[inline(never)]
+fn div_slow(a: f32, b: f32) -> f32 {
+    a / b
+}
+
+/// Rounds a significand `m` with its leading 1 at bit `23 + G` and `G` bits below the last
+/// kept bit (sticky folded into the lowest) to nearest, ties to even: adding `2^(G−1) − 1`
+/// plus the last kept bit carries exactly when the dropped bits exceed half, or equal it with
+/// an odd last bit. The result lies in `[2^23, 2^24]`; 2^24 (a carry out of the significand)
+/// packs as the next binade with [`pack`].
+#[inline(always)]
+#[allow(clippy::arithmetic_side_effects)] // m < 2^31: no overflow
+fn round_even<const G: u32>(m: u32) -> u32 {
+    (m + ((1 << (G - 1)) - 1) + ((m >> G) & 1)) >> G
+}
+
+/// The bits of `sign · m · 2^(e − 127 − 23)` for a biased exponent `e ≥ 1` and `m` in
+/// `[2^23, 2^24]`: the leading 1 of `m` adds itself to the exponent field (so a rounding
+/// carry to 2^24 moves to the next binade by itself). `None` when that reaches the exponent
+/// field of infinities (the caller then takes the operator's result).
+#[inline(always)]
+#[allow(clippy::arithmetic_side_effects)] // e ≤ 510, m ≤ 2^24: below 2^32
+fn pack(sign: u32, e: u32, m: u32) -> Option<f32> {
+    let r = ((e - 1) << 23) + m;
+    if r >= 0x7F80_0000 {
+        None
+    } else {
+        Some(f32::from_bits(sign | r))
+    }
+}
+
 /// [`add_int`], inline.
 #[inline(always)]
 #[allow(clippy::arithmetic_side_effects)] // bounded by the normal-number ranges checked first
@@ -159,7 +305,7 @@ fn add_inline(a: f32, b: f32) -> f32 {
     let (ua, ub) = (a.to_bits(), b.to_bits());
     let (aa, ab) = (ua & !SIGN, ub & !SIGN);
     if !normal(aa) || !normal(ab) {
-        return a + b;
+        return add_slow(a, b);
     }
     // x: the operand of larger magnitude (its sign is the result's).
     let (x, ax, ay) = if aa >= ab { (ua, aa, ab) } else { (ub, ab, aa) };
@@ -214,22 +360,13 @@ fn add_inline(a: f32, b: f32) -> f32 {
             e -= 1;
         }
         if e <= 0 {
-            return a + b;
+            return add_slow(a, b);
         }
     }
-    let low = m & 7;
-    m >>= 3;
-    if low > 4 || (low == 4 && m & 1 == 1) {
-        m += 1;
-        if m == 1 << 24 {
-            m >>= 1;
-            e += 1;
-        }
+    match pack(x & SIGN, e as u32, round_even::<3>(m)) {
+        Some(r) => r,
+        None => add_slow(a, b),
     }
-    if e >= 255 {
-        return a + b;
-    }
-    f32::from_bits((x & SIGN) | (e as u32) << 23 | (m & FRAC))
 }
 
 /// [`mul_int`], inline.
@@ -239,30 +376,29 @@ fn mul_inline(a: f32, b: f32) -> f32 {
     let (ua, ub) = (a.to_bits(), b.to_bits());
     let (aa, ab) = (ua & !SIGN, ub & !SIGN);
     if !normal(aa) || !normal(ab) {
-        return a * b;
+        return mul_slow(a, b);
     }
-    let e = (aa >> 23) as i32 + (ab >> 23) as i32 - 127;
-    // The exact product of the 24-bit significands: [2^46, 2^48).
-    let p = u64::from((aa & FRAC) | EXP_ONE) * u64::from((ab & FRAC) | EXP_ONE);
-    let (mut m, rem, half, mut e) = if p >> 47 != 0 {
-        ((p >> 24) as u32, p as u32 & 0xFF_FFFF, 1u32 << 23, e + 1)
+    // Biased exponent of the product when the significands' product is below 2: 2 ..= 381.
+    let mut e = (aa >> 23) + (ab >> 23);
+    // Significands with the leading 1 at bits 31 and 30: the product is in [2^61, 2^63), its
+    // high word in [2^29, 2^31).
+    let p = u64::from(((aa & FRAC) | EXP_ONE) << 8) * u64::from(((ab & FRAC) | EXP_ONE) << 7);
+    let (hi, lo) = ((p >> 32) as u32, p as u32);
+    // The leading 1 to bit 30, seven bits below the last kept one, the rest sticky in bit 0.
+    let m = if hi >= 1 << 30 {
+        e += 1;
+        hi | u32::from(lo != 0)
     } else {
-        ((p >> 23) as u32, p as u32 & FRAC, 1u32 << 22, e)
+        hi << 1 | u32::from(lo != 0)
     };
-    if e <= 0 {
-        return a * b;
+    // Below 128 the product is subnormal or underflows (the operator rounds it).
+    if e <= 127 {
+        return mul_slow(a, b);
     }
-    if rem > half || (rem == half && m & 1 == 1) {
-        m += 1;
-        if m == 1 << 24 {
-            m >>= 1;
-            e += 1;
-        }
+    match pack((ua ^ ub) & SIGN, e - 127, round_even::<7>(m)) {
+        Some(r) => r,
+        None => mul_slow(a, b),
     }
-    if e >= 255 {
-        return a * b;
-    }
-    f32::from_bits(((ua ^ ub) & SIGN) | (e as u32) << 23 | (m & FRAC))
 }
 
 #[cfg(test)]
@@ -320,6 +456,20 @@ mod tests {
             assert!(same(add_int(a, b), a + b), "{a:e} + {b:e}: {:e} != {:e}", add_int(a, b), a + b);
             assert!(same(add_int(a, -b), a - b), "{a:e} - {b:e}");
             assert!(same(mul_int(a, b), a * b), "{a:e} * {b:e}: {:e} != {:e}", mul_int(a, b), a * b);
+        }
+        for i in 0..4_000_000u32 {
+            let seed = f32::from_bits(rng.gen::<u32>() & !SIGN | 0x3F00_0000);
+            let a = operand(&mut rng, seed);
+            let b = operand(&mut rng, a);
+            let (a, b) = if i & 1 == 0 { (a, b) } else { (b, a) };
+            assert!(same(div_int(a, b), a / b), "{a:e} / {b:e}: {:e} != {:e}", div_int(a, b), a / b);
+        }
+        // Every divisor significand against 1 and against the largest numerator significand.
+        for m in 0..1u32 << 23 {
+            let b = f32::from_bits(0x3F80_0000 | m);
+            assert!(same(div_int(1.0, b), 1.0 / b), "1 / {b:e}");
+            let a = f32::from_bits(0x3FFF_FFFF);
+            assert!(same(div_int(a, b), a / b), "{a:e} / {b:e}");
         }
         // x − x is +0 under ties-to-even, as the operator gives.
         assert_eq!(add_int(1.5, -1.5).to_bits(), 0);

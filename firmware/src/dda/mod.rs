@@ -23,7 +23,7 @@
 //! | `float` | [`Traversal`]: clip and setup in f32, boundaries recomputed per step | `grid`, `walk` |
 //! | `fixed` | [`FixedTraversal`]: exact setup in integers, `t_delta` steps, [`DdaOverflow`] | `grid`, `walk` |
 //! | `list` | [`build_list`]: the non-empty voxels with their PE for the FSL request | all of the above |
-//! | `request` | [`WalkGrid`]: the f32 walk and the list fused, written as FSL request words (what the device runs) | `grid` |
+//! | `request` | [`WalkGrid`]: the f32 walk and the list fused, written as FSL request words (what the device runs); [`OriginPlanes`]: the camera rays' per-origin subtractions | `grid` |
 
 mod fixed;
 mod float;
@@ -36,7 +36,7 @@ pub use fixed::{DdaOverflow, FixedTraversal};
 pub use float::Traversal;
 pub use grid::{GridDesc, VoxelStep, MAX_GRID_DIM};
 pub use list::{build_list, build_list_in, TraversalList, MAX_LIST};
-pub use request::WalkGrid;
+pub use request::{OriginPlanes, WalkGrid};
 
 #[cfg(test)]
 mod tests;

@@ -19,7 +19,7 @@
 //! come from the scene upload and the caller, are accessed with `get`.
 
 use super::grid::{GridDesc, MAX_GRID_DIM};
-use crate::sfloat::{add, mul, sub, trunc_i32};
+use crate::sfloat::{add, div, mul, sub, trunc_i32};
 use gridrt_shared::fsl::VOXEL_MASK;
 use gridrt_shared::math::{gamma, Ray};
 use gridrt_shared::scene::EMPTY_VOXEL;
@@ -56,6 +56,47 @@ pub struct WalkGrid {
     bound: u32,
     /// Boundary plane k of axis a: `min + k·(extent/n)`, and exactly `max` for k = n.
     planes: [[f32; PLANES]; 3],
+}
+
+/// The walk's subtractions that depend only on the ray origin, for one origin: `plane − o` for
+/// every boundary plane and the clip's `min − o`, `max − o`, built by
+/// [`WalkGrid::write_entries_from`] when its ray has another origin or grid.
+/// Every camera ray of a frame starts at the eye, so a walk from this table
+/// ([`WalkGrid::write_entries_from`]) does one multiplication per boundary where it did a
+/// subtraction and a multiplication: the same f32 operations on the same operands, the same
+/// entries bit for bit.
+#[derive(Debug, Clone)]
+pub struct OriginPlanes {
+    /// The table holds values (else it is to be built before use).
+    filled: bool,
+    /// The bits of the origin and of the grid (`min`, `max`, voxels per axis) the table is
+    /// for.
+    origin: [u32; 3],
+    min: [u32; 3],
+    max: [u32; 3],
+    dims: [u32; 3],
+    /// `min − o` and `max − o` per axis.
+    clip: [[f32; 2]; 3],
+    /// `plane − o` per axis and plane.
+    diff: [[f32; PLANES]; 3],
+    /// Per axis: a ray from this origin that enters the box through a face of the axis
+    /// starts in the cell at that face (the bound is in `WalkGrid::fill_origin_planes`).
+    face_cell: [bool; 3],
+}
+
+impl Default for OriginPlanes {
+    fn default() -> Self {
+        Self {
+            filled: false,
+            origin: [0; 3],
+            min: [0; 3],
+            max: [0; 3],
+            dims: [0; 3],
+            clip: [[0.0; 2]; 3],
+            diff: [[0.0; PLANES]; 3],
+            face_cell: [false; 3],
+        }
+    }
 }
 
 /// `x` is neither infinite nor NaN (a bit test: no float compare on a soft-float core).
@@ -114,11 +155,15 @@ impl WalkGrid {
         self.write_entries_in(INTEGER_KEYS, voxel_pe, ray, t_max, words)
     }
 
-    /// [`write_entries`](Self::write_entries), comparing on integer keys where that is exact
-    /// (`keys`) or always in f32.
-    pub(super) fn write_entries_in(
+    /// [`write_entries_in`](Self::write_entries_in) with the origin's subtractions from
+    /// `table` (the caller checked it is this ray's).
+    // Inline on hard-float cores, where the plain walk then folds to what it was before the
+    // table; one copy on soft-float cores (measured: faster there, and smaller).
+    #[cfg_attr(not(soft_float), inline(always))]
+    pub(super) fn write_entries_with(
         &self,
         keys: bool,
+        table: Option<&OriginPlanes>,
         voxel_pe: &[u8],
         ray: &Ray,
         t_max: f32,
@@ -131,12 +176,88 @@ impl WalkGrid {
         if !self.valid || !valid_ray || t_max.is_nan() {
             return 0;
         }
-        let inv = [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]];
+        let inv = [div(1.0, d[0]), div(1.0, d[1]), div(1.0, d[2])];
         // Without an infinite reciprocal no clip distance or boundary can be NaN (finite ·
         // finite), and the comparisons may be made on integers (module doc); a soft-float core
         // does so.
         let no_nan = inv.iter().all(|&i| finite(i));
-        self.walk(Order { keys: no_nan && keys }, keys, voxel_pe, o, d, inv, t_max, words)
+        self.walk(Order { keys: no_nan && keys }, keys, table, voxel_pe, o, d, inv, t_max, words)
+    }
+
+    /// [`write_entries`](Self::write_entries), comparing on integer keys where that is exact
+    /// (`keys`) or always in f32.
+    pub(super) fn write_entries_in(
+        &self,
+        keys: bool,
+        voxel_pe: &[u8],
+        ray: &Ray,
+        t_max: f32,
+        words: &mut [u32],
+    ) -> usize {
+        self.write_entries_with(keys, None, voxel_pe, ray, t_max, words)
+    }
+
+    /// `table` is the [`OriginPlanes`] of rays from `origin` on this grid (word comparisons:
+    /// a derived `==` on arrays is a byte-wise `memcmp` call on a soft-core).
+    #[inline(always)]
+    fn origin_table_fits(&self, origin: [f32; 3], table: &OriginPlanes) -> bool {
+        let mut diff = u32::from(!table.filled);
+        for (a, o) in origin.iter().enumerate() {
+            diff |= (table.origin[a] ^ o.to_bits())
+                | (table.min[a] ^ self.min[a].to_bits())
+                | (table.max[a] ^ self.max[a].to_bits())
+                | (table.dims[a] ^ self.dims[a] as u32);
+        }
+        diff == 0
+    }
+
+    /// Makes `table` the [`OriginPlanes`] of rays from `origin` on this grid: a subtraction
+    /// per plane.
+    pub(super) fn fill_origin_planes(&self, origin: [f32; 3], table: &mut OriginPlanes) {
+        for (a, &o) in origin.iter().enumerate() {
+            table.origin[a] = o.to_bits();
+            table.min[a] = self.min[a].to_bits();
+            table.max[a] = self.max[a].to_bits();
+            table.dims[a] = self.dims[a] as u32;
+            table.clip[a] = [sub(self.min[a], o), sub(self.max[a], o)];
+            let n = self.dims[a].clamp(0, PLANES as i32 - 1) as usize;
+            for (d, &p) in table.diff[a].iter_mut().zip(&self.planes[a]).take(n + 1) {
+                *d = sub(p, o);
+            }
+            // A ray entering through the face `f` (min or max) of axis a at t0 = (f − o)·(1/d)
+            // (each rounded) has its entry o + d·t0 within 4.1u·|f − o| + 1.01u·|f| of f, u =
+            // 2^-24, and the start cell's formula (q/extent)·n is then off its exact value (0 or
+            // n) by at most n·(5.3u·A/extent + 4.1u), A the largest of |min − o|, |max − o|,
+            // |min|, |max|: below 1, so the cell is the face's, when A·n ≤ extent·2^19 (a
+            // factor 2 to spare for the roundings of this test).
+            let abs = |x: f32| f32::from_bits(x.to_bits() & !0x8000_0000);
+            let largest = abs(table.clip[a][0]).max(abs(table.clip[a][1])).max(abs(self.min[a])).max(abs(self.max[a]));
+            table.face_cell[a] = mul(largest, self.nf[a]) <= mul(self.extent[a], 524_288.0);
+        }
+        table.filled = true;
+    }
+
+    /// [`write_entries`](Self::write_entries) for rays that mostly share an origin (camera
+    /// rays): the subtractions that depend only on the origin come from `table`, which is
+    /// rebuilt first when it is not this ray's origin's on this grid. The same entries.
+    pub fn write_entries_from(
+        &self,
+        table: &mut OriginPlanes,
+        voxel_pe: &[u8],
+        ray: &Ray,
+        t_max: f32,
+        words: &mut [u32],
+    ) -> usize {
+        if !cfg!(soft_float) {
+            // With an FPU the subtraction costs less than the table's check (measured), and
+            // this keeps the hard-float walk one copy.
+            return self.write_entries(voxel_pe, ray, t_max, words);
+        }
+        let origin = ray.origin.to_array();
+        if !self.origin_table_fits(origin, table) {
+            self.fill_origin_planes(origin, table);
+        }
+        self.write_entries_with(INTEGER_KEYS, Some(table), voxel_pe, ray, t_max, words)
     }
 
     /// The start cell of `Traversal::new` on axis `a` from `q = entry − min`:
@@ -172,6 +293,7 @@ impl WalkGrid {
         &self,
         ord: Order,
         fast: bool,
+        table: Option<&OriginPlanes>,
         voxel_pe: &[u8],
         o: [f32; 3],
         d: [f32; 3],
@@ -181,15 +303,25 @@ impl WalkGrid {
     ) -> usize {
         // The clip of `Aabb::clip` over [0, t_max].
         let (mut t0, mut t1) = (0.0f32, t_max);
+        // The axis through whose face the ray enters (t0 > 0), and whether that is the max face.
+        let mut face: Option<(usize, bool)> = None;
         for a in 0..3 {
-            let mut near = mul(sub(self.min[a], o[a]), inv[a]);
-            let mut far = mul(sub(self.max[a], o[a]), inv[a]);
-            if ord.lt(far, near) {
+            let [dn, df] = match table {
+                Some(t) => t.clip[a],
+                None => [sub(self.min[a], o[a]), sub(self.max[a], o[a])],
+            };
+            let mut near = mul(dn, inv[a]);
+            let mut far = mul(df, inv[a]);
+            let swapped = ord.lt(far, near);
+            if swapped {
                 core::mem::swap(&mut near, &mut far);
             }
             far = mul(far, WIDEN);
             if ord.lt(t0, near) {
                 t0 = near;
+                if table.is_some() {
+                    face = Some((a, swapped));
+                }
             }
             if ord.lt(far, t1) {
                 t1 = far;
@@ -203,40 +335,83 @@ impl WalkGrid {
         }
         // `Traversal::new`: start cell, step and first boundary per axis.
         // Built axis by axis as values (constant indices, no array initialisation).
-        let axis = |a: usize| {
-            let n = self.dims[a];
-            let entry = add(o[a], mul(d[a], t0));
-            let cell = self.start_cell(fast, a, sub(entry, self.min[a]));
-            // Direction 0 (either sign): never stepped, the boundary stays at +∞. The sign
-            // bit of a non-zero direction is its direction.
-            let bits = d[a].to_bits();
-            let (step, plane) = if bits & 0x7FFF_FFFF == 0 {
-                (0, 0)
-            } else if bits & 0x8000_0000 == 0 {
-                (1, cell + 1)
-            } else {
-                (-1, cell)
-            };
-            let mut ax = Axis {
-                cell,
-                end: n,
-                step,
-                plane,
-                stride: step * self.stride[a] as i32,
-                o: o[a],
-                inv: inv[a],
-                t_next: f32::INFINITY,
-            };
-            if step != 0 {
-                ax.t_next = ax.crossing(&self.planes[a]);
-            }
-            ax
+        // The planes a crossing is computed from: `plane − o` from the table, else the planes.
+        let planes = match table {
+            Some(t) => &t.diff,
+            None => &self.planes,
         };
-        let axes = [axis(0), axis(1), axis(2)];
+        let pre = table.is_some();
+        // Entered through a face of axis f, and the table's bound holds: the start cell's
+        // formula gives the face's cell on that axis (`OriginPlanes::face_cell`).
+        let face_cell = match (face, table) {
+            (Some((f, max_face)), Some(t)) if t.face_cell[f] => Some((f, if max_face { self.dims[f] - 1 } else { 0 })),
+            _ => None,
+        };
+        let start = Start { fast, face_cell, o, d, inv, t0, pre };
+        let axes = [
+            self.start_axis(&start, planes, 0),
+            self.start_axis(&start, planes, 1),
+            self.start_axis(&start, planes, 2),
+        ];
         let voxel = axes[0].cell as u32 + self.stride[1] * axes[1].cell as u32 + self.stride[2] * axes[2].cell as u32;
-        let walk = Walk { planes: &self.planes, voxel_pe, t0, t_end: t1, bound: self.bound };
+        let walk = Walk { planes, voxel_pe, t0, t_end: t1, bound: self.bound };
         walk.run(ord, axes, voxel, words)
     }
+
+    /// Axis `a` of a walk: start cell, step and first boundary (`Traversal::new`). Inline:
+    /// as a closure the compiler kept it out of line, which cost imafc 70 instructions per
+    /// primary ray (measured); inline it also saves riscv32imac 44 for 600 bytes.
+    #[inline(always)]
+    fn start_axis(&self, s: &Start, planes: &[[f32; PLANES]; 3], a: usize) -> Axis {
+        let n = self.dims[a];
+        let cell = match s.face_cell {
+            Some((f, c)) if f == a => c,
+            _ => {
+                let entry = add(s.o[a], mul(s.d[a], s.t0));
+                self.start_cell(s.fast, a, sub(entry, self.min[a]))
+            }
+        };
+        // Direction 0 (either sign): never stepped, the boundary stays at +∞. The sign
+        // bit of a non-zero direction is its direction.
+        let bits = s.d[a].to_bits();
+        let (step, plane) = if bits & 0x7FFF_FFFF == 0 {
+            (0, 0)
+        } else if bits & 0x8000_0000 == 0 {
+            (1, cell + 1)
+        } else {
+            (-1, cell)
+        };
+        let mut ax = Axis {
+            cell,
+            end: n,
+            step,
+            plane,
+            stride: step * self.stride[a] as i32,
+            o: s.o[a],
+            pre: s.pre,
+            inv: s.inv[a],
+            t_next: f32::INFINITY,
+        };
+        if step != 0 {
+            ax.t_next = ax.crossing(&planes[a]);
+        }
+        ax
+    }
+}
+
+/// What [`WalkGrid::start_axis`] needs of the ray and its clip.
+struct Start {
+    /// The start cell without a division where that is exact.
+    fast: bool,
+    /// The axis and cell of the face the ray enters through, when the table's bound holds.
+    face_cell: Option<(usize, i32)>,
+    o: [f32; 3],
+    d: [f32; 3],
+    inv: [f32; 3],
+    /// The clip's entry.
+    t0: f32,
+    /// The planes are `plane − o` already.
+    pre: bool,
 }
 
 /// One axis of a walk: its cell, direction and next boundary.
@@ -252,15 +427,19 @@ struct Axis {
     /// Voxel-id change of a step.
     stride: i32,
     o: f32,
+    /// The planes are `plane − o` already ([`OriginPlanes`]).
+    pre: bool,
     inv: f32,
     t_next: f32,
 }
 
 impl Axis {
-    /// The parameter of boundary plane `self.plane`: `(plane − o) · (1/d)`, from the table.
+    /// The parameter of boundary plane `self.plane`: `(plane − o) · (1/d)`, from the table
+    /// (of planes, or of `plane − o`).
     #[inline(always)]
     fn crossing(&self, planes: &[f32; PLANES]) -> f32 {
-        mul(sub(planes[self.plane as usize], self.o), self.inv)
+        let p = planes[self.plane as usize];
+        mul(if self.pre { p } else { sub(p, self.o) }, self.inv)
     }
 
     /// Steps into the next cell; false when that leaves the grid (the walk ends).

@@ -444,12 +444,34 @@ fn request_words_equal_build_list() {
         let zero = |w: u32| if w == 0x8000_0000 { 0 } else { w };
         let want: Vec<[u32; 2]> =
             list.iter().take(cap).map(|e| gridrt_shared::fsl::entry_words(*e)).map(|[a, b]| [a, zero(b)]).collect();
+        // The origin's subtractions from an `OriginPlanes` give the same words.
+        let mut table = OriginPlanes::default();
+        walk.fill_origin_planes(case.ray.origin.to_array(), &mut table);
         for keys in [false, true] {
             let n = walk.write_entries_in(keys, &map, &case.ray, case.tmax, &mut words[..2 * cap]);
             let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
             assert_eq!(got, want, "keys {keys}: {:?} {:?} t_max {}", g, case.ray, case.tmax);
             nonempty += (n > 0) as u32;
+            let n = walk.write_entries_with(keys, Some(&table), &map, &case.ray, case.tmax, &mut words[..2 * cap]);
+            let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
+            assert_eq!(got, want, "table, keys {keys}: {:?} {:?} t_max {}", g, case.ray, case.tmax);
         }
+        // A table of another origin or grid is not used.
+        let other = Ray { origin: case.ray.origin + Vec3::X, dir: case.ray.dir };
+        let mut stale = OriginPlanes::default();
+        walk.fill_origin_planes(other.origin.to_array(), &mut stale);
+        for _ in 0..2 {
+            let n = walk.write_entries_from(&mut stale, &map, &case.ray, case.tmax, &mut words[..2 * cap]);
+            let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
+            assert_eq!(got, want, "stale table: {:?} {:?}", g, case.ray);
+        }
+        // ... nor is one of another grid.
+        let mut other_grid = OriginPlanes::default();
+        let shifted = GridDesc { min: g.min - Vec3::ONE, ..*g };
+        WalkGrid::new(&shifted).fill_origin_planes(case.ray.origin.to_array(), &mut other_grid);
+        let n = walk.write_entries_from(&mut other_grid, &map, &case.ray, case.tmax, &mut words[..2 * cap]);
+        let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
+        assert_eq!(got, want, "table of another grid: {:?} {:?}", g, case.ray);
     }
     assert!(nonempty > 20_000, "{nonempty}");
     // An invalid grid, ray or t_max walks nothing (as `build_list`).

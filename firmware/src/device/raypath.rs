@@ -11,7 +11,7 @@
 use super::fail::Fail;
 use super::scene::SceneStore;
 use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
-use crate::dda::MAX_LIST;
+use crate::dda::{OriginPlanes, MAX_LIST};
 use crate::fsl::FslLink;
 use gridrt_shared::fsl::{
     self as wire, op, FslError, ListEntry, RayKind, RayResult, ENTRY_WORDS, RAY_HEADER_WORDS, RESULT_WORDS,
@@ -49,12 +49,20 @@ pub(super) struct RayPath<L> {
     pub(super) stats: FrameStats,
     /// Poll budget of every blocking put/get.
     pub(super) polls: u32,
+    /// The walk's `plane − o` of the camera rays' origin (`dda::OriginPlanes`).
+    eye_planes: OriginPlanes,
 }
 
 impl<L: FslLink> RayPath<L> {
     /// A path over `link` with the default poll budget.
     pub(super) fn new(link: L) -> Self {
-        Self { link, request: [0; REQUEST_WORDS], stats: FrameStats::default(), polls: DEFAULT_POLLS }
+        Self {
+            link,
+            request: [0; REQUEST_WORDS],
+            stats: FrameStats::default(),
+            polls: DEFAULT_POLLS,
+            eye_planes: OriginPlanes::default(),
+        }
     }
 
     /// Traces one ray and charges its FSL words to `class`; `Ok(None)` when its list is empty
@@ -72,7 +80,13 @@ impl<L: FslLink> RayPath<L> {
     ) -> Result<Option<RayResult>, Fail> {
         let map = scene.voxel_pe.get(..scene.voxels).unwrap_or(&[]);
         let entries = self.request.get_mut(RAY_HEADER_WORDS..).unwrap_or(&mut []);
-        let n = scene.walk.write_entries(map, ray, t_max, entries);
+        // Camera rays share the eye: on a soft-float core their walks take `plane − o` from
+        // one table per frame (with an FPU the subtraction costs less than the table's check).
+        let n = if cfg!(soft_float) && matches!(class, RayClass::Primary) {
+            scene.walk.write_entries_from(&mut self.eye_planes, map, ray, t_max, entries)
+        } else {
+            scene.walk.write_entries(map, ray, t_max, entries)
+        };
         sw.lap(clock, &mut self.stats, Stage::Traverse);
         if n == 0 {
             count(&mut self.stats.culled_rays, 1);
