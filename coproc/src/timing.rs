@@ -176,10 +176,10 @@ impl TimingProfile {
     /// - `voxel_setup_cycles = 1`: the voxel lookup happens while the list streams in; an
     ///   entry's ref range is in the PE's queue, one cycle to take it.
     /// - `test_latency_cycles = 67`: ref word and record reads (2 + 3), the 59-stage test
-    ///   (shear 7, edges 5, determinant and weights 6, depth 8, normalisation 2, a 27-step
+    ///   (shear 7, edges 5, determinant and weights 6, depth 7, normalisation 2, a 27-step
     ///   restoring divider, rounding 3), acceptance and the entry's winner (3). Each stage
     ///   holds at most one wide carry chain so the clock can close (rtl/README.md §5).
-    /// - `ray_setup_cycles = 24`: the dominant axis, six pipelined f32 → fixed conversions,
+    /// - `ray_setup_cycles = 25`: the dominant axis, six pipelined f32 → fixed conversions,
     ///   the two shear divisions (2 quotient bits per cycle), and the start of the PEs.
     /// - `arbitration_cycles = 7`: the first-hit decision, the winner's result and triangle
     ///   (two memory reads), before the first RESULT word.
@@ -198,7 +198,7 @@ impl TimingProfile {
         word_in_cycles: 1,
         word_out_cycles: 1,
         arbitration_cycles: 7,
-        ray_setup_cycles: 24,
+        ray_setup_cycles: 25,
     };
 
     /// Sustained ray–triangle tests per second of `pes` PEs that are always busy

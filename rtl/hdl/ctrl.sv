@@ -193,7 +193,7 @@ module ctrl #(
     // Schedule: max - min in steps 1-3, the extent's s in FR_STEP_S, the conversions of the
     // minimum from FR_STEP_CV, the frame set in FR_STEP_END.
     localparam int FR_ADD_LAT = 6;      // f32_addsub
-    localparam int FR_CV_LAT = 3;       // f32_to_fixed
+    localparam int FR_CV_LAT = 4;       // f32_to_fixed
     localparam int FR_STEP_S = 4 + FR_ADD_LAT;
     localparam int FR_STEP_CV = FR_STEP_S + 1;
     localparam int FR_STEP_END = FR_STEP_CV + 2 + FR_CV_LAT;
@@ -635,9 +635,11 @@ module ctrl #(
             fr_s <= (fr_ext[30:0] == 0) ? 10'sd0 : (pow2 ? 10'sd4 - e : 10'sd3 - e);
         end
         // Conversions of the minimum in steps 8-10, ready FR_CV_LAT steps later.
-        if (fr_step >= 5'(FR_STEP_CV + FR_CV_LAT) && fr_step <= 5'(FR_STEP_END)) begin
-            frame_qm[2'(fr_step - 5'(FR_STEP_CV + FR_CV_LAT))] <= fr_cv_q;
-            frame_huge[2'(fr_step - 5'(FR_STEP_CV + FR_CV_LAT))] <= fr_cv_huge;
+        for (int a = 0; a < 3; a++) begin
+            if (fr_step == 5'(FR_STEP_CV + FR_CV_LAT + a)) begin
+                frame_qm[a] <= fr_cv_q;
+                frame_huge[a] <= fr_cv_huge;
+            end
         end
         if (fr_step == 5'(FR_STEP_END)) begin
             frame_s <= fr_s;

@@ -25,7 +25,7 @@ module ray_setup (
     // Schedule (steps from 1): the dominant axis in step 1; the converter takes the three
     // direction components in steps 2-4 and the origin in 5-7, each ready CV_LAT steps later;
     // the permutation once the direction is in; DIV_STEPS divider steps; `done` after them.
-    localparam int CV_LAT = 3;                          // f32_to_fixed
+    localparam int CV_LAT = 4;                          // f32_to_fixed
     localparam int STEP_DIR = 2;                        // first direction conversion
     localparam int STEP_ORG = 5;                        // first origin conversion
     localparam int STEP_PERMUTE = STEP_DIR + 3 + CV_LAT;
@@ -74,12 +74,15 @@ module ray_setup (
     function automatic logic [47:0] div2(input logic [23:0] r0, input logic [23:0] q0,
                                          input logic [23:0] dv, input logic first);
         logic [24:0] r;
+        logic [25:0] diff;
         logic [23:0] rem, q;
         rem = r0;
         q = q0;
         for (int i = 0; i < 2; i++) begin
             r = (first && i == 0) ? {1'b0, rem} : {rem, 1'b0};
-            if (r >= {1'b0, dv}) begin rem = 24'(r - {1'b0, dv}); q = {q[22:0], 1'b1}; end
+            // One subtractor: its borrow is the comparison.
+            diff = {1'b0, r} - {2'b00, dv};
+            if (!diff[25]) begin rem = 24'(diff); q = {q[22:0], 1'b1}; end
             else begin rem = 24'(r); q = {q[22:0], 1'b0}; end
         end
         div2 = {rem, q};
@@ -113,15 +116,18 @@ module ray_setup (
             if (step >= 6'(STEP_DIR + CV_LAT) && step < 6'(STEP_DIR + CV_LAT + 3))
                 d[2'(step - 6'(STEP_DIR + CV_LAT))] <= 25'(cv_q);
             // Origin: subtract the frame minimum as each conversion arrives, then the range.
-            if (step >= 6'(STEP_ORG + CV_LAT) && step < 6'(STEP_ORG + CV_LAT + 3)) begin
-                od <= 56'(cv_q) - 56'($signed(frame_qm[2'(step - 6'(STEP_ORG + CV_LAT))]));
-                od_bad <= cv_huge || frame_huge[2'(step - 6'(STEP_ORG + CV_LAT))];
-            end
-            if (step >= 6'(STEP_ORG + CV_LAT + 1) && step < 6'(STEP_ORG + CV_LAT + 4)) begin
-                // |od| >= 2^33 as bit tests.
-                if (od_bad || (od[55] ? (od[54:33] != '1 || od[32:0] == 0) : od[54:33] != 0))
-                    overflow <= 1'b1;
-                o[2'(step - 6'(STEP_ORG + CV_LAT + 1))] <= 34'(od);
+            // (Constant indices: a variable index into a packed array costs a multiplier.)
+            for (int i = 0; i < 3; i++) begin
+                if (step == 6'(STEP_ORG + CV_LAT + i)) begin
+                    od <= 56'(cv_q) - 56'($signed(frame_qm[i]));
+                    od_bad <= cv_huge || frame_huge[i];
+                end
+                if (step == 6'(STEP_ORG + CV_LAT + 1 + i)) begin
+                    // |od| >= 2^33 as bit tests.
+                    if (od_bad || (od[55] ? (od[54:33] != '1 || od[32:0] == 0) : od[54:33] != 0))
+                        overflow <= 1'b1;
+                    o[i] <= 34'(od);
+                end
             end
             if (step == 6'(STEP_PERMUTE)) begin
                 // Permute the direction (kz=0: y,z,x; kz=1: z,x,y; kz=2: x,y,z) and set up the

@@ -35,7 +35,7 @@ module tri_loader (
     logic [3:0]         ci;
     assign ci = 4'(step - 6'd1);
     logic        cv_in, cv_out_unused;
-    localparam int CV_LAT = 3;          // f32_to_fixed
+    localparam int CV_LAT = 4;          // f32_to_fixed
     assign cv_in = step >= 6'd1 && step <= 6'd9;
     assign cv_x = cv_in ? v[ci] : 32'd0;
     f32_to_fixed u_cv (.clk, .in_valid(cv_in), .x(cv_x), .k(frame_s + 10'sd23), .out_valid(cv_out_unused),
@@ -59,14 +59,20 @@ module tri_loader (
         mul_in = 1'b0;
         mul_a = 32'd0;
         mul_b = 32'd0;
-        if (step >= 6'd1 && step <= 6'd6) begin
-            add_in = 1'b1;
-            add_a = v[3 + int'(step) - 1];
-            add_b = v[(int'(step) - 1) % 3];
-        end else if (step >= 6'(STEP_NSUB) && step <= 6'(STEP_NSUB + 2)) begin
-            add_in = 1'b1;
-            add_a = pp[2 * (int'(step) - STEP_NSUB)];
-            add_b = pp[2 * (int'(step) - STEP_NSUB) + 1];
+        // d1 = b - a, d2 = c - a; then the normal's three differences of products.
+        for (int i = 0; i < 6; i++) begin
+            if (step == 6'(1 + i)) begin
+                add_in = 1'b1;
+                add_a = v[3 + i];
+                add_b = v[i % 3];
+            end
+        end
+        for (int i = 0; i < 3; i++) begin
+            if (step == 6'(STEP_NSUB + i)) begin
+                add_in = 1'b1;
+                add_a = pp[2 * i];
+                add_b = pp[2 * i + 1];
+            end
         end
         // x = d1y*d2z - d2y*d1z, y = d1z*d2x - d2z*d1x, z = d1x*d2y - d2x*d1y
         case (step)
@@ -112,17 +118,18 @@ module tri_loader (
         end else if (step != 0) begin
             step <= (step == 6'(LATENCY)) ? 6'd0 : step + 6'd1;
             // Coordinates: converted in steps 1-9, minus the frame minimum CV_LAT steps later.
-            if (step >= 6'(1 + CV_LAT) && step <= 6'(9 + CV_LAT)) begin
-                logic signed [55:0] x;
-                logic [3:0]         j;
-                j = 4'(step - 6'(1 + CV_LAT));
-                x = 56'(cv_q) - 56'($signed(frame_qm[2'(j % 4'd3)]));
-                // |x| > 2^31 - 1 as bit tests.
-                if (cv_huge || frame_huge[2'(j % 4'd3)] || (x[55] ? (x[54:31] != '1 || x[30:0] == 0) : x[54:31] != 0)) begin
-                    c[j] <= 32'h8000_0000;
-                    ovf <= 1'b1;
-                end else begin
-                    c[j] <= 32'(x);
+            // (Constant indices: a variable index into a packed array costs a multiplier.)
+            for (int j = 0; j < 9; j++) begin
+                if (step == 6'(1 + CV_LAT + j)) begin
+                    logic signed [55:0] x;
+                    x = 56'(cv_q) - 56'($signed(frame_qm[j % 3]));
+                    // |x| > 2^31 - 1 as bit tests.
+                    if (cv_huge || frame_huge[j % 3] || (x[55] ? (x[54:31] != '1 || x[30:0] == 0) : x[54:31] != 0)) begin
+                        c[j] <= 32'h8000_0000;
+                        ovf <= 1'b1;
+                    end else begin
+                        c[j] <= 32'(x);
+                    end
                 end
             end
             if (step == 6'(STEP_DEG_MUL - 1)) begin
@@ -138,8 +145,7 @@ module tri_loader (
                 degenerate <= dp[0] == dp[1] && dp[2] == dp[3] && dp[4] == dp[5];
             if (add_out && step >= 6'(1 + ADD_LAT) && step <= 6'(6 + ADD_LAT)) dd[3'(step - 6'(1 + ADD_LAT))] <= add_y;
             if (mul_out) pp[3'(step - 6'(STEP_MUL + MUL_LAT))] <= mul_y;
-            if (add_out && step >= 6'(STEP_NSUB + ADD_LAT) && step <= 6'(STEP_NSUB + 2 + ADD_LAT))
-                normal[2'(step - 6'(STEP_NSUB + ADD_LAT))] <= add_y;
+            for (int i = 0; i < 3; i++) if (step == 6'(STEP_NSUB + ADD_LAT + i)) normal[i] <= add_y;
             if (step == 6'(LATENCY)) begin
                 for (int i = 0; i < 9; i++) coord[i] <= (!ovf && degenerate) ? 32'd0 : c[i];
                 done <= 1'b1;
