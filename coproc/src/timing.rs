@@ -185,8 +185,8 @@ impl TimingProfile {
     ///   (two memory reads), before the first RESULT word.
     ///
     /// Over whole frames (bun_zipper_res4, 4 PEs; BENCHMARKS.md "Co-processor RTL") the RTL
-    /// takes 130.7 cycles per co-processor ray at 64×48 and 130.6 at 320×240, the same as this
-    /// profile to the cycle, while [`TimingProfile::PIPELINED`] gives 77.4 and 77.3 (−41 %):
+    /// takes 133.7 cycles per co-processor ray at 64×48 and 133.6 at 320×240, the same as this
+    /// profile to the cycle, while [`TimingProfile::PIPELINED`] gives 77.4 and 77.3 (−42 %):
     /// that profile describes no built design, so frame-time figures of the RTL (`bench frame`'s
     /// `rtl` configuration) take this one.
     pub const RTL: TimingProfile = TimingProfile {
