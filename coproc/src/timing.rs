@@ -175,29 +175,30 @@ impl TimingProfile {
     /// closes (`cargo xtask rtl synth`); 50 MHz here, GridRT's, so figures compare directly.
     /// - `voxel_setup_cycles = 1`: the voxel lookup happens while the list streams in; an
     ///   entry's ref range is in the PE's queue, one cycle to take it.
-    /// - `test_latency_cycles = 56`: ref word and record reads (2 + 3), the 48-stage test
-    ///   (shear 4, edges 4, determinant and weights 5, depth 4, normalisation 2, a 27-step
-    ///   restoring divider, rounding), acceptance and the entry's winner (3).
-    /// - `ray_setup_cycles = 33`: the dominant axis, six f32 → fixed conversions and the two
-    ///   24-step shear divisions, and the start of the PEs.
+    /// - `test_latency_cycles = 67`: ref word and record reads (2 + 3), the 59-stage test
+    ///   (shear 7, edges 5, determinant and weights 6, depth 7, normalisation 2, a 27-step
+    ///   restoring divider, rounding 3), acceptance and the entry's winner (3). Each stage
+    ///   holds at most one wide carry chain so the clock can close (rtl/README.md §5).
+    /// - `ray_setup_cycles = 25`: the dominant axis, six pipelined f32 → fixed conversions,
+    ///   the two shear divisions (2 quotient bits per cycle), and the start of the PEs.
     /// - `arbitration_cycles = 7`: the first-hit decision, the winner's result and triangle
     ///   (two memory reads), before the first RESULT word.
     ///
     /// Over whole frames (bun_zipper_res4, 4 PEs; BENCHMARKS.md "Co-processor RTL") the RTL
-    /// takes 130.7 cycles per co-processor ray at 64×48 and 130.6 at 320×240, the same as this
-    /// profile to the cycle, while [`TimingProfile::PIPELINED`] gives 77.4 and 77.3 (−41 %):
+    /// takes 133.7 cycles per co-processor ray at 64×48 and 133.6 at 320×240, the same as this
+    /// profile to the cycle, while [`TimingProfile::PIPELINED`] gives 77.4 and 77.3 (−42 %):
     /// that profile describes no built design, so frame-time figures of the RTL (`bench frame`'s
     /// `rtl` configuration) take this one.
     pub const RTL: TimingProfile = TimingProfile {
         name: "rtl",
         clock_hz: 50_000_000,
         test_issue_cycles: 1,
-        test_latency_cycles: 56,
+        test_latency_cycles: 67,
         voxel_setup_cycles: 1,
         word_in_cycles: 1,
         word_out_cycles: 1,
         arbitration_cycles: 7,
-        ray_setup_cycles: 33,
+        ray_setup_cycles: 25,
     };
 
     /// Sustained ray–triangle tests per second of `pes` PEs that are always busy

@@ -168,7 +168,7 @@ module ctrl #(
     logic [1:0]     ld_sub3;
     logic [3:0]     ld_sub11, ld_sub16;
     logic [AW:0]    ld_tri_base;    // image index of the current triangle
-    logic [AW+4:0]  ld_tri_count;   // triangles seen (record index)
+    logic [AW+5:0]  ld_rec_addr;    // the next record's address: n + 10 * triangles seen
     logic [8:0][31:0] ld_v9;
     logic [31:0]    ld_prim;
     logic           ld_last;        // the triangle being processed ended the image
@@ -190,12 +190,22 @@ module ctrl #(
     logic              fr_cv_huge;
     f32_addsub u_fr_sub (.clk, .in_valid(fr_sub_in), .a(fr_sub_a), .b(fr_sub_b), .sub(1'b1),
                          .out_valid(fr_sub_out), .y(fr_sub_y));
-    f32_to_fixed u_fr_cv (.x(fr_cv_x), .k(fr_s + 10'sd23), .q(fr_cv_q), .huge(fr_cv_huge));
+    // Schedule: max - min in steps 1-3, the extent's s in FR_STEP_S, the conversions of the
+    // minimum from FR_STEP_CV, the frame set in FR_STEP_END.
+    localparam int FR_ADD_LAT = 6;      // f32_addsub
+    localparam int FR_CV_LAT = 4;       // f32_to_fixed
+    localparam int FR_STEP_S = 4 + FR_ADD_LAT;
+    localparam int FR_STEP_CV = FR_STEP_S + 1;
+    localparam int FR_STEP_END = FR_STEP_CV + 2 + FR_CV_LAT;
+    logic              fr_cv_in, fr_cv_out_unused;
+    f32_to_fixed u_fr_cv (.clk, .in_valid(fr_cv_in), .x(fr_cv_x), .k(fr_s + 10'sd23), .out_valid(fr_cv_out_unused),
+                          .q(fr_cv_q), .huge(fr_cv_huge));
     always_comb begin
         fr_sub_in = busy == BZ_FRAME && fr_step >= 5'd1 && fr_step <= 5'd3;
         fr_sub_a = fr_box[3 + int'(fr_step) - 1];
         fr_sub_b = fr_box[int'(fr_step) - 1];
-        fr_cv_x = fr_box[(fr_step >= 5'd8 && fr_step <= 5'd10) ? int'(fr_step) - 8 : 0];
+        fr_cv_in = busy == BZ_FRAME && fr_step >= 5'(FR_STEP_CV) && fr_step <= 5'(FR_STEP_CV + 2);
+        fr_cv_x = fr_box[fr_cv_in ? int'(fr_step) - FR_STEP_CV : 0];
     end
 
     // ================================================================ ray setup
@@ -330,7 +340,7 @@ module ctrl #(
                         ld_tag_ok <= 1'b0;
                         ld_bad <= 1'b0;
                         ld_have_prev <= 1'b0;
-                        ld_tri_count <= '0;
+                        ld_rec_addr <= (AW+6)'((AW+1)'(w));
                         rx <= RX_LOAD_WORDS;
                     end
                 end
@@ -544,7 +554,7 @@ module ctrl #(
     task automatic tri_step();
         if (tl_done) begin
             logic [AW+5:0] addr;
-            addr = (AW+6)'(ld_n) + (AW+6)'(ld_tri_count) * (AW+6)'(10);
+            addr = ld_rec_addr;
             if (addr + (AW+6)'(10) <= (AW+6)'(WORDS)) begin
                 logic [511:0] rec;
                 rec = '0;
@@ -559,7 +569,7 @@ module ctrl #(
                     pe_b_wdata[32*b +: 32] <= rec[32*j +: 32];
                 end
             end
-            ld_tri_count <= ld_tri_count + 1'b1;
+            ld_rec_addr <= ld_rec_addr + (AW+6)'(10);
             pe_a_addr[ld_pe] <= AW'(ld_tri_base);
             pe_a_we[ld_pe] <= 1'b1;
             pe_a_wdata <= tl_normal[0];
@@ -601,10 +611,11 @@ module ctrl #(
     // ---------------------------------------------------------------- FRAME computation
     task automatic frame_step();
         fr_step <= fr_step + 5'd1;
-        // Steps 1-3 issue max - min; results in steps 4-6; extent kept as the largest.
-        if (fr_step == 5'd4) fr_ext <= fr_sub_y;
-        if (fr_step == 5'd5 || fr_step == 5'd6) if (fr_sub_y[30:0] > fr_ext[30:0]) fr_ext <= fr_sub_y;
-        if (fr_step == 5'd7) begin
+        // Steps 1-3 issue max - min, results FR_ADD_LAT steps later; the extent is the largest.
+        if (fr_step == 5'(1 + FR_ADD_LAT)) fr_ext <= fr_sub_y;
+        if (fr_step == 5'(2 + FR_ADD_LAT) || fr_step == 5'(3 + FR_ADD_LAT))
+            if (fr_sub_y[30:0] > fr_ext[30:0]) fr_ext <= fr_sub_y;
+        if (fr_step == 5'(FR_STEP_S)) begin
             // s = 4 - ceil(log2 extent); 0 for a zero extent.
             logic signed [9:0] e;
             logic              pow2;
@@ -623,11 +634,14 @@ module ctrl #(
             end
             fr_s <= (fr_ext[30:0] == 0) ? 10'sd0 : (pow2 ? 10'sd4 - e : 10'sd3 - e);
         end
-        if (fr_step >= 5'd8 && fr_step <= 5'd10) begin
-            frame_qm[2'(fr_step - 5'd8)] <= fr_cv_q;
-            frame_huge[2'(fr_step - 5'd8)] <= fr_cv_huge;
+        // Conversions of the minimum in steps 8-10, ready FR_CV_LAT steps later.
+        for (int a = 0; a < 3; a++) begin
+            if (fr_step == 5'(FR_STEP_CV + FR_CV_LAT + a)) begin
+                frame_qm[a] <= fr_cv_q;
+                frame_huge[a] <= fr_cv_huge;
+            end
         end
-        if (fr_step == 5'd10) begin
+        if (fr_step == 5'(FR_STEP_END)) begin
             frame_s <= fr_s;
             loaded <= '0;
             reply({4'h9, OP_FRAME, 24'd0});
@@ -700,7 +714,7 @@ module ctrl #(
                     lk_step <= 4'd15;
                 end else begin
                     lk_mid <= mid;
-                    pe_a_addr[ent_pe] <= AW'(5) + AW'(mid) * AW'(3);
+                    pe_a_addr[ent_pe] <= AW'(5) + AW'(mid) + (AW'(mid) << 1);
                     lk_step <= 4'd2;
                 end
             end
@@ -714,12 +728,12 @@ module ctrl #(
                     lk_hi <= lk_mid;
                     lk_step <= 4'd1;
                 end else begin
-                    pe_a_addr[ent_pe] <= AW'(6) + AW'(lk_mid) * AW'(3);
+                    pe_a_addr[ent_pe] <= AW'(6) + AW'(lk_mid) + (AW'(lk_mid) << 1);
                     lk_step <= 4'd5;
                 end
             end
             4'd5: begin
-                pe_a_addr[ent_pe] <= AW'(7) + AW'(lk_mid) * AW'(3);
+                pe_a_addr[ent_pe] <= AW'(7) + AW'(lk_mid) + (AW'(lk_mid) << 1);
                 lk_step <= 4'd6;
             end
             4'd6: lk_step <= 4'd7;
@@ -757,7 +771,8 @@ module ctrl #(
         case (res_step)
             4'd0: pe_res_k <= win_k;
             4'd1: ;
-            4'd2: pe_b_addr[win_pe] <= pe_tri_off[win_pe] + AW'(pe_res_tri[win_pe]) * AW'(11);
+            4'd2: pe_b_addr[win_pe] <= pe_tri_off[win_pe] + AW'(pe_res_tri[win_pe]) + (AW'(pe_res_tri[win_pe]) << 1)
+                                       + (AW'(pe_res_tri[win_pe]) << 3);
             4'd3: ;
             default: ;
         endcase

@@ -4,8 +4,8 @@
 // result is the canonical quiet NaN 0x7FC00000 (the co-processor's only NaN sources are
 // inf - inf and inf * 0 in the normal, which the model canonicalises the same way).
 //
-// Pipeline: 3 stages (unpack and swap | align and add | normalise and round); one operation
-// per cycle; `out_valid` follows `in_valid` by LATENCY cycles.
+// Pipeline: 6 stages (unpack and swap | align | add | leading zeros | normalise | round
+// and pack); one operation per cycle; `out_valid` follows `in_valid` by LATENCY cycles.
 module f32_addsub (
     input  logic        clk,
     input  logic        in_valid,
@@ -15,7 +15,7 @@ module f32_addsub (
     output logic        out_valid,
     output logic [31:0] y
 );
-    localparam int LATENCY = 3;
+    localparam int LATENCY = 6;
 
     // ---------------------------------------------------------------- stage 1: unpack, order
     logic [31:0] b_eff;
@@ -50,11 +50,13 @@ module f32_addsub (
         s1_mlo      <= {elo != 0, lo[22:0]};
     end
 
-    // ---------------------------------------------------------------- stage 2: align, add
+    // ---------------------------------------------------------------- stage 2: align
     // Mantissas carry 3 extra bits (guard, round, sticky); the sum has one carry bit on top.
-    logic [26:0] lo_aligned;
-    logic [27:0] sum;
-    always_comb begin
+    logic        s2_valid, s2_nan, s2_inf, s2_sign, s2_zero_sign, s2_subtract;
+    logic [7:0]  s2_exp;
+    logic [23:0] s2_mhi;
+    logic [26:0] s2_lo;     // aligned, sticky in bit 0
+    always_ff @(posedge clk) begin
         logic [26:0] lo_ext;
         logic [26:0] shifted;
         logic        st;
@@ -66,75 +68,106 @@ module f32_addsub (
             shifted = lo_ext >> s1_diff;
             st = (lo_ext & ((27'd1 << s1_diff) - 27'd1)) != 0;
         end
-        lo_aligned = {shifted[26:1], shifted[0] | st};
-        if (s1_subtract) sum = {1'b0, s1_mhi, 3'b000} - {1'b0, lo_aligned};
-        else             sum = {1'b0, s1_mhi, 3'b000} + {1'b0, lo_aligned};
-    end
-
-    logic        s2_valid, s2_nan, s2_inf, s2_sign, s2_zero_sign;
-    logic [7:0]  s2_exp;
-    logic [27:0] s2_sum;
-    always_ff @(posedge clk) begin
+        s2_lo        <= {shifted[26:1], shifted[0] | st};
         s2_valid     <= s1_valid;
         s2_nan       <= s1_nan;
         s2_inf       <= s1_inf;
         s2_sign      <= s1_sign_hi;
         s2_zero_sign <= s1_zero_sign;
+        s2_subtract  <= s1_subtract;
         s2_exp       <= s1_exp;
-        s2_sum       <= sum;
+        s2_mhi       <= s1_mhi;
     end
 
-    // ---------------------------------------------------------------- stage 3: normalise, round
+    // ---------------------------------------------------------------- stage 3: add
+    logic        s3_valid, s3_nan, s3_inf, s3_sign, s3_zero_sign;
+    logic [7:0]  s3_exp;
+    logic [27:0] s3_sum;
+    always_ff @(posedge clk) begin
+        if (s2_subtract) s3_sum <= {1'b0, s2_mhi, 3'b000} - {1'b0, s2_lo};
+        else             s3_sum <= {1'b0, s2_mhi, 3'b000} + {1'b0, s2_lo};
+        s3_valid     <= s2_valid;
+        s3_nan       <= s2_nan;
+        s3_inf       <= s2_inf;
+        s3_sign      <= s2_sign;
+        s3_zero_sign <= s2_zero_sign;
+        s3_exp       <= s2_exp;
+    end
+
+    // ---------------------------------------------------------------- stage 4: leading zeros
+    logic [4:0]  sum_len;
+    bit_length #(.W(28)) u_sum_len (.x(s3_sum), .len(sum_len));
+    logic        s4_valid, s4_nan, s4_inf, s4_sign, s4_zero_sign;
+    logic [7:0]  s4_exp;
+    logic [27:0] s4_sum;
+    logic [4:0]  s4_shift;  // left shift when there is no carry out
+    always_ff @(posedge clk) begin
+        logic [4:0] lz;
+        lz = 5'd28 - sum_len;
+        // lz >= 1 without a carry; shift left by lz - 1, but never below exponent 1 (subnormal).
+        s4_shift     <= (10'(lz) - 10'd1 > {2'b00, s3_exp} - 10'd1) ? 5'(s3_exp - 8'd1) : 5'(lz - 5'd1);
+        s4_sum       <= s3_sum;
+        s4_valid     <= s3_valid;
+        s4_nan       <= s3_nan;
+        s4_inf       <= s3_inf;
+        s4_sign      <= s3_sign;
+        s4_zero_sign <= s3_zero_sign;
+        s4_exp       <= s3_exp;
+    end
+
+    // ---------------------------------------------------------------- stage 5: normalise
+    logic        s5_valid, s5_nan, s5_inf, s5_sign, s5_zero_sign, s5_zero;
+    logic [9:0]  s5_e;      // signed headroom for the exponent arithmetic
+    logic [27:0] s5_norm;
+    always_ff @(posedge clk) begin
+        if (s4_sum[27]) begin
+            // Carry out: shift right by one, keeping the lost bit sticky.
+            s5_norm <= {1'b0, s4_sum[27:2], s4_sum[1] | s4_sum[0]};
+            s5_e <= {2'b00, s4_exp} + 10'd1;
+        end else begin
+            s5_norm <= s4_sum << s4_shift;
+            s5_e <= {2'b00, s4_exp} - 10'(s4_shift);
+        end
+        s5_zero      <= s4_sum == 0;
+        s5_valid     <= s4_valid;
+        s5_nan       <= s4_nan;
+        s5_inf       <= s4_inf;
+        s5_sign      <= s4_sign;
+        s5_zero_sign <= s4_zero_sign;
+    end
+
+    // ---------------------------------------------------------------- stage 6: round, pack
     logic [31:0] result;
     always_comb begin
-        logic [4:0]  lz;
-        logic [27:0] norm;
-        logic [9:0]  e;         // signed headroom for the exponent arithmetic
+        logic [9:0]  e;
         logic [24:0] mant;
         logic        g, r;
-        logic [4:0]  shift;
-        shift = 5'd0;
-        g = 1'b0;
-        r = 1'b0;
-        mant = 25'd0;
-        result = 32'd0;
-        lz = 5'd28;
-        for (int i = 0; i < 28; i++) if (s2_sum[i]) lz = 5'(27 - i);
-        if (s2_sum[27]) begin
-            // Carry out: shift right by one, keeping the lost bit sticky.
-            norm = {1'b0, s2_sum[27:2], s2_sum[1] | s2_sum[0]};
-            e = {2'b00, s2_exp} + 10'd1;
-        end else begin
-            // lz >= 1 here; shift left by lz - 1, but never below exponent 1 (subnormal).
-            shift = (10'(lz) - 10'd1 > {2'b00, s2_exp} - 10'd1) ? 5'(s2_exp - 8'd1) : 5'(lz - 5'd1);
-            norm = s2_sum << shift;
-            e = {2'b00, s2_exp} - 10'(shift);
-        end
         // norm[26] is the hidden bit (0 for a subnormal result); norm[2:0] = G, R, S.
-        g = norm[2];
-        r = norm[1] | norm[0];
-        mant = {1'b0, norm[26:3]};
+        e = s5_e;
+        g = s5_norm[2];
+        r = s5_norm[1] | s5_norm[0];
+        mant = {1'b0, s5_norm[26:3]};
         if (g && (r || mant[0])) mant = mant + 25'd1;
         if (mant[24]) begin
             mant = mant >> 1;
             e = e + 10'd1;
         end
-        if (s2_nan)
+        if (s5_nan)
             result = 32'h7FC0_0000;
-        else if (s2_inf)
-            result = {s2_sign, 8'hFF, 23'd0};
-        else if (s2_sum == 0)
-            result = {s2_zero_sign, 31'd0};
+        else if (s5_inf)
+            result = {s5_sign, 8'hFF, 23'd0};
+        else if (s5_zero)
+            result = {s5_zero_sign, 31'd0};
         else if (e >= 10'd255)
-            result = {s2_sign, 8'hFF, 23'd0};
+            result = {s5_sign, 8'hFF, 23'd0};
         else if (!mant[23])
-            result = {s2_sign, 8'd0, mant[22:0]};    // subnormal (e is 1)
+            result = {s5_sign, 8'd0, mant[22:0]};    // subnormal (e is 1)
         else
-            result = {s2_sign, e[7:0], mant[22:0]};
+            result = {s5_sign, e[7:0], mant[22:0]};
     end
 
     always_ff @(posedge clk) begin
-        out_valid <= s2_valid;
+        out_valid <= s5_valid;
         y <= result;
     end
 endmodule

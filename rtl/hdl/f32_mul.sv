@@ -3,7 +3,9 @@
 // Spec: rtl/README.md §3.5. Bit-exact with Rust's `f32` `*` except that every NaN result is
 // the canonical quiet NaN 0x7FC00000.
 //
-// Pipeline: 3 stages (unpack and 24x24 product | normalise | round and pack).
+// Pipeline: LATENCY stages (24x24 product in MULT18X18D blocks | leading zeros | normalise |
+// subnormal shift | round and pack); one operation per cycle; `out_valid` follows
+// `in_valid` by LATENCY cycles.
 module f32_mul (
     input  logic        clk,
     input  logic        in_valid,
@@ -12,12 +14,18 @@ module f32_mul (
     output logic        out_valid,
     output logic [31:0] y
 );
-    localparam int LATENCY = 3;
+    localparam int MUL_LAT = 4;     // mul_pipe in DSP blocks
+    localparam int LATENCY = MUL_LAT + 4;
 
-    // ---------------------------------------------------------------- stage 1: product
-    logic        s1_valid, s1_nan, s1_inf, s1_zero, s1_sign;
-    logic [47:0] s1_prod;
-    logic [10:0] s1_exp;    // signed: ea + eb - 127 with subnormals counted as exponent 1
+    // ---------------------------------------------------------------- product (MUL_LAT)
+    logic [49:0] prod50;
+    mul_pipe #(.A_W(25), .B_W(25), .USE_DSP(1), .LATENCY(MUL_LAT)) u_prod (
+        .clk, .a({1'b0, a[30:23] != 0, a[22:0]}), .b({1'b0, b[30:23] != 0, b[22:0]}), .p(prod50));
+
+    logic       f_valid, f_nan, f_inf, f_zero, f_sign;
+    logic [10:0] f_exp;     // signed: ea + eb - 127 with subnormals counted as exponent 1
+    logic       p_valid, p_nan, p_inf, p_zero, p_sign;
+    logic [10:0] p_exp;
     always_ff @(posedge clk) begin
         logic [7:0] ea, eb, ea1, eb1;
         logic a_nan, b_nan, a_inf, b_inf, a_zero, b_zero;
@@ -31,89 +39,118 @@ module f32_mul (
         b_inf  = eb == 8'hFF && b[22:0] == 0;
         a_zero = a[30:0] == 0;
         b_zero = b[30:0] == 0;
-        s1_valid <= in_valid;
-        s1_nan   <= a_nan || b_nan || (a_inf && b_zero) || (b_inf && a_zero);
-        s1_inf   <= a_inf || b_inf;
-        s1_zero  <= a_zero || b_zero;
-        s1_sign  <= a[31] ^ b[31];
-        s1_prod  <= {24'd0, ea != 0, a[22:0]} * {24'd0, eb != 0, b[22:0]};
-        s1_exp   <= {3'b000, ea1} + {3'b000, eb1} - 11'd127;
+        f_valid <= in_valid;
+        f_nan   <= a_nan || b_nan || (a_inf && b_zero) || (b_inf && a_zero);
+        f_inf   <= a_inf || b_inf;
+        f_zero  <= a_zero || b_zero;
+        f_sign  <= a[31] ^ b[31];
+        f_exp   <= {3'b000, ea1} + {3'b000, eb1} - 11'd127;
+    end
+    delay #(.W(16), .N(MUL_LAT - 1)) u_flags (.clk, .d({f_valid, f_nan, f_inf, f_zero, f_sign, f_exp}),
+                                              .q({p_valid, p_nan, p_inf, p_zero, p_sign, p_exp}));
+    logic [47:0] p_prod;
+    assign p_prod = prod50[47:0];
+
+    // ---------------------------------------------------------------- stage 1: leading zeros
+    // The product of two 1.23 mantissas is 2.46: bit 46 is the units bit. The leading one
+    // goes to bit 47: exponent of the result = exp + 1 - lz.
+    logic [5:0]  prod_len;
+    bit_length #(.W(48)) u_prod_len (.x(p_prod), .len(prod_len));
+    logic        s1_valid, s1_nan, s1_inf, s1_zero, s1_sign;
+    logic [47:0] s1_prod;
+    logic [5:0]  s1_lz;
+    logic [10:0] s1_exp;
+    always_ff @(posedge clk) begin
+        logic [5:0] lz;
+        lz = 6'd48 - prod_len;
+        s1_valid <= p_valid;
+        s1_nan   <= p_nan;
+        s1_inf   <= p_inf;
+        s1_zero  <= p_zero;
+        s1_sign  <= p_sign;
+        s1_prod  <= p_prod;
+        s1_lz    <= lz;
+        s1_exp   <= p_exp + 11'd1 - 11'(lz);
     end
 
     // ---------------------------------------------------------------- stage 2: normalise
-    // The product of two 1.23 mantissas is 2.46: bit 46 is the units bit. Normalise so the
-    // leading one sits at bit 47 ... but never below exponent 1; then shift right for
-    // subnormal results, folding shifted-out bits into the sticky bit.
-    logic        s2_valid, s2_nan, s2_inf, s2_zero, s2_sign, s2_sticky;
-    logic [47:0] s2_norm;
-    logic [10:0] s2_exp;
+    // Shift left by lz; a result below exponent 1 will shift right by rs = 1 - e instead.
+    logic        s2_valid, s2_nan, s2_inf, s2_zero, s2_sign, s2_sub;
+    logic [47:0] s2_p;
+    logic [10:0] s2_exp, s2_rs;
     always_ff @(posedge clk) begin
-        logic [5:0]  lz;
+        s2_valid <= s1_valid;
+        s2_nan   <= s1_nan;
+        s2_inf   <= s1_inf;
+        s2_zero  <= s1_zero;
+        s2_sign  <= s1_sign;
+        s2_p     <= s1_prod << s1_lz;
+        s2_sub   <= $signed(s1_exp) < 1;
+        s2_exp   <= ($signed(s1_exp) < 1) ? 11'd1 : s1_exp;
+        s2_rs    <= 11'd1 - s1_exp;
+    end
+
+    // ---------------------------------------------------------------- stage 3: subnormal
+    // Subnormal: shift right until the exponent is 1, shifted-out bits into the sticky bit.
+    logic        s3_valid, s3_nan, s3_inf, s3_zero, s3_sign, s3_sticky;
+    logic [47:0] s3_norm;
+    logic [10:0] s3_exp;
+    always_ff @(posedge clk) begin
         logic [47:0] p;
-        logic [10:0] e;
         logic        st;
-        lz = 6'd48;
-        for (int i = 0; i < 48; i++) if (s1_prod[i]) lz = 6'(47 - i);
-        // Value = prod * 2^(exp - 1 - 46) with prod's units bit at 46; place the leading one
-        // at bit 47: exponent of the result = exp + 1 - lz.
-        p = s1_prod << lz;
-        e = s1_exp + 11'd1 - 11'(lz);
+        p = s2_p;
         st = 1'b0;
-        if ($signed(e) < 1) begin
-            // Subnormal: shift right until the exponent is 1.
-            logic [10:0] rs;
-            rs = 11'd1 - e;
-            if (rs >= 11'd48) begin
+        if (s2_sub) begin
+            if (s2_rs >= 11'd48) begin
                 st = p != 0;
                 p = 48'd0;
             end else begin
-                st = (p & ((48'd1 << rs) - 48'd1)) != 0;
-                p = p >> rs;
+                st = (p & ((48'd1 << s2_rs) - 48'd1)) != 0;
+                p = p >> s2_rs;
             end
-            e = 11'd1;
         end
-        s2_valid  <= s1_valid;
-        s2_nan    <= s1_nan;
-        s2_inf    <= s1_inf;
-        s2_zero   <= s1_zero;
-        s2_sign   <= s1_sign;
-        s2_norm   <= p;
-        s2_exp    <= e;
-        s2_sticky <= st;
+        s3_valid  <= s2_valid;
+        s3_nan    <= s2_nan;
+        s3_inf    <= s2_inf;
+        s3_zero   <= s2_zero;
+        s3_sign   <= s2_sign;
+        s3_norm   <= p;
+        s3_exp    <= s2_exp;
+        s3_sticky <= st;
     end
 
-    // ---------------------------------------------------------------- stage 3: round, pack
+    // ---------------------------------------------------------------- stage 4: round, pack
     logic [31:0] result;
     always_comb begin
         logic [24:0] mant;
         logic [10:0] e;
         logic        g, r;
         // p[47] hidden bit, p[46:24] fraction, p[23] guard, p[22:0] | sticky round.
-        mant = {1'b0, s2_norm[47:24]};
-        g = s2_norm[23];
-        r = (s2_norm[22:0] != 0) || s2_sticky;
-        e = s2_exp;
+        mant = {1'b0, s3_norm[47:24]};
+        g = s3_norm[23];
+        r = (s3_norm[22:0] != 0) || s3_sticky;
+        e = s3_exp;
         if (g && (r || mant[0])) mant = mant + 25'd1;
         if (mant[24]) begin
             mant = mant >> 1;
             e = e + 11'd1;
         end
-        if (s2_nan)
+        if (s3_nan)
             result = 32'h7FC0_0000;
-        else if (s2_inf)
-            result = {s2_sign, 8'hFF, 23'd0};
-        else if (s2_zero)
-            result = {s2_sign, 31'd0};
+        else if (s3_inf)
+            result = {s3_sign, 8'hFF, 23'd0};
+        else if (s3_zero)
+            result = {s3_sign, 31'd0};
         else if ($signed(e) >= 255)
-            result = {s2_sign, 8'hFF, 23'd0};
+            result = {s3_sign, 8'hFF, 23'd0};
         else if (!mant[23])
-            result = {s2_sign, 8'd0, mant[22:0]};
+            result = {s3_sign, 8'd0, mant[22:0]};
         else
-            result = {s2_sign, e[7:0], mant[22:0]};
+            result = {s3_sign, e[7:0], mant[22:0]};
     end
 
     always_ff @(posedge clk) begin
-        out_valid <= s2_valid;
+        out_valid <= s3_valid;
         y <= result;
     end
 endmodule

@@ -1,40 +1,76 @@
 // f32_to_fixed: the exact f32 -> integer conversion Q(x, k) = round_half_away(x * 2^k).
 //
 // Spec: rtl/README.md §3.1; twin: `twin::to_fixed`. `huge` is set (and `q` is 0) when
-// |x * 2^k| >= 2^54. `x` must be finite. Combinational.
+// |x * 2^k| >= 2^54. `x` must be finite.
+//
+// Pipeline: 4 stages (inputs | unpack and shift amount | shift, round and range | sign); one
+// conversion per cycle; `out_valid` follows `in_valid` by LATENCY cycles.
 module f32_to_fixed (
+    input  logic               clk,
+    input  logic               in_valid,
     input  logic [31:0]        x,
     input  logic signed [9:0]  k,
+    output logic               out_valid,
     output logic signed [54:0] q,
     output logic               huge
 );
-    always_comb begin
-        logic [23:0]       mant;
+    localparam int LATENCY = 4;
+
+    // ---------------------------------------------------------------- stage 0: inputs
+    logic               s0_valid;
+    logic [31:0]        s0_x;
+    logic signed [9:0]  s0_k;
+    always_ff @(posedge clk) begin
+        s0_valid <= in_valid;
+        s0_x <= x;
+        s0_k <= k;
+    end
+
+    // ---------------------------------------------------------------- stage 1: unpack
+    // |x| = mant * 2^(e2), e2 = field - 150 (normal) or -149 (subnormal); sh = e2 + k.
+    logic [23:0] mant;
+    logic [4:0]  len;
+    assign mant = (s0_x[30:23] == 0) ? {1'b0, s0_x[22:0]} : {1'b1, s0_x[22:0]};
+    bit_length #(.W(24)) u_len (.x(mant), .len(len));
+
+    logic               s1_valid, s1_sign, s1_left;
+    logic [23:0]        s1_mant;
+    logic [4:0]         s1_len;
+    logic signed [10:0] s1_shift;
+    logic [5:0]         s1_sh;  // left shift (s1_left) or right shift d = min(-sh, 25)
+    always_ff @(posedge clk) begin
         logic signed [10:0] sh;
-        logic [4:0]        len;
-        logic [54:0]       mag;
-        logic [5:0]        d;
-        logic [24:0]       rounded;
-        mant = (x[30:23] == 0) ? {1'b0, x[22:0]} : {1'b1, x[22:0]};
-        // |x| = mant * 2^(e2), e2 = field - 150 (normal) or -149 (subnormal).
-        sh = ((x[30:23] == 0) ? -11'sd149 : $signed({3'b000, x[30:23]}) - 11'sd150) + 11'(k);
-        len = 5'd0;
-        for (int i = 0; i < 24; i++) if (mant[i]) len = 5'(i + 1);
-        huge = 1'b0;
-        mag = 55'd0;
-        d = 6'd0;
-        rounded = 25'd0;
-        if (mant == 0) begin
-            mag = 55'd0;
-        end else if (sh >= 0) begin
-            if ($signed({6'd0, len}) + sh > 11'sd54) huge = 1'b1;
-            else mag = 55'(mant) << sh[5:0];
-        end else begin
-            // Right shift by d = -sh with the half-away rounding bit; d >= 25 always gives 0.
-            d = (sh < -11'sd25) ? 6'd25 : 6'(-sh);
-            rounded = ({1'b0, mant} + (25'd1 << (d - 6'd1))) >> d;
-            mag = 55'(rounded);
-        end
-        q = x[31] ? -$signed(mag) : $signed(mag);
+        sh = ((s0_x[30:23] == 0) ? -11'sd149 : $signed({3'b000, s0_x[30:23]}) - 11'sd150) + 11'(s0_k);
+        s1_valid <= s0_valid;
+        s1_sign <= s0_x[31];
+        s1_mant <= mant;
+        s1_len <= len;
+        s1_shift <= sh;
+        s1_left <= sh >= 0;
+        // Right shift by d = -sh with the half-away rounding bit; d >= 25 always gives 0.
+        s1_sh <= (sh >= 0) ? sh[5:0] : (sh < -11'sd25) ? 6'd25 : 6'(-sh);
+    end
+
+    // ---------------------------------------------------------------- stage 2: shift, round
+    logic        s2_valid, s2_sign, s2_huge;
+    logic [54:0] s2_mag;
+    always_ff @(posedge clk) begin
+        logic [24:0] rounded;
+        logic        huge_v;
+        rounded = ({1'b0, s1_mant} + (25'd1 << (s1_sh - 6'd1))) >> s1_sh;
+        huge_v = s1_mant != 0 && s1_left && $signed({6'd0, s1_len}) + s1_shift > 11'sd54;
+        s2_valid <= s1_valid;
+        s2_sign <= s1_sign;
+        s2_huge <= huge_v;
+        if (huge_v) s2_mag <= 55'd0;
+        else if (s1_left) s2_mag <= 55'(s1_mant) << s1_sh;
+        else s2_mag <= 55'(rounded);
+    end
+
+    // ---------------------------------------------------------------- stage 3: sign
+    always_ff @(posedge clk) begin
+        out_valid <= s2_valid;
+        huge <= s2_huge;
+        q <= s2_sign ? -$signed(s2_mag) : $signed(s2_mag);
     end
 endmodule

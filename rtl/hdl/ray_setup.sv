@@ -3,8 +3,8 @@
 // From the f32 origin and direction and the frame: the dominant axis kz (pbrt-v4's
 // max_dimension), the direction Q(d, 23 - E) with E = floor(log2 |d_kz|), the origin
 // Q(o, s + 23) - Q(min) (overflow outside +-2^33), the shear trunc(-d * 2^23 / dz) for x
-// and y (two restoring dividers), and the t exponent -s - E. Takes LATENCY cycles from
-// `start` to `done` whatever the input.
+// and y (two restoring dividers, two quotient bits per cycle), and the t exponent -s - E.
+// Takes LATENCY cycles from `start` to `done` whatever the input.
 module ray_setup (
     input  logic                clk,
     input  logic                start,
@@ -22,14 +22,23 @@ module ray_setup (
     output logic signed [9:0]   texp,
     output logic                overflow
 );
-    localparam int LATENCY = 30;
+    // Schedule (steps from 1): the dominant axis in step 1; the converter takes the three
+    // direction components in steps 2-4 and the origin in 5-7, each ready CV_LAT steps later;
+    // the permutation once the direction is in; DIV_STEPS divider steps; `done` after them.
+    localparam int CV_LAT = 4;                          // f32_to_fixed
+    localparam int STEP_DIR = 2;                        // first direction conversion
+    localparam int STEP_ORG = 5;                        // first origin conversion
+    localparam int STEP_PERMUTE = STEP_DIR + 3 + CV_LAT;
+    localparam int DIV_STEPS = 12;                      // 24 quotient bits, 2 per step
+    localparam int LATENCY = STEP_PERMUTE + DIV_STEPS + 1;
 
     // One converter, used for the three direction and then the three origin components.
+    logic               cv_in, cv_out_unused;
     logic [31:0]        cv_x;
     logic signed [9:0]  cv_k;
     logic signed [54:0] cv_q;
     logic               cv_huge;
-    f32_to_fixed u_cv (.x(cv_x), .k(cv_k), .q(cv_q), .huge(cv_huge));
+    f32_to_fixed u_cv (.clk, .in_valid(cv_in), .x(cv_x), .k(cv_k), .out_valid(cv_out_unused), .q(cv_q), .huge(cv_huge));
 
     logic [5:0]         step;      // 0 idle; 1.. running
     logic signed [9:0]  e_max;
@@ -38,22 +47,46 @@ module ray_setup (
     logic [23:0]        rx, ry;    // partial remainders (< den)
     logic [23:0]        qx, qy;
     logic               sx_neg, sy_neg;
+    logic signed [55:0] od;        // origin component minus the frame minimum
+    logic               od_bad;
 
     function automatic [30:0] mag(input [31:0] f);
         mag = f[30:0];
     endfunction
 
     always_comb begin
+        cv_in = 1'b0;
         cv_x = 32'd0;
         cv_k = 10'sd0;
-        if (step >= 6'd2 && step <= 6'd4) begin
-            cv_x = dir[2'(step - 6'd2)];
+        if (step >= 6'(STEP_DIR) && step < 6'(STEP_DIR + 3)) begin
+            cv_in = 1'b1;
+            cv_x = dir[2'(step - 6'(STEP_DIR))];
             cv_k = 10'sd23 - e_max;
-        end else if (step >= 6'd5 && step <= 6'd7) begin
-            cv_x = org[2'(step - 6'd5)];
+        end else if (step >= 6'(STEP_ORG) && step < 6'(STEP_ORG + 3)) begin
+            cv_in = 1'b1;
+            cv_x = org[2'(step - 6'(STEP_ORG))];
             cv_k = frame_s + 10'sd23;
         end
     end
+
+    // Two steps of the restoring division of |v| * 2^23 by den: remainder and quotient.
+    // `first`: the remainder starts as |v| (the dividend's bits above 2^23), not doubled.
+    function automatic logic [47:0] div2(input logic [23:0] r0, input logic [23:0] q0,
+                                         input logic [23:0] dv, input logic first);
+        logic [24:0] r;
+        logic [25:0] diff;
+        logic [23:0] rem, q;
+        rem = r0;
+        q = q0;
+        for (int i = 0; i < 2; i++) begin
+            r = (first && i == 0) ? {1'b0, rem} : {rem, 1'b0};
+            // One subtractor: its borrow is the comparison.
+            diff = {1'b0, r} - {2'b00, dv};
+            if (!diff[25]) begin rem = 24'(diff); q = {q[22:0], 1'b1}; end
+            else begin rem = 24'(r); q = {q[22:0], 1'b0}; end
+        end
+        div2 = {rem, q};
+    endfunction
 
     always_ff @(posedge clk) begin
         done <= 1'b0;
@@ -80,15 +113,23 @@ module ray_setup (
                     e_max <= $signed({5'd0, msb}) - 10'sd149;
                 end
             end
-            if (step >= 6'd2 && step <= 6'd4) d[2'(step - 6'd2)] <= 25'(cv_q);
-            if (step >= 6'd5 && step <= 6'd7) begin
-                logic signed [55:0] oo;
-                oo = 56'(cv_q) - 56'($signed(frame_qm[2'(step - 6'd5)]));
-                if (cv_huge || frame_huge[2'(step - 6'd5)] || oo >= 56'sh2_0000_0000 || oo <= -56'sh2_0000_0000)
-                    overflow <= 1'b1;
-                o[2'(step - 6'd5)] <= 34'(oo);
+            if (step >= 6'(STEP_DIR + CV_LAT) && step < 6'(STEP_DIR + CV_LAT + 3))
+                d[2'(step - 6'(STEP_DIR + CV_LAT))] <= 25'(cv_q);
+            // Origin: subtract the frame minimum as each conversion arrives, then the range.
+            // (Constant indices: a variable index into a packed array costs a multiplier.)
+            for (int i = 0; i < 3; i++) begin
+                if (step == 6'(STEP_ORG + CV_LAT + i)) begin
+                    od <= 56'(cv_q) - 56'($signed(frame_qm[i]));
+                    od_bad <= cv_huge || frame_huge[i];
+                end
+                if (step == 6'(STEP_ORG + CV_LAT + 1 + i)) begin
+                    // |od| >= 2^33 as bit tests.
+                    if (od_bad || (od[55] ? (od[54:33] != '1 || od[32:0] == 0) : od[54:33] != 0))
+                        overflow <= 1'b1;
+                    o[i] <= 34'(od);
+                end
             end
-            if (step == 6'd5) begin
+            if (step == 6'(STEP_PERMUTE)) begin
                 // Permute the direction (kz=0: y,z,x; kz=1: z,x,y; kz=2: x,y,z) and set up the
                 // two divisions trunc(-dx * 2^23 / dz), trunc(-dy * 2^23 / dz).
                 logic signed [24:0] px, py, pz;
@@ -109,16 +150,10 @@ module ray_setup (
                 qy <= '0;
                 texp <= -frame_s - e_max;
             end
-            if (step >= 6'd6 && step <= 6'd29) begin
-                // Restoring division of |d| * 2^23 by |dz|, quotient bit 23 first: the
-                // remainder starts as |d| (the dividend's bits above 2^23), then doubles.
-                logic [24:0] r1, r2;
-                r1 = (step == 6'd6) ? {1'b0, rx} : {rx, 1'b0};
-                r2 = (step == 6'd6) ? {1'b0, ry} : {ry, 1'b0};
-                if (r1 >= {1'b0, den}) begin rx <= 24'(r1 - {1'b0, den}); qx <= {qx[22:0], 1'b1}; end
-                else begin rx <= 24'(r1); qx <= {qx[22:0], 1'b0}; end
-                if (r2 >= {1'b0, den}) begin ry <= 24'(r2 - {1'b0, den}); qy <= {qy[22:0], 1'b1}; end
-                else begin ry <= 24'(r2); qy <= {qy[22:0], 1'b0}; end
+            if (step > 6'(STEP_PERMUTE) && step <= 6'(STEP_PERMUTE + DIV_STEPS)) begin
+                // Quotient bits 23 and 22 first.
+                {rx, qx} <= div2(rx, qx, den, step == 6'(STEP_PERMUTE + 1));
+                {ry, qy} <= div2(ry, qy, den, step == 6'(STEP_PERMUTE + 1));
             end
             if (step == 6'(LATENCY)) begin
                 sx <= sx_neg ? -$signed({1'b0, qx}) : $signed({1'b0, qx});

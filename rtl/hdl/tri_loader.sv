@@ -17,7 +17,14 @@ module tri_loader (
     output logic [8:0][31:0]   coord,
     output logic [2:0][31:0]   normal
 );
-    localparam int LATENCY = 26;
+    // Schedule (steps from 1): subtractions d1, d2 in steps 1-6; the six products from
+    // STEP_MUL; the three normal subtractions from STEP_NSUB; conversions in 1-9 and the
+    // degenerate test's products from STEP_DEG_MUL (below). `done` at LATENCY.
+    localparam int ADD_LAT = 6;         // f32_addsub
+    localparam int MUL_LAT = 8;         // f32_mul
+    localparam int STEP_MUL = 7 + ADD_LAT;
+    localparam int STEP_NSUB = STEP_MUL + 4 + MUL_LAT;
+    localparam int LATENCY = STEP_NSUB + 2 + ADD_LAT;
 
     logic [5:0] step;
 
@@ -27,8 +34,12 @@ module tri_loader (
     logic               cv_huge;
     logic [3:0]         ci;
     assign ci = 4'(step - 6'd1);
-    assign cv_x = (step >= 6'd1 && step <= 6'd9) ? v[ci] : 32'd0;
-    f32_to_fixed u_cv (.x(cv_x), .k(frame_s + 10'sd23), .q(cv_q), .huge(cv_huge));
+    logic        cv_in, cv_out_unused;
+    localparam int CV_LAT = 4;          // f32_to_fixed
+    assign cv_in = step >= 6'd1 && step <= 6'd9;
+    assign cv_x = cv_in ? v[ci] : 32'd0;
+    f32_to_fixed u_cv (.clk, .in_valid(cv_in), .x(cv_x), .k(frame_s + 10'sd23), .out_valid(cv_out_unused),
+                       .q(cv_q), .huge(cv_huge));
 
     logic        ovf;
     logic [31:0] c [9];
@@ -48,23 +59,29 @@ module tri_loader (
         mul_in = 1'b0;
         mul_a = 32'd0;
         mul_b = 32'd0;
-        if (step >= 6'd1 && step <= 6'd6) begin
-            add_in = 1'b1;
-            add_a = v[3 + int'(step) - 1];
-            add_b = v[(int'(step) - 1) % 3];
-        end else if (step >= 6'd19 && step <= 6'd21) begin
-            add_in = 1'b1;
-            add_a = pp[2 * (int'(step) - 19)];
-            add_b = pp[2 * (int'(step) - 19) + 1];
+        // d1 = b - a, d2 = c - a; then the normal's three differences of products.
+        for (int i = 0; i < 6; i++) begin
+            if (step == 6'(1 + i)) begin
+                add_in = 1'b1;
+                add_a = v[3 + i];
+                add_b = v[i % 3];
+            end
+        end
+        for (int i = 0; i < 3; i++) begin
+            if (step == 6'(STEP_NSUB + i)) begin
+                add_in = 1'b1;
+                add_a = pp[2 * i];
+                add_b = pp[2 * i + 1];
+            end
         end
         // x = d1y*d2z - d2y*d1z, y = d1z*d2x - d2z*d1x, z = d1x*d2y - d2x*d1y
         case (step)
-            6'd10: begin mul_in = 1'b1; mul_a = dd[1]; mul_b = dd[5]; end
-            6'd11: begin mul_in = 1'b1; mul_a = dd[4]; mul_b = dd[2]; end
-            6'd12: begin mul_in = 1'b1; mul_a = dd[2]; mul_b = dd[3]; end
-            6'd13: begin mul_in = 1'b1; mul_a = dd[5]; mul_b = dd[0]; end
-            6'd14: begin mul_in = 1'b1; mul_a = dd[0]; mul_b = dd[4]; end
-            6'd15: begin mul_in = 1'b1; mul_a = dd[3]; mul_b = dd[1]; end
+            6'(STEP_MUL):     begin mul_in = 1'b1; mul_a = dd[1]; mul_b = dd[5]; end
+            6'(STEP_MUL + 1): begin mul_in = 1'b1; mul_a = dd[4]; mul_b = dd[2]; end
+            6'(STEP_MUL + 2): begin mul_in = 1'b1; mul_a = dd[2]; mul_b = dd[3]; end
+            6'(STEP_MUL + 3): begin mul_in = 1'b1; mul_a = dd[5]; mul_b = dd[0]; end
+            6'(STEP_MUL + 4): begin mul_in = 1'b1; mul_a = dd[0]; mul_b = dd[4]; end
+            6'(STEP_MUL + 5): begin mul_in = 1'b1; mul_a = dd[3]; mul_b = dd[1]; end
             default: ;
         endcase
     end
@@ -74,17 +91,19 @@ module tri_loader (
     logic signed [32:0] e1 [3], e2 [3];
     logic signed [32:0] ma, mb;
     logic signed [65:0] mp;
-    mul_pipe #(.A_W(33), .B_W(33), .USE_DSP(1)) u_dm (.clk, .a(ma), .b(mb), .p(mp));
+    localparam int DEG_MUL_LAT = 4;     // mul_pipe in DSP blocks
+    localparam int STEP_DEG_MUL = 11 + CV_LAT;  // first of the six products (edges in the step before)
+    mul_pipe #(.A_W(33), .B_W(33), .USE_DSP(1), .LATENCY(DEG_MUL_LAT)) u_dm (.clk, .a(ma), .b(mb), .p(mp));
     always_comb begin
         ma = '0;
         mb = '0;
         case (step)
-            6'd11: begin ma = e1[1]; mb = e2[2]; end
-            6'd12: begin ma = e1[2]; mb = e2[1]; end
-            6'd13: begin ma = e1[2]; mb = e2[0]; end
-            6'd14: begin ma = e1[0]; mb = e2[2]; end
-            6'd15: begin ma = e1[0]; mb = e2[1]; end
-            6'd16: begin ma = e1[1]; mb = e2[0]; end
+            6'(STEP_DEG_MUL):     begin ma = e1[1]; mb = e2[2]; end
+            6'(STEP_DEG_MUL + 1): begin ma = e1[2]; mb = e2[1]; end
+            6'(STEP_DEG_MUL + 2): begin ma = e1[2]; mb = e2[0]; end
+            6'(STEP_DEG_MUL + 3): begin ma = e1[0]; mb = e2[2]; end
+            6'(STEP_DEG_MUL + 4): begin ma = e1[0]; mb = e2[1]; end
+            6'(STEP_DEG_MUL + 5): begin ma = e1[1]; mb = e2[0]; end
             default: ;
         endcase
     end
@@ -98,29 +117,35 @@ module tri_loader (
             ovf <= 1'b0;
         end else if (step != 0) begin
             step <= (step == 6'(LATENCY)) ? 6'd0 : step + 6'd1;
-            if (step >= 6'd1 && step <= 6'd9) begin
-                logic signed [55:0] x;
-                x = 56'(cv_q) - 56'($signed(frame_qm[2'(ci % 4'd3)]));
-                if (cv_huge || frame_huge[2'(ci % 4'd3)] || x > 56'sh7FFF_FFFF || x < -56'sh7FFF_FFFF) begin
-                    c[ci] <= 32'h8000_0000;
-                    ovf <= 1'b1;
-                end else begin
-                    c[ci] <= 32'(x);
+            // Coordinates: converted in steps 1-9, minus the frame minimum CV_LAT steps later.
+            // (Constant indices: a variable index into a packed array costs a multiplier.)
+            for (int j = 0; j < 9; j++) begin
+                if (step == 6'(1 + CV_LAT + j)) begin
+                    logic signed [55:0] x;
+                    x = 56'(cv_q) - 56'($signed(frame_qm[j % 3]));
+                    // |x| > 2^31 - 1 as bit tests.
+                    if (cv_huge || frame_huge[j % 3] || (x[55] ? (x[54:31] != '1 || x[30:0] == 0) : x[54:31] != 0)) begin
+                        c[j] <= 32'h8000_0000;
+                        ovf <= 1'b1;
+                    end else begin
+                        c[j] <= 32'(x);
+                    end
                 end
             end
-            if (step == 6'd10) begin
+            if (step == 6'(STEP_DEG_MUL - 1)) begin
                 for (int a = 0; a < 3; a++) begin
                     e1[a] <= 33'($signed(c[3 + a])) - 33'($signed(c[a]));
                     e2[a] <= 33'($signed(c[6 + a])) - 33'($signed(c[a]));
                 end
             end
-            // Product issued in step s is ready in step s + 3.
-            if (step >= 6'd14 && step <= 6'd19) dp[3'(step - 6'd14)] <= mp;
-            if (step == 6'd20)
+            // Product issued in step s is ready in step s + DEG_MUL_LAT.
+            if (step >= 6'(STEP_DEG_MUL + DEG_MUL_LAT) && step <= 6'(STEP_DEG_MUL + 5 + DEG_MUL_LAT))
+                dp[3'(step - 6'(STEP_DEG_MUL + DEG_MUL_LAT))] <= mp;
+            if (step == 6'(STEP_DEG_MUL + 6 + DEG_MUL_LAT))
                 degenerate <= dp[0] == dp[1] && dp[2] == dp[3] && dp[4] == dp[5];
-            if (add_out && step >= 6'd4 && step <= 6'd9) dd[3'(step - 6'd4)] <= add_y;
-            if (mul_out) pp[3'(step - 6'd13)] <= mul_y;
-            if (add_out && step >= 6'd22 && step <= 6'd24) normal[2'(step - 6'd22)] <= add_y;
+            if (add_out && step >= 6'(1 + ADD_LAT) && step <= 6'(6 + ADD_LAT)) dd[3'(step - 6'(1 + ADD_LAT))] <= add_y;
+            if (mul_out) pp[3'(step - 6'(STEP_MUL + MUL_LAT))] <= mul_y;
+            for (int i = 0; i < 3; i++) if (step == 6'(STEP_NSUB + ADD_LAT + i)) normal[i] <= add_y;
             if (step == 6'(LATENCY)) begin
                 for (int i = 0; i < 9; i++) coord[i] <= (!ovf && degenerate) ? 32'd0 : c[i];
                 done <= 1'b1;

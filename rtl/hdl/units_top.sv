@@ -13,9 +13,11 @@ module units_top (
     input  logic [31:0]        mul_a, mul_b,
     output logic               mul_out_valid,
     output logic [31:0]        mul_y,
-    // f32_to_fixed (registered once)
+    // f32_to_fixed
+    input  logic               fx_valid,
     input  logic [31:0]        fx_x,
     input  logic signed [9:0]  fx_k,
+    output logic               fx_out_valid,
     output logic signed [54:0] fx_q,
     output logic               fx_huge,
     // isect_pipe
@@ -35,13 +37,8 @@ module units_top (
     f32_addsub u_add (.clk, .in_valid(add_valid), .a(add_a), .b(add_b), .sub(add_sub),
                       .out_valid(add_out_valid), .y(add_y));
     f32_mul u_mul (.clk, .in_valid(mul_valid), .a(mul_a), .b(mul_b), .out_valid(mul_out_valid), .y(mul_y));
-    logic signed [54:0] q;
-    logic huge;
-    f32_to_fixed u_fx (.x(fx_x), .k(fx_k), .q, .huge);
-    always_ff @(posedge clk) begin
-        fx_q <= q;
-        fx_huge <= huge;
-    end
+    f32_to_fixed u_fx (.clk, .in_valid(fx_valid), .x(fx_x), .k(fx_k), .out_valid(fx_out_valid), .q(fx_q),
+                       .huge(fx_huge));
     logic is_tag_unused;
     isect_pipe #(.TAG_W(1)) u_is (
         .clk, .in_valid(is_valid), .in_tag(1'b0), .rec(is_rec),

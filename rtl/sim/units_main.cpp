@@ -60,6 +60,7 @@ int main(int argc, char** argv) {
             top->add_valid = feed && unit == 1;
             top->mul_valid = feed && unit == 2;
             top->is_valid = feed && unit == 4;
+            top->fx_valid = feed && unit == 3;
             if (feed) {
                 if (unit == 1) { top->add_a = v[0]; top->add_b = v[1]; top->add_sub = v[2] & 1; }
                 if (unit == 2) { top->mul_a = v[0]; top->mul_b = v[1]; }
@@ -67,7 +68,7 @@ int main(int argc, char** argv) {
                 if (unit == 4) for (int i = 0; i < 9; i++) top->is_rec[i] = v[i];
             }
             tick();
-            if (unit == 3 && feed) {
+            if (unit == 3 && top->fx_out_valid) {
                 uint64_t q = sext(top->fx_q, 55);
                 io::write_u32(uint32_t(q));
                 io::write_u32(uint32_t(q >> 32));
@@ -80,7 +81,7 @@ int main(int argc, char** argv) {
             if (feed) sent++;
         }
         // Drain so the next batch starts from an empty pipeline.
-        top->add_valid = top->mul_valid = top->is_valid = 0;
+        top->add_valid = top->mul_valid = top->is_valid = top->fx_valid = 0;
         for (int i = 0; i < 64; i++) tick();
         io::flush();
     }
