@@ -126,7 +126,14 @@ struct Waiting {
     last: Instant,
     /// When the device reported a corrupt frame before answering, if it did.
     nak: Option<Instant>,
+    /// Requests in a row the device left unanswered: each doubles the quiet limit (a device
+    /// slower than its pace so far, e.g. a simulated SoC, is not sent the same work again
+    /// and again; it renders every request it gets).
+    backoff: u32,
 }
+
+/// Doublings of the quiet limit at most (×1024).
+const MAX_BACKOFF: u32 = 10;
 
 /// Result of one band.
 #[derive(Debug, Clone, Default)]
@@ -224,7 +231,7 @@ impl<T: Read + Write> Session<T> {
             let options = if max_span != 0 { options | region_options::SPAN_BYTES } else { options };
             self.send(stage, &Msg::RenderRegion { region: gap, max_span, options, request: *req })?;
             self.link.regions_requested += 1;
-            let mut waiting = Waiting { last: Instant::now(), nak: None };
+            let mut waiting = Waiting { last: Instant::now(), nak: None, backoff: silent.min(MAX_BACKOFF) };
             let outcome = loop {
                 let w = self.wait_region(
                     req,
@@ -306,10 +313,10 @@ impl<T: Read + Write> Session<T> {
         let p = self.pace;
         if complete {
             // Only the end (and maybe Stats) is left; it follows the last span at once.
-            return self.cfg.answer_wait(0, 300) + p.gap;
+            return self.answer_wait(0, 300) + p.gap;
         }
         let compute = if got_any { 2 * p.gap } else { 2 * p.first };
-        self.cfg.answer_wait(0, p.frame) + compute
+        self.answer_wait(0, p.frame) + compute
     }
 
     /// Waits for the answer to the `RenderRegion` of `region` (returns `Tick` at `tick`).
@@ -333,8 +340,8 @@ impl<T: Read + Write> Session<T> {
             let limit = match nak {
                 // The device found a corrupt frame before answering: most likely our request.
                 // Send it again unless spans start to flow within a turnaround.
-                Some(at) => at + self.cfg.turnaround + self.cfg.answer_wait(0, 64),
-                None => last + self.quiet_limit(att.got_any, canvas.complete(region)),
+                Some(at) => at + self.cfg.turnaround + self.answer_wait(0, 64),
+                None => last + self.quiet_limit(att.got_any, canvas.complete(region)) * (1 << waiting.backoff),
             };
             let before = self.bytes_rx;
             let msg = self.poll(stage, limit.min(tick))?;

@@ -142,8 +142,8 @@ impl<T: Read + Write> Session<T> {
         let mut probes_in_row = 0u32;
         // When the receiver reported a corrupt frame that no later Sack has accounted for.
         let mut nak: Option<Instant> = None;
-        let nak_grace = self.cfg.answer_wait(wire_len(DATA_HEAD), SACK_WIRE);
         loop {
+            let nak_grace = self.answer_wait(wire_len(DATA_HEAD), SACK_WIRE);
             let mut sent_any = false;
             while let Some(c) = tx.next(&mut self.est_up) {
                 let data = &image[c.offset as usize..(c.offset + c.len) as usize];
@@ -166,7 +166,7 @@ impl<T: Read + Write> Session<T> {
                 let a = self.activity(stage, &tx, start, tx0, rx0, errors0);
                 progress(ProgressEvent::Activity(a));
             }
-            let probe_at = last_event + self.cfg.answer_wait(tx.unsettled_wire() + wire_len(DATA_HEAD), SACK_WIRE);
+            let probe_at = last_event + self.answer_wait(tx.unsettled_wire() + wire_len(DATA_HEAD), SACK_WIRE);
             let wake = nak.map_or(probe_at, |at| probe_at.min(at + nak_grace));
             let Some(m) = self.poll(stage, wake.min(next_tick))? else {
                 if Instant::now() < probe_at {
@@ -187,7 +187,11 @@ impl<T: Read + Write> Session<T> {
             };
             if let Some((sack, done)) = kind.sack(&m) {
                 let before = tx.acked();
-                match tx.sack(&sack, &mut self.est_up) {
+                let effect = tx.sack(&sack, &mut self.est_up);
+                if let Some((rtt, queued)) = tx.take_round_trip() {
+                    self.learn_round_trip(rtt, queued + SACK_WIRE);
+                }
+                match effect {
                     SackEffect::Applied { .. } => {
                         probes_in_row = 0;
                         nak = None;
@@ -293,17 +297,26 @@ impl<T: Read + Write> Session<T> {
         let stage = kind.stage();
         let start = Instant::now();
         let begin_wire = wire_len(20); // FlashBegin; SceneBegin is shorter
+        let exchange = begin_wire + 1 + wire_len(DATA_HEAD);
+        // Every probe of this opening, and when it left: a slow receiver answers one after
+        // the next has gone, and each follows a begin message of this same transfer.
+        let mut probes: Vec<(u16, Instant)> = Vec::new();
         for _ in 0..=self.cfg.max_probes {
             report.opens += 1;
             self.write_bytes(stage, &[0])?;
             self.send(stage, begin)?;
             let (probe_seq, _) = self.send(stage, &kind.data(0, &[]))?;
-            let until = Instant::now() + self.cfg.answer_wait(begin_wire + wire_len(DATA_HEAD), 2 * SACK_WIRE);
+            probes.push((probe_seq, Instant::now()));
+            let until = Instant::now() + self.answer_wait(exchange, 2 * SACK_WIRE);
             while let Some(m) = self.poll(stage, until)? {
                 if let Some((sack, done)) = kind.sack(&m) {
-                    // The answer to our probe, for our transfer: fresh (nothing held yet), or
-                    // already complete (the receiver holds this very image).
-                    let ours = sack.crc == tx.crc() && sack.heard == probe_seq;
+                    // The answer to one of our probes, for our transfer: fresh (nothing held
+                    // yet), or already complete (the receiver holds this very image).
+                    let probe = probes.iter().find(|(seq, _)| *seq == sack.heard).map(|&(_, at)| at);
+                    let ours = sack.crc == tx.crc() && probe.is_some();
+                    if let Some(at) = probe {
+                        self.learn_round_trip(at.elapsed(), exchange + SACK_WIRE);
+                    }
                     if ours && sack.next_offset == 0 {
                         return Ok((sack.window, None));
                     }
