@@ -341,7 +341,11 @@ impl<T: Read + Write> Session<T> {
                 // The device found a corrupt frame before answering: most likely our request.
                 // Send it again unless spans start to flow within a turnaround.
                 Some(at) => at + self.cfg.turnaround + self.answer_wait(0, 64),
-                None => last + self.quiet_limit(att.got_any, canvas.complete(region)) * (1 << waiting.backoff),
+                None => {
+                    let quiet = self.quiet_limit(att.got_any, canvas.complete(region));
+                    // Backed off, but no longer than a render may go without a pixel.
+                    last + (quiet * (1 << waiting.backoff)).min(self.cfg.render_timeout.max(quiet))
+                }
             };
             let before = self.bytes_rx;
             let msg = self.poll(stage, limit.min(tick))?;

@@ -9,8 +9,9 @@
 //! 3. **Receive** `Sack`s; each settles every transmission up to the frame it answers. A
 //!    device NAK (`Error{BadFrame}`) when nothing new can be sent gets a probe at once; so
 //!    does a line quiet for longer than the unsettled bytes take to cross it (the last
-//!    resort). [`SessionConfig::max_probes`](super::SessionConfig::max_probes) probes in a
-//!    row without a `Sack` end the transfer with a timeout naming what was last heard.
+//!    resort). Each probe in a row without a `Sack` doubles the next wait;
+//!    [`SessionConfig::max_probes`](super::SessionConfig::max_probes) of them end the
+//!    transfer with a timeout naming what was last heard.
 //! 4. **Done** when a `Sack` says `Loaded` / `Verified` at the image's length.
 //!
 //! A receiver that lost the transfer (it reset, or the begin message was lost: it answers
@@ -37,6 +38,9 @@ const SACK_WIRE: usize = SACK_HEAD_LEN + MAX_SACK_RANGES * SACK_RANGE_LEN + 12;
 /// Bytes the host keeps in flight at most, whatever window the receiver offers: a deeper
 /// queue only delays the `Sack`s that reveal a loss.
 const MAX_FLIGHT: u32 = 8192;
+
+/// Doublings of a wait after unanswered probes, at most (×1024).
+const MAX_BACKOFF: u32 = 10;
 
 /// Progress events at least this often.
 const TICK: Duration = Duration::from_secs(1);
@@ -166,7 +170,9 @@ impl<T: Read + Write> Session<T> {
                 let a = self.activity(stage, &tx, start, tx0, rx0, errors0);
                 progress(ProgressEvent::Activity(a));
             }
-            let probe_at = last_event + self.answer_wait(tx.unsettled_wire() + wire_len(DATA_HEAD), SACK_WIRE);
+            let probe_at = last_event
+                + self.answer_wait(tx.unsettled_wire() + wire_len(DATA_HEAD), SACK_WIRE)
+                    * (1 << probes_in_row.min(MAX_BACKOFF));
             let wake = nak.map_or(probe_at, |at| probe_at.min(at + nak_grace));
             let Some(m) = self.poll(stage, wake.min(next_tick))? else {
                 if Instant::now() < probe_at {
@@ -301,13 +307,15 @@ impl<T: Read + Write> Session<T> {
         // Every probe of this opening, and when it left: a slow receiver answers one after
         // the next has gone, and each follows a begin message of this same transfer.
         let mut probes: Vec<(u16, Instant)> = Vec::new();
-        for _ in 0..=self.cfg.max_probes {
+        for attempt in 0..=self.cfg.max_probes {
             report.opens += 1;
             self.write_bytes(stage, &[0])?;
             self.send(stage, begin)?;
             let (probe_seq, _) = self.send(stage, &kind.data(0, &[]))?;
             probes.push((probe_seq, Instant::now()));
-            let until = Instant::now() + self.answer_wait(exchange, 2 * SACK_WIRE);
+            // Each unanswered opening doubles the wait: a receiver slower than anything
+            // measured so far (a simulated SoC) answers before the probes run out.
+            let until = Instant::now() + self.answer_wait(exchange, 2 * SACK_WIRE) * (1 << attempt.min(MAX_BACKOFF));
             while let Some(m) = self.poll(stage, until)? {
                 if let Some((sack, done)) = kind.sack(&m) {
                     // The answer to one of our probes, for our transfer: fresh (nothing held
