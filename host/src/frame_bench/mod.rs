@@ -14,9 +14,11 @@
 //!   ([`gridrt_coproc::TimingProfile::for_kernel`]). The bench refuses to report when a
 //!   QEMU run and the loopback with its image's kernel did different work (rays, list
 //!   entries, FSL words, tests), cycles or images.
-//! - **Soft-core cycles** (modelled): instructions × the CPI of a named soft-core profile
-//!   ([`CpuProfile`]; `cpu_source` = `"cpi-model"`). A cycle-accurate soft-core run (the
-//!   LiteX SoC issue) will replace it with measured `mcycle` (`cpu_source` = `"rtl"`).
+//! - **Soft-core cycles**: instructions × the CPI of a named soft-core profile
+//!   ([`CpuProfile`]; `cpu_source` = `"cpi-model"`, modelled), or, for the soft-float
+//!   `riscv32imac` rows with `--cpu-measured`, each stage's instructions × that stage's CPI
+//!   measured (`mcycle` / `minstret`) on the LiteX SoC's VexRiscv in Verilator
+//!   ([`MeasuredCpi`]; `cpu_source` = `"rtl"`).
 //! - **Link** (modelled): wire bytes of the render, both directions, at the baud rate (8N1),
 //!   as the loopback sends them for the same frame (QEMU's slow UART makes the host
 //!   re-request regions; those resent bytes are not the frame's).
@@ -53,6 +55,7 @@ pub use bench::{prepare, run_bench};
 pub use report::{critical_path, write_csv, write_svg, FrameReport, FrameRow};
 pub use run::{run_native, run_on_loopback, run_on_qemu, work_differences, DeviceRun};
 pub use setup::{
-    kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, CpuProfile, FrameBenchError, Image, Target,
+    kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, CpuProfile, FrameBenchError, Image, MeasuredCpi,
+    Target,
 };
 pub use timeline::{timeline, FrameWork, Timeline};

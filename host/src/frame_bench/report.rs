@@ -95,8 +95,12 @@ pub struct FrameRow {
     pub cpu_profile: Option<String>,
     /// Its CPI.
     pub cpi: Option<f64>,
-    /// `"cpi-model"` (instructions × CPI); `"rtl"` once a cycle-accurate soft-core run exists.
+    /// `"cpi-model"` (instructions × the profile's CPI); `"rtl"`: instructions of each stage ×
+    /// that stage's CPI measured on a cycle-accurate soft-core (`bench frame --cpu-measured`;
+    /// `cpi` is then the frame's effective CPI).
     pub cpu_source: Option<String>,
+    /// With `cpu_source` = `"rtl"`: the measured CPI per stage.
+    pub cpi_by_stage: Option<BTreeMap<String, f64>>,
     /// Firmware instructions of the frame (the link wrapper excluded).
     pub instructions: Option<u64>,
     /// Per stage (`raygen`, `traverse`, `fsl_io`, `shade`, `encode`), per primary ray. With a
@@ -208,9 +212,18 @@ pub(crate) fn device_row(
         None => (None, 0),
     };
     let (coproc_clock_hz, coproc_clock_source) = config.coproc_clock(opt.clock_mhz);
+    // Measured CPI per stage for the soft-float image (a core without FPU measured it);
+    // else the profile's one CPI.
+    let measured = opt.measured_cpi.as_ref().filter(|_| target == Target::Riscv32imac);
+    let cpi_by_stage: Option<BTreeMap<String, f64>> =
+        measured.map(|m| by_stage.keys().filter_map(|s| Some((s.clone(), m.cpi(s)?))).collect());
+    let cpu_cycles = match &cpi_by_stage {
+        Some(cpi) => by_stage.iter().map(|(s, per_ray)| per_ray * primary * cpi.get(s).copied().unwrap_or(1.0)).sum(),
+        None => instructions as f64 * opt.cpu.cpi,
+    };
     let work = FrameWork {
         coproc_clock_hz,
-        cpu_cycles: instructions as f64 * opt.cpu.cpi,
+        cpu_cycles,
         coproc_cycles: coproc_cycles as f64,
         coproc_request_cycles: profile.map_or(0.0, |p| run.stat(stat::FSL_WORDS_OUT) as f64 * p.word_in_cycles as f64),
         coproc_rays: run.stat(stat::COPROC_RAYS),
@@ -238,9 +251,10 @@ pub(crate) fn device_row(
         psnr_db,
         identical,
         frame_ms_source: "model".into(),
-        cpu_profile: Some(opt.cpu.name.into()),
-        cpi: Some(opt.cpu.cpi),
-        cpu_source: Some("cpi-model".into()),
+        cpu_profile: Some(measured.map_or_else(|| opt.cpu.name.to_string(), |m| m.core.clone())),
+        cpi: Some(if measured.is_some() { cpu_cycles / instructions.max(1) as f64 } else { opt.cpu.cpi }),
+        cpu_source: Some(if measured.is_some() { "rtl" } else { "cpi-model" }.into()),
+        cpi_by_stage,
         instructions: Some(instructions),
         instructions_per_primary_ray_by_stage: Some(by_stage),
         link_wrapper_instructions: wrapper,
@@ -293,6 +307,7 @@ pub(crate) fn native_row(run: &DeviceRun, cmp: &Comparison) -> FrameRow {
         cpu_profile: None,
         cpi: None,
         cpu_source: None,
+        cpi_by_stage: None,
         instructions: None,
         instructions_per_primary_ray_by_stage: None,
         link_wrapper_instructions: None,

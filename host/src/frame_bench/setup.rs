@@ -1,6 +1,7 @@
 //! What a frame bench is asked for: targets, configurations, the soft-core profile, the
 //! options, the progress events and the errors.
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use gridrt_coproc::{KernelKind, NumberFormat, TimingProfile};
@@ -210,6 +211,52 @@ impl CpuProfile {
     }
 }
 
+/// Cycles per instruction of each firmware stage, measured on a soft-core: the device's
+/// per-stage `mcycle` and `minstret` of one frame (`device_counters` `stage_<stage>_cycles` /
+/// `stage_<stage>_instret` of a `gridrt render --port … --stats` JSON), e.g. the LiteX SoC's
+/// VexRiscv in Verilator (soc/README.md). A core without an FPU measures the soft-float
+/// image: it applies to `riscv32imac` only.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MeasuredCpi {
+    /// The core (`vexriscv-imac`).
+    pub core: String,
+    /// The stats file it came from.
+    pub source: String,
+    /// Per stage (`raygen`, `traverse`, `fsl_io`, `shade`, `encode`): `(cycles, instructions)`.
+    pub by_stage: BTreeMap<String, (u64, u64)>,
+}
+
+impl MeasuredCpi {
+    /// Reads the per-stage counters of the stats JSON `text` (from `source`). Every stage
+    /// must have counted instructions, and no stage fewer cycles than instructions.
+    pub fn from_stats_json(core: &str, source: &str, text: &str) -> Result<Self, String> {
+        let v: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("{source}: {e}"))?;
+        let counters = &v["device_counters"];
+        let mut by_stage = BTreeMap::new();
+        for stage in gridrt_firmware::device::Stage::ALL {
+            let name = crate::stats::stage_name(stage);
+            let get = |what: &str| counters[format!("stage_{name}_{what}")].as_u64();
+            match (get("cycles"), get("instret")) {
+                (Some(c), Some(i)) if i > 0 && c >= i => {
+                    by_stage.insert(name.to_string(), (c, i));
+                }
+                (c, i) => {
+                    return Err(format!(
+                        "{source}: stage {name}: {c:?} cycles for {i:?} instructions (need `stage_{name}_cycles` \
+                         and `stage_{name}_instret` from a soft-core with mcycle/minstret)"
+                    ))
+                }
+            }
+        }
+        Ok(Self { core: core.to_string(), source: source.to_string(), by_stage })
+    }
+
+    /// Cycles per instruction of `stage` (its name).
+    pub fn cpi(&self, stage: &str) -> Option<f64> {
+        self.by_stage.get(stage).map(|&(c, i)| c as f64 / i as f64)
+    }
+}
+
 /// What `gridrt bench frame` measures.
 #[derive(Debug, Clone)]
 pub struct BenchOptions {
@@ -229,6 +276,9 @@ pub struct BenchOptions {
     pub tx_buffer_bytes: u64,
     /// Soft-core profile.
     pub cpu: CpuProfile,
+    /// Per-stage CPI measured on a soft-core without FPU: replaces `cpu` in the
+    /// `riscv32imac` rows (`cpu_source` = `"rtl"`).
+    pub measured_cpi: Option<MeasuredCpi>,
     /// Configurations, in report order.
     pub configs: Vec<Configuration>,
     /// Soft-core targets, in report order.

@@ -25,6 +25,7 @@ fn options() -> BenchOptions {
         encoding: PixelEncoding::Rle,
         tx_buffer_bytes: 16,
         cpu: CpuProfile::PICORV32,
+        measured_cpi: None,
         configs: Configuration::ALL.to_vec(),
         targets: Target::ALL.to_vec(),
         native_warmup: 0,
@@ -131,6 +132,48 @@ fn a_device_row_charges_the_firmware_without_the_wrapper_and_serialises_every_is
     let stages = v["instructions_per_primary_ray_by_stage"].as_object().unwrap();
     assert_eq!(stages.len(), 5);
     assert!((stages["fsl_io"].as_f64().unwrap() - (per_stage - 30 * words) as f64 / primary).abs() < 1e-9);
+}
+
+/// `--cpu-measured`: the soft-float rows charge each stage's instructions at that stage's
+/// measured CPI (`cpu_source` = `"rtl"`); the hard-float rows keep the profile (the measured
+/// core has no FPU); stats without per-stage cycles are refused.
+#[test]
+fn measured_cpi_charges_each_stage_at_its_own_cpi_on_the_soft_float_target_only() {
+    let stats = serde_json::json!({ "device_counters": {
+        "stage_raygen_cycles": 2000, "stage_raygen_instret": 1000,
+        "stage_traverse_cycles": 3000, "stage_traverse_instret": 1000,
+        "stage_fsl_io_cycles": 5000, "stage_fsl_io_instret": 1000,
+        "stage_shade_cycles": 1500, "stage_shade_instret": 1000,
+        "stage_encode_cycles": 1000, "stage_encode_instret": 1000,
+    }});
+    let measured = MeasuredCpi::from_stats_json("vexriscv-imac", "soc.json", &stats.to_string()).unwrap();
+    assert_eq!(measured.cpi("fsl_io"), Some(5.0));
+    let mut opt = options();
+    opt.measured_cpi = Some(measured);
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let quiet = &mut |_| {};
+    let mut run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
+    let sim = run.clone();
+    for s in Stage::ALL {
+        run.frame.stats.insert(s.instret_key(), 960);
+    }
+    run.frame.stats.insert(stat::LINK_WRAPPER_INSTRUCTIONS, 1);
+    let cmp = compare(&run.frame.rgb, &run.frame.rgb, None, None).unwrap();
+    let model = Some((TimingProfile::GRIDRT, &sim));
+    let soft = device_row(Configuration::Gridrt, Target::Riscv32imac, &run, model, &cmp, &opt);
+    // 960 instructions per stage at CPI 2 + 3 + 5 + 1.5 + 1 at 100 MHz.
+    assert!((soft.cpu_ms - 960.0 * 12.5 / 100e6 * 1e3).abs() < 1e-9, "{soft:?}");
+    assert_eq!(soft.cpu_source.as_deref(), Some("rtl"));
+    assert_eq!(soft.cpu_profile.as_deref(), Some("vexriscv-imac"));
+    assert!((soft.cpi.unwrap() - 12.5 / 5.0).abs() < 1e-12);
+    assert_eq!(soft.cpi_by_stage.as_ref().unwrap()["traverse"], 3.0);
+    let hard = device_row(Configuration::Gridrt, Target::Riscv32imafc, &run, model, &cmp, &opt);
+    assert_eq!((hard.cpu_source.as_deref(), hard.cpi), (Some("cpi-model"), Some(4.1)));
+    assert!(hard.cpi_by_stage.is_none());
+
+    let qemu_stats = serde_json::json!({ "device_counters": { "stage_raygen_instret": 1000 } });
+    let e = MeasuredCpi::from_stats_json("vexriscv-imac", "q.json", &qemu_stats.to_string()).unwrap_err();
+    assert!(e.contains("stage_raygen_cycles"), "{e}");
 }
 
 /// The host-native run is the soft-core-only firmware compiled for this CPU: the same image

@@ -109,6 +109,10 @@ pub struct Session<T> {
     pub(crate) pace: DevicePace,
     /// When, with which sequence number, and what was last heard.
     heard: Option<(Instant, u16, String)>,
+    /// Measured seconds per byte of a round trip beyond the turnaround (smoothed); 0 until
+    /// the first answer. A receiver slower than the line (a simulated SoC, a bootloader
+    /// busy with each chunk) lengthens every derived wait ([`Self::answer_wait`]).
+    byte_time_s: f64,
 }
 
 impl<T: Read + Write> Session<T> {
@@ -135,7 +139,25 @@ impl<T: Read + Write> Session<T> {
             frame_bytes: 0,
             pace: DevicePace::default(),
             heard: None,
+            byte_time_s: 0.0,
         }
+    }
+
+    /// How long an answer of `back` bytes to `out` bytes may take: twice their time on the
+    /// line plus the turnaround, the time per byte being the line rate's or, when answers
+    /// were measured to take longer, the measured one ([`SessionConfig::answer_wait`] on a
+    /// line as fast as its baud rate).
+    pub fn answer_wait(&self, out: usize, back: usize) -> Duration {
+        let wire = 10.0 / f64::from(self.cfg.baud.max(1));
+        let per_byte = self.byte_time_s.max(wire);
+        Duration::from_secs_f64(2.0 * per_byte * (out + back) as f64) + self.cfg.turnaround
+    }
+
+    /// Learns from an answer that came `rtt` after a request, with `bytes` wire bytes to
+    /// cross in both directions (the request, what was queued ahead of it, the answer).
+    pub(crate) fn learn_round_trip(&mut self, rtt: Duration, bytes: usize) {
+        let sample = rtt.saturating_sub(self.cfg.turnaround).as_secs_f64() / bytes.max(1) as f64;
+        self.byte_time_s = if self.byte_time_s == 0.0 { sample } else { 0.75 * self.byte_time_s + 0.25 * sample };
     }
 
     /// The last valid message from the device, its sequence number and how long ago; for
@@ -329,8 +351,9 @@ impl<T: Read + Write> Session<T> {
         let start = Instant::now();
         // One Hello per derived answer wait (at least 100 ms: a device may be busy for a
         // moment), until the device had `hello_timeout` to boot.
-        let wait = self.cfg.answer_wait(16, 36).max(Duration::from_millis(100));
+        let wait = self.answer_wait(16, 36).max(Duration::from_millis(100));
         while start.elapsed() < self.cfg.hello_timeout {
+            let sent = Instant::now();
             self.send(stage, &Msg::Hello { protocol: PROTOCOL_VERSION as u16 })?;
             let until = (Instant::now() + wait).min(start + self.cfg.hello_timeout);
             while let Some(m) = self.poll(stage, until)? {
@@ -344,6 +367,8 @@ impl<T: Read + Write> Session<T> {
                             });
                         }
                         self.device = Some(info);
+                        // A Version answering an earlier Hello makes this too short: never too long.
+                        self.learn_round_trip(sent.elapsed(), 16 + 36);
                         progress(ProgressEvent::Connected(info));
                         return Ok(info);
                     }

@@ -129,7 +129,14 @@ struct Waiting {
     /// Pixels of the requested region not arrived yet, kept up to date span by span (a
     /// full scan of the region per message made a 1080p frame quadratic).
     missing: u64,
+    /// Requests in a row the device left unanswered: each doubles the quiet limit (a device
+    /// slower than its pace so far, e.g. a simulated SoC, is not sent the same work again
+    /// and again; it renders every request it gets).
+    backoff: u32,
 }
+
+/// Doublings of the quiet limit at most (×1024).
+const MAX_BACKOFF: u32 = 10;
 
 /// Result of one band.
 #[derive(Debug, Clone, Default)]
@@ -227,7 +234,12 @@ impl<T: Read + Write> Session<T> {
             let options = if max_span != 0 { options | region_options::SPAN_BYTES } else { options };
             self.send(stage, &Msg::RenderRegion { region: gap, max_span, options, request: *req })?;
             self.link.regions_requested += 1;
-            let mut waiting = Waiting { last: Instant::now(), nak: None, missing: canvas.missing_in(gap) };
+            let mut waiting = Waiting {
+                last: Instant::now(),
+                nak: None,
+                missing: canvas.missing_in(gap),
+                backoff: silent.min(MAX_BACKOFF),
+            };
             let outcome = loop {
                 let w = self.wait_region(
                     req,
@@ -309,10 +321,10 @@ impl<T: Read + Write> Session<T> {
         let p = self.pace;
         if complete {
             // Only the end (and maybe Stats) is left; it follows the last span at once.
-            return self.cfg.answer_wait(0, 300) + p.gap;
+            return self.answer_wait(0, 300) + p.gap;
         }
         let compute = if got_any { 2 * p.gap } else { 2 * p.first };
-        self.cfg.answer_wait(0, p.frame) + compute
+        self.answer_wait(0, p.frame) + compute
     }
 
     /// Waits for the answer to the `RenderRegion` of `region` (returns `Tick` at `tick`).
@@ -336,8 +348,12 @@ impl<T: Read + Write> Session<T> {
             let limit = match nak {
                 // The device found a corrupt frame before answering: most likely our request.
                 // Send it again unless spans start to flow within a turnaround.
-                Some(at) => at + self.cfg.turnaround + self.cfg.answer_wait(0, 64),
-                None => last + self.quiet_limit(att.got_any, waiting.missing == 0),
+                Some(at) => at + self.cfg.turnaround + self.answer_wait(0, 64),
+                None => {
+                    let quiet = self.quiet_limit(att.got_any, waiting.missing == 0);
+                    // Backed off, but no longer than a render may go without a pixel.
+                    last + (quiet * (1 << waiting.backoff)).min(self.cfg.render_timeout.max(quiet))
+                }
             };
             let before = self.bytes_rx;
             let msg = self.poll(stage, limit.min(tick))?;

@@ -44,6 +44,8 @@ struct Flight {
     /// Sequence number, wire bytes and time of its latest transmission, until a `Sack`
     /// settles it.
     pending: Option<(u16, usize, Instant)>,
+    /// Wire bytes unsettled when it was last sent, its own included (queued ahead of it).
+    queued: usize,
     sends: u32,
 }
 
@@ -87,6 +89,9 @@ pub(crate) struct WindowSender {
     rate: f64,
     /// Shortest time seen from a data frame to the `Sack` that answers it.
     min_rtt: Option<Duration>,
+    /// The latest round trip from a data frame to its `Sack`, with the wire bytes that were
+    /// queued up to that frame, until [`Self::take_round_trip`].
+    round_trip: Option<(Duration, usize)>,
     acked: u32,
     held: Vec<(u32, u32)>,
     window: u32,
@@ -124,6 +129,7 @@ impl WindowSender {
             max_flight: max_flight.max(1),
             rate: rate.max(1.0),
             min_rtt: None,
+            round_trip: None,
             acked: 0,
             held: Vec::new(),
             window: u32::from(window.max(1)),
@@ -203,7 +209,7 @@ impl WindowSender {
                     let mut at = offset;
                     while at < offset + f.len {
                         let len = n.min(offset + f.len - at);
-                        self.flights.insert(at, Flight { len, pending: None, sends: f.sends });
+                        self.flights.insert(at, Flight { len, pending: None, queued: 0, sends: f.sends });
                         self.lost.insert(at);
                         at += len;
                     }
@@ -235,8 +241,11 @@ impl WindowSender {
             self.frames_resent += 1;
             self.bytes_resent += chunk.len as u64;
         }
-        let f = self.flights.entry(chunk.offset).or_insert(Flight { len: chunk.len, pending: None, sends: 0 });
+        let queued = self.unsettled_wire() + wire;
+        let f =
+            self.flights.entry(chunk.offset).or_insert(Flight { len: chunk.len, pending: None, queued: 0, sends: 0 });
         f.pending = Some((seq, wire, Instant::now()));
+        f.queued = queued;
         f.sends += 1;
         self.next_new = self.next_new.max(chunk.offset + chunk.len);
     }
@@ -274,6 +283,7 @@ impl WindowSender {
                     if seq == sack.heard {
                         let rtt = at.elapsed();
                         self.min_rtt = Some(self.min_rtt.map_or(rtt, |m| m.min(rtt)));
+                        self.round_trip = Some((rtt, f.queued));
                     }
                 }
                 self.flights.remove(&offset);
@@ -293,6 +303,12 @@ impl WindowSender {
             }
         }
         SackEffect::Applied { advanced, lost }
+    }
+
+    /// The latest round trip a `Sack` measured (time, wire bytes queued up to the frame it
+    /// answers), once.
+    pub(crate) fn take_round_trip(&mut self) -> Option<(Duration, usize)> {
+        self.round_trip.take()
     }
 
     /// Forgets everything sent (the receiver lost the transfer): all bytes are new again.

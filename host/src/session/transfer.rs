@@ -9,8 +9,9 @@
 //! 3. **Receive** `Sack`s; each settles every transmission up to the frame it answers. A
 //!    device NAK (`Error{BadFrame}`) when nothing new can be sent gets a probe at once; so
 //!    does a line quiet for longer than the unsettled bytes take to cross it (the last
-//!    resort). [`SessionConfig::max_probes`](super::SessionConfig::max_probes) probes in a
-//!    row without a `Sack` end the transfer with a timeout naming what was last heard.
+//!    resort). Each probe in a row without a `Sack` doubles the next wait;
+//!    [`SessionConfig::max_probes`](super::SessionConfig::max_probes) of them end the
+//!    transfer with a timeout naming what was last heard.
 //! 4. **Done** when a `Sack` says `Loaded` / `Verified` at the image's length.
 //!
 //! A receiver that lost the transfer (it reset, or the begin message was lost: it answers
@@ -37,6 +38,9 @@ const SACK_WIRE: usize = SACK_HEAD_LEN + MAX_SACK_RANGES * SACK_RANGE_LEN + 12;
 /// Bytes the host keeps in flight at most, whatever window the receiver offers: a deeper
 /// queue only delays the `Sack`s that reveal a loss.
 const MAX_FLIGHT: u32 = 8192;
+
+/// Doublings of a wait after unanswered probes, at most (×1024).
+const MAX_BACKOFF: u32 = 10;
 
 /// Progress events at least this often.
 const TICK: Duration = Duration::from_secs(1);
@@ -142,8 +146,8 @@ impl<T: Read + Write> Session<T> {
         let mut probes_in_row = 0u32;
         // When the receiver reported a corrupt frame that no later Sack has accounted for.
         let mut nak: Option<Instant> = None;
-        let nak_grace = self.cfg.answer_wait(wire_len(DATA_HEAD), SACK_WIRE);
         loop {
+            let nak_grace = self.answer_wait(wire_len(DATA_HEAD), SACK_WIRE);
             let mut sent_any = false;
             while let Some(c) = tx.next(&mut self.est_up) {
                 let data = &image[c.offset as usize..(c.offset + c.len) as usize];
@@ -166,7 +170,9 @@ impl<T: Read + Write> Session<T> {
                 let a = self.activity(stage, &tx, start, tx0, rx0, errors0);
                 progress(ProgressEvent::Activity(a));
             }
-            let probe_at = last_event + self.cfg.answer_wait(tx.unsettled_wire() + wire_len(DATA_HEAD), SACK_WIRE);
+            let probe_at = last_event
+                + self.answer_wait(tx.unsettled_wire() + wire_len(DATA_HEAD), SACK_WIRE)
+                    * (1 << probes_in_row.min(MAX_BACKOFF));
             let wake = nak.map_or(probe_at, |at| probe_at.min(at + nak_grace));
             let Some(m) = self.poll(stage, wake.min(next_tick))? else {
                 if Instant::now() < probe_at {
@@ -187,7 +193,11 @@ impl<T: Read + Write> Session<T> {
             };
             if let Some((sack, done)) = kind.sack(&m) {
                 let before = tx.acked();
-                match tx.sack(&sack, &mut self.est_up) {
+                let effect = tx.sack(&sack, &mut self.est_up);
+                if let Some((rtt, queued)) = tx.take_round_trip() {
+                    self.learn_round_trip(rtt, queued + SACK_WIRE);
+                }
+                match effect {
                     SackEffect::Applied { .. } => {
                         probes_in_row = 0;
                         nak = None;
@@ -293,17 +303,28 @@ impl<T: Read + Write> Session<T> {
         let stage = kind.stage();
         let start = Instant::now();
         let begin_wire = wire_len(20); // FlashBegin; SceneBegin is shorter
-        for _ in 0..=self.cfg.max_probes {
+        let exchange = begin_wire + 1 + wire_len(DATA_HEAD);
+        // Every probe of this opening, and when it left: a slow receiver answers one after
+        // the next has gone, and each follows a begin message of this same transfer.
+        let mut probes: Vec<(u16, Instant)> = Vec::new();
+        for attempt in 0..=self.cfg.max_probes {
             report.opens += 1;
             self.write_bytes(stage, &[0])?;
             self.send(stage, begin)?;
             let (probe_seq, _) = self.send(stage, &kind.data(0, &[]))?;
-            let until = Instant::now() + self.cfg.answer_wait(begin_wire + wire_len(DATA_HEAD), 2 * SACK_WIRE);
+            probes.push((probe_seq, Instant::now()));
+            // Each unanswered opening doubles the wait: a receiver slower than anything
+            // measured so far (a simulated SoC) answers before the probes run out.
+            let until = Instant::now() + self.answer_wait(exchange, 2 * SACK_WIRE) * (1 << attempt.min(MAX_BACKOFF));
             while let Some(m) = self.poll(stage, until)? {
                 if let Some((sack, done)) = kind.sack(&m) {
-                    // The answer to our probe, for our transfer: fresh (nothing held yet), or
-                    // already complete (the receiver holds this very image).
-                    let ours = sack.crc == tx.crc() && sack.heard == probe_seq;
+                    // The answer to one of our probes, for our transfer: fresh (nothing held
+                    // yet), or already complete (the receiver holds this very image).
+                    let probe = probes.iter().find(|(seq, _)| *seq == sack.heard).map(|&(_, at)| at);
+                    let ours = sack.crc == tx.crc() && probe.is_some();
+                    if let Some(at) = probe {
+                        self.learn_round_trip(at.elapsed(), exchange + SACK_WIRE);
+                    }
                     if ours && sack.next_offset == 0 {
                         return Ok((sack.window, None));
                     }

@@ -44,7 +44,7 @@ impl<T: Read + Write> Session<T> {
             r,
             Err(SessionError::Device { .. } | SessionError::Protocol { .. } | SessionError::UploadStalled { .. })
         ) {
-            let quiet = self.cfg.answer_wait(MAX_CHUNK, 64);
+            let quiet = self.answer_wait(MAX_CHUNK, 64);
             self.drain(Stage::Upload, quiet, 10 * quiet);
         }
         if r.is_ok() && self.scene.as_deref() != Some(image) {
@@ -115,7 +115,7 @@ impl<T: Read + Write> Session<T> {
                 });
             }
             // Everything in flight has to cross before its acknowledgement can.
-            let wait = self.cfg.answer_wait((next - acked.min(next)) as usize + 32, 32);
+            let wait = self.answer_wait((next - acked.min(next)) as usize + 32, 32);
             let in_flight = ((next - acked.min(next)) as usize).div_ceil(chunk.max(1));
             let mut restart = false;
             match self.poll(stage, Instant::now() + wait)? {

@@ -179,7 +179,11 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     for k in ["primary_rays", "shadow_rays", "coproc_rays", "list_entries", "intersection_tests"] {
         assert_eq!(soc[k], rtl[k], "{k}");
     }
-    // Measured cycles per instruction of each firmware stage on the VexRiscv.
+    // Measured cycles per instruction of each firmware stage on the VexRiscv; the stats are
+    // kept for `gridrt bench frame --cpu-measured` (BENCHMARKS.md, "The LiteX SoC").
+    let kept = repo_root().join("target/soc/render-32x24-stats.json");
+    std::fs::copy(&soc_json, &kept).unwrap();
+    eprintln!("SoC stats: {}", kept.display());
     let counters = &soc["device_counters"];
     for stage in ["raygen", "traverse", "fsl_io", "shade", "encode"] {
         let c = counters[format!("stage_{stage}_cycles")].as_u64().unwrap();
