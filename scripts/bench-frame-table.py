@@ -39,13 +39,27 @@ def image(row):
     return f"{row['psnr_db']:.1f} dB" if row["psnr_db"] is not None else "?"
 
 
+def cpu_profiles(r):
+    """How each target's soft-core time was charged: the report's CPI model, or the CPI per
+    stage measured on the SoC (`--cpu-measured`, rows with `cpu_source` = "rtl")."""
+    parts = []
+    for target in dict.fromkeys(row["target"] for row in r["rows"] if row["target"].startswith("riscv")):
+        row = next(x for x in r["rows"] if x["target"] == target)
+        if row.get("cpu_source") == "rtl" and row.get("cpi_by_stage"):
+            stages = ", ".join(f"{k} {v:.2f}" for k, v in sorted(row["cpi_by_stage"].items()))
+            parts.append(f"{target}: {row['cpu_profile']}, CPI per stage measured in the SoC simulation: {stages}")
+        else:
+            parts.append(f"{target}: {r['cpu_profile']}, CPI {r['cpi']}")
+    return "; ".join(parts) or f"{r['cpu_profile']}, CPI {r['cpi']}"
+
+
 def scene_table(r):
     name = Path(r["scene"]).name
     out = []
     out.append(
         f"**{name}** ({r['triangles']} triangles, grid {'×'.join(map(str, r['grid']))}, {r['pe_count']} PEs, "
         f"plan [{', '.join(r['plan'])}]), {r['width']}×{r['height']}, soft-core at {num(r['clock_mhz'], 0)} MHz "
-        f"({r['cpu_profile']}, CPI {r['cpi']}), {num(r['baud'], 0)} baud, `{r['encoding']}`; "
+        f"({cpu_profiles(r)}), {num(r['baud'], 0)} baud, `{r['encoding']}`; "
         f"upload {num(r['upload_bytes'] or 0, 0)} B = {num((r['upload_ms'] or 0) / 1e3, 2)} s, not in the frame:"
     )
     out.append("")
