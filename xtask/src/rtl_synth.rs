@@ -8,7 +8,9 @@
 //!
 //! Resources come from nextpnr's report after placement (LUT4s and FFs inside the packed
 //! slices, MULT18X18D, DP16KD); fmax is nextpnr's achieved frequency of `clk` after
-//! routing. `fits` is true when place and route succeeded on the device.
+//! routing. `fits` is true when place and route succeeded on the device. A netlist whose
+//! Yosys cell counts already exceed the device is not placed (nextpnr would spend an hour
+//! before failing): the report then has Yosys's counts, `fits` false and no fmax.
 
 use crate::rtl::{hdl_sources, root, Params};
 use anyhow::{bail, Context, Result};
@@ -22,6 +24,8 @@ const DEVICE: &str = "LFE5U-85F-CABGA381";
 const LUTS_AVAILABLE: u64 = 83_640;
 const DSPS_AVAILABLE: u64 = 156;
 const BRAMS_AVAILABLE: u64 = 208;
+/// One flip-flop per LUT4 (two per slice of two LUT4s).
+const FFS_AVAILABLE: u64 = 83_640;
 
 #[derive(Args, Debug)]
 pub struct SynthCmd {
@@ -134,6 +138,17 @@ impl SynthCmd {
             }
             eprintln!("rtl synth: yosys done in {yosys_s:.0} s");
         }
+        let y = yosys_counts(&dir);
+        if !y.within_device() {
+            eprintln!(
+                "rtl synth: Yosys's netlist exceeds the {DEVICE} ({} of {LUTS_AVAILABLE} LUT4s, {} of {FFS_AVAILABLE} FFs, \
+                 {} of {DSPS_AVAILABLE} MULT18X18D, {} of {BRAMS_AVAILABLE} DP16KD): not placed",
+                y.luts, y.ffs, y.dsps, y.brams
+            );
+            report =
+                Report { luts: y.luts, ffs: y.ffs, dsps: y.dsps, brams: y.brams, yosys_s: report.yosys_s, ..report };
+            return self.write(&report, &dir);
+        }
         eprintln!("rtl synth: nextpnr-ecp5 --85k at {} MHz …", self.freq);
         let t1 = Instant::now();
         let pnr_report = dir.join("nextpnr-report.json");
@@ -174,25 +189,20 @@ impl SynthCmd {
         }
         if report.luts == 0 {
             // Older nextpnr reports count slices only: take the cell counts from Yosys.
-            let stat = std::fs::read_to_string(dir.join("yosys-stat.txt")).unwrap_or_default();
-            let count = |cell: &str| {
-                stat.lines()
-                    .rev()
-                    .filter_map(|l| {
-                        let mut it = l.split_whitespace();
-                        let n = it.next()?.parse::<u64>().ok()?;
-                        (it.next()? == cell).then_some(n)
-                    })
-                    .next()
-                    .unwrap_or(0)
-            };
-            report.luts = count("LUT4") + 2 * count("CCU2C");
-            report.ffs = count("TRELLIS_FF");
-            report.dsps = report.dsps.max(count("MULT18X18D"));
-            report.brams = report.brams.max(count("DP16KD"));
+            let y = yosys_counts(&dir);
+            (report.luts, report.ffs) = (y.luts, y.ffs);
+            report.dsps = report.dsps.max(y.dsps);
+            report.brams = report.brams.max(y.brams);
         }
-        report.fits &=
-            report.luts <= LUTS_AVAILABLE && report.dsps <= DSPS_AVAILABLE && report.brams <= BRAMS_AVAILABLE;
+        report.fits &= report.luts <= LUTS_AVAILABLE
+            && report.ffs <= FFS_AVAILABLE
+            && report.dsps <= DSPS_AVAILABLE
+            && report.brams <= BRAMS_AVAILABLE;
+        self.write(&report, &dir)
+    }
+
+    /// Writes `report` as JSON to `--json` and to stdout.
+    fn write(&self, report: &Report, dir: &std::path::Path) -> Result<()> {
         let json = format!(
             "{{\"device\": \"{DEVICE}\", \"pes\": {}, \"pe_mem_words\": {}, \"max_list\": {}, \"luts\": {}, \"ffs\": {}, \
              \"dsps\": {}, \"brams\": {}, \"fmax_mhz\": {:.2}, \"target_mhz\": {}, \"fits\": {}, \"yosys_s\": {}, \
@@ -219,5 +229,47 @@ impl SynthCmd {
             eprintln!("rtl synth: the design does not fit the {DEVICE} (logs in {})", dir.display());
         }
         Ok(())
+    }
+}
+
+/// Cell counts of Yosys's `stat` (LUT4-equivalents: LUT4 + 2 per CCU2C).
+#[derive(Debug, Default, Clone, Copy)]
+struct YosysCounts {
+    luts: u64,
+    ffs: u64,
+    dsps: u64,
+    brams: u64,
+}
+
+impl YosysCounts {
+    /// Every count within the device (0 counts, e.g. no stat file, count as within).
+    fn within_device(&self) -> bool {
+        self.luts <= LUTS_AVAILABLE
+            && self.ffs <= FFS_AVAILABLE
+            && self.dsps <= DSPS_AVAILABLE
+            && self.brams <= BRAMS_AVAILABLE
+    }
+}
+
+/// The last count of each cell type in `dir/yosys-stat.txt` (the top level's, after the
+/// hierarchy's); zeros when there is no stat.
+fn yosys_counts(dir: &std::path::Path) -> YosysCounts {
+    let stat = std::fs::read_to_string(dir.join("yosys-stat.txt")).unwrap_or_default();
+    let count = |cell: &str| {
+        stat.lines()
+            .rev()
+            .filter_map(|l| {
+                let mut it = l.split_whitespace();
+                let n = it.next()?.parse::<u64>().ok()?;
+                (it.next()? == cell).then_some(n)
+            })
+            .next()
+            .unwrap_or(0)
+    };
+    YosysCounts {
+        luts: count("LUT4") + 2 * count("CCU2C"),
+        ffs: count("TRELLIS_FF"),
+        dsps: count("MULT18X18D"),
+        brams: count("DP16KD"),
     }
 }
