@@ -181,8 +181,9 @@ impl TimingProfile {
     ///   holds at most one wide carry chain so the clock can close (rtl/README.md §5).
     /// - `ray_setup_cycles = 25`: the dominant axis, six pipelined f32 → fixed conversions,
     ///   the two shear divisions (2 quotient bits per cycle), and the start of the PEs.
-    /// - `arbitration_cycles = 7`: the first-hit decision, the winner's result and triangle
-    ///   (two memory reads), before the first RESULT word.
+    /// - `arbitration_cycles = 8`: the first-hit decision (the priority encoders registered,
+    ///   then compared), the winner's result and triangle (two memory reads), before the
+    ///   first RESULT word.
     ///
     /// Over whole frames (bun_zipper_res4, 4 PEs; BENCHMARKS.md "Co-processor RTL") the RTL
     /// takes 133.7 cycles per co-processor ray at 64×48 and 133.6 at 320×240, the same as this
@@ -197,7 +198,7 @@ impl TimingProfile {
         voxel_setup_cycles: 1,
         word_in_cycles: 1,
         word_out_cycles: 1,
-        arbitration_cycles: 7,
+        arbitration_cycles: 8,
         ray_setup_cycles: 25,
     };
 

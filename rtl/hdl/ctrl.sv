@@ -221,7 +221,7 @@ module ctrl #(
     logic [MAX_LIST-1:0] done_q, hit_q, mask_n;
     logic [31:0]         ray_cnt;
     logic [2:0]          ex_step;      // exec sub-steps before arbitration
-    logic [34:0]         issued_sum, issued_prev;
+    logic [34:0]         issued_sum, issued_prev, issued_prev2;
     logic [KW-1:0]       win_k;
     logic [PW-1:0]       win_pe;
     logic                win_hit;
@@ -229,9 +229,14 @@ module ctrl #(
     logic [3:0]          res_step;
     logic [PW-1:0]       ent_pe_of [MAX_LIST];
 
-    logic [KW:0] first_hit, first_open;
-    first_set #(.N(MAX_LIST)) u_first_hit (.bits(done_q & hit_q), .index(first_hit));
-    first_set #(.N(MAX_LIST)) u_first_open (.bits(~done_q & mask_n), .index(first_open));
+    // The priority encoders' answers are registered: the decision one cycle later compares
+    // them (encoders, compare and the winner's enables in one cycle were the 1-PE design's
+    // critical path, 21 ns). done/hit bits only ever get set during a ray, so deciding on
+    // last cycle's state picks the same winner one cycle later; the test count is taken one
+    // cycle further back to match (`issued_prev2`).
+    logic [KW:0] first_hit_now, first_open_now, first_hit, first_open;
+    first_set #(.N(MAX_LIST)) u_first_hit (.bits(done_q & hit_q), .index(first_hit_now));
+    first_set #(.N(MAX_LIST)) u_first_open (.bits(~done_q & mask_n), .index(first_open_now));
     always_comb begin
         issued_sum = '0;
         for (int p = 0; p < PES; p++) issued_sum = issued_sum + 35'(pe_issued[p]);
@@ -254,6 +259,9 @@ module ctrl #(
         rs_start <= 1'b0;
         ray_cnt <= ray_cnt + 1;
         issued_prev <= issued_sum;
+        issued_prev2 <= issued_prev;
+        first_hit <= first_hit_now;
+        first_open <= first_open_now;
         for (int p = 0; p < PES; p++) begin
             if (pe_ev0_valid[p]) done_q[pe_ev0_k[p]] <= 1'b1;
             if (pe_ev1_valid[p]) begin
@@ -411,14 +419,15 @@ module ctrl #(
                 end
                 BZ_EXEC: begin
                     // pe_start is seen by the PEs in the cycle after it is set (exec cycle
-                    // -1); exec cycle 0 is their first setup; arbitration starts in cycle 1.
-                    if (ex_step < 3'd2) begin
+                    // -1); exec cycle 0 is their first setup; arbitration looks at the state
+                    // from cycle 1 on, through the registered encoders (one cycle late).
+                    if (ex_step < 3'd3) begin
                         ex_step <= ex_step + 3'd1;
                     end else if ((first_hit < first_open) || (first_open == (KW+1)'(MAX_LIST))) begin
                         win_hit <= first_hit != (KW+1)'(MAX_LIST) && first_hit < first_open;
                         win_k <= KW'(first_hit);
                         win_pe <= ent_pe_of[KW'(first_hit)];
-                        win_tests <= (issued_prev > 35'd65535) ? 16'hFFFF : 16'(issued_prev);
+                        win_tests <= (issued_prev2 > 35'd65535) ? 16'hFFFF : 16'(issued_prev2);
                         pe_stop <= 1'b1;
                         res_step <= 4'd0;
                         busy <= BZ_RESULT;
