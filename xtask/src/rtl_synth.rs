@@ -70,7 +70,11 @@ fn tool(env: &str, names: &[&str]) -> Result<(String, String)> {
     for name in &candidates {
         if let Ok(out) = Command::new(name).arg("-V").output() {
             if out.status.success() {
-                let version = String::from_utf8_lossy(&out.stdout).lines().next().unwrap_or("").trim().to_string();
+                // Yosys answers on standard output, nextpnr on standard error.
+                let first_line =
+                    |bytes: &[u8]| String::from_utf8_lossy(bytes).lines().next().unwrap_or("").trim().to_string();
+                let version =
+                    Some(first_line(&out.stdout)).filter(|v| !v.is_empty()).unwrap_or_else(|| first_line(&out.stderr));
                 return Ok((name.clone(), version));
             }
         }
