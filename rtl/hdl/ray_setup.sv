@@ -44,6 +44,7 @@ module ray_setup (
     logic signed [9:0]  e_max;
     logic signed [24:0] d [3];     // world order
     logic [23:0]        den;
+    logic [25:0]        den3;      // 3 * den, registered in the first divider step
     logic [23:0]        rx, ry;    // partial remainders (< den)
     logic [23:0]        qx, qy;
     logic               sx_neg, sy_neg;
@@ -71,21 +72,28 @@ module ray_setup (
 
     // Two steps of the restoring division of |v| * 2^23 by den: remainder and quotient.
     // `first`: the remainder starts as |v| (the dividend's bits above 2^23), not doubled.
+    // The two quotient bits are one radix-4 digit, floor(x / dv) for x = 4r (2r first):
+    // x against dv, 2dv and 3dv in three parallel subtractors, so a step holds one carry
+    // chain, not two in series (the 1-PE design's critical path, 20.3 ns). Equal to two
+    // restoring steps because r <= dv (|v| <= den: kz is the dominant axis) and dv > 0 (a
+    // zero direction is refused before, SPEC error 11), so x < 4dv (x <= 2dv in the first
+    // step, which needs no 3dv: it is registered during that step).
     function automatic logic [47:0] div2(input logic [23:0] r0, input logic [23:0] q0,
-                                         input logic [23:0] dv, input logic first);
-        logic [24:0] r;
-        logic [25:0] diff;
-        logic [23:0] rem, q;
-        rem = r0;
-        q = q0;
-        for (int i = 0; i < 2; i++) begin
-            r = (first && i == 0) ? {1'b0, rem} : {rem, 1'b0};
-            // One subtractor: its borrow is the comparison.
-            diff = {1'b0, r} - {2'b00, dv};
-            if (!diff[25]) begin rem = 24'(diff); q = {q[22:0], 1'b1}; end
-            else begin rem = 24'(r); q = {q[22:0], 1'b0}; end
-        end
-        div2 = {rem, q};
+                                         input logic [23:0] dv, input logic [25:0] dv3,
+                                         input logic first);
+        logic [25:0] x;
+        logic [26:0] s1, s2, s3;
+        logic [1:0]  digit;
+        logic [23:0] rem;
+        x = first ? {1'b0, r0, 1'b0} : {r0, 2'b00};
+        s1 = {1'b0, x} - {3'b000, dv};
+        s2 = {1'b0, x} - {2'b00, dv, 1'b0};
+        s3 = {1'b0, x} - {1'b0, dv3};
+        if (!first && !s3[26]) begin digit = 2'd3; rem = 24'(s3); end
+        else if (!s2[26]) begin digit = 2'd2; rem = 24'(s2); end
+        else if (!s1[26]) begin digit = 2'd1; rem = 24'(s1); end
+        else begin digit = 2'd0; rem = 24'(x); end
+        div2 = {rem, q0[21:0], digit};
     endfunction
 
     always_ff @(posedge clk) begin
@@ -152,8 +160,9 @@ module ray_setup (
             end
             if (step > 6'(STEP_PERMUTE) && step <= 6'(STEP_PERMUTE + DIV_STEPS)) begin
                 // Quotient bits 23 and 22 first.
-                {rx, qx} <= div2(rx, qx, den, step == 6'(STEP_PERMUTE + 1));
-                {ry, qy} <= div2(ry, qy, den, step == 6'(STEP_PERMUTE + 1));
+                {rx, qx} <= div2(rx, qx, den, den3, step == 6'(STEP_PERMUTE + 1));
+                {ry, qy} <= div2(ry, qy, den, den3, step == 6'(STEP_PERMUTE + 1));
+                den3 <= 26'(den) + {1'b0, den, 1'b0};
             end
             if (step == 6'(LATENCY)) begin
                 sx <= sx_neg ? -$signed({1'b0, qx}) : $signed({1'b0, qx});
