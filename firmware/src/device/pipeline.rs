@@ -18,7 +18,7 @@ use super::raypath::{RayClass, RayPath};
 use super::request::{field, Job};
 use super::scene::SceneStore;
 use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
-use crate::camera::{Camera, RowRays};
+use crate::camera::{Camera, ColumnTerms, RowRays};
 use crate::cull::BoxSpans;
 use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
@@ -45,6 +45,8 @@ pub const MAX_INTERP_WIDTH: usize = 2048;
 /// Per-frame constants of the pixel pipeline.
 pub(super) struct FrameCtx {
     cam: Camera,
+    /// The camera rays' column terms on a soft-float core (`crate::camera::ColumnTerms`).
+    columns: ColumnTerms,
     /// Per row, the columns whose camera rays can enter the grid box.
     spans: BoxSpans,
     /// What a pixel whose camera ray misses everything gets: the background.
@@ -73,7 +75,7 @@ impl FrameCtx {
         let (lo, hi) = self.spans.row(y, width);
         let lo = lo.clamp(x0, x1);
         let hi = hi.clamp(lo, x1);
-        (lo..hi, self.cam.row(y as u32))
+        (lo..hi, self.cam.row_with(y as u32, self.columns.terms()))
     }
 }
 
@@ -390,6 +392,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         let diag = scene.grid.aabb().diagonal().length();
         Ok(FrameCtx {
             cam: job.cam,
+            columns: ColumnTerms::default(),
             ambient: lighting.ambient_colour.map(|c| c * light.ambient),
             lit: lighting.light_count > 0 && direct.radiance.iter().any(|&c| c != 0.0),
             direct,
@@ -428,7 +431,8 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         out: &mut impl Write,
     ) -> Result<(), Fail> {
         let (req, region) = (job.req, job.region);
-        let ctx = Self::frame_ctx(scene, job)?;
+        let mut ctx = Self::frame_ctx(scene, job)?;
+        ctx.columns.fill(&ctx.cam, req.width, cfg!(soft_float));
         let step = render_flags::interp_step(req.flags);
         let params = interp::Params {
             step,
