@@ -309,8 +309,8 @@ impl RowRays<'_> {
             (RayFormat::Fixed, Some(f)) => Ray { origin: self.cam.eye, dir: f.direction(x, self.y) },
             _ => {
                 let column = match self.columns.get(x as usize) {
-                    Some(&c) => c,
-                    None => self.cam.column_term(x),
+                    Some(&c) if COLUMN_TERMS > 0 => c,
+                    _ => self.cam.column_term(x),
                 };
                 Ray { origin: self.cam.eye, dir: vadd(column, self.sy_up) }
             }
@@ -319,8 +319,9 @@ impl RowRays<'_> {
 }
 
 /// Columns a [`ColumnTerms`] holds: a 512-pixel-wide frame's (6 KiB); wider frames compute
-/// the columns past it per pixel.
-pub const COLUMN_TERMS: usize = 512;
+/// the columns past it per pixel. None on a bare-metal hard-float image, which does not use
+/// the table (`ColumnTerms::fill`).
+pub const COLUMN_TERMS: usize = if cfg!(any(soft_float, not(target_os = "none"))) { 512 } else { 0 };
 
 /// The column terms `forward + sx·right` of a camera's f32 rays, once per frame: on a
 /// soft-float core a camera ray is then three additions (the column's term plus the row's),
