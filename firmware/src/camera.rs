@@ -245,20 +245,14 @@ impl Camera {
 
     #[inline]
     fn primary_ray_f32(&self, x: u32, y: u32) -> Ray {
-        // Kept spelled out: the row form (`dir_f32`) is pinned against it.
+        // Kept spelled out: the row form (`RowRays::ray`) is pinned against it.
         let sx = (2.0 * (x as f32 + 0.5) / self.width - 1.0) * self.half_w;
         let sy = (1.0 - 2.0 * (y as f32 + 0.5) / self.height) * self.half_h;
         Ray { origin: self.eye, dir: self.forward + sx * self.right + sy * self.cam_up }
     }
 
-    /// The f32 formula with the row term `sy·cam_up` given: the same operations in the same
-    /// order, `(forward + sx·right) + sy·cam_up`.
-    #[inline(always)]
-    fn dir_f32(&self, x: u32, sy_up: Vec3) -> Vec3 {
-        vadd(self.column_term(x), sy_up)
-    }
-
-    /// The column's part of [`Camera::dir_f32`], `forward + sx·right`.
+    /// The column's part of the f32 formula with the row term `sy·cam_up` given: the same
+    /// operations in the same order, `(forward + sx·right) + sy·cam_up` ([`RowRays::ray`]).
     #[inline(always)]
     fn column_term(&self, x: u32) -> Vec3 {
         // 2·(x + 0.5) is 2x + 1, exact in f32 below x = 2^23: one conversion instead of a

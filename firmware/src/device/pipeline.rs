@@ -65,6 +65,9 @@ pub(super) struct FrameCtx {
     specular: bool,
     /// `1e-4 · |grid box diagonal|`, the per-scene term of the shadow-ray offset.
     eps_diag: f32,
+    /// The 8-bit colour of matte camera hits in fixed point, on a soft-float core
+    /// (`shade::MatteBytes`; empty elsewhere).
+    bytes: shade::MatteBytes,
 }
 
 impl FrameCtx {
@@ -174,6 +177,8 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
         // The unit view vector, computed only for the models that read it.
         let view = || crate::fmath::try_normalize(-ray.dir).unwrap_or(n);
         let mut direct = None;
+        // The light's factor `spot·E` at a hit it reaches, +0 elsewhere (`shade::MatteBytes`).
+        let mut e_seen = 0.0;
         if lit {
             let (e, l) = shade::irradiance_toward(lighting, n, p, dl.pos);
             let spot = if e > 0.0 { shade::spot_factor_on(lighting, ctx.spot_axis, dl.pos, p) } else { 0.0 };
@@ -190,9 +195,24 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
                     true
                 };
                 if visible {
+                    e_seen = mul(e, spot);
+                    // A camera hit whose bytes the fixed-point rule gives (it ends the path: no
+                    // reflection for its material): the f32 rule's bytes without its arithmetic.
+                    if bounce == 0 {
+                        if let Some(rgb) = ctx.bytes.rgb(r.material, e_seen) {
+                            sw.lap(clock, &mut path.stats, Stage::Shade);
+                            return Ok(Sample { rgb, prim: r.prim, t: r.t });
+                        }
+                    }
                     let v = if shade::direct_reads_view(ext, dl) { view() } else { n };
-                    direct = Some(shade::direct_toward(ext, n, v, l, dl, mul(e, spot)));
+                    direct = Some(shade::direct_toward(ext, n, v, l, dl, e_seen));
                 }
+            }
+        }
+        if bounce == 0 && direct.is_none() {
+            if let Some(rgb) = ctx.bytes.rgb(r.material, e_seen) {
+                sw.lap(clock, &mut path.stats, Stage::Shade);
+                return Ok(Sample { rgb, prim: r.prim, t: r.t });
             }
         }
         for (a, b) in acc.iter_mut().zip(shade::outgoing(ext, cd, la, direct.as_ref())) {
@@ -404,6 +424,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
             reflections: req.flags & render_flags::REFLECTIONS != 0 && scene.lighting.max_depth > 1,
             textures: req.flags & render_flags::TEXTURES != 0,
             specular: req.flags & render_flags::SPECULAR != 0,
+            bytes: shade::MatteBytes::default(),
         })
     }
 
@@ -433,6 +454,11 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         let (req, region) = (job.req, job.region);
         let mut ctx = Self::frame_ctx(scene, job)?;
         ctx.columns.fill(&ctx.cam, req.width, cfg!(soft_float));
+        if cfg!(soft_float) {
+            let plan = (ctx.direct.specular, ctx.textures, ctx.reflections);
+            let radiance = if ctx.lit { ctx.direct.radiance } else { [0.0; 3] };
+            ctx.bytes = shade::MatteBytes::new(&scene.materials, &scene.material_model, ctx.ambient, radiance, plan);
+        }
         let step = render_flags::interp_step(req.flags);
         let params = interp::Params {
             step,
