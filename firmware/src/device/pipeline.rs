@@ -23,18 +23,16 @@ use crate::cull::BoxSpans;
 use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
 use crate::pixels::{FrameTx, SpanEncoder, TxError};
-use crate::sfloat::{add, mul};
-use crate::shade::{self, DEFAULT_ALBEDO};
+use crate::sfloat::{add, mul, vsub};
+use crate::shade::{self, LightFactor, DEFAULT_ALBEDO};
 use core::ops::{ControlFlow, Range};
 use embedded_io::Write;
 use gridrt_shared::fsl::RayKind;
-use gridrt_shared::math::Ray;
-#[cfg(feature = "textures")]
-use gridrt_shared::math::Vec3;
+use gridrt_shared::math::{Ray, Vec3};
 use gridrt_shared::msg::{feature, render_flags, ErrorCode, Msg};
 #[cfg(feature = "textures")]
 use gridrt_shared::scene::{affine_point, TextureKind};
-use gridrt_shared::scene::{Material, MaterialModel, ReflectMode};
+use gridrt_shared::scene::{Falloff, Material, MaterialModel, ReflectMode};
 
 /// The model of a material id the scene does not define.
 const MATTE: MaterialModel = MaterialModel::MATTE;
@@ -68,6 +66,9 @@ pub(super) struct FrameCtx {
     /// The 8-bit colour of matte camera hits in fixed point, on a soft-float core
     /// (`shade::MatteBytes`; empty elsewhere).
     bytes: shade::MatteBytes,
+    /// The light's factor at those hits may be estimated in integers (`shade::light_factor`):
+    /// a soft-float core, a light, no falloff, no spot cone.
+    estimate_light: bool,
 }
 
 impl FrameCtx {
@@ -174,6 +175,12 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
             }
             break;
         };
+        if bounce == 0 && ctx.estimate_light && ctx.bytes.covers(r.material) {
+            if let Some(rgb) = matte_camera_hit(path, scene, clock, sw, ctx, (p, n), &m, ext, r.material)? {
+                sw.lap(clock, &mut path.stats, Stage::Shade);
+                return Ok(Sample { rgb, prim: r.prim, t: r.t });
+            }
+        }
         // The unit view vector, computed only for the models that read it.
         let view = || crate::fmath::try_normalize(-ray.dir).unwrap_or(n);
         let mut direct = None;
@@ -234,6 +241,53 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
     let rgb = shade::to_rgb8(acc);
     sw.lap(clock, &mut path.stats, Stage::Shade);
     Ok(Sample { rgb, prim: first_prim, t: first_t })
+}
+
+/// The bytes of a camera hit at `p` with unit normal `n` on a material with a fixed-point
+/// rule (`shade::MatteBytes`), under an omnidirectional light without falloff: the light's
+/// factor estimated in integers (`shade::light_factor`), the shadow ray where it is positive,
+/// the rule, and the f32 rule within the rule's margin of a byte boundary. The same shadow
+/// rays and bytes as [`pixel`]'s f32 path; `None` (nothing traced) when the estimate cannot
+/// tell the factor's sign.
+#[allow(clippy::too_many_arguments)]
+fn matte_camera_hit<L: FslLink, C: StageClock, const N: usize>(
+    path: &mut RayPath<L>,
+    scene: &SceneStore<N>,
+    clock: &C,
+    sw: &mut Stopwatch,
+    ctx: &FrameCtx,
+    (p, n): (Vec3, Vec3),
+    m: &Material,
+    ext: &MaterialModel,
+    material: u16,
+) -> Result<Option<[u8; 3]>, Fail> {
+    let dl = &ctx.direct;
+    let e30 = match shade::light_factor(n, vsub(dl.pos, p)) {
+        LightFactor::Unsure => return Ok(None),
+        LightFactor::Unlit => 0,
+        LightFactor::Lit(e30) => e30,
+    };
+    let visible = e30 > 0
+        && (!ctx.shadows || {
+            count(&mut path.stats.shadow_rays, 1);
+            let sr = shade::shadow_ray_from(p, n, dl.pos, ctx.eps_diag);
+            sw.lap(clock, &mut path.stats, Stage::Shade);
+            let blocker = path.trace_as(scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
+            !blocker.is_some_and(|b| b.hit)
+        });
+    if let Some(rgb) = ctx.bytes.rgb_q30(material, if visible { e30 } else { 0 }, visible) {
+        return Ok(Some(rgb));
+    }
+    // Within the margin of a byte boundary: `pixel`'s f32 rule with the visibility known (the
+    // f32 factor is positive where the estimate is; matte without specular reads no view
+    // vector; an omnidirectional light's spot factor is 1).
+    let direct = if visible {
+        let (e, l) = shade::irradiance_toward(&scene.lighting, n, p, dl.pos);
+        l.map(|l| shade::direct_toward(ext, n, n, l, dl, mul(e, 1.0)))
+    } else {
+        None
+    };
+    Ok(Some(shade::to_rgb8(shade::outgoing(ext, m.diffuse, ctx.ambient, direct.as_ref()))))
 }
 
 /// Refuses a plan that names a stage missing from `compiled` (the build's plan bits).
@@ -425,6 +479,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
             textures: req.flags & render_flags::TEXTURES != 0,
             specular: req.flags & render_flags::SPECULAR != 0,
             bytes: shade::MatteBytes::default(),
+            estimate_light: false,
         })
     }
 
@@ -458,6 +513,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
             let plan = (ctx.direct.specular, ctx.textures, ctx.reflections);
             let radiance = if ctx.lit { ctx.direct.radiance } else { [0.0; 3] };
             ctx.bytes = shade::MatteBytes::new(&scene.materials, &scene.material_model, ctx.ambient, radiance, plan);
+            ctx.estimate_light = ctx.lit && scene.lighting.falloff == Falloff::None && ctx.spot_axis.is_none();
         }
         let step = render_flags::interp_step(req.flags);
         let params = interp::Params {

@@ -37,11 +37,13 @@ const MARGIN: u32 = 1 << 6;
 /// Constants are kept below 2¹⁴ (their sum with `e < 2` stays below 2¹⁶ in 16.16).
 const LIMIT: f32 = 16384.0;
 
-/// Per channel, `base` and `slope` in 16.16 fixed point (truncated).
+/// Per channel, `base` and `slope` in 16.16 fixed point (truncated), and the margin for a
+/// factor known to within 2⁻²⁰ ([`super::FACTOR_ERROR`]): `MARGIN + slope·2⁻¹⁹`.
 #[derive(Debug, Clone, Copy, Default)]
 struct Rule {
     base: [u32; 3],
     slope: [u32; 3],
+    loose: [u32; 3],
 }
 
 /// The fixed-point 8-bit rule of a frame's matte materials (module doc).
@@ -98,6 +100,7 @@ impl MatteBytes {
                 fits &= base < LIMIT && slope < LIMIT;
                 rule.base[k] = q16(base.min(LIMIT));
                 rule.slope[k] = q16(slope.min(LIMIT));
+                rule.loose[k] = MARGIN + (rule.slope[k] >> (super::FACTOR_ERROR - 1)) + 1;
             }
             if fits {
                 *slot = Some(rule);
@@ -111,7 +114,6 @@ impl MatteBytes {
     /// outside `[0, 2)`, or a channel within the margin of a byte boundary.
     #[inline]
     pub fn rgb(&self, material: u16, e: f32) -> Option<[u8; 3]> {
-        let rule = self.rules.get(material as usize).copied().flatten()?;
         let bits = e.to_bits();
         // Negative, NaN and ≥ 2: the f32 rule.
         if bits >= 0x4000_0000 {
@@ -127,6 +129,24 @@ impl MatteBytes {
         } else {
             0
         };
+        self.rgb_q30(material, e30, false)
+    }
+
+    /// The material has a rule.
+    #[inline]
+    pub fn covers(&self, material: u16) -> bool {
+        matches!(self.rules.get(material as usize), Some(Some(_)))
+    }
+
+    /// [`MatteBytes::rgb`] for a factor `e30·2⁻³⁰` (below 2), exact (`loose` false) or known to
+    /// within 2⁻²⁰ of the f32 factor (`loose`: `shade::light_factor`'s estimate), which
+    /// widens the margin by the slope's share.
+    #[inline]
+    pub fn rgb_q30(&self, material: u16, e30: u32, loose: bool) -> Option<[u8; 3]> {
+        let rule = self.rules.get(material as usize).copied().flatten()?;
+        if e30 >= 1 << 31 {
+            return None;
+        }
         let mut rgb = [0u8; 3];
         for (k, byte) in rgb.iter_mut().enumerate() {
             // base + slope·e in 16.16: below 2^14 + 2·2^14, no overflow.
@@ -137,7 +157,8 @@ impl MatteBytes {
                 continue;
             }
             let frac = v & 0xFFFF;
-            if !(MARGIN..=0xFFFF - MARGIN).contains(&frac) {
+            let margin = if loose { rule.loose[k] } else { MARGIN };
+            if frac < margin || frac > 0xFFFF - margin {
                 return None;
             }
             *byte = whole as u8;
@@ -182,16 +203,22 @@ mod tests {
             if let Some(rgb) = bytes.rgb(0, 0.0) {
                 assert_eq!(rgb, f32_rule(&m, &ext, la, rad, None), "round {round}");
             }
-            let check = |e: f32| {
+            // `off`: an estimate of e off by `off`·2⁻³⁰, |off| < 2¹⁰ (within 2⁻²⁰, the loose rule).
+            let check = |e: f32, off: i64| {
+                let want = f32_rule(&m, &ext, la, rad, Some(e));
                 let fixed = bytes.rgb(0, e);
                 if let Some(rgb) = fixed {
-                    assert_eq!(rgb, f32_rule(&m, &ext, la, rad, Some(e)), "round {round}, e = {e:e}");
+                    assert_eq!(rgb, want, "round {round}, e = {e:e}");
+                }
+                let estimate = ((e as f64 * 2f64.powi(30)) as i64 + off).max(0) as u32;
+                if let Some(rgb) = bytes.rgb_q30(0, estimate, true) {
+                    assert_eq!(rgb, want, "round {round}, e = {e:e}, estimate {estimate}");
                 }
                 fixed.is_some()
             };
             for _ in 0..500 {
                 asked += 1;
-                answered += u64::from(check(rng.gen_range(0.0..1.2f32)));
+                answered += u64::from(check(rng.gen_range(0.0..1.2f32), rng.gen_range(-1023..1024)));
             }
             // Factors at the byte boundaries of each channel: V = n exactly in real numbers.
             for k in 0..3 {
@@ -206,7 +233,9 @@ mod tests {
                         continue;
                     }
                     for j in -3..=3 {
-                        check((e * (1.0 + j as f64 * 2f64.powi(-20))) as f32);
+                        let off = rng.gen_range(-1023..1024);
+                        check((e * (1.0 + j as f64 * 2f64.powi(-20))) as f32, off);
+                        check((e + j as f64 * 2f64.powi(-30)) as f32, off);
                     }
                 }
             }
