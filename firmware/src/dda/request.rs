@@ -82,6 +82,9 @@ pub struct OriginPlanes {
     /// Per axis: a ray from this origin that enters the box through a face of the axis
     /// starts in the cell at that face (the bound is in `WalkGrid::fill_origin_planes`).
     face_cell: [bool; 3],
+    /// Per axis, when the integer start cell's bound holds ([`WalkGrid::integer_start`]):
+    /// `(o − min)·(n/extent)` in 16.16 fixed point, from the f32 `−(min − o)·scale16`.
+    origin_cell16: [Option<i64>; 3],
 }
 
 impl Default for OriginPlanes {
@@ -95,6 +98,7 @@ impl Default for OriginPlanes {
             clip: [[0.0; 2]; 3],
             diff: [[0.0; PLANES]; 3],
             face_cell: [false; 3],
+            origin_cell16: [None; 3],
         }
     }
 }
@@ -233,6 +237,12 @@ impl WalkGrid {
             let abs = |x: f32| f32::from_bits(x.to_bits() & !0x8000_0000);
             let largest = abs(table.clip[a][0]).max(abs(table.clip[a][1])).max(abs(self.min[a])).max(abs(self.max[a]));
             table.face_cell[a] = mul(largest, self.nf[a]) <= mul(self.extent[a], 524_288.0);
+            // The integer start cell's bound (`integer_start`): A·n ≤ extent·2^9, and the
+            // origin's cell coordinate in 16.16 (|·| ≤ 2^9·2^16, exact in f32 → i64).
+            let scale = self.scale16[a];
+            let near = mul(largest, self.nf[a]) <= mul(self.extent[a], 512.0);
+            table.origin_cell16[a] =
+                if near && scale.to_bits() != 0 { Some(trunc_i32(mul(-table.clip[a][0], scale)) as i64) } else { None };
         }
         table.filled = true;
     }
@@ -283,6 +293,64 @@ impl WalkGrid {
         }
         let rel = mul(q / self.extent[a], self.nf[a]);
         trunc_i32(rel).max(0).min(n - 1)
+    }
+
+    /// The start cell of axis `a` in integers, for a ray from an origin whose cell coordinate
+    /// `(o − min)·n/extent` is `origin16`·2⁻¹⁶ ([`OriginPlanes`]): `origin16 + d·t0·scale16`
+    /// with the product of the three significands in 64 bits. `None` where it may differ from
+    /// [`WalkGrid::start_cell`]'s cell: within 2⁻¹⁰ of a boundary 1..n−1, or `d`, `t0`
+    /// outside the normal range.
+    ///
+    /// Bound: the f32 `q = (o + d·t0) − min` is within 4u·A of the real one (three roundings
+    /// on magnitudes up to A, the largest of |min − o|, |max − o|, |min|, |max|; u = 2⁻²⁴),
+    /// 2⁻¹³ of a cell when A·n ≤ extent·2⁹ (the table's condition); `start_cell`'s value
+    /// `q·n/extent` is then within 2⁻¹⁵ of `q`'s, and the estimate within 2⁻¹³ of the real
+    /// one (`min − o` and `scale16` rounded, three truncations): together below 2⁻¹¹, so
+    /// outside 2⁻¹⁰ of a boundary both floor to the same cell (and the clamp keeps 0 and
+    /// n − 1 at the ends). Pinned by `request_words_equal_build_list`.
+    #[inline(always)]
+    fn integer_start(&self, a: usize, origin16: Option<i64>, d: f32, t0: f32) -> Option<i32> {
+        let origin16 = origin16?;
+        let (db, tb, sb) = (d.to_bits(), t0.to_bits(), self.scale16[a].to_bits());
+        let (de, te, se) = ((db >> 23) & 0xFF, tb >> 23, sb >> 23);
+        // t0 = +0 (the origin in the box): no product. Else normal, positive t0; normal d.
+        let product = if tb == 0 {
+            0
+        } else {
+            if !(1..255).contains(&de) || !(1..255).contains(&te) || tb >> 31 != 0 {
+                return None;
+            }
+            let sig = |b: u32| u64::from((b & 0x007F_FFFF) | 0x0080_0000);
+            // 48-bit product to 32 bits, times 24 bits: below 2^56, the value
+            // m·2^(de + te + se − 450 + 16) in units of 2^-16 of a cell.
+            let m = ((sig(db) * sig(tb)) >> 16) * sig(sb);
+            let shift = (de + te + se) as i32 - 434;
+            let v = if shift >= 0 {
+                // |d·t0·scale| ≤ A·n/extent ≤ 2^9 (the table's bound): no overflow; guarded.
+                if shift > 7 {
+                    return None;
+                }
+                (m << shift) as i64
+            } else if shift > -64 {
+                (m >> -shift) as i64
+            } else {
+                0
+            };
+            if db >> 31 != 0 {
+                -v
+            } else {
+                v
+            }
+        };
+        let c16 = origin16 + product;
+        let n = self.dims[a];
+        let whole = c16 >> 16;
+        let boundary = (c16 + 0x8000) >> 16;
+        let frac = c16 & 0xFFFF;
+        if (1..n as i64).contains(&boundary) && !(64..=0xFFFF - 64).contains(&frac) {
+            return None;
+        }
+        Some(whole.clamp(0, i64::from(n - 1)) as i32)
     }
 
     /// The walk of a valid ray with reciprocals `inv`, comparing with `O`; `fast`: the start
@@ -347,7 +415,8 @@ impl WalkGrid {
             (Some((f, max_face)), Some(t)) if t.face_cell[f] => Some((f, if max_face { self.dims[f] - 1 } else { 0 })),
             _ => None,
         };
-        let start = Start { fast, face_cell, o, d, inv, t0, pre };
+        let origin_cell16 = table.map(|t| &t.origin_cell16);
+        let start = Start { fast, origin_cell16, face_cell, o, d, inv, t0, pre };
         let axes = [
             self.start_axis(&start, planes, 0),
             self.start_axis(&start, planes, 1),
@@ -362,14 +431,17 @@ impl WalkGrid {
     /// as a closure the compiler kept it out of line, which cost imafc 70 instructions per
     /// primary ray (measured); inline it also saves riscv32imac 44 for 600 bytes.
     #[inline(always)]
-    fn start_axis(&self, s: &Start, planes: &[[f32; PLANES]; 3], a: usize) -> Axis {
+    fn start_axis(&self, s: &Start<'_>, planes: &[[f32; PLANES]; 3], a: usize) -> Axis {
         let n = self.dims[a];
         let cell = match s.face_cell {
             Some((f, c)) if f == a => c,
-            _ => {
-                let entry = add(s.o[a], mul(s.d[a], s.t0));
-                self.start_cell(s.fast, a, sub(entry, self.min[a]))
-            }
+            _ => match s.origin_cell16.and_then(|c| self.integer_start(a, c[a], s.d[a], s.t0)) {
+                Some(c) => c,
+                None => {
+                    let entry = add(s.o[a], mul(s.d[a], s.t0));
+                    self.start_cell(s.fast, a, sub(entry, self.min[a]))
+                }
+            },
         };
         // Direction 0 (either sign): never stepped, the boundary stays at +∞. The sign
         // bit of a non-zero direction is its direction.
@@ -400,9 +472,12 @@ impl WalkGrid {
 }
 
 /// What [`WalkGrid::start_axis`] needs of the ray and its clip.
-struct Start {
+struct Start<'a> {
     /// The start cell without a division where that is exact.
     fast: bool,
+    /// The origin's cell coordinates in 16.16 for the integer start cell
+    /// ([`OriginPlanes::origin_cell16`]), with a table.
+    origin_cell16: Option<&'a [Option<i64>; 3]>,
     /// The axis and cell of the face the ray enters through, when the table's bound holds.
     face_cell: Option<(usize, i32)>,
     o: [f32; 3],
