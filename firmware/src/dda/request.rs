@@ -369,8 +369,13 @@ impl WalkGrid {
         t_max: f32,
         words: &mut [u32],
     ) -> usize {
-        // The clip of `Aabb::clip` over [0, t_max].
-        let (mut t0, mut t1) = (0.0f32, t_max);
+        // The clip of `Aabb::clip` over [0, t_max]. Its exit is the least of t_max and the
+        // widened far distances `RN(far·WIDEN)`; widening is monotone, so that is the least far
+        // distance widened once (one multiplication where there were three: the same value,
+        // and the first of equal keys as before). Its early exits (`t1 < t0` after an axis)
+        // are the final `t1 ≤ t0` test's too: t1 only falls and t0 only rises.
+        let mut t0 = 0.0f32;
+        let mut far_least = f32::INFINITY;
         // The axis through whose face the ray enters (t0 > 0), and whether that is the max face.
         let mut face: Option<(usize, bool)> = None;
         for a in 0..3 {
@@ -384,20 +389,18 @@ impl WalkGrid {
             if swapped {
                 core::mem::swap(&mut near, &mut far);
             }
-            far = mul(far, WIDEN);
             if ord.lt(t0, near) {
                 t0 = near;
                 if table.is_some() {
                     face = Some((a, swapped));
                 }
             }
-            if ord.lt(far, t1) {
-                t1 = far;
-            }
-            if ord.lt(t1, t0) {
-                return 0;
+            if ord.lt(far, far_least) {
+                far_least = far;
             }
         }
+        let widened = mul(far_least, WIDEN);
+        let t1 = if ord.lt(widened, t_max) { widened } else { t_max };
         if t1.is_nan() || ord.le(t1, t0) || !finite(t0) {
             return 0;
         }
