@@ -139,6 +139,33 @@ pub fn light_factor(n: Vec3, d: Vec3) -> LightFactor {
     }
 }
 
+/// The sign of the f32 dot product `sfloat::dot(n, v) > 0` for a unit normal `n`, in
+/// integers: `n·v` from the same 30-bit fixed point as [`light_factor`] (`v` scaled by its
+/// largest component `v_max`), exact to 6·2³⁰ units of 2⁻²⁹·v_max·2⁻³⁰; the f32 dot product
+/// is within 3.01u·3·v_max of the real one (three roundings on terms up to v_max), under
+/// 2³⁹ of those units (for v_max ≥ 2⁻¹⁰⁰: no underflow that matters). `None` within 2³⁹
+/// of 0, or for a `v` below 2⁻¹⁰⁰, ∞ or NaN
+/// (the caller computes the f32 dot product). Pinned by
+/// `dot_sign_is_the_f32_dot_products_sign`.
+pub fn dot_sign(n: Vec3, v: Vec3) -> Option<bool> {
+    let (n, v) = (n.to_array(), v.to_array());
+    let (n0, n1, n2) = (q29_of_unit(n[0])?, q29_of_unit(n[1])?, q29_of_unit(n[2])?);
+    let e_max =
+        (v[0].to_bits() & 0x7FFF_FFFF).max(v[1].to_bits() & 0x7FFF_FFFF).max(v[2].to_bits() & 0x7FFF_FFFF) >> 23;
+    // v_max ≥ 2^-100: the f32 products' underflow (2^-150 each) is far below 3.01u·v_max.
+    if !(27..255).contains(&e_max) {
+        return None;
+    }
+    let s = n0 * scaled(v[0], e_max) + n1 * scaled(v[1], e_max) + n2 * scaled(v[2], e_max);
+    if s > 1 << 39 {
+        Some(true)
+    } else if s < -(1 << 39) {
+        Some(false)
+    } else {
+        None
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 mod tests {
@@ -201,6 +228,41 @@ mod tests {
         }
         assert_eq!(light_factor(Vec3::splat(2.0), Vec3::Z), LightFactor::Unsure);
         eprintln!("largest difference {worst:e}");
+        assert!(answered as f64 > 0.999 * asked as f64, "{answered} of {asked}");
+    }
+
+    /// Where `dot_sign` answers, it is the sign of the f32 `sfloat::dot(n, v) > 0`: random unit
+    /// normals and vectors over 2⁻⁹⁵..2¹²⁰, vectors nearly perpendicular to the normal; and it
+    /// answers for nearly all of them.
+    #[test]
+    fn dot_sign_is_the_f32_dot_products_sign() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0xD07_5164);
+        let unit = |rng: &mut ChaCha8Rng| loop {
+            let v = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+            if let Some(n) = try_normalize(v) {
+                break n;
+            }
+        };
+        let (mut answered, mut asked) = (0u64, 0u64);
+        for _ in 0..200_000 {
+            let n = unit(&mut rng);
+            let scale = 2f32.powi(rng.gen_range(-95..120));
+            let v = unit(&mut rng) * rng.gen_range(0.5..2.0f32) * scale;
+            let t = (v - n * v.dot(n)) + n * (v.length() * rng.gen_range(-1e-5..1e-5f32));
+            for (w, count) in [(v, true), (t, false)] {
+                let got = dot_sign(n, w);
+                if let Some(positive) = got {
+                    assert_eq!(positive, crate::sfloat::dot(n, w) > 0.0, "{n:?} {w:?}");
+                }
+                if count {
+                    asked += 1;
+                    answered += u64::from(got.is_some());
+                }
+            }
+        }
+        assert_eq!(dot_sign(Vec3::Z, Vec3::ZERO), None);
+        assert_eq!(dot_sign(Vec3::Z, Vec3::splat(1e-32)), None);
+        assert_eq!(dot_sign(Vec3::Z, Vec3::new(0.0, 0.0, f32::NAN)), None);
         assert!(answered as f64 > 0.999 * asked as f64, "{answered} of {asked}");
     }
 

@@ -27,7 +27,12 @@ pub fn hit_point(ray: &Ray, t: f32) -> Vec3 {
 #[inline]
 pub fn facing_normal(normal: [f32; 3], dir: Vec3) -> Option<Vec3> {
     let n = try_normalize(Vec3::from_array(normal))?;
-    Some(if dot(n, dir) > 0.0 { -n } else { n })
+    // On a soft-float core the sign in integers where that is certain (`super::dot_sign`).
+    let towards = match cfg!(soft_float).then(|| super::dot_sign(n, dir)).flatten() {
+        Some(positive) => positive,
+        None => dot(n, dir) > 0.0,
+    };
+    Some(if towards { -n } else { n })
 }
 
 /// `p.abs().max_element()` of glam: on the bits (the order of non-negative floats) when no
