@@ -19,7 +19,7 @@
 //! come from the scene upload and the caller, are accessed with `get`.
 
 use super::grid::{GridDesc, MAX_GRID_DIM};
-use crate::sfloat::{add, div, mul, sub, trunc_i32};
+use crate::sfloat::{add, div, mul, sub, trunc_i32, Multiplier};
 use gridrt_shared::fsl::VOXEL_MASK;
 use gridrt_shared::math::{gamma, Ray};
 use gridrt_shared::scene::EMPTY_VOXEL;
@@ -474,6 +474,8 @@ impl WalkGrid {
             o: s.o[a],
             pre: s.pre,
             inv: s.inv[a],
+            // Not on a bare-metal hard-float image (its `mul` is one instruction).
+            by_inv: if cfg!(any(soft_float, not(target_os = "none"))) { Multiplier::new(s.inv[a]) } else { None },
             t_next: f32::INFINITY,
         };
         if step != 0 {
@@ -514,6 +516,8 @@ struct Axis {
     /// The planes are `plane − o` already ([`OriginPlanes`]).
     pre: bool,
     inv: f32,
+    /// `inv` unpacked for the crossings, where it is normal (`crate::sfloat::Multiplier`).
+    by_inv: Option<Multiplier>,
     t_next: f32,
 }
 
@@ -523,7 +527,12 @@ impl Axis {
     #[inline(always)]
     fn crossing(&self, planes: &[f32; PLANES]) -> f32 {
         let p = planes[self.plane as usize];
-        mul(if self.pre { p } else { sub(p, self.o) }, self.inv)
+        let p = if self.pre { p } else { sub(p, self.o) };
+        // The same correctly rounded product, inline where operands and product are normal.
+        match self.by_inv.and_then(|m| m.mul(p)) {
+            Some(t) => t,
+            None => mul(p, self.inv),
+        }
     }
 
     /// Steps into the next cell; false when that leaves the grid (the walk ends).
