@@ -308,7 +308,8 @@ impl WalkGrid {
     /// one (`min − o` and `scale16` rounded, three truncations): together below 2⁻¹¹, so
     /// outside 2⁻¹⁰ of a boundary both floor to the same cell (and the clamp keeps 0 and
     /// n − 1 at the ends). Pinned by `request_words_equal_build_list`.
-    #[inline(always)]
+    // One copy (code budget: inline at the three axes it was 2 KB).
+    #[inline(never)]
     fn integer_start(&self, a: usize, origin16: Option<i64>, d: f32, t0: f32) -> Option<i32> {
         let origin16 = origin16?;
         let (db, tb, sb) = (d.to_bits(), t0.to_bits(), self.scale16[a].to_bits());

@@ -141,7 +141,7 @@ impl MatteBytes {
     /// [`MatteBytes::rgb`] for a factor `e30·2⁻³⁰` (below 2), exact (`loose` false) or known to
     /// within 2⁻²⁰ of the f32 factor (`loose`: `shade::light_factor`'s estimate), which
     /// widens the margin by the slope's share.
-    #[inline]
+    #[inline(never)]
     pub fn rgb_q30(&self, material: u16, e30: u32, loose: bool) -> Option<[u8; 3]> {
         let rule = self.rules.get(material as usize).copied().flatten()?;
         if e30 >= 1 << 31 {
