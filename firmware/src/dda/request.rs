@@ -451,7 +451,9 @@ impl WalkGrid {
             _ => match origin_cell16.and_then(|c| self.integer_start(a, c[a], s.d[a], s.t0)) {
                 Some(c) => c,
                 None => {
-                    let entry = add(s.o[a], mul(s.d[a], s.t0));
+                    // From inside the box (t0 = +0, shadow rays): o + d·(+0) is o (for o = ±0
+                    // its sign may differ, and q = ±0 − min is the same then, or ±0 → cell 0).
+                    let entry = if s.t0.to_bits() == 0 { s.o[a] } else { add(s.o[a], mul(s.d[a], s.t0)) };
                     self.start_cell(s.fast, a, sub(entry, self.min[a]))
                 }
             },
