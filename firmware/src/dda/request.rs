@@ -453,7 +453,10 @@ impl WalkGrid {
                 None => {
                     // From inside the box (t0 = +0, shadow rays): o + d·(+0) is o (for o = ±0
                     // its sign may differ, and q = ±0 − min is the same then, or ±0 → cell 0).
-                    let entry = if s.t0.to_bits() == 0 { s.o[a] } else { add(s.o[a], mul(s.d[a], s.t0)) };
+                    // Not on a bare-metal hard-float image: its walk compiles worse with the
+                    // branch (measured: riscv32imafc 586 -> 645 instructions per primary ray).
+                    let inside = cfg!(any(soft_float, not(target_os = "none"))) && s.t0.to_bits() == 0;
+                    let entry = if inside { s.o[a] } else { add(s.o[a], mul(s.d[a], s.t0)) };
                     self.start_cell(s.fast, a, sub(entry, self.min[a]))
                 }
             },
