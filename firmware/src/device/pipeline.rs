@@ -168,7 +168,13 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
                 cd = crate::texture::sample(ext, cd, po);
             }
         }
-        let Some(n) = shade::facing_normal(r.normal, ray.dir) else {
+        // On a soft-float core the unit normal of a primitive hit recently comes from the cache.
+        let unit = if cfg!(soft_float) {
+            path.normals.unit(r.prim, r.normal).map(|n| shade::facing(n, ray.dir))
+        } else {
+            shade::facing_normal(r.normal, ray.dir)
+        };
+        let Some(n) = unit else {
             // Degenerate normal: no direction to light it from; ambient only.
             for (a, b) in acc.iter_mut().zip(shade::outgoing(ext, cd, la, None)) {
                 *a += throughput * b;

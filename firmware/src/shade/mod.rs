@@ -36,7 +36,7 @@ pub use bytes::{MatteBytes, FAST_MATERIALS};
 pub use colour::{clamp01, to_rgb8, to_u8, BACKGROUND, DEFAULT_ALBEDO};
 pub use factor::{dot_sign, light_factor, LightFactor, FACTOR_ERROR};
 pub use geometry::{
-    facing_normal, hit_point, shadow_epsilon, shadow_epsilon_from, shadow_ray, shadow_ray_from, SHADOW_EPS_DIAG,
-    SHADOW_EPS_POS, SHADOW_T_MAX,
+    facing, facing_normal, hit_point, shadow_epsilon, shadow_epsilon_from, shadow_ray, shadow_ray_from, UnitNormals,
+    SHADOW_EPS_DIAG, SHADOW_EPS_POS, SHADOW_T_MAX,
 };
 pub use light::{irradiance, irradiance_toward, spot_axis, spot_factor, spot_factor_on, Light};
