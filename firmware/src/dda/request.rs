@@ -400,8 +400,11 @@ impl WalkGrid {
                 Some(t) => t.clip[a],
                 None => [sub(self.min[a], o[a]), sub(self.max[a], o[a])],
             };
-            let mut near = mul(dn, inv[a]);
-            let mut far = mul(df, inv[a]);
+            // The axis's reciprocal unpacked once for both products (not on a bare-metal
+            // hard-float image, where a product is one instruction).
+            let by_inv = if cfg!(any(soft_float, not(target_os = "none"))) { Multiplier::new(inv[a]) } else { None };
+            let mut near = product(by_inv, dn, inv[a]);
+            let mut far = product(by_inv, df, inv[a]);
             let swapped = ord.lt(far, near);
             if swapped {
                 core::mem::swap(&mut near, &mut far);
@@ -504,6 +507,16 @@ impl WalkGrid {
             ax.t_next = ax.crossing(&planes[a]);
         }
         ax
+    }
+}
+
+/// `x · inv` correctly rounded: inline by `by_inv` (`inv` unpacked) where operands and product
+/// are normal, else `sfloat::mul`.
+#[inline(always)]
+fn product(by_inv: Option<Multiplier>, x: f32, inv: f32) -> f32 {
+    match by_inv.and_then(|m| m.mul(x)) {
+        Some(t) => t,
+        None => mul(x, inv),
     }
 }
 
