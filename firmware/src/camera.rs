@@ -296,6 +296,12 @@ pub struct RowRays<'a> {
 }
 
 impl RowRays<'_> {
+    /// The row.
+    #[inline]
+    pub fn y(&self) -> u32 {
+        self.y
+    }
+
     /// [`Camera::primary_ray`]`(x, y)` of this row, bit for bit.
     #[inline]
     pub fn ray(&self, x: u32) -> Ray {

@@ -19,7 +19,7 @@ use super::request::{field, Job};
 use super::scene::SceneStore;
 use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
 use crate::camera::{Camera, ColumnTerms, RowRays};
-use crate::cull::BoxSpans;
+use crate::cull::{BoxSpans, OccupancyMask};
 use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
 use crate::pixels::{FrameTx, SpanEncoder, TxError};
@@ -47,6 +47,8 @@ pub(super) struct FrameCtx {
     columns: ColumnTerms,
     /// Per row, the columns whose camera rays can enter the grid box.
     spans: BoxSpans,
+    /// The image tiles whose camera rays may meet a cell with primitives (`crate::cull`).
+    occupancy: OccupancyMask,
     /// What a pixel whose camera ray misses everything gets: the background.
     background: Sample,
     /// The ambient light `L_a` (ambient colour × ambient term).
@@ -122,8 +124,15 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
     x: u16,
 ) -> Result<Sample, Fail> {
     let lighting = &scene.lighting;
-    let mut ray = row.ray(x as u32);
     count(&mut path.stats.primary_rays, 1);
+    // A camera ray that can meet only empty cells: its walk would list nothing (culled), its
+    // pixel is the background (`crate::cull::OccupancyMask`).
+    if !ctx.occupancy.may_hit(x, row.y() as u16) {
+        count(&mut path.stats.culled_rays, 1);
+        sw.lap(clock, &mut path.stats, Stage::RayGen);
+        return Ok(ctx.background);
+    }
+    let mut ray = row.ray(x as u32);
     sw.lap(clock, &mut path.stats, Stage::RayGen);
     let (la, dl, lit) = (ctx.ambient, &ctx.direct, ctx.lit);
     let depth = if ctx.reflections { lighting.max_depth.max(1) } else { 1 };
@@ -479,6 +488,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
             spot_axis: shade::spot_axis(lighting),
             eps_diag: shade::SHADOW_EPS_DIAG * diag,
             spans: BoxSpans::new(&job.cam, &scene.grid.aabb()),
+            occupancy: OccupancyMask::new(&job.cam, &scene.grid, scene.voxel_pe.get(..scene.voxels).unwrap_or(&[])),
             background: Sample { rgb: shade::to_rgb8(background), prim: interp::MISS, t: f32::INFINITY },
             shadows,
             reflections: req.flags & render_flags::REFLECTIONS != 0 && scene.lighting.max_depth > 1,
