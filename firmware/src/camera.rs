@@ -405,7 +405,7 @@ mod tests {
     /// the table).
     #[test]
     fn rows_from_column_terms_equal_primary_rays() {
-        let mut rng = ChaCha8Rng::seed_from_u64(0xC01_7E53);
+        let mut rng = ChaCha8Rng::seed_from_u64(0x0C01_7E53);
         let mut table = ColumnTerms::default();
         let mut checked = 0;
         for _ in 0..300 {

@@ -86,7 +86,7 @@ pub fn vscale(v: Vec3, s: f32) -> Vec3 {
 #[inline(never)]
 pub fn vscale_int(v: Vec3, s: f32) -> Vec3 {
     let by = Multiplier::new(s);
-    let m = |x: f32| match by.and_then(|b| b.mul(x)) {
+    let m = |x: f32| match by.and_then(|b| b.times(x)) {
         Some(p) => p,
         None => mul_int(x, s),
     };
@@ -418,7 +418,7 @@ fn mul_inline(a: f32, b: f32) -> f32 {
 }
 
 /// Multiplication by one normal factor `b`, unpacked once: the walk multiplies every boundary
-/// of an axis by the axis's `1/d`. [`Multiplier::mul`] is [`mul_int`]'s integer path inline,
+/// of an axis by the axis's `1/d`. [`Multiplier::times`] is [`mul_int`]'s integer path inline,
 /// without `b`'s unpacking and the call.
 #[derive(Debug, Clone, Copy)]
 pub struct Multiplier {
@@ -443,7 +443,7 @@ impl Multiplier {
     /// caller takes [`mul`]).
     #[inline(always)]
     #[allow(clippy::arithmetic_side_effects)] // bounded by the normal-number ranges checked first
-    pub fn mul(self, a: f32) -> Option<f32> {
+    pub fn times(self, a: f32) -> Option<f32> {
         let ua = a.to_bits();
         let aa = ua & !SIGN;
         if !normal(aa) {
@@ -556,7 +556,7 @@ mod tests {
                 assert!(!b.is_normal(), "{b:e}");
                 continue;
             };
-            match by_b.mul(a) {
+            match by_b.times(a) {
                 Some(p) => {
                     assert!(same(p, a * b), "{a:e} * {b:e}: {p:e} != {:e}", a * b);
                     answered += 1;

@@ -514,7 +514,7 @@ impl WalkGrid {
 /// are normal, else `sfloat::mul`.
 #[inline(always)]
 fn product(by_inv: Option<Multiplier>, x: f32, inv: f32) -> f32 {
-    match by_inv.and_then(|m| m.mul(x)) {
+    match by_inv.and_then(|m| m.times(x)) {
         Some(t) => t,
         None => mul(x, inv),
     }
@@ -564,7 +564,7 @@ impl Axis {
         let p = planes[self.plane as usize];
         let p = if self.pre { p } else { sub(p, self.o) };
         // The same correctly rounded product, inline where operands and product are normal.
-        match self.by_inv.and_then(|m| m.mul(p)) {
+        match self.by_inv.and_then(|m| m.times(p)) {
             Some(t) => t,
             None => mul(p, self.inv),
         }

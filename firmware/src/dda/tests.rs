@@ -496,7 +496,7 @@ fn request_words_equal_build_list() {
 /// cells come from `WalkGrid::integer_start` where its bound holds — as `build_list`.
 #[test]
 fn camera_rays_from_one_table_equal_build_list() {
-    let mut rng = ChaCha8Rng::seed_from_u64(0xE7E_CE11);
+    let mut rng = ChaCha8Rng::seed_from_u64(0x0E7E_CE11);
     let mut list = TraversalList::new();
     let mut words = vec![0u32; 2 * MAX_LIST];
     let mut checked = 0;

@@ -124,7 +124,7 @@ impl MatteBytes {
         let sig = (bits & 0x007F_FFFF) | 0x0080_0000;
         let e30 = if exp >= 120 {
             sig << (exp - 120)
-        } else if exp > 120 - 32 && exp > 0 {
+        } else if exp > 120 - 32 {
             sig >> (120 - exp)
         } else {
             0
@@ -189,7 +189,7 @@ mod tests {
     /// a few 2⁻²⁰ of every byte boundary; and it answers for nearly every hit.
     #[test]
     fn matte_bytes_equal_the_f32_rule() {
-        let mut rng = ChaCha8Rng::seed_from_u64(0x8B17_E5);
+        let mut rng = ChaCha8Rng::seed_from_u64(0x008B_17E5);
         let (mut answered, mut asked) = (0u64, 0u64);
         for round in 0..400 {
             let unit = |rng: &mut ChaCha8Rng| [0; 3].map(|_| rng.gen_range(0.0..1.0f32));

@@ -74,7 +74,7 @@ fn q29_of_unit(c: f32) -> Option<i64> {
     // c·2^29 = sig·2^(exp − 121).
     let v = if exp >= 121 {
         sig << (exp - 121)
-    } else if exp > 121 - 31 && exp > 0 {
+    } else if exp > 121 - 31 {
         sig >> (121 - exp)
     } else {
         0
@@ -181,7 +181,7 @@ mod tests {
     /// the tangent plane, and axis-aligned cases; and it answers for nearly all of them.
     #[test]
     fn light_factor_is_within_its_bound_of_the_f32_factor() {
-        let mut rng = ChaCha8Rng::seed_from_u64(0x11_6477);
+        let mut rng = ChaCha8Rng::seed_from_u64(0x0011_6477);
         let lighting = LightingRecord { falloff: Falloff::None, ..LightingRecord::default() };
         let (mut answered, mut asked, mut worst) = (0u64, 0u64, 0f64);
         let mut check = |n: Vec3, d: Vec3, count: bool| {
@@ -236,7 +236,7 @@ mod tests {
     /// answers for nearly all of them.
     #[test]
     fn dot_sign_is_the_f32_dot_products_sign() {
-        let mut rng = ChaCha8Rng::seed_from_u64(0xD07_5164);
+        let mut rng = ChaCha8Rng::seed_from_u64(0x0D07_5164);
         let unit = |rng: &mut ChaCha8Rng| loop {
             let v = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
             if let Some(n) = try_normalize(v) {
