@@ -342,6 +342,7 @@ impl Default for ColumnTerms {
 impl ColumnTerms {
     /// Fills the terms of columns `0..min(width, COLUMN_TERMS)` of `cam`; none when `on` is
     /// false (with an FPU the formula costs less than the table's upkeep).
+    #[inline(never)]
     pub fn fill(&mut self, cam: &Camera, width: u16, on: bool) {
         self.len = if on { (width as usize).min(COLUMN_TERMS) } else { 0 };
         for (x, t) in self.terms.iter_mut().take(self.len).enumerate() {

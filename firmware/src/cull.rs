@@ -198,6 +198,8 @@ impl OccupancyMask {
 
     /// The mask of `cam`'s frame for the cells of `grid` whose entry in `voxel_pe` is not
     /// `EMPTY_VOXEL` (ids past the map's end are empty).
+    // Once per frame: out of line.
+    #[inline(never)]
     pub fn new(cam: &Camera, grid: &crate::dda::GridDesc, voxel_pe: &[u8]) -> Self {
         let every = Self::everything();
         if !grid.is_valid() {

@@ -74,23 +74,7 @@ pub fn vsub(a: Vec3, b: Vec3) -> Vec3 {
 /// `v · s` (and `s · v`) of glam's `Vec3`.
 #[inline(always)]
 pub fn vscale(v: Vec3, s: f32) -> Vec3 {
-    if cfg!(soft_float) {
-        vscale_int(v, s)
-    } else {
-        Vec3::new(v.x * s, v.y * s, v.z * s)
-    }
-}
-
-/// [`vscale`] in integers: `s` unpacked once ([`Multiplier`]) for the three products, each
-/// [`mul_int`] where the multiplier does not answer. Out of line (one copy).
-#[inline(never)]
-pub fn vscale_int(v: Vec3, s: f32) -> Vec3 {
-    let by = Multiplier::new(s);
-    let m = |x: f32| match by.and_then(|b| b.times(x)) {
-        Some(p) => p,
-        None => mul_int(x, s),
-    };
-    Vec3::new(m(v.x), m(v.y), m(v.z))
+    Vec3::new(mul(v.x, s), mul(v.y, s), mul(v.z, s))
 }
 
 /// glam's `a.dot(b)`: `(ax·bx + ay·by) + az·bz`.
@@ -568,16 +552,6 @@ mod tests {
             }
         }
         assert!(answered > 1_000_000, "{answered}");
-        // And `vscale_int`, componentwise.
-        for _ in 0..1_000_000u32 {
-            let seed = f32::from_bits(rng.gen::<u32>() & !SIGN | 0x3F00_0000);
-            let v = Vec3::new(operand(&mut rng, seed), operand(&mut rng, seed), operand(&mut rng, seed));
-            let s = operand(&mut rng, v.x);
-            let (got, want) = (vscale_int(v, s), Vec3::new(v.x * s, v.y * s, v.z * s));
-            for (g, w) in got.to_array().into_iter().zip(want.to_array()) {
-                assert!(same(g, w), "{v:?} * {s:e}");
-            }
-        }
     }
 
     #[test]

@@ -68,6 +68,7 @@ impl MatteBytes {
     /// (colour × intensity), and the plan: a material gets a rule when it is matte, its
     /// inputs are finite and non-negative, the specular stage is off, and it is neither
     /// textured (`textures`) nor reflective (`reflections`) in this frame.
+    #[inline(never)]
     pub fn new(
         materials: &[Material],
         models: &[MaterialModel],
