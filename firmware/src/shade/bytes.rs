@@ -171,7 +171,8 @@ impl MatteBytes {
 #[cfg(test)]
 #[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 mod tests {
-    use super::super::{direct_toward, outgoing, to_rgb8, DirectLight};
+    use super::super::brdf::{direct_toward, outgoing, DirectLight};
+    use super::super::colour::to_rgb8;
     use super::*;
     use gridrt_shared::math::Vec3;
     use rand::{Rng, SeedableRng};

@@ -171,7 +171,7 @@ pub fn dot_sign(n: Vec3, v: Vec3) -> Option<bool> {
 mod tests {
     use super::*;
     use crate::fmath::try_normalize;
-    use crate::shade::irradiance_toward;
+    use crate::shade::light::irradiance_toward;
     use gridrt_shared::scene::{Falloff, LightingRecord};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
