@@ -227,8 +227,15 @@ impl Camera {
     /// The rays of row `y`: [`Camera::primary_ray`] with the row's terms computed once.
     #[inline]
     pub fn row(&self, y: u32) -> RowRays<'_> {
+        self.row_with(y, &[])
+    }
+
+    /// [`Camera::row`] with the column terms of columns `0..columns.len()` from `columns`
+    /// (a [`ColumnTerms`] of this camera, [`ColumnTerms::terms`]).
+    #[inline]
+    pub fn row_with<'a>(&'a self, y: u32, columns: &'a [Vec3]) -> RowRays<'a> {
         let sy = (1.0 - 2.0 * (y as f32 + 0.5) / self.height) * self.half_h;
-        RowRays { cam: self, y, sy_up: sy * self.cam_up }
+        RowRays { cam: self, y, sy_up: sy * self.cam_up, columns }
     }
 
     /// True when fixed-point ray generation is available for this camera.
@@ -238,21 +245,21 @@ impl Camera {
 
     #[inline]
     fn primary_ray_f32(&self, x: u32, y: u32) -> Ray {
-        // Kept spelled out: the row form (`dir_f32`) is pinned against it.
+        // Kept spelled out: the row form (`RowRays::ray`) is pinned against it.
         let sx = (2.0 * (x as f32 + 0.5) / self.width - 1.0) * self.half_w;
         let sy = (1.0 - 2.0 * (y as f32 + 0.5) / self.height) * self.half_h;
         Ray { origin: self.eye, dir: self.forward + sx * self.right + sy * self.cam_up }
     }
 
-    /// The f32 formula with the row term `sy·cam_up` given: the same operations in the same
-    /// order, `(forward + sx·right) + sy·cam_up`.
+    /// The column's part of the f32 formula with the row term `sy·cam_up` given: the same
+    /// operations in the same order, `(forward + sx·right) + sy·cam_up` ([`RowRays::ray`]).
     #[inline(always)]
-    fn dir_f32(&self, x: u32, sy_up: Vec3) -> Vec3 {
+    fn column_term(&self, x: u32) -> Vec3 {
         // 2·(x + 0.5) is 2x + 1, exact in f32 below x = 2^23: one conversion instead of a
         // conversion, an addition and a multiplication.
         let twice = if x < 1 << 23 { sfloat::u32_to_f32(2 * x + 1) } else { mul(2.0, add(sfloat::u32_to_f32(x), 0.5)) };
         let sx = mul(sub(sfloat::div(twice, self.width), 1.0), self.half_w);
-        vadd(vadd(self.forward, vscale(self.right, sx)), sy_up)
+        vadd(self.forward, vscale(self.right, sx))
     }
 
     /// The eye (origin of every primary ray).
@@ -284,16 +291,68 @@ pub struct RowRays<'a> {
     y: u32,
     /// `sy · cam_up` of the row.
     sy_up: Vec3,
+    /// `forward + sx·right` of the first columns ([`ColumnTerms`]), or none.
+    columns: &'a [Vec3],
 }
 
 impl RowRays<'_> {
+    /// The row.
+    #[inline]
+    pub fn y(&self) -> u32 {
+        self.y
+    }
+
     /// [`Camera::primary_ray`]`(x, y)` of this row, bit for bit.
     #[inline]
     pub fn ray(&self, x: u32) -> Ray {
         match (RayFormat::DEFAULT, &self.cam.fixed) {
             (RayFormat::Fixed, Some(f)) => Ray { origin: self.cam.eye, dir: f.direction(x, self.y) },
-            _ => Ray { origin: self.cam.eye, dir: self.cam.dir_f32(x, self.sy_up) },
+            _ => {
+                let column = match self.columns.get(x as usize) {
+                    Some(&c) if COLUMN_TERMS > 0 => c,
+                    _ => self.cam.column_term(x),
+                };
+                Ray { origin: self.cam.eye, dir: vadd(column, self.sy_up) }
+            }
         }
+    }
+}
+
+/// Columns a [`ColumnTerms`] holds: a 512-pixel-wide frame's (6 KiB); wider frames compute
+/// the columns past it per pixel. None on a bare-metal hard-float image, which does not use
+/// the table (`ColumnTerms::fill`).
+pub const COLUMN_TERMS: usize = if cfg!(any(soft_float, not(target_os = "none"))) { 512 } else { 0 };
+
+/// The column terms `forward + sx·right` of a camera's f32 rays, once per frame: on a
+/// soft-float core a camera ray is then three additions (the column's term plus the row's),
+/// where it was a division, six multiplications and six additions. The same f32 operations
+/// on the same operands, so the same rays bit for bit.
+#[derive(Debug, Clone)]
+pub struct ColumnTerms {
+    terms: [Vec3; COLUMN_TERMS],
+    len: usize,
+}
+
+impl Default for ColumnTerms {
+    fn default() -> Self {
+        Self { terms: [Vec3::ZERO; COLUMN_TERMS], len: 0 }
+    }
+}
+
+impl ColumnTerms {
+    /// Fills the terms of columns `0..min(width, COLUMN_TERMS)` of `cam`; none when `on` is
+    /// false (with an FPU the formula costs less than the table's upkeep).
+    #[inline(never)]
+    pub fn fill(&mut self, cam: &Camera, width: u16, on: bool) {
+        self.len = if on { (width as usize).min(COLUMN_TERMS) } else { 0 };
+        for (x, t) in self.terms.iter_mut().take(self.len).enumerate() {
+            *t = cam.column_term(x as u32);
+        }
+    }
+
+    /// The filled terms, column 0 first.
+    pub fn terms(&self) -> &[Vec3] {
+        self.terms.get(..self.len).unwrap_or(&[])
     }
 }
 
@@ -340,6 +399,40 @@ mod tests {
             }
         }
         assert!(checked > 100_000, "{checked}");
+    }
+
+    /// A row whose column terms come from a [`ColumnTerms`] table gives the camera's rays bit
+    /// for bit, inside the table and past it (random cameras; frames narrower and wider than
+    /// the table).
+    #[test]
+    fn rows_from_column_terms_equal_primary_rays() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0x0C01_7E53);
+        let mut table = ColumnTerms::default();
+        let mut checked = 0;
+        for _ in 0..300 {
+            let v = |rng: &mut ChaCha8Rng| {
+                Vec3::new(rng.gen_range(-50.0..50.0), rng.gen_range(-50.0..50.0), rng.gen_range(-50.0..50.0))
+            };
+            let (eye, target, up) = (v(&mut rng), v(&mut rng), v(&mut rng));
+            let fov = rng.gen_range(1.0..170.0f32);
+            let (w, h) = (rng.gen_range(1..1200u16), rng.gen_range(1..1200u32));
+            let Ok(c) = Camera::new(eye, target, up, fov, w as u32, h) else { continue };
+            table.fill(&c, w, true);
+            assert_eq!(table.terms().len(), (w as usize).min(COLUMN_TERMS));
+            for _ in 0..10 {
+                let y = rng.gen_range(0..h);
+                let row = c.row_with(y, table.terms());
+                for _ in 0..30 {
+                    let x = rng.gen_range(0..w as u32);
+                    let (a, b) = (row.ray(x), c.primary_ray(x, y));
+                    assert_eq!(a.dir.to_array().map(f32::to_bits), b.dir.to_array().map(f32::to_bits), "{x} {y}");
+                    checked += 1;
+                }
+            }
+        }
+        table.fill(&cam(320, 240), 320, false);
+        assert!(table.terms().is_empty());
+        assert!(checked > 50_000, "{checked}");
     }
 
     #[test]

@@ -162,6 +162,114 @@ impl BoxSpans {
     }
 }
 
+/// Tiles of an [`OccupancyMask`] per image axis.
+const TILES: u32 = 64;
+
+/// Per frame, a conservative screen mask of the grid cells that hold primitives: the image
+/// cut into 64 × 64 tiles, a tile set when a camera ray through a pixel of it may pass within
+/// 2⁻¹⁶·(box size + eye distance) of a non-empty cell. A camera ray of a pixel in a clear
+/// tile meets only empty cells, so its walk lists nothing: its pixel is the background,
+/// without a ray or a walk (the image and the counters are the walk's).
+///
+/// Per non-empty cell one projection of its centre and a bound on the projection of the
+/// sphere around it of radius R (half the cell's diagonal plus the growth): a point `c + δ`,
+/// `|δ| ≤ R`, in front of the eye by `z > R` projects within `R·(1 + |s|)/(z − R)` of the
+/// centre's screen coordinate `s` on each axis. Widened by [`MARGIN_PX`] pixels and 2⁻¹⁰ of
+/// the coordinate (the f32 rounding, far below it). The walk's own rounding (a few 2⁻²⁴ of
+/// the eye's distance plus the box size) is far below the growth. A cell within `2R` of the
+/// eye plane, or projecting more than 2²⁰ pixels away, sets every tile (no culling).
+/// Pinned by `pixels_in_clear_tiles_meet_only_empty_cells`.
+#[derive(Debug, Clone)]
+pub struct OccupancyMask {
+    /// False: every tile may hit.
+    active: bool,
+    /// Pixels per tile on each axis.
+    tile_w: u32,
+    tile_h: u32,
+    /// Row `ty`, bit `tx`.
+    rows: [u64; TILES as usize],
+}
+
+impl OccupancyMask {
+    /// The mask that culls nothing.
+    pub fn everything() -> Self {
+        Self { active: false, tile_w: 1, tile_h: 1, rows: [u64::MAX; TILES as usize] }
+    }
+
+    /// The mask of `cam`'s frame for the cells of `grid` whose entry in `voxel_pe` is not
+    /// `EMPTY_VOXEL` (ids past the map's end are empty).
+    // Once per frame: out of line.
+    #[inline(never)]
+    pub fn new(cam: &Camera, grid: &crate::dda::GridDesc, voxel_pe: &[u8]) -> Self {
+        let every = Self::everything();
+        if !grid.is_valid() {
+            return every;
+        }
+        let (half_w, half_h, w, h) = cam.screen();
+        let (eye, f, r, u) = (cam.eye(), cam.forward(), cam.right(), cam.up());
+        let bounds = grid.aabb();
+        let extent = bounds.max - bounds.min;
+        let [nx, ny, nz] = grid.dims;
+        let cell = extent / Vec3::new(nx as f32, ny as f32, nz as f32);
+        let grow = (extent.max_element() + (bounds.center() - eye).length()) * (1.0 / 65536.0);
+        // Half the cell's diagonal (rounded up by far more than its f32 rounding), grown.
+        let radius = 0.5 * crate::fmath::length(cell) * (1.0 + 1.0 / 4096.0) + grow;
+        let (tile_w, tile_h) = ((w as u32).div_ceil(TILES).max(1), (h as u32).div_ceil(TILES).max(1));
+        let mut mask = Self { active: true, tile_w, tile_h, rows: [0; TILES as usize] };
+        let (sx_px, sy_px) = (w * 0.5 / half_w, h * 0.5 / half_h);
+        let mut cells = voxel_pe.iter();
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    let Some(&pe) = cells.next() else { return mask };
+                    if pe == gridrt_shared::scene::EMPTY_VOXEL {
+                        continue;
+                    }
+                    let centre = bounds.min + cell * Vec3::new(x as f32 + 0.5, y as f32 + 0.5, z as f32 + 0.5);
+                    let rel = centre - eye;
+                    let zc = rel.dot(f);
+                    let in_front = zc > 2.0 * radius;
+                    if !in_front {
+                        return every;
+                    }
+                    let (sx, sy) = (rel.dot(r) / zc, rel.dot(u) / zc);
+                    let (rx, ry) =
+                        (radius * (1.0 + sx.abs()) / (zc - radius), radius * (1.0 + sy.abs()) / (zc - radius));
+                    let (px, py) = ((sx / half_w + 1.0) * (w * 0.5) - 0.5, (1.0 - sy / half_h) * (h * 0.5) - 0.5);
+                    let (dx, dy) = (rx * sx_px, ry * sy_px);
+                    let near = px.abs() + dx < FAR_PX && py.abs() + dy < FAR_PX;
+                    if !near {
+                        return every;
+                    }
+                    let margin = |p: f32, d: f32| MARGIN_PX as f32 + (p.abs() + d) * (1.0 / 1024.0);
+                    let (mx, my) = (dx + margin(px, dx), dy + margin(py, dy));
+                    let tile = |v: f32, size: u32| ((v.max(0.0) as u32) / size).min(TILES - 1);
+                    let (tx0, tx1) = (tile(px - mx, tile_w), tile(px + mx, tile_w));
+                    let (ty0, ty1) = (tile(py - my, tile_h), tile(py + my, tile_h));
+                    // Bits tx0 ..= tx1 (tx1 ≤ 63).
+                    let bits = (u64::MAX >> (63 - tx1)) & (u64::MAX << tx0);
+                    for row in mask.rows.iter_mut().take(ty1 as usize + 1).skip(ty0 as usize) {
+                        *row |= bits;
+                    }
+                }
+            }
+        }
+        mask
+    }
+
+    /// Whether these masks cull anything.
+    pub fn is_active(&self) -> bool {
+        self.active
+    }
+
+    /// The camera ray of pixel (x, y) may meet a cell with primitives.
+    #[inline]
+    pub fn may_hit(&self, x: u16, y: u16) -> bool {
+        let (tx, ty) = ((u32::from(x) / self.tile_w).min(TILES - 1), (u32::from(y) / self.tile_h).min(TILES - 1));
+        self.rows.get(ty as usize).is_none_or(|row| row >> tx & 1 != 0)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -169,6 +277,57 @@ mod tests {
     use gridrt_shared::math::Ray;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+
+    /// Every pixel in a clear tile of the occupancy mask has a camera ray whose walk lists
+    /// nothing, over random grids with random empty cells and random cameras (eyes close to
+    /// the box included); and the mask clears a good share of the pixels whose rays meet only
+    /// empty cells.
+    #[test]
+    fn pixels_in_clear_tiles_meet_only_empty_cells() {
+        use gridrt_shared::scene::EMPTY_VOXEL;
+        let mut rng = ChaCha8Rng::seed_from_u64(0x00CC_0001);
+        let (mut active, mut cleared, mut empty_walks) = (0, 0u64, 0u64);
+        for round in 0..300 {
+            let v = |rng: &mut ChaCha8Rng, s: f32| {
+                Vec3::new(rng.gen_range(-s..s), rng.gen_range(-s..s), rng.gen_range(-s..s))
+            };
+            let min = v(&mut rng, 4.0);
+            let dims = [rng.gen_range(1..12), rng.gen_range(1..12), rng.gen_range(1..12)];
+            let grid = GridDesc { min, max: min + v(&mut rng, 3.0).abs() + Vec3::splat(0.05), dims };
+            let cells = (dims[0] * dims[1] * dims[2]) as usize;
+            let fill = rng.gen_range(0.0..0.5f64);
+            let mut map: Vec<u8> = (0..cells).map(|_| if rng.gen_bool(fill) { 1 } else { EMPTY_VOXEL }).collect();
+            if round % 9 == 0 {
+                map.truncate(rng.gen_range(0..=cells));
+            }
+            let eye = grid.aabb().center() + v(&mut rng, 1.0).normalize() * rng.gen_range(0.5..20.0f32);
+            let target = grid.aabb().center() + v(&mut rng, 2.0);
+            let (w, h) = (rng.gen_range(1..=96u32), rng.gen_range(1..=72u32));
+            let Ok(cam) = Camera::new(eye, target, v(&mut rng, 1.0), rng.gen_range(5.0..150.0f32), w, h) else {
+                continue;
+            };
+            let mask = OccupancyMask::new(&cam, &grid, &map);
+            active += u32::from(mask.is_active());
+            let walk = WalkGrid::new(&grid);
+            let mut words = [0u32; 128];
+            for y in 0..h {
+                for x in 0..w {
+                    let listed = walk.write_entries(&map, &cam.primary_ray(x, y), f32::INFINITY, &mut words) > 0;
+                    let may = mask.may_hit(x as u16, y as u16);
+                    assert!(may || !listed, "pixel ({x}, {y}) lists cells in a clear tile: {cam:?} {grid:?}");
+                    empty_walks += u64::from(!listed);
+                    cleared += u64::from(!may);
+                }
+            }
+        }
+        assert!(active > 150, "{active} active masks");
+        assert!(cleared * 2 > empty_walks, "{cleared} cleared of {empty_walks} empty walks");
+        // An eye inside the box culls nothing.
+        let g = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [2; 3] };
+        let cam = Camera::new(Vec3::splat(0.5), Vec3::ONE, Vec3::Y, 60.0, 8, 8).unwrap();
+        let m = OccupancyMask::new(&cam, &g, &[0; 8]);
+        assert!(!m.is_active() && m.may_hit(3, 3));
+    }
 
     /// Every pixel outside its row's span has a primary ray that misses the box (an empty
     /// walk over a grid whose every voxel is non-empty), for random boxes and cameras,

@@ -401,6 +401,55 @@ fn mul_inline(a: f32, b: f32) -> f32 {
     }
 }
 
+/// Multiplication by one normal factor `b`, unpacked once: the walk multiplies every boundary
+/// of an axis by the axis's `1/d`. [`Multiplier::times`] is [`mul_int`]'s integer path inline,
+/// without `b`'s unpacking and the call.
+#[derive(Debug, Clone, Copy)]
+pub struct Multiplier {
+    /// `b`'s significand with its leading 1 at bit 30.
+    sig: u32,
+    /// `b`'s biased exponent.
+    exp: u32,
+    /// `b`'s sign bit.
+    sign: u32,
+}
+
+impl Multiplier {
+    /// The multiplier by `b`, for a normal `b`.
+    #[inline(always)]
+    pub fn new(b: f32) -> Option<Self> {
+        let ub = b.to_bits();
+        let ab = ub & !SIGN;
+        normal(ab).then_some(Self { sig: ((ab & FRAC) | EXP_ONE) << 7, exp: ab >> 23, sign: ub & SIGN })
+    }
+
+    /// `a · b` correctly rounded, when `a` and the product are normal (`None` otherwise: the
+    /// caller takes [`mul`]).
+    #[inline(always)]
+    #[allow(clippy::arithmetic_side_effects)] // bounded by the normal-number ranges checked first
+    pub fn times(self, a: f32) -> Option<f32> {
+        let ua = a.to_bits();
+        let aa = ua & !SIGN;
+        if !normal(aa) {
+            return None;
+        }
+        // As `mul_inline`.
+        let mut e = (aa >> 23) + self.exp;
+        let p = u64::from(((aa & FRAC) | EXP_ONE) << 8) * u64::from(self.sig);
+        let (hi, lo) = ((p >> 32) as u32, p as u32);
+        let m = if hi >= 1 << 30 {
+            e += 1;
+            hi | u32::from(lo != 0)
+        } else {
+            hi << 1 | u32::from(lo != 0)
+        };
+        if e <= 127 {
+            return None;
+        }
+        pack((ua ^ self.sign) & SIGN, e - 127, round_even::<7>(m))
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::arithmetic_side_effects)]
 mod tests {
@@ -473,6 +522,36 @@ mod tests {
         }
         // x − x is +0 under ties-to-even, as the operator gives.
         assert_eq!(add_int(1.5, -1.5).to_bits(), 0);
+    }
+
+    /// A [`Multiplier`]'s products are the operator's, bit for bit, wherever it gives one
+    /// (operand pairs biased to the hard cases, as above), and it gives one for every pair of
+    /// normal operands with a normal product.
+    #[test]
+    fn multiplier_products_equal_the_operator() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0x3017_1F1E);
+        let mut answered = 0u32;
+        for i in 0..4_000_000u32 {
+            let seed = f32::from_bits(rng.gen::<u32>() & !SIGN | 0x3F00_0000);
+            let a = operand(&mut rng, seed);
+            let b = operand(&mut rng, a);
+            let (a, b) = if i & 1 == 0 { (a, b) } else { (b, a) };
+            let Some(by_b) = Multiplier::new(b) else {
+                assert!(!b.is_normal(), "{b:e}");
+                continue;
+            };
+            match by_b.times(a) {
+                Some(p) => {
+                    assert!(same(p, a * b), "{a:e} * {b:e}: {p:e} != {:e}", a * b);
+                    answered += 1;
+                }
+                None => assert!(
+                    !a.is_normal() || !(a * b).is_normal() || (a * b).abs() == f32::MIN_POSITIVE,
+                    "{a:e} * {b:e}"
+                ),
+            }
+        }
+        assert!(answered > 1_000_000, "{answered}");
     }
 
     #[test]

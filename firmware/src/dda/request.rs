@@ -19,7 +19,7 @@
 //! come from the scene upload and the caller, are accessed with `get`.
 
 use super::grid::{GridDesc, MAX_GRID_DIM};
-use crate::sfloat::{add, div, mul, sub, trunc_i32};
+use crate::sfloat::{add, div, mul, sub, trunc_i32, Multiplier};
 use gridrt_shared::fsl::VOXEL_MASK;
 use gridrt_shared::math::{gamma, Ray};
 use gridrt_shared::scene::EMPTY_VOXEL;
@@ -82,6 +82,9 @@ pub struct OriginPlanes {
     /// Per axis: a ray from this origin that enters the box through a face of the axis
     /// starts in the cell at that face (the bound is in `WalkGrid::fill_origin_planes`).
     face_cell: [bool; 3],
+    /// Per axis, when the integer start cell's bound holds ([`WalkGrid::integer_start`]):
+    /// `(o − min)·(n/extent)` in 16.16 fixed point, from the f32 `−(min − o)·scale16`.
+    origin_cell16: [Option<i64>; 3],
 }
 
 impl Default for OriginPlanes {
@@ -95,6 +98,7 @@ impl Default for OriginPlanes {
             clip: [[0.0; 2]; 3],
             diff: [[0.0; PLANES]; 3],
             face_cell: [false; 3],
+            origin_cell16: [None; 3],
         }
     }
 }
@@ -233,6 +237,12 @@ impl WalkGrid {
             let abs = |x: f32| f32::from_bits(x.to_bits() & !0x8000_0000);
             let largest = abs(table.clip[a][0]).max(abs(table.clip[a][1])).max(abs(self.min[a])).max(abs(self.max[a]));
             table.face_cell[a] = mul(largest, self.nf[a]) <= mul(self.extent[a], 524_288.0);
+            // The integer start cell's bound (`integer_start`): A·n ≤ extent·2^9, and the
+            // origin's cell coordinate in 16.16 (|·| ≤ 2^9·2^16, exact in f32 → i64).
+            let scale = self.scale16[a];
+            let near = mul(largest, self.nf[a]) <= mul(self.extent[a], 512.0);
+            table.origin_cell16[a] =
+                if near && scale.to_bits() != 0 { Some(trunc_i32(mul(-table.clip[a][0], scale)) as i64) } else { None };
         }
         table.filled = true;
     }
@@ -285,6 +295,65 @@ impl WalkGrid {
         trunc_i32(rel).max(0).min(n - 1)
     }
 
+    /// The start cell of axis `a` in integers, for a ray from an origin whose cell coordinate
+    /// `(o − min)·n/extent` is `origin16`·2⁻¹⁶ ([`OriginPlanes`]): `origin16 + d·t0·scale16`
+    /// with the product of the three significands in 64 bits. `None` where it may differ from
+    /// [`WalkGrid::start_cell`]'s cell: within 2⁻¹⁰ of a boundary 1..n−1, or `d`, `t0`
+    /// outside the normal range.
+    ///
+    /// Bound: the f32 `q = (o + d·t0) − min` is within 4u·A of the real one (three roundings
+    /// on magnitudes up to A, the largest of |min − o|, |max − o|, |min|, |max|; u = 2⁻²⁴),
+    /// 2⁻¹³ of a cell when A·n ≤ extent·2⁹ (the table's condition); `start_cell`'s value
+    /// `q·n/extent` is then within 2⁻¹⁵ of `q`'s, and the estimate within 2⁻¹³ of the real
+    /// one (`min − o` and `scale16` rounded, three truncations): together below 2⁻¹¹, so
+    /// outside 2⁻¹⁰ of a boundary both floor to the same cell (and the clamp keeps 0 and
+    /// n − 1 at the ends). Pinned by `request_words_equal_build_list`.
+    // One copy (code budget: inline at the three axes it was 2 KB).
+    #[inline(never)]
+    fn integer_start(&self, a: usize, origin16: Option<i64>, d: f32, t0: f32) -> Option<i32> {
+        let origin16 = origin16?;
+        let (db, tb, sb) = (d.to_bits(), t0.to_bits(), self.scale16[a].to_bits());
+        let (de, te, se) = ((db >> 23) & 0xFF, tb >> 23, sb >> 23);
+        // t0 = +0 (the origin in the box): no product. Else normal, positive t0; normal d.
+        let product = if tb == 0 {
+            0
+        } else {
+            if !(1..255).contains(&de) || !(1..255).contains(&te) || tb >> 31 != 0 {
+                return None;
+            }
+            let sig = |b: u32| u64::from((b & 0x007F_FFFF) | 0x0080_0000);
+            // 48-bit product to 32 bits, times 24 bits: below 2^56, the value
+            // m·2^(de + te + se − 450 + 16) in units of 2^-16 of a cell.
+            let m = ((sig(db) * sig(tb)) >> 16) * sig(sb);
+            let shift = (de + te + se) as i32 - 434;
+            let v = if shift >= 0 {
+                // |d·t0·scale| ≤ A·n/extent ≤ 2^9 (the table's bound): no overflow; guarded.
+                if shift > 7 {
+                    return None;
+                }
+                (m << shift) as i64
+            } else if shift > -64 {
+                (m >> -shift) as i64
+            } else {
+                0
+            };
+            if db >> 31 != 0 {
+                -v
+            } else {
+                v
+            }
+        };
+        let c16 = origin16 + product;
+        let n = self.dims[a];
+        let whole = c16 >> 16;
+        let boundary = (c16 + 0x8000) >> 16;
+        let frac = c16 & 0xFFFF;
+        if (1..n as i64).contains(&boundary) && !(64..=0xFFFF - 64).contains(&frac) {
+            return None;
+        }
+        Some(whole.clamp(0, i64::from(n - 1)) as i32)
+    }
+
     /// The walk of a valid ray with reciprocals `inv`, comparing with `O`; `fast`: the start
     /// cell without a division where that is exact ([`WalkGrid::start_cell`]).
     #[allow(clippy::too_many_arguments)]
@@ -301,35 +370,57 @@ impl WalkGrid {
         t_max: f32,
         words: &mut [u32],
     ) -> usize {
-        // The clip of `Aabb::clip` over [0, t_max].
-        let (mut t0, mut t1) = (0.0f32, t_max);
+        // The clip of `Aabb::clip` over [0, t_max]. Its exit is the least of t_max and the
+        // widened far distances `RN(far·WIDEN)`; widening is monotone, so that is the least far
+        // distance widened once (one multiplication where there were three: the same value,
+        // and the first of equal keys as before). Its early exits (`t1 < t0` after an axis)
+        // are the final `t1 ≤ t0` test's too: t1 only falls and t0 only rises.
+        let mut t0 = 0.0f32;
+        let mut far_least = f32::INFINITY;
         // The axis through whose face the ray enters (t0 > 0), and whether that is the max face.
         let mut face: Option<(usize, bool)> = None;
+        // An origin inside the box (min ≤ o ≤ max on every axis, shadow rays) with finite
+        // reciprocals (integer keys): every near distance is ≤ 0 (its two products have
+        // opposite signs), so t0 stays +0, and the far one is the product of the face ahead:
+        // `max − o` going up, `min − o` going down — one subtraction and one multiplication
+        // per axis instead of two of each (the same far distances, bit for bit).
+        let inside = ord.keys
+            && table.is_none()
+            && (0..3).all(|a| key(self.min[a]) <= key(o[a]) && key(o[a]) <= key(self.max[a]));
         for a in 0..3 {
+            if inside {
+                let ahead = if d[a].to_bits() >> 31 == 0 { self.max[a] } else { self.min[a] };
+                let far = mul(sub(ahead, o[a]), inv[a]);
+                if ord.lt(far, far_least) {
+                    far_least = far;
+                }
+                continue;
+            }
             let [dn, df] = match table {
                 Some(t) => t.clip[a],
                 None => [sub(self.min[a], o[a]), sub(self.max[a], o[a])],
             };
-            let mut near = mul(dn, inv[a]);
-            let mut far = mul(df, inv[a]);
+            // The axis's reciprocal unpacked once for both products (not on a bare-metal
+            // hard-float image, where a product is one instruction).
+            let by_inv = if cfg!(any(soft_float, not(target_os = "none"))) { Multiplier::new(inv[a]) } else { None };
+            let mut near = product(by_inv, dn, inv[a]);
+            let mut far = product(by_inv, df, inv[a]);
             let swapped = ord.lt(far, near);
             if swapped {
                 core::mem::swap(&mut near, &mut far);
             }
-            far = mul(far, WIDEN);
             if ord.lt(t0, near) {
                 t0 = near;
                 if table.is_some() {
                     face = Some((a, swapped));
                 }
             }
-            if ord.lt(far, t1) {
-                t1 = far;
-            }
-            if ord.lt(t1, t0) {
-                return 0;
+            if ord.lt(far, far_least) {
+                far_least = far;
             }
         }
+        let widened = mul(far_least, WIDEN);
+        let t1 = if ord.lt(widened, t_max) { widened } else { t_max };
         if t1.is_nan() || ord.le(t1, t0) || !finite(t0) {
             return 0;
         }
@@ -347,11 +438,15 @@ impl WalkGrid {
             (Some((f, max_face)), Some(t)) if t.face_cell[f] => Some((f, if max_face { self.dims[f] - 1 } else { 0 })),
             _ => None,
         };
+        // Not on a bare-metal hard-float image, which walks without a table (and must not
+        // carry the code: measured 35 instructions per primary ray on riscv32imafc).
+        let origin_cell16 =
+            if cfg!(any(soft_float, not(target_os = "none"))) { table.map(|t| &t.origin_cell16) } else { None };
         let start = Start { fast, face_cell, o, d, inv, t0, pre };
         let axes = [
-            self.start_axis(&start, planes, 0),
-            self.start_axis(&start, planes, 1),
-            self.start_axis(&start, planes, 2),
+            self.start_axis(&start, origin_cell16, planes, 0),
+            self.start_axis(&start, origin_cell16, planes, 1),
+            self.start_axis(&start, origin_cell16, planes, 2),
         ];
         let voxel = axes[0].cell as u32 + self.stride[1] * axes[1].cell as u32 + self.stride[2] * axes[2].cell as u32;
         let walk = Walk { planes, voxel_pe, t0, t_end: t1, bound: self.bound };
@@ -362,14 +457,28 @@ impl WalkGrid {
     /// as a closure the compiler kept it out of line, which cost imafc 70 instructions per
     /// primary ray (measured); inline it also saves riscv32imac 44 for 600 bytes.
     #[inline(always)]
-    fn start_axis(&self, s: &Start, planes: &[[f32; PLANES]; 3], a: usize) -> Axis {
+    fn start_axis(
+        &self,
+        s: &Start,
+        origin_cell16: Option<&[Option<i64>; 3]>,
+        planes: &[[f32; PLANES]; 3],
+        a: usize,
+    ) -> Axis {
         let n = self.dims[a];
         let cell = match s.face_cell {
             Some((f, c)) if f == a => c,
-            _ => {
-                let entry = add(s.o[a], mul(s.d[a], s.t0));
-                self.start_cell(s.fast, a, sub(entry, self.min[a]))
-            }
+            _ => match origin_cell16.and_then(|c| self.integer_start(a, c[a], s.d[a], s.t0)) {
+                Some(c) => c,
+                None => {
+                    // From inside the box (t0 = +0, shadow rays): o + d·(+0) is o (for o = ±0
+                    // its sign may differ, and q = ±0 − min is the same then, or ±0 → cell 0).
+                    // Not on a bare-metal hard-float image: its walk compiles worse with the
+                    // branch (measured: riscv32imafc 586 -> 645 instructions per primary ray).
+                    let inside = cfg!(any(soft_float, not(target_os = "none"))) && s.t0.to_bits() == 0;
+                    let entry = if inside { s.o[a] } else { add(s.o[a], mul(s.d[a], s.t0)) };
+                    self.start_cell(s.fast, a, sub(entry, self.min[a]))
+                }
+            },
         };
         // Direction 0 (either sign): never stepped, the boundary stays at +∞. The sign
         // bit of a non-zero direction is its direction.
@@ -390,12 +499,24 @@ impl WalkGrid {
             o: s.o[a],
             pre: s.pre,
             inv: s.inv[a],
+            // Not on a bare-metal hard-float image (its `mul` is one instruction).
+            by_inv: if cfg!(any(soft_float, not(target_os = "none"))) { Multiplier::new(s.inv[a]) } else { None },
             t_next: f32::INFINITY,
         };
         if step != 0 {
             ax.t_next = ax.crossing(&planes[a]);
         }
         ax
+    }
+}
+
+/// `x · inv` correctly rounded: inline by `by_inv` (`inv` unpacked) where operands and product
+/// are normal, else `sfloat::mul`.
+#[inline(always)]
+fn product(by_inv: Option<Multiplier>, x: f32, inv: f32) -> f32 {
+    match by_inv.and_then(|m| m.times(x)) {
+        Some(t) => t,
+        None => mul(x, inv),
     }
 }
 
@@ -430,6 +551,8 @@ struct Axis {
     /// The planes are `plane − o` already ([`OriginPlanes`]).
     pre: bool,
     inv: f32,
+    /// `inv` unpacked for the crossings, where it is normal (`crate::sfloat::Multiplier`).
+    by_inv: Option<Multiplier>,
     t_next: f32,
 }
 
@@ -439,7 +562,12 @@ impl Axis {
     #[inline(always)]
     fn crossing(&self, planes: &[f32; PLANES]) -> f32 {
         let p = planes[self.plane as usize];
-        mul(if self.pre { p } else { sub(p, self.o) }, self.inv)
+        let p = if self.pre { p } else { sub(p, self.o) };
+        // The same correctly rounded product, inline where operands and product are normal.
+        match self.by_inv.and_then(|m| m.times(p)) {
+            Some(t) => t,
+            None => mul(p, self.inv),
+        }
     }
 
     /// Steps into the next cell; false when that leaves the grid (the walk ends).

@@ -490,3 +490,45 @@ fn request_words_equal_build_list() {
         assert_eq!(good.write_entries(&[0; 8], &Ray { origin: o, dir: d }, t_max, &mut words), 0, "{o} {d} {t_max}");
     }
 }
+
+/// Camera-like rays (one eye per grid, 1 to 8 box sizes away, aimed at points in the box and
+/// at points on its cell boundaries) give the same words with the eye's table — whose start
+/// cells come from `WalkGrid::integer_start` where its bound holds — as `build_list`.
+#[test]
+fn camera_rays_from_one_table_equal_build_list() {
+    let mut rng = ChaCha8Rng::seed_from_u64(0x0E7E_CE11);
+    let mut list = TraversalList::new();
+    let mut words = vec![0u32; 2 * MAX_LIST];
+    let mut checked = 0;
+    for _ in 0..300 {
+        let g = random_grid(&mut rng, 64);
+        let ext = g.max - g.min;
+        let centre = g.min + ext * 0.5;
+        let away = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+        let eye = centre + away.normalize_or(Vec3::X) * ext.length() * rng.gen_range(1.0..8.0f32);
+        let map: Vec<u8> = (0..g.voxel_count()).map(|_| rng.gen_range(0..4)).collect();
+        let walk = WalkGrid::new(&g);
+        let mut table = OriginPlanes::default();
+        walk.fill_origin_planes(eye.to_array(), &mut table);
+        for _ in 0..1000 {
+            let mut target = g.min + ext * Vec3::new(rng.gen(), rng.gen(), rng.gen());
+            // On a cell boundary of one or two axes: entries exactly between two cells.
+            for _ in 0..rng.gen_range(0..3) {
+                let a = rng.gen_range(0..3);
+                target[a] = plane_coord(&mut rng, &g, a);
+            }
+            let ray = Ray { origin: eye, dir: target - eye };
+            build_list_in(RayFormat::F32, &g, &map, &ray, 0.0, f32::INFINITY, &mut list);
+            let zero = |w: u32| if w == 0x8000_0000 { 0 } else { w };
+            let want: Vec<[u32; 2]> =
+                list.iter().map(|e| gridrt_shared::fsl::entry_words(*e)).map(|[a, b]| [a, zero(b)]).collect();
+            for keys in [false, true] {
+                let n = walk.write_entries_with(keys, Some(&table), &map, &ray, f32::INFINITY, &mut words);
+                let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
+                assert_eq!(got, want, "keys {keys}: {g:?} {ray:?}");
+                checked += usize::from(n > 0);
+            }
+        }
+    }
+    assert!(checked > 400_000, "{checked}");
+}

@@ -18,23 +18,21 @@ use super::raypath::{RayClass, RayPath};
 use super::request::{field, Job};
 use super::scene::SceneStore;
 use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
-use crate::camera::{Camera, RowRays};
-use crate::cull::BoxSpans;
+use crate::camera::{Camera, ColumnTerms, RowRays};
+use crate::cull::{BoxSpans, OccupancyMask};
 use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
 use crate::pixels::{FrameTx, SpanEncoder, TxError};
-use crate::sfloat::{add, mul};
-use crate::shade::{self, DEFAULT_ALBEDO};
+use crate::sfloat::{add, mul, vsub};
+use crate::shade::{self, LightFactor, DEFAULT_ALBEDO};
 use core::ops::{ControlFlow, Range};
 use embedded_io::Write;
 use gridrt_shared::fsl::RayKind;
-use gridrt_shared::math::Ray;
-#[cfg(feature = "textures")]
-use gridrt_shared::math::Vec3;
+use gridrt_shared::math::{Ray, Vec3};
 use gridrt_shared::msg::{feature, render_flags, ErrorCode, Msg};
 #[cfg(feature = "textures")]
 use gridrt_shared::scene::{affine_point, TextureKind};
-use gridrt_shared::scene::{Material, MaterialModel, ReflectMode};
+use gridrt_shared::scene::{Falloff, Material, MaterialModel, ReflectMode};
 
 /// The model of a material id the scene does not define.
 const MATTE: MaterialModel = MaterialModel::MATTE;
@@ -45,8 +43,12 @@ pub const MAX_INTERP_WIDTH: usize = 2048;
 /// Per-frame constants of the pixel pipeline.
 pub(super) struct FrameCtx {
     cam: Camera,
+    /// The camera rays' column terms on a soft-float core (`crate::camera::ColumnTerms`).
+    columns: ColumnTerms,
     /// Per row, the columns whose camera rays can enter the grid box.
     spans: BoxSpans,
+    /// The image tiles whose camera rays may meet a cell with primitives (`crate::cull`).
+    occupancy: OccupancyMask,
     /// What a pixel whose camera ray misses everything gets: the background.
     background: Sample,
     /// The ambient light `L_a` (ambient colour × ambient term).
@@ -63,6 +65,12 @@ pub(super) struct FrameCtx {
     specular: bool,
     /// `1e-4 · |grid box diagonal|`, the per-scene term of the shadow-ray offset.
     eps_diag: f32,
+    /// The 8-bit colour of matte camera hits in fixed point, on a soft-float core
+    /// (`shade::MatteBytes`; empty elsewhere).
+    bytes: shade::MatteBytes,
+    /// The light's factor at those hits may be estimated in integers (`shade::light_factor`):
+    /// a soft-float core, a light, no falloff, no spot cone.
+    estimate_light: bool,
 }
 
 impl FrameCtx {
@@ -73,7 +81,7 @@ impl FrameCtx {
         let (lo, hi) = self.spans.row(y, width);
         let lo = lo.clamp(x0, x1);
         let hi = hi.clamp(lo, x1);
-        (lo..hi, self.cam.row(y as u32))
+        (lo..hi, self.cam.row_with(y as u32, self.columns.terms()))
     }
 }
 
@@ -116,8 +124,15 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
     x: u16,
 ) -> Result<Sample, Fail> {
     let lighting = &scene.lighting;
-    let mut ray = row.ray(x as u32);
     count(&mut path.stats.primary_rays, 1);
+    // A camera ray that can meet only empty cells: its walk would list nothing (culled), its
+    // pixel is the background (`crate::cull::OccupancyMask`).
+    if !ctx.occupancy.may_hit(x, row.y() as u16) {
+        count(&mut path.stats.culled_rays, 1);
+        sw.lap(clock, &mut path.stats, Stage::RayGen);
+        return Ok(ctx.background);
+    }
+    let mut ray = row.ray(x as u32);
     sw.lap(clock, &mut path.stats, Stage::RayGen);
     let (la, dl, lit) = (ctx.ambient, &ctx.direct, ctx.lit);
     let depth = if ctx.reflections { lighting.max_depth.max(1) } else { 1 };
@@ -162,16 +177,30 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
                 cd = crate::texture::sample(ext, cd, po);
             }
         }
-        let Some(n) = shade::facing_normal(r.normal, ray.dir) else {
+        // On a soft-float core the unit normal of a primitive hit recently comes from the cache.
+        let unit = if cfg!(soft_float) {
+            path.normals.unit(r.prim, r.normal).map(|n| shade::facing(n, ray.dir))
+        } else {
+            shade::facing_normal(r.normal, ray.dir)
+        };
+        let Some(n) = unit else {
             // Degenerate normal: no direction to light it from; ambient only.
             for (a, b) in acc.iter_mut().zip(shade::outgoing(ext, cd, la, None)) {
                 *a += throughput * b;
             }
             break;
         };
+        if bounce == 0 && ctx.estimate_light && ctx.bytes.covers(r.material) {
+            if let Some(rgb) = matte_camera_hit(path, scene, clock, sw, ctx, (p, n), &m, ext, r.material)? {
+                sw.lap(clock, &mut path.stats, Stage::Shade);
+                return Ok(Sample { rgb, prim: r.prim, t: r.t });
+            }
+        }
         // The unit view vector, computed only for the models that read it.
         let view = || crate::fmath::try_normalize(-ray.dir).unwrap_or(n);
         let mut direct = None;
+        // The light's factor `spot·E` at a hit it reaches, +0 elsewhere (`shade::MatteBytes`).
+        let mut e_seen = 0.0;
         if lit {
             let (e, l) = shade::irradiance_toward(lighting, n, p, dl.pos);
             let spot = if e > 0.0 { shade::spot_factor_on(lighting, ctx.spot_axis, dl.pos, p) } else { 0.0 };
@@ -188,9 +217,24 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
                     true
                 };
                 if visible {
+                    e_seen = mul(e, spot);
+                    // A camera hit whose bytes the fixed-point rule gives (it ends the path: no
+                    // reflection for its material): the f32 rule's bytes without its arithmetic.
+                    if bounce == 0 {
+                        if let Some(rgb) = ctx.bytes.rgb(r.material, e_seen) {
+                            sw.lap(clock, &mut path.stats, Stage::Shade);
+                            return Ok(Sample { rgb, prim: r.prim, t: r.t });
+                        }
+                    }
                     let v = if shade::direct_reads_view(ext, dl) { view() } else { n };
-                    direct = Some(shade::direct_toward(ext, n, v, l, dl, mul(e, spot)));
+                    direct = Some(shade::direct_toward(ext, n, v, l, dl, e_seen));
                 }
+            }
+        }
+        if bounce == 0 && direct.is_none() {
+            if let Some(rgb) = ctx.bytes.rgb(r.material, e_seen) {
+                sw.lap(clock, &mut path.stats, Stage::Shade);
+                return Ok(Sample { rgb, prim: r.prim, t: r.t });
             }
         }
         for (a, b) in acc.iter_mut().zip(shade::outgoing(ext, cd, la, direct.as_ref())) {
@@ -212,6 +256,53 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
     let rgb = shade::to_rgb8(acc);
     sw.lap(clock, &mut path.stats, Stage::Shade);
     Ok(Sample { rgb, prim: first_prim, t: first_t })
+}
+
+/// The bytes of a camera hit at `p` with unit normal `n` on a material with a fixed-point
+/// rule (`shade::MatteBytes`), under an omnidirectional light without falloff: the light's
+/// factor estimated in integers (`shade::light_factor`), the shadow ray where it is positive,
+/// the rule, and the f32 rule within the rule's margin of a byte boundary. The same shadow
+/// rays and bytes as [`pixel`]'s f32 path; `None` (nothing traced) when the estimate cannot
+/// tell the factor's sign.
+#[allow(clippy::too_many_arguments)]
+fn matte_camera_hit<L: FslLink, C: StageClock, const N: usize>(
+    path: &mut RayPath<L>,
+    scene: &SceneStore<N>,
+    clock: &C,
+    sw: &mut Stopwatch,
+    ctx: &FrameCtx,
+    (p, n): (Vec3, Vec3),
+    m: &Material,
+    ext: &MaterialModel,
+    material: u16,
+) -> Result<Option<[u8; 3]>, Fail> {
+    let dl = &ctx.direct;
+    let e30 = match shade::light_factor(n, vsub(dl.pos, p)) {
+        LightFactor::Unsure => return Ok(None),
+        LightFactor::Unlit => 0,
+        LightFactor::Lit(e30) => e30,
+    };
+    let visible = e30 > 0
+        && (!ctx.shadows || {
+            count(&mut path.stats.shadow_rays, 1);
+            let sr = shade::shadow_ray_from(p, n, dl.pos, ctx.eps_diag);
+            sw.lap(clock, &mut path.stats, Stage::Shade);
+            let blocker = path.trace_as(scene, clock, sw, &sr, RayKind::Any, shade::SHADOW_T_MAX, RayClass::Shadow)?;
+            !blocker.is_some_and(|b| b.hit)
+        });
+    if let Some(rgb) = ctx.bytes.rgb_q30(material, if visible { e30 } else { 0 }, visible) {
+        return Ok(Some(rgb));
+    }
+    // Within the margin of a byte boundary: `pixel`'s f32 rule with the visibility known (the
+    // f32 factor is positive where the estimate is; matte without specular reads no view
+    // vector; an omnidirectional light's spot factor is 1).
+    let direct = if visible {
+        let (e, l) = shade::irradiance_toward(&scene.lighting, n, p, dl.pos);
+        l.map(|l| shade::direct_toward(ext, n, n, l, dl, mul(e, 1.0)))
+    } else {
+        None
+    };
+    Ok(Some(shade::to_rgb8(shade::outgoing(ext, m.diffuse, ctx.ambient, direct.as_ref()))))
 }
 
 /// Refuses a plan that names a stage missing from `compiled` (the build's plan bits).
@@ -390,17 +481,21 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         let diag = scene.grid.aabb().diagonal().length();
         Ok(FrameCtx {
             cam: job.cam,
+            columns: ColumnTerms::default(),
             ambient: lighting.ambient_colour.map(|c| c * light.ambient),
             lit: lighting.light_count > 0 && direct.radiance.iter().any(|&c| c != 0.0),
             direct,
             spot_axis: shade::spot_axis(lighting),
             eps_diag: shade::SHADOW_EPS_DIAG * diag,
             spans: BoxSpans::new(&job.cam, &scene.grid.aabb()),
+            occupancy: OccupancyMask::new(&job.cam, &scene.grid, scene.voxel_pe.get(..scene.voxels).unwrap_or(&[])),
             background: Sample { rgb: shade::to_rgb8(background), prim: interp::MISS, t: f32::INFINITY },
             shadows,
             reflections: req.flags & render_flags::REFLECTIONS != 0 && scene.lighting.max_depth > 1,
             textures: req.flags & render_flags::TEXTURES != 0,
             specular: req.flags & render_flags::SPECULAR != 0,
+            bytes: shade::MatteBytes::default(),
+            estimate_light: false,
         })
     }
 
@@ -428,7 +523,14 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         out: &mut impl Write,
     ) -> Result<(), Fail> {
         let (req, region) = (job.req, job.region);
-        let ctx = Self::frame_ctx(scene, job)?;
+        let mut ctx = Self::frame_ctx(scene, job)?;
+        ctx.columns.fill(&ctx.cam, req.width, cfg!(soft_float));
+        if cfg!(soft_float) {
+            let plan = (ctx.direct.specular, ctx.textures, ctx.reflections);
+            let radiance = if ctx.lit { ctx.direct.radiance } else { [0.0; 3] };
+            ctx.bytes = shade::MatteBytes::new(&scene.materials, &scene.material_model, ctx.ambient, radiance, plan);
+            ctx.estimate_light = ctx.lit && scene.lighting.falloff == Falloff::None && ctx.spot_axis.is_none();
+        }
         let step = render_flags::interp_step(req.flags);
         let params = interp::Params {
             step,

@@ -51,6 +51,8 @@ pub(super) struct RayPath<L> {
     pub(super) polls: u32,
     /// The walk's `plane − o` of the camera rays' origin (`dda::OriginPlanes`).
     eye_planes: OriginPlanes,
+    /// The unit normals of recent hits (`shade::UnitNormals`), on a soft-float core.
+    pub(super) normals: crate::shade::UnitNormals,
 }
 
 impl<L: FslLink> RayPath<L> {
@@ -62,6 +64,7 @@ impl<L: FslLink> RayPath<L> {
             stats: FrameStats::default(),
             polls: DEFAULT_POLLS,
             eye_planes: OriginPlanes::default(),
+            normals: crate::shade::UnitNormals::default(),
         }
     }
 

@@ -26,8 +26,65 @@ pub fn hit_point(ray: &Ray, t: f32) -> Vec3 {
 /// ambient light only.
 #[inline]
 pub fn facing_normal(normal: [f32; 3], dir: Vec3) -> Option<Vec3> {
-    let n = try_normalize(Vec3::from_array(normal))?;
-    Some(if dot(n, dir) > 0.0 { -n } else { n })
+    Some(facing(try_normalize(Vec3::from_array(normal))?, dir))
+}
+
+/// The unit normal `n` flipped to face the ray (the second half of [`facing_normal`]).
+#[inline]
+pub fn facing(n: Vec3, dir: Vec3) -> Vec3 {
+    // On a soft-float core the sign in integers where that is certain (`super::dot_sign`).
+    let towards = match cfg!(soft_float).then(|| super::dot_sign(n, dir)).flatten() {
+        Some(positive) => positive,
+        None => dot(n, dir) > 0.0,
+    };
+    if towards {
+        -n
+    } else {
+        n
+    }
+}
+
+/// Slots of [`UnitNormals`] (direct-mapped by primitive id); one on a bare-metal hard-float
+/// image, which does not use it.
+const NORMAL_SLOTS: usize = if cfg!(any(soft_float, not(target_os = "none"))) { 32 } else { 1 };
+
+/// The unit normals of recent hits by primitive: neighbouring pixels mostly hit the same
+/// triangle, whose normal the co-processor returns with the same bits each time, and
+/// normalising it is a square root, a division and eight other f32 operations (~500
+/// instructions on a soft-float core). A slot answers only for the same primitive id and
+/// the same normal bits, with the value [`try_normalize`] gave for them: the same normal.
+#[derive(Debug, Clone)]
+pub struct UnitNormals {
+    slots: [NormalSlot; NORMAL_SLOTS],
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+struct NormalSlot {
+    filled: bool,
+    prim: u32,
+    normal: [u32; 3],
+    unit: Option<Vec3>,
+}
+
+impl Default for UnitNormals {
+    fn default() -> Self {
+        Self { slots: [NormalSlot::default(); NORMAL_SLOTS] }
+    }
+}
+
+impl UnitNormals {
+    /// `try_normalize(normal)` for a hit on primitive `prim`, from the slot when it holds them.
+    #[inline]
+    pub fn unit(&mut self, prim: u32, normal: [f32; 3]) -> Option<Vec3> {
+        let bits = normal.map(f32::to_bits);
+        let slot = self.slots.get_mut(prim as usize % NORMAL_SLOTS)?;
+        if slot.filled && slot.prim == prim && slot.normal == bits {
+            return slot.unit;
+        }
+        let unit = try_normalize(Vec3::from_array(normal));
+        *slot = NormalSlot { filled: true, prim, normal: bits, unit };
+        unit
+    }
 }
 
 /// `p.abs().max_element()` of glam: on the bits (the order of non-negative floats) when no
@@ -79,6 +136,33 @@ mod tests {
         assert_eq!(facing_normal([0.0, 0.0, -2.0], d), Some(Vec3::Z));
         assert_eq!(facing_normal([0.0; 3], d), None);
         assert_eq!(facing_normal([f32::NAN, 0.0, 1.0], d), None);
+    }
+
+    /// The cache gives `try_normalize`'s bits for every lookup: random primitives (many
+    /// sharing slots) with normals that change for the same primitive now and then, zero and
+    /// NaN normals included.
+    #[test]
+    fn unit_normals_equal_try_normalize() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x0A17_0123);
+        let mut cache = UnitNormals::default();
+        let mut normals: Vec<[f32; 3]> = (0..200).map(|_| [0; 3].map(|_| rng.gen_range(-4.0..4.0f32))).collect();
+        normals[7] = [0.0; 3];
+        normals[9] = [f32::NAN, 1.0, 0.0];
+        let (mut hits, mut lookups) = (0, 0);
+        for _ in 0..100_000 {
+            let prim = rng.gen_range(0..200u32);
+            if rng.gen_bool(0.01) {
+                normals[prim as usize] = [0; 3].map(|_| rng.gen_range(-4.0..4.0f32));
+            }
+            let normal = normals[prim as usize];
+            let slot = cache.slots[prim as usize % NORMAL_SLOTS];
+            hits += u32::from(slot.filled && slot.prim == prim && slot.normal == normal.map(f32::to_bits));
+            lookups += 1;
+            let want = try_normalize(Vec3::from_array(normal)).map(|v| v.to_array().map(f32::to_bits));
+            assert_eq!(cache.unit(prim, normal).map(|v| v.to_array().map(f32::to_bits)), want, "{prim} {normal:?}");
+        }
+        assert!(hits > 1000 && hits < lookups, "{hits} of {lookups}");
     }
 
     #[test]

@@ -14,11 +14,15 @@
 //! | `light` | the request's light, irradiance with falloff, spotlight cone |
 //! | `brdf` | diffuse/specular models, Fresnel, reflectance, the outgoing radiance |
 //! | `colour` | background, default albedo, the 8-bit rule |
+//! | `bytes` | the 8-bit colour of a matte hit in fixed point, with the f32 rule's bytes |
+//! | `factor` | the light's factor `max(n·l, 0)` estimated in integers, for `bytes`; dot-product signs |
 //!
 //! These are pure functions; the device (`crate::device`) calls them and owns the rays.
 
 mod brdf;
+mod bytes;
 mod colour;
+mod factor;
 mod geometry;
 mod light;
 
@@ -28,9 +32,11 @@ pub use brdf::{
 };
 #[cfg(feature = "specular")]
 pub use brdf::{fresnel, specular_brdf};
+pub use bytes::{MatteBytes, FAST_MATERIALS};
 pub use colour::{clamp01, to_rgb8, to_u8, BACKGROUND, DEFAULT_ALBEDO};
+pub use factor::{dot_sign, light_factor, LightFactor, FACTOR_ERROR};
 pub use geometry::{
-    facing_normal, hit_point, shadow_epsilon, shadow_epsilon_from, shadow_ray, shadow_ray_from, SHADOW_EPS_DIAG,
-    SHADOW_EPS_POS, SHADOW_T_MAX,
+    facing, facing_normal, hit_point, shadow_epsilon, shadow_epsilon_from, shadow_ray, shadow_ray_from, UnitNormals,
+    SHADOW_EPS_DIAG, SHADOW_EPS_POS, SHADOW_T_MAX,
 };
 pub use light::{irradiance, irradiance_toward, spot_axis, spot_factor, spot_factor_on, Light};
