@@ -369,33 +369,10 @@ fn add_inline(a: f32, b: f32) -> f32 {
     }
 }
 
-/// [`mul_int`], inline.
+/// [`mul_int`], inline: the integer path of [`Multiplier`], the operator outside it.
 #[inline(always)]
-#[allow(clippy::arithmetic_side_effects)] // bounded by the normal-number ranges checked first
 fn mul_inline(a: f32, b: f32) -> f32 {
-    let (ua, ub) = (a.to_bits(), b.to_bits());
-    let (aa, ab) = (ua & !SIGN, ub & !SIGN);
-    if !normal(aa) || !normal(ab) {
-        return mul_slow(a, b);
-    }
-    // Biased exponent of the product when the significands' product is below 2: 2 ..= 381.
-    let mut e = (aa >> 23) + (ab >> 23);
-    // Significands with the leading 1 at bits 31 and 30: the product is in [2^61, 2^63), its
-    // high word in [2^29, 2^31).
-    let p = u64::from(((aa & FRAC) | EXP_ONE) << 8) * u64::from(((ab & FRAC) | EXP_ONE) << 7);
-    let (hi, lo) = ((p >> 32) as u32, p as u32);
-    // The leading 1 to bit 30, seven bits below the last kept one, the rest sticky in bit 0.
-    let m = if hi >= 1 << 30 {
-        e += 1;
-        hi | u32::from(lo != 0)
-    } else {
-        hi << 1 | u32::from(lo != 0)
-    };
-    // Below 128 the product is subnormal or underflows (the operator rounds it).
-    if e <= 127 {
-        return mul_slow(a, b);
-    }
-    match pack((ua ^ ub) & SIGN, e - 127, round_even::<7>(m)) {
+    match Multiplier::new(b).and_then(|m| m.times(a)) {
         Some(r) => r,
         None => mul_slow(a, b),
     }
@@ -433,16 +410,20 @@ impl Multiplier {
         if !normal(aa) {
             return None;
         }
-        // As `mul_inline`.
+        // Biased exponent of the product when the significands' product is below 2: 2 ..= 381.
         let mut e = (aa >> 23) + self.exp;
+        // Significands with the leading 1 at bits 31 and 30: the product is in [2^61, 2^63), its
+        // high word in [2^29, 2^31).
         let p = u64::from(((aa & FRAC) | EXP_ONE) << 8) * u64::from(self.sig);
         let (hi, lo) = ((p >> 32) as u32, p as u32);
+        // The leading 1 to bit 30, seven bits below the last kept one, the rest sticky in bit 0.
         let m = if hi >= 1 << 30 {
             e += 1;
             hi | u32::from(lo != 0)
         } else {
             hi << 1 | u32::from(lo != 0)
         };
+        // Below 128 the product is subnormal or underflows (the operator rounds it).
         if e <= 127 {
             return None;
         }
