@@ -19,7 +19,7 @@ module f32_mul (
 
     // ---------------------------------------------------------------- product (MUL_LAT)
     logic [49:0] prod50;
-    mul_pipe #(.A_W(25), .B_W(25), .USE_DSP(1), .LATENCY(MUL_LAT)) u_prod (
+    mul_pipe #(.A_W(25), .B_W(25), .LATENCY(MUL_LAT)) u_prod (
         .clk, .a({1'b0, a[30:23] != 0, a[22:0]}), .b({1'b0, b[30:23] != 0, b[22:0]}), .p(prod50));
 
     logic       f_valid, f_nan, f_inf, f_zero, f_sign;

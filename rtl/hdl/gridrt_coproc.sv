@@ -27,9 +27,6 @@ module gridrt_coproc #(
 );
     localparam int AW = $clog2(PE_MEM_WORDS);
     localparam int KW = $clog2(MAX_LIST);
-    // DSP plan per PE (rtl/README.md §5): the edge and depth products in MULT18X18D blocks
-    // (36 per PE), the shear and denominator products in fabric.
-    localparam bit DSP_SHEAR = 0, DSP_EDGE = 1, DSP_DEPTH = 1, DSP_DEN = 0;
 
     logic [PES-1:0][AW-1:0]  a_addr, b_addr, ref_off, rec_off;
     logic [PES-1:0]          a_we;
@@ -68,8 +65,7 @@ module gridrt_coproc #(
         .pe_ev1_hit(ev1_hit), .pe_res_k(res_k), .pe_res_t(res_t), .pe_res_tri(res_tri));
 
     for (genvar p = 0; p < PES; p++) begin : g_pe
-        pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST), .DSP_SHEAR(DSP_SHEAR), .DSP_EDGE(DSP_EDGE),
-             .DSP_DEPTH(DSP_DEPTH), .DSP_DEN(DSP_DEN)) u_pe (
+        pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST)) u_pe (
             .clk, .rst,
             .c_a_addr(a_addr[p]), .c_a_we(a_we[p]), .c_a_wdata(a_wdata), .a_rdata(a_rdata[p]),
             .c_b_addr(b_addr[p]), .c_b_we(b_we[p]), .c_b_wdata(b_wdata), .b_rdata(b_rdata[p]),

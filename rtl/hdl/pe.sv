@@ -2,18 +2,15 @@
 // the intersection pipeline and the per-entry result (rtl/README.md §4.3).
 //
 // Timeline of a ray (the model's `PeTimeline` with voxel_setup_cycles = 1, issue interval
-// 1): `start` in cycle -1; in cycle 0 the PE sets up its first entry. An entry set up in
-// cycle c issues its n tests in cycles c+1 .. c+n and the next entry is set up in cycle
-// c+n+1. An entry with no tests is done in cycle c+1 (event in cycle c); an entry with
-// tests is done LAT_TEST cycles after its last issue, or, for RAY_ANY, after the issue of
-// its first accepted test. `issued` counts the issues of the current ray.
+// 2): `start` in cycle -1; in cycle 0 the PE sets up its first entry. An entry set up in
+// cycle c issues its n tests in cycles c+1, c+3, .., c+2n-1 (`isect_pipe` takes one test
+// every two cycles) and the next entry is set up in cycle c+2n+1. An entry with no tests is
+// done in cycle c+1 (event in cycle c); an entry with tests is done LAT_TEST + 2 cycles
+// after its last issue, or, for RAY_ANY, after the issue of its first accepted test.
+// `issued` counts the issues of the current ray.
 module pe #(
     parameter int WORDS = 16384,
-    parameter int MAX_LIST = 256,
-    parameter bit DSP_SHEAR = 0,
-    parameter bit DSP_EDGE = 1,
-    parameter bit DSP_DEPTH = 1,
-    parameter bit DSP_DEN = 0
+    parameter int MAX_LIST = 256
 ) (
     input  logic                         clk,
     input  logic                         rst,
@@ -86,11 +83,13 @@ module pe #(
     end
 
     // ---------------------------------------------------------------- issue loop
-    typedef enum logic [1:0] { S_IDLE, S_SETUP, S_ISSUE } state_t;
+    // S_GAP follows every issue: the pipeline's issue interval.
+    typedef enum logic [1:0] { S_IDLE, S_SETUP, S_ISSUE, S_GAP } state_t;
     state_t        state;
     logic [KW-1:0] cur_k;
     logic [AW-1:0] cur_first, cur_count, cur_i;
     logic          epoch;
+    logic          iss_more;   // the current entry has tests left to issue
     logic          iss_valid, iss_last;
     logic [KW-1:0] iss_k;
     always_ff @(posedge clk) begin
@@ -143,8 +142,10 @@ module pe #(
                         x_a_addr <= ref_off + cur_first + cur_i;
                         issued <= issued + 1;
                         cur_i <= cur_i + 1'b1;
-                        if (cur_i == cur_count - 1'b1) state <= S_SETUP;
+                        iss_more <= cur_i != cur_count - 1'b1;
+                        state <= S_GAP;
                     end
+                    S_GAP: state <= iss_more ? S_ISSUE : S_SETUP;
                     default: ;
                 endcase
             end
@@ -171,7 +172,7 @@ module pe #(
     logic [TAG_W-1:0]   is_tag;
     logic [1:0]         is_kind;
     logic [31:0]        is_t;
-    isect_pipe #(.TAG_W(TAG_W), .DSP_SHEAR(DSP_SHEAR), .DSP_EDGE(DSP_EDGE), .DSP_DEPTH(DSP_DEPTH), .DSP_DEN(DSP_DEN)) u_isect (
+    isect_pipe #(.TAG_W(TAG_W)) u_isect (
         .clk, .in_valid(v_p5), .in_tag({tag_p5, tri_p5, b_rdata[32*9 +: 32]}), .rec(b_rdata[287:0]),
         .o0, .o1, .o2, .kz, .sx, .sy, .dz_neg, .dz_abs, .texp, .ray_overflow,
         .out_valid(is_valid), .out_tag(is_tag), .kind(is_kind), .t(is_t));

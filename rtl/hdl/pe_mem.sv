@@ -45,11 +45,18 @@ module pe_mem #(
             .b_addr(b_row_b[b]), .b_we(b_we[b]), .b_wdata(b_wdata[32*b +: 32]), .b_rdata(b_rd_b[b]));
     end
 
-    logic [3:0] a_sel, b_start;
+    // Port B's rotation in two 4-way steps (by the start's low two bits over all 16 banks, then
+    // by its high two bits for the RD_WORDS outputs): 2 LUT4s per bit per step instead of
+    // a 16-way select's 9 for every output bit.
+    logic [3:0]  a_sel, b_start;
+    logic [31:0] b_rot_lo [16];     // b_rot_lo[m] = bank (m + start[1:0]) mod 16
+    always_comb begin
+        for (int m = 0; m < 16; m++) b_rot_lo[m] = b_rd_b[4'(m) + {2'b00, b_start[1:0]}];
+    end
     always_ff @(posedge clk) begin
         a_sel <= a_addr[3:0];
         b_start <= b_addr[3:0];
         a_rdata <= a_rd_b[a_sel];
-        for (int j = 0; j < RD_WORDS; j++) b_rdata[32*j +: 32] <= b_rd_b[4'(j) + b_start];
+        for (int j = 0; j < RD_WORDS; j++) b_rdata[32*j +: 32] <= b_rot_lo[4'(j) + {b_start[3:2], 2'b00}];
     end
 endmodule

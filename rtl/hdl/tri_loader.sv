@@ -93,7 +93,7 @@ module tri_loader (
     logic signed [65:0] mp;
     localparam int DEG_MUL_LAT = 4;     // mul_pipe in DSP blocks
     localparam int STEP_DEG_MUL = 11 + CV_LAT;  // first of the six products (edges in the step before)
-    mul_pipe #(.A_W(33), .B_W(33), .USE_DSP(1), .LATENCY(DEG_MUL_LAT)) u_dm (.clk, .a(ma), .b(mb), .p(mp));
+    mul_pipe #(.A_W(33), .B_W(33), .LATENCY(DEG_MUL_LAT)) u_dm (.clk, .a(ma), .b(mb), .p(mp));
     always_comb begin
         ma = '0;
         mb = '0;
