@@ -173,17 +173,18 @@ impl TimingProfile {
     /// RESULT words of `--coproc rtl` and of the model with this profile are identical, cycles
     /// and test counts included (`rtl/tests/cosim.rs`). Its own clock is whatever the FPGA
     /// closes (`cargo xtask rtl synth`); 50 MHz here, GridRT's, so figures compare directly.
-    /// - `test_issue_cycles = 2`: each of a PE's 8 multipliers makes two of a test's 16
-    ///   products, so a test enters the pipeline every other cycle (one test per cycle
-    ///   needs 64 MULT18X18D per PE, more than 4 PEs' share of the ECP5-85F; rtl/README.md §5).
-    /// - `voxel_setup_cycles = 1`: the voxel lookup happens while the list streams in; an
-    ///   entry's ref range is in the PE's queue, one cycle to take it.
-    /// - `test_latency_cycles = 67`: from the end of the last test's 2-cycle issue slot:
-    ///   ref word and record reads (2 + 3), the 60-stage test (shear 7, edges 6,
-    ///   determinant and weights 6, depth 7, normalisation 2, a 27-step restoring divider,
-    ///   rounding 3), acceptance and the entry's winner (3), less the slot's second cycle.
-    ///   Each stage holds at most one wide carry chain so the clock can close
-    ///   (rtl/README.md §5).
+    /// - `test_issue_cycles = 2`: two PEs share one intersection pipeline (one test per
+    ///   cycle, 64 MULT18X18D), one in the even cycles, one in the odd: a pipeline per PE
+    ///   does not fit 4 PEs on the ECP5-85F (rtl/README.md §4.3, §5).
+    /// - `voxel_setup_cycles = 2`: the voxel lookup happens while the list streams in; an
+    ///   entry's ref range is in the PE's queue, two cycles to take it, so that every issue
+    ///   falls on an even cycle.
+    /// - `test_latency_cycles = 65`: from the end of the last test's 2-cycle issue slot:
+    ///   ref word and record reads (2 + 3), the 57-stage test (shear 6, edges 5,
+    ///   determinant and weights 6, depth 6, normalisation 2, a 27-step restoring divider,
+    ///   rounding 3), the shared pipeline's output register (1), acceptance and the entry's
+    ///   winner (3), less the slot's second cycle. Each stage holds at most one wide carry
+    ///   chain so the clock can close (rtl/README.md §5).
     /// - `ray_setup_cycles = 25`: the dominant axis, six pipelined f32 → fixed conversions,
     ///   the two shear divisions (2 quotient bits per cycle), and the start of the PEs.
     /// - `arbitration_cycles = 8`: the first-hit decision (the priority encoders registered,
@@ -199,8 +200,8 @@ impl TimingProfile {
         name: "rtl",
         clock_hz: 50_000_000,
         test_issue_cycles: 2,
-        test_latency_cycles: 67,
-        voxel_setup_cycles: 1,
+        test_latency_cycles: 65,
+        voxel_setup_cycles: 2,
         word_in_cycles: 1,
         word_out_cycles: 1,
         arbitration_cycles: 8,

@@ -47,6 +47,17 @@ module gridrt_coproc #(
     logic signed [9:0]       texp;
     logic [PES-1:0][KW-1:0]  ev0_k, ev1_k;
     logic [PES-1:0][AW-1:0]  res_tri;
+    // Tests and results between the PEs and their shared pipelines; index PES is the unused
+    // B side of an odd PE count's last pipeline.
+    localparam int TAG_W = KW + 2 + AW + 32;    // pe's test tag
+    logic [PES:0]              t_valid, r_valid;
+    logic [PES:0][TAG_W-1:0]   t_tag, r_tag;
+    logic [PES:0][287:0]       t_rec;
+    logic [PES:0][1:0]         r_kind;
+    logic [PES:0][31:0]        r_t;
+    assign t_valid[PES] = 1'b0;
+    assign t_tag[PES] = '0;
+    assign t_rec[PES] = '0;
 
     ctrl #(.PES(PES), .WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST)) u_ctrl (
         .clk, .rst,
@@ -72,11 +83,24 @@ module gridrt_coproc #(
             .ref_off(ref_off[p]), .rec_off(rec_off[p]),
             .ray_begin, .q_push(q_push[p]), .q_k, .q_first, .q_count, .q_hi,
             .start, .stop, .any, .t_max,
-            .o0($signed(o[0])), .o1($signed(o[1])), .o2($signed(o[2])), .kz, .sx, .sy, .dz_neg, .dz_abs,
-            .texp, .ray_overflow,
             .issued(issued[p]),
+            .t_valid(t_valid[p]), .t_tag(t_tag[p]), .t_rec(t_rec[p]),
+            .r_valid(r_valid[p]), .r_tag(r_tag[p]), .r_kind(r_kind[p]), .r_t(r_t[p]),
             .ev0_valid(ev0_valid[p]), .ev0_k(ev0_k[p]), .ev1_valid(ev1_valid[p]), .ev1_k(ev1_k[p]),
             .ev1_hit(ev1_hit[p]),
             .res_k, .res_t(res_t[p]), .res_tri(res_tri[p]));
+    end
+
+    // PEs 2q and 2q+1 share pipeline q (rtl/README.md §4.3).
+    for (genvar q = 0; q < (PES + 1) / 2; q++) begin : g_pipe
+        isect_share #(.TAG_W(TAG_W), .HAS_B(2*q + 1 < PES)) u_share (
+            .clk,
+            .a_valid(t_valid[2*q]), .b_valid(t_valid[2*q+1]), .a_tag(t_tag[2*q]), .b_tag(t_tag[2*q+1]),
+            .a_rec(t_rec[2*q]), .b_rec(t_rec[2*q+1]),
+            .o0($signed(o[0])), .o1($signed(o[1])), .o2($signed(o[2])), .kz, .sx, .sy, .dz_neg, .dz_abs,
+            .texp, .ray_overflow,
+            .a_out_valid(r_valid[2*q]), .b_out_valid(r_valid[2*q+1]), .a_out_tag(r_tag[2*q]),
+            .b_out_tag(r_tag[2*q+1]), .a_kind(r_kind[2*q]), .b_kind(r_kind[2*q+1]), .a_t(r_t[2*q]),
+            .b_t(r_t[2*q+1]));
     end
 endmodule

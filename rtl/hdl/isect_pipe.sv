@@ -1,18 +1,13 @@
-// isect_pipe: one PE's ray-triangle test, pipelined with one test every two cycles.
+// isect_pipe: the ray-triangle test, fully pipelined (one test per cycle), shared by a pair
+// of PEs (pe_pair.sv).
 //
-// Spec: rtl/README.md §3.3; twin: `twin::intersect`. Watertight test (Woop, Benthin, Wald,
+// Spec: rtl/README.md §3.4; twin: `twin::intersect`. Watertight test (Woop, Benthin, Wald,
 // JCGT 2013) in Q23 fixed point: exact integer edge functions on per-vertex-rounded sheared
 // coordinates, hit distance as the correctly rounded f32 of an exact rational.
 //
 // Inputs are one record (9 frame coordinates as i32 words, POISON = 0x80000000 where a
 // coordinate did not fit) and the ray constants of the ray setup, which stay fixed while a
 // ray's tests run. `kind`: 0 miss, 1 hit (`t` valid), 2 overflow. `tag` rides along.
-//
-// Issue interval 2: `in_valid` is never high in two consecutive cycles (the PE's issue loop
-// guarantees it). Each multiplier does two of a test's 16 products, one per cycle, so a test
-// needs 8 multipliers (32 MULT18X18D) and no fabric multiplier (rtl/README.md §5: the 4-PE
-// design fits the ECP5-85F only so). The registers feeding a multiplier load on valid and
-// hold through the following cycle, which presents the second product's operands.
 module isect_pipe #(
     parameter int TAG_W = 1
 ) (
@@ -33,15 +28,17 @@ module isect_pipe #(
     output logic [1:0]          kind,
     output logic [31:0]         t
 );
-    // Multiplier latency (mul_pipe in MULT18X18D blocks); a shared multiplier's second
-    // product comes one cycle after its first, so each product pair takes MUL + 1 stages.
-    // Stage numbers below follow from these localparams.
+    // The 16 products of a test are 16 multipliers in MULT18X18D blocks (mul_pipe, latency
+    // MUL); stage numbers below follow from these localparams.
     localparam int MUL = 4;
-    localparam int LAT_PAIR = MUL + 1;
+    localparam int LAT_SHEAR = MUL;
+    localparam int LAT_EDGE = MUL;
+    // The denominator starts one cycle after the depth products and ends with their first sum.
+    localparam int LAT_DEPTH = MUL;
     localparam int DIV_STEPS = 27;
-    // K1 K2 | shear | K8 K9 | edges | K15 K16 K17 K18 K19 K20 | depth | K26 K27 K28 K29 K30 |
-    // division | K58 K59 K60 (out)
-    localparam int LATENCY = 2 + LAT_PAIR + 2 + LAT_PAIR + 6 + LAT_PAIR + 5 + DIV_STEPS + 3;
+    // K1 K2 | shear | K7 K8 | edges | K13 K14 K15 K16 K17 K18 | depth | K23 K24 K25 K26 K27 |
+    // division | K55 K56 K57 (out)
+    localparam int LATENCY = 2 + LAT_SHEAR + 2 + LAT_EDGE + 6 + LAT_DEPTH + 5 + DIV_STEPS + 3;
 
     // ================================================================ K1: v - o, poison
     logic signed [34:0] k1_a [9];   // world order: vertex i axis a at 3i+a
@@ -61,65 +58,60 @@ module isect_pipe #(
         end
     end
 
-    // ================================================================ K2: permute (held)
+    // ================================================================ K2: permute
     // Cyclic permutation moving axis kz to z: kz=0 (y,z,x), kz=1 (z,x,y), kz=2 (x,y,z).
     logic signed [34:0] k2_x [3], k2_y [3], k2_z [3];
     logic               k2_valid, k2_poison;
     always_ff @(posedge clk) begin
         k2_valid <= k1_valid;
-        if (k1_valid) begin
-            k2_poison <= k1_poison;
-            for (int i = 0; i < 3; i++) begin
-                case (kz)
-                    2'd0: begin k2_x[i] <= k1_a[3*i+1]; k2_y[i] <= k1_a[3*i+2]; k2_z[i] <= k1_a[3*i]; end
-                    2'd1: begin k2_x[i] <= k1_a[3*i+2]; k2_y[i] <= k1_a[3*i]; k2_z[i] <= k1_a[3*i+1]; end
-                    default: begin k2_x[i] <= k1_a[3*i]; k2_y[i] <= k1_a[3*i+1]; k2_z[i] <= k1_a[3*i+2]; end
-                endcase
-            end
+        k2_poison <= k1_poison;
+        for (int i = 0; i < 3; i++) begin
+            case (kz)
+                2'd0: begin k2_x[i] <= k1_a[3*i+1]; k2_y[i] <= k1_a[3*i+2]; k2_z[i] <= k1_a[3*i]; end
+                2'd1: begin k2_x[i] <= k1_a[3*i+2]; k2_y[i] <= k1_a[3*i]; k2_z[i] <= k1_a[3*i+1]; end
+                default: begin k2_x[i] <= k1_a[3*i]; k2_y[i] <= k1_a[3*i+1]; k2_z[i] <= k1_a[3*i+2]; end
+            endcase
         end
     end
 
-    // ================================================================ K3-K7: shear products
-    // Multiplier i: sx * A.z in the valid cycle, sy * A.z in the next (K2 held).
-    logic signed [59:0] sh_p [3], sh_p1 [3];
-    logic signed [59:0] k7_px [3], k7_py [3];
+    // ================================================================ K3-K6: shear products
+    // sx * A.z and sy * A.z for the 3 vertices (35 x 25).
+    logic signed [59:0] k6_px [3], k6_py [3];
     for (genvar i = 0; i < 3; i++) begin : g_shear
-        mul_pipe #(.A_W(35), .B_W(25), .LATENCY(MUL)) u_m (.clk, .a(k2_z[i]), .b(k2_valid ? sx : sy), .p(sh_p[i]));
-        always_ff @(posedge clk) sh_p1[i] <= sh_p[i];
-        assign k7_px[i] = sh_p1[i];
-        assign k7_py[i] = sh_p[i];
+        mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_SHEAR)) u_mx (.clk, .a(k2_z[i]), .b(sx), .p(k6_px[i]));
+        mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_SHEAR)) u_my (.clk, .a(k2_z[i]), .b(sy), .p(k6_py[i]));
     end
+    logic signed [34:0] k6_x [3], k6_y [3], k6_z [3];
+    logic               k6_valid, k6_poison;
+    for (genvar i = 0; i < 3; i++) begin : g_carry_xyz
+        delay #(.W(35), .N(LAT_SHEAR)) u_dx (.clk, .d(k2_x[i]), .q(k6_x[i]));
+        delay #(.W(35), .N(LAT_SHEAR)) u_dy (.clk, .d(k2_y[i]), .q(k6_y[i]));
+        delay #(.W(35), .N(LAT_SHEAR)) u_dz (.clk, .d(k2_z[i]), .q(k6_z[i]));
+    end
+    delay #(.W(2), .N(LAT_SHEAR)) u_d6 (.clk, .d({k2_valid, k2_poison}), .q({k6_valid, k6_poison}));
+
+    // ================================================================ K7: shear rounding
+    // round_half_up(s * A.z / 2^23) = floor((s * A.z + 2^22) / 2^23).
+    logic signed [36:0] k7_rx [3], k7_ry [3];
     logic signed [34:0] k7_x [3], k7_y [3], k7_z [3];
     logic               k7_valid, k7_poison;
-    for (genvar i = 0; i < 3; i++) begin : g_carry_xyz
-        delay #(.W(35), .N(LAT_PAIR)) u_dx (.clk, .d(k2_x[i]), .q(k7_x[i]));
-        delay #(.W(35), .N(LAT_PAIR)) u_dy (.clk, .d(k2_y[i]), .q(k7_y[i]));
-        delay #(.W(35), .N(LAT_PAIR)) u_dz (.clk, .d(k2_z[i]), .q(k7_z[i]));
-    end
-    delay #(.W(2), .N(LAT_PAIR)) u_d7 (.clk, .d({k2_valid, k2_poison}), .q({k7_valid, k7_poison}));
-
-    // ================================================================ K8: shear rounding
-    // round_half_up(s * A.z / 2^23) = floor((s * A.z + 2^22) / 2^23).
-    logic signed [36:0] k8_rx [3], k8_ry [3];
-    logic signed [34:0] k8_x [3], k8_y [3], k8_z [3];
-    logic               k8_valid, k8_poison;
     always_ff @(posedge clk) begin
         for (int i = 0; i < 3; i++) begin
-            k8_rx[i] <= 37'((k7_px[i] + 60'sd4194304) >>> 23);
-            k8_ry[i] <= 37'((k7_py[i] + 60'sd4194304) >>> 23);
+            k7_rx[i] <= 37'((k6_px[i] + 60'sd4194304) >>> 23);
+            k7_ry[i] <= 37'((k6_py[i] + 60'sd4194304) >>> 23);
         end
-        k8_x <= k7_x;
-        k8_y <= k7_y;
-        k8_z <= k7_z;
-        k8_valid <= k7_valid;
-        k8_poison <= k7_poison;
+        k7_x <= k6_x;
+        k7_y <= k6_y;
+        k7_z <= k6_z;
+        k7_valid <= k6_valid;
+        k7_poison <= k6_poison;
     end
 
-    // ================================================================ K9: lateral coordinates
+    // ================================================================ K8: lateral coordinates
     // x = A.x + rounded shear; range |x| < 2^29 else overflow.
-    logic signed [29:0] k9_x [3], k9_y [3];
-    logic signed [34:0] k9_z [3];
-    logic               k9_valid, k9_poison;
+    logic signed [29:0] k8_x [3], k8_y [3];
+    logic signed [34:0] k8_z [3];
+    logic               k8_valid, k8_poison;
     // |v| >= 2^29 for a 37-bit v, as bit tests (no comparator carry chain after the adder).
     function automatic logic out_of_range(input logic signed [36:0] v);
         if (!v[36]) out_of_range = v[35:29] != 0;
@@ -128,82 +120,105 @@ module isect_pipe #(
     always_ff @(posedge clk) begin
         logic signed [36:0] lx, ly;
         logic               bad;
-        bad = k8_poison;
-        k9_valid <= k8_valid;
-        // Held through the next cycle: the edge products' second operands.
-        if (k8_valid) begin
-            for (int i = 0; i < 3; i++) begin
-                lx = 37'(k8_x[i]) + k8_rx[i];
-                ly = 37'(k8_y[i]) + k8_ry[i];
-                if (out_of_range(lx) || out_of_range(ly)) bad = 1'b1;
-                k9_x[i] <= lx[29:0];
-                k9_y[i] <= ly[29:0];
-                k9_z[i] <= k8_z[i];
-            end
-            k9_poison <= bad;
-        end
-    end
-
-    // ================================================================ K10-K14: edge products
-    // e0 = bx*cy - by*cx, e1 = cx*ay - cy*ax, e2 = ax*by - ay*bx (exact). Multiplier i makes
-    // e_i's first product in the valid cycle and its second in the next (K9 held).
-    logic signed [59:0] ed_p [3], ed_p1 [3];
-    logic signed [29:0] ed_a [3], ed_b [3];
-    always_comb begin
-        // First products bx*cy, cx*ay, ax*by; second by*cx, cy*ax, ay*bx.
+        bad = k7_poison;
         for (int i = 0; i < 3; i++) begin
-            ed_a[i] = k9_valid ? k9_x[(i+1)%3] : k9_y[(i+1)%3];
-            ed_b[i] = k9_valid ? k9_y[(i+2)%3] : k9_x[(i+2)%3];
+            lx = 37'(k7_x[i]) + k7_rx[i];
+            ly = 37'(k7_y[i]) + k7_ry[i];
+            if (out_of_range(lx) || out_of_range(ly)) bad = 1'b1;
+            k8_x[i] <= lx[29:0];
+            k8_y[i] <= ly[29:0];
+            k8_z[i] <= k7_z[i];
         end
+        k8_valid <= k7_valid;
+        k8_poison <= bad;
     end
-    for (genvar i = 0; i < 3; i++) begin : g_edge
-        mul_pipe #(.A_W(30), .B_W(30), .LATENCY(MUL)) u_m (.clk, .a(ed_a[i]), .b(ed_b[i]), .p(ed_p[i]));
-        always_ff @(posedge clk) ed_p1[i] <= ed_p[i];
-    end
-    logic signed [34:0] k14_z [3];
-    logic               k14_valid, k14_poison;
-    for (genvar i = 0; i < 3; i++) begin : g_carry_z14
-        delay #(.W(35), .N(LAT_PAIR)) u_dz (.clk, .d(k9_z[i]), .q(k14_z[i]));
-    end
-    delay #(.W(2), .N(LAT_PAIR)) u_d14 (.clk, .d({k9_valid, k9_poison}), .q({k14_valid, k14_poison}));
 
-    // ================================================================ K15: edge functions
-    logic signed [60:0] k15_e [3];
-    logic signed [34:0] k15_z [3];
-    logic               k15_valid, k15_poison;
+    // ================================================================ K9-K12: edge products
+    // e0 = bx*cy - by*cx, e1 = cx*ay - cy*ax, e2 = ax*by - ay*bx (exact).
+    logic signed [59:0] k12_p [6];
+    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e0 (.clk, .a(k8_x[1]), .b(k8_y[2]), .p(k12_p[0]));
+    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e1 (.clk, .a(k8_y[1]), .b(k8_x[2]), .p(k12_p[1]));
+    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e2 (.clk, .a(k8_x[2]), .b(k8_y[0]), .p(k12_p[2]));
+    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e3 (.clk, .a(k8_y[2]), .b(k8_x[0]), .p(k12_p[3]));
+    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e4 (.clk, .a(k8_x[0]), .b(k8_y[1]), .p(k12_p[4]));
+    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e5 (.clk, .a(k8_y[0]), .b(k8_x[1]), .p(k12_p[5]));
+    logic signed [34:0] k12_z [3];
+    logic               k12_valid, k12_poison;
+    for (genvar i = 0; i < 3; i++) begin : g_carry_z12
+        delay #(.W(35), .N(LAT_EDGE)) u_dz (.clk, .d(k8_z[i]), .q(k12_z[i]));
+    end
+    delay #(.W(2), .N(LAT_EDGE)) u_d12 (.clk, .d({k8_valid, k8_poison}), .q({k12_valid, k12_poison}));
+
+    // ================================================================ K13: edge functions
+    logic signed [60:0] k13_e [3];
+    logic signed [34:0] k13_z [3];
+    logic               k13_valid, k13_poison;
     always_ff @(posedge clk) begin
         for (int i = 0; i < 3; i++) begin
-            k15_e[i] <= 61'(ed_p1[i]) - 61'(ed_p[i]);
-            k15_z[i] <= k14_z[i];
+            k13_e[i] <= 61'(k12_p[2*i]) - 61'(k12_p[2*i+1]);
+            k13_z[i] <= k12_z[i];
         end
-        k15_valid <= k14_valid;
-        k15_poison <= k14_poison;
+        k13_valid <= k12_valid;
+        k13_poison <= k12_poison;
     end
 
-    // ================================================================ K16: sign test, e0 + e1
-    logic signed [62:0] k16_e01;
-    logic signed [60:0] k16_e [3];
+    // ================================================================ K14: sign test, e0 + e1
+    logic signed [62:0] k14_e01;
+    logic signed [60:0] k14_e [3];
+    logic signed [34:0] k14_z [3];
+    logic               k14_valid, k14_poison, k14_cand;
+    always_ff @(posedge clk) begin
+        logic any_neg, any_pos;
+        any_neg = k13_e[0] < 0 || k13_e[1] < 0 || k13_e[2] < 0;
+        any_pos = k13_e[0] > 0 || k13_e[1] > 0 || k13_e[2] > 0;
+        k14_cand <= !(any_neg && any_pos);
+        k14_e01 <= 63'(k13_e[0]) + 63'(k13_e[1]);
+        k14_e <= k13_e;
+        k14_z <= k13_z;
+        k14_valid <= k13_valid;
+        k14_poison <= k13_poison;
+    end
+
+    // ================================================================ K15: det
+    logic signed [62:0] k15_det;
+    logic signed [60:0] k15_e [3];
+    logic signed [34:0] k15_z [3];
+    logic               k15_valid, k15_poison, k15_cand;
+    always_ff @(posedge clk) begin
+        k15_det <= k14_e01 + 63'(k14_e[2]);
+        k15_e <= k14_e;
+        k15_z <= k14_z;
+        k15_valid <= k14_valid;
+        k15_poison <= k14_poison;
+        k15_cand <= k14_cand;
+    end
+
+    // ================================================================ K16: sign-normalise
+    logic [61:0]        k16_det;    // > 0 for a candidate
+    logic [60:0]        k16_e [3];  // >= 0 for a candidate
     logic signed [34:0] k16_z [3];
     logic               k16_valid, k16_poison, k16_cand;
     always_ff @(posedge clk) begin
-        logic any_neg, any_pos;
-        any_neg = k15_e[0] < 0 || k15_e[1] < 0 || k15_e[2] < 0;
-        any_pos = k15_e[0] > 0 || k15_e[1] > 0 || k15_e[2] > 0;
-        k16_cand <= !(any_neg && any_pos);
-        k16_e01 <= 63'(k15_e[0]) + 63'(k15_e[1]);
-        k16_e <= k15_e;
+        logic neg;
+        neg = k15_det < 0;
+        for (int i = 0; i < 3; i++) k16_e[i] <= neg ? 61'(-k15_e[i]) : 61'(k15_e[i]);
+        k16_det <= neg ? 62'(-k15_det) : 62'(k15_det);
+        k16_cand <= k15_cand && k15_det != 0;
         k16_z <= k15_z;
         k16_valid <= k15_valid;
         k16_poison <= k15_poison;
     end
 
-    // ================================================================ K17: det
-    logic signed [62:0] k17_det;
-    logic signed [60:0] k17_e [3];
+    // ================================================================ K17: weight shift
+    // r = max(0, bitlen(det) - 34).
+    logic [5:0]         det_len;
+    bit_length #(.W(62)) u_det_len (.x(k16_det), .len(det_len));
+    logic [4:0]         k17_r;
+    logic [60:0]        k17_e [3];
     logic signed [34:0] k17_z [3];
     logic               k17_valid, k17_poison, k17_cand;
     always_ff @(posedge clk) begin
-        k17_det <= k16_e01 + 63'(k16_e[2]);
+        k17_r <= (det_len > 6'd34) ? 5'(det_len - 6'd34) : 5'd0;
         k17_e <= k16_e;
         k17_z <= k16_z;
         k17_valid <= k16_valid;
@@ -211,162 +226,118 @@ module isect_pipe #(
         k17_cand <= k16_cand;
     end
 
-    // ================================================================ K18: sign-normalise
-    logic [61:0]        k18_det;    // > 0 for a candidate
-    logic [60:0]        k18_e [3];  // >= 0 for a candidate
+    // ================================================================ K18: weights
+    logic signed [34:0] k18_w [3];  // < 2^34 for a candidate
     logic signed [34:0] k18_z [3];
     logic               k18_valid, k18_poison, k18_cand;
     always_ff @(posedge clk) begin
-        logic neg;
-        neg = k17_det < 0;
-        for (int i = 0; i < 3; i++) k18_e[i] <= neg ? 61'(-k17_e[i]) : 61'(k17_e[i]);
-        k18_det <= neg ? 62'(-k17_det) : 62'(k17_det);
-        k18_cand <= k17_cand && k17_det != 0;
+        for (int i = 0; i < 3; i++) k18_w[i] <= 35'(k17_e[i] >> k17_r);
         k18_z <= k17_z;
         k18_valid <= k17_valid;
         k18_poison <= k17_poison;
+        k18_cand <= k17_cand;
     end
 
-    // ================================================================ K19: weight shift
-    // r = max(0, bitlen(det) - 34).
-    logic [5:0]         det_len;
-    bit_length #(.W(62)) u_det_len (.x(k18_det), .len(det_len));
-    logic [4:0]         k19_r;
-    logic [60:0]        k19_e [3];
-    logic signed [34:0] k19_z [3];
-    logic               k19_valid, k19_poison, k19_cand;
+    // ================================================================ K19: weight sum
+    // det' = sum of weights (< 2^34), registered while the depth products start.
+    logic signed [34:0] k19_detw;
+    always_ff @(posedge clk) k19_detw <= k18_w[0] + k18_w[1] + k18_w[2];
+
+    // ================================================================ K19-K22: depth products
+    logic signed [69:0] k22_n [3];
+    for (genvar i = 0; i < 3; i++) begin : g_depth
+        mul_pipe #(.A_W(35), .B_W(35), .LATENCY(LAT_DEPTH)) u_n (.clk, .a(k18_w[i]), .b(k18_z[i]), .p(k22_n[i]));
+    end
+    // Denominator det' * |dz| (K20-K23) starts one cycle later and ends with the first depth
+    // sum (K23).
+    logic signed [59:0] k23_den;
+    mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_DEPTH)) u_den (.clk, .a(k19_detw), .b({1'b0, dz_abs}), .p(k23_den));
+    logic k22_valid, k22_poison, k22_cand;
+    delay #(.W(3), .N(LAT_DEPTH)) u_d22 (.clk, .d({k18_valid, k18_poison, k18_cand}), .q({k22_valid, k22_poison, k22_cand}));
+
+    // ================================================================ K23: n0 + n1
+    logic signed [71:0] k23_n01;
+    logic signed [69:0] k23_n2;
+    logic               k23_valid, k23_poison, k23_cand;
     always_ff @(posedge clk) begin
-        k19_r <= (det_len > 6'd34) ? 5'(det_len - 6'd34) : 5'd0;
-        k19_e <= k18_e;
-        k19_z <= k18_z;
-        k19_valid <= k18_valid;
-        k19_poison <= k18_poison;
-        k19_cand <= k18_cand;
+        k23_n01 <= 72'(k22_n[0]) + 72'(k22_n[1]);
+        k23_n2 <= k22_n[2];
+        k23_valid <= k22_valid;
+        k23_poison <= k22_poison;
+        k23_cand <= k22_cand;
     end
 
-    // ================================================================ K20: weights
-    logic signed [34:0] k20_w [3];  // < 2^34 for a candidate
-    logic signed [34:0] k20_z [3];
-    logic               k20_valid, k20_poison, k20_cand;
+    // ================================================================ K24: depth sum
+    logic signed [71:0] k24_n;
+    logic [57:0]        k24_den;
+    logic               k24_valid, k24_poison, k24_cand;
     always_ff @(posedge clk) begin
-        k20_valid <= k19_valid;
-        // Held through the next cycle: the depth products' second operands.
-        if (k19_valid) begin
-            for (int i = 0; i < 3; i++) k20_w[i] <= 35'(k19_e[i] >> k19_r);
-            k20_z <= k19_z;
-            k20_poison <= k19_poison;
-            k20_cand <= k19_cand;
-        end
+        k24_n <= k23_n01 + 72'(k23_n2);
+        k24_den <= k23_den[57:0];
+        k24_valid <= k23_valid;
+        k24_poison <= k23_poison;
+        k24_cand <= k23_cand;
     end
 
-    // ================================================================ K21: weight sum
-    // det' = sum of weights (< 2^34), registered for the denominator's product in K21.
-    logic signed [34:0] k21_detw;
-    always_ff @(posedge clk) k21_detw <= k20_w[0] + k20_w[1] + k20_w[2];
-
-    // ================================================================ K21-K25: depth products
-    // N = w0*z0 + w1*z1 + w2*z2 and D = det' * |dz|. Multiplier 0: w0*z0, then w2*z2;
-    // multiplier 1: w1*z1, then det'*|dz| (K20 held; det' registered in between).
-    logic signed [34:0] dp_a [2], dp_b [2];
-    logic signed [69:0] dp_p [2], dp_p1 [2];
-    always_comb begin
-        dp_a[0] = k20_valid ? k20_w[0] : k20_w[2];
-        dp_b[0] = k20_valid ? k20_z[0] : k20_z[2];
-        dp_a[1] = k20_valid ? k20_w[1] : k21_detw;
-        dp_b[1] = k20_valid ? k20_z[1] : 35'($signed({1'b0, dz_abs}));
-    end
-    for (genvar i = 0; i < 2; i++) begin : g_depth
-        mul_pipe #(.A_W(35), .B_W(35), .LATENCY(MUL)) u_m (.clk, .a(dp_a[i]), .b(dp_b[i]), .p(dp_p[i]));
-        always_ff @(posedge clk) dp_p1[i] <= dp_p[i];
-    end
-    logic k25_valid, k25_poison, k25_cand;
-    delay #(.W(3), .N(LAT_PAIR)) u_d25 (.clk, .d({k20_valid, k20_poison, k20_cand}), .q({k25_valid, k25_poison, k25_cand}));
-
-    // ================================================================ K26: n0 + n1
-    logic signed [71:0] k26_n01;
-    logic signed [69:0] k26_n2;
-    logic [57:0]        k26_den;    // < 2^34 * 2^24
-    logic               k26_valid, k26_poison, k26_cand;
+    // ================================================================ K25: front test, |N|
+    // N is negated when dz < 0; a candidate needs N > 0, and then |n| is N.
+    logic [69:0]  k25_n;
+    logic [57:0]  k25_den;
+    logic         k25_valid, k25_poison, k25_cand;
     always_ff @(posedge clk) begin
-        k26_n01 <= 72'(dp_p1[0]) + 72'(dp_p1[1]);
-        k26_n2 <= dp_p[0];
-        k26_den <= dp_p[1][57:0];
+        logic front;
+        front = dz_neg ? k24_n < 0 : k24_n > 0;
+        k25_n <= 70'(k24_n[71] ? -k24_n : k24_n);
+        k25_den <= k24_den;
+        k25_valid <= k24_valid;
+        k25_poison <= k24_poison;
+        k25_cand <= k24_cand && front;
+    end
+
+    // ================================================================ K26: operand lengths
+    logic [6:0]   n_len;
+    logic [5:0]   den_len;
+    bit_length #(.W(70)) u_n_len (.x(k25_n), .len(n_len));
+    bit_length #(.W(58)) u_den_len (.x(k25_den), .len(den_len));
+    logic [69:0]  k26_n;
+    logic [57:0]  k26_den;
+    logic [6:0]   k26_ln;
+    logic [5:0]   k26_ld;
+    logic         k26_valid, k26_poison, k26_cand;
+    always_ff @(posedge clk) begin
+        k26_n <= k25_n;
+        k26_den <= k25_den;
+        k26_ln <= n_len;
+        k26_ld <= den_len;
         k26_valid <= k25_valid;
         k26_poison <= k25_poison;
         k26_cand <= k25_cand;
     end
 
-    // ================================================================ K27: depth sum
-    logic signed [71:0] k27_n;
-    logic [57:0]        k27_den;
-    logic               k27_valid, k27_poison, k27_cand;
+    // ================================================================ K27: normalise operands
+    logic [69:0]         k27_nn;
+    logic [57:0]         k27_dn;
+    logic signed [10:0]  k27_exp;
+    logic                k27_valid, k27_poison, k27_cand;
     always_ff @(posedge clk) begin
-        k27_n <= k26_n01 + 72'(k26_n2);
-        k27_den <= k26_den;
+        k27_nn <= k26_n << (7'd70 - k26_ln);
+        k27_dn <= k26_den << (6'd58 - k26_ld);
+        k27_exp <= 11'($signed({4'd0, k26_ln})) - 11'($signed({5'd0, k26_ld})) - 11'sd26 + 11'(texp);
         k27_valid <= k26_valid;
         k27_poison <= k26_poison;
         k27_cand <= k26_cand;
     end
 
-    // ================================================================ K28: front test, |N|
-    // N is negated when dz < 0; a candidate needs N > 0, and then |n| is N.
-    logic [69:0]  k28_n;
-    logic [57:0]  k28_den;
-    logic         k28_valid, k28_poison, k28_cand;
-    always_ff @(posedge clk) begin
-        logic front;
-        front = dz_neg ? k27_n < 0 : k27_n > 0;
-        k28_n <= 70'(k27_n[71] ? -k27_n : k27_n);
-        k28_den <= k27_den;
-        k28_valid <= k27_valid;
-        k28_poison <= k27_poison;
-        k28_cand <= k27_cand && front;
-    end
-
-    // ================================================================ K29: operand lengths
-    logic [6:0]   n_len;
-    logic [5:0]   den_len;
-    bit_length #(.W(70)) u_n_len (.x(k28_n), .len(n_len));
-    bit_length #(.W(58)) u_den_len (.x(k28_den), .len(den_len));
-    logic [69:0]  k29_n;
-    logic [57:0]  k29_den;
-    logic [6:0]   k29_ln;
-    logic [5:0]   k29_ld;
-    logic         k29_valid, k29_poison, k29_cand;
-    always_ff @(posedge clk) begin
-        k29_n <= k28_n;
-        k29_den <= k28_den;
-        k29_ln <= n_len;
-        k29_ld <= den_len;
-        k29_valid <= k28_valid;
-        k29_poison <= k28_poison;
-        k29_cand <= k28_cand;
-    end
-
-    // ================================================================ K30: normalise operands
-    logic [69:0]         k30_nn;
-    logic [57:0]         k30_dn;
-    logic signed [10:0]  k30_exp;
-    logic                k30_valid, k30_poison, k30_cand;
-    always_ff @(posedge clk) begin
-        k30_nn <= k29_n << (7'd70 - k29_ln);
-        k30_dn <= k29_den << (6'd58 - k29_ld);
-        k30_exp <= 11'($signed({4'd0, k29_ln})) - 11'($signed({5'd0, k29_ld})) - 11'sd26 + 11'(texp);
-        k30_valid <= k29_valid;
-        k30_poison <= k29_poison;
-        k30_cand <= k29_cand;
-    end
-
-    // ================================================================ K31-K57: division
+    // ================================================================ K28-K54: division
     // q = floor(nn * 2^14 / dn) (27 bits), sticky = remainder != 0: one quotient bit per
     // stage, restoring. The dividend's bits below the initial window enter one per stage.
     logic [58:0] dv_r   [DIV_STEPS+1];
     logic [57:0] dv_d   [DIV_STEPS+1];
     logic [12:0] dv_low [DIV_STEPS+1];  // nn[12:0], consumed MSB first
     logic [26:0] dv_q   [DIV_STEPS+1];
-    assign dv_r[0] = {2'b00, k30_nn[69:13]};
-    assign dv_d[0] = k30_dn;
-    assign dv_low[0] = k30_nn[12:0];
+    assign dv_r[0] = {2'b00, k27_nn[69:13]};
+    assign dv_d[0] = k27_dn;
+    assign dv_low[0] = k27_nn[12:0];
     assign dv_q[0] = 27'd0;
     for (genvar j = 0; j < DIV_STEPS; j++) begin : g_div
         always_ff @(posedge clk) begin
@@ -386,61 +357,61 @@ module isect_pipe #(
             dv_low[j+1] <= {dv_low[j][11:0], 1'b0};
         end
     end
-    logic signed [10:0] k57_exp;
-    logic               k57_valid, k57_poison, k57_cand;
-    delay #(.W(14), .N(DIV_STEPS)) u_d57 (.clk, .d({k30_exp, k30_valid, k30_poison, k30_cand}),
-                                          .q({k57_exp, k57_valid, k57_poison, k57_cand}));
+    logic signed [10:0] k54_exp;
+    logic               k54_valid, k54_poison, k54_cand;
+    delay #(.W(14), .N(DIV_STEPS)) u_d54 (.clk, .d({k27_exp, k27_valid, k27_poison, k27_cand}),
+                                          .q({k54_exp, k54_valid, k54_poison, k54_cand}));
 
-    // ================================================================ K58: rounding position
+    // ================================================================ K55: rounding position
     // The quotient q (27 bits) has its leading one at bit 26 or 25. e = exponent of the
     // leading one; dr = bits to drop: down to 24 significant bits, or to the subnormal grid
     // 2^-149, at most 28.
-    logic [27:0]        k58_q;          // quotient with a zero bit on top
-    logic               k58_sticky;
-    logic signed [10:0] k58_e;
-    logic [4:0]         k58_dr;
-    logic               k58_valid, k58_poison, k58_cand;
+    logic [27:0]        k55_q;          // quotient with a zero bit on top
+    logic               k55_sticky;
+    logic signed [10:0] k55_e;
+    logic [4:0]         k55_dr;
+    logic               k55_valid, k55_poison, k55_cand;
     always_ff @(posedge clk) begin
         logic [5:0]         p;
         logic signed [10:0] e, drop;
         p = dv_q[DIV_STEPS][26] ? 6'd27 : 6'd26;
-        e = 11'(p) - 11'sd1 + k57_exp;
-        drop = (e >= -11'sd126) ? 11'(p) - 11'sd24 : -11'sd149 - k57_exp;
-        k58_q <= {1'b0, dv_q[DIV_STEPS]};
-        k58_sticky <= dv_r[DIV_STEPS] != 0;
-        k58_e <= e;
-        k58_dr <= (drop > 11'sd28) ? 5'd28 : 5'(drop);
-        k58_valid <= k57_valid;
-        k58_poison <= k57_poison;
-        k58_cand <= k57_cand;
+        e = 11'(p) - 11'sd1 + k54_exp;
+        drop = (e >= -11'sd126) ? 11'(p) - 11'sd24 : -11'sd149 - k54_exp;
+        k55_q <= {1'b0, dv_q[DIV_STEPS]};
+        k55_sticky <= dv_r[DIV_STEPS] != 0;
+        k55_e <= e;
+        k55_dr <= (drop > 11'sd28) ? 5'd28 : 5'(drop);
+        k55_valid <= k54_valid;
+        k55_poison <= k54_poison;
+        k55_cand <= k54_cand;
     end
 
-    // ================================================================ K59: mantissa, round bit
-    logic [27:0]        k59_mant;
-    logic               k59_up;
-    logic signed [10:0] k59_e;
-    logic               k59_valid, k59_poison, k59_cand;
+    // ================================================================ K56: mantissa, round bit
+    logic [27:0]        k56_mant;
+    logic               k56_up;
+    logic signed [10:0] k56_e;
+    logic               k56_valid, k56_poison, k56_cand;
     always_ff @(posedge clk) begin
         logic [27:0] mant;
         logic        half, rest;
-        mant = k58_q >> k58_dr;
-        half = k58_q[k58_dr - 5'd1];
-        rest = (k58_q & ((28'd1 << (k58_dr - 5'd1)) - 28'd1)) != 0;
-        k59_mant <= mant;
-        k59_up <= half && (rest || k58_sticky || mant[0]);
-        k59_e <= k58_e;
-        k59_valid <= k58_valid;
-        k59_poison <= k58_poison;
-        k59_cand <= k58_cand;
+        mant = k55_q >> k55_dr;
+        half = k55_q[k55_dr - 5'd1];
+        rest = (k55_q & ((28'd1 << (k55_dr - 5'd1)) - 28'd1)) != 0;
+        k56_mant <= mant;
+        k56_up <= half && (rest || k55_sticky || mant[0]);
+        k56_e <= k55_e;
+        k56_valid <= k55_valid;
+        k56_poison <= k55_poison;
+        k56_cand <= k55_cand;
     end
 
-    // ================================================================ K60: round, pack (out)
+    // ================================================================ K57: round, pack (out)
     logic [31:0] t_bits;
     always_comb begin
         logic [27:0]        mant;
         logic signed [10:0] e;
-        mant = k59_mant + 28'(k59_up);
-        e = k59_e;
+        mant = k56_mant + 28'(k56_up);
+        e = k56_e;
         if (e > 11'sd127) begin
             t_bits = 32'h7F80_0000;
         end else if (e >= -11'sd126) begin
@@ -458,10 +429,10 @@ module isect_pipe #(
     logic [TAG_W-1:0] tag_q;
     delay_ram #(.W(TAG_W), .N(LATENCY)) u_tag (.clk, .d(in_tag), .q(tag_q));
     always_ff @(posedge clk) begin
-        out_valid <= k59_valid;
+        out_valid <= k56_valid;
         t <= t_bits;
-        if (k59_poison) kind <= 2'd2;
-        else if (k59_cand && t_bits != 32'd0 && t_bits != 32'h7F80_0000) kind <= 2'd1;
+        if (k56_poison) kind <= 2'd2;
+        else if (k56_cand && t_bits != 32'd0 && t_bits != 32'h7F80_0000) kind <= 2'd1;
         else kind <= 2'd0;
     end
     assign out_tag = tag_q;

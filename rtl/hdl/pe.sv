@@ -1,16 +1,20 @@
-// pe: one processing element: its memory, its queue of list entries, the test issue loop,
-// the intersection pipeline and the per-entry result (rtl/README.md §4.3).
+// pe: one processing element: its memory, its queue of list entries, the test issue loop
+// and the per-entry result (rtl/README.md §4.3). Its tests go out on the t_* ports to the
+// intersection pipeline it shares with another PE (isect_share.sv) and come back on r_*.
 //
-// Timeline of a ray (the model's `PeTimeline` with voxel_setup_cycles = 1, issue interval
-// 2): `start` in cycle -1; in cycle 0 the PE sets up its first entry. An entry set up in
-// cycle c issues its n tests in cycles c+1, c+3, .., c+2n-1 (`isect_pipe` takes one test
-// every two cycles) and the next entry is set up in cycle c+2n+1. An entry with no tests is
-// done in cycle c+1 (event in cycle c); an entry with tests is done LAT_TEST + 2 cycles
-// after its last issue, or, for RAY_ANY, after the issue of its first accepted test.
-// `issued` counts the issues of the current ray.
+// Timeline of a ray (the model's `PeTimeline` with voxel_setup_cycles = 2, issue interval
+// 2): `start` in cycle -1; in cycles 0 and 1 the PE sets up its first entry. An entry whose
+// setup starts in cycle c issues its n tests in cycles c+2, c+4, .., c+2n and the next
+// entry's setup starts in cycle c+2n+2, so every issue falls on an even cycle of the ray:
+// the pipeline takes the other PE's tests in the odd ones. An entry with no tests is done in
+// cycle c+2 (event in cycle c+1); an entry with tests is done LAT_TEST + 2 cycles after its
+// last issue, or, for RAY_ANY, after the issue of its first accepted test. `issued` counts
+// the issues of the current ray.
 module pe #(
     parameter int WORDS = 16384,
-    parameter int MAX_LIST = 256
+    parameter int MAX_LIST = 256,
+    // Test tag: epoch, last-of-entry, entry k, local triangle, prim id.
+    localparam int TAG_W = $clog2(MAX_LIST) + 2 + $clog2(WORDS) + 32
 ) (
     input  logic                         clk,
     input  logic                         rst,
@@ -39,14 +43,16 @@ module pe #(
     input  logic                         stop,
     input  logic                         any,        // RAY_ANY
     input  logic [31:0]                  t_max,
-    input  logic signed [33:0]           o0, o1, o2,
-    input  logic [1:0]                   kz,
-    input  logic signed [24:0]           sx, sy,
-    input  logic                         dz_neg,
-    input  logic [23:0]                  dz_abs,
-    input  logic signed [9:0]            texp,
-    input  logic                         ray_overflow,
     output logic [31:0]                  issued,
+    // Tests to the shared intersection pipeline (5 cycles after their issue), and their
+    // results (tag as sent).
+    output logic                         t_valid,
+    output logic [TAG_W-1:0]             t_tag,
+    output logic [287:0]                 t_rec,
+    input  logic                         r_valid,
+    input  logic [TAG_W-1:0]             r_tag,
+    input  logic [1:0]                   r_kind,
+    input  logic [31:0]                  r_t,
     // Entry-done events (0: entries without tests, 1: from the result stage).
     output logic                         ev0_valid,
     output logic [$clog2(MAX_LIST)-1:0]  ev0_k,
@@ -83,8 +89,9 @@ module pe #(
     end
 
     // ---------------------------------------------------------------- issue loop
-    // S_GAP follows every issue: the pipeline's issue interval.
-    typedef enum logic [1:0] { S_IDLE, S_SETUP, S_ISSUE, S_GAP } state_t;
+    // An entry's setup is S_SETUP then S_TAKE; S_GAP follows every issue (the pipeline's
+    // issue interval).
+    typedef enum logic [2:0] { S_IDLE, S_SETUP, S_TAKE, S_ISSUE, S_GAP } state_t;
     state_t        state;
     logic [KW-1:0] cur_k;
     logic [AW-1:0] cur_first, cur_count, cur_i;
@@ -120,7 +127,8 @@ module pe #(
                 q_raddr <= '0;
             end else begin
                 case (state)
-                    S_SETUP: begin
+                    S_SETUP: state <= S_TAKE;
+                    S_TAKE: begin
                         if (q_raddr == q_n) begin
                             state <= S_IDLE;
                         end else begin
@@ -130,6 +138,7 @@ module pe #(
                             if (q_rdata[AW-1:0] == 0) begin
                                 ev0_valid <= 1'b1;
                                 ev0_k <= q_rdata[KW+2*AW-1 -: KW];
+                                state <= S_SETUP;
                             end else begin
                                 state <= S_ISSUE;
                             end
@@ -167,15 +176,9 @@ module pe #(
     logic          v_p5;
     delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk, .d({v_p2, tag_p2, ref_tri}), .q({v_p5, tag_p5, tri_p5}));
 
-    localparam int TAG_W = KW + 2 + AW + 32;
-    logic               is_valid;
-    logic [TAG_W-1:0]   is_tag;
-    logic [1:0]         is_kind;
-    logic [31:0]        is_t;
-    isect_pipe #(.TAG_W(TAG_W)) u_isect (
-        .clk, .in_valid(v_p5), .in_tag({tag_p5, tri_p5, b_rdata[32*9 +: 32]}), .rec(b_rdata[287:0]),
-        .o0, .o1, .o2, .kz, .sx, .sy, .dz_neg, .dz_abs, .texp, .ray_overflow,
-        .out_valid(is_valid), .out_tag(is_tag), .kind(is_kind), .t(is_t));
+    assign t_valid = v_p5;
+    assign t_tag = {tag_p5, tri_p5, b_rdata[32*9 +: 32]};
+    assign t_rec = b_rdata[287:0];
 
     // ---------------------------------------------------------------- result stage
     // R0: register, read the entry's hi bound.
@@ -184,13 +187,13 @@ module pe #(
     logic [AW-1:0] r0_tri;
     logic [31:0]   r0_t, r0_prim, r0_hi;
     always_ff @(posedge clk) begin
-        r0_valid <= is_valid && active && is_tag[TAG_W-1] == epoch;
-        r0_hit <= is_kind == 2'd1;
-        {r0_last, r0_k} <= is_tag[TAG_W-2 -: KW+1];
-        r0_tri <= is_tag[32 +: AW];
-        r0_prim <= is_tag[31:0];
-        r0_t <= is_t;
-        r0_hi <= hi_mem[is_tag[TAG_W-3 -: KW]];
+        r0_valid <= r_valid && active && r_tag[TAG_W-1] == epoch;
+        r0_hit <= r_kind == 2'd1;
+        {r0_last, r0_k} <= r_tag[TAG_W-2 -: KW+1];
+        r0_tri <= r_tag[32 +: AW];
+        r0_prim <= r_tag[31:0];
+        r0_t <= r_t;
+        r0_hi <= hi_mem[r_tag[TAG_W-3 -: KW]];
     end
 
     // R1: the acceptance rule 0 < t < t_max and t <= hi (t is positive and finite).

@@ -54,10 +54,8 @@ int main(int argc, char** argv) {
             top->is_ray_overflow = hdr[12];
         }
         uint32_t sent = 0, got = 0;
-        bool gap = false;  // isect_pipe takes one test every two cycles
         while (got < count) {
-            bool feed = sent < count && !(unit == 4 && gap);
-            gap = feed;
+            bool feed = sent < count;
             const uint32_t* v = feed ? &in[size_t(sent) * in_words] : nullptr;
             top->add_valid = feed && unit == 1;
             top->mul_valid = feed && unit == 2;

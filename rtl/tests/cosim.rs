@@ -41,14 +41,13 @@ struct Place {
     frame_packet: bool,
 }
 
-/// `rounds` random scenes at `place`, `rays` random rays each; every reply of the RTL equals
-/// the model's.
+/// `rounds` random scenes over `pes` PEs at `place`, `rays` random rays each; every reply
+/// of the RTL equals the model's.
 fn random_rays(
     s: &mut CoprocSim,
     m: &mut Coprocessor,
     rng: &mut ChaCha8Rng,
-    rounds: usize,
-    rays: usize,
+    (pes, rounds, rays): (usize, usize, usize),
     place: Place,
 ) -> Tally {
     let Place { center, ext, frame_packet } = place;
@@ -59,7 +58,7 @@ fn random_rays(
         assert_eq!(ack, framed(&[0x9500_0000]));
     }
     for round in 0..rounds {
-        let mut scene = random_scene(rng, 4, ext);
+        let mut scene = random_scene(rng, pes, ext);
         for pe in &mut scene {
             for t in &mut pe.tris {
                 t.v = t.v.map(|v| v + center);
@@ -125,8 +124,7 @@ fn hundred_thousand_random_rays_give_the_models_result_words() {
                         &mut s,
                         &mut m,
                         &mut rng,
-                        100,
-                        500,
+                        (4, 100, 500),
                         Place { center: Vec3::ZERO, ext: 4.0, frame_packet: false },
                     )
                 })
@@ -157,9 +155,31 @@ fn frames_from_frame_packets_give_the_models_result_words() {
         (Vec3::new(0.3, 0.7, 0.1), 0.37),
         (Vec3::ZERO, 1e-30),
     ] {
-        let t = random_rays(&mut s, &mut m, &mut rng, 3, 300, Place { center, ext, frame_packet: true });
+        let t = random_rays(&mut s, &mut m, &mut rng, (4, 3, 300), Place { center, ext, frame_packet: true });
         assert!(t.hits > t.rays / 10, "{center:?} ± {ext}: {t:?}");
     }
+}
+
+/// With an odd PE count the last PE has a pipeline of its own (isect_share without its B
+/// side) while PEs 0 and 1 share one: 3 PEs give the model's words, cycles included.
+#[test]
+fn three_pes_two_pipelines_give_the_models_result_words() {
+    if !require_verilator("three_pes_two_pipelines_give_the_models_result_words") {
+        return;
+    }
+    let params = RtlParams { pes: 3, ..RtlParams::default() };
+    let programs = gridrt_rtl::sim::build(params).unwrap_or_else(|e| panic!("{e}"));
+    let mut s = CoprocSim::spawn(&programs.coproc, None).unwrap();
+    let mut m = model(params);
+    let mut rng = rng(0x3E5);
+    let t = random_rays(
+        &mut s,
+        &mut m,
+        &mut rng,
+        (3, 10, 300),
+        Place { center: Vec3::ZERO, ext: 4.0, frame_packet: false },
+    );
+    assert!(t.rays >= 2_900 && t.hits > t.rays / 5, "{t:?}");
 }
 
 /// The stream handshakes (s_axis_tvalid, m_axis_tready) dropped in 40 % of the cycles at
@@ -176,8 +196,7 @@ fn stalled_handshakes_do_not_change_the_replies() {
         &mut s,
         &mut m,
         &mut rng,
-        4,
-        250,
+        (4, 4, 250),
         Place { center: Vec3::new(2.0, 1.0, -1.0), ext: 2.0, frame_packet: true },
     );
     assert!(t.hits > 100 && t.any > 100, "{t:?}");
