@@ -305,13 +305,14 @@ pub fn test_cycles(kind: KernelKind, format: NumberFormat) -> f64 {
 }
 
 impl TimingProfile {
-    /// This profile with the test cost of `kind` in `format`: for a multi-cycle profile
-    /// (`test_issue_cycles > 1`) the issue interval becomes [`test_cycles`] (rounded); a
-    /// pipelined profile (one test per cycle) is returned unchanged. [`TimingProfile::GRIDRT`]
-    /// itself keeps the thesis's measured 648 cycles whatever the kernel, so existing cycle
-    /// figures do not move; use this to compare kernels.
+    /// This profile with the test cost of `kind` in `format`: for a multi-cycle profile (one
+    /// test at a time: `test_issue_cycles > 1` and no pipeline, `test_latency_cycles == 0`)
+    /// the issue interval becomes [`test_cycles`] (rounded); a pipelined profile (a fixed
+    /// datapath: [`TimingProfile::PIPELINED`], [`TimingProfile::RTL`]) is returned unchanged.
+    /// [`TimingProfile::GRIDRT`] itself keeps the thesis's measured 648 cycles whatever the
+    /// kernel, so existing cycle figures do not move; use this to compare kernels.
     pub fn for_kernel(&self, kind: KernelKind, format: NumberFormat) -> TimingProfile {
-        if self.test_issue_cycles <= 1 {
+        if self.test_issue_cycles <= 1 || self.test_latency_cycles > 0 {
             return *self;
         }
         let cycles = libm::round(test_cycles(kind, format)).clamp(1.0, u32::MAX as f64) as u32;
@@ -411,6 +412,7 @@ mod tests {
                 assert!(cy > 200.0 && cy < 2000.0, "{k:?} {f:?}: {cy}");
                 assert_eq!(TimingProfile::GRIDRT.for_kernel(k, f).test_issue_cycles, libm::round(cy) as u32);
                 assert_eq!(TimingProfile::PIPELINED.for_kernel(k, f), TimingProfile::PIPELINED);
+                assert_eq!(TimingProfile::RTL.for_kernel(k, f), TimingProfile::RTL);
             }
             // The projection tests (29 ops) are far cheaper per test than the others.
             assert!(test_cycles(KernelKind::Wald, f) < test_cycles(KernelKind::MollerTrumbore, f));
