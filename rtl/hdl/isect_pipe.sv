@@ -1,5 +1,5 @@
 // isect_pipe: the ray-triangle test, fully pipelined (one test per cycle), shared by a pair
-// of PEs (pe_pair.sv).
+// of PEs (isect_share.sv).
 //
 // Spec: rtl/README.md §3.4; twin: `twin::intersect`. Watertight test (Woop, Benthin, Wald,
 // JCGT 2013) in Q23 fixed point: exact integer edge functions on per-vertex-rounded sheared
