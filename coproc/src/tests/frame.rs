@@ -148,7 +148,8 @@ fn rtl_kernel_records_take_ten_words_per_triangle() {
 }
 
 /// The `rtl` profile (rtl/README.md §4.5): one entry of n tests costs the request and result
-/// words, 25 ray setup, 1 voxel setup, n issues, the 67-cycle latency and 8 arbitration.
+/// words, 25 ray setup, 2 voxel setup, n issues 2 cycles apart (two PEs share a pipeline),
+/// the 65-cycle latency and 8 arbitration.
 #[test]
 fn rtl_profile_costs_setup_issue_latency_and_arbitration() {
     let p = TimingProfile::RTL;
@@ -160,7 +161,7 @@ fn rtl_profile_costs_setup_issue_latency_and_arbitration() {
         let cfg = CoprocConfig { timing: p, ..config(1, 16_384) };
         let mut cp = loaded(cfg, &mut backing, &[img]);
         let r = cp.trace(RayKind::Closest, &probe_ray(), f32::INFINITY, &[entry(0, 0, 50.0)]).unwrap();
-        assert_eq!((r.tests as usize, r.cycles as u64), (n, 51 + 1 + n as u64 + 67), "n = {n}");
+        assert_eq!((r.tests as usize, r.cycles as u64), (n, 51 + 2 + 2 * n as u64 + 65), "n = {n}");
     }
 }
 
