@@ -32,7 +32,7 @@ pub struct Args {
     #[arg(long, default_value_t = 240)]
     height: u16,
     /// Clock of the soft-core and the co-processor (one clock domain), MHz; the `rtl`
-    /// configuration's co-processor runs at its profile's clock (no synthesised fmax yet).
+    /// configuration's co-processor runs at its profile's clock (GridRT's 50 MHz).
     #[arg(long, default_value_t = 100.0, value_name = "MHZ")]
     clock_mhz: f64,
     /// Line rate of the UART (8N1).

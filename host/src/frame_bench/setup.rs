@@ -158,9 +158,10 @@ impl Configuration {
     /// RTL").
     pub fn coproc_clock(self, clock_mhz: f64) -> (f64, &'static str) {
         match self {
-            Configuration::Rtl => {
-                (TimingProfile::RTL.clock_hz as f64, "the rtl profile's clock (no synthesised fmax of the RTL yet)")
-            }
+            Configuration::Rtl => (
+                TimingProfile::RTL.clock_hz as f64,
+                "the rtl profile's clock (GridRT's 50 MHz, not a routed fmax: BENCHMARKS.md \"Co-processor RTL\")",
+            ),
             _ => (clock_mhz * 1e6, "--clock-mhz (one clock domain with the soft-core)"),
         }
     }

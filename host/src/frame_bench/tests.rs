@@ -281,8 +281,8 @@ fn configurations_targets_and_profiles_parse_their_names() {
 }
 
 /// The `rtl` row is the RTL's: its kernel and format (the image of `--coproc rtl`), the cycles
-/// of [`TimingProfile::RTL`] on the loopback, converted at that profile's clock (no fmax
-/// yet), while the soft-core keeps `--clock-mhz`; every other configuration keeps its kernel.
+/// of [`TimingProfile::RTL`] on the loopback, converted at that profile's clock (GridRT's
+/// 50 MHz), while the soft-core keeps `--clock-mhz`; every other configuration keeps its kernel.
 #[test]
 fn the_rtl_row_runs_the_rtls_kernel_and_charges_its_profile_at_its_own_clock() {
     use gridrt_coproc::{KernelKind, NumberFormat};
@@ -305,7 +305,7 @@ fn the_rtl_row_runs_the_rtls_kernel_and_charges_its_profile_at_its_own_clock() {
     // A test every other cycle per PE: two PEs share one pipeline.
     assert_eq!(row.coproc_test_cycles, Some(2));
     assert_eq!(row.coproc_clock_mhz, Some(50.0));
-    assert!(row.coproc_clock_source.as_deref().unwrap().contains("no synthesised fmax"));
+    assert!(row.coproc_clock_source.as_deref().unwrap().contains("not a routed fmax"));
     assert!(row.coproc_cycles > 0);
     // Co-processor cycles at 50 MHz, soft-core cycles at the bench's 100 MHz.
     assert!((row.coproc_ms - row.coproc_cycles as f64 / 50e6 * 1e3).abs() < 1e-9, "{row:?}");
