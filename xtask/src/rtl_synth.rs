@@ -46,6 +46,10 @@ pub struct SynthCmd {
     /// (to try another seed or clock target; the report's `yosys_s` is then null).
     #[arg(long)]
     reuse_netlist: bool,
+    /// nextpnr's router: router1 (nextpnr's default for the ECP5) or router2 (negotiated
+    /// congestion). On the 4-PE design neither had finished after an hour here (BENCHMARKS.md).
+    #[arg(long, default_value = "router1", value_parser = ["router1", "router2"])]
+    router: String,
 }
 
 /// What the report holds.
@@ -155,7 +159,7 @@ impl SynthCmd {
                 Report { luts: y.luts, ffs: y.ffs, dsps: y.dsps, brams: y.brams, yosys_s: report.yosys_s, ..report };
             return self.write(&report, &dir);
         }
-        eprintln!("rtl synth: nextpnr-ecp5 --85k at {} MHz …", self.freq);
+        eprintln!("rtl synth: nextpnr-ecp5 --85k at {} MHz, {} …", self.freq, self.router);
         let t1 = Instant::now();
         let pnr_report = dir.join("nextpnr-report.json");
         let status = Command::new(&nextpnr)
@@ -165,6 +169,8 @@ impl SynthCmd {
             .arg(format!("{}", self.freq))
             .arg("--seed")
             .arg(self.seed.to_string())
+            .arg("--router")
+            .arg(&self.router)
             .arg("--report")
             .arg(&pnr_report)
             .arg("--timing-allow-fail")
@@ -213,7 +219,7 @@ impl SynthCmd {
         let json = format!(
             "{{\"device\": \"{DEVICE}\", \"pes\": {}, \"pe_mem_words\": {}, \"max_list\": {}, \"luts\": {}, \"ffs\": {}, \
              \"dsps\": {}, \"brams\": {}, \"fmax_mhz\": {:.2}, \"target_mhz\": {}, \"fits\": {}, \"yosys_s\": {}, \
-             \"nextpnr_s\": {:.0}}}\n",
+             \"nextpnr_s\": {:.0}, \"router\": \"{}\"}}\n",
             self.params.pes,
             self.params.pe_mem_words,
             self.params.max_list,
@@ -225,7 +231,8 @@ impl SynthCmd {
             self.freq,
             report.fits,
             report.yosys_s.map_or("null".to_string(), |s| format!("{s:.0}")),
-            report.nextpnr_s
+            report.nextpnr_s,
+            self.router
         );
         if let Some(parent) = self.json.parent().filter(|p| !p.as_os_str().is_empty()) {
             std::fs::create_dir_all(parent)?;
