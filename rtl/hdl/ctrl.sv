@@ -32,8 +32,6 @@ module ctrl #(
     output logic [31:0]                 pe_a_wdata,
     input  logic [PES-1:0][31:0]        pe_a_rdata,
     output logic [PES-1:0][$clog2(WORDS)-1:0] pe_b_addr,
-    output logic [PES-1:0][15:0]        pe_b_we,     // bank order (pe_mem)
-    output logic [511:0]                pe_b_wdata,  // bank order, shared by the PEs
     input  logic [PES-1:0][351:0]       pe_b_rdata,  // window words 0..10
     output logic [PES-1:0][$clog2(WORDS)-1:0] pe_ref_off,
     output logic [PES-1:0][$clog2(WORDS)-1:0] pe_rec_off,
@@ -175,7 +173,7 @@ module ctrl #(
     logic           tl_start, tl_done;
     logic [8:0][31:0] tl_coord;
     logic [2:0][31:0] tl_normal;
-    logic [1:0]     tl_wr;          // normal words written so far
+    logic [3:0]     tl_wr;          // record and normal words written so far (tri_step)
     tri_loader u_tri (.clk, .start(tl_start), .v(ld_v9), .frame_s, .frame_qm, .frame_huge,
                       .done(tl_done), .coord(tl_coord), .normal(tl_normal));
 
@@ -249,7 +247,6 @@ module ctrl #(
         logic [31:0] w;
         push <= 1'b0;
         pe_a_we <= '0;
-        pe_b_we <= '0;
         pe_q_push <= '0;
         pe_ray_begin <= 1'b0;
         pe_start <= 1'b0;
@@ -272,8 +269,7 @@ module ctrl #(
         if (rst) begin
             rx <= RX_IDLE;
             busy <= BZ_NONE;
-            tl_wr <= 2'd0;
-            pe_b_wdata <= '0;
+            tl_wr <= 4'd0;
             loaded <= '0;
             frame_s <= '0;
             frame_qm <= '0;
@@ -558,40 +554,39 @@ module ctrl #(
     endtask
 
     // ---------------------------------------------------------------- triangle records
-    // After tri_loader: the record (9 coordinates + prim) at n + 10t through port B, the
-    // normal over vertex a's three words through port A.
+    // After tri_loader, 13 port-A writes, one per cycle: the record (9 coordinates + prim)
+    // at n + 10t (when it fits), then the normal over vertex a's three words. One word per
+    // cycle keeps the controller's write bus 32 bits wide for all PEs (a record in one
+    // port-B write took a 512-bit bus to every PE memory).
     task automatic tri_step();
-        if (tl_done) begin
-            logic [AW+5:0] addr;
-            addr = ld_rec_addr;
-            if (addr + (AW+6)'(10) <= (AW+6)'(WORDS)) begin
-                logic [511:0] rec;
-                rec = '0;
-                for (int j = 0; j < 9; j++) rec[32*j +: 32] = tl_coord[j];
-                rec[32*9 +: 32] = ld_prim;
-                pe_b_addr[ld_pe] <= AW'(addr);
-                // Window word j goes to bank (addr + j) mod 16: rotated here once, not per PE.
-                for (int b = 0; b < 16; b++) begin
-                    logic [3:0] j;
-                    j = 4'(b) - addr[3:0];
-                    pe_b_we[ld_pe][b] <= j < 4'd10;
-                    pe_b_wdata[32*b +: 32] <= rec[32*j +: 32];
-                end
+        if (tl_done || tl_wr != 0) begin
+            logic [3:0]    j;
+            logic [AW+5:0] rec_addr;
+            logic [31:0]   word;
+            j = tl_done ? 4'd0 : tl_wr;
+            rec_addr = ld_rec_addr + (AW+6)'(j);
+            case (j)
+                4'd9: word = ld_prim;
+                4'd10: word = tl_normal[0];
+                4'd11: word = tl_normal[1];
+                4'd12: word = tl_normal[2];
+                default: word = tl_coord[j];
+            endcase
+            if (j < 4'd10) begin
+                // A record that does not fit is not written (load_finish answers MEM_OVERFLOW).
+                pe_a_addr[ld_pe] <= AW'(rec_addr);
+                pe_a_we[ld_pe] <= ld_rec_addr + (AW+6)'(10) <= (AW+6)'(WORDS);
+            end else begin
+                pe_a_addr[ld_pe] <= AW'(ld_tri_base) + AW'(2'(j - 4'd10));
+                pe_a_we[ld_pe] <= 1'b1;
             end
-            ld_rec_addr <= ld_rec_addr + (AW+6)'(10);
-            pe_a_addr[ld_pe] <= AW'(ld_tri_base);
-            pe_a_we[ld_pe] <= 1'b1;
-            pe_a_wdata <= tl_normal[0];
-            tl_wr <= 2'd1;
-        end else if (tl_wr != 0) begin
-            pe_a_addr[ld_pe] <= AW'(ld_tri_base) + AW'(tl_wr);
-            pe_a_we[ld_pe] <= 1'b1;
-            pe_a_wdata <= tl_normal[tl_wr];
-            if (tl_wr == 2'd2) begin
-                tl_wr <= 2'd0;
+            pe_a_wdata <= word;
+            if (j == 4'd12) begin
+                tl_wr <= 4'd0;
+                ld_rec_addr <= ld_rec_addr + (AW+6)'(10);
                 busy <= ld_last ? BZ_LOAD_FINISH : BZ_NONE;
             end else begin
-                tl_wr <= tl_wr + 2'd1;
+                tl_wr <= j + 4'd1;
             end
         end
     endtask

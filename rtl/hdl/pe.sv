@@ -25,8 +25,6 @@ module pe #(
     input  logic [31:0]                  c_a_wdata,
     output logic [31:0]                  a_rdata,
     input  logic [$clog2(WORDS)-1:0]     c_b_addr,
-    input  logic [15:0]                  c_b_we,     // bank order (pe_mem)
-    input  logic [511:0]                 c_b_wdata,  // bank order (pe_mem)
     output logic [351:0]                 b_rdata,    // window words 0..10
     // Image layout (valid while loaded).
     input  logic [$clog2(WORDS)-1:0]     ref_off,
@@ -73,7 +71,7 @@ module pe #(
     pe_mem #(.WORDS(WORDS)) u_mem (
         .clk,
         .a_addr(active ? x_a_addr : c_a_addr), .a_we(!active && c_a_we), .a_wdata(c_a_wdata), .a_rdata,
-        .b_addr(active ? x_b_addr : c_b_addr), .b_we(active ? 16'd0 : c_b_we), .b_wdata(c_b_wdata), .b_rdata);
+        .b_addr(active ? x_b_addr : c_b_addr), .b_rdata);
 
     // ---------------------------------------------------------------- entry queue
     logic [KW+2*AW-1:0] q_mem [MAX_LIST];

@@ -1,11 +1,9 @@
 // pe_mem: one PE's memory, WORDS x 32 bits in 16 interleaved banks (word w in bank w mod 16).
 //
-// Port A reads or writes one word. Port B reads or writes a window of consecutive words
-// starting at any address (each bank gets its own row), so a 10-word record or an 11-word
-// triangle is one access. Port B's write data and enables come in bank order (window word j
-// of a write at address s in bank (s + j) mod 16): the controller rotates them once for all
-// PEs. Its reads come out in window order, the first RD_WORDS words (the 11 that a record or a
-// triangle needs). Both ports have a read latency of 2 cycles (block RAM, then the bank select
+// Port A reads or writes one word. Port B reads a window of consecutive words starting at
+// any address (each bank gets its own row), so a 10-word record or an 11-word triangle is one
+// access; its words come out in window order, the first RD_WORDS (the 11 that a record or a
+// triangle needs). Only port A writes: the controller writes one word per cycle. Both ports have a read latency of 2 cycles (block RAM, then the bank select
 // / rotation register). Spec: rtl/README.md §4.2.
 module pe_mem #(
     parameter int WORDS = 16384,
@@ -17,8 +15,6 @@ module pe_mem #(
     input  logic [31:0]               a_wdata,
     output logic [31:0]               a_rdata,
     input  logic [$clog2(WORDS)-1:0]  b_addr,
-    input  logic [15:0]               b_we,       // bank b is written when b_we[b]
-    input  logic [511:0]              b_wdata,    // bank b's word at bits 32b+31..32b
     output logic [32*RD_WORDS-1:0]    b_rdata     // window word j at bits 32j+31..32j
 );
     localparam int AW = $clog2(WORDS);
@@ -39,10 +35,10 @@ module pe_mem #(
     end
 
     for (genvar b = 0; b < 16; b++) begin : g_bank
-        tdp_ram #(.W(32), .DEPTH(ROWS)) u_bank (
+        bank_ram #(.W(32), .DEPTH(ROWS)) u_bank (
             .clk,
             .a_addr(a_row_b[b]), .a_we(a_we_b[b]), .a_wdata(a_wdata), .a_rdata(a_rd_b[b]),
-            .b_addr(b_row_b[b]), .b_we(b_we[b]), .b_wdata(b_wdata[32*b +: 32]), .b_rdata(b_rd_b[b]));
+            .b_addr(b_row_b[b]), .b_rdata(b_rd_b[b]));
     end
 
     // Port B's rotation in two 4-way steps (by the start's low two bits over all 16 banks, then
