@@ -31,8 +31,6 @@ module ctrl #(
     output logic [PES-1:0]              pe_a_we,
     output logic [31:0]                 pe_a_wdata,
     input  logic [PES-1:0][31:0]        pe_a_rdata,
-    output logic [PES-1:0][$clog2(WORDS)-1:0] pe_b_addr,
-    input  logic [PES-1:0][351:0]       pe_b_rdata,  // window words 0..10
     output logic [PES-1:0][$clog2(WORDS)-1:0] pe_ref_off,
     output logic [PES-1:0][$clog2(WORDS)-1:0] pe_rec_off,
     // Entry queues.
@@ -225,7 +223,27 @@ module ctrl #(
     logic                win_hit;
     logic [15:0]         win_tests;
     logic [3:0]          res_step;
+    logic [AW-1:0]       res_base;     // the winner's triangle (image address)
     logic [PW-1:0]       ent_pe_of [MAX_LIST];
+
+    // Entry-done events. Each entry belongs to one PE and gets exactly one event per ray (ev0
+    // for an entry without tests, else one ev1), and both maps are cleared when the PEs start:
+    // so both only ever get bits set, hit implies done, and the PEs' events combine by OR
+    // (one decoder per PE and event, no priority between PEs).
+    logic [MAX_LIST-1:0] done_set, hit_set;
+    always_comb begin
+        done_set = '0;
+        hit_set = '0;
+        for (int k = 0; k < MAX_LIST; k++) begin
+            for (int p = 0; p < PES; p++) begin
+                if (pe_ev0_valid[p] && pe_ev0_k[p] == KW'(k)) done_set[k] = 1'b1;
+                if (pe_ev1_valid[p] && pe_ev1_k[p] == KW'(k)) begin
+                    done_set[k] = 1'b1;
+                    if (pe_ev1_hit[p]) hit_set[k] = 1'b1;
+                end
+            end
+        end
+    end
 
     // The priority encoders' answers are registered: the decision one cycle later compares
     // them (encoders, compare and the winner's enables in one cycle were the 1-PE design's
@@ -233,7 +251,7 @@ module ctrl #(
     // last cycle's state picks the same winner one cycle later; the test count is taken one
     // cycle further back to match (`issued_prev2`).
     logic [KW:0] first_hit_now, first_open_now, first_hit, first_open;
-    first_set #(.N(MAX_LIST)) u_first_hit (.bits(done_q & hit_q), .index(first_hit_now));
+    first_set #(.N(MAX_LIST)) u_first_hit (.bits(hit_q), .index(first_hit_now));
     first_set #(.N(MAX_LIST)) u_first_open (.bits(~done_q & mask_n), .index(first_open_now));
     always_comb begin
         issued_sum = '0;
@@ -259,13 +277,8 @@ module ctrl #(
         issued_prev2 <= issued_prev;
         first_hit <= first_hit_now;
         first_open <= first_open_now;
-        for (int p = 0; p < PES; p++) begin
-            if (pe_ev0_valid[p]) done_q[pe_ev0_k[p]] <= 1'b1;
-            if (pe_ev1_valid[p]) begin
-                done_q[pe_ev1_k[p]] <= 1'b1;
-                hit_q[pe_ev1_k[p]] <= pe_ev1_hit[p];
-            end
-        end
+        done_q <= done_q | done_set;
+        hit_q <= hit_q | hit_set;
         if (rst) begin
             rx <= RX_IDLE;
             busy <= BZ_NONE;
@@ -768,30 +781,31 @@ module ctrl #(
         busy <= BZ_SETUP;
     endtask
 
-    // The result: the winner's t and triangle (PE result memory), then its normal, prim
-    // and material (one 11-word window read), then 8 words.
+    // The result: the winner's t and triangle (PE result memory), then its prim, material and
+    // normal (five port-A reads of the triangle's words 9, 10, 0, 1, 2, one per cycle, each
+    // used three cycles after its address), then 8 words.
     task automatic result_step();
         res_step <= res_step + 4'd1;
         case (res_step)
             4'd0: pe_res_k <= win_k;
-            4'd1: ;
-            4'd2: pe_b_addr[win_pe] <= pe_tri_off[win_pe] + AW'(pe_res_tri[win_pe]) + (AW'(pe_res_tri[win_pe]) << 1)
-                                       + (AW'(pe_res_tri[win_pe]) << 3);
-            4'd3: ;
+            4'd2: res_base <= pe_tri_off[win_pe] + AW'(pe_res_tri[win_pe]) + (AW'(pe_res_tri[win_pe]) << 1)
+                              + (AW'(pe_res_tri[win_pe]) << 3);
+            4'd4: pe_a_addr[win_pe] <= res_base + AW'(9);
+            4'd5: pe_a_addr[win_pe] <= res_base + AW'(10);
+            4'd6: pe_a_addr[win_pe] <= res_base;
+            4'd7: pe_a_addr[win_pe] <= res_base + AW'(1);
+            4'd8: pe_a_addr[win_pe] <= res_base + AW'(2);
             default: ;
         endcase
         if (res_step >= 4'd5 && res_step <= 4'd12) begin
-            logic [351:0] wnd;
-            logic [31:0]  word;
-            wnd = pe_b_rdata[win_pe];
+            logic [31:0] rd, word;
+            rd = pe_a_rdata[win_pe];
             case (res_step)
                 4'd5: word = {4'h8, win_hit ? 12'(win_k) : 12'd0, win_hit ? 8'(win_pe) : 8'd0, 7'd0, win_hit};
                 4'd6: word = win_hit ? pe_res_t[win_pe] : 32'h7F80_0000;
-                4'd7: word = win_hit ? wnd[32*9 +: 32] : 32'd0;
-                4'd8: word = {win_tests, win_hit ? wnd[32*10 +: 16] : 16'd0};
-                4'd9: word = win_hit ? wnd[0 +: 32] : 32'd0;
-                4'd10: word = win_hit ? wnd[32 +: 32] : 32'd0;
-                4'd11: word = win_hit ? wnd[64 +: 32] : 32'd0;
+                4'd7: word = win_hit ? rd : 32'd0;
+                4'd8: word = {win_tests, win_hit ? rd[15:0] : 16'd0};
+                4'd9, 4'd10, 4'd11: word = win_hit ? rd : 32'd0;
                 default: begin
                     // cycles = request words + busy cycles + result words (one per cycle).
                     logic [35:0] c;

@@ -28,11 +28,10 @@ module gridrt_coproc #(
     localparam int AW = $clog2(PE_MEM_WORDS);
     localparam int KW = $clog2(MAX_LIST);
 
-    logic [PES-1:0][AW-1:0]  a_addr, b_addr, ref_off, rec_off;
+    logic [PES-1:0][AW-1:0]  a_addr, ref_off, rec_off;
     logic [PES-1:0]          a_we;
     logic [31:0]             a_wdata;
     logic [PES-1:0][31:0]    a_rdata, issued, res_t;
-    logic [PES-1:0][351:0]   b_rdata;
     logic                    ray_begin, start, stop, any, dz_neg, ray_overflow;
     logic [PES-1:0]          q_push, ev0_valid, ev1_valid, ev1_hit;
     logic [KW-1:0]           q_k, res_k;
@@ -63,7 +62,6 @@ module gridrt_coproc #(
         .m_tdata(m_axis_tdata), .m_tlast(m_axis_tlast), .m_tvalid(m_axis_tvalid), .m_tready(m_axis_tready),
         .idle,
         .pe_a_addr(a_addr), .pe_a_we(a_we), .pe_a_wdata(a_wdata), .pe_a_rdata(a_rdata),
-        .pe_b_addr(b_addr), .pe_b_rdata(b_rdata),
         .pe_ref_off(ref_off), .pe_rec_off(rec_off),
         .pe_ray_begin(ray_begin), .pe_q_push(q_push), .pe_q_k(q_k), .pe_q_first(q_first),
         .pe_q_count(q_count), .pe_q_hi(q_hi),
@@ -77,7 +75,6 @@ module gridrt_coproc #(
         pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST)) u_pe (
             .clk, .rst,
             .c_a_addr(a_addr[p]), .c_a_we(a_we[p]), .c_a_wdata(a_wdata), .a_rdata(a_rdata[p]),
-            .c_b_addr(b_addr[p]), .b_rdata(b_rdata[p]),
             .ref_off(ref_off[p]), .rec_off(rec_off[p]),
             .ray_begin, .q_push(q_push[p]), .q_k, .q_first, .q_count, .q_hi,
             .start, .stop, .any, .t_max,

@@ -43,6 +43,22 @@ module isect_share #(
         if (a_valid && b1_valid) $fatal(1, "isect_share: PE A and PE B tests in the same cycle");
 `endif
 
+    // The ray constants, registered here: one copy next to each pipeline instead of one net
+    // from the controller's ray setup across the device to every pipeline (kz alone selects
+    // 945 bits per pipeline). They are final when the ray setup ends, at least 8 cycles
+    // before the ray's first test reaches K1, and hold until the next ray's setup, after this
+    // ray's result: the register's cycle changes no test.
+    logic signed [33:0] r_o0, r_o1, r_o2;
+    logic [1:0]         r_kz;
+    logic signed [24:0] r_sx, r_sy;
+    logic               r_dz_neg, r_ray_overflow;
+    logic [23:0]        r_dz_abs;
+    logic signed [9:0]  r_texp;
+    always_ff @(posedge clk) begin
+        {r_o0, r_o1, r_o2, r_kz, r_sx, r_sy} <= {o0, o1, o2, kz, sx, sy};
+        {r_dz_neg, r_dz_abs, r_texp, r_ray_overflow} <= {dz_neg, dz_abs, texp, ray_overflow};
+    end
+
     // The pipeline's tag: the source (1 = B) above the PE's tag.
     logic               p_valid;
     logic [TAG_W:0]     p_tag;
@@ -51,7 +67,8 @@ module isect_share #(
     isect_pipe #(.TAG_W(TAG_W + 1)) u_pipe (
         .clk, .in_valid(a_valid || b1_valid),
         .in_tag(a_valid ? {1'b0, a_tag} : {1'b1, b1_tag}), .rec(a_valid ? a_rec : b1_rec),
-        .o0, .o1, .o2, .kz, .sx, .sy, .dz_neg, .dz_abs, .texp, .ray_overflow,
+        .o0(r_o0), .o1(r_o1), .o2(r_o2), .kz(r_kz), .sx(r_sx), .sy(r_sy), .dz_neg(r_dz_neg),
+        .dz_abs(r_dz_abs), .texp(r_texp), .ray_overflow(r_ray_overflow),
         .out_valid(p_valid), .out_tag(p_tag), .kind(p_kind), .t(p_t));
 
     always_ff @(posedge clk) begin

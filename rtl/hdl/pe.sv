@@ -18,14 +18,12 @@ module pe #(
 ) (
     input  logic                         clk,
     input  logic                         rst,
-    // Memory access of the controller (load, voxel lookup, result fetch); ignored while
-    // the PE executes a ray.
+    // Port A of the memory for the controller (load, voxel lookup, the winner's triangle);
+    // ignored while the PE executes a ray. Port B is the PE's own (record windows).
     input  logic [$clog2(WORDS)-1:0]     c_a_addr,
     input  logic                         c_a_we,
     input  logic [31:0]                  c_a_wdata,
     output logic [31:0]                  a_rdata,
-    input  logic [$clog2(WORDS)-1:0]     c_b_addr,
-    output logic [351:0]                 b_rdata,    // window words 0..10
     // Image layout (valid while loaded).
     input  logic [$clog2(WORDS)-1:0]     ref_off,
     input  logic [$clog2(WORDS)-1:0]     rec_off,
@@ -68,10 +66,11 @@ module pe #(
     // ---------------------------------------------------------------- memory and ports
     logic        active;   // executing a ray: the issue loop owns both ports
     logic [AW-1:0] x_a_addr, x_b_addr;
-    pe_mem #(.WORDS(WORDS)) u_mem (
+    logic [319:0]  b_rdata;    // record window: 9 coordinates, prim
+    pe_mem #(.WORDS(WORDS), .RD_WORDS(10)) u_mem (
         .clk,
         .a_addr(active ? x_a_addr : c_a_addr), .a_we(!active && c_a_we), .a_wdata(c_a_wdata), .a_rdata,
-        .b_addr(active ? x_b_addr : c_b_addr), .b_rdata);
+        .b_addr(x_b_addr), .b_rdata);
 
     // ---------------------------------------------------------------- entry queue
     logic [KW+2*AW-1:0] q_mem [MAX_LIST];

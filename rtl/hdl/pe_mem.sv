@@ -1,13 +1,13 @@
 // pe_mem: one PE's memory, WORDS x 32 bits in 16 interleaved banks (word w in bank w mod 16).
 //
-// Port A reads or writes one word. Port B reads a window of consecutive words starting at
-// any address (each bank gets its own row), so a 10-word record or an 11-word triangle is one
-// access; its words come out in window order, the first RD_WORDS (the 11 that a record or a
-// triangle needs). Only port A writes: the controller writes one word per cycle. Both ports have a read latency of 2 cycles (block RAM, then the bank select
-// / rotation register). Spec: rtl/README.md §4.2.
+// Port A reads or writes one word (the controller: load, voxel lookup, the winner's
+// triangle). Port B only reads: a window of consecutive words starting at any address (each
+// bank gets its own row), so a 10-word record is one access; its words come out in window
+// order, the first RD_WORDS. Both ports have a read latency of 2 cycles (block RAM, then the
+// bank select / rotation register). Spec: rtl/README.md §4.2.
 module pe_mem #(
     parameter int WORDS = 16384,
-    parameter int RD_WORDS = 11
+    parameter int RD_WORDS = 10
 ) (
     input  logic                      clk,
     input  logic [$clog2(WORDS)-1:0]  a_addr,
