@@ -192,8 +192,8 @@ impl TimingProfile {
     ///   first RESULT word.
     ///
     /// Over whole frames (bun_zipper_res4, 4 PEs; BENCHMARKS.md "Co-processor RTL") the RTL
-    /// takes 134.7 cycles per co-processor ray at 64×48 and 134.6 at 320×240, the same as this
-    /// profile to the cycle, while [`TimingProfile::PIPELINED`] gives 77.4 and 77.3 (−42 %):
+    /// takes 144.55 cycles per co-processor ray at 64×48 and 144.34 at 320×240, the same as
+    /// this profile to the cycle, while [`TimingProfile::PIPELINED`] gives 77.40 and 77.26:
     /// that profile describes no built design, so frame-time figures of the RTL (`bench frame`'s
     /// `rtl` configuration) take this one.
     pub const RTL: TimingProfile = TimingProfile {

@@ -33,8 +33,10 @@ const FFS_AVAILABLE: u64 = 83_640;
 pub struct SynthCmd {
     #[command(flatten)]
     params: Params,
-    /// Clock target for place and route (MHz).
-    #[arg(long, default_value_t = 100.0)]
+    /// Clock target for place and route (MHz): GridRT's 50 MHz by default, the clock the
+    /// design must close; a higher target makes nextpnr's timing-driven router work harder on
+    /// paths that already close it.
+    #[arg(long, default_value_t = 50.0)]
     freq: f64,
     /// Write the report here (JSON).
     #[arg(long)]
@@ -162,7 +164,7 @@ impl SynthCmd {
         eprintln!("rtl synth: nextpnr-ecp5 --85k at {} MHz, {} …", self.freq, self.router);
         let t1 = Instant::now();
         let pnr_report = dir.join("nextpnr-report.json");
-        let status = Command::new(&nextpnr)
+        let mut child = Command::new(&nextpnr)
             .args(["--85k", "--package", "CABGA381", "--json"])
             .arg(&netlist)
             .arg("--freq")
@@ -177,8 +179,9 @@ impl SynthCmd {
             .arg("--log")
             .arg(dir.join("nextpnr.log"))
             .arg("-q")
-            .status()
+            .spawn()
             .with_context(|| format!("running {nextpnr}"))?;
+        let status = wait_with_progress(&mut child, &dir.join("nextpnr.log"), t1)?;
         report.nextpnr_s = t1.elapsed().as_secs_f64();
         report.fits = status.success();
         if !status.success() {
@@ -250,6 +253,30 @@ impl SynthCmd {
             );
         }
         Ok(())
+    }
+}
+
+/// Waits for nextpnr, printing the last line of its log once a minute: placement and
+/// routing of the 4-PE design take over an hour here, and nextpnr runs with `-q`.
+fn wait_with_progress(
+    child: &mut std::process::Child,
+    log: &std::path::Path,
+    start: Instant,
+) -> Result<std::process::ExitStatus> {
+    const EVERY: std::time::Duration = std::time::Duration::from_secs(60);
+    let mut next = start + EVERY;
+    loop {
+        if let Some(status) = child.try_wait().context("waiting for nextpnr")? {
+            return Ok(status);
+        }
+        if Instant::now() >= next {
+            next += EVERY;
+            let text = std::fs::read_to_string(log).unwrap_or_default();
+            let last = text.lines().rev().map(str::trim).find(|l| !l.is_empty()).unwrap_or("(no log yet)");
+            let last: String = last.trim_start_matches("Info:").trim().chars().take(110).collect();
+            eprintln!("rtl synth: nextpnr {:>5.0} s: {last}", start.elapsed().as_secs_f64());
+        }
+        std::thread::sleep(std::time::Duration::from_millis(500));
     }
 }
 
