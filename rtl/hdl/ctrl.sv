@@ -32,7 +32,6 @@ module ctrl #(
     output logic [31:0]                 pe_a_wdata,
     input  logic [PES-1:0][31:0]        pe_a_rdata,
     output logic [PES-1:0][$clog2(WORDS)-1:0] pe_ref_off,
-    output logic [PES-1:0][$clog2(WORDS)-1:0] pe_rec_off,
     // Entry queues.
     output logic                        pe_ray_begin,
     output logic [PES-1:0]              pe_q_push,
@@ -164,7 +163,7 @@ module ctrl #(
     logic [1:0]     ld_sub3;
     logic [3:0]     ld_sub11, ld_sub16;
     logic [AW:0]    ld_tri_base;    // image index of the current triangle
-    logic [AW+5:0]  ld_rec_addr;    // the next record's address: n + 10 * triangles seen
+    logic signed [AW+1:0] ld_rec_addr;  // the next record's address: WORDS - 10 (triangles seen + 1)
     logic [8:0][31:0] ld_v9;
     logic [31:0]    ld_prim;
     logic           ld_last;        // the triangle being processed ended the image
@@ -357,7 +356,7 @@ module ctrl #(
                         ld_tag_ok <= 1'b0;
                         ld_bad <= 1'b0;
                         ld_have_prev <= 1'b0;
-                        ld_rec_addr <= (AW+6)'((AW+1)'(w));
+                        ld_rec_addr <= (AW+2)'(WORDS - 10);
                         rx <= RX_LOAD_WORDS;
                     end
                 end
@@ -568,16 +567,19 @@ module ctrl #(
 
     // ---------------------------------------------------------------- triangle records
     // After tri_loader, 13 port-A writes, one per cycle: the record (9 coordinates + prim)
-    // at n + 10t (when it fits), then the normal over vertex a's three words. One word per
-    // cycle keeps the controller's write bus 32 bits wide for all PEs (a record in one
-    // port-B write took a 512-bit bus to every PE memory).
+    // of triangle t at WORDS - 10 (t + 1), then the normal over vertex a's three words. One
+    // word per cycle keeps the controller's write bus 32 bits wide for all PEs (a record in
+    // one port-B write took a 512-bit bus to every PE memory). Records stack from the top
+    // down so that each starts at an even address (pe_mem's rotation); they meet the image
+    // exactly when n + 10 T > WORDS, which load_finish answers with MEM_OVERFLOW, as the
+    // model does for its records after the image.
     task automatic tri_step();
         if (tl_done || tl_wr != 0) begin
             logic [3:0]    j;
-            logic [AW+5:0] rec_addr;
+            logic [AW-1:0] rec_addr;
             logic [31:0]   word;
             j = tl_done ? 4'd0 : tl_wr;
-            rec_addr = ld_rec_addr + (AW+6)'(j);
+            rec_addr = AW'(ld_rec_addr) + AW'(j);
             case (j)
                 4'd9: word = ld_prim;
                 4'd10: word = tl_normal[0];
@@ -586,9 +588,9 @@ module ctrl #(
                 default: word = tl_coord[j];
             endcase
             if (j < 4'd10) begin
-                // A record that does not fit is not written (load_finish answers MEM_OVERFLOW).
-                pe_a_addr[ld_pe] <= AW'(rec_addr);
-                pe_a_we[ld_pe] <= ld_rec_addr + (AW+6)'(10) <= (AW+6)'(WORDS);
+                // Below address 0 a record is not written (MEM_OVERFLOW follows).
+                pe_a_addr[ld_pe] <= rec_addr;
+                pe_a_we[ld_pe] <= ld_rec_addr >= 0;
             end else begin
                 pe_a_addr[ld_pe] <= AW'(ld_tri_base) + AW'(2'(j - 4'd10));
                 pe_a_we[ld_pe] <= 1'b1;
@@ -596,7 +598,7 @@ module ctrl #(
             pe_a_wdata <= word;
             if (j == 4'd12) begin
                 tl_wr <= 4'd0;
-                ld_rec_addr <= ld_rec_addr + (AW+6)'(10);
+                ld_rec_addr <= ld_rec_addr - (AW+2)'(10);
                 busy <= ld_last ? BZ_LOAD_FINISH : BZ_NONE;
             end else begin
                 tl_wr <= j + 4'd1;
@@ -620,7 +622,6 @@ module ctrl #(
             pe_voxels[ld_pe] <= AW'(ld_v);
             pe_ref_off[ld_pe] <= AW'(ld_vox_end);
             pe_tri_off[ld_pe] <= AW'(ld_ref_end);
-            pe_rec_off[ld_pe] <= AW'(ld_n);
             reply({4'h9, OP_LOAD, 16'd0, 8'(ld_pe)});
         end
     endtask

@@ -28,7 +28,7 @@ module gridrt_coproc #(
     localparam int AW = $clog2(PE_MEM_WORDS);
     localparam int KW = $clog2(MAX_LIST);
 
-    logic [PES-1:0][AW-1:0]  a_addr, ref_off, rec_off;
+    logic [PES-1:0][AW-1:0]  a_addr, ref_off;
     logic [PES-1:0]          a_we;
     logic [31:0]             a_wdata;
     logic [PES-1:0][31:0]    a_rdata, issued, res_t;
@@ -62,7 +62,7 @@ module gridrt_coproc #(
         .m_tdata(m_axis_tdata), .m_tlast(m_axis_tlast), .m_tvalid(m_axis_tvalid), .m_tready(m_axis_tready),
         .idle,
         .pe_a_addr(a_addr), .pe_a_we(a_we), .pe_a_wdata(a_wdata), .pe_a_rdata(a_rdata),
-        .pe_ref_off(ref_off), .pe_rec_off(rec_off),
+        .pe_ref_off(ref_off),
         .pe_ray_begin(ray_begin), .pe_q_push(q_push), .pe_q_k(q_k), .pe_q_first(q_first),
         .pe_q_count(q_count), .pe_q_hi(q_hi),
         .pe_start(start), .pe_stop(stop), .pe_any(any), .pe_t_max(t_max), .pe_o(o), .pe_kz(kz),
@@ -75,7 +75,7 @@ module gridrt_coproc #(
         pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST)) u_pe (
             .clk, .rst,
             .c_a_addr(a_addr[p]), .c_a_we(a_we[p]), .c_a_wdata(a_wdata), .a_rdata(a_rdata[p]),
-            .ref_off(ref_off[p]), .rec_off(rec_off[p]),
+            .ref_off(ref_off[p]),
             .ray_begin, .q_push(q_push[p]), .q_k, .q_first, .q_count, .q_hi,
             .start, .stop, .any, .t_max,
             .issued(issued[p]),

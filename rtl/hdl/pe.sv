@@ -26,7 +26,6 @@ module pe #(
     output logic [31:0]                  a_rdata,
     // Image layout (valid while loaded).
     input  logic [$clog2(WORDS)-1:0]     ref_off,
-    input  logic [$clog2(WORDS)-1:0]     rec_off,
     // Entry queue, filled while the request streams in.
     input  logic                         ray_begin,  // empties the queue
     input  logic                         q_push,
@@ -165,7 +164,8 @@ module pe #(
     delay #(.W(KW+3), .N(2)) u_dp2 (.clk, .d({iss_valid, epoch, iss_last, iss_k}), .q({v_p2, tag_p2}));
     logic [AW-1:0] ref_tri;
     assign ref_tri = a_rdata[AW-1:0];
-    always_ff @(posedge clk) x_b_addr <= rec_off + (AW'(ref_tri) << 3) + (AW'(ref_tri) << 1);
+    // Record t at WORDS - 10 (t + 1) (the controller stacks them from the top down).
+    always_ff @(posedge clk) x_b_addr <= AW'(WORDS - 10) - (AW'(ref_tri) << 3) - (AW'(ref_tri) << 1);
 
     // Stage P3-P5: port B (record window) -> intersection pipeline.
     logic [KW+1:0] tag_p5;

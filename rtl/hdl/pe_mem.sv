@@ -1,9 +1,11 @@
 // pe_mem: one PE's memory, WORDS x 32 bits in 16 interleaved banks (word w in bank w mod 16).
 //
 // Port A reads or writes one word (the controller: load, voxel lookup, the winner's
-// triangle). Port B only reads: a window of consecutive words starting at any address (each
-// bank gets its own row), so a 10-word record is one access; its words come out in window
-// order, the first RD_WORDS. Both ports have a read latency of 2 cycles (block RAM, then the
+// triangle). Port B only reads: a window of consecutive words starting at any even address
+// (each bank gets its own row), so a 10-word record is one access; its words come out in
+// window order, the first RD_WORDS. Records sit at even addresses (the controller stacks them
+// from the top of the memory down, 10 words each), which halves the rotation's first step.
+// Both ports have a read latency of 2 cycles (block RAM, then the
 // bank select / rotation register). Spec: rtl/README.md §4.2.
 module pe_mem #(
     parameter int WORDS = 16384,
@@ -41,14 +43,18 @@ module pe_mem #(
             .b_addr(b_row_b[b]), .b_rdata(b_rd_b[b]));
     end
 
-    // Port B's rotation in two 4-way steps (by the start's low two bits over all 16 banks, then
-    // by its high two bits for the RD_WORDS outputs): 2 LUT4s per bit per step instead of
-    // a 16-way select's 9 for every output bit.
+    // Port B's rotation in two steps: by the even start's bit 1 over all 16 banks (a 2-way
+    // select, 1 LUT4 per bit), then by its high two bits for the RD_WORDS outputs (4-way, 2
+    // LUT4s per bit), instead of a 16-way select's 9 LUT4s for every output bit.
     logic [3:0]  a_sel, b_start;
     logic [31:0] b_rot_lo [16];     // b_rot_lo[m] = bank (m + start[1:0]) mod 16
     always_comb begin
-        for (int m = 0; m < 16; m++) b_rot_lo[m] = b_rd_b[4'(m) + {2'b00, b_start[1:0]}];
+        for (int m = 0; m < 16; m++) b_rot_lo[m] = b_rd_b[4'(m) + {2'b00, b_start[1], 1'b0}];
     end
+`ifndef SYNTHESIS
+    always_ff @(posedge clk)
+        if (b_addr[0]) $fatal(1, "pe_mem: port B window at an odd address");
+`endif
     always_ff @(posedge clk) begin
         a_sel <= a_addr[3:0];
         b_start <= b_addr[3:0];

@@ -4,7 +4,7 @@
 
 mod support;
 
-use gridrt_coproc::{Coprocessor, FslWord, RayKind};
+use gridrt_coproc::{Coprocessor, FslWord, ListEntry, RayKind};
 use gridrt_rtl::sim::{default_programs, require_verilator, CoprocSim, RtlParams};
 use gridrt_shared::math::{Ray, Vec3};
 use rand::Rng;
@@ -246,4 +246,74 @@ fn frame_packet_errors_and_effects() {
     img.extend([1, 7, 0]);
     img.extend([0.5f32.to_bits(), 0, 0, 0, 0, 0.5f32.to_bits(), 0, 0, 0, 0, 0.5f32.to_bits(), 0, 0]);
     assert_eq!(x(&load_packet(0, &img), "analytic primitive"), bad(13, 0));
+}
+
+/// A PE image of `tris` triangles (voxel v holds triangles 100v..100v+100) whose ref table is
+/// padded with `pad` unused refs, so that its size n, and so n + 10 T, can be set to the word.
+fn padded_image(tris: &[support::Tri], pad: usize) -> Vec<u32> {
+    let t = tris.len() as u32;
+    let voxels = t.div_ceil(100);
+    let refs = t as usize + pad;
+    let mut w = vec![0xFFFF_0002, t, voxels, refs as u32, 0];
+    for v in 0..voxels {
+        w.extend([v, 100 * v, (t - 100 * v).min(100)]);
+    }
+    w.extend(0..t);
+    w.extend(std::iter::repeat(0).take(pad));
+    for tri in tris {
+        for v in tri.v {
+            w.extend(v.to_array().map(f32::to_bits));
+        }
+        w.extend([tri.prim, tri.material]);
+    }
+    w
+}
+
+/// The triangles' records fill the PE memory up to the last word (n + 10 T = PE_MEM_WORDS, n
+/// even and odd): rays at the first and the last triangles give the model's words, so no
+/// record overwrote the image or another record. One word more is MEM_OVERFLOW, as in the
+/// model.
+#[test]
+fn a_full_pe_memory_keeps_every_record_and_one_word_more_overflows() {
+    if !require_verilator("a_full_pe_memory_keeps_every_record_and_one_word_more_overflows") {
+        return;
+    }
+    let params = RtlParams::default();
+    let mut s = sim(None);
+    let mut m = model(params);
+    let mut rng = rng(0xF11);
+    let tris: Vec<support::Tri> = (0..700u32)
+        .map(|i| {
+            let c = Vec3::new(rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0));
+            let mut p = || c + Vec3::new(rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5));
+            support::Tri { v: [p(), p(), p()], prim: i, material: i % 65536 }
+        })
+        .collect();
+    let words = params.pe_mem_words as usize;
+    let full_pad = words - 10 * tris.len() - padded_image(&tris, 0).len();
+    for (pad, fits) in [(full_pad, true), (full_pad - 1, true), (full_pad + 1, false), (full_pad + 2, false)] {
+        let img = padded_image(&tris, pad);
+        assert_valid(&img);
+        let what = format!("n {} + 10 T {} vs {words}", img.len(), 10 * tris.len());
+        let ack = exchange(&mut s, &mut m, &load_packet(0, &img), &|| what.clone());
+        if !fits {
+            assert_eq!(ack.len(), 1, "{what}");
+            assert_eq!(ack[0].data >> 28, 0xE, "{what}: {ack:?}");
+            continue;
+        }
+        assert_eq!(ack, framed(&[0x9100_0000]), "{what}");
+        let mut hits = 0;
+        for i in (0..60).chain(640..700) {
+            let t = tris[i];
+            let target = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
+            let ray = Ray { origin: target + Vec3::new(0.3, -7.0, 0.2), dir: Vec3::new(-0.3, 7.0, -0.2) };
+            let list = [ListEntry { voxel: i as u32 / 100, pe: 0, t_exit: f32::INFINITY }];
+            let kind = if i % 3 == 0 { RayKind::Any } else { RayKind::Closest };
+            let got = exchange(&mut s, &mut m, &ray_packet(kind, &ray, f32::INFINITY, &list), &|| {
+                format!("{what}: ray at triangle {i}")
+            });
+            hits += (got[0].data & 1) as usize;
+        }
+        assert!(hits >= 100, "{what}: {hits} of 120 rays hit");
+    }
 }
