@@ -1,6 +1,7 @@
 //! The co-processor RTL against the model (watertight, fixed64-q23, `rtl` timing), word for
 //! word through the Verilator build: random rays over random scenes (10⁵ in all), in several
-//! fixed-point frames (FRAME packets), and with the stream handshakes stalled at random.
+//! fixed-point frames (FRAME packets), with the stream handshakes stalled at random, and over a
+//! PE memory filled to its last word.
 
 mod support;
 
