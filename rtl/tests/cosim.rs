@@ -260,7 +260,7 @@ fn padded_image(tris: &[support::Tri], pad: usize) -> Vec<u32> {
         w.extend([v, 100 * v, (t - 100 * v).min(100)]);
     }
     w.extend(0..t);
-    w.extend(std::iter::repeat(0).take(pad));
+    w.extend(std::iter::repeat_n(0, pad));
     for tri in tris {
         for v in tri.v {
             w.extend(v.to_array().map(f32::to_bits));
