@@ -45,7 +45,7 @@ module isect_share #(
 
     // The ray constants, registered here: one copy next to each pipeline instead of one net
     // from the controller's ray setup across the device to every pipeline (kz alone selects
-    // 945 bits per pipeline). They are final when the ray setup ends, at least 8 cycles
+    // 315 bits per pipeline). They are final when the ray setup ends, at least 8 cycles
     // before the ray's first test reaches K1, and hold until the next ray's setup, after this
     // ray's result: the register's cycle changes no test.
     logic signed [33:0] r_o0, r_o1, r_o2;
