@@ -63,7 +63,7 @@ module pe #(
     localparam int KW = $clog2(MAX_LIST);
 
     // ---------------------------------------------------------------- memory and ports
-    logic        active;   // executing a ray: the issue loop owns both ports
+    logic        active;   // executing a ray: the issue loop owns port A
     logic [AW-1:0] x_a_addr, x_b_addr;
     logic [319:0]  b_rdata;    // record window: 9 coordinates, prim
     pe_mem #(.WORDS(WORDS), .RD_WORDS(10)) u_mem (

@@ -5,8 +5,8 @@
 // (each bank gets its own row), so a 10-word record is one access; its words come out in
 // window order, the first RD_WORDS. Records sit at even addresses (the controller stacks them
 // from the top of the memory down, 10 words each), which halves the rotation's first step.
-// Both ports have a read latency of 2 cycles (block RAM, then the
-// bank select / rotation register). Spec: rtl/README.md §4.2.
+// Both ports have a read latency of 2 cycles (block RAM, then the bank select / rotation
+// register). Spec: rtl/README.md §4.2.
 module pe_mem #(
     parameter int WORDS = 16384,
     parameter int RD_WORDS = 10
