@@ -8,6 +8,10 @@ net after the register or wire it drives, so `g_pe[2].u_pe.u_mem.b_rdata_TRELLIS
 counts for `g_pe[].u_pe.u_mem.b_rdata`.
 
     scripts/pnr-congestion.py heat_congestion_by_net_1.csv [--depth 3] [--top 30]
+    scripts/pnr-congestion.py --placement placed.json [--depth 3] [--top 30]
+
+With --placement it reads a placed design (nextpnr --write) instead and prints, per module,
+its cell count and where its cells sit: the middle 80 % of their X and Y tile coordinates.
 
 How to get the heatmap of a netlist without routing it to the end (rtl/README.md §5):
 
@@ -27,10 +31,15 @@ CELL_SUFFIX = re.compile(r"(_TRELLIS|_LUT4|_CCU2C|_PFUMX|_L6MUX|_MULT|_DP16|_DPR
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("heatmap", help="PREFIX_congestion_by_net_N.csv of nextpnr router2")
+    ap.add_argument("heatmap", nargs="?", help="PREFIX_congestion_by_net_N.csv of nextpnr router2")
+    ap.add_argument("--placement", help="a placed design written by nextpnr --write")
     ap.add_argument("--depth", type=int, default=3, help="hierarchy levels per module group")
     ap.add_argument("--top", type=int, default=30, help="rows per table")
     args = ap.parse_args()
+    if args.placement:
+        return placement(args)
+    if not args.heatmap:
+        ap.error("a heatmap or --placement is needed")
     by_module, by_signal, nets = collections.Counter(), collections.Counter(), collections.Counter()
     try:
         with open(args.heatmap, newline="") as f:
@@ -55,6 +64,34 @@ def main():
         for key, v in table.most_common(args.top):
             extra = f"  ({nets[key]} nets)" if title == "signal" else ""
             print(f"{v:8d} {100 * v / total:5.1f}%  {key}{extra}")
+
+
+def placement(args):
+    """Cell count and the middle 80 % of the X and Y tile coordinates, per module."""
+    import json
+
+    try:
+        with open(args.placement) as f:
+            design = json.load(f)
+    except (OSError, ValueError) as e:
+        sys.exit(f"pnr-congestion: {args.placement}: {e}")
+    top = next(iter(design.get("modules", {}).values()), {})
+    where = collections.defaultdict(list)
+    for name, cell in top.get("cells", {}).items():
+        m = re.match(r"X(\d+)/Y(\d+)/", cell.get("attributes", {}).get("NEXTPNR_BEL", ""))
+        if not m:
+            continue
+        # Instance indices stay apart here (g_pipe[0], g_pipe[1]): each has its own place.
+        parts = CELL_SUFFIX.sub("", name).split(".")
+        module = ".".join(parts[: min(args.depth, len(parts) - 1)]) or "<top>"
+        where[module].append((int(m.group(1)), int(m.group(2))))
+    if not where:
+        sys.exit(f"pnr-congestion: no placed cells in {args.placement}")
+    print(f"{'cells':>6}  {'X 10-90 %':>9}  {'Y 10-90 %':>9}  module")
+    for module, cells in sorted(where.items(), key=lambda kv: -len(kv[1]))[: args.top]:
+        xs, ys = sorted(x for x, _ in cells), sorted(y for _, y in cells)
+        n = len(cells)
+        print(f"{n:6d}  {xs[n // 10]:4d}-{xs[9 * n // 10]:<4d}  {ys[n // 10]:4d}-{ys[9 * n // 10]:<4d}  {module}")
 
 
 if __name__ == "__main__":
