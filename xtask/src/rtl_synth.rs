@@ -34,8 +34,7 @@ pub struct SynthCmd {
     #[command(flatten)]
     params: Params,
     /// Clock target for place and route (MHz): GridRT's 50 MHz by default, the clock the
-    /// design must close; a higher target makes nextpnr's timing-driven router work harder on
-    /// paths that already close it.
+    /// design must close (`--freq 100` for the stretch goal).
     #[arg(long, default_value_t = 50.0)]
     freq: f64,
     /// Write the report here (JSON).
