@@ -138,6 +138,7 @@ module ctrl #(
     logic [2:0][31:0]  ray_org, ray_dir;
     logic [31:0]       ray_tmax;
     logic [KW-1:0]     ent_k;          // entry being received
+    logic              ent_last;       // ent_k is the list's last entry (registered)
     logic [PW-1:0]     ent_pe;
     logic [23:0]       ent_voxel;
     logic [AW-1:0]     ent_first, ent_count;
@@ -249,9 +250,19 @@ module ctrl #(
     // critical path, 21 ns). done/hit bits only ever get set during a ray, so deciding on
     // last cycle's state picks the same winner one cycle later; the test count is taken one
     // cycle further back to match (`issued_prev2`).
+    // The encoders' first level registers the maps' next values (first_set), so each map is
+    // encoded in two register stages without a cycle more. The maps are cleared when the PEs
+    // start; mask_n is constant from the request's first word to its result.
+    logic                maps_clear;
+    logic [MAX_LIST-1:0] done_next, hit_next;
+    always_comb begin
+        maps_clear = !rst && busy == BZ_SETUP && rs_done;   // no request word is accepted while busy
+        done_next = maps_clear ? '0 : done_q | done_set;
+        hit_next = maps_clear ? '0 : hit_q | hit_set;
+    end
     logic [KW:0] first_hit_now, first_open_now, first_hit, first_open;
-    first_set #(.N(MAX_LIST)) u_first_hit (.bits(hit_q), .index(first_hit_now));
-    first_set #(.N(MAX_LIST)) u_first_open (.bits(~done_q & mask_n), .index(first_open_now));
+    first_set #(.N(MAX_LIST)) u_first_hit (.clk, .bits_next(hit_next), .index(first_hit_now));
+    first_set #(.N(MAX_LIST)) u_first_open (.clk, .bits_next(~done_next & mask_n), .index(first_open_now));
     always_comb begin
         issued_sum = '0;
         for (int p = 0; p < PES; p++) issued_sum = issued_sum + 35'(pe_issued[p]);
@@ -276,8 +287,14 @@ module ctrl #(
         issued_prev2 <= issued_prev;
         first_hit <= first_hit_now;
         first_open <= first_open_now;
-        done_q <= done_q | done_set;
-        hit_q <= hit_q | hit_set;
+        done_q <= done_next;
+        hit_q <= hit_next;
+        // Registered every cycle, from values that are stable long before they are used
+        // (they were the 2-PE design's critical path as enables of begin_exec's registers).
+        ent_last <= 17'(ent_k) + 17'd1 == 17'(ray_count);
+        mask_n <= ~({MAX_LIST{1'b1}} << ray_count[KW:0]);   // entries 0..n-1, as a shift
+        pe_any <= ray_any;
+        pe_t_max <= ray_tmax;
         if (rst) begin
             rx <= RX_IDLE;
             busy <= BZ_NONE;
@@ -403,7 +420,7 @@ module ctrl #(
                         ent_pe_of[ent_k] <= ent_pe;
                         ent_k <= ent_k + 1'b1;
                         busy <= BZ_NONE;
-                        if (32'(ent_k) + 1 == 32'(ray_count)) begin
+                        if (ent_last) begin
                             if (!word_ctl) fail(E_MISSING_CONTROL, word_idx, 1'b0);
                             else begin_exec();
                         end else if (word_ctl) begin
@@ -418,9 +435,7 @@ module ctrl #(
                 BZ_FRAME: frame_step();
                 BZ_SETUP: begin
                     if (rs_done) begin
-                        pe_start <= 1'b1;
-                        done_q <= '0;
-                        hit_q <= '0;
+                        pe_start <= 1'b1;   // and maps_clear
                         ex_step <= 3'd0;
                         busy <= BZ_EXEC;
                     end
@@ -774,11 +789,6 @@ module ctrl #(
         rx <= RX_IDLE;
         rs_start <= 1'b1;
         ray_cnt <= 32'd0;
-        pe_any <= ray_any;
-        pe_t_max <= ray_tmax;
-        // Entries 0..n-1 (n <= MAX_LIST): a thermometer code, as a shift rather than MAX_LIST
-        // comparators.
-        mask_n <= ~({MAX_LIST{1'b1}} << ray_count[KW:0]);
         busy <= BZ_SETUP;
     endtask
 
