@@ -188,7 +188,7 @@ module ctrl #(
                          .out_valid(fr_sub_out), .y(fr_sub_y));
     // Schedule: max - min in steps 1-3, the extent's s in FR_STEP_S, the conversions of the
     // minimum from FR_STEP_CV, the frame set in FR_STEP_END.
-    localparam int FR_ADD_LAT = 6;      // f32_addsub
+    localparam int FR_ADD_LAT = 7;      // f32_addsub
     localparam int FR_CV_LAT = 4;       // f32_to_fixed
     localparam int FR_STEP_S = 4 + FR_ADD_LAT;
     localparam int FR_STEP_CV = FR_STEP_S + 1;

@@ -4,8 +4,10 @@
 // result is the canonical quiet NaN 0x7FC00000 (the co-processor's only NaN sources are
 // inf - inf and inf * 0 in the normal, which the model canonicalises the same way).
 //
-// Pipeline: 6 stages (unpack and swap | align | add | leading zeros | normalise | round
-// and pack); one operation per cycle; `out_valid` follows `in_valid` by LATENCY cycles.
+// Pipeline: 7 stages (operands | unpack and swap | align | add | leading zeros | normalise |
+// round and pack); one operation per cycle; `out_valid` follows `in_valid` by LATENCY
+// cycles. The operand registers keep the callers' operand selection out of the swap's
+// compare (tri_loader's was a placed 4-PE design's second-longest path).
 module f32_addsub (
     input  logic        clk,
     input  logic        in_valid,
@@ -15,17 +17,24 @@ module f32_addsub (
     output logic        out_valid,
     output logic [31:0] y
 );
-    localparam int LATENCY = 6;
+    localparam int LATENCY = 7;
+
+    // ---------------------------------------------------------------- stage 0: operands
+    logic        s0_valid;
+    logic [31:0] s0_a, s0_b;    // s0_b: b with the operation's sign
+    always_ff @(posedge clk) begin
+        s0_valid <= in_valid;
+        s0_a <= a;
+        s0_b <= {b[31] ^ sub, b[30:0]};
+    end
 
     // ---------------------------------------------------------------- stage 1: unpack, order
-    logic [31:0] b_eff;
     logic        a_big;
     logic [31:0] hi, lo;
     always_comb begin
-        b_eff = {b[31] ^ sub, b[30:0]};
-        a_big = a[30:0] >= b_eff[30:0];
-        hi    = a_big ? a : b_eff;
-        lo    = a_big ? b_eff : a;
+        a_big = s0_a[30:0] >= s0_b[30:0];
+        hi    = a_big ? s0_a : s0_b;
+        lo    = a_big ? s0_b : s0_a;
     end
 
     logic        s1_valid, s1_nan, s1_inf, s1_sign_hi, s1_subtract, s1_zero_sign;
@@ -36,7 +45,7 @@ module f32_addsub (
         logic [7:0] ehi, elo;
         ehi = hi[30:23];
         elo = lo[30:23];
-        s1_valid    <= in_valid;
+        s1_valid    <= s0_valid;
         s1_nan      <= (ehi == 8'hFF && hi[22:0] != 0) || (elo == 8'hFF && lo[22:0] != 0)
                        || (ehi == 8'hFF && elo == 8'hFF && hi[31] != lo[31]);
         s1_inf      <= ehi == 8'hFF;

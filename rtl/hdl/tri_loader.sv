@@ -20,7 +20,7 @@ module tri_loader (
     // Schedule (steps from 1): subtractions d1, d2 in steps 1-6; the six products from
     // STEP_MUL; the three normal subtractions from STEP_NSUB; conversions in 1-9 and the
     // degenerate test's products from STEP_DEG_MUL (below). `done` at LATENCY.
-    localparam int ADD_LAT = 6;         // f32_addsub
+    localparam int ADD_LAT = 7;         // f32_addsub
     localparam int MUL_LAT = 8;         // f32_mul
     localparam int STEP_MUL = 7 + ADD_LAT;
     localparam int STEP_NSUB = STEP_MUL + 4 + MUL_LAT;
@@ -51,7 +51,7 @@ module tri_loader (
     f32_mul u_mul (.clk, .in_valid(mul_in), .a(mul_a), .b(mul_b), .out_valid(mul_out), .y(mul_y));
     logic [31:0] dd [6];    // d1 = b - a (0..2), d2 = c - a (3..5)
     logic [31:0] pp [6];    // cross-product terms
-    // Subtractions issued in steps 1..6 (d), 19..21 (n); products in steps 10..15.
+    // Subtractions issued in steps 1..6 (d) and STEP_NSUB.. (n); products from STEP_MUL.
     always_comb begin
         add_in = 1'b0;
         add_a = 32'd0;
