@@ -55,6 +55,15 @@ module ray_setup (
         mag = f[30:0];
     endfunction
 
+    // floor(log2 |f|) of a finite nonzero f32.
+    function automatic logic signed [9:0] floor_log2(input [31:0] f);
+        logic [4:0] msb;
+        msb = 5'd0;
+        for (int i = 0; i < 23; i++) if (f[i]) msb = 5'(i);
+        if (f[30:23] != 0) floor_log2 = $signed({2'b00, f[30:23]}) - 10'sd127;
+        else floor_log2 = $signed({5'd0, msb}) - 10'sd149;
+    endfunction
+
     always_comb begin
         cv_in = 1'b0;
         cv_x = 32'd0;
@@ -106,20 +115,13 @@ module ray_setup (
             if (step == 6'd1) begin
                 // max_dimension: x if |x| >= |y| and |x| >= |z|, else y if |y| >= |z|, else z.
                 logic [1:0] k;
-                logic [31:0] dk;
                 if (mag(dir[0]) >= mag(dir[1]) && mag(dir[0]) >= mag(dir[2])) k = 2'd0;
                 else if (mag(dir[1]) >= mag(dir[2])) k = 2'd1;
                 else k = 2'd2;
                 kz <= k;
-                dk = dir[k];
-                if (dk[30:23] != 0) begin
-                    e_max <= $signed({2'b00, dk[30:23]}) - 10'sd127;
-                end else begin
-                    logic [4:0] msb;
-                    msb = 5'd0;
-                    for (int i = 0; i < 23; i++) if (dk[i]) msb = 5'(i);
-                    e_max <= $signed({5'd0, msb}) - 10'sd149;
-                end
+                // E of all three components beside the compares, then a 3-way select (the
+                // select before the leading-one search was a placed 4-PE design's path).
+                e_max <= (k == 2'd0) ? floor_log2(dir[0]) : (k == 2'd1) ? floor_log2(dir[1]) : floor_log2(dir[2]);
             end
             if (step >= 6'(STEP_DIR + CV_LAT) && step < 6'(STEP_DIR + CV_LAT + 3))
                 d[2'(step - 6'(STEP_DIR + CV_LAT))] <= 25'(cv_q);
