@@ -144,10 +144,11 @@ def main():
         name, pin = node
         c = cells[name]
         t = c["type"]
-        if name.startswith("$PACKER_"):     # constant drivers
+        if name.startswith("$PACKER_") or t == "TRELLIS_IO":
+            # Constants, and inputs (unconstrained: nextpnr times clk only).
             arrival[node] = (-1e9, None, 0.0)
             return arrival[node][0]
-        if t in ("TRELLIS_FF", "DP16KD", "TRELLIS_IO", "DCCA") or (
+        if t in ("TRELLIS_FF", "DP16KD", "DCCA") or (
                 t == "TRELLIS_COMB" and c["parameters"].get("MODE") == "RAMW_BLOCK"):
             arrival[node] = (CLK_TO_Q.get(t, 0.0), None, 0.0)
             return arrival[node][0]

@@ -111,9 +111,17 @@ module ctrl #(
     logic accept;
     assign accept = s_tvalid && s_tready;
 
-    // Per-PE image layout.
+    // Per-PE image layout. Per-PE values indexed by a variable PE number are unpacked
+    // arrays: an index into a packed array of 14-bit elements costs a multiplier for the bit
+    // offset (Yosys gave it a MULT18X18D on the path to every PE's address register).
     logic [PES-1:0]         loaded;
-    logic [PES-1:0][AW-1:0] pe_voxels, pe_tri_off;
+    logic [AW-1:0]          pe_voxels [PES], pe_tri_off [PES];
+    logic [AW-1:0]          a_addr_q [PES], ref_off_q [PES], res_tri_in [PES];
+    for (genvar p = 0; p < PES; p++) begin : g_pe_ports
+        assign pe_a_addr[p] = a_addr_q[p];
+        assign pe_ref_off[p] = ref_off_q[p];
+        assign res_tri_in[p] = pe_res_tri[p];
+    end
 
     // Frame (reset: identity, s = 0, min = 0).
     logic signed [9:0]  frame_s;
@@ -493,7 +501,7 @@ module ctrl #(
         i38 = 38'(i);
         index = 16'(i) + 16'd2;
         tri_end_word = 1'b0;
-        pe_a_addr[ld_pe] <= AW'(i);
+        a_addr_q[ld_pe] <= AW'(i);
         pe_a_we[ld_pe] <= 1'b1;
         pe_a_wdata <= w;
         ld_i <= i + 1'b1;
@@ -604,10 +612,10 @@ module ctrl #(
             endcase
             if (j < 4'd10) begin
                 // Below address 0 a record is not written (MEM_OVERFLOW follows).
-                pe_a_addr[ld_pe] <= rec_addr;
+                a_addr_q[ld_pe] <= rec_addr;
                 pe_a_we[ld_pe] <= ld_rec_addr >= 0;
             end else begin
-                pe_a_addr[ld_pe] <= AW'(ld_tri_base) + AW'(2'(j - 4'd10));
+                a_addr_q[ld_pe] <= AW'(ld_tri_base) + AW'(2'(j - 4'd10));
                 pe_a_we[ld_pe] <= 1'b1;
             end
             pe_a_wdata <= word;
@@ -635,7 +643,7 @@ module ctrl #(
         end else begin
             loaded[ld_pe] <= 1'b1;
             pe_voxels[ld_pe] <= AW'(ld_v);
-            pe_ref_off[ld_pe] <= AW'(ld_vox_end);
+            ref_off_q[ld_pe] <= AW'(ld_vox_end);
             pe_tri_off[ld_pe] <= AW'(ld_ref_end);
             reply({4'h9, OP_LOAD, 16'd0, 8'(ld_pe)});
         end
@@ -747,7 +755,7 @@ module ctrl #(
                     lk_step <= 4'd15;
                 end else begin
                     lk_mid <= mid;
-                    pe_a_addr[ent_pe] <= AW'(5) + AW'(mid) + (AW'(mid) << 1);
+                    a_addr_q[ent_pe] <= AW'(5) + AW'(mid) + (AW'(mid) << 1);
                     lk_step <= 4'd2;
                 end
             end
@@ -761,12 +769,12 @@ module ctrl #(
                     lk_hi <= lk_mid;
                     lk_step <= 4'd1;
                 end else begin
-                    pe_a_addr[ent_pe] <= AW'(6) + AW'(lk_mid) + (AW'(lk_mid) << 1);
+                    a_addr_q[ent_pe] <= AW'(6) + AW'(lk_mid) + (AW'(lk_mid) << 1);
                     lk_step <= 4'd5;
                 end
             end
             4'd5: begin
-                pe_a_addr[ent_pe] <= AW'(7) + AW'(lk_mid) + (AW'(lk_mid) << 1);
+                a_addr_q[ent_pe] <= AW'(7) + AW'(lk_mid) + (AW'(lk_mid) << 1);
                 lk_step <= 4'd6;
             end
             4'd6: lk_step <= 4'd7;
@@ -799,13 +807,13 @@ module ctrl #(
         res_step <= res_step + 4'd1;
         case (res_step)
             4'd0: pe_res_k <= win_k;
-            4'd2: res_base <= pe_tri_off[win_pe] + AW'(pe_res_tri[win_pe]) + (AW'(pe_res_tri[win_pe]) << 1)
-                              + (AW'(pe_res_tri[win_pe]) << 3);
-            4'd4: pe_a_addr[win_pe] <= res_base + AW'(9);
-            4'd5: pe_a_addr[win_pe] <= res_base + AW'(10);
-            4'd6: pe_a_addr[win_pe] <= res_base;
-            4'd7: pe_a_addr[win_pe] <= res_base + AW'(1);
-            4'd8: pe_a_addr[win_pe] <= res_base + AW'(2);
+            4'd2: res_base <= pe_tri_off[win_pe] + AW'(res_tri_in[win_pe]) + (AW'(res_tri_in[win_pe]) << 1)
+                              + (AW'(res_tri_in[win_pe]) << 3);
+            4'd4: a_addr_q[win_pe] <= res_base + AW'(9);
+            4'd5: a_addr_q[win_pe] <= res_base + AW'(10);
+            4'd6: a_addr_q[win_pe] <= res_base;
+            4'd7: a_addr_q[win_pe] <= res_base + AW'(1);
+            4'd8: a_addr_q[win_pe] <= res_base + AW'(2);
             default: ;
         endcase
         if (res_step >= 4'd5 && res_step <= 4'd12) begin
