@@ -426,13 +426,24 @@ module isect_pipe #(
         end
     end
 
+    // Whether t is 0 or infinite, from K56's values beside the rounding add rather than from
+    // t_bits after it (the compares after the add were a placed 4-PE design's long path):
+    // the add's low 24 bits are 0 and its bit 24 is set exactly as below.
+    logic sum_low_zero, sum_bit24, t_zero, t_inf;
+    always_comb begin
+        sum_low_zero = k56_up ? (&k56_mant[23:0]) : (k56_mant[23:0] == 0);
+        sum_bit24 = k56_mant[24] ^ (k56_up && (&k56_mant[23:0]));
+        t_inf = k56_e > 11'sd127 || (k56_e == 11'sd127 && sum_bit24);
+        t_zero = k56_e < -11'sd126 && sum_low_zero;
+    end
+
     logic [TAG_W-1:0] tag_q;
     delay_ram #(.W(TAG_W), .N(LATENCY)) u_tag (.clk, .d(in_tag), .q(tag_q));
     always_ff @(posedge clk) begin
         out_valid <= k56_valid;
         t <= t_bits;
         if (k56_poison) kind <= 2'd2;
-        else if (k56_cand && t_bits != 32'd0 && t_bits != 32'h7F80_0000) kind <= 2'd1;
+        else if (k56_cand && !t_zero && !t_inf) kind <= 2'd1;
         else kind <= 2'd0;
     end
     assign out_tag = tag_q;
