@@ -70,7 +70,8 @@ module f32_mul (
         s1_sign  <= p_sign;
         s1_prod  <= p_prod;
         s1_lz    <= lz;
-        s1_exp   <= p_exp + 11'd1 - 11'(lz);
+        // exp + 1 - lz, from the length directly: one adder after bit_length, not two.
+        s1_exp   <= p_exp + 11'(prod_len) - 11'd47;
     end
 
     // ---------------------------------------------------------------- stage 2: normalise
