@@ -232,6 +232,8 @@ module ctrl #(
     logic [15:0]         win_tests;
     logic [3:0]          res_step;
     logic [AW-1:0]       res_base;     // the winner's triangle (image address)
+    logic [AW-1:0]       win_tri, win_tri_off;  // its local index, its PE's triangle table
+    logic [31:0]         win_t;
     logic [PW-1:0]       ent_pe_of [MAX_LIST];
 
     // Entry-done events. Each entry belongs to one PE and gets exactly one event per ray (ev0
@@ -800,15 +802,22 @@ module ctrl #(
         busy <= BZ_SETUP;
     endtask
 
-    // The result: the winner's t and triangle (PE result memory), then its prim, material and
-    // normal (five port-A reads of the triangle's words 9, 10, 0, 1, 2, one per cycle, each
-    // used three cycles after its address), then 8 words.
+    // The result: the winner's t and triangle (PE result memory, registered in step 2), its
+    // triangle's address (step 3), then its prim, material and normal (five port-A reads of
+    // the triangle's words 9, 10, 0, 1, 2, one per cycle, each used three cycles after its
+    // address), then 8 words.
     task automatic result_step();
         res_step <= res_step + 4'd1;
         case (res_step)
             4'd0: pe_res_k <= win_k;
-            4'd2: res_base <= pe_tri_off[win_pe] + AW'(res_tri_in[win_pe]) + (AW'(res_tri_in[win_pe]) << 1)
-                              + (AW'(res_tri_in[win_pe]) << 3);
+            4'd2: begin
+                // The PE's result memory answers in this step (block RAM outputs): registered
+                // here, used from the next step on.
+                win_tri <= res_tri_in[win_pe];
+                win_tri_off <= pe_tri_off[win_pe];
+                win_t <= pe_res_t[win_pe];
+            end
+            4'd3: res_base <= win_tri_off + win_tri + (win_tri << 1) + (win_tri << 3);
             4'd4: a_addr_q[win_pe] <= res_base + AW'(9);
             4'd5: a_addr_q[win_pe] <= res_base + AW'(10);
             4'd6: a_addr_q[win_pe] <= res_base;
@@ -821,7 +830,7 @@ module ctrl #(
             rd = pe_a_rdata[win_pe];
             case (res_step)
                 4'd5: word = {4'h8, win_hit ? 12'(win_k) : 12'd0, win_hit ? 8'(win_pe) : 8'd0, 7'd0, win_hit};
-                4'd6: word = win_hit ? pe_res_t[win_pe] : 32'h7F80_0000;
+                4'd6: word = win_hit ? win_t : 32'h7F80_0000;
                 4'd7: word = win_hit ? rd : 32'd0;
                 4'd8: word = {win_tests, win_hit ? rd[15:0] : 16'd0};
                 4'd9, 4'd10, 4'd11: word = win_hit ? rd : 32'd0;
