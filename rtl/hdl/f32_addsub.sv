@@ -7,7 +7,7 @@
 // Pipeline: 7 stages (operands | unpack and swap | align | add | leading zeros | normalise |
 // round and pack); one operation per cycle; `out_valid` follows `in_valid` by LATENCY
 // cycles. The operand registers keep the callers' operand selection out of the swap's
-// compare (tri_loader's was a placed 4-PE design's second-longest path).
+// compare (tri_loader's was a long path of a placed 4-PE design).
 module f32_addsub (
     input  logic        clk,
     input  logic        in_valid,
