@@ -26,6 +26,8 @@ import csv
 import re
 import sys
 
+import nextpnr_placed
+
 CELL_SUFFIX = re.compile(r"(_TRELLIS|_LUT4|_CCU2C|_PFUMX|_L6MUX|_MULT|_DP16|_DPR16|\$).*")
 
 
@@ -68,25 +70,15 @@ def main():
 
 def placement(args):
     """Cell count and the middle 80 % of the X and Y tile coordinates, per module."""
-    import json
-
-    try:
-        with open(args.placement) as f:
-            design = json.load(f)
-    except (OSError, ValueError) as e:
-        sys.exit(f"pnr-congestion: {args.placement}: {e}")
-    top = next(iter(design.get("modules", {}).values()), {})
     where = collections.defaultdict(list)
-    for name, cell in top.get("cells", {}).items():
-        m = re.match(r"X(\d+)/Y(\d+)/", cell.get("attributes", {}).get("NEXTPNR_BEL", ""))
-        if not m:
+    for name, cell in nextpnr_placed.load_cells(args.placement, "pnr-congestion").items():
+        xy = nextpnr_placed.tile_xy(cell)
+        if xy is None:
             continue
         # Instance indices stay apart here (g_pipe[0], g_pipe[1]): each has its own place.
         parts = CELL_SUFFIX.sub("", name).split(".")
         module = ".".join(parts[: min(args.depth, len(parts) - 1)]) or "<top>"
-        where[module].append((int(m.group(1)), int(m.group(2))))
-    if not where:
-        sys.exit(f"pnr-congestion: no placed cells in {args.placement}")
+        where[module].append(xy)
     print(f"{'cells':>6}  {'X 10-90 %':>9}  {'Y 10-90 %':>9}  module")
     for module, cells in sorted(where.items(), key=lambda kv: -len(kv[1]))[: args.top]:
         xs, ys = sorted(x for x, _ in cells), sorted(y for _, y in cells)

@@ -19,9 +19,10 @@ path per (start module -> end module) pair.
 """
 import argparse
 import collections
-import json
 import re
 import sys
+
+import nextpnr_placed
 
 # Round cell delays in ns (speed grade 6): clock to output per sequential cell type, then
 # the combinational arcs.
@@ -32,12 +33,6 @@ CARRY_NS = 0.06         # FCI -> FCO of a CCU2C (two bits)
 MULT_NS = 4.60          # MULT18X18D with no internal registers, A/B -> P
 SETUP_NS = 0.10
 PS_PER_UNIT = 80 - 9 * 6
-
-
-def bel_xy(cell):
-    bel = cell.get("attributes", {}).get("NEXTPNR_BEL", "")
-    m = re.match(r"X(\d+)/Y(\d+)/", bel)
-    return (int(m.group(1)), int(m.group(2))) if m else None
 
 
 def net_delay(src, dst, src_pin, dst_pin):
@@ -107,7 +102,7 @@ def main():
     args = ap.parse_args()
 
     print(f"reading {args.placed} ...", file=sys.stderr)
-    cells = json.load(open(args.placed))["modules"]["top"]["cells"]
+    cells = nextpnr_placed.load_cells(args.placed, "pnr-paths")
     driver = {}                     # bit -> (cell, pin)
     sinks = collections.defaultdict(list)
     for name, c in cells.items():
@@ -120,7 +115,7 @@ def main():
                     driver[b] = (name, pin)
                 else:
                     sinks[b].append((name, pin))
-    xy = {n: bel_xy(c) for n, c in cells.items()}
+    xy = {n: nextpnr_placed.tile_xy(c) for n, c in cells.items()}
 
     # Node = (cell, output pin). Arrival = longest delay from a register's clock edge.
     outs = collections.defaultdict(list)    # cell -> its output pins with loads
