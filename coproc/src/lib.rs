@@ -45,4 +45,4 @@ pub use gridrt_shared::fsl::{FslError, FslWord, ListEntry, RayKind, RayResult};
 pub use gridrt_shared::math::Ray;
 pub use isect::{Intersector, Kernel, KernelKind, Record, RecordStatus};
 pub use numeric::{FixedFrame, NumberFormat, OpCount, Overflow};
-pub use timing::{test_cycles, OpCycles, TimingProfile};
+pub use timing::{test_cycles, OpCycles, TimingProfile, RTL_PES_PER_PIPELINE};

@@ -169,44 +169,60 @@ impl TimingProfile {
         ray_setup_cycles: 0,
     };
 
-    /// The RTL co-processor (rtl/README.md §4.5), measured in its Verilator simulation: the
-    /// RESULT words of `--coproc rtl` and of the model with this profile are identical, cycles
-    /// and test counts included (`rtl/tests/cosim.rs`). Its own clock is whatever the FPGA
-    /// closes (`cargo xtask rtl synth`); 50 MHz here, GridRT's, so figures compare directly.
-    /// - `test_issue_cycles = 2`: two PEs share one intersection pipeline (one test per
-    ///   cycle, 64 MULT18X18D), one in the even cycles, one in the odd: a pipeline per PE
-    ///   does not fit 4 PEs on the ECP5-85F (rtl/README.md §4.3, §5).
-    /// - `voxel_setup_cycles = 2`: the voxel lookup happens while the list streams in; an
-    ///   entry's ref range is in the PE's queue, two cycles to take it, so that every issue
-    ///   falls on an even cycle.
-    /// - `test_latency_cycles = 65`: from the end of the last test's 2-cycle issue slot:
-    ///   ref word and record reads (2 + 3), the 57-stage test (shear 6, edges 5,
-    ///   determinant and weights 6, depth 6, normalisation 2, a 27-step restoring divider,
-    ///   rounding 3), the shared pipeline's output register (1), acceptance and the entry's
-    ///   winner (3), less the slot's second cycle. Each stage holds at most one wide carry
-    ///   chain so the clock can close (rtl/README.md §5).
+    /// The RTL co-processor's default build (rtl/README.md §4.5): [`TimingProfile::rtl`] with
+    /// [`RTL_PES_PER_PIPELINE`] PEs per intersection pipeline. Its RESULT words, cycles and
+    /// test counts included, are those of `--coproc rtl` (`rtl/tests/cosim.rs`).
+    ///
+    /// Over whole frames (bun_zipper_res4, 4 PEs; BENCHMARKS.md "Co-processor RTL") it takes
+    /// several times the cycles per co-processor ray of [`TimingProfile::PIPELINED`]: that
+    /// profile describes no built design, so frame-time figures of the RTL (`bench frame`'s
+    /// `rtl` configuration) take this one.
+    pub const RTL: TimingProfile = TimingProfile::rtl(RTL_PES_PER_PIPELINE);
+
+    /// The RTL co-processor with `pes_per_pipeline` PEs sharing each intersection pipeline
+    /// (the HDL's `PES_PER_PIPELINE`, 1..=4; 0 counts as 1), measured in its Verilator
+    /// simulation (rtl/README.md §4.5). Its own clock is whatever the FPGA closes (`cargo
+    /// xtask rtl synth`); 50 MHz here, GridRT's, so figures compare directly.
+    /// - `test_issue_cycles = pes_per_pipeline`: the pipeline takes one test per cycle, from
+    ///   its PEs in turn (64 MULT18X18D per pipeline: 4 PEs with a pipeline each do not fit
+    ///   the ECP5-85F, rtl/README.md §4.3, §5).
+    /// - `voxel_setup_cycles = max(2, pes_per_pipeline)`: the voxel lookup happens while the
+    ///   list streams in; an entry's ref range is in the PE's queue, two cycles to take it,
+    ///   rounded up so that every issue falls on a multiple of the issue interval.
+    /// - `test_latency_cycles = 66`: from the end of the last test's issue slot: ref word
+    ///   and record reads (2 + 3), the merge register beside the pipeline (1), the 57-stage
+    ///   test (shear 6, edges 5, determinant and weights 6, depth 6, normalisation 2, a
+    ///   27-step restoring divider, rounding 3), the lanes' realignment (the slot less one
+    ///   cycle), acceptance and the entry's winner (3), less one. Each stage holds at most
+    ///   one wide carry chain so the clock can close (rtl/README.md §5).
     /// - `ray_setup_cycles = 25`: the dominant axis, six pipelined f32 → fixed conversions,
     ///   the two shear divisions (2 quotient bits per cycle), and the start of the PEs.
     /// - `arbitration_cycles = 8`: the first-hit decision (the priority encoders registered,
     ///   then compared), the winner's result and triangle (two memory reads), before the
     ///   first RESULT word.
-    ///
-    /// Over whole frames (bun_zipper_res4, 4 PEs; BENCHMARKS.md "Co-processor RTL") the RTL
-    /// takes 144.55 cycles per co-processor ray at 64×48 and 144.34 at 320×240, the same as
-    /// this profile to the cycle, while [`TimingProfile::PIPELINED`] gives 77.40 and 77.26:
-    /// that profile describes no built design, so frame-time figures of the RTL (`bench frame`'s
-    /// `rtl` configuration) take this one.
-    pub const RTL: TimingProfile = TimingProfile {
-        name: "rtl",
-        clock_hz: 50_000_000,
-        test_issue_cycles: 2,
-        test_latency_cycles: 65,
-        voxel_setup_cycles: 2,
-        word_in_cycles: 1,
-        word_out_cycles: 1,
-        arbitration_cycles: 8,
-        ray_setup_cycles: 25,
-    };
+    pub const fn rtl(pes_per_pipeline: u32) -> TimingProfile {
+        let share = if pes_per_pipeline == 0 { 1 } else { pes_per_pipeline };
+        TimingProfile {
+            name: if share == RTL_PES_PER_PIPELINE {
+                "rtl"
+            } else {
+                match share {
+                    1 => "rtl-pipeline-per-pe",
+                    2 => "rtl-2-pes-per-pipeline",
+                    3 => "rtl-3-pes-per-pipeline",
+                    _ => "rtl-4-pes-per-pipeline",
+                }
+            },
+            clock_hz: 50_000_000,
+            test_issue_cycles: share,
+            test_latency_cycles: 66,
+            voxel_setup_cycles: if share > 2 { share } else { 2 },
+            word_in_cycles: 1,
+            word_out_cycles: 1,
+            arbitration_cycles: 8,
+            ray_setup_cycles: 25,
+        }
+    }
 
     /// Sustained ray–triangle tests per second of `pes` PEs that are always busy
     /// (the thesis's "77 k per PE, 308 k for 4 PEs" figure).
@@ -232,6 +248,11 @@ impl TimingProfile {
         cycles as f64 / self.clock_hz.max(1) as f64
     }
 }
+
+/// PEs per intersection pipeline of the RTL co-processor's default build (the HDL's
+/// `PES_PER_PIPELINE`, `cargo xtask rtl --pes-per-pipeline`): one pipeline serves 4 PEs on
+/// the ECP5-85F (rtl/README.md §5).
+pub const RTL_PES_PER_PIPELINE: u32 = 4;
 
 /// Cycles of one operation class on GridRT's multi-cycle PE, per number format: the basis of
 /// the per-kernel cycle model [`test_cycles`].

@@ -5,11 +5,14 @@
 // request side is !s_axis_tready, its "exists" on the reply side is m_axis_tvalid (§4.1 of
 // the README). `idle` is high when the co-processor waits for input with nothing to send.
 //
-// Parameters: PES processing elements (1..16), PE_MEM_WORDS words per PE (16 banks of
-// PE_MEM_WORDS/16), MAX_LIST longest traversal list. Bit-exact twin: gridrt-coproc with
-// kernel watertight, format fixed64-q23 (see rtl/README.md §3 for the arithmetic).
+// Parameters: PES processing elements (1..16); PES_PER_PIPELINE of them share one
+// intersection pipeline (1..4), each issuing a test every PES_PER_PIPELINE cycles; PE_MEM_WORDS
+// words per PE (16 banks of PE_MEM_WORDS/16); MAX_LIST longest traversal list. Bit-exact
+// twin: gridrt-coproc with kernel watertight, format fixed64-q23 (see rtl/README.md §3 for
+// the arithmetic), timing profile `TimingProfile::rtl(PES_PER_PIPELINE)`.
 module gridrt_coproc #(
     parameter int PES = 4,
+    parameter int PES_PER_PIPELINE = 4,
     parameter int PE_MEM_WORDS = 16384,
     parameter int MAX_LIST = 256
 ) (
@@ -44,17 +47,21 @@ module gridrt_coproc #(
     logic signed [9:0]       texp;
     logic [PES-1:0][KW-1:0]  ev0_k, ev1_k;
     logic [PES-1:0][AW-1:0]  res_tri;
-    // Tests and results between the PEs and their shared pipelines; index PES is the unused
-    // B side of an odd PE count's last pipeline.
+    // Tests and results between the PEs and their shared pipelines; indices PES and above are
+    // the unused lanes of the last pipeline when PES is not a multiple of PES_PER_PIPELINE.
     localparam int TAG_W = KW + 2 + AW + 32;    // pe's test tag
-    logic [PES:0]              t_valid, r_valid;
-    logic [PES:0][TAG_W-1:0]   t_tag, r_tag;
-    logic [PES:0][287:0]       t_rec;
-    logic [PES:0][1:0]         r_kind;
-    logic [PES:0][31:0]        r_t;
-    assign t_valid[PES] = 1'b0;
-    assign t_tag[PES] = '0;
-    assign t_rec[PES] = '0;
+    localparam int PIPES = (PES + PES_PER_PIPELINE - 1) / PES_PER_PIPELINE;
+    localparam int LANES = PIPES * PES_PER_PIPELINE;
+    logic [LANES-1:0]              t_valid, r_valid;
+    logic [LANES-1:0][TAG_W-1:0]   t_tag, r_tag;
+    logic [LANES-1:0][287:0]       t_rec;
+    logic [LANES-1:0][1:0]         r_kind;
+    logic [LANES-1:0][31:0]        r_t;
+    for (genvar p = PES; p < LANES; p++) begin : g_no_pe
+        assign t_valid[p] = 1'b0;
+        assign t_tag[p] = '0;
+        assign t_rec[p] = '0;
+    end
 
     ctrl #(.PES(PES), .WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST)) u_ctrl (
         .clk, .rst,
@@ -72,7 +79,7 @@ module gridrt_coproc #(
         .pe_ev1_hit(ev1_hit), .pe_res_k(res_k), .pe_res_t(res_t), .pe_res_tri(res_tri));
 
     for (genvar p = 0; p < PES; p++) begin : g_pe
-        pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST)) u_pe (
+        pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST), .ISSUE_INTERVAL(PES_PER_PIPELINE)) u_pe (
             .clk, .rst,
             .c_a_addr(a_addr[p]), .c_a_we(a_we[p]), .c_a_wdata(a_wdata), .a_rdata(a_rdata[p]),
             .ref_off(ref_off[p]),
@@ -86,16 +93,16 @@ module gridrt_coproc #(
             .res_k, .res_t(res_t[p]), .res_tri(res_tri[p]));
     end
 
-    // PEs 2q and 2q+1 share pipeline q (rtl/README.md §4.3).
-    for (genvar q = 0; q < (PES + 1) / 2; q++) begin : g_pipe
-        isect_share #(.TAG_W(TAG_W), .HAS_B(2*q + 1 < PES)) u_share (
+    // PEs q·PES_PER_PIPELINE .. (q+1)·PES_PER_PIPELINE - 1 share pipeline q (rtl/README.md §4.3).
+    for (genvar q = 0; q < PIPES; q++) begin : g_pipe
+        localparam int L0 = q * PES_PER_PIPELINE;
+        isect_share #(.TAG_W(TAG_W), .LANES(PES_PER_PIPELINE)) u_share (
             .clk,
-            .a_valid(t_valid[2*q]), .b_valid(t_valid[2*q+1]), .a_tag(t_tag[2*q]), .b_tag(t_tag[2*q+1]),
-            .a_rec(t_rec[2*q]), .b_rec(t_rec[2*q+1]),
+            .in_valid(t_valid[L0 +: PES_PER_PIPELINE]), .in_tag(t_tag[L0 +: PES_PER_PIPELINE]),
+            .in_rec(t_rec[L0 +: PES_PER_PIPELINE]),
             .o0($signed(o[0])), .o1($signed(o[1])), .o2($signed(o[2])), .kz, .sx, .sy, .dz_neg, .dz_abs,
             .texp, .ray_overflow,
-            .a_out_valid(r_valid[2*q]), .b_out_valid(r_valid[2*q+1]), .a_out_tag(r_tag[2*q]),
-            .b_out_tag(r_tag[2*q+1]), .a_kind(r_kind[2*q]), .b_kind(r_kind[2*q+1]), .a_t(r_t[2*q]),
-            .b_t(r_t[2*q+1]));
+            .out_valid(r_valid[L0 +: PES_PER_PIPELINE]), .out_tag(r_tag[L0 +: PES_PER_PIPELINE]),
+            .out_kind(r_kind[L0 +: PES_PER_PIPELINE]), .out_t(r_t[L0 +: PES_PER_PIPELINE]));
     end
 endmodule

@@ -1,18 +1,22 @@
 // pe: one processing element: its memory, its queue of list entries, the test issue loop
 // and the per-entry result (rtl/README.md §4.3). Its tests go out on the t_* ports to the
-// intersection pipeline it shares with another PE (isect_share.sv) and come back on r_*.
+// intersection pipeline it shares with ISSUE_INTERVAL - 1 other PEs (isect_share.sv) and come
+// back on r_*.
 //
-// Timeline of a ray (the model's `PeTimeline` with voxel_setup_cycles = 2, issue interval
-// 2): `start` in cycle -1; in cycles 0 and 1 the PE sets up its first entry. An entry whose
-// setup starts in cycle c issues its n tests in cycles c+2, c+4, .., c+2n and the next
-// entry's setup starts in cycle c+2n+2, so every issue falls on an even cycle of the ray:
-// the pipeline takes the other PE's tests in the odd ones. An entry with no tests is done in
-// cycle c+2 (event in cycle c+1); an entry with tests is done LAT_TEST + 2 cycles after its
-// last issue, or, for RAY_ANY, after the issue of its first accepted test. `issued` counts
-// the issues of the current ray.
+// Timeline of a ray (the model's `PeTimeline` with issue interval I = ISSUE_INTERVAL and
+// voxel_setup_cycles V = max(2, I)): `start` in cycle -1; in cycles 0 .. V-1 the PE sets up
+// its first entry. An entry whose setup starts in cycle c issues its n tests in cycles c+V,
+// c+V+I, .., c+V+(n-1)I and the next entry's setup starts in cycle c+V+nI, so every issue
+// falls on a multiple of I: the pipeline takes the other lanes' tests in the cycles between.
+// An entry with no tests is done in cycle c+V (event in cycle c+V-1); an entry with tests is
+// done 66 + I cycles after its last issue (reads 5, the shared pipeline's isect_pipe LATENCY
+// + I, the result stage 3), or, for RAY_ANY, after the issue of its first accepted test.
+// `issued` counts the issues of the current ray.
 module pe #(
     parameter int WORDS = 16384,
     parameter int MAX_LIST = 256,
+    // Cycles between two issues: the PEs sharing this PE's intersection pipeline (1..4).
+    parameter int ISSUE_INTERVAL = 2,
     // Test tag: epoch, last-of-entry, entry k, local triangle, prim id.
     localparam int TAG_W = $clog2(MAX_LIST) + 2 + $clog2(WORDS) + 32
 ) (
@@ -85,10 +89,12 @@ module pe #(
     end
 
     // ---------------------------------------------------------------- issue loop
-    // An entry's setup is S_SETUP then S_TAKE; S_GAP follows every issue (the pipeline's
-    // issue interval).
+    // An entry's setup is S_SETUP (SETUP - 1 cycles) then S_TAKE; S_GAP follows every issue
+    // for the rest of the issue interval. `phase` counts the cycles spent in a state.
+    localparam int SETUP = (ISSUE_INTERVAL > 2) ? ISSUE_INTERVAL : 2;
     typedef enum logic [2:0] { S_IDLE, S_SETUP, S_TAKE, S_ISSUE, S_GAP } state_t;
     state_t        state;
+    logic [1:0]    phase;
     logic [KW-1:0] cur_k;
     logic [AW-1:0] cur_first, cur_count, cur_i;
     logic          epoch;
@@ -96,8 +102,11 @@ module pe #(
     logic          iss_valid, iss_last;
     logic [KW-1:0] iss_k;
     always_ff @(posedge clk) begin
+        logic more;
         ev0_valid <= 1'b0;
         iss_valid <= 1'b0;
+        phase <= phase + 2'd1;
+        more = cur_i != cur_count - 1'b1;
         if (rst) begin
             state <= S_IDLE;
             active <= 1'b0;
@@ -114,6 +123,7 @@ module pe #(
             end
             if (start) begin
                 state <= S_SETUP;
+                phase <= '0;
                 active <= 1'b1;
                 epoch <= !epoch;
                 issued <= 32'd0;
@@ -123,8 +133,9 @@ module pe #(
                 q_raddr <= '0;
             end else begin
                 case (state)
-                    S_SETUP: state <= S_TAKE;
+                    S_SETUP: if (phase == 2'(SETUP - 2)) state <= S_TAKE;
                     S_TAKE: begin
+                        phase <= '0;
                         if (q_raddr == q_n) begin
                             state <= S_IDLE;
                         end else begin
@@ -142,15 +153,22 @@ module pe #(
                     end
                     S_ISSUE: begin
                         iss_valid <= 1'b1;
-                        iss_last <= cur_i == cur_count - 1'b1;
+                        iss_last <= !more;
                         iss_k <= cur_k;
                         x_a_addr <= ref_off + cur_first + cur_i;
                         issued <= issued + 1;
                         cur_i <= cur_i + 1'b1;
-                        iss_more <= cur_i != cur_count - 1'b1;
-                        state <= S_GAP;
+                        iss_more <= more;
+                        phase <= '0;
+                        if (ISSUE_INTERVAL > 1) state <= S_GAP;
+                        else if (!more) state <= S_SETUP;
                     end
-                    S_GAP: state <= iss_more ? S_ISSUE : S_SETUP;
+                    S_GAP: begin
+                        if (phase == 2'(ISSUE_INTERVAL - 2)) begin
+                            state <= iss_more ? S_ISSUE : S_SETUP;
+                            phase <= '0;
+                        end
+                    end
                     default: ;
                 endcase
             end

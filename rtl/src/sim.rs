@@ -14,6 +14,8 @@ use std::sync::OnceLock;
 pub struct RtlParams {
     /// Processing elements.
     pub pes: u16,
+    /// PEs sharing one intersection pipeline (each issues a test every this many cycles).
+    pub pes_per_pipeline: u16,
     /// Words of each PE memory.
     pub pe_mem_words: u32,
     /// Longest traversal list.
@@ -21,9 +23,10 @@ pub struct RtlParams {
 }
 
 impl Default for RtlParams {
-    /// The build the tests and `render --coproc rtl` use: 4 PEs of 16 Ki words, lists of 256.
+    /// The build the tests and `render --coproc rtl` use: 4 PEs of 16 Ki words sharing one
+    /// pipeline, lists of 256.
     fn default() -> Self {
-        Self { pes: 4, pe_mem_words: 16384, max_list: 256 }
+        Self { pes: 4, pes_per_pipeline: 4, pe_mem_words: 16384, max_list: 256 }
     }
 }
 
@@ -73,6 +76,7 @@ pub fn build(params: RtlParams) -> Result<Programs, SimError> {
         .current_dir(workspace_root())
         .args(["run", "--quiet", "--package", "xtask", "--", "rtl", "sim"])
         .args(["--pes", &params.pes.to_string()])
+        .args(["--pes-per-pipeline", &params.pes_per_pipeline.to_string()])
         .args(["--pe-mem-words", &params.pe_mem_words.to_string()])
         .args(["--max-list", &params.max_list.to_string()])
         .output()?;

@@ -161,26 +161,30 @@ fn frames_from_frame_packets_give_the_models_result_words() {
     }
 }
 
-/// With an odd PE count the last PE has a pipeline of its own (isect_share without its B
-/// side) while PEs 0 and 1 share one: 3 PEs give the model's words, cycles included.
+/// The other ways of sharing pipelines, each against the model's `rtl` profile of its
+/// sharing (`TimingProfile::rtl`): 3 PEs two to a pipeline (the second pipeline's other lane
+/// unused), 3 PEs on one pipeline of four lanes (one unused), and 2 PEs with a pipeline each.
+/// Words, cycles and test counts as the model's.
 #[test]
-fn three_pes_two_pipelines_give_the_models_result_words() {
-    if !require_verilator("three_pes_two_pipelines_give_the_models_result_words") {
+fn every_pipeline_sharing_gives_the_models_result_words() {
+    if !require_verilator("every_pipeline_sharing_gives_the_models_result_words") {
         return;
     }
-    let params = RtlParams { pes: 3, ..RtlParams::default() };
-    let programs = gridrt_rtl::sim::build(params).unwrap_or_else(|e| panic!("{e}"));
-    let mut s = CoprocSim::spawn(&programs.coproc, None).unwrap();
-    let mut m = model(params);
-    let mut rng = rng(0x3E5);
-    let t = random_rays(
-        &mut s,
-        &mut m,
-        &mut rng,
-        (3, 10, 300),
-        Place { center: Vec3::ZERO, ext: 4.0, frame_packet: false },
-    );
-    assert!(t.rays >= 2_900 && t.hits > t.rays / 5, "{t:?}");
+    for (pes, pes_per_pipeline, seed) in [(3, 2, 0x3E5), (3, 4, 0x3E4), (2, 1, 0x2E1)] {
+        let params = RtlParams { pes, pes_per_pipeline, ..RtlParams::default() };
+        let programs = gridrt_rtl::sim::build(params).unwrap_or_else(|e| panic!("{e}"));
+        let mut s = CoprocSim::spawn(&programs.coproc, None).unwrap();
+        let mut m = model(params);
+        let mut rng = rng(seed);
+        let t = random_rays(
+            &mut s,
+            &mut m,
+            &mut rng,
+            (pes.into(), 10, 300),
+            Place { center: Vec3::ZERO, ext: 4.0, frame_packet: false },
+        );
+        assert!(t.rays >= 2_900 && t.hits > t.rays / 5, "{params:?}: {t:?}");
+    }
 }
 
 /// The stream handshakes (s_axis_tvalid, m_axis_tready) dropped in 40 % of the cycles at

@@ -36,6 +36,11 @@ pub struct Params {
     /// Processing elements.
     #[arg(long, default_value_t = 4)]
     pub pes: u32,
+    /// PEs sharing one intersection pipeline (1..=4); each issues a test every this many
+    /// cycles. 4 by default: one pipeline for 4 PEs is what closes timing on the ECP5-85F
+    /// (rtl/README.md §5).
+    #[arg(long, default_value_t = 4)]
+    pub pes_per_pipeline: u32,
     /// Words of each PE memory (a multiple of 16 banks × 1024).
     #[arg(long, default_value_t = 16384)]
     pub pe_mem_words: u32,
@@ -49,6 +54,9 @@ impl Params {
     pub fn validate(&self) -> Result<()> {
         if !(1..=16).contains(&self.pes) {
             bail!("--pes must be 1..=16");
+        }
+        if !(1..=4).contains(&self.pes_per_pipeline) {
+            bail!("--pes-per-pipeline must be 1..=4");
         }
         if self.pe_mem_words < 16384 / 16
             || !self.pe_mem_words.is_multiple_of(1024)
@@ -64,12 +72,17 @@ impl Params {
 
     /// The Verilog parameter overrides.
     pub fn defines(&self) -> Vec<(String, u32)> {
-        vec![("PES".into(), self.pes), ("PE_MEM_WORDS".into(), self.pe_mem_words), ("MAX_LIST".into(), self.max_list)]
+        vec![
+            ("PES".into(), self.pes),
+            ("PES_PER_PIPELINE".into(), self.pes_per_pipeline),
+            ("PE_MEM_WORDS".into(), self.pe_mem_words),
+            ("MAX_LIST".into(), self.max_list),
+        ]
     }
 
     /// A short name for build folders.
     pub fn tag(&self) -> String {
-        format!("p{}-m{}-l{}", self.pes, self.pe_mem_words, self.max_list)
+        format!("p{}-s{}-m{}-l{}", self.pes, self.pes_per_pipeline, self.pe_mem_words, self.max_list)
     }
 }
 

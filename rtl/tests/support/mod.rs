@@ -77,13 +77,13 @@ pub fn framed(words: &[u32]) -> Vec<FslWord> {
 }
 
 /// The model configured as the RTL build `params` is: watertight fixed64-q23, the `rtl`
-/// timing profile, the reset frame (identity).
+/// timing profile of its pipeline sharing, the reset frame (identity).
 pub fn model(params: RtlParams) -> Coprocessor<'static> {
     let cfg = CoprocConfig {
         pe_count: params.pes,
         pe_mem_words: params.pe_mem_words,
         max_list: params.max_list,
-        timing: TimingProfile::RTL,
+        timing: TimingProfile::rtl(params.pes_per_pipeline.into()),
         kernel: KernelKind::Watertight,
     };
     let backing: &'static mut [u32] = vec![0u32; cfg.required_backing_words()].leak();
