@@ -458,4 +458,30 @@ mod tests {
         assert_eq!(tl.started_before(c, 3, a.done), 0);
         assert_eq!(tl.started_before(a, 2, a.done), 2);
     }
+
+    /// Every RTL sharing issues on multiples of its interval (the voxel setup is one, at least
+    /// 2 cycles), so the PEs of a pipeline never issue in the same cycle once their lanes are
+    /// staggered; the default build is the one named "rtl", and each sharing has its own name.
+    #[test]
+    fn rtl_profiles_issue_on_multiples_of_their_sharing() {
+        let mut names = Vec::new();
+        for share in 1..=4u32 {
+            let p = TimingProfile::rtl(share);
+            assert_eq!(p.test_issue_cycles, share);
+            assert!(p.voxel_setup_cycles >= 2 && p.voxel_setup_cycles % share == 0, "{p:?}");
+            let mut clocks = [0u64; 1];
+            let mut tl = PeTimeline::new(&p, &mut clocks);
+            for tests in [3, 0, 1, 5] {
+                let at = tl.schedule(0, tests);
+                assert_eq!(at.first_issue % share as u64, 0, "{p:?}");
+            }
+            names.push(p.name);
+        }
+        assert_eq!(TimingProfile::rtl(RTL_PES_PER_PIPELINE), TimingProfile::RTL);
+        assert_eq!(TimingProfile::RTL.name, "rtl");
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), 4);
+        assert_eq!(TimingProfile::rtl(0), TimingProfile::rtl(1));
+    }
 }

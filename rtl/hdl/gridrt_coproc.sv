@@ -6,7 +6,7 @@
 // the README). `idle` is high when the co-processor waits for input with nothing to send.
 //
 // Parameters: PES processing elements (1..16); PES_PER_PIPELINE of them share one
-// intersection pipeline (1..4), each issuing a test every PES_PER_PIPELINE cycles; PE_MEM_WORDS
+// intersection pipeline (1, 2 or 4), each issuing a test every PES_PER_PIPELINE cycles; PE_MEM_WORDS
 // words per PE (16 banks of PE_MEM_WORDS/16); MAX_LIST longest traversal list. Bit-exact
 // twin: gridrt-coproc with kernel watertight, format fixed64-q23 (see rtl/README.md §3 for
 // the arithmetic), timing profile `TimingProfile::rtl(PES_PER_PIPELINE)`.
@@ -29,6 +29,9 @@ module gridrt_coproc #(
     output logic        idle
 );
     localparam int AW = $clog2(PE_MEM_WORDS);
+    if (PES_PER_PIPELINE != 1 && PES_PER_PIPELINE != 2 && PES_PER_PIPELINE != 4) begin : g_bad_sharing
+        $error("gridrt_coproc: PES_PER_PIPELINE must be 1, 2 or 4");
+    end
     localparam int KW = $clog2(MAX_LIST);
 
     logic [PES-1:0][AW-1:0]  a_addr, ref_off;

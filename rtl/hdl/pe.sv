@@ -67,13 +67,30 @@ module pe #(
     localparam int KW = $clog2(MAX_LIST);
 
     // ---------------------------------------------------------------- memory and ports
-    logic        active;   // executing a ray: the issue loop owns port A
+    // The controller writes and reads the memory while the PE is idle; while it executes a
+    // ray the PE reads its ref words and record windows. Sharing a pipeline (ISSUE_INTERVAL 2
+    // or 4), the PE reads a ref word in cycle c+1 of an issue in cycle c and the record in
+    // c+4, so one read port serves both (issues fall on multiples of the interval); with a
+    // pipeline of its own the PE reads both in every cycle, the ref word on the memory's
+    // word port.
+    localparam bit WORD_PORT = ISSUE_INTERVAL == 1;
+    logic          active;     // executing a ray: the issue loop reads the memory
     logic [AW-1:0] x_a_addr, x_b_addr;
-    logic [319:0]  b_rdata;    // record window: 9 coordinates, prim
-    pe_mem #(.WORDS(WORDS), .RD_WORDS(10)) u_mem (
+    logic          iss_valid;  // an issue in the last cycle: its ref word is read now
+    logic [31:0]   w_rdata, r_word, ref_word;
+    logic [319:0]  r_window;   // record window: 9 coordinates, prim
+    logic [AW-1:0] r_addr;
+    always_comb begin
+        if (!active) r_addr = c_a_addr;
+        else if (!WORD_PORT && iss_valid) r_addr = x_a_addr;
+        else r_addr = x_b_addr;
+    end
+    pe_mem #(.WORDS(WORDS), .RD_WORDS(10), .WORD_PORT(WORD_PORT)) u_mem (
         .clk,
-        .a_addr(active ? x_a_addr : c_a_addr), .a_we(!active && c_a_we), .a_wdata(c_a_wdata), .a_rdata,
-        .b_addr(x_b_addr), .b_rdata);
+        .w_addr(WORD_PORT && active ? x_a_addr : c_a_addr), .w_en(!active && c_a_we), .w_data(c_a_wdata),
+        .w_rdata, .r_addr, .r_window, .r_word);
+    assign a_rdata = WORD_PORT ? w_rdata : r_word;
+    assign ref_word = WORD_PORT ? w_rdata : r_word;
 
     // ---------------------------------------------------------------- entry queue
     logic [KW+2*AW-1:0] q_mem [MAX_LIST];
@@ -99,7 +116,7 @@ module pe #(
     logic [AW-1:0] cur_first, cur_count, cur_i;
     logic          epoch;
     logic          iss_more;   // the current entry has tests left to issue
-    logic          iss_valid, iss_last;
+    logic          iss_last;
     logic [KW-1:0] iss_k;
     always_ff @(posedge clk) begin
         logic more;
@@ -176,12 +193,13 @@ module pe #(
     end
 
     // A test issued in cycle c presents its ref address (x_a_addr) and its tag in cycle c+1;
-    // the ref word arrives in c+3, the record window in c+6 (pe_mem latency 2 per port).
+    // the ref word arrives in c+3, the record address is read in c+4 and the record window
+    // arrives in c+6 (pe_mem: latency 2).
     logic [KW+1:0] tag_p2;
     logic          v_p2;
     delay #(.W(KW+3), .N(2)) u_dp2 (.clk, .d({iss_valid, epoch, iss_last, iss_k}), .q({v_p2, tag_p2}));
     logic [AW-1:0] ref_tri;
-    assign ref_tri = a_rdata[AW-1:0];
+    assign ref_tri = ref_word[AW-1:0];
     // Record t at WORDS - 10 (t + 1) (the controller stacks them from the top down).
     always_ff @(posedge clk) x_b_addr <= AW'(WORDS - 10) - (AW'(ref_tri) << 3) - (AW'(ref_tri) << 1);
 
@@ -192,8 +210,8 @@ module pe #(
     delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk, .d({v_p2, tag_p2, ref_tri}), .q({v_p5, tag_p5, tri_p5}));
 
     assign t_valid = v_p5;
-    assign t_tag = {tag_p5, tri_p5, b_rdata[32*9 +: 32]};
-    assign t_rec = b_rdata[287:0];
+    assign t_tag = {tag_p5, tri_p5, r_window[32*9 +: 32]};
+    assign t_rec = r_window[287:0];
 
     // ---------------------------------------------------------------- result stage
     // R0: register, read the entry's hi bound.

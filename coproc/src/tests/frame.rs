@@ -147,21 +147,24 @@ fn rtl_kernel_records_take_ten_words_per_triangle() {
     }
 }
 
-/// The `rtl` profile (rtl/README.md §4.5): one entry of n tests costs the request and result
-/// words, 25 ray setup, 2 voxel setup, n issues 2 cycles apart (two PEs share a pipeline),
-/// the 65-cycle latency and 8 arbitration.
+/// The `rtl` profiles (rtl/README.md §4.5): one entry of n tests costs the request and result
+/// words, 25 ray setup, max(2, s) voxel setup, n issues s cycles apart (s PEs share a
+/// pipeline), the 66-cycle latency and 8 arbitration.
 #[test]
 fn rtl_profile_costs_setup_issue_latency_and_arbitration() {
-    let p = TimingProfile::RTL;
-    assert_eq!(p.ray_io_cycles(1), 10 + 25 + 8 + 8);
-    for n in [1usize, 3, 100] {
-        let tris: Vec<_> = (0..n).map(|i| miss_tri(i as f32, i as u32)).collect();
-        let img = image(&[(0, (0..n as u32).collect())], &tris);
-        let mut backing = Vec::new();
-        let cfg = CoprocConfig { timing: p, ..config(1, 16_384) };
-        let mut cp = loaded(cfg, &mut backing, &[img]);
-        let r = cp.trace(RayKind::Closest, &probe_ray(), f32::INFINITY, &[entry(0, 0, 50.0)]).unwrap();
-        assert_eq!((r.tests as usize, r.cycles as u64), (n, 51 + 2 + 2 * n as u64 + 65), "n = {n}");
+    for s in 1..=4u64 {
+        let p = TimingProfile::rtl(s as u32);
+        assert_eq!(p.ray_io_cycles(1), 10 + 25 + 8 + 8);
+        for n in [1usize, 3, 100] {
+            let tris: Vec<_> = (0..n).map(|i| miss_tri(i as f32, i as u32)).collect();
+            let img = image(&[(0, (0..n as u32).collect())], &tris);
+            let mut backing = Vec::new();
+            let cfg = CoprocConfig { timing: p, ..config(1, 16_384) };
+            let mut cp = loaded(cfg, &mut backing, &[img]);
+            let r = cp.trace(RayKind::Closest, &probe_ray(), f32::INFINITY, &[entry(0, 0, 50.0)]).unwrap();
+            let cycles = 51 + s.max(2) + s * n as u64 + 66;
+            assert_eq!((r.tests as usize, r.cycles as u64), (n, cycles), "s = {s}, n = {n}");
+        }
     }
 }
 

@@ -302,8 +302,8 @@ fn the_rtl_row_runs_the_rtls_kernel_and_charges_its_profile_at_its_own_clock() {
     let row = device_row(Configuration::Rtl, Target::Riscv32imafc, &sim, Some((TimingProfile::RTL, &sim)), &cmp, &opt);
     assert_eq!(row.kernel.as_deref(), Some("watertight/fixed64q23"));
     assert_eq!(row.coproc_profile.as_deref(), Some("rtl"));
-    // A test every other cycle per PE: two PEs share one pipeline.
-    assert_eq!(row.coproc_test_cycles, Some(2));
+    // A test every fourth cycle per PE: four PEs share one pipeline.
+    assert_eq!(row.coproc_test_cycles, Some(gridrt_coproc::RTL_PES_PER_PIPELINE));
     assert_eq!(row.coproc_clock_mhz, Some(50.0));
     assert!(row.coproc_clock_source.as_deref().unwrap().contains("not a routed fmax"));
     assert!(row.coproc_cycles > 0);
