@@ -215,7 +215,7 @@ impl TimingProfile {
             },
             clock_hz: 50_000_000,
             test_issue_cycles: share,
-            test_latency_cycles: 66,
+            test_latency_cycles: 66 + if share > 3 { 3 } else { share },
             voxel_setup_cycles: if share > 2 { share } else { 2 },
             word_in_cycles: 1,
             word_out_cycles: 1,

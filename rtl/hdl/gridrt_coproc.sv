@@ -52,18 +52,21 @@ module gridrt_coproc #(
     logic [PES-1:0][AW-1:0]  res_tri;
     // Tests and results between the PEs and their shared pipelines; indices PES and above are
     // the unused lanes of the last pipeline when PES is not a multiple of PES_PER_PIPELINE.
-    localparam int TAG_W = KW + 2 + AW + 32;    // pe's test tag
+    // A record crosses to its pipeline in CHUNKS parts, one per cycle of the PE's issue
+    // interval (at most 3: 96 bits).
     localparam int PIPES = (PES + PES_PER_PIPELINE - 1) / PES_PER_PIPELINE;
     localparam int LANES = PIPES * PES_PER_PIPELINE;
+    localparam int CHUNKS = (PES_PER_PIPELINE > 3) ? 3 : PES_PER_PIPELINE;
+    localparam int CHUNK_W = 288 / CHUNKS;
+    localparam int PIPE_LATENCY = 57;   // isect_pipe's stages (checked there)
+    localparam int RESULT_LATENCY = CHUNKS - 1 + PIPE_LATENCY + PES_PER_PIPELINE;   // isect_share's
     logic [LANES-1:0]              t_valid, r_valid;
-    logic [LANES-1:0][TAG_W-1:0]   t_tag, r_tag;
-    logic [LANES-1:0][287:0]       t_rec;
+    logic [LANES-1:0][CHUNK_W-1:0] t_chunk;
     logic [LANES-1:0][1:0]         r_kind;
     logic [LANES-1:0][31:0]        r_t;
     for (genvar p = PES; p < LANES; p++) begin : g_no_pe
         assign t_valid[p] = 1'b0;
-        assign t_tag[p] = '0;
-        assign t_rec[p] = '0;
+        assign t_chunk[p] = '0;
     end
 
     ctrl #(.PES(PES), .WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST)) u_ctrl (
@@ -82,15 +85,16 @@ module gridrt_coproc #(
         .pe_ev1_hit(ev1_hit), .pe_res_k(res_k), .pe_res_t(res_t), .pe_res_tri(res_tri));
 
     for (genvar p = 0; p < PES; p++) begin : g_pe
-        pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST), .ISSUE_INTERVAL(PES_PER_PIPELINE)) u_pe (
+        pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST), .ISSUE_INTERVAL(PES_PER_PIPELINE), .CHUNKS(CHUNKS),
+             .RESULT_LATENCY(RESULT_LATENCY)) u_pe (
             .clk, .rst,
             .c_a_addr(a_addr[p]), .c_a_we(a_we[p]), .c_a_wdata(a_wdata), .a_rdata(a_rdata[p]),
             .ref_off(ref_off[p]),
             .ray_begin, .q_push(q_push[p]), .q_k, .q_first, .q_count, .q_hi,
             .start, .stop, .any, .t_max,
             .issued(issued[p]),
-            .t_valid(t_valid[p]), .t_tag(t_tag[p]), .t_rec(t_rec[p]),
-            .r_valid(r_valid[p]), .r_tag(r_tag[p]), .r_kind(r_kind[p]), .r_t(r_t[p]),
+            .t_valid(t_valid[p]), .t_chunk(t_chunk[p]),
+            .r_valid(r_valid[p]), .r_kind(r_kind[p]), .r_t(r_t[p]),
             .ev0_valid(ev0_valid[p]), .ev0_k(ev0_k[p]), .ev1_valid(ev1_valid[p]), .ev1_k(ev1_k[p]),
             .ev1_hit(ev1_hit[p]),
             .res_k, .res_t(res_t[p]), .res_tri(res_tri[p]));
@@ -99,13 +103,12 @@ module gridrt_coproc #(
     // PEs q·PES_PER_PIPELINE .. (q+1)·PES_PER_PIPELINE - 1 share pipeline q (rtl/README.md §4.3).
     for (genvar q = 0; q < PIPES; q++) begin : g_pipe
         localparam int L0 = q * PES_PER_PIPELINE;
-        isect_share #(.TAG_W(TAG_W), .LANES(PES_PER_PIPELINE)) u_share (
+        isect_share #(.LANES(PES_PER_PIPELINE), .CHUNKS(CHUNKS), .PIPE_LATENCY(PIPE_LATENCY)) u_share (
             .clk,
-            .in_valid(t_valid[L0 +: PES_PER_PIPELINE]), .in_tag(t_tag[L0 +: PES_PER_PIPELINE]),
-            .in_rec(t_rec[L0 +: PES_PER_PIPELINE]),
+            .in_valid(t_valid[L0 +: PES_PER_PIPELINE]), .in_chunk(t_chunk[L0 +: PES_PER_PIPELINE]),
             .o0($signed(o[0])), .o1($signed(o[1])), .o2($signed(o[2])), .kz, .sx, .sy, .dz_neg, .dz_abs,
             .texp, .ray_overflow,
-            .out_valid(r_valid[L0 +: PES_PER_PIPELINE]), .out_tag(r_tag[L0 +: PES_PER_PIPELINE]),
-            .out_kind(r_kind[L0 +: PES_PER_PIPELINE]), .out_t(r_t[L0 +: PES_PER_PIPELINE]));
+            .out_valid(r_valid[L0 +: PES_PER_PIPELINE]), .out_kind(r_kind[L0 +: PES_PER_PIPELINE]),
+            .out_t(r_t[L0 +: PES_PER_PIPELINE]));
     end
 endmodule

@@ -9,7 +9,9 @@
 // coordinate did not fit) and the ray constants of the ray setup, which stay fixed while a
 // ray's tests run. `kind`: 0 miss, 1 hit (`t` valid), 2 overflow. `tag` rides along.
 module isect_pipe #(
-    parameter int TAG_W = 1
+    parameter int TAG_W = 1,
+    // The latency its users plan with (in_valid to out_valid); must equal STAGES below.
+    parameter int LATENCY = 57
 ) (
     input  logic                clk,
     input  logic                in_valid,
@@ -38,7 +40,10 @@ module isect_pipe #(
     localparam int DIV_STEPS = 27;
     // K1 K2 | shear | K7 K8 | edges | K13 K14 K15 K16 K17 K18 | depth | K23 K24 K25 K26 K27 |
     // division | K55 K56 K57 (out)
-    localparam int LATENCY = 2 + LAT_SHEAR + 2 + LAT_EDGE + 6 + LAT_DEPTH + 5 + DIV_STEPS + 3;
+    localparam int STAGES = 2 + LAT_SHEAR + 2 + LAT_EDGE + 6 + LAT_DEPTH + 5 + DIV_STEPS + 3;
+    if (LATENCY != STAGES) begin : g_bad_latency
+        $error("isect_pipe: LATENCY must be the pipeline's %0d stages", STAGES);
+    end
 
     // ================================================================ K1: v - o, poison
     logic signed [34:0] k1_a [9];   // world order: vertex i axis a at 3i+a
@@ -438,7 +443,7 @@ module isect_pipe #(
     end
 
     logic [TAG_W-1:0] tag_q;
-    delay_ram #(.W(TAG_W), .N(LATENCY)) u_tag (.clk, .d(in_tag), .q(tag_q));
+    delay #(.W(TAG_W), .N(STAGES)) u_tag (.clk, .d(in_tag), .q(tag_q));
     always_ff @(posedge clk) begin
         out_valid <= k56_valid;
         t <= t_bits;

@@ -1,22 +1,27 @@
 // isect_share: one intersection pipeline (isect_pipe, one test per cycle) shared by LANES
-// PEs, 1 to 4 (rtl/README.md §4.3).
+// PEs, 1, 2 or 4 (rtl/README.md §4.3).
 //
-// Every PE issues in the exec cycles that are multiples of LANES (pe.sv's timeline), so lane
-// l's tests are delayed l cycles here and the lanes take turns: at most one test enters per
-// cycle. The lanes' tests are merged by OR (a lane's delayed test is zero when it has none)
-// into one register beside the pipeline, so the records from the PE memories reach it in a
-// cycle of their own. Lane l's results are held LANES - 1 - l cycles on the way out, so every
-// lane sees the same latency, LATENCY + LANES from its in_valid to its out_valid. A lane whose
-// in_valid is tied low (a PE count that is not a multiple of LANES) costs nothing.
+// A lane's PE sends a test's record in CHUNKS parts, one per cycle, the first with in_valid;
+// the parts before the last wait in a register here, so the long wires from each PE memory
+// carry 288 / CHUNKS bits. Every PE issues in the exec cycles that are multiples of LANES
+// (pe.sv's timeline), so lane l's assembled tests are delayed l cycles and the lanes take
+// turns: at most one test enters per cycle. The lanes' tests are merged by OR (a lane's
+// delayed record is zero when it has none) into one register beside the pipeline. Lane l's
+// results are held LANES - 1 - l cycles on the way out, so every lane sees the same
+// latency, LATENCY: CHUNKS - 1 + PIPE_LATENCY + LANES from its in_valid to its out_valid,
+// in the order of its tests (the PE keeps each test's tag). A lane whose in_valid is tied
+// low (a PE count that is not a multiple of LANES) costs nothing.
 module isect_share #(
-    parameter int TAG_W = 1,
-    parameter int LANES = 2
+    parameter int LANES = 2,
+    parameter int CHUNKS = 1,
+    parameter int PIPE_LATENCY = 57,     // isect_pipe's, checked there
+    localparam int CHUNK_W = 288 / CHUNKS,
+    localparam int LATENCY = CHUNKS - 1 + PIPE_LATENCY + LANES
 ) (
     input  logic                            clk,
-    // Tests of the lanes' PEs.
+    // Tests of the lanes' PEs: a record's chunks in consecutive cycles, low bits first.
     input  logic [LANES-1:0]                in_valid,
-    input  logic [LANES-1:0][TAG_W-1:0]     in_tag,
-    input  logic [LANES-1:0][287:0]         in_rec,
+    input  logic [LANES-1:0][CHUNK_W-1:0]   in_chunk,
     // Ray constants (isect_pipe).
     input  logic signed [33:0]              o0, o1, o2,
     input  logic [1:0]                      kz,
@@ -27,25 +32,44 @@ module isect_share #(
     input  logic                            ray_overflow,
     // Results to the lanes' PEs.
     output logic [LANES-1:0]                out_valid,
-    output logic [LANES-1:0][TAG_W-1:0]     out_tag,
     output logic [LANES-1:0][1:0]           out_kind,
     output logic [LANES-1:0][31:0]          out_t
 );
-    localparam int LW = (LANES > 1) ? $clog2(LANES) : 1;   // the lane number in the tag
-    if (LANES < 1 || LANES > 4) begin : g_bad
-        $error("isect_share: LANES must be 1..4");
+    localparam int LW = (LANES > 1) ? $clog2(LANES) : 1;   // the lane number, the pipeline's tag
+    if (LANES != 1 && LANES != 2 && LANES != 4) begin : g_bad_lanes
+        $error("isect_share: LANES must be 1, 2 or 4");
+    end
+    if (CHUNKS < 1 || CHUNKS > LANES || 288 % CHUNKS != 0) begin : g_bad_chunks
+        $error("isect_share: CHUNKS must divide 288 and be at most LANES");
     end
 
     // ---------------------------------------------------------------- lanes in turn
-    // Lane l's test, l cycles later, zeroed when there is none (so the merge is an OR).
-    logic [LANES-1:0]               d_valid;
-    logic [LANES-1:0][TAG_W-1:0]    d_tag;
-    logic [LANES-1:0][287:0]        d_rec;
+    // Lane l's test, assembled in the cycle of its last chunk, then l cycles later, zeroed
+    // when there is none (so the merge is an OR).
+    logic [LANES-1:0]           d_valid;
+    logic [LANES-1:0][287:0]    d_rec;
     for (genvar l = 0; l < LANES; l++) begin : g_in
-        logic [TAG_W+287:0] gated;
-        assign gated = in_valid[l] ? {in_tag[l], in_rec[l]} : '0;
-        delay #(.W(1 + TAG_W + 288), .N(l)) u_lane (.clk, .d({in_valid[l], gated}),
-                                                     .q({d_valid[l], d_tag[l], d_rec[l]}));
+        logic         whole_valid;
+        logic [287:0] whole;
+        if (CHUNKS == 1) begin : g_one
+            assign whole_valid = in_valid[l];
+            assign whole = in_chunk[l];
+        end else begin : g_parts
+            logic [288-CHUNK_W-1:0] early;     // the chunks before the last
+            logic [CHUNKS-2:0]      v;         // in_valid, 1 .. CHUNKS - 1 cycles ago
+            always_ff @(posedge clk) begin
+                logic [287:0]  shifted;
+                logic [CHUNKS-1:0] vs;
+                shifted = {in_chunk[l], early} >> CHUNK_W;
+                vs = {v, in_valid[l]};
+                early <= shifted[288-CHUNK_W-1:0];
+                v <= vs[CHUNKS-2:0];
+            end
+            assign whole_valid = v[CHUNKS-2];
+            assign whole = {in_chunk[l], early};
+        end
+        delay #(.W(1 + 288), .N(l)) u_lane (.clk, .d({whole_valid, whole_valid ? whole : 288'd0}),
+                                            .q({d_valid[l], d_rec[l]}));
     end
 `ifndef SYNTHESIS
     // The timeline keeps the lanes apart; a collision would merge two tests.
@@ -53,21 +77,21 @@ module isect_share #(
         if (!$onehot0(d_valid)) $fatal(1, "isect_share: two lanes' tests in the same cycle");
 `endif
 
-    // The merged test, registered beside the pipeline; the lane number above the PE's tag.
-    logic               m_valid;
-    logic [LW+TAG_W-1:0] m_tag;
-    logic [287:0]       m_rec;
+    // The merged test, registered beside the pipeline; its lane number rides along as the tag.
+    logic          m_valid;
+    logic [LW-1:0] m_lane;
+    logic [287:0]  m_rec;
     always_ff @(posedge clk) begin
-        logic [LW+TAG_W-1:0] tag;
-        logic [287:0]        rec;
-        tag = '0;
+        logic [LW-1:0] lane;
+        logic [287:0]  rec;
+        lane = '0;
         rec = '0;
         for (int l = 0; l < LANES; l++) begin
-            tag = tag | {(d_valid[l] ? LW'(l) : LW'(0)), d_tag[l]};
+            lane = lane | (d_valid[l] ? LW'(l) : LW'(0));
             rec = rec | d_rec[l];
         end
         m_valid <= |d_valid;
-        m_tag <= tag;
+        m_lane <= lane;
         m_rec <= rec;
     end
 
@@ -87,22 +111,21 @@ module isect_share #(
         {r_dz_neg, r_dz_abs, r_texp, r_ray_overflow} <= {dz_neg, dz_abs, texp, ray_overflow};
     end
 
-    logic               p_valid;
-    logic [LW+TAG_W-1:0] p_tag;
-    logic [1:0]         p_kind;
-    logic [31:0]        p_t;
-    isect_pipe #(.TAG_W(LW + TAG_W)) u_pipe (
-        .clk, .in_valid(m_valid), .in_tag(m_tag), .rec(m_rec),
+    logic          p_valid;
+    logic [LW-1:0] p_lane;
+    logic [1:0]    p_kind;
+    logic [31:0]   p_t;
+    isect_pipe #(.TAG_W(LW), .LATENCY(PIPE_LATENCY)) u_pipe (
+        .clk, .in_valid(m_valid), .in_tag(m_lane), .rec(m_rec),
         .o0(r_o0), .o1(r_o1), .o2(r_o2), .kz(r_kz), .sx(r_sx), .sy(r_sy), .dz_neg(r_dz_neg),
         .dz_abs(r_dz_abs), .texp(r_texp), .ray_overflow(r_ray_overflow),
-        .out_valid(p_valid), .out_tag(p_tag), .kind(p_kind), .t(p_t));
+        .out_valid(p_valid), .out_tag(p_lane), .kind(p_kind), .t(p_t));
 
     // ---------------------------------------------------------------- results, realigned
     for (genvar l = 0; l < LANES; l++) begin : g_out
         logic mine;
-        assign mine = p_valid && (LANES == 1 || p_tag[LW+TAG_W-1 -: LW] == LW'(l));
-        delay #(.W(1 + TAG_W + 2 + 32), .N(LANES - 1 - l)) u_lane (
-            .clk, .d({mine, p_tag[TAG_W-1:0], p_kind, p_t}),
-            .q({out_valid[l], out_tag[l], out_kind[l], out_t[l]}));
+        assign mine = p_valid && (LANES == 1 || p_lane == LW'(l));
+        delay #(.W(1 + 2 + 32), .N(LANES - 1 - l)) u_lane (
+            .clk, .d({mine, p_kind, p_t}), .q({out_valid[l], out_kind[l], out_t[l]}));
     end
 endmodule

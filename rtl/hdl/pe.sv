@@ -15,10 +15,14 @@
 module pe #(
     parameter int WORDS = 16384,
     parameter int MAX_LIST = 256,
-    // Cycles between two issues: the PEs sharing this PE's intersection pipeline (1..4).
+    // Cycles between two issues: the PEs sharing this PE's intersection pipeline (1, 2, 4).
     parameter int ISSUE_INTERVAL = 2,
-    // Test tag: epoch, last-of-entry, entry k, local triangle, prim id.
-    localparam int TAG_W = $clog2(MAX_LIST) + 2 + $clog2(WORDS) + 32
+    // A test's record goes to the pipeline in CHUNKS parts of 288 / CHUNKS bits, one per
+    // cycle (CHUNKS <= ISSUE_INTERVAL, a divisor of 288).
+    parameter int CHUNKS = 1,
+    // Cycles from a test's first chunk on t_* to its result on r_* (isect_share).
+    parameter int RESULT_LATENCY = 60,
+    localparam int CHUNK_W = 288 / CHUNKS
 ) (
     input  logic                         clk,
     input  logic                         rst,
@@ -43,13 +47,12 @@ module pe #(
     input  logic                         any,        // RAY_ANY
     input  logic [31:0]                  t_max,
     output logic [31:0]                  issued,
-    // Tests to the shared intersection pipeline (5 cycles after their issue), and their
-    // results (tag as sent).
+    // Tests to the shared intersection pipeline: the record's chunks in consecutive cycles
+    // from 7 cycles after the issue, t_valid with the first; their results, in issue order,
+    // RESULT_LATENCY cycles later (the test's entry, triangle and prim id wait here).
     output logic                         t_valid,
-    output logic [TAG_W-1:0]             t_tag,
-    output logic [287:0]                 t_rec,
+    output logic [CHUNK_W-1:0]           t_chunk,
     input  logic                         r_valid,
-    input  logic [TAG_W-1:0]             r_tag,
     input  logic [1:0]                   r_kind,
     input  logic [31:0]                  r_t,
     // Entry-done events (0: entries without tests, 1: from the result stage).
@@ -203,15 +206,42 @@ module pe #(
     // Record t at WORDS - 10 (t + 1) (the controller stacks them from the top down).
     always_ff @(posedge clk) x_b_addr <= AW'(WORDS - 10) - (AW'(ref_tri) << 3) - (AW'(ref_tri) << 1);
 
-    // Stage P3-P5: port B (record window) -> intersection pipeline.
+    // Stage P3-P5: the record window (c+6) -> its chunks to the pipeline (c+7 ..).
     logic [KW+1:0] tag_p5;
     logic [AW-1:0] tri_p5;
     logic          v_p5;
     delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk, .d({v_p2, tag_p2, ref_tri}), .q({v_p5, tag_p5, tri_p5}));
 
-    assign t_valid = v_p5;
-    assign t_tag = {tag_p5, tri_p5, r_window[32*9 +: 32]};
-    assign t_rec = r_window[287:0];
+    // The window holds for one cycle (the next read follows): the chunks after the first
+    // wait in rec_rest. The last chunk is sent before the next test's window arrives
+    // (CHUNKS <= ISSUE_INTERVAL).
+    logic [287:0] rec_rest;
+    logic [1:0]   chunks_left;
+    always_ff @(posedge clk) begin
+        t_valid <= v_p5;
+        if (v_p5) begin
+            t_chunk <= r_window[CHUNK_W-1:0];
+            rec_rest <= r_window[287:0] >> CHUNK_W;
+            chunks_left <= 2'(CHUNKS - 1);
+        end else if (chunks_left != 0) begin
+            t_chunk <= rec_rest[CHUNK_W-1:0];
+            rec_rest <= rec_rest >> CHUNK_W;
+            chunks_left <= chunks_left - 2'd1;
+        end
+        if (rst) chunks_left <= '0;
+    end
+
+    // The test's tag (epoch, last of entry, entry k, triangle, prim id) waits here for its
+    // result, which comes back exactly RESULT_LATENCY cycles after t_valid.
+    localparam int TAG_W = 2 + KW + AW + 32;
+    logic [TAG_W-1:0] r_tag;
+    logic             r_expected;
+    delay_ram #(.W(1 + TAG_W), .N(RESULT_LATENCY + 1)) u_tag (
+        .clk, .d({v_p5, tag_p5, tri_p5, r_window[32*9 +: 32]}), .q({r_expected, r_tag}));
+`ifndef SYNTHESIS
+    always_ff @(posedge clk)
+        if (!rst && r_valid != r_expected) $fatal(1, "pe: a result not RESULT_LATENCY cycles after its test");
+`endif
 
     // ---------------------------------------------------------------- result stage
     // R0: register, read the entry's hi bound.
