@@ -52,11 +52,8 @@ module ctrl #(
     output logic signed [9:0]           pe_texp,
     output logic                        pe_ray_overflow,
     input  logic [PES-1:0][31:0]        pe_issued,
-    input  logic [PES-1:0]              pe_ev0_valid,
-    input  logic [PES-1:0][$clog2(MAX_LIST)-1:0] pe_ev0_k,
-    input  logic [PES-1:0]              pe_ev1_valid,
-    input  logic [PES-1:0][$clog2(MAX_LIST)-1:0] pe_ev1_k,
-    input  logic [PES-1:0]              pe_ev1_hit,
+    input  logic [PES-1:0][$clog2(MAX_LIST):0] pe_open_k,  // each PE's first open entry
+    input  logic [PES-1:0][$clog2(MAX_LIST):0] pe_hit_k,   // and first hit (MAX_LIST: none)
     output logic [$clog2(MAX_LIST)-1:0] pe_res_k,
     input  logic [PES-1:0][31:0]        pe_res_t,
     input  logic [PES-1:0][$clog2(WORDS)-1:0] pe_res_tri
@@ -222,7 +219,6 @@ module ctrl #(
     assign pe_ray_overflow = rs_overflow;
 
     // ================================================================ arbiter
-    logic [MAX_LIST-1:0] done_q, hit_q, mask_n;
     logic [31:0]         ray_cnt;
     logic [2:0]          ex_step;      // exec sub-steps before arbitration
     logic [34:0]         issued_sum, issued_prev, issued_prev2;
@@ -236,43 +232,20 @@ module ctrl #(
     logic [31:0]         win_t;
     logic [PW-1:0]       ent_pe_of [MAX_LIST];
 
-    // Entry-done events. Each entry belongs to one PE and gets exactly one event per ray (ev0
-    // for an entry without tests, else one ev1), and both maps are cleared when the PEs start:
-    // so both only ever get bits set, hit implies done, and the PEs' events combine by OR
-    // (one decoder per PE and event, no priority between PEs).
-    logic [MAX_LIST-1:0] done_set, hit_set;
+    // The first open entry and the first hit over all PEs: each PE reports its own, with
+    // the events of a cycle, registered (pe.sv); their minimum is registered here, so the
+    // decision in a cycle sees the events of two cycles before. The entry bits only get set
+    // during a ray, so deciding on that state picks the same winner later; the test count
+    // is taken one cycle further back to match (`issued_prev2`).
+    logic [KW:0] first_hit_now, first_open_now, first_hit, first_open;
     always_comb begin
-        done_set = '0;
-        hit_set = '0;
-        for (int k = 0; k < MAX_LIST; k++) begin
-            for (int p = 0; p < PES; p++) begin
-                if (pe_ev0_valid[p] && pe_ev0_k[p] == KW'(k)) done_set[k] = 1'b1;
-                if (pe_ev1_valid[p] && pe_ev1_k[p] == KW'(k)) begin
-                    done_set[k] = 1'b1;
-                    if (pe_ev1_hit[p]) hit_set[k] = 1'b1;
-                end
-            end
+        first_hit_now = (KW+1)'(MAX_LIST);
+        first_open_now = (KW+1)'(MAX_LIST);
+        for (int p = 0; p < PES; p++) begin
+            if (pe_hit_k[p] < first_hit_now) first_hit_now = pe_hit_k[p];
+            if (pe_open_k[p] < first_open_now) first_open_now = pe_open_k[p];
         end
     end
-
-    // The priority encoders' answers are registered: the decision one cycle later compares
-    // them (encoders, compare and the winner's enables in one cycle were the 1-PE design's
-    // critical path, 21 ns). done/hit bits only ever get set during a ray, so deciding on
-    // last cycle's state picks the same winner one cycle later; the test count is taken one
-    // cycle further back to match (`issued_prev2`).
-    // The encoders' first level registers the maps' next values (first_set), so each map is
-    // encoded in two register stages without a cycle more. The maps are cleared when the PEs
-    // start; mask_n is constant from the request's first word to its result.
-    logic                maps_clear;
-    logic [MAX_LIST-1:0] done_next, hit_next;
-    always_comb begin
-        maps_clear = !rst && busy == BZ_SETUP && rs_done;   // no request word is accepted while busy
-        done_next = maps_clear ? '0 : done_q | done_set;
-        hit_next = maps_clear ? '0 : hit_q | hit_set;
-    end
-    logic [KW:0] first_hit_now, first_open_now, first_hit, first_open;
-    first_set #(.N(MAX_LIST)) u_first_hit (.clk, .bits_next(hit_next), .index(first_hit_now));
-    first_set #(.N(MAX_LIST)) u_first_open (.clk, .bits_next(~done_next & mask_n), .index(first_open_now));
     always_comb begin
         issued_sum = '0;
         for (int p = 0; p < PES; p++) issued_sum = issued_sum + 35'(pe_issued[p]);
@@ -297,12 +270,9 @@ module ctrl #(
         issued_prev2 <= issued_prev;
         first_hit <= first_hit_now;
         first_open <= first_open_now;
-        done_q <= done_next;
-        hit_q <= hit_next;
         // Registered every cycle, from values that are stable long before they are used
         // (they were the 2-PE design's critical path as enables of begin_exec's registers).
         ent_last <= 17'(ent_k) + 17'd1 == 17'(ray_count);
-        mask_n <= ~({MAX_LIST{1'b1}} << ray_count[KW:0]);   // entries 0..n-1, as a shift
         pe_any <= ray_any;
         pe_t_max <= ray_tmax;
         if (rst) begin
@@ -445,7 +415,7 @@ module ctrl #(
                 BZ_FRAME: frame_step();
                 BZ_SETUP: begin
                     if (rs_done) begin
-                        pe_start <= 1'b1;   // and maps_clear
+                        pe_start <= 1'b1;
                         ex_step <= 3'd0;
                         busy <= BZ_EXEC;
                     end
@@ -453,7 +423,8 @@ module ctrl #(
                 BZ_EXEC: begin
                     // pe_start is seen by the PEs in the cycle after it is set (exec cycle
                     // -1); exec cycle 0 is their first setup; arbitration looks at the state
-                    // from cycle 1 on, through the registered encoders (one cycle late).
+                    // from cycle 1 on, through the PEs' registered first open and hit
+                    // entries and their registered minimum (two cycles late).
                     if (ex_step < 3'd3) begin
                         ex_step <= ex_step + 3'd1;
                     end else if ((first_hit < first_open) || (first_open == (KW+1)'(MAX_LIST))) begin

@@ -39,7 +39,7 @@ module gridrt_coproc #(
     logic [31:0]             a_wdata;
     logic [PES-1:0][31:0]    a_rdata, issued, res_t;
     logic                    ray_begin, start, stop, any, dz_neg, ray_overflow;
-    logic [PES-1:0]          q_push, ev0_valid, ev1_valid, ev1_hit;
+    logic [PES-1:0]          q_push;
     logic [KW-1:0]           q_k, res_k;
     logic [AW-1:0]           q_first, q_count;
     logic [31:0]             q_hi, t_max;
@@ -48,7 +48,7 @@ module gridrt_coproc #(
     logic signed [24:0]      sx, sy;
     logic [23:0]             dz_abs;
     logic signed [9:0]       texp;
-    logic [PES-1:0][KW-1:0]  ev0_k, ev1_k;
+    logic [PES-1:0][KW:0]    open_k, hit_k;
     logic [PES-1:0][AW-1:0]  res_tri;
     // Tests and results between the PEs and their shared pipelines; indices PES and above are
     // the unused lanes of the last pipeline when PES is not a multiple of PES_PER_PIPELINE.
@@ -81,8 +81,7 @@ module gridrt_coproc #(
         .pe_start(start), .pe_stop(stop), .pe_any(any), .pe_t_max(t_max), .pe_o(o), .pe_kz(kz),
         .pe_sx(sx), .pe_sy(sy), .pe_dz_neg(dz_neg), .pe_dz_abs(dz_abs), .pe_texp(texp),
         .pe_ray_overflow(ray_overflow), .pe_issued(issued),
-        .pe_ev0_valid(ev0_valid), .pe_ev0_k(ev0_k), .pe_ev1_valid(ev1_valid), .pe_ev1_k(ev1_k),
-        .pe_ev1_hit(ev1_hit), .pe_res_k(res_k), .pe_res_t(res_t), .pe_res_tri(res_tri));
+        .pe_open_k(open_k), .pe_hit_k(hit_k), .pe_res_k(res_k), .pe_res_t(res_t), .pe_res_tri(res_tri));
 
     for (genvar p = 0; p < PES; p++) begin : g_pe
         pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST), .ISSUE_INTERVAL(PES_PER_PIPELINE), .CHUNKS(CHUNKS),
@@ -95,8 +94,7 @@ module gridrt_coproc #(
             .issued(issued[p]),
             .t_valid(t_valid[p]), .t_chunk(t_chunk[p]),
             .r_valid(r_valid[p]), .r_kind(r_kind[p]), .r_t(r_t[p]),
-            .ev0_valid(ev0_valid[p]), .ev0_k(ev0_k[p]), .ev1_valid(ev1_valid[p]), .ev1_k(ev1_k[p]),
-            .ev1_hit(ev1_hit[p]),
+            .open_k(open_k[p]), .hit_k(hit_k[p]),
             .res_k, .res_t(res_t[p]), .res_tri(res_tri[p]));
     end
 

@@ -55,12 +55,10 @@ module pe #(
     input  logic                         r_valid,
     input  logic [1:0]                   r_kind,
     input  logic [31:0]                  r_t,
-    // Entry-done events (0: entries without tests, 1: from the result stage).
-    output logic                         ev0_valid,
-    output logic [$clog2(MAX_LIST)-1:0]  ev0_k,
-    output logic                         ev1_valid,
-    output logic [$clog2(MAX_LIST)-1:0]  ev1_k,
-    output logic                         ev1_hit,
+    // For the arbiter: the first of this PE's list entries that is not done, and the first
+    // that hit (MAX_LIST: none), with this cycle's events, registered.
+    output logic [$clog2(MAX_LIST):0]    open_k,
+    output logic [$clog2(MAX_LIST):0]    hit_k,
     // Result of entry k (hit distance, local triangle), read after the ray.
     input  logic [$clog2(MAX_LIST)-1:0]  res_k,
     output logic [31:0]                  res_t,
@@ -123,7 +121,6 @@ module pe #(
     logic [KW-1:0] iss_k;
     always_ff @(posedge clk) begin
         logic more;
-        ev0_valid <= 1'b0;
         iss_valid <= 1'b0;
         phase <= phase + 2'd1;
         more = cur_i != cur_count - 1'b1;
@@ -163,9 +160,7 @@ module pe #(
                             cur_i <= '0;
                             q_raddr <= q_raddr + 1'b1;
                             if (q_rdata[AW-1:0] == 0) begin
-                                ev0_valid <= 1'b1;
-                                ev0_k <= q_rdata[KW+2*AW-1 -: KW];
-                                state <= S_SETUP;
+                                state <= S_SETUP;   // done (pend, below)
                             end else begin
                                 state <= S_ISSUE;
                             end
@@ -281,6 +276,8 @@ module pe #(
     logic [AW-1:0] best_tri;
     logic [31:0]   res_t_mem [MAX_LIST];
     logic [AW-1:0] res_tri_mem [MAX_LIST];
+    logic          ev1_valid, ev1_hit;   // an entry done (its k: ev1_k)
+    logic [KW-1:0] ev1_k;
     always_ff @(posedge clk) begin
         logic          take, emit, hit;
         logic [31:0]   t_out;
@@ -330,5 +327,61 @@ module pe #(
         end
         res_t <= res_t_mem[res_k];
         res_tri <= res_tri_mem[res_k];
+    end
+
+    // ---------------------------------------------------------------- open and hit entries
+    // The arbiter needs the first list entry that is not done and the first that hit; each
+    // PE reports its own, and the controller takes the minimum over the PEs. A PE's entries
+    // are in list order: the untaken ones follow the taken ones; an entry without tests is
+    // done when it is taken, the others in order (`pend`, the taken entries with tests not
+    // done yet), at their result stage's event, and so are their hits. So the PE's first
+    // open entry is the oldest in `pend`, else the untaken one at q_raddr, and its first hit
+    // is the first event with a hit. Both count this cycle's events (the entry of an event
+    // in ev1 is done now), like the map bits the arbiter used to keep per entry.
+    // More than the entries in flight: a test's latency (≈ 70 cycles) over the 3 cycles an
+    // entry with tests takes at least (voxel setup 2, one issue).
+    localparam int PEND = 32;
+    logic [KW-1:0]       qk_mem [MAX_LIST];     // entry k of queue index i
+    logic [KW-1:0]       head_k, next_k;        // k at q_raddr and q_raddr + 1, a cycle late
+    logic                took;                  // q_raddr moved on last cycle
+    logic [KW-1:0]       pend_mem [PEND];
+    logic [$clog2(PEND)-1:0] pend_rd, pend_wr;
+    logic [$clog2(PEND):0]   pend_n;
+    always_ff @(posedge clk) begin
+        if (q_push) qk_mem[q_n[KW-1:0]] <= q_k;
+        head_k <= qk_mem[q_raddr[KW-1:0]];
+        next_k <= qk_mem[KW'(q_raddr[KW-1:0] + 1'b1)];
+        took <= state == S_TAKE && q_raddr != q_n && !start && !stop;
+    end
+    always_ff @(posedge clk) begin
+        logic pop, push;
+        push = state == S_TAKE && q_raddr != q_n && q_rdata[AW-1:0] != 0 && !start && !stop;
+        pop = ev1_valid && pend_n != 0;
+        if (push) pend_mem[pend_wr] <= q_rdata[KW+2*AW-1 -: KW];
+        if (rst || start) begin
+            pend_rd <= '0;
+            pend_wr <= '0;
+            pend_n <= '0;
+        end else begin
+            pend_wr <= pend_wr + $clog2(PEND)'(push);
+            pend_rd <= pend_rd + $clog2(PEND)'(pop);
+            pend_n <= pend_n + ($clog2(PEND)+1)'(push) - ($clog2(PEND)+1)'(pop);
+        end
+    end
+`ifndef SYNTHESIS
+    always_ff @(posedge clk)
+        if (!rst && pend_n == ($clog2(PEND)+1)'(PEND)) $fatal(1, "pe: more entries in flight than pend holds");
+`endif
+    always_ff @(posedge clk) begin
+        logic [KW:0] open_now;
+        if (ev1_valid ? pend_n > 1 : pend_n != 0)
+            open_now = {1'b0, pend_mem[ev1_valid ? pend_rd + 1'b1 : pend_rd]};
+        else if (q_raddr != q_n)
+            open_now = {1'b0, took ? next_k : head_k};
+        else
+            open_now = (KW+1)'(MAX_LIST);
+        open_k <= open_now;
+        if (start) hit_k <= (KW+1)'(MAX_LIST);
+        else if (ev1_valid && ev1_hit && hit_k == (KW+1)'(MAX_LIST)) hit_k <= {1'b0, ev1_k};
     end
 endmodule
