@@ -86,9 +86,22 @@ module pe #(
         else if (!WORD_PORT && iss_valid) r_addr = x_a_addr;
         else r_addr = x_b_addr;
     end
+    // The controller's writes are registered here first, so its data bus fans out to four
+    // registers instead of every block RAM of every PE (nothing reads a word in the cycles
+    // after the controller writes it: writes are LOAD_PE's). The word port's address is not
+    // delayed: it reads.
+    logic [AW-1:0] w_addr_q;
+    logic          w_en_q;
+    logic [31:0]   w_data_q;
+    always_ff @(posedge clk) begin
+        w_addr_q <= c_a_addr;
+        w_en_q <= !active && c_a_we && !rst;
+        w_data_q <= c_a_wdata;
+    end
     pe_mem #(.WORDS(WORDS), .RD_WORDS(10), .WORD_PORT(WORD_PORT)) u_mem (
         .clk,
-        .w_addr(WORD_PORT && active ? x_a_addr : c_a_addr), .w_en(!active && c_a_we), .w_data(c_a_wdata),
+        .w_addr(WORD_PORT ? (active ? x_a_addr : c_a_addr) : w_addr_q),
+        .w_en(WORD_PORT ? !active && c_a_we : w_en_q), .w_data(WORD_PORT ? c_a_wdata : w_data_q),
         .w_rdata, .r_addr, .r_window, .r_word);
     assign a_rdata = WORD_PORT ? w_rdata : r_word;
     assign ref_word = WORD_PORT ? w_rdata : r_word;

@@ -47,11 +47,21 @@ pub struct SynthCmd {
     /// (to try another seed or clock target; the report's `yosys_s` is then null).
     #[arg(long)]
     reuse_netlist: bool,
-    /// nextpnr's router: router1 (nextpnr's default for the ECP5) or router2 (negotiated
-    /// congestion). On the 4-PE design neither had finished after an hour here (BENCHMARKS.md).
-    #[arg(long, default_value = "router1", value_parser = ["router1", "router2"])]
+    /// nextpnr's placer: static (electrostatic, the placements that route here) or heap
+    /// (nextpnr's default for the ECP5).
+    #[arg(long, default_value = "static", value_parser = ["static", "heap"])]
+    placer: String,
+    /// nextpnr's router: router2 (negotiated congestion, what routes the 4-PE design here) or
+    /// router1 (nextpnr's default for the ECP5).
+    #[arg(long, default_value = "router2", value_parser = ["router1", "router2"])]
     router: String,
 }
+
+/// The clock on the ULX3S's 25 MHz oscillator pin (G2, a primary clock input), so the clock
+/// reaches its global buffer on dedicated wires as on the board (an unplaced clock port can
+/// land on a pad from which router2 finds no way to the buffer). The other ports stay
+/// unconstrained: the co-processor's streams are internal to the SoC.
+const CLOCK_LPF: &str = "LOCATE COMP \"clk\" SITE \"G2\";\nIOBUF PORT \"clk\" IO_TYPE=LVCMOS33;\n";
 
 /// What the report holds.
 #[derive(Debug, Default)]
@@ -158,11 +168,17 @@ impl SynthCmd {
             );
             report =
                 Report { luts: y.luts, ffs: y.ffs, dsps: y.dsps, brams: y.brams, yosys_s: report.yosys_s, ..report };
-            return self.write(&report, &dir);
+            return self.write(&report, &dir, None);
         }
-        eprintln!("rtl synth: nextpnr-ecp5 --85k at {} MHz, {} …", self.freq, self.router);
+        eprintln!("rtl synth: nextpnr-ecp5 --85k at {} MHz, placer {}, {} …", self.freq, self.placer, self.router);
         let t1 = Instant::now();
-        let pnr_report = dir.join("nextpnr-report.json");
+        // One log and report per placer, router, seed and clock target: runs of one netlist
+        // with other settings (--reuse-netlist) keep each other's logs.
+        let run = format!("{}-{}-seed{}-{}mhz", self.placer, self.router, self.seed, self.freq);
+        let pnr_log = dir.join(format!("nextpnr-{run}.log"));
+        let pnr_report = dir.join(format!("nextpnr-{run}-report.json"));
+        let lpf = dir.join("clock.lpf");
+        std::fs::write(&lpf, CLOCK_LPF)?;
         let mut child = Command::new(&nextpnr)
             .args(["--85k", "--package", "CABGA381", "--json"])
             .arg(&netlist)
@@ -170,27 +186,32 @@ impl SynthCmd {
             .arg(format!("{}", self.freq))
             .arg("--seed")
             .arg(self.seed.to_string())
+            .arg("--placer")
+            .arg(&self.placer)
             .arg("--router")
             .arg(&self.router)
+            .arg("--lpf")
+            .arg(&lpf)
+            .arg("--lpf-allow-unconstrained")
             .arg("--report")
             .arg(&pnr_report)
             .arg("--timing-allow-fail")
             .arg("--log")
-            .arg(dir.join("nextpnr.log"))
+            .arg(&pnr_log)
             .arg("-q")
             .spawn()
             .with_context(|| format!("running {nextpnr}"))?;
-        let status = wait_with_progress(&mut child, &dir.join("nextpnr.log"), t1)?;
+        let status = wait_with_progress(&mut child, &pnr_log, t1)?;
         report.nextpnr_s = t1.elapsed().as_secs_f64();
         report.fits = status.success();
         if !status.success() {
             // A design that does not fit ends with nextpnr's ERROR line (placement or routing);
             // anything else (killed, crashed) is no verdict on the design.
-            let log = std::fs::read_to_string(dir.join("nextpnr.log")).unwrap_or_default();
+            let log = std::fs::read_to_string(&pnr_log).unwrap_or_default();
             match log.lines().find(|l| l.starts_with("ERROR:")) {
                 Some(line) => eprintln!("rtl synth: nextpnr: {line}"),
                 None => {
-                    bail!("nextpnr stopped ({status}) without a verdict; log: {}", dir.join("nextpnr.log").display())
+                    bail!("nextpnr stopped ({status}) without a verdict; log: {}", pnr_log.display())
                 }
             }
         }
@@ -213,15 +234,15 @@ impl SynthCmd {
             && report.ffs <= FFS_AVAILABLE
             && report.dsps <= DSPS_AVAILABLE
             && report.brams <= BRAMS_AVAILABLE;
-        self.write(&report, &dir)
+        self.write(&report, &dir, Some(&pnr_log))
     }
 
     /// Writes `report` as JSON to `--json` and to stdout.
-    fn write(&self, report: &Report, dir: &std::path::Path) -> Result<()> {
+    fn write(&self, report: &Report, dir: &std::path::Path, pnr_log: Option<&std::path::Path>) -> Result<()> {
         let json = format!(
             "{{\"device\": \"{DEVICE}\", \"pes\": {}, \"pe_mem_words\": {}, \"max_list\": {}, \"luts\": {}, \"ffs\": {}, \
              \"dsps\": {}, \"brams\": {}, \"fmax_mhz\": {:.2}, \"target_mhz\": {}, \"fits\": {}, \"yosys_s\": {}, \
-             \"nextpnr_s\": {:.0}, \"router\": \"{}\"}}\n",
+             \"nextpnr_s\": {:.0}, \"placer\": \"{}\", \"router\": \"{}\", \"pes_per_pipeline\": {}, \"seed\": {}}}\n",
             self.params.pes,
             self.params.pe_mem_words,
             self.params.max_list,
@@ -234,7 +255,10 @@ impl SynthCmd {
             report.fits,
             report.yosys_s.map_or("null".to_string(), |s| format!("{s:.0}")),
             report.nextpnr_s,
-            self.router
+            self.placer,
+            self.router,
+            self.params.pes_per_pipeline,
+            self.seed
         );
         if let Some(parent) = self.json.parent().filter(|p| !p.as_os_str().is_empty()) {
             std::fs::create_dir_all(parent)?;
@@ -248,7 +272,7 @@ impl SynthCmd {
                 "rtl synth: fits the {DEVICE}; fmax {:.2} MHz is below the {} MHz target (critical path in {})",
                 report.fmax_mhz,
                 self.freq,
-                dir.join("nextpnr.log").display()
+                pnr_log.unwrap_or(dir).display()
             );
         }
         Ok(())
