@@ -189,17 +189,19 @@ impl TimingProfile {
     /// - `voxel_setup_cycles = max(2, pes_per_pipeline)`: the voxel lookup happens while the
     ///   list streams in; an entry's ref range is in the PE's queue, two cycles to take it,
     ///   rounded up so that every issue falls on a multiple of the issue interval.
-    /// - `test_latency_cycles = 66`: from the end of the last test's issue slot: ref word
-    ///   and record reads (2 + 3), the merge register beside the pipeline (1), the 57-stage
-    ///   test (shear 6, edges 5, determinant and weights 6, depth 6, normalisation 2, a
-    ///   27-step restoring divider, rounding 3), the lanes' realignment (the slot less one
-    ///   cycle), acceptance and the entry's winner (3), less one. Each stage holds at most
-    ///   one wide carry chain so the clock can close (rtl/README.md §5).
+    /// - `test_latency_cycles = 66 + min(pes_per_pipeline, 3)`: from the end of the last
+    ///   test's issue slot: ref word and record reads (2 + 4), the record's min(s, 3) chunks
+    ///   to the pipeline (one register, then one cycle per chunk after the first), the merge
+    ///   register beside the pipeline (1), the 57-stage test (shear 6, edges 5, determinant
+    ///   and weights 6, depth 6, normalisation 2, a 27-step restoring divider, rounding 3),
+    ///   the lanes' realignment (the slot less one cycle), acceptance and the entry's winner
+    ///   (3), less one. Each stage holds at most one wide carry chain so the clock can close
+    ///   (rtl/README.md §5).
     /// - `ray_setup_cycles = 25`: the dominant axis, six pipelined f32 → fixed conversions,
     ///   the two shear divisions (2 quotient bits per cycle), and the start of the PEs.
-    /// - `arbitration_cycles = 8`: the first-hit decision (the priority encoders registered,
-    ///   then compared), the winner's result and triangle (two memory reads), before the
-    ///   first RESULT word.
+    /// - `arbitration_cycles = 8`: the first-hit decision (each PE's first open and first
+    ///   hit entry registered, their minimum registered, then compared), the winner's result
+    ///   and triangle (two memory reads), before the first RESULT word.
     pub const fn rtl(pes_per_pipeline: u32) -> TimingProfile {
         let share = if pes_per_pipeline == 0 { 1 } else { pes_per_pipeline };
         TimingProfile {

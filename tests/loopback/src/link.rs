@@ -60,7 +60,12 @@ impl FslLink for SimLink<'_> {
 
 /// The RTL build parameters of a board configuration.
 pub(crate) fn rtl_params(config: &SimConfig) -> RtlParams {
-    RtlParams { pes: config.pe_count, pe_mem_words: config.pe_mem_words, max_list: config.max_list, ..RtlParams::default() }
+    RtlParams {
+        pes: config.pe_count,
+        pe_mem_words: config.pe_mem_words,
+        max_list: config.max_list,
+        ..RtlParams::default()
+    }
 }
 
 /// The Verilated program a board needs (built or reused by `cargo xtask rtl sim`, once per
