@@ -189,13 +189,14 @@ impl TimingProfile {
     /// - `voxel_setup_cycles = max(2, pes_per_pipeline)`: the voxel lookup happens while the
     ///   list streams in; an entry's ref range is in the PE's queue, two cycles to take it,
     ///   rounded up so that every issue falls on a multiple of the issue interval.
-    /// - `test_latency_cycles = 66 + min(pes_per_pipeline, 3)`: from the end of the last
-    ///   test's issue slot: ref word and record reads (2 + 4), the record's min(s, 3) chunks
-    ///   to the pipeline (one register, then one cycle per chunk after the first), the merge
-    ///   register beside the pipeline (1), the 57-stage test (shear 6, edges 5, determinant
-    ///   and weights 6, depth 6, normalisation 2, a 27-step restoring divider, rounding 3),
-    ///   the lanes' realignment (the slot less one cycle), acceptance and the entry's winner
-    ///   (3), less one. Each stage holds at most one wide carry chain so the clock can close
+    /// - `test_latency_cycles = 66 + pes_per_pipeline`: from the end of the last test's issue
+    ///   slot: the ref word and the record read (2 + 4; with 4 PEs per pipeline the record
+    ///   in three parts, the last read 3 cycles later), the record's parts to the pipeline
+    ///   (a register, then one cycle per part after the first), the merge register beside
+    ///   the pipeline (1), the 57-stage test (shear 6, edges 5, determinant and weights 6,
+    ///   depth 6, normalisation 2, a 27-step restoring divider, rounding 3), the lanes'
+    ///   realignment (the slot less one cycle), acceptance and the entry's winner (3), less
+    ///   one. Each stage holds at most one wide carry chain so the clock can close
     ///   (rtl/README.md §5).
     /// - `ray_setup_cycles = 25`: the dominant axis, six pipelined f32 → fixed conversions,
     ///   the two shear divisions (2 quotient bits per cycle), and the start of the PEs.
@@ -217,7 +218,7 @@ impl TimingProfile {
             },
             clock_hz: 50_000_000,
             test_issue_cycles: share,
-            test_latency_cycles: 66 + if share > 3 { 3 } else { share },
+            test_latency_cycles: 66 + share,
             voxel_setup_cycles: if share > 2 { share } else { 2 },
             word_in_cycles: 1,
             word_out_cycles: 1,

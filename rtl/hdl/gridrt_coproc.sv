@@ -52,20 +52,22 @@ module gridrt_coproc #(
     logic [PES-1:0][AW-1:0]  res_tri;
     // Tests and results between the PEs and their shared pipelines; indices PES and above are
     // the unused lanes of the last pipeline when PES is not a multiple of PES_PER_PIPELINE.
-    // A record crosses to its pipeline in CHUNKS parts, one per cycle of the PE's issue
-    // interval (at most 3: 96 bits).
+    // A record crosses to its pipeline in parts (pe.sv): three of 4 words read one by one
+    // when four PEs share a pipeline, else PES_PER_PIPELINE parts of one read.
     localparam int PIPES = (PES + PES_PER_PIPELINE - 1) / PES_PER_PIPELINE;
     localparam int LANES = PIPES * PES_PER_PIPELINE;
-    localparam int CHUNKS = (PES_PER_PIPELINE > 3) ? 3 : PES_PER_PIPELINE;
-    localparam int CHUNK_W = 288 / CHUNKS;
+    localparam int PARTS = (PES_PER_PIPELINE == 4) ? 3 : PES_PER_PIPELINE;
+    localparam int PART_W = (PES_PER_PIPELINE == 4) ? 128 : 288 / PES_PER_PIPELINE;
     localparam int PIPE_LATENCY = 57;   // isect_pipe's stages (checked there)
-    localparam int RESULT_LATENCY = CHUNKS - 1 + PIPE_LATENCY + PES_PER_PIPELINE;   // isect_share's
+    localparam int RESULT_LATENCY = PIPE_LATENCY + PES_PER_PIPELINE;   // isect_share's
     logic [LANES-1:0]              t_valid, r_valid;
-    logic [LANES-1:0][CHUNK_W-1:0] t_chunk;
+    logic [LANES-1:0][1:0]         t_part;
+    logic [LANES-1:0][PART_W-1:0]  t_chunk;
     logic [LANES-1:0][1:0]         r_kind;
     logic [LANES-1:0][31:0]        r_t;
     for (genvar p = PES; p < LANES; p++) begin : g_no_pe
         assign t_valid[p] = 1'b0;
+        assign t_part[p] = '0;
         assign t_chunk[p] = '0;
     end
 
@@ -84,15 +86,15 @@ module gridrt_coproc #(
         .pe_open_k(open_k), .pe_hit_k(hit_k), .pe_res_k(res_k), .pe_res_t(res_t), .pe_res_tri(res_tri));
 
     for (genvar p = 0; p < PES; p++) begin : g_pe
-        pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST), .ISSUE_INTERVAL(PES_PER_PIPELINE), .CHUNKS(CHUNKS),
-             .RESULT_LATENCY(RESULT_LATENCY)) u_pe (
+        pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST), .ISSUE_INTERVAL(PES_PER_PIPELINE), .PARTS(PARTS),
+             .PART_W(PART_W), .RESULT_LATENCY(RESULT_LATENCY)) u_pe (
             .clk, .rst,
             .c_a_addr(a_addr[p]), .c_a_we(a_we[p]), .c_a_wdata(a_wdata), .a_rdata(a_rdata[p]),
             .ref_off(ref_off[p]),
             .ray_begin, .q_push(q_push[p]), .q_k, .q_first, .q_count, .q_hi,
             .start, .stop, .any, .t_max,
             .issued(issued[p]),
-            .t_valid(t_valid[p]), .t_chunk(t_chunk[p]),
+            .t_valid(t_valid[p]), .t_part(t_part[p]), .t_chunk(t_chunk[p]),
             .r_valid(r_valid[p]), .r_kind(r_kind[p]), .r_t(r_t[p]),
             .open_k(open_k[p]), .hit_k(hit_k[p]),
             .res_k, .res_t(res_t[p]), .res_tri(res_tri[p]));
@@ -101,9 +103,10 @@ module gridrt_coproc #(
     // PEs q·PES_PER_PIPELINE .. (q+1)·PES_PER_PIPELINE - 1 share pipeline q (rtl/README.md §4.3).
     for (genvar q = 0; q < PIPES; q++) begin : g_pipe
         localparam int L0 = q * PES_PER_PIPELINE;
-        isect_share #(.LANES(PES_PER_PIPELINE), .CHUNKS(CHUNKS), .PIPE_LATENCY(PIPE_LATENCY)) u_share (
+        isect_share #(.LANES(PES_PER_PIPELINE), .PARTS(PARTS), .PART_W(PART_W), .PIPE_LATENCY(PIPE_LATENCY)) u_share (
             .clk,
-            .in_valid(t_valid[L0 +: PES_PER_PIPELINE]), .in_chunk(t_chunk[L0 +: PES_PER_PIPELINE]),
+            .in_valid(t_valid[L0 +: PES_PER_PIPELINE]), .in_part(t_part[L0 +: PES_PER_PIPELINE]),
+            .in_chunk(t_chunk[L0 +: PES_PER_PIPELINE]),
             .o0($signed(o[0])), .o1($signed(o[1])), .o2($signed(o[2])), .kz, .sx, .sy, .dz_neg, .dz_abs,
             .texp, .ray_overflow,
             .out_valid(r_valid[L0 +: PES_PER_PIPELINE]), .out_kind(r_kind[L0 +: PES_PER_PIPELINE]),

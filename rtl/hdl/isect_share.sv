@@ -1,27 +1,29 @@
 // isect_share: one intersection pipeline (isect_pipe, one test per cycle) shared by LANES
 // PEs, 1, 2 or 4 (rtl/README.md §4.3).
 //
-// A lane's PE sends a test's record in CHUNKS parts, one per cycle, the first with in_valid;
-// the parts before the last wait in a register here, so the long wires from each PE memory
-// carry 288 / CHUNKS bits. Every PE issues in the exec cycles that are multiples of LANES
-// (pe.sv's timeline), so lane l's assembled tests are delayed l cycles and the lanes take
-// turns: at most one test enters per cycle. The lanes' tests are merged by OR (a lane's
-// delayed record is zero when it has none) into one register beside the pipeline. Lane l's
-// results are held LANES - 1 - l cycles on the way out, so every lane sees the same
-// latency, LATENCY: CHUNKS - 1 + PIPE_LATENCY + LANES from its in_valid to its out_valid,
-// in the order of its tests (the PE keeps each test's tag). A lane whose in_valid is tied
-// low (a PE count that is not a multiple of LANES) costs nothing.
+// A lane's PE sends a test's record in PARTS parts of PART_W bits (in_part numbers them, the
+// last may be partly unused); the parts before the last wait in registers here, so the long
+// wires from each PE memory carry one part. Every PE issues in the exec cycles that are
+// multiples of LANES and sends its last part at the same offset from its issue (pe.sv's
+// timeline), so lane l's assembled tests are delayed l cycles and the lanes take turns: at
+// most one test enters per cycle. The lanes' tests are merged by OR (a lane's delayed record
+// is zero when it has none) into one register beside the pipeline. Lane l's results are held
+// LANES - 1 - l cycles on the way out, so every lane sees the same latency, LATENCY =
+// PIPE_LATENCY + LANES from its last part to its result, in the order of its tests (the PE
+// keeps each test's tag). A lane whose in_valid is tied low (a PE count that is not a
+// multiple of LANES) costs nothing.
 module isect_share #(
     parameter int LANES = 2,
-    parameter int CHUNKS = 1,
+    parameter int PARTS = 1,
+    parameter int PART_W = 288,
     parameter int PIPE_LATENCY = 57,     // isect_pipe's, checked there
-    localparam int CHUNK_W = 288 / CHUNKS,
-    localparam int LATENCY = CHUNKS - 1 + PIPE_LATENCY + LANES
+    localparam int LATENCY = PIPE_LATENCY + LANES
 ) (
     input  logic                            clk,
-    // Tests of the lanes' PEs: a record's chunks in consecutive cycles, low bits first.
+    // Tests of the lanes' PEs: a record's parts, low bits first, each with in_valid.
     input  logic [LANES-1:0]                in_valid,
-    input  logic [LANES-1:0][CHUNK_W-1:0]   in_chunk,
+    input  logic [LANES-1:0][1:0]           in_part,
+    input  logic [LANES-1:0][PART_W-1:0]    in_chunk,
     // Ray constants (isect_pipe).
     input  logic signed [33:0]              o0, o1, o2,
     input  logic [1:0]                      kz,
@@ -39,34 +41,29 @@ module isect_share #(
     if (LANES != 1 && LANES != 2 && LANES != 4) begin : g_bad_lanes
         $error("isect_share: LANES must be 1, 2 or 4");
     end
-    if (CHUNKS < 1 || CHUNKS > LANES || 288 % CHUNKS != 0) begin : g_bad_chunks
-        $error("isect_share: CHUNKS must divide 288 and be at most LANES");
+    if (PARTS < 1 || PARTS > 3 || PARTS * PART_W < 288 || (PARTS - 1) * PART_W >= 288) begin : g_bad_parts
+        $error("isect_share: PARTS parts of PART_W bits must hold 288, the last one in use");
     end
 
     // ---------------------------------------------------------------- lanes in turn
-    // Lane l's test, assembled in the cycle of its last chunk, then l cycles later, zeroed
+    // Lane l's test, assembled in the cycle of its last part, then l cycles later, zeroed
     // when there is none (so the merge is an OR).
     logic [LANES-1:0]           d_valid;
     logic [LANES-1:0][287:0]    d_rec;
     for (genvar l = 0; l < LANES; l++) begin : g_in
         logic         whole_valid;
         logic [287:0] whole;
-        if (CHUNKS == 1) begin : g_one
-            assign whole_valid = in_valid[l];
-            assign whole = in_chunk[l];
+        assign whole_valid = in_valid[l] && in_part[l] == 2'(PARTS - 1);
+        if (PARTS == 1) begin : g_one
+            assign whole = in_chunk[l][287:0];
         end else begin : g_parts
-            logic [288-CHUNK_W-1:0] early;     // the chunks before the last
-            logic [CHUNKS-2:0]      v;         // in_valid, 1 .. CHUNKS - 1 cycles ago
-            always_ff @(posedge clk) begin
-                logic [287:0]  shifted;
-                logic [CHUNKS-1:0] vs;
-                shifted = {in_chunk[l], early} >> CHUNK_W;
-                vs = {v, in_valid[l]};
-                early <= shifted[288-CHUNK_W-1:0];
-                v <= vs[CHUNKS-2:0];
-            end
-            assign whole_valid = v[CHUNKS-2];
-            assign whole = {in_chunk[l], early};
+            logic [PARTS-2:0][PART_W-1:0] early;     // the parts before the last
+            logic [PARTS*PART_W-1:0]      all;
+            always_ff @(posedge clk)
+                for (int q = 0; q < PARTS - 1; q++)
+                    if (in_valid[l] && in_part[l] == 2'(q)) early[q] <= in_chunk[l];
+            assign all = {in_chunk[l], early};
+            assign whole = all[287:0];
         end
         delay #(.W(1 + 288), .N(l)) u_lane (.clk, .d({whole_valid, whole_valid ? whole : 288'd0}),
                                             .q({d_valid[l], d_rec[l]}));

@@ -9,20 +9,22 @@
 // c+V+I, .., c+V+(n-1)I and the next entry's setup starts in cycle c+V+nI, so every issue
 // falls on a multiple of I: the pipeline takes the other lanes' tests in the cycles between.
 // An entry with no tests is done in cycle c+V (event in cycle c+V-1); an entry with tests is
-// done 66 + I cycles after its last issue (reads 5, the shared pipeline's isect_pipe LATENCY
-// + I, the result stage 3), or, for RAY_ANY, after the issue of its first accepted test.
-// `issued` counts the issues of the current ray.
+// done a fixed number of cycles after its last issue (the model's test latency: reads, the
+// record's parts, the shared pipeline, the result stage), or, for RAY_ANY, after the issue
+// of its first accepted test. `issued` counts the issues of the current ray.
 module pe #(
     parameter int WORDS = 16384,
     parameter int MAX_LIST = 256,
     // Cycles between two issues: the PEs sharing this PE's intersection pipeline (1, 2, 4).
     parameter int ISSUE_INTERVAL = 2,
-    // A test's record goes to the pipeline in CHUNKS parts of 288 / CHUNKS bits, one per
-    // cycle (CHUNKS <= ISSUE_INTERVAL, a divisor of 288).
-    parameter int CHUNKS = 1,
-    // Cycles from a test's first chunk on t_* to its result on r_* (isect_share).
-    parameter int RESULT_LATENCY = 60,
-    localparam int CHUNK_W = 288 / CHUNKS
+    // A test's record goes to the pipeline in PARTS parts of PART_W bits (the last may be
+    // partly unused), t_part numbering them: 3 parts of 4 words (128 bits) read one by one
+    // from a 4-bank memory when ISSUE_INTERVAL is 4, else ISSUE_INTERVAL parts of 288 /
+    // ISSUE_INTERVAL bits of a record read at once, in consecutive cycles.
+    parameter int PARTS = 1,
+    parameter int PART_W = 288,
+    // Cycles from a test's last part on t_* to its result on r_* (isect_share).
+    parameter int RESULT_LATENCY = 60
 ) (
     input  logic                         clk,
     input  logic                         rst,
@@ -47,11 +49,12 @@ module pe #(
     input  logic                         any,        // RAY_ANY
     input  logic [31:0]                  t_max,
     output logic [31:0]                  issued,
-    // Tests to the shared intersection pipeline: the record's chunks in consecutive cycles
-    // from 7 cycles after the issue, t_valid with the first; their results, in issue order,
-    // RESULT_LATENCY cycles later (the test's entry, triangle and prim id wait here).
+    // Tests to the shared intersection pipeline: the record's parts, t_valid with each;
+    // their results, in issue order, RESULT_LATENCY cycles after the last part (the test's
+    // entry, triangle and prim id wait here).
     output logic                         t_valid,
-    output logic [CHUNK_W-1:0]           t_chunk,
+    output logic [1:0]                   t_part,
+    output logic [PART_W-1:0]            t_chunk,
     input  logic                         r_valid,
     input  logic [1:0]                   r_kind,
     input  logic [31:0]                  r_t,
@@ -69,21 +72,29 @@ module pe #(
 
     // ---------------------------------------------------------------- memory and ports
     // The controller writes and reads the memory while the PE is idle; while it executes a
-    // ray the PE reads its ref words and record windows. Sharing a pipeline (ISSUE_INTERVAL 2
-    // or 4), the PE reads a ref word in cycle c+1 of an issue in cycle c and the record in
-    // c+4, so one read port serves both (issues fall on multiples of the interval); with a
-    // pipeline of its own the PE reads both in every cycle, the ref word on the memory's
-    // word port.
+    // ray the PE reads its ref words and records. A PE that shares its pipeline issues in
+    // cycles c that are multiples of ISSUE_INTERVAL and reads a test's ref word in c+1, so
+    // one read port serves all reads: its record in c+4 (interval 2: 16 banks, the whole
+    // record), or its three parts in c+4, c+6 and c+7 (interval 4: 4 banks). A PE with a
+    // pipeline of its own reads both in every cycle, the ref word on the memory's word port.
     localparam bit WORD_PORT = ISSUE_INTERVAL == 1;
+    localparam bit PARTED = ISSUE_INTERVAL == 4;
+    localparam int RD_WORDS = PARTED ? 4 : 10;
+    if (PARTED ? (PARTS != 3 || PART_W != 128) : (PARTS != ISSUE_INTERVAL || PART_W * PARTS != 288)) begin : g_bad_parts
+        $error("pe: PARTS and PART_W do not match ISSUE_INTERVAL");
+    end
     logic          active;     // executing a ray: the issue loop reads the memory
-    logic [AW-1:0] x_a_addr, x_b_addr;
+    logic [AW-1:0] x_a_addr, x_b_addr, x_b_addr4, x_b_addr8;
     logic          iss_valid;  // an issue in the last cycle: its ref word is read now
+    logic          rd_part1, rd_part2;     // PARTED: the record's second and third reads now
     logic [31:0]   w_rdata, r_word, ref_word;
-    logic [319:0]  r_window;   // record window: 9 coordinates, prim
+    logic [32*RD_WORDS-1:0] r_window;      // a record (9 coordinates, prim) or a part of one
     logic [AW-1:0] r_addr;
     always_comb begin
         if (!active) r_addr = c_a_addr;
         else if (!WORD_PORT && iss_valid) r_addr = x_a_addr;
+        else if (PARTED && rd_part1) r_addr = x_b_addr4;
+        else if (PARTED && rd_part2) r_addr = x_b_addr8;
         else r_addr = x_b_addr;
     end
     // The controller's writes are registered here first, so its data bus fans out to four
@@ -98,7 +109,7 @@ module pe #(
         w_en_q <= !active && c_a_we && !rst;
         w_data_q <= c_a_wdata;
     end
-    pe_mem #(.WORDS(WORDS), .RD_WORDS(10), .WORD_PORT(WORD_PORT)) u_mem (
+    pe_mem #(.WORDS(WORDS), .BANKS(PARTED ? 4 : 16), .RD_WORDS(RD_WORDS), .WORD_PORT(WORD_PORT)) u_mem (
         .clk,
         .w_addr(WORD_PORT ? (active ? x_a_addr : c_a_addr) : w_addr_q),
         .w_en(WORD_PORT ? !active && c_a_we : w_en_q), .w_data(WORD_PORT ? c_a_wdata : w_data_q),
@@ -204,48 +215,83 @@ module pe #(
     end
 
     // A test issued in cycle c presents its ref address (x_a_addr) and its tag in cycle c+1;
-    // the ref word arrives in c+3, the record address is read in c+4 and the record window
-    // arrives in c+6 (pe_mem: latency 2).
+    // the ref word arrives in c+3, the record's address is read in c+4 (and c+6, c+7) and its
+    // window arrives two cycles after each read (pe_mem).
     logic [KW+1:0] tag_p2;
     logic          v_p2;
     delay #(.W(KW+3), .N(2)) u_dp2 (.clk, .d({iss_valid, epoch, iss_last, iss_k}), .q({v_p2, tag_p2}));
     logic [AW-1:0] ref_tri;
     assign ref_tri = ref_word[AW-1:0];
     // Record t at WORDS - 10 (t + 1) (the controller stacks them from the top down).
-    always_ff @(posedge clk) x_b_addr <= AW'(WORDS - 10) - (AW'(ref_tri) << 3) - (AW'(ref_tri) << 1);
-
-    // Stage P3-P5: the record window (c+6) -> its chunks to the pipeline (c+7 ..).
-    logic [KW+1:0] tag_p5;
-    logic [AW-1:0] tri_p5;
-    logic          v_p5;
-    delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk, .d({v_p2, tag_p2, ref_tri}), .q({v_p5, tag_p5, tri_p5}));
-
-    // The window holds for one cycle (the next read follows): the chunks after the first
-    // wait in rec_rest. The last chunk is sent before the next test's window arrives
-    // (CHUNKS <= ISSUE_INTERVAL).
-    logic [287:0] rec_rest;
-    logic [1:0]   chunks_left;
     always_ff @(posedge clk) begin
-        t_valid <= v_p5;
-        if (v_p5) begin
-            t_chunk <= r_window[CHUNK_W-1:0];
-            rec_rest <= r_window[287:0] >> CHUNK_W;
-            chunks_left <= 2'(CHUNKS - 1);
-        end else if (chunks_left != 0) begin
-            t_chunk <= rec_rest[CHUNK_W-1:0];
-            rec_rest <= rec_rest >> CHUNK_W;
-            chunks_left <= chunks_left - 2'd1;
+        if (v_p2) begin
+            x_b_addr <= AW'(WORDS - 10) - (AW'(ref_tri) << 3) - (AW'(ref_tri) << 1);
+            x_b_addr4 <= AW'(WORDS - 6) - (AW'(ref_tri) << 3) - (AW'(ref_tri) << 1);
+            x_b_addr8 <= AW'(WORDS - 2) - (AW'(ref_tri) << 3) - (AW'(ref_tri) << 1);
         end
-        if (rst) chunks_left <= '0;
     end
 
     // The test's tag (epoch, last of entry, entry k, triangle, prim id) waits here for its
-    // result, which comes back exactly RESULT_LATENCY cycles after t_valid.
+    // result: it enters the delay line in the cycle the last part is registered for t_*.
     localparam int TAG_W = 2 + KW + AW + 32;
+    logic             tag_in_valid;
+    logic [TAG_W-1:0] tag_in;
+    if (PARTED) begin : g_parts_read
+        // Reads in c+4, c+6, c+7; the parts arrive in c+6, c+8, c+9 and go out a cycle later
+        // (v_pN: valid in cycle c+N+1).
+        logic          v_p3, v_p5, v_p6, v_p7, v_p8;
+        logic [KW+1:0] tag_p8;
+        logic [AW-1:0] tri_p8;
+        delay #(.W(1), .N(1)) u_d3 (.clk, .d(v_p2), .q(v_p3));
+        delay #(.W(1), .N(2)) u_d5 (.clk, .d(v_p3), .q(v_p5));
+        delay #(.W(1), .N(1)) u_d6 (.clk, .d(v_p5), .q(v_p6));
+        delay #(.W(1), .N(2)) u_d7 (.clk, .d(v_p5), .q(v_p7));
+        delay #(.W(1), .N(2)) u_d8 (.clk, .d(v_p6), .q(v_p8));
+        delay #(.W(KW+2+AW), .N(6)) u_dtag (.clk, .d({tag_p2, ref_tri}), .q({tag_p8, tri_p8}));
+        assign rd_part1 = v_p5;
+        assign rd_part2 = v_p6;
+        always_ff @(posedge clk) begin
+            t_valid <= v_p5 || v_p7 || v_p8;
+            t_part <= v_p5 ? 2'd0 : (v_p7 ? 2'd1 : 2'd2);
+            t_chunk <= r_window;
+        end
+        // Part 2 is the record's words 8 and 9: the last coordinate and the prim id.
+        assign tag_in_valid = v_p8;
+        assign tag_in = {tag_p8, tri_p8, r_window[63:32]};
+    end else begin : g_record_read
+        // Read in c+4, the window in c+6; its parts go out in c+7 .. c+6+PARTS (the window
+        // holds for one cycle: the parts after the first wait in rec_rest, and the last goes
+        // out before the next test's window arrives, PARTS <= ISSUE_INTERVAL).
+        logic [KW+1:0] tag_p5;
+        logic [AW-1:0] tri_p5;
+        logic          v_p5;
+        logic [287:0]  rec_rest;
+        logic [1:0]    part_next;
+        delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk, .d({v_p2, tag_p2, ref_tri}), .q({v_p5, tag_p5, tri_p5}));
+        assign rd_part1 = 1'b0;
+        assign rd_part2 = 1'b0;
+        always_ff @(posedge clk) begin
+            t_valid <= v_p5 || part_next != 0;
+            if (v_p5) begin
+                t_part <= 2'd0;
+                t_chunk <= r_window[PART_W-1:0];
+                rec_rest <= r_window[287:0] >> PART_W;
+                part_next <= (PARTS > 1) ? 2'd1 : 2'd0;
+            end else if (part_next != 0) begin
+                t_part <= part_next;
+                t_chunk <= rec_rest[PART_W-1:0];
+                rec_rest <= rec_rest >> PART_W;
+                part_next <= (part_next == 2'(PARTS - 1)) ? 2'd0 : part_next + 2'd1;
+            end
+            if (rst) part_next <= '0;
+        end
+        assign tag_in_valid = v_p5;
+        assign tag_in = {tag_p5, tri_p5, r_window[32*9 +: 32]};
+    end
     logic [TAG_W-1:0] r_tag;
     logic             r_expected;
-    delay_ram #(.W(1 + TAG_W), .N(RESULT_LATENCY + 1)) u_tag (
-        .clk, .d({v_p5, tag_p5, tri_p5, r_window[32*9 +: 32]}), .q({r_expected, r_tag}));
+    localparam int TAG_DELAY = RESULT_LATENCY + (PARTED ? 1 : PARTS);
+    delay_ram #(.W(1 + TAG_W), .N(TAG_DELAY)) u_tag (.clk, .d({tag_in_valid, tag_in}), .q({r_expected, r_tag}));
 `ifndef SYNTHESIS
     always_ff @(posedge clk)
         if (!rst && r_valid != r_expected) $fatal(1, "pe: a result not RESULT_LATENCY cycles after its test");
