@@ -21,8 +21,8 @@ module pe #(
     // partly unused), t_part numbering them: 3 parts of 4 words (128 bits) read one by one
     // from a 4-bank memory when ISSUE_INTERVAL is 4, else ISSUE_INTERVAL parts of 288 /
     // ISSUE_INTERVAL bits of a record read at once, in consecutive cycles.
-    parameter int PARTS = 1,
-    parameter int PART_W = 288,
+    parameter int PARTS = 2,
+    parameter int PART_W = 144,
     // Cycles from a test's last part on t_* to its result on r_* (isect_share).
     parameter int RESULT_LATENCY = 60
 ) (
