@@ -57,11 +57,12 @@ module isect_share #(
         if (PARTS == 1) begin : g_one
             assign whole = in_chunk[l][287:0];
         end else begin : g_parts
-            logic [PARTS-2:0][PART_W-1:0] early;     // the parts before the last
-            logic [PARTS*PART_W-1:0]      all;
-            always_ff @(posedge clk)
-                for (int q = 0; q < PARTS - 1; q++)
-                    if (in_valid[l] && in_part[l] == 2'(q)) early[q] <= in_chunk[l];
+            logic [(PARTS-1)*PART_W-1:0] early;      // the parts before the last
+            logic [PARTS*PART_W-1:0]     all;
+            for (genvar q = 0; q < PARTS - 1; q++) begin : g_early
+                always_ff @(posedge clk)
+                    if (in_valid[l] && in_part[l] == 2'(q)) early[q*PART_W +: PART_W] <= in_chunk[l];
+            end
             assign all = {in_chunk[l], early};
             assign whole = all[287:0];
         end
