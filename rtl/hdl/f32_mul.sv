@@ -76,10 +76,14 @@ module f32_mul (
 
     // ---------------------------------------------------------------- stage 2: normalise
     // Shift left by lz; a result below exponent 1 will shift right by rs = 1 - e instead.
+    // The bits a right shift by rs drops are marked here (bit i below rs), as one compare per
+    // bit: the mask as (1 << rs) - 1 was a 48-bit carry chain after the shifter in stage 3.
     logic        s2_valid, s2_nan, s2_inf, s2_zero, s2_sign, s2_sub;
-    logic [47:0] s2_p;
+    logic [47:0] s2_p, s2_drop;
     logic [10:0] s2_exp, s2_rs;
     always_ff @(posedge clk) begin
+        logic [10:0] rs;
+        rs = 11'd1 - s1_exp;
         s2_valid <= s1_valid;
         s2_nan   <= s1_nan;
         s2_inf   <= s1_inf;
@@ -88,11 +92,13 @@ module f32_mul (
         s2_p     <= s1_prod << s1_lz;
         s2_sub   <= $signed(s1_exp) < 1;
         s2_exp   <= ($signed(s1_exp) < 1) ? 11'd1 : s1_exp;
-        s2_rs    <= 11'd1 - s1_exp;
+        s2_rs    <= rs;
+        for (int i = 0; i < 48; i++) s2_drop[i] <= rs > 11'(i);
     end
 
     // ---------------------------------------------------------------- stage 3: subnormal
-    // Subnormal: shift right until the exponent is 1, shifted-out bits into the sticky bit.
+    // Subnormal: shift right until the exponent is 1, shifted-out bits into the sticky bit
+    // (a shift by 48 or more drops every bit: the mask is all ones, the shift gives 0).
     logic        s3_valid, s3_nan, s3_inf, s3_zero, s3_sign, s3_sticky;
     logic [47:0] s3_norm;
     logic [10:0] s3_exp;
@@ -102,13 +108,8 @@ module f32_mul (
         p = s2_p;
         st = 1'b0;
         if (s2_sub) begin
-            if (s2_rs >= 11'd48) begin
-                st = p != 0;
-                p = 48'd0;
-            end else begin
-                st = (p & ((48'd1 << s2_rs) - 48'd1)) != 0;
-                p = p >> s2_rs;
-            end
+            st = (p & s2_drop) != 0;
+            p = p >> s2_rs;
         end
         s3_valid  <= s2_valid;
         s3_nan    <= s2_nan;
