@@ -218,7 +218,7 @@ impl TimingProfile {
             },
             clock_hz: 50_000_000,
             test_issue_cycles: share,
-            test_latency_cycles: 66 + share,
+            test_latency_cycles: 66_u32.saturating_add(share),
             voxel_setup_cycles: if share > 2 { share } else { 2 },
             word_in_cycles: 1,
             word_out_cycles: 1,
@@ -471,7 +471,7 @@ mod tests {
         for share in 1..=4u32 {
             let p = TimingProfile::rtl(share);
             assert_eq!(p.test_issue_cycles, share);
-            assert!(p.voxel_setup_cycles >= 2 && p.voxel_setup_cycles % share == 0, "{p:?}");
+            assert!(p.voxel_setup_cycles >= 2 && p.voxel_setup_cycles.is_multiple_of(share), "{p:?}");
             let mut clocks = [0u64; 1];
             let mut tl = PeTimeline::new(&p, &mut clocks);
             for tests in [3, 0, 1, 5] {
