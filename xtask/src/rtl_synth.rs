@@ -40,20 +40,23 @@ pub struct SynthCmd {
     /// Write the report here (JSON).
     #[arg(long)]
     json: PathBuf,
-    /// Placement seed of nextpnr.
-    #[arg(long, default_value_t = 1)]
+    /// Placement seed of nextpnr. 2 by default: with the default placer, seed 2's placement
+    /// of the 4-PE design routes at 64 MHz, seed 1's was estimated at 39 MHz after placement
+    /// (BENCHMARKS.md, "Co-processor RTL").
+    #[arg(long, default_value_t = 2)]
     seed: u32,
     /// Skip Yosys: place and route the netlist of the last run with the same parameters
     /// (to try another seed or clock target; the report's `yosys_s` is then null).
     #[arg(long)]
     reuse_netlist: bool,
-    /// nextpnr's placer: static (electrostatic, the placements that route here) or heap
-    /// (nextpnr's default for the ECP5).
-    #[arg(long, default_value = "static", value_parser = ["static", "heap"])]
+    /// nextpnr's placer: heap (analytic, nextpnr's default for the ECP5) or static
+    /// (electrostatic).
+    #[arg(long, default_value = "heap", value_parser = ["heap", "static"])]
     placer: String,
-    /// nextpnr's router: router2 (negotiated congestion, what routes the 4-PE design here) or
-    /// router1 (nextpnr's default for the ECP5).
-    #[arg(long, default_value = "router2", value_parser = ["router1", "router2"])]
+    /// nextpnr's router: router1 (rip-up and reroute, nextpnr's default for the ECP5: it
+    /// routes the 4-PE design in ≈ 13 minutes here) or router2 (negotiated congestion: its
+    /// overuse of the 4-PE design fell to ≈ 2 600 wires, then rose again: BENCHMARKS.md).
+    #[arg(long, default_value = "router1", value_parser = ["router1", "router2"])]
     router: String,
 }
 
