@@ -54,7 +54,7 @@ pub struct SynthCmd {
     #[arg(long, default_value = "heap", value_parser = ["heap", "static"])]
     placer: String,
     /// nextpnr's router: router1 (rip-up and reroute, nextpnr's default for the ECP5: it
-    /// routes the 4-PE design in ≈ 13 minutes here) or router2 (negotiated congestion: its
+    /// routes the 4-PE design in 13–22 minutes here) or router2 (negotiated congestion: its
     /// overuse of the 4-PE design fell to ≈ 2 600 wires, then rose again: BENCHMARKS.md).
     #[arg(long, default_value = "router1", value_parser = ["router1", "router2"])]
     router: String,
