@@ -55,7 +55,7 @@ def main(argv=None):
     common(ulx3s, rom=True)
     ulx3s.add_argument("--device", default="LFE5U-85F", choices=("LFE5U-25F", "LFE5U-45F", "LFE5U-85F"))
     ulx3s.add_argument("--seed", type=int, default=1, help="nextpnr placement seed")
-    ulx3s.add_argument("--pes", type=int, default=1, help="co-processor PEs (one is ~49 k LUTs: the 85F holds one)")
+    ulx3s.add_argument("--pes", type=int, default=1, help="co-processor PEs (each takes 40 of the 85F's 208 block RAMs, the SoC's memories about 152: it holds one)")
     gen = sub.add_parser("board-files", help="write (or --check) the firmware's board files from csr.json")
     gen.add_argument("--check", action="store_true")
 

@@ -60,8 +60,9 @@ pub struct BuildCmd {
     /// nextpnr's placement seed.
     #[arg(long, default_value_t = 1)]
     seed: u32,
-    /// Processing elements of the co-processor. One PE is ~49 k LUTs (BENCHMARKS.md, `cargo
-    /// xtask rtl synth --pes 1`), so the LFE5U-85F (83 640 LUTs) holds one beside the CPU.
+    /// Processing elements of the co-processor. Block RAM bounds them: the SoC's 304 KiB of
+    /// ROM and RAM take ≈ 152 of the LFE5U-85F's 208 DP16KD and a PE 40 (`cargo xtask rtl
+    /// synth`), so the device holds one PE beside the CPU (modelled from the counts).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=16))]
     pes: u16,
     /// Write the resource and timing summary here (JSON).
