@@ -12,7 +12,7 @@
 //! (nextpnr runs with `--timing-allow-fail`; `fmax_mhz` against `target_mhz` says whether the
 //! clock closed). A netlist whose
 //! Yosys cell counts already exceed the device is not placed (nextpnr would spend an hour
-//! before failing): the report then has Yosys's counts, `fits` false and no fmax.
+//! before failing): the report then has Yosys's counts, `fits` false and `fmax_mhz` null.
 
 use crate::rtl::{hdl_sources, root, Params};
 use anyhow::{bail, Context, Result};
@@ -73,7 +73,8 @@ struct Report {
     ffs: u64,
     dsps: u64,
     brams: u64,
-    fmax_mhz: f64,
+    /// nextpnr's achieved clock after routing; `None` (JSON null) when nothing was routed.
+    fmax_mhz: Option<f64>,
     fits: bool,
     yosys_s: Option<f64>,
     nextpnr_s: f64,
@@ -224,7 +225,7 @@ impl SynthCmd {
             report.brams = used("DP16KD");
             report.luts = used("TRELLIS_COMB");
             report.ffs = used("TRELLIS_FF");
-            report.fmax_mhz = json_number_after(&text, "\"fmax\"", "achieved").unwrap_or(0.0);
+            report.fmax_mhz = json_number_after(&text, "\"fmax\"", "achieved");
         }
         if report.luts == 0 {
             // Older nextpnr reports count slices only: take the cell counts from Yosys.
@@ -244,7 +245,7 @@ impl SynthCmd {
     fn write(&self, report: &Report, dir: &std::path::Path, pnr_log: Option<&std::path::Path>) -> Result<()> {
         let json = format!(
             "{{\"device\": \"{DEVICE}\", \"pes\": {}, \"pe_mem_words\": {}, \"max_list\": {}, \"luts\": {}, \"ffs\": {}, \
-             \"dsps\": {}, \"brams\": {}, \"fmax_mhz\": {:.2}, \"target_mhz\": {}, \"fits\": {}, \"yosys_s\": {}, \
+             \"dsps\": {}, \"brams\": {}, \"fmax_mhz\": {}, \"target_mhz\": {}, \"fits\": {}, \"yosys_s\": {}, \
              \"nextpnr_s\": {:.0}, \"placer\": \"{}\", \"router\": \"{}\", \"pes_per_pipeline\": {}, \"seed\": {}}}\n",
             self.params.pes,
             self.params.pe_mem_words,
@@ -253,7 +254,7 @@ impl SynthCmd {
             report.ffs,
             report.dsps,
             report.brams,
-            report.fmax_mhz,
+            report.fmax_mhz.map_or("null".to_string(), |f| format!("{f:.2}")),
             self.freq,
             report.fits,
             report.yosys_s.map_or("null".to_string(), |s| format!("{s:.0}")),
@@ -270,13 +271,19 @@ impl SynthCmd {
         print!("{json}");
         if !report.fits {
             eprintln!("rtl synth: the design does not fit the {DEVICE} (logs in {})", dir.display());
-        } else if report.fmax_mhz < self.freq {
-            eprintln!(
-                "rtl synth: fits the {DEVICE}; fmax {:.2} MHz is below the {} MHz target (critical path in {})",
-                report.fmax_mhz,
-                self.freq,
-                pnr_log.unwrap_or(dir).display()
-            );
+        } else {
+            match report.fmax_mhz {
+                Some(fmax) if fmax < self.freq => eprintln!(
+                    "rtl synth: fits the {DEVICE}; fmax {fmax:.2} MHz is below the {} MHz target (critical path in {})",
+                    self.freq,
+                    pnr_log.unwrap_or(dir).display()
+                ),
+                Some(_) => {}
+                None => eprintln!(
+                    "rtl synth: fits the {DEVICE}, but nextpnr's report has no fmax (log: {})",
+                    pnr_log.unwrap_or(dir).display()
+                ),
+            }
         }
         Ok(())
     }
