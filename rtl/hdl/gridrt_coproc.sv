@@ -7,7 +7,7 @@
 //
 // Parameters: PES processing elements (1..16); PES_PER_PIPELINE of them share one
 // intersection pipeline (1, 2 or 4), each issuing a test every PES_PER_PIPELINE cycles; PE_MEM_WORDS
-// words per PE (16 banks of PE_MEM_WORDS/16); MAX_LIST longest traversal list. Bit-exact
+// words per PE (4 banks with 4 PEs per pipeline, else 16); MAX_LIST longest list. Bit-exact
 // twin: gridrt-coproc with kernel watertight, format fixed64-q23 (see rtl/README.md §3 for
 // the arithmetic), timing profile `TimingProfile::rtl(PES_PER_PIPELINE)`.
 module gridrt_coproc #(

@@ -290,7 +290,7 @@ impl SynthCmd {
 }
 
 /// Waits for nextpnr, printing the last line of its log once a minute: placement and
-/// routing of the 4-PE design take over an hour here, and nextpnr runs with `-q`.
+/// routing of the 4-PE design take 20–40 minutes here, and nextpnr runs with `-q`.
 fn wait_with_progress(
     child: &mut std::process::Child,
     log: &std::path::Path,
