@@ -59,6 +59,9 @@ pub fn stat_name(key: u8) -> String {
         stat::RAYS_IN_FLIGHT => "rays_in_flight".into(),
         stat::MODEL_INSTRUCTIONS => "model_instructions".into(),
         stat::LINK_WRAPPER_INSTRUCTIONS => "link_wrapper_instructions".into(),
+        stat::FRAME_CYCLES => "frame_cycles".into(),
+        stat::LINK_CYCLES => "link_cycles".into(),
+        stat::FRAME_TX_BYTES => "frame_tx_bytes".into(),
         k => {
             // Per-stage counters, keyed as the firmware sends them (`device::Stage`).
             for s in Stage::ALL {

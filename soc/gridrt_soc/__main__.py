@@ -51,6 +51,10 @@ def main(argv=None):
 
     sim = sub.add_parser("sim", help="generate and compile the Verilator simulation")
     common(sim, rom=True)
+    sim.add_argument("--trace", action="store_true", help="build with Verilator --trace (slower)")
+    sim.add_argument("--clk-hz", type=int, default=None, help="the clock the UART's pacing assumes (default: the SoC's)")
+    sim.add_argument("--baud", type=int, default=0, help="SoC -> host line rate in simulated time (0: unpaced)")
+    sim.add_argument("--rx-baud", type=int, default=0, help="host -> SoC line rate in simulated time (0: unpaced)")
     ulx3s = sub.add_parser("ulx3s", help="build the ULX3S bitstream (yosys, nextpnr-ecp5, ecppack)")
     common(ulx3s, rom=True)
     ulx3s.add_argument("--device", default="LFE5U-85F", choices=("LFE5U-25F", "LFE5U-45F", "LFE5U-85F"))
@@ -64,7 +68,10 @@ def main(argv=None):
         from . import sim
 
         words = rom_words(args.rom_image, args.rom_base)
-        gateware = sim.prepare(args.build_dir, args.rtl_dir, words, args.board_files, args.jobs)
+        clk_hz = args.clk_hz or sim.SYS_CLK_FREQ
+        gateware = sim.prepare(
+            args.build_dir, args.rtl_dir, words, args.board_files, args.jobs, args.trace, clk_hz, args.baud, args.rx_baud
+        )
         print(f"SIM_DIR: {gateware}")
     elif args.cmd == "ulx3s":
         from . import ulx3s

@@ -1,9 +1,16 @@
 """The Verilator target: ``GridrtSoC`` on LiteX's ``SimPlatform``.
 
-The UART is LiteX's stream model (``RS232PHYModel``: a byte per clock, no baud rate) and
-reaches the host through our simulation module ``serial2pty`` (soc/sim_modules/), which
-opens a pseudo-terminal, prints ``serial2pty: /dev/pts/N`` and applies flow control both
-ways: nothing is dropped when the host is slow to read or quick to write.
+The UART is LiteX's stream model (``RS232PHYModel``) and reaches the host through our
+simulation module ``serial2pty`` (soc/sim_modules/), which opens a pseudo-terminal, prints
+``serial2pty: /dev/pts/N`` and applies flow control both ways: nothing is dropped when the
+host is slow to read or quick to write. It keeps the line's time: the SoC's bytes leave at
+``baud`` in simulated cycles (10 bit times each at ``clk_hz``), so a frame's link time is
+the board's; the host's bytes arrive unpaced unless ``rx_baud`` is set (a scene upload may
+run faster than the line in simulation). It prints the simulation's speed (simulated
+cycles per wall-clock second) every 10 s and at exit.
+
+The simulator is built for speed: no tracing unless ``trace`` (Verilator ``--trace``), the
+model's C++ at ``-O3`` (Verilator's default for it is ``-Os``).
 
 ``prepare`` generates the gateware and csr.json, then compiles the Verilated simulator
 only when its inputs changed (a hash of every generated source, the RTL, the simulation
@@ -13,6 +20,7 @@ run from ``<gateware>`` (it reads ``sim_config.js`` and ``modules/`` there).
 """
 
 import hashlib
+import os
 import shutil
 import subprocess
 import time
@@ -29,6 +37,8 @@ from . import board_files
 from .soc import SYS_CLK_FREQ, GridrtSoC
 
 SIM_MODULES = Path(__file__).resolve().parents[1] / "sim_modules"
+# Our side of LiteX's simulation core: veril.cpp without an unconditional --trace.
+SIM_CORE = Path(__file__).resolve().parents[1] / "sim_core"
 
 _io = [
     ("sys_clk", 0, Pins(1)),
@@ -58,7 +68,7 @@ def _stamp(gateware, platform, verilator):
     """One line per input of the simulator build: its hash and name."""
     generated = sorted(p for p in gateware.iterdir() if p.suffix in (".v", ".sv", ".cpp", ".h", ".mak", ".sh"))
     sources = sorted({Path(f) if Path(f).is_absolute() else gateware / f for f, *_ in platform.sources})
-    module_sources = sorted(p for p in SIM_MODULES.rglob("*") if p.is_file())
+    module_sources = sorted(p for d in (SIM_MODULES, SIM_CORE) for p in d.rglob("*") if p.is_file())
     lines = [f"{hashlib.sha256(verilator.encode()).hexdigest()[:16]} verilator"]
     for path in generated + sources + module_sources:
         text = path.read_bytes()
@@ -71,8 +81,42 @@ def _stamp(gateware, platform, verilator):
     return "\n".join(lines) + "\n"
 
 
-def prepare(build_dir, rtl_dir, rom_words, board_files_mode, jobs=2):
-    """Generates and (if needed) compiles the simulator; returns its gateware directory."""
+def _untraced_makefile(gateware, trace):
+    """Points ``build_sim.sh`` at a copy of LiteX's simulation Makefile whose ``--trace`` is
+    conditional and whose veril.cpp is ours (soc/sim_core/): LiteX 2024.12 always Verilates
+    with ``--trace``, and a model built with tracing pays for it on every cycle even when
+    nothing is dumped."""
+    script = gateware / "build_sim.sh"
+    text = script.read_text()
+    marker = " -f "
+    start = text.index(marker) + len(marker)
+    litex_makefile = Path(text[start:].split()[0])
+    make = litex_makefile.read_text()
+    always = "\t\t--trace \\\n"
+    if always not in make:
+        raise SystemExit(f"sim: {litex_makefile} has no unconditional --trace line to make optional (a new LiteX?)")
+    veril = "$(SRC_DIR)/veril.cpp"
+    if veril not in make:
+        raise SystemExit(f"sim: {litex_makefile} does not build $(SRC_DIR)/veril.cpp (a new LiteX?)")
+    ours = gateware / "Makefile.gridrt"
+    make = make.replace(always, "\t\t$(if $(TRACE), --trace,) \\\n").replace(veril, str(SIM_CORE / "veril.cpp"))
+    ours.write_text(make)
+    script.write_text(text.replace(str(litex_makefile), str(ours)))
+    if trace and "TRACE=1" not in text:
+        raise SystemExit("sim: LiteX did not pass TRACE=1 for --trace")
+
+
+# The C++ optimisation of the simulator (LiteX's own files and, through OPT_FAST, the
+# Verilated model's hot code).
+OPT_LEVEL = "O3"
+
+
+def prepare(build_dir, rtl_dir, rom_words, board_files_mode, jobs=2, trace=False, clk_hz=SYS_CLK_FREQ, baud=0, rx_baud=0):
+    """Generates and (if needed) compiles the simulator; returns its gateware directory.
+
+    ``clk_hz``, ``baud``, ``rx_baud``: the UART line's pacing (``serial2pty``); 0 = unpaced.
+    They are read when the simulator starts (sim_config.js): changing them rebuilds nothing.
+    """
     build_dir = Path(build_dir).resolve()
     soc = make_soc(rtl_dir, rom_words)
     # The C modules are compiled in the build tree: LiteX writes a variables.mak next to them.
@@ -83,7 +127,9 @@ def prepare(build_dir, rtl_dir, rom_words, board_files_mode, jobs=2):
 
     sim_config = SimConfig()
     sim_config.add_clocker("sys_clk", freq_hz=SYS_CLK_FREQ)
-    sim_config.add_module("serial2pty", "serial")
+    sim_config.add_module(
+        "serial2pty", "serial", args={"clk_hz": str(int(clk_hz)), "baud": str(int(baud)), "rx_baud": str(int(rx_baud))}
+    )
 
     builder = Builder(
         soc,
@@ -96,7 +142,8 @@ def prepare(build_dir, rtl_dir, rom_words, board_files_mode, jobs=2):
         sim_config=sim_config,
         build=True,
         run=False,
-        opt_level="O2",
+        opt_level=OPT_LEVEL,
+        trace=trace,
         jobs=jobs,
         interactive=False,
         extra_mods=["serial2pty"],
@@ -105,8 +152,9 @@ def prepare(build_dir, rtl_dir, rom_words, board_files_mode, jobs=2):
     board_files.apply(board_files.render(build_dir / "csr.json", soc), board_files_mode)
 
     gateware = Path(builder.gateware_dir)
+    _untraced_makefile(gateware, trace)
     verilator = subprocess.run(["verilator", "--version"], capture_output=True, text=True, check=True).stdout.strip()
-    stamp = _stamp(gateware, soc.platform, verilator)
+    stamp = _stamp(gateware, soc.platform, verilator) + f"build trace={trace} opt={OPT_LEVEL}\n"
     stamp_file = gateware / "sim.stamp"
     exe = gateware / "obj_dir" / "Vsim"
     old = stamp_file.read_text() if stamp_file.exists() else ""
@@ -122,7 +170,8 @@ def prepare(build_dir, rtl_dir, rom_words, board_files_mode, jobs=2):
         shutil.rmtree(gateware / "modules", ignore_errors=True)
         log = gateware / "build_sim.log"
         with open(log, "w") as out:
-            r = subprocess.run(["bash", "build_sim.sh"], cwd=gateware, stdout=out, stderr=subprocess.STDOUT)
+            env = dict(os.environ, OPT_FAST=f"-{OPT_LEVEL}")
+            r = subprocess.run(["bash", "build_sim.sh"], cwd=gateware, stdout=out, stderr=subprocess.STDOUT, env=env)
         if r.returncode != 0 or not exe.exists():
             tail = "".join(log.read_text().splitlines(True)[-40:])
             raise SystemExit(f"sim: building the simulator failed ({r.returncode}); log {log}:\n{tail}")

@@ -44,6 +44,21 @@ pub struct SimCmd {
     /// Parallel jobs of the firmware and simulator builds.
     #[arg(short, long, default_value_t = 2)]
     jobs: u32,
+    /// Build the simulator with Verilator's --trace (waveforms; several times slower).
+    #[arg(long)]
+    trace: bool,
+    /// The UART line from the SoC to the host, in simulated time: each byte takes 10 bit
+    /// times at this rate (8N1), as on a board; 0 = unpaced (a byte per clock at most).
+    #[arg(long, default_value_t = 115_200)]
+    baud: u32,
+    /// The line from the host to the SoC; 0 (default) = unpaced, so that flashing and scene
+    /// uploads do not cost simulated minutes.
+    #[arg(long, default_value_t = 0)]
+    rx_baud: u32,
+    /// The clock the line's bit times are counted in, MHz (default: the SoC's 50 MHz; give
+    /// the routed clock of a bitstream to time its link).
+    #[arg(long)]
+    clock_mhz: Option<f64>,
 }
 
 /// serial2pty prints this for its pty.
@@ -70,6 +85,16 @@ impl SimCmd {
         let mut py = python()?;
         py.args(["sim", "--build-dir"]).arg(&dir).arg("--rtl-dir").arg(self.rtl.dir());
         py.arg("--rom-image").arg(&rom).args(["--jobs", &self.jobs.to_string()]);
+        py.args(["--baud", &self.baud.to_string(), "--rx-baud", &self.rx_baud.to_string()]);
+        if let Some(mhz) = self.clock_mhz {
+            if !(mhz.is_finite() && mhz > 0.0 && mhz <= 1000.0) {
+                bail!("--clock-mhz {mhz}: expected a clock in (0, 1000] MHz");
+            }
+            py.args(["--clk-hz", &format!("{:.0}", mhz * 1e6)]);
+        }
+        if self.trace {
+            py.arg("--trace");
+        }
         let results =
             run_logged(py, &dir.join("litex.log"), |l| l.starts_with("sim:") || l.starts_with("board-files:"))?;
         let gateware = PathBuf::from(result(&results, "SIM_DIR")?);
@@ -99,7 +124,8 @@ impl SimCmd {
             let tx = tx.clone();
             std::thread::spawn(move || {
                 for line in BufReader::new(stream).lines().map_while(Result::ok) {
-                    if let Some(path) = line.strip_prefix(PTY_MARKER) {
+                    let pty = line.strip_prefix(PTY_MARKER).filter(|p| p.starts_with('/'));
+                    if let Some(path) = pty {
                         let _ = tx.send(path.trim().to_string());
                     } else if !(line.starts_with('[') && line.contains("] loaded")) {
                         // The module loader's chatter is noise; anything else is news.

@@ -192,6 +192,7 @@ impl<L: FslLink, K: CycleCounter> FslLink for TimedLink<'_, L, K> {
 }
 
 /// `mcycle`/`minstret` minus the time [`TimedLink`] excluded: the firmware's own counts.
+#[derive(Clone)]
 pub struct ModelFreeClock<'e, K> {
     counter: K,
     excluded: &'e Excluded,

@@ -17,7 +17,7 @@ use super::fail::Fail;
 use super::raypath::{RayClass, RayPath};
 use super::request::{field, Job};
 use super::scene::SceneStore;
-use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
+use super::stats::{count, cycles_between, FrameStats, FrameWriter, Stage, StageClock, Stopwatch};
 use crate::camera::{Camera, ColumnTerms, RowRays};
 use crate::cull::{BoxSpans, OccupancyMask};
 use crate::fsl::FslLink;
@@ -445,7 +445,15 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         }
         self.spans.set_silent(job.crc_only);
         let excluded = self.clock.excluded();
-        self.pixels(scene, tx, job, out)?;
+        let arrival = self.clock.now();
+        let mut wire = FrameWriter::new(out, self.clock.clone());
+        self.pixels(scene, tx, job, &mut wire)?;
+        // The frame ends when its last byte has left the transmit FIFO (SPEC.md §3.8).
+        wire.flush().map_err(|_| Fail::Output)?;
+        let drained = self.clock.now();
+        self.path.stats.frame_cycles = cycles_between(arrival, drained);
+        self.path.stats.link_cycles = wire.first.map_or(0, |first| cycles_between(first, drained));
+        self.path.stats.frame_tx_bytes = wire.bytes;
         let now = self.clock.excluded();
         self.path.stats.model_instructions = now.model.wrapping_sub(excluded.model);
         self.path.stats.link_wrapper_instructions = now.link_wrapper.wrapping_sub(excluded.link_wrapper);

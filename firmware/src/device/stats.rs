@@ -56,7 +56,10 @@ pub struct ExcludedWork {
 }
 
 /// Source of [`StageStamp`]s (RISC-V `mcycle`/`minstret`, a board timer, or nothing).
-pub trait StageClock {
+///
+/// `Clone`: a frame's UART writer reads its own copy ([`FrameWriter`]); a copy reads the same
+/// counters.
+pub trait StageClock: Clone {
     /// Current counter values (low words).
     fn now(&self) -> StageStamp;
 
@@ -64,6 +67,48 @@ pub trait StageClock {
     fn excluded(&self) -> ExcludedWork {
         ExcludedWork::default()
     }
+}
+
+/// The UART writer of a frame's pixels: counts the bytes and stamps the first one, so that
+/// the frame's link time ([`FrameStats::link_cycles`]) is measured on the board's own clock.
+pub(super) struct FrameWriter<'a, W: ?Sized, C> {
+    out: &'a mut W,
+    clock: C,
+    /// The clock when the first byte was handed to the UART.
+    pub(super) first: Option<StageStamp>,
+    /// Bytes handed to the UART.
+    pub(super) bytes: u64,
+}
+
+impl<'a, W: embedded_io::Write + ?Sized, C: StageClock> FrameWriter<'a, W, C> {
+    pub(super) fn new(out: &'a mut W, clock: C) -> Self {
+        Self { out, clock, first: None, bytes: 0 }
+    }
+}
+
+impl<W: embedded_io::Write + ?Sized, C> embedded_io::ErrorType for FrameWriter<'_, W, C> {
+    type Error = W::Error;
+}
+
+impl<W: embedded_io::Write + ?Sized, C: StageClock> embedded_io::Write for FrameWriter<'_, W, C> {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
+        if self.first.is_none() && !buf.is_empty() {
+            self.first = Some(self.clock.now());
+        }
+        let n = self.out.write(buf)?;
+        count(&mut self.bytes, n as u64);
+        Ok(n)
+    }
+
+    /// Blocks until the UART has sent everything (its transmit FIFO drained).
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        self.out.flush()
+    }
+}
+
+/// Cycles from `earlier` to `later` (low words: exact below 2^32 cycles, 85 s at 50 MHz).
+pub(super) fn cycles_between(earlier: StageStamp, later: StageStamp) -> u64 {
+    u64::from(later.cycles.wrapping_sub(earlier.cycles))
 }
 
 /// A clock that always reads zero: stage counters stay 0 and cost nothing.
@@ -81,7 +126,7 @@ impl StageClock for NoClock {
 #[derive(Debug, Clone, Copy, Default)]
 pub struct CounterClock<T>(pub T);
 
-impl<T: crate::bsp::CycleCounter> StageClock for CounterClock<T> {
+impl<T: crate::bsp::CycleCounter + Clone> StageClock for CounterClock<T> {
     #[inline(always)]
     fn now(&self) -> StageStamp {
         StageStamp { instret: self.0.instret_lo(), cycles: self.0.cycles_lo() }
@@ -174,11 +219,17 @@ pub struct FrameStats {
     pub model_instructions: u64,
     /// Instructions the stage clock excluded as the link wrapper's ([`ExcludedWork`]).
     pub link_wrapper_instructions: u64,
+    /// Cycles from the request's arrival to the frame's pixels drained from the UART.
+    pub frame_cycles: u64,
+    /// Cycles from the frame's first pixel byte written to the UART to that drain.
+    pub link_cycles: u64,
+    /// Bytes written to the UART in that span.
+    pub frame_tx_bytes: u64,
 }
 
-/// Stats entries of the pipeline plan (SPEC.md §3.13) and the excluded work (§3.8), after the
-/// per-stage counters.
-const PLAN_STATS: usize = 9;
+/// Stats entries of the pipeline plan (SPEC.md §3.13), the excluded work and the frame's
+/// timing (§3.8), after the per-stage counters.
+const PLAN_STATS: usize = 12;
 
 /// Number of entries in a `Msg::Stats`.
 pub const STAT_COUNT: usize = 10 + 2 * Stage::ALL.len() + PLAN_STATS;
@@ -208,6 +259,9 @@ impl FrameStats {
             fsl_words_reflection,
             model_instructions,
             link_wrapper_instructions,
+            frame_cycles,
+            link_cycles,
+            frame_tx_bytes,
         } = *o;
         count(&mut self.primary_rays, primary_rays);
         count(&mut self.shadow_rays, shadow_rays);
@@ -231,6 +285,9 @@ impl FrameStats {
         count(&mut self.fsl_words_reflection, fsl_words_reflection);
         count(&mut self.model_instructions, model_instructions);
         count(&mut self.link_wrapper_instructions, link_wrapper_instructions);
+        count(&mut self.frame_cycles, frame_cycles);
+        count(&mut self.link_cycles, link_cycles);
+        count(&mut self.frame_tx_bytes, frame_tx_bytes);
     }
 
     /// (key, value) pairs in the order they are sent.
@@ -262,6 +319,9 @@ impl FrameStats {
             (stat::FSL_WORDS_REFLECTION, self.fsl_words_reflection),
             (stat::MODEL_INSTRUCTIONS, self.model_instructions),
             (stat::LINK_WRAPPER_INSTRUCTIONS, self.link_wrapper_instructions),
+            (stat::FRAME_CYCLES, self.frame_cycles),
+            (stat::LINK_CYCLES, self.link_cycles),
+            (stat::FRAME_TX_BYTES, self.frame_tx_bytes),
         ];
         for (slot, v) in e.iter_mut().zip(base.into_iter().chain(stages).chain(plan)) {
             *slot = v;

@@ -500,6 +500,7 @@ fn device_to_host_messages_and_unknown_types_are_unexpected() {
 /// A clock that advances by a fixed amount per read: stage counters must add up to the
 /// total of all laps.
 /// It starts just below 2^32, so laps across the wrap of the 32-bit stamps are charged too.
+#[derive(Clone)]
 struct TickClock(core::cell::Cell<u64>);
 impl StageClock for TickClock {
     fn now(&self) -> StageStamp {

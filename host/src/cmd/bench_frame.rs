@@ -19,6 +19,9 @@ use gridrt_host::session::ProgressEvent;
 
 use super::render::Encoding;
 
+/// The SoC's target clock (`soc/gridrt_soc/soc.py` `SYS_CLK_FREQ`).
+const SOC_TARGET_MHZ: f64 = 50.0;
+
 /// Arguments.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -31,12 +34,16 @@ pub struct Args {
     /// Frame height.
     #[arg(long, default_value_t = 240)]
     height: u16,
-    /// Clock of the soft-core and the co-processor (one clock domain), MHz; the `rtl`
-    /// configuration's co-processor runs at its profile's clock (GridRT's 50 MHz).
-    #[arg(long, default_value_t = 100.0, value_name = "MHZ")]
-    clock_mhz: f64,
-    /// Line rate of the UART (8N1).
-    #[arg(long, default_value_t = 921_600)]
+    /// Clock of the soft-core and the co-processor (one clock domain, as in the SoC), MHz,
+    /// for every row. Default: the routed clock of --soc-build, else the SoC's 50 MHz target.
+    #[arg(long, value_name = "MHZ")]
+    clock_mhz: Option<f64>,
+    /// A `cargo xtask soc build --json` report of the SoC as built: its routed clock (capped
+    /// at its target) becomes the clock of every row (`clock_source` "routed").
+    #[arg(long, value_name = "REPORT.json")]
+    soc_build: Option<PathBuf>,
+    /// Line rate of the UART (8N1): the SoC's (the `soc` row's simulated line runs at it).
+    #[arg(long, default_value_t = 115_200)]
     baud: u32,
     /// Pixel encoding of the answer.
     #[arg(long, value_enum, default_value_t = Encoding::Rle)]
@@ -47,14 +54,18 @@ pub struct Args {
     /// Also write frame.csv and frame.svg (stacked bars) here.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Configurations, in report order: soft-core-only, gridrt, pipelined, rtl, host-native.
+    /// Configurations, in report order: soft-core-only, gridrt, pipelined, rtl, host-native,
+    /// and soc (the LiteX SoC simulated cycle by cycle in Verilator, measured by its own
+    /// counters: a 320×240 frame takes 10–40 minutes here; not in the default list).
     #[arg(long, value_delimiter = ',', default_value = "soft-core-only,gridrt,pipelined,rtl,host-native")]
     configs: Vec<String>,
     /// Soft-core targets: riscv32imac, riscv32imafc.
     #[arg(long, value_delimiter = ',', default_value = "riscv32imac,riscv32imafc")]
     targets: Vec<String>,
-    /// Soft-core profile: picorv32 (CPI 4.1, documented) or cpi1 (one instruction per cycle).
-    #[arg(long, default_value = "picorv32", value_name = "NAME")]
+    /// Soft-core profile of the modelled rows: vexriscv-imac (the SoC's CPU, CPI measured on
+    /// the simulated SoC; with a soc row, each stage's CPI from that run), picorv32 (CPI 4.1,
+    /// documented) or cpi1 (one instruction per cycle).
+    #[arg(long, default_value = "vexriscv-imac", value_name = "NAME")]
     cpu_profile: String,
     /// Per-stage CPI measured on a soft-core: the `--stats` JSON of `gridrt render --port` on
     /// the LiteX SoC (VexRiscv imac, `cargo xtask soc sim`). The riscv32imac rows then charge
@@ -173,7 +184,18 @@ impl Args {
             }
             None => None,
         };
-        if !(self.clock_mhz > 0.0 && self.clock_mhz.is_finite()) || self.baud == 0 {
+        let (clock_mhz, clock_source) = match (&self.soc_build, self.clock_mhz) {
+            (Some(_), Some(_)) => bail!("--clock-mhz and --soc-build both set the clock: give one"),
+            (Some(path), None) => {
+                let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+                let c = gridrt_host::frame_bench::soc::SocClock::from_build_report(&text, self.baud)
+                    .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+                (c.clock_mhz, c.source)
+            }
+            (None, Some(mhz)) => (mhz, "option"),
+            (None, None) => (SOC_TARGET_MHZ, "target"),
+        };
+        if !(clock_mhz > 0.0 && clock_mhz.is_finite()) || self.baud == 0 {
             bail!("--clock-mhz and --baud must be positive");
         }
         if configs.iter().any(|c| c.on_soft_core()) && !self.repo.join("firmware/image/Cargo.toml").is_file() {
@@ -192,7 +214,8 @@ impl Args {
             scene: self.scene.clone(),
             width: self.width,
             height: self.height,
-            clock_mhz: self.clock_mhz,
+            clock_mhz,
+            clock_source,
             baud: self.baud,
             encoding: self.encoding.into(),
             tx_buffer_bytes: self.tx_buffer,

@@ -6,7 +6,11 @@ use gridrt_shared::msg::{stat, PixelEncoding, RenderRequest};
 
 use super::report::{self, FrameReport};
 use super::run::{self, run_native, run_on_loopback, run_on_qemu, work_differences, DeviceRun};
-use super::setup::{kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, FrameBenchError, Image, Target};
+use super::setup::{
+    kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, FrameBenchError, Image, MeasuredCpi, Target,
+};
+use super::soc;
+use gridrt_firmware::device::Stage;
 use crate::compare::compare;
 use crate::grid::GridParams;
 use crate::pipeline::PreparedScene;
@@ -38,6 +42,33 @@ pub fn prepare(
 /// report.
 pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Result<FrameReport, FrameBenchError> {
     let (prepared, req, plan) = prepare(&opt.scene, opt.width, opt.height, opt.encoding)?;
+    // The SoC first: its per-stage CPI, measured, then describes the modelled riscv32imac rows.
+    let soc = if opt.configs.contains(&Configuration::Soc) {
+        let loaded = crate::scene::load(&opt.scene)?;
+        Some(soc::run_on_soc(&opt.repo, &loaded, &req, opt.soc_clock(), progress)?)
+    } else {
+        None
+    };
+    let measured = soc.as_ref().filter(|_| opt.measured_cpi.is_none()).map(|(s, _)| MeasuredCpi {
+        core: "vexriscv-imac".into(),
+        source: "this run's soc row".into(),
+        by_stage: Stage::ALL
+            .iter()
+            .map(|&st| {
+                let name = crate::stats::stage_name(st).to_string();
+                (name, (s.run.stat(st.cycles_key()), s.run.stat(st.instret_key())))
+            })
+            .filter(|(_, (c, i))| *i > 0 && c >= i)
+            .collect(),
+    });
+    let with_soc_cpi;
+    let opt = match measured {
+        Some(m) => {
+            with_soc_cpi = BenchOptions { measured_cpi: Some(m), ..opt.clone() };
+            &with_soc_cpi
+        }
+        None => opt,
+    };
     progress(BenchEvent::Step(format!(
         "{}: {} triangles, grid {:?}, {} PEs; {}×{}, plan [{}]",
         opt.scene.display(),
@@ -120,6 +151,11 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
     let mut rows = Vec::new();
     for &c in &opt.configs {
         match c.coproc() {
+            CoprocCycles::SocSim => {
+                if let Some((s, _)) = &soc {
+                    rows.push(report::soc_row(s, &check(&s.run.frame.rgb)?));
+                }
+            }
             CoprocCycles::HostWall => {
                 if let Some(n) = &native {
                     rows.push(report::native_row(n, &check(&n.frame.rgb)?));
@@ -139,8 +175,13 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
             }
         }
     }
+    report::distance_from_soc(&mut rows);
     // The loopback's upload has no resends (QEMU's slow UART makes some): the scene's wire bytes.
-    let upload_bytes = models.first().map(|m| m.1.upload_bytes).or(runs.first().map(|r| r.2.upload_bytes));
+    let upload_bytes = models
+        .first()
+        .map(|m| m.1.upload_bytes)
+        .or(runs.first().map(|r| r.2.upload_bytes))
+        .or(soc.as_ref().map(|(s, _)| s.run.upload_bytes));
     let (kind, format) = kernel();
     Ok(FrameReport {
         scene: opt.scene.display().to_string(),
@@ -163,6 +204,14 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
         upload_ms: upload_bytes.map(|b| b as f64 * 10.0 / opt.baud.max(1) as f64 * 1e3),
         reference_ms,
         qemu: gridrt_qemu::version(),
+        soc_sim: soc.as_ref().map(|(s, _)| report::SocSimReport {
+            sim_cycles_per_s: s.sim_cycles_per_s,
+            sim_reported_cycles_per_s: s.sim_reported_cycles_per_s,
+            flash_s: s.flash_s,
+            upload_s: s.upload_s,
+            render_s: s.render_s,
+            upload_line: "unpaced: the host-to-SoC line runs faster than the baud rate in simulation; the upload is not part of the frame".into(),
+        }),
         rows,
     })
 }

@@ -47,6 +47,7 @@ mod bench;
 mod report;
 pub mod run;
 mod setup;
+pub mod soc;
 #[cfg(test)]
 mod tests;
 pub mod timeline;

@@ -12,6 +12,7 @@ use serde::Serialize;
 
 use super::run::DeviceRun;
 use super::setup::{kernel, BenchOptions, Configuration, Target};
+use super::soc::SocRun;
 use super::timeline::{timeline, FrameWork};
 use crate::compare::Comparison;
 use crate::stats::stage_name;
@@ -60,8 +61,28 @@ pub struct FrameReport {
     pub reference_ms: f64,
     /// `qemu-system-riscv32 --version`.
     pub qemu: Option<String>,
+    /// The simulated SoC's run, with a `soc` row.
+    pub soc_sim: Option<SocSimReport>,
     /// One row per configuration × target.
     pub rows: Vec<FrameRow>,
+}
+
+/// How the `soc` row's simulation went on this machine (wall-clock figures: measured here).
+#[derive(Debug, Clone, Serialize)]
+pub struct SocSimReport {
+    /// Simulated cycles per wall-clock second during the render (the frame's cycles over the
+    /// host's wall time of the render).
+    pub sim_cycles_per_s: f64,
+    /// The simulator's own figure since it started (`serial2pty`), when it printed one.
+    pub sim_reported_cycles_per_s: Option<f64>,
+    /// Wall seconds of the flash through the bootloader.
+    pub flash_s: f64,
+    /// Of the scene upload.
+    pub upload_s: f64,
+    /// Of the render.
+    pub render_s: f64,
+    /// How the host-to-SoC line is simulated.
+    pub upload_line: String,
 }
 
 /// One configuration on one target.
@@ -153,6 +174,45 @@ pub struct FrameRow {
     pub link_bytes_rx: u64,
     /// Wall time of the run on this machine: QEMU's render, or the native frame.
     pub wall_ms: f64,
+    /// The board the row describes and where its cycles come from.
+    #[serde(flatten)]
+    pub board: BoardFields,
+}
+
+/// The board of a row: its clock, line, PEs and harts, and where the frame's cycles come
+/// from; on the `soc` row the SoC's own measurements.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct BoardFields {
+    /// `"soc-sim"`: the SoC's own counters in its cycle-accurate simulation; `"model"`:
+    /// modelled; `null`: host-native (wall time).
+    pub cycles_source: Option<String>,
+    /// Cycles of the frame: on `soc` from the render request's arrival to the frame's last
+    /// byte leaving the UART's transmit FIFO (`mcycle`); modelled rows: frame time × clock.
+    pub frame_cycles: Option<u64>,
+    /// The clock the row's cycles are converted at, MHz.
+    pub clock_mhz: Option<f64>,
+    /// `"routed"` (a `cargo xtask soc build --json` report, `--soc-build`), `"target"` (the
+    /// SoC's target clock) or `"option"` (`--clock-mhz`).
+    pub clock_source: Option<String>,
+    /// Harts of the soft-core.
+    pub harts: Option<u32>,
+    /// PEs of the co-processor.
+    pub pes: Option<u16>,
+    /// Line rate of the UART (8N1).
+    pub baud: Option<u32>,
+    /// `soc`: cycles from the frame's first byte written to the UART to its transmit FIFO
+    /// draining (measured; the frame's line time when the line is the bottleneck).
+    pub link_cycles: Option<u64>,
+    /// `soc`: bytes the SoC wrote to the UART in that span (measured).
+    pub frame_tx_bytes: Option<u64>,
+    /// `soc`: simulated cycles per wall-clock second during the render on this machine.
+    pub sim_cycles_per_s: Option<f64>,
+    /// `soc`: byte-identical to `gridrt render --sim --coproc rtl` of the same frame.
+    pub identical_to_rtl_sim: Option<bool>,
+    /// Modelled rows of a run with a `soc` row: this row's frame time ÷ the `soc` row's − 1
+    /// (the same frame at the same clock and baud; the model's error where the row models
+    /// the SoC, `rtl` on riscv32imac).
+    pub vs_soc: Option<f64>,
 }
 
 fn per_stage(run: &DeviceRun, wrapper: u64) -> (u64, BTreeMap<String, f64>) {
@@ -213,8 +273,13 @@ pub(crate) fn device_row(
     };
     let (coproc_clock_hz, coproc_clock_source) = config.coproc_clock(opt.clock_mhz);
     // Measured CPI per stage for the soft-float image (a core without FPU measured it);
-    // else the profile's one CPI.
-    let measured = opt.measured_cpi.as_ref().filter(|_| target == Target::Riscv32imac);
+    // else the profile's one CPI. Not for soft-core-only: its `fsl_io` holds the whole
+    // soft-float intersection, code the measurement never ran (its rows keep the profile's
+    // CPI, as a model).
+    let measured = opt
+        .measured_cpi
+        .as_ref()
+        .filter(|_| target == Target::Riscv32imac && config != Configuration::SoftCoreOnly);
     let cpi_by_stage: Option<BTreeMap<String, f64>> =
         measured.map(|m| by_stage.keys().filter_map(|s| Some((s.clone(), m.cpi(s)?))).collect());
     let cpu_cycles = match &cpi_by_stage {
@@ -279,6 +344,111 @@ pub(crate) fn device_row(
         link_bytes_tx: run.frame.bytes_tx,
         link_bytes_rx: run.frame.bytes_rx,
         wall_ms: run.wall_ms,
+        board: BoardFields {
+            cycles_source: Some("model".into()),
+            frame_cycles: Some((t.frame_s * opt.clock_mhz * 1e6).round() as u64),
+            clock_mhz: Some(opt.clock_mhz),
+            clock_source: Some(opt.clock_source.to_string()),
+            harts: Some(1),
+            pes: Some(super::run::QEMU_PE_COUNT),
+            baud: Some(opt.baud),
+            ..BoardFields::default()
+        },
+    }
+}
+
+/// The `soc` row: every figure measured by the SoC's own counters in its cycle-accurate
+/// simulation (`soc` module); the image compared with the f64 reference (`cmp`).
+pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
+    let run = &soc.run;
+    let hz = soc.clock.clock_mhz * 1e6;
+    let ms = |cycles: u64| cycles as f64 / hz * 1e3;
+    let primary = run.stat(stat::PRIMARY_RAYS).max(1) as f64;
+    let (mut cycles, mut instructions) = (0u64, 0u64);
+    let mut by_stage = BTreeMap::new();
+    let mut cpi_by_stage = BTreeMap::new();
+    for s in Stage::ALL {
+        let (c, i) = (run.stat(s.cycles_key()), run.stat(s.instret_key()));
+        cycles += c;
+        instructions += i;
+        by_stage.insert(stage_name(s).to_string(), i as f64 / primary);
+        if i > 0 {
+            cpi_by_stage.insert(stage_name(s).to_string(), c as f64 / i as f64);
+        }
+    }
+    let frame_cycles = run.stat(stat::FRAME_CYCLES);
+    let link_cycles = run.stat(stat::LINK_CYCLES);
+    let coproc_cycles = run.stat(stat::COPROC_CYCLES);
+    let frame_ms = ms(frame_cycles);
+    let (psnr_db, identical) = quality(cmp);
+    let (kind, format) = Configuration::Soc.kernel();
+    let profile = TimingProfile::RTL.for_kernel(kind, format);
+    let words = run.stat(stat::FSL_WORDS_OUT) + run.stat(stat::FSL_WORDS_IN);
+    FrameRow {
+        config: Configuration::Soc.name().into(),
+        target: Target::Riscv32imac.name().into(),
+        instructions_per_primary_ray: Some(instructions as f64 / primary),
+        instructions_source: Some("soc-sim".into()),
+        cpu_ms: ms(cycles),
+        coproc_ms: ms(coproc_cycles),
+        link_ms: ms(link_cycles),
+        frame_ms,
+        fps: if frame_ms > 0.0 { 1e3 / frame_ms } else { 0.0 },
+        psnr_db,
+        identical,
+        frame_ms_source: "measured".into(),
+        cpu_profile: Some("vexriscv-imac".into()),
+        cpi: Some(cycles as f64 / instructions.max(1) as f64),
+        cpu_source: Some("soc-sim".into()),
+        cpi_by_stage: Some(cpi_by_stage),
+        instructions: Some(instructions),
+        instructions_per_primary_ray_by_stage: Some(by_stage),
+        link_wrapper_instructions: None,
+        link_wrapper_instructions_per_primary_ray: None,
+        kernel: Some(kernel_name(kind, format)),
+        coproc_profile: Some(profile.name.to_string()),
+        coproc_test_cycles: Some(profile.test_issue_cycles),
+        coproc_clock_mhz: Some(soc.clock.clock_mhz),
+        coproc_clock_source: Some(format!("one clock with the soft-core ({})", soc.clock.source)),
+        coproc_cycles,
+        rays_in_flight: run.rays_in_flight(),
+        coproc_wait_ms: ms(run.stat(Stage::FslIo.cycles_key())),
+        work_ms: ms(cycles),
+        link_hidden_ms: (ms(cycles) + ms(link_cycles) - frame_ms).max(0.0),
+        primary_rays: run.stat(stat::PRIMARY_RAYS),
+        shadow_rays: run.stat(stat::SHADOW_RAYS),
+        reflection_rays: run.stat(stat::REFLECTION_RAYS),
+        coproc_rays: run.stat(stat::COPROC_RAYS),
+        list_entries: run.stat(stat::LIST_ENTRIES),
+        fsl_words: words,
+        intersection_tests: run.stat(stat::INTERSECTION_TESTS),
+        link_bytes_tx: run.frame.bytes_tx,
+        link_bytes_rx: run.frame.bytes_rx,
+        wall_ms: run.wall_ms,
+        board: BoardFields {
+            cycles_source: Some("soc-sim".into()),
+            frame_cycles: Some(frame_cycles),
+            clock_mhz: Some(soc.clock.clock_mhz),
+            clock_source: Some(soc.clock.source.into()),
+            harts: Some(1),
+            pes: Some(soc.pes),
+            baud: Some(soc.clock.baud),
+            link_cycles: Some(link_cycles),
+            frame_tx_bytes: Some(run.stat(stat::FRAME_TX_BYTES)),
+            sim_cycles_per_s: Some(soc.sim_cycles_per_s),
+            identical_to_rtl_sim: Some(run.frame.rgb == soc.rtl.frame.rgb),
+            vs_soc: None,
+        },
+    }
+}
+
+/// Sets `vs_soc` on every modelled row when `rows` has a `soc` row.
+pub(crate) fn distance_from_soc(rows: &mut [FrameRow]) {
+    let Some(soc_ms) = rows.iter().find(|r| r.config == Configuration::Soc.name()).map(|r| r.frame_ms) else {
+        return;
+    };
+    for r in rows.iter_mut().filter(|r| r.board.cycles_source.as_deref() == Some("model")) {
+        r.board.vs_soc = (soc_ms > 0.0).then(|| r.frame_ms / soc_ms - 1.0);
     }
 }
 
@@ -332,6 +502,7 @@ pub(crate) fn native_row(run: &DeviceRun, cmp: &Comparison) -> FrameRow {
         link_bytes_tx: 0,
         link_bytes_rx: 0,
         wall_ms: ms,
+        board: BoardFields::default(),
     }
 }
 

@@ -23,6 +23,8 @@ use crate::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
 pub const QEMU_PE_COUNT: u16 = 4;
 /// Words per PE memory of the qemu-virt board: every run uses the same, so the grids agree.
 pub const QEMU_PE_MEM_WORDS: u32 = 1 << 19;
+/// Both.
+const QEMU_PES: (u16, u32) = (QEMU_PE_COUNT, QEMU_PE_MEM_WORDS);
 
 /// How long a device may stay silent during a render or upload.
 const STAGE_TIMEOUT: Duration = Duration::from_secs(600);
@@ -82,19 +84,21 @@ pub fn tail_bytes(frame: u16, stats: &BTreeMap<u8, u64>, spans: u32, crc: u32) -
 
 /// Hello, upload and one render of `req` on a session; the wall time is measured around the
 /// render.
-fn hello_upload_render<T: Read + Write>(
+/// `pes`: the PEs and words per PE the grid was built for; the device must have them.
+pub(super) fn hello_upload_render<T: Read + Write>(
     session: &mut Session<T>,
     prepared: &PreparedScene,
     req: &RenderRequest,
     run: &str,
+    pes: (u16, u32),
     progress: &mut dyn FnMut(BenchEvent),
 ) -> Result<(RenderedFrame, u64, f64), FrameBenchError> {
     let mut on = |e: ProgressEvent| progress(BenchEvent::Session { run: run.to_string(), event: e });
     let info = session.hello(&mut on)?;
-    if (info.pe_count, info.pe_mem_words) != (QEMU_PE_COUNT, QEMU_PE_MEM_WORDS) {
+    if (info.pe_count, info.pe_mem_words) != pes {
         return Err(FrameBenchError::Device(format!(
-            "{run}: the device has {} PEs of {} words; the bench builds grids for {QEMU_PE_COUNT} of {QEMU_PE_MEM_WORDS}",
-            info.pe_count, info.pe_mem_words
+            "{run}: the device has {} PEs of {} words; the bench builds grids for {} of {}",
+            info.pe_count, info.pe_mem_words, pes.0, pes.1
         )));
     }
     let (tx, rx) = (session.bytes_tx(), session.bytes_rx());
@@ -108,7 +112,7 @@ fn hello_upload_render<T: Read + Write>(
     Ok((frame, upload_bytes, start.elapsed().as_secs_f64() * 1e3))
 }
 
-fn finish(frame: RenderedFrame, upload_bytes: u64, wall_ms: f64, banner: String) -> DeviceRun {
+pub(super) fn finish(frame: RenderedFrame, upload_bytes: u64, wall_ms: f64, banner: String) -> DeviceRun {
     let tail = tail_bytes(frame.frame, &frame.stats, frame.spans_reported, frame.image_crc);
     let wrapper_per_word = banner.lines().find_map(parse_wrapper_line);
     DeviceRun { frame, upload_bytes, tail_bytes: tail, wrapper_per_word, banner, wall_ms }
@@ -145,7 +149,7 @@ pub fn run_on_qemu(
     })?;
     let cfg = SessionConfig::new(pty).render_timeout(STAGE_TIMEOUT);
     let mut session = Session::new(port, cfg);
-    let (frame, upload, wall_ms) = hello_upload_render(&mut session, prepared, req, run, progress)?;
+    let (frame, upload, wall_ms) = hello_upload_render(&mut session, prepared, req, run, QEMU_PES, progress)?;
     drop(machine);
     Ok(finish(frame, upload, wall_ms, banner))
 }
@@ -194,11 +198,24 @@ pub fn run_on_loopback(
         format,
         ..SimConfig::default()
     };
+    run_on_loopback_with(config, prepared, req, run, progress)
+}
+
+/// Renders `req` on the loopback simulator configured as `config` (e.g.
+/// [`SimConfig::RTL`]: `--sim --coproc rtl`).
+pub fn run_on_loopback_with(
+    config: SimConfig,
+    prepared: &PreparedScene,
+    req: &RenderRequest,
+    run: &str,
+    progress: &mut dyn FnMut(BenchEvent),
+) -> Result<DeviceRun, FrameBenchError> {
     let mut port = gridrt_loopback::spawn(config);
     port.set_timeout(Duration::from_millis(20));
     let cfg = SessionConfig::new("sim").render_timeout(STAGE_TIMEOUT);
     let mut session = Session::new(port, cfg);
-    let (frame, upload, wall_ms) = hello_upload_render(&mut session, prepared, req, run, progress)?;
+    let pes = (config.pe_count, config.pe_mem_words);
+    let (frame, upload, wall_ms) = hello_upload_render(&mut session, prepared, req, run, pes, progress)?;
     Ok(finish(frame, upload, wall_ms, String::new()))
 }
 
@@ -282,7 +299,7 @@ pub fn run_native(
         let cfg = SessionConfig::new("native").render_timeout(STAGE_TIMEOUT);
         let mut session = Session::new(port, cfg);
         let mut quiet = |_: BenchEvent| {};
-        let (mut frame, upload, _) = hello_upload_render(&mut session, prepared, req, "host-native", &mut quiet)?;
+        let (mut frame, upload, _) = hello_upload_render(&mut session, prepared, req, "host-native", QEMU_PES, &mut quiet)?;
         let mut best = f64::INFINITY;
         for i in 0..warmup + runs.max(1) {
             session.port_mut().busy = Duration::ZERO;

@@ -51,6 +51,9 @@ pub enum Configuration {
     Rtl,
     /// The native path on this CPU, wall time.
     HostNative,
+    /// The LiteX SoC (VexRiscv imac + the RTL co-processor) simulated cycle by cycle in
+    /// Verilator: every figure measured by the SoC's own counters (`soc` module).
+    Soc,
 }
 
 /// Where a configuration's co-processor time comes from.
@@ -62,6 +65,8 @@ pub enum CoprocCycles {
     Model(TimingProfile),
     /// Not modelled: wall time on this CPU.
     HostWall,
+    /// Measured on the simulated SoC, with everything else.
+    SocSim,
 }
 
 /// The firmware image a soft-core configuration runs on QEMU (`cargo xtask firmware`
@@ -98,12 +103,13 @@ impl Image {
 
 impl Configuration {
     /// Every configuration, in report order.
-    pub const ALL: [Configuration; 5] = [
+    pub const ALL: [Configuration; 6] = [
         Configuration::SoftCoreOnly,
         Configuration::Gridrt,
         Configuration::Pipelined,
         Configuration::Rtl,
         Configuration::HostNative,
+        Configuration::Soc,
     ];
 
     /// Its name in reports and on the command line.
@@ -114,6 +120,7 @@ impl Configuration {
             Configuration::Pipelined => "pipelined",
             Configuration::Rtl => "rtl",
             Configuration::HostNative => "host-native",
+            Configuration::Soc => "soc",
         }
     }
 
@@ -130,6 +137,7 @@ impl Configuration {
             Configuration::Pipelined => CoprocCycles::Model(TimingProfile::PIPELINED),
             Configuration::Rtl => CoprocCycles::Model(TimingProfile::RTL),
             Configuration::HostNative => CoprocCycles::HostWall,
+            Configuration::Soc => CoprocCycles::SocSim,
         }
     }
 
@@ -137,7 +145,7 @@ impl Configuration {
     /// otherwise.
     pub fn kernel(self) -> (KernelKind, NumberFormat) {
         match self {
-            Configuration::Rtl => (KernelKind::Watertight, NumberFormat::Fixed64Q23),
+            Configuration::Rtl | Configuration::Soc => (KernelKind::Watertight, NumberFormat::Fixed64Q23),
             _ => kernel(),
         }
     }
@@ -148,22 +156,14 @@ impl Configuration {
             Configuration::SoftCoreOnly => Some(Image::SoftCoreOnly),
             Configuration::Gridrt | Configuration::Pipelined => Some(Image::Coproc),
             Configuration::Rtl => Some(Image::CoprocRtl),
-            Configuration::HostNative => None,
+            Configuration::HostNative | Configuration::Soc => None,
         }
     }
 
-    /// The co-processor's clock, Hz, and where it comes from: the bench's `--clock-mhz` (one
-    /// clock domain with the soft-core), except `rtl`, which runs at its profile's clock
-    /// because no synthesis of the RTL has reported an fmax yet (BENCHMARKS.md "Co-processor
-    /// RTL").
+    /// The co-processor's clock, Hz, and where it comes from: the bench's clock, one clock
+    /// domain with the soft-core (as in the SoC, where both run on `sys_clk`).
     pub fn coproc_clock(self, clock_mhz: f64) -> (f64, &'static str) {
-        match self {
-            Configuration::Rtl => (
-                TimingProfile::RTL.clock_hz as f64,
-                "the rtl profile's clock (GridRT's 50 MHz, not a routed fmax: BENCHMARKS.md \"Co-processor RTL\")",
-            ),
-            _ => (clock_mhz * 1e6, "--clock-mhz (one clock domain with the soft-core)"),
-        }
+        (clock_mhz * 1e6, "--clock-mhz (one clock domain with the soft-core, as in the SoC)")
     }
 
     /// True when it runs on the soft-core (QEMU-measured instructions).
@@ -203,8 +203,21 @@ impl CpuProfile {
         citation: "definition: a single-issue core that never stalls (upper bound of a scalar soft-core's speed)",
     };
 
+    /// The SoC's CPU as built: VexRiscv imac (LiteX `imac` variant, 4 KiB caches), its CPI
+    /// measured by its own `mcycle`/`minstret` over a whole frame in the SoC's Verilator
+    /// simulation (`gridrt bench frame --scene tests/scenes/bun_zipper_res4.obj --configs soc`,
+    /// BENCHMARKS.md "Whole frame"). A run with a `soc` row charges the riscv32imac rows each
+    /// stage's CPI measured in that run instead.
+    pub const VEXRISCV_IMAC: CpuProfile = CpuProfile {
+        name: "vexriscv-imac",
+        cpi: 2.73,
+        citation: "measured: VexRiscv imac in the LiteX SoC's cycle-accurate simulation, mcycle / minstret over \
+                   the firmware's stages of a bun_zipper_res4 frame (BENCHMARKS.md \"Whole frame\"). It has no \
+                   FPU: for riscv32imafc the CPI is applied to the F instructions too, an assumption",
+    };
+
     /// The presets.
-    pub const ALL: [CpuProfile; 2] = [CpuProfile::PICORV32, CpuProfile::CPI1];
+    pub const ALL: [CpuProfile; 3] = [CpuProfile::VEXRISCV_IMAC, CpuProfile::PICORV32, CpuProfile::CPI1];
 
     /// Parses [`CpuProfile::name`].
     pub fn parse(s: &str) -> Option<Self> {
@@ -267,8 +280,10 @@ pub struct BenchOptions {
     pub width: u16,
     /// Frame height.
     pub height: u16,
-    /// Clock of the soft-core and the co-processor, MHz.
+    /// Clock of the soft-core and the co-processor, MHz (every row, the `soc` row's too).
     pub clock_mhz: f64,
+    /// Where it comes from: `"routed"`, `"target"` or `"option"`.
+    pub clock_source: &'static str,
     /// Line rate.
     pub baud: u32,
     /// Pixel encoding.
@@ -290,6 +305,13 @@ pub struct BenchOptions {
     pub native_runs: u32,
     /// The repository (to build the firmware images with `cargo xtask firmware`).
     pub repo: PathBuf,
+}
+
+impl BenchOptions {
+    /// The `soc` row's clock and line: the bench's.
+    pub fn soc_clock(&self) -> crate::frame_bench::soc::SocClock {
+        crate::frame_bench::soc::SocClock { clock_mhz: self.clock_mhz, source: self.clock_source, baud: self.baud }
+    }
 }
 
 /// What the bench reports while it works.

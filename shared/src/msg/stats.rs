@@ -47,6 +47,15 @@ pub mod stat {
     /// Instructions of the emulated board's link wrapper around the model that the stage
     /// counters exclude (SPEC.md §3.8).
     pub const LINK_WRAPPER_INSTRUCTIONS: u8 = 0x29;
+    /// Cycles from the render request's arrival to the frame's last byte leaving the UART's
+    /// transmit FIFO (`mcycle`; 0 on a board without a cycle counter). SPEC.md §3.8.
+    pub const FRAME_CYCLES: u8 = 0x2A;
+    /// Cycles from the frame's first byte written to the UART to its transmit FIFO draining
+    /// after the last: the frame's time on the line when the line is the bottleneck.
+    pub const LINK_CYCLES: u8 = 0x2B;
+    /// Bytes the device wrote to the UART between those two instants (the frame's spans and
+    /// `Stats` excluded: pixels only, framing included).
+    pub const FRAME_TX_BYTES: u8 = 0x2C;
     /// Splat frames (SPEC.md §6): points the code generator transformed.
     pub const SPLAT_POINTS: u8 = 0x30;
     /// Splat codewords sent to the splat stage (one per 8×8 tile).

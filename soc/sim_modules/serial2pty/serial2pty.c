@@ -14,7 +14,19 @@
  *     head byte until the SoC takes it.
  * The pty is polled every POLL_CYCLES clock cycles.
  *
- * Arguments (sim_config.js, optional): {"link": "/path"} also makes a symlink to the pty.
+ * A line that keeps time: with "baud" set, the SoC -> host direction takes one byte per
+ * 10 bit times of simulated time (8N1 at that baud rate on a clock of "clk_hz"), as a
+ * real transmitter would: `source_ready` stays low while the line is busy, so the SoC's
+ * transmit FIFO backs up and its firmware waits exactly as on a board. "rx_baud" paces the
+ * host -> SoC direction the same way; 0 (the default) leaves it unpaced (a byte per clock
+ * at most), so that a scene upload does not cost simulated minutes.
+ *
+ * It counts the clock cycles it sees and prints the simulation's speed, simulated cycles per
+ * wall-clock second, every REPORT_S seconds and when it closes:
+ *   "serial2pty: speed <cycles> cycles in <s> s: <rate> cycles/s"
+ *
+ * Arguments (sim_config.js, all optional): {"link": "/path"} also makes a symlink to the
+ * pty; "clk_hz", "baud", "rx_baud" as above (numbers as strings or integers).
  */
 /* posix_openpt, grantpt, unlockpt, ptsname, cfmakeraw. */
 #define _GNU_SOURCE
@@ -25,6 +37,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <termios.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <json-c/json.h>
@@ -34,6 +47,9 @@
 
 #define BUF_SIZE 4096
 #define POLL_CYCLES 256
+#define REPORT_S 10.0
+/* The wall clock is read once per this many cycles (a syscall per cycle would be the cost). */
+#define CLOCK_CHECK_CYCLES (1u << 20)
 
 struct session_s {
   /* Pads: tx = SoC -> host (the PHY's sink side), rx = host -> SoC. */
@@ -52,7 +68,31 @@ struct session_s {
   uint8_t out[BUF_SIZE]; /* from the SoC, not yet written to the pty */
   size_t out_len;
   uint64_t cycle, next_poll;
+  /* Pacing: a byte takes 10 * clk_hz / baud cycles. Kept exact as a rational: the line is
+   * free again once cycle * baud >= *_free_at (units of cycles x baud). */
+  uint64_t clk_hz, tx_baud, rx_baud;
+  uint64_t tx_free_at, rx_free_at;
+  /* Speed report. */
+  double wall_start, wall_last;
+  uint64_t cycle_last;
 };
+
+static double wall_now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+static void report_speed(struct session_s *s, double now, const char *what) {
+  double span = now - s->wall_last;
+  double total = now - s->wall_start;
+  printf("serial2pty: speed %llu cycles in %.1f s: %.0f cycles/s (%s; %.0f cycles/s since start)\n",
+         (unsigned long long)(s->cycle - s->cycle_last), span, span > 0 ? (double)(s->cycle - s->cycle_last) / span : 0.0,
+         what, total > 0 ? (double)s->cycle / total : 0.0);
+  fflush(stdout);
+  s->wall_last = now;
+  s->cycle_last = s->cycle;
+}
 
 static int serial2pty_start(void *base) {
   (void)base;
@@ -107,6 +147,13 @@ static int open_pty(struct session_s *s, const char *link) {
   return RC_OK;
 }
 
+static uint64_t number_arg(const char *args, const char *key) {
+  char *v = optional_arg(args, key);
+  uint64_t n = v ? strtoull(v, NULL, 10) : 0;
+  free(v);
+  return n;
+}
+
 static int serial2pty_new(void **sess, char *args) {
   struct session_s *s;
   char *link;
@@ -119,8 +166,23 @@ static int serial2pty_new(void **sess, char *args) {
     return RC_NOENMEM;
   s->master = s->slave_hold = -1;
   link = optional_arg(args, "link");
+  s->clk_hz = number_arg(args, "clk_hz");
+  s->tx_baud = number_arg(args, "baud");
+  s->rx_baud = number_arg(args, "rx_baud");
+  if ((s->tx_baud || s->rx_baud) && !s->clk_hz) {
+    eprintf("serial2pty: \"baud\" needs \"clk_hz\"\n");
+    free(link);
+    *sess = s;
+    return RC_ERROR;
+  }
   ret = open_pty(s, link);
   free(link);
+  if (ret == RC_OK) {
+    printf("serial2pty: line SoC->host %llu baud, host->SoC %llu baud (0: unpaced), clock %llu Hz\n",
+           (unsigned long long)s->tx_baud, (unsigned long long)s->rx_baud, (unsigned long long)s->clk_hz);
+    fflush(stdout);
+  }
+  s->wall_start = s->wall_last = wall_now();
   *sess = s;
   return ret;
 }
@@ -183,19 +245,34 @@ static int serial2pty_tick(void *sess, uint64_t time_ps) {
     s->next_poll = s->cycle + POLL_CYCLES;
   }
 
-  /* SoC -> host: accept the byte on offer at the next edge if there is room for it. */
-  *s->tx_ready = s->out_len < BUF_SIZE;
-  if (*s->tx_valid && *s->tx_ready)
-    s->out[s->out_len++] = (uint8_t)*s->tx;
+  if ((s->cycle & (CLOCK_CHECK_CYCLES - 1)) == 0) {
+    double now = wall_now();
+    if (now - s->wall_last >= REPORT_S)
+      report_speed(s, now, "running");
+  }
 
-  /* Host -> SoC: offer the head byte; it is taken at the next edge when ready is high. */
+  /* SoC -> host: accept the byte on offer at the next edge if there is room for it and the
+   * line has finished the previous byte. */
+  *s->tx_ready = s->out_len < BUF_SIZE && (!s->tx_baud || s->cycle * s->tx_baud >= s->tx_free_at);
+  if (*s->tx_valid && *s->tx_ready) {
+    s->out[s->out_len++] = (uint8_t)*s->tx;
+    /* Back to back, a byte starts when the last one ends (no rounding drift). */
+    if (s->tx_baud)
+      s->tx_free_at = (s->cycle * s->tx_baud > s->tx_free_at ? s->cycle * s->tx_baud : s->tx_free_at) + 10 * s->clk_hz;
+  }
+
+  /* Host -> SoC: offer the head byte once the line has delivered it; it is taken at the
+   * next edge when ready is high. */
   *s->rx_valid = 0;
-  if (s->in_len) {
+  if (s->in_len && (!s->rx_baud || s->cycle * s->rx_baud >= s->rx_free_at)) {
     *s->rx = (char)s->in[s->in_head];
     *s->rx_valid = 1;
     if (*s->rx_ready) {
       s->in_head++;
       s->in_len--;
+      if (s->rx_baud)
+        s->rx_free_at =
+            (s->cycle * s->rx_baud > s->rx_free_at ? s->cycle * s->rx_baud : s->rx_free_at) + 10 * s->clk_hz;
     }
   }
   return RC_OK;
@@ -205,6 +282,7 @@ static int serial2pty_close(void *sess) {
   struct session_s *s = sess;
   if (!s)
     return RC_OK;
+  report_speed(s, wall_now(), "at exit");
   if (s->master >= 0) {
     /* Deliver what the SoC sent last (best effort: the pty may be full). */
     ssize_t n = s->out_len ? write(s->master, s->out, s->out_len) : 0;

@@ -1,0 +1,290 @@
+//! The `soc` row: one frame on the LiteX SoC simulated cycle by cycle (`cargo xtask soc sim`:
+//! VexRiscv imac + the RTL co-processor in Verilator), reached through its UART's pty as a
+//! board is.
+//!
+//! The bench flashes the application through the bootloader, uploads the scene (unpaced:
+//! the upload is not part of the frame) and renders one frame. The simulated UART sends the
+//! SoC's bytes at `baud` in simulated time (`soc/sim_modules/serial2pty`), so the firmware
+//! waits for its line as on a board. The frame's cycles are the SoC's own `mcycle`: from the
+//! render request's arrival to the frame's last byte leaving the transmit FIFO
+//! ([`stat::FRAME_CYCLES`]), with the per-stage counters beside them. The image is checked
+//! against `--sim --coproc rtl` (the loopback simulator with the same RTL co-processor) here
+//! and against the f64 reference by the caller.
+
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use gridrt_loopback::SimConfig;
+use gridrt_shared::msg::{stat, RenderRequest};
+
+use super::run::{finish, hello_upload_render, work_differences, DeviceRun};
+use super::setup::{BenchEvent, FrameBenchError};
+use crate::flash::{flash, FlashConfig, FlashEvent, FlashImage};
+use crate::grid::GridParams;
+use crate::pipeline::PreparedScene;
+use crate::session::{Session, SessionConfig};
+
+/// How long the simulated SoC may take for one stage (flash, upload, render): a 320×240
+/// frame is a few hundred million cycles.
+const SOC_STAGE_TIMEOUT: Duration = Duration::from_secs(3600);
+
+/// What `cargo xtask soc sim` prints for the speed of the simulation (`serial2pty`).
+const SPEED_MARKER: &str = "serial2pty: speed ";
+
+/// The SoC's clock and line, as the row reports them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SocClock {
+    /// The clock the SoC's cycles are converted at, MHz.
+    pub clock_mhz: f64,
+    /// `"routed"` (a `cargo xtask soc build --json` report's fmax) or `"target"`.
+    pub source: &'static str,
+    /// The UART's line rate in simulated time (8N1).
+    pub baud: u32,
+}
+
+impl SocClock {
+    /// The routed clock of a `cargo xtask soc build --json` report (`fmax_mhz`), capped at its
+    /// target clock (the PLL runs there; a higher fmax is margin, not speed).
+    pub fn from_build_report(text: &str, baud: u32) -> Result<Self, String> {
+        let v: serde_json::Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
+        let fmax = v["fmax_mhz"].as_f64().ok_or("no `fmax_mhz` in the report (nothing was routed?)")?;
+        let target = v["target_mhz"].as_f64().unwrap_or(fmax);
+        if !(fmax.is_finite() && fmax > 0.0) {
+            return Err(format!("fmax_mhz {fmax} is not a clock"));
+        }
+        Ok(Self { clock_mhz: fmax.min(target), source: "routed", baud })
+    }
+}
+
+/// One frame on the simulated SoC, and the same frame on `--sim --coproc rtl`.
+#[derive(Debug, Clone)]
+pub struct SocRun {
+    /// The SoC's frame (its counters: `mcycle`/`minstret` per stage and the frame's).
+    pub run: DeviceRun,
+    /// The loopback simulator with the RTL co-processor, same grid and request.
+    pub rtl: DeviceRun,
+    /// The clock and line.
+    pub clock: SocClock,
+    /// PEs of the SoC's co-processor.
+    pub pes: u16,
+    /// Simulated cycles per wall-clock second during the render (the frame's cycles over
+    /// the host's wall time of the render).
+    pub sim_cycles_per_s: f64,
+    /// The simulator's own figure since it started (`serial2pty`), when it printed one.
+    pub sim_reported_cycles_per_s: Option<f64>,
+    /// Wall seconds of the flash, the upload and the render.
+    pub flash_s: f64,
+    /// Scene upload.
+    pub upload_s: f64,
+    /// Render.
+    pub render_s: f64,
+}
+
+/// `cargo xtask soc sim`, its UART on a pty; stopped on drop.
+struct SocSim {
+    child: Child,
+    pty: String,
+    speed: Arc<Mutex<Option<f64>>>,
+}
+
+impl SocSim {
+    fn start(repo: &Path, clock: SocClock, progress: &mut dyn FnMut(BenchEvent)) -> Result<Self, FrameBenchError> {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.current_dir(repo).args(["run", "--quiet", "--package", "xtask", "--", "soc", "sim"]);
+        cmd.args(["--baud", &clock.baud.to_string(), "--clock-mhz", &format!("{}", clock.clock_mhz)]);
+        cmd.args(["--timeout-s", &(4 * SOC_STAGE_TIMEOUT.as_secs()).to_string()]);
+        progress(BenchEvent::Step(format!(
+            "soc: cargo xtask soc sim --baud {} --clock-mhz {} (builds the Verilated SoC the first time: minutes)",
+            clock.baud, clock.clock_mhz
+        )));
+        let mut child = cmd
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|e| FrameBenchError::Device(format!("soc: cannot run cargo xtask soc sim: {e}")))?;
+        let (tx, rx) = mpsc::channel::<Result<String, String>>();
+        let speed = Arc::new(Mutex::new(None));
+        if let Some(out) = child.stdout.take() {
+            let tx = tx.clone();
+            std::thread::spawn(move || {
+                for line in BufReader::new(out).lines().map_while(Result::ok) {
+                    if let Some(p) = line.strip_prefix("serial: ") {
+                        let _ = tx.send(Ok(p.trim().to_string()));
+                    }
+                }
+            });
+        }
+        if let Some(err) = child.stderr.take() {
+            let (tx, speed) = (tx.clone(), speed.clone());
+            std::thread::spawn(move || {
+                let mut tail: Vec<String> = Vec::new();
+                for line in BufReader::new(err).lines().map_while(Result::ok) {
+                    if let Some(rate) = line.split(SPEED_MARKER).nth(1).and_then(parse_speed_since_start) {
+                        *speed.lock().unwrap_or_else(|e| e.into_inner()) = Some(rate);
+                    }
+                    tail.push(line);
+                    if tail.len() > 20 {
+                        tail.remove(0);
+                    }
+                }
+                let _ = tx.send(Err(tail.join("\n")));
+            });
+        }
+        // A fresh machine builds the firmware and the Verilated SoC first.
+        let outcome = rx.recv_timeout(Duration::from_secs(3600));
+        let failed = match outcome {
+            Ok(Ok(pty)) => return Ok(Self { child, pty, speed }),
+            Ok(Err(tail)) => format!("soc: cargo xtask soc sim stopped before it printed its pty:\n{tail}"),
+            Err(_) => "soc: cargo xtask soc sim printed no pty within an hour".to_string(),
+        };
+        let _ = child.kill();
+        let _ = child.wait();
+        Err(FrameBenchError::Device(failed))
+    }
+
+    fn reported_speed(&self) -> Option<f64> {
+        *self.speed.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+impl Drop for SocSim {
+    fn drop(&mut self) {
+        // `cargo run` exec()s xtask; the simulator dies with it (PR_SET_PDEATHSIG).
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// The rate after "since start" in `… cycles/s (running; 812345 cycles/s since start)`.
+fn parse_speed_since_start(rest: &str) -> Option<f64> {
+    let (_, after) = rest.split_once("; ")?;
+    after.split_whitespace().next()?.parse().ok()
+}
+
+/// Runs the `soc` row's frame: the scene `loaded` prepared for the SoC's co-processor (its
+/// PEs and memory from its `Hello`), `request` its render request (size, flags, encoding),
+/// and the same on `--sim --coproc rtl`.
+pub fn run_on_soc(
+    repo: &Path,
+    loaded: &crate::scene::Scene,
+    request: &RenderRequest,
+    clock: SocClock,
+    progress: &mut dyn FnMut(BenchEvent),
+) -> Result<(SocRun, PreparedScene), FrameBenchError> {
+    progress(BenchEvent::Step("soc: cargo xtask firmware --board litex --bin app --layout bootloaded".into()));
+    let app = gridrt_qemu::build_firmware(
+        repo,
+        &["--quiet"],
+        &["--board", "litex", "--bin", "app", "--layout", "bootloaded", "--jobs", "2"],
+    )
+    .map_err(|e| FrameBenchError::Build(e.to_string()))?;
+    let elf = std::fs::read(&app).map_err(|e| FrameBenchError::Build(format!("{}: {e}", app.display())))?;
+    let image = FlashImage::from_elf(&elf).map_err(|e| FrameBenchError::Build(format!("{}: {e}", app.display())))?;
+
+    let sim = SocSim::start(repo, clock, progress)?;
+    let open = || crate::serial::open(&sim.pty, 115_200, crate::serial::DEFAULT_READ_TIMEOUT);
+
+    let t = Instant::now();
+    progress(BenchEvent::Step(format!("soc: flashing {} B through the bootloader", image.data.len())));
+    {
+        let mut port = open()?;
+        let mut last = Instant::now();
+        let mut on = |e: FlashEvent| {
+            if let FlashEvent::Written { bytes, total } = e {
+                if last.elapsed() >= Duration::from_secs(5) {
+                    last = Instant::now();
+                    progress(BenchEvent::Step(format!("soc: flashed {bytes} of {total} B")));
+                }
+            }
+        };
+        flash(&mut port, &image, &FlashConfig::new(sim.pty.clone()), &mut on)
+            .map_err(|e| FrameBenchError::Device(format!("soc: flashing the application: {e}")))?;
+    }
+    let flash_s = t.elapsed().as_secs_f64();
+
+    let cfg = SessionConfig::new(sim.pty.clone()).render_timeout(SOC_STAGE_TIMEOUT);
+    let mut session = Session::new(open()?, cfg);
+    let info = session.hello(&mut |_| {})?;
+    let rtl = SimConfig::RTL;
+    if (info.pe_count, info.pe_mem_words) != (rtl.pe_count, rtl.pe_mem_words) {
+        return Err(FrameBenchError::Device(format!(
+            "soc: the SoC's co-processor has {} PEs of {} words; `--sim --coproc rtl` has {} of {}: not the same frame",
+            info.pe_count, info.pe_mem_words, rtl.pe_count, rtl.pe_mem_words
+        )));
+    }
+    let params = GridParams { pe_count: info.pe_count, pe_mem_words: info.pe_mem_words, ..GridParams::default() };
+    let prepared = PreparedScene::new(loaded.clone(), &params)?;
+    let mut req = prepared.scene.settings.with_size(request.width, request.height).to_request(request.frame);
+    req.flags = request.flags;
+    req.encoding = request.encoding;
+
+    let t = Instant::now();
+    let pes = (info.pe_count, info.pe_mem_words);
+    let (frame, upload_bytes, render_ms) = hello_upload_render(&mut session, &prepared, &req, "soc", pes, progress)?;
+    let upload_s = t.elapsed().as_secs_f64() - render_ms / 1e3;
+    let reported = sim.reported_speed();
+    drop(session);
+    drop(sim);
+    let run = finish(frame, upload_bytes, render_ms, String::new());
+    let frame_cycles = run.stat(stat::FRAME_CYCLES);
+    if frame_cycles == 0 {
+        return Err(FrameBenchError::Device(
+            "soc: the SoC reported no frame cycles (a firmware without the frame counter?)".into(),
+        ));
+    }
+
+    progress(BenchEvent::Step("soc: the same frame on --sim --coproc rtl".into()));
+    gridrt_loopback::prepare(&rtl).map_err(|e| FrameBenchError::Device(format!("the RTL co-processor: {e}")))?;
+    let rtl_run = super::run::run_on_loopback_with(rtl, &prepared, &req, "rtl-sim", progress)?;
+    let diff = work_differences(&run, &rtl_run);
+    if !diff.is_empty() || run.stat(stat::COPROC_CYCLES) != rtl_run.stat(stat::COPROC_CYCLES) {
+        return Err(FrameBenchError::Mismatch(format!(
+            "soc and --sim --coproc rtl did different work for the same frame: {diff:?}, co-processor cycles {} vs {}",
+            run.stat(stat::COPROC_CYCLES),
+            rtl_run.stat(stat::COPROC_CYCLES)
+        )));
+    }
+    let render_s = render_ms / 1e3;
+    Ok((
+        SocRun {
+            sim_cycles_per_s: if render_s > 0.0 { frame_cycles as f64 / render_s } else { 0.0 },
+            sim_reported_cycles_per_s: reported,
+            run,
+            rtl: rtl_run,
+            clock,
+            pes: info.pe_count,
+            flash_s,
+            upload_s,
+            render_s,
+        },
+        prepared,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn speed_line_gives_the_rate_since_start() {
+        let line = "sim: serial2pty: speed 10485760 cycles in 10.0 s: 1048576 cycles/s (running; 998123 cycles/s since start)";
+        let rest = line.split(SPEED_MARKER).nth(1).unwrap();
+        assert_eq!(parse_speed_since_start(rest), Some(998_123.0));
+        assert_eq!(parse_speed_since_start("garbage"), None);
+    }
+
+    #[test]
+    fn routed_clock_comes_from_the_build_report_and_is_capped_at_the_target() {
+        let c = SocClock::from_build_report(r#"{"fmax_mhz": 49.16, "target_mhz": 50}"#, 115_200).unwrap();
+        assert_eq!((c.clock_mhz, c.source, c.baud), (49.16, "routed", 115_200));
+        let fast = SocClock::from_build_report(r#"{"fmax_mhz": 64.1, "target_mhz": 50}"#, 115_200).unwrap();
+        assert_eq!(fast.clock_mhz, 50.0);
+        assert!(SocClock::from_build_report(r#"{"fmax_mhz": null}"#, 115_200).is_err());
+        assert!(SocClock::from_build_report("not json", 115_200).is_err());
+    }
+}
