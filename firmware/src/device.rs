@@ -40,7 +40,7 @@ mod scene;
 mod splat;
 mod stats;
 
-pub use fail::{DETAIL_LINK_HARDWARE, DETAIL_LINK_OTHER, DETAIL_LINK_TIMEOUT};
+pub use fail::{DETAIL_LINK_HARDWARE, DETAIL_LINK_OTHER, DETAIL_LINK_TIMEOUT, DETAIL_MSG_ERROR};
 pub use farm::{NoFarm, RowTracer};
 pub use machine::{compiled_features, Device};
 pub use pipeline::{RowDone, RowFarm, RowFault, Rows};

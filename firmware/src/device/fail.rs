@@ -15,6 +15,10 @@ pub const DETAIL_LINK_HARDWARE: u32 = 0xFFFF_0002;
 /// `Msg::Error` detail of any other link error.
 pub const DETAIL_LINK_OTHER: u32 = 0xFFFF_0003;
 
+/// `Msg::Error{BadRequest}` detail of a payload that failed to decode: this bit pattern `|` the
+/// `MsgError` number (SPEC.md §3.9), so it never collides with a field offset.
+pub const DETAIL_MSG_ERROR: u32 = 0xFFFF_0000;
+
 /// Error text buffer (formatted details, ≤ `MAX_ERROR_TEXT`).
 pub(super) type Text = heapless::String<MAX_ERROR_TEXT>;
 

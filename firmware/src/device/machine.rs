@@ -3,7 +3,7 @@
 //! as one `Msg::Error`. Scene storage, request checks, the ray path and the pixel pipeline
 //! are the sibling modules this one drives.
 
-use super::fail::{Fail, Text, Trunc};
+use super::fail::{Fail, Text, Trunc, DETAIL_MSG_ERROR};
 use super::farm::NoFarm;
 use super::pipeline::{self, Renderer, RowFarm};
 use super::request::{self, Target};
@@ -276,7 +276,9 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
                 w.put_hex(kind as u32, 2);
                 w.put(": ");
                 w.put(e.as_str());
-                return self.error(ErrorCode::BadRequest, kind as u32, t.as_str(), out);
+                // SPEC.md §3.9: the detail of a payload that failed to decode names the
+                // decoder's error, not the type (the text names the type).
+                return self.error(ErrorCode::BadRequest, DETAIL_MSG_ERROR | e.code(), t.as_str(), out);
             }
         };
         match msg {
@@ -296,6 +298,8 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
             Msg::RenderRegion { region, max_span, options, request } => {
                 self.render(&request, Target::Region { region, max_span, options }, out)
             }
+            // Never answer an Error with an Error (SPEC.md §1): a peer's report is dropped.
+            Msg::Error { .. } => {}
             other => {
                 let k = other.kind() as u8;
                 self.error(ErrorCode::UnexpectedMessage, k as u32, "message not accepted by the device", out);

@@ -14,7 +14,7 @@ use gridrt_shared::frame::{FrameError, MAX_PAYLOAD};
 use gridrt_shared::fsl::{self as wire, op, FslError};
 use gridrt_shared::math::Vec3;
 use gridrt_shared::msg::{
-    feature, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgType, RenderRequest, SceneStatus,
+    feature, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, RenderRequest, SceneStatus,
 };
 use gridrt_shared::msg::{stat_entries, PixelEncoding};
 use gridrt_shared::scene::{LightingRecord, Material, MaterialModel, SceneError, SceneHeader, EMPTY_VOXEL};
@@ -491,10 +491,46 @@ fn device_to_host_messages_and_unknown_types_are_unexpected() {
     let n = encode_frame(0x55, 0, &[], &mut out).unwrap();
     let r = exchange(&mut dev, &out[..n]);
     assert_eq!(error_of(&r[0]), (ErrorCode::UnexpectedMessage, 0x55));
-    // Known type, malformed payload.
-    let n = encode_frame(MsgType::RenderRequest as u8, 0, &[1, 2, 3], &mut out).unwrap();
+}
+
+#[test]
+fn malformed_payloads_name_the_decoder_error_not_the_type() {
+    // SPEC.md §1 and §3.9: detail = 0xFFFF_0000 | MsgError number (the text names the type).
+    let mut dev = device();
+    let mut out = [0u8; 128];
+    let cases: [(&[u8], MsgError); 3] = [
+        (&[0u8; 71], MsgError::DecodeTruncated),
+        (&[0u8; 73], MsgError::DecodeTrailingBytes),
+        (&[1, 2, 3], MsgError::DecodeTruncated),
+    ];
+    for (payload, e) in cases {
+        let n = encode_frame(MsgType::RenderRequest as u8, 0, payload, &mut out).unwrap();
+        let r = exchange(&mut dev, &out[..n]);
+        assert_eq!(r.len(), 1, "{r:?}");
+        assert_eq!(error_of(&r[0]), (ErrorCode::BadRequest, 0xFFFF_0000 | e.code()));
+        assert_eq!(error_of(&r[0]).1, DETAIL_MSG_ERROR | e.code());
+    }
+    // A RenderRequest with an encoding byte out of range: DecodeBadField (4).
+    let mut payload = [0u8; 72];
+    let n = Msg::RenderRequest(request(4, 3, 0)).encode(&mut payload).unwrap();
+    assert_eq!(n, 72);
+    payload[68] = 0x7E;
+    let n = encode_frame(MsgType::RenderRequest as u8, 0, &payload, &mut out).unwrap();
     let r = exchange(&mut dev, &out[..n]);
-    assert_eq!(error_of(&r[0]), (ErrorCode::BadRequest, MsgType::RenderRequest as u32));
+    assert_eq!(error_of(&r[0]), (ErrorCode::BadRequest, 0xFFFF_0004));
+}
+
+#[test]
+fn an_error_from_the_host_is_never_answered() {
+    // SPEC.md §1: a device never answers an Error with an Error (nor with anything else).
+    let mut dev = device();
+    let r = send(&mut dev, &Msg::Error { code: ErrorCode::BadFrame, detail: 3, text: "host saw a bad frame" });
+    assert!(r.is_empty(), "{r:?}");
+    let r = send(&mut dev, &Msg::Error { code: ErrorCode::Unknown(0x1234), detail: 0, text: "" });
+    assert!(r.is_empty(), "{r:?}");
+    // The device still answers the next request.
+    let r = send(&mut dev, &Msg::Hello { protocol: 1 });
+    assert!(matches!(r[0].msg(), Msg::Version(_)), "{r:?}");
 }
 
 /// A clock that advances by a fixed amount per read: stage counters must add up to the
