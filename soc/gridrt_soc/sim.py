@@ -10,7 +10,7 @@ run faster than the line in simulation). It prints the simulation's speed (simul
 cycles per wall-clock second) every 10 s and at exit.
 
 The simulator is built for speed: no tracing unless ``trace`` (Verilator ``--trace``), the
-model's C++ at ``-O3`` (Verilator's default for it is ``-Os``).
+model's C++ at ``-O3`` (Verilator's makefile would compile its hot code at ``-Os``).
 
 ``prepare`` generates the gateware and csr.json, then compiles the Verilated simulator
 only when its inputs changed (a hash of every generated source, the RTL, the simulation
@@ -20,7 +20,6 @@ run from ``<gateware>`` (it reads ``sim_config.js`` and ``modules/`` there).
 """
 
 import hashlib
-import os
 import shutil
 import subprocess
 import time
@@ -99,15 +98,20 @@ def _untraced_makefile(gateware, trace):
     if veril not in make:
         raise SystemExit(f"sim: {litex_makefile} does not build $(SRC_DIR)/veril.cpp (a new LiteX?)")
     ours = gateware / "Makefile.gridrt"
+    # Verilator's makefile compiles the model's hot code at OPT_FAST (-Os) whatever CFLAGS
+    # say; a make command-line variable overrides it.
+    model = "-f Vsim.mk Vsim"
+    if model not in make:
+        raise SystemExit(f"sim: {litex_makefile} does not build the model with `{model}` (a new LiteX?)")
     make = make.replace(always, "\t\t$(if $(TRACE), --trace,) \\\n").replace(veril, str(SIM_CORE / "veril.cpp"))
+    make = make.replace(model, f"{model} OPT_FAST=-$(OPT_LEVEL) OPT_GLOBAL=-$(OPT_LEVEL)")
     ours.write_text(make)
     script.write_text(text.replace(str(litex_makefile), str(ours)))
     if trace and "TRACE=1" not in text:
         raise SystemExit("sim: LiteX did not pass TRACE=1 for --trace")
 
 
-# The C++ optimisation of the simulator (LiteX's own files and, through OPT_FAST, the
-# Verilated model's hot code).
+# The C++ optimisation of the simulator (LiteX's own files and the Verilated model's).
 OPT_LEVEL = "O3"
 
 
@@ -154,7 +158,7 @@ def prepare(build_dir, rtl_dir, rom_words, board_files_mode, jobs=2, trace=False
     gateware = Path(builder.gateware_dir)
     _untraced_makefile(gateware, trace)
     verilator = subprocess.run(["verilator", "--version"], capture_output=True, text=True, check=True).stdout.strip()
-    stamp = _stamp(gateware, soc.platform, verilator) + f"build trace={trace} opt={OPT_LEVEL}\n"
+    stamp = _stamp(gateware, soc.platform, verilator) + f"build trace={trace} opt={OPT_LEVEL} model-opt=fast\n"
     stamp_file = gateware / "sim.stamp"
     exe = gateware / "obj_dir" / "Vsim"
     old = stamp_file.read_text() if stamp_file.exists() else ""
@@ -170,8 +174,7 @@ def prepare(build_dir, rtl_dir, rom_words, board_files_mode, jobs=2, trace=False
         shutil.rmtree(gateware / "modules", ignore_errors=True)
         log = gateware / "build_sim.log"
         with open(log, "w") as out:
-            env = dict(os.environ, OPT_FAST=f"-{OPT_LEVEL}")
-            r = subprocess.run(["bash", "build_sim.sh"], cwd=gateware, stdout=out, stderr=subprocess.STDOUT, env=env)
+            r = subprocess.run(["bash", "build_sim.sh"], cwd=gateware, stdout=out, stderr=subprocess.STDOUT)
         if r.returncode != 0 or not exe.exists():
             tail = "".join(log.read_text().splitlines(True)[-40:])
             raise SystemExit(f"sim: building the simulator failed ({r.returncode}); log {log}:\n{tail}")

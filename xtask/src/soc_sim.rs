@@ -48,8 +48,11 @@ pub struct SimCmd {
     #[arg(long)]
     trace: bool,
     /// The UART line from the SoC to the host, in simulated time: each byte takes 10 bit
-    /// times at this rate (8N1), as on a board; 0 = unpaced (a byte per clock at most).
-    #[arg(long, default_value_t = 115_200)]
+    /// times at this rate (8N1), as on a board (`gridrt bench frame --configs soc` sets the
+    /// board's 115 200). 0 (default) = unpaced, a byte per clock at most: a simulation runs
+    /// ~250× slower than the board, and a paced line then answers slower than `gridrt`'s
+    /// default waits allow.
+    #[arg(long, default_value_t = 0)]
     baud: u32,
     /// The line from the host to the SoC; 0 (default) = unpaced, so that flashing and scene
     /// uploads do not cost simulated minutes.

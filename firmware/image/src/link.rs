@@ -205,7 +205,7 @@ impl<'e, K> ModelFreeClock<'e, K> {
     }
 }
 
-impl<K: CycleCounter> StageClock for ModelFreeClock<'_, K> {
+impl<K: CycleCounter + Clone> StageClock for ModelFreeClock<'_, K> {
     #[inline(always)]
     fn now(&self) -> StageStamp {
         let instret = self.counter.instret_lo();

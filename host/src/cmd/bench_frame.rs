@@ -269,9 +269,19 @@ fn print_table(r: &FrameReport) {
         r.upload_bytes.unwrap_or(0),
         r.upload_ms.unwrap_or(0.0)
     );
+    if let Some(s) = &r.soc_sim {
+        println!(
+            "soc simulation: {:.0} cycles/s during the render (simulator's own figure: {}); flash {:.0} s, upload {:.0} s, render {:.0} s",
+            s.sim_cycles_per_s,
+            s.sim_reported_cycles_per_s.map_or_else(|| "none".into(), |v| format!("{v:.0} cycles/s")),
+            s.flash_s,
+            s.upload_s,
+            s.render_s
+        );
+    }
     println!(
-        "{:<15} {:<13} {:>10} {:>10} {:>10} {:>9} {:>10} {:>8}  {:<10}",
-        "config", "target", "instr/ray", "cpu ms", "coproc ms", "link ms", "frame ms", "fps", "image"
+        "{:<15} {:<13} {:>10} {:>10} {:>10} {:>9} {:>10} {:>8}  {:<9} {:>7}  {:<10}",
+        "config", "target", "instr/ray", "cpu ms", "coproc ms", "link ms", "frame ms", "fps", "cycles", "vs soc", "image"
     );
     for row in &r.rows {
         let image = if row.identical {
@@ -280,7 +290,7 @@ fn print_table(r: &FrameReport) {
             row.psnr_db.map_or_else(|| "?".into(), |p| format!("{p:.1} dB"))
         };
         println!(
-            "{:<15} {:<13} {:>10} {:>10.1} {:>10.1} {:>9.1} {:>10.1} {:>8.2}  {image}",
+            "{:<15} {:<13} {:>10} {:>10.1} {:>10.1} {:>9.1} {:>10.1} {:>8.2}  {:<9} {:>7}  {image}",
             row.config,
             row.target,
             row.instructions_per_primary_ray.map_or_else(|| "-".into(), |v| format!("{v:.0}")),
@@ -288,7 +298,9 @@ fn print_table(r: &FrameReport) {
             row.coproc_ms,
             row.link_ms,
             row.frame_ms,
-            row.fps
+            row.fps,
+            row.board.cycles_source.as_deref().unwrap_or("wall"),
+            row.board.vs_soc.map_or_else(|| "-".into(), |v| format!("{:+.1}%", v * 100.0)),
         );
     }
 }

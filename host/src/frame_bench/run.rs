@@ -155,7 +155,7 @@ pub fn run_on_qemu(
 }
 
 /// Reads the device's boot text up to its `0x00` delimiter.
-fn read_banner(port: &mut dyn Read, timeout: Duration) -> Result<String, String> {
+pub(super) fn read_banner(port: &mut dyn Read, timeout: Duration) -> Result<String, String> {
     let deadline = Instant::now() + timeout;
     let mut text = Vec::new();
     let mut buf = [0u8; 256];

@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 use gridrt_loopback::SimConfig;
 use gridrt_shared::msg::{stat, RenderRequest};
 
-use super::run::{finish, hello_upload_render, work_differences, DeviceRun};
+use super::run::{finish, hello_upload_render, read_banner, work_differences, DeviceRun};
 use super::setup::{BenchEvent, FrameBenchError};
 use crate::flash::{flash, FlashConfig, FlashEvent, FlashImage};
 use crate::grid::GridParams;
@@ -150,6 +150,19 @@ impl SocSim {
     fn reported_speed(&self) -> Option<f64> {
         *self.speed.lock().unwrap_or_else(|e| e.into_inner())
     }
+
+    /// The simulated line's rate in wall-clock time (baud × simulated cycles per second ÷
+    /// clock), halved for margin, at least 10 baud: what the host's waits must expect. Waits
+    /// up to 30 s for the simulator's first speed report.
+    fn wall_clock_line(&self, clock: SocClock) -> u32 {
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while self.reported_speed().is_none() && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(200));
+        }
+        let speed = self.reported_speed().unwrap_or(50_000.0);
+        let baud = f64::from(clock.baud) * speed / (clock.clock_mhz * 1e6) / 2.0;
+        (baud as u32).clamp(10, clock.baud)
+    }
 }
 
 impl Drop for SocSim {
@@ -190,9 +203,21 @@ pub fn run_on_soc(
     let open = || crate::serial::open(&sim.pty, 115_200, crate::serial::DEFAULT_READ_TIMEOUT);
 
     let t = Instant::now();
+    let mut port = open()?;
+    // The bootloader's text first: then its line is idle and a `Hello` is answered at once.
+    let banner = read_banner(&mut port, SOC_STAGE_TIMEOUT)
+        .map_err(|what| FrameBenchError::Device(format!("soc: the bootloader: {what}")))?;
+    progress(BenchEvent::Step(format!("soc: bootloader up after {:.0} s: {}", t.elapsed().as_secs_f64(), banner.trim())));
+    let line = sim.wall_clock_line(clock);
+    progress(BenchEvent::Step(format!(
+        "soc: the simulated line's {} baud run at about {line} baud of wall-clock time here: the host's waits follow that",
+        clock.baud
+    )));
+    let session_cfg = |cfg: SessionConfig| cfg.baud(line).hello_timeout(SOC_STAGE_TIMEOUT).max_probes(1000);
+
+    let t = Instant::now();
     progress(BenchEvent::Step(format!("soc: flashing {} B through the bootloader", image.data.len())));
     {
-        let mut port = open()?;
         let mut last = Instant::now();
         let mut on = |e: FlashEvent| {
             if let FlashEvent::Written { bytes, total } = e {
@@ -202,12 +227,18 @@ pub fn run_on_soc(
                 }
             }
         };
-        flash(&mut port, &image, &FlashConfig::new(sim.pty.clone()), &mut on)
+        let mut cfg = FlashConfig::new(sim.pty.clone());
+        cfg.session = session_cfg(cfg.session);
+        flash(&mut port, &image, &cfg, &mut on)
             .map_err(|e| FrameBenchError::Device(format!("soc: flashing the application: {e}")))?;
     }
+    drop(port);
     let flash_s = t.elapsed().as_secs_f64();
 
-    let cfg = SessionConfig::new(sim.pty.clone()).render_timeout(SOC_STAGE_TIMEOUT);
+    // One `RenderRequest` for the whole frame: its `Stats` are that frame's (a region
+    // re-requested while the slow simulation still renders would be rendered again and
+    // report its own counters).
+    let cfg = session_cfg(SessionConfig::new(sim.pty.clone())).render_timeout(SOC_STAGE_TIMEOUT).regions(false);
     let mut session = Session::new(open()?, cfg);
     let info = session.hello(&mut |_| {})?;
     let rtl = SimConfig::RTL;

@@ -46,7 +46,7 @@
 #include "modules.h"
 
 #define BUF_SIZE 4096
-#define POLL_CYCLES 256
+#define POLL_CYCLES 1024
 #define REPORT_S 10.0
 /* The wall clock is read once per this many cycles (a syscall per cycle would be the cost). */
 #define CLOCK_CHECK_CYCLES (1u << 20)

@@ -35,6 +35,9 @@ use gridrt_shared::msg;
 const WIDTH: &str = "32";
 const HEIGHT: &str = "24";
 
+/// One simulation at a time: they share the Verilated SoC's build folder, and the machine.
+static ONE_SOC: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Seconds the simulation may run in all (flash, upload and render of the small frame).
 const SIM_TIMEOUT_S: u32 = 2400;
 
@@ -102,6 +105,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
         return;
     }
+    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
     let app = build_firmware(&["--board", "litex", "--bin", "app", "--layout", "bootloaded"]);
     let sim = SocSim::start();
     let started = Instant::now();
@@ -191,4 +195,58 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
         assert!(i > 0 && c >= i, "{stage}: {c} cycles for {i} instructions");
         eprintln!("{stage:>8}: {c:>10} cycles {i:>10} instructions  CPI {:.3}", c as f64 / i as f64);
     }
+}
+
+/// `gridrt bench frame --configs soc` on a tiny frame: the `soc` row is measured on the
+/// simulated SoC (`cycles_source` "soc-sim", the SoC's own frame cycles), identical to
+/// `--sim --coproc rtl`, and its line keeps time: the cycles from the frame's first byte on
+/// the UART to its transmit FIFO draining equal the frame's bytes × 10 × clock ÷ baud
+/// within one byte time. In rgb888 a row's bytes take longer on the line than the next row
+/// takes to render, so the line never idles and the span is the bytes' line time.
+#[test]
+fn soc_row_link_cycles_are_the_frames_bytes_at_the_baud_rate() {
+    let test = "soc_row_link_cycles_are_the_frames_bytes_at_the_baud_rate";
+    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
+        return;
+    }
+    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempdir("bench");
+    let json_path = dir.join("f.json");
+    let scene = repo_root().join("tests/scenes/bun_zipper_res4.obj");
+    let log = run_gridrt(&[
+        "bench",
+        "frame",
+        "--scene",
+        &scene.display().to_string(),
+        "--configs",
+        "soc",
+        "--width",
+        "8",
+        "--height",
+        "6",
+        "--encoding",
+        "rgb888",
+        "--json",
+        &json_path.display().to_string(),
+    ]);
+    eprintln!("{log}");
+    let report = json(&json_path);
+    let row = &report["rows"][0];
+    assert_eq!((row["config"].as_str(), row["target"].as_str()), (Some("soc"), Some("riscv32imac")), "{row}");
+    assert_eq!(row["cycles_source"], "soc-sim");
+    assert_eq!(row["identical_to_rtl_sim"], true, "the SoC's frame equals --sim --coproc rtl");
+    let frame_cycles = row["frame_cycles"].as_u64().unwrap();
+    let link_cycles = row["link_cycles"].as_u64().unwrap() as f64;
+    let bytes = row["frame_tx_bytes"].as_u64().unwrap() as f64;
+    let (clock_hz, baud) = (row["clock_mhz"].as_f64().unwrap() * 1e6, row["baud"].as_f64().unwrap());
+    let byte_time = 10.0 * clock_hz / baud;
+    // 8×6 rgb888: at least the pixels' bytes, and framing on top.
+    assert!(bytes >= 8.0 * 6.0 * 3.0, "{bytes} bytes for 144 bytes of pixels");
+    let expected = bytes * byte_time;
+    eprintln!("link: {link_cycles} cycles for {bytes} bytes; {expected:.0} expected ({byte_time:.1} per byte)");
+    assert!((link_cycles - expected).abs() <= byte_time, "{link_cycles} cycles vs {expected:.0} ± {byte_time:.0}");
+    assert!(frame_cycles as f64 >= link_cycles, "the frame holds its line time: {frame_cycles} < {link_cycles}");
+    let speed = report["soc_sim"]["sim_cycles_per_s"].as_f64().unwrap();
+    eprintln!("simulation speed: {speed:.0} cycles/s");
+    assert!(speed > 0.0);
 }
