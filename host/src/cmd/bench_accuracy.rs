@@ -1,4 +1,4 @@
-//! `gridrt bench accuracy --out DIR`: every intersection kernel in every number format on the
+//! `gridrt bench accuracy --out-dir DIR`: every intersection kernel in every number format on the
 //! bundled scenes, against the f64 reference; writes `DIR/accuracy.csv` and
 //! `DIR/accuracy.svg` (library: [`gridrt_host::bench_accuracy`]).
 
@@ -13,7 +13,7 @@ use gridrt_host::bench_accuracy::{self as acc, AccuracyEvent, AccuracyOptions};
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Output directory (created if needed) for accuracy.csv and accuracy.svg.
-    #[arg(long, value_name = "DIR")]
+    #[arg(long = "out-dir", alias = "out", value_name = "DIR")]
     out: PathBuf,
     /// Scene files (repeatable); default: the bundled bun_zipper_res4, suzanne, teapot and
     /// cornell_box.

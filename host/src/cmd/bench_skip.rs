@@ -1,7 +1,7 @@
 //! `gridrt bench skip`: what the pipeline plan and row interpolation save (issue 5).
 //!
 //! Everything runs on the loopback simulator through the real byte stream. Outputs in
-//! `--out DIR`: `skip.csv` (rays, FSL words per ray kind, co-processor cycles and modeled
+//! `--out-dir DIR`: `skip.csv` (rays, FSL words per ray kind, co-processor cycles and modeled
 //! time with each stage on/off, plus the grid-box cull), `interp.csv` and `interp.svg`
 //! (traced pixels against PSNR over a grid of (l, EPS)), `viray.json` (the 1920×1080 demo
 //! frame: modeled time at ViRAY's 320 MHz and native simulation wall time on every core and on
@@ -46,7 +46,7 @@ const CULLED_RAY_WORDS: u64 = 16;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Output directory (created).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long = "out-dir", alias = "out", value_name = "DIR")]
     out: PathBuf,
     /// Frame size of the skip table and the interpolation grid.
     #[arg(long, default_value_t = 320)]

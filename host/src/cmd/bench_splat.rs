@@ -1,7 +1,7 @@
 //! `gridrt bench splat`: seed 001's splat path natively over 10³…10⁶ points and several
 //! shape tables (splats/s, error against the f64 disks with the device's and the seed's
 //! table keying, per-pixel depth), optionally soft-core instructions per splat from a device
-//! (QEMU: `--port`); writes `splat.csv`, `splat.svg` and `splat.json` to --out.
+//! (QEMU: `--port`); writes `splat.csv`, `splat.svg` and `splat.json` to --out-dir.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -20,7 +20,7 @@ const SEED_NS_PER_SPLAT: f64 = 60.0;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Output folder (created).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long = "out-dir", alias = "out", value_name = "DIR")]
     out: PathBuf,
     /// Cloud sizes.
     #[arg(long, value_delimiter = ',', default_values_t = [1_000usize, 10_000, 100_000, 1_000_000])]
