@@ -68,8 +68,11 @@ impl Args {
     /// Runs the bench and writes its outputs.
     pub fn run(self) -> anyhow::Result<()> {
         let mut opts = AccuracyOptions::new();
-        if !self.scenes.is_empty() {
-            opts.scenes = self.scenes;
+        // The bundled scenes travel inside the binary: the bench runs from any folder.
+        let bundled = if self.scenes.is_empty() { Some(super::scenes::Bundled::extract()?) } else { None };
+        match &bundled {
+            Some(b) => opts.scenes = acc::DEFAULT_SCENES.iter().map(|s| b.join(s)).collect(),
+            None => opts.scenes = self.scenes,
         }
         if !self.kernels.is_empty() {
             opts.kernels = self.kernels;

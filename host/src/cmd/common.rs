@@ -108,7 +108,7 @@ pub fn check_port_exists(path: &str) -> anyhow::Result<()> {
 pub struct SceneOptions {
     /// Scene file: Wavefront .obj (with .mtl materials), .ply, or a .toml scene file with
     /// analytic primitives, materials, textures and a light (docs/SCENE-FILE.md).
-    #[arg(long, value_name = "PATH")]
+    #[arg(short = 's', long, value_name = "PATH")]
     pub scene: PathBuf,
     /// Processing elements of the co-processor (1..=255).
     #[arg(long, default_value_t = 4, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=255))]
