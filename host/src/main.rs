@@ -11,6 +11,9 @@ use clap::Parser;
 #[derive(Debug, Parser)]
 #[command(name = "gridrt", version, propagate_version = true, after_help = cmd::config::HELP)]
 struct Cli {
+    /// Progress lines also name the device's last message (protocol detail).
+    #[arg(short = 'v', long, global = true)]
+    verbose: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -85,6 +88,7 @@ fn clap_exit(e: clap::Error) -> ! {
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::try_parse().unwrap_or_else(|e| clap_exit(e));
+    cmd::progress::set_verbose(cli.verbose);
     let result = match cli.command {
         Command::Render(cmd) => cmd.run(),
         Command::Bench(cmd) => cmd.run(),

@@ -249,15 +249,23 @@ pub fn write_plot(rows: &[AccuracyRow], path: &Path) -> Result<(), AccuracyError
         chart
             .draw_series(front.iter().map(|&i| Circle::new(pts[i], 11, BLACK.stroke_width(1))))
             .map_err(|e| perr(&e))?;
+        // Labels of points that (nearly) coincide are stacked, not drawn over each other:
+        // positions in axis fractions (log axes), one line further down per neighbour.
+        let frac = |v: f64, lo: f64, hi: f64| (v.ln() - lo.ln()) / (hi.ln() - lo.ln()).max(1e-12);
+        let mut placed: Vec<(f64, f64)> = Vec::new();
         for (s, &p) in sums.iter().zip(&pts) {
             let c = colour(s.kernel);
+            let at = (frac(p.0, x0, x1), frac(p.1, y0, y1));
+            let near = placed.iter().filter(|q| (q.0 - at.0).abs() < 0.08 && (q.1 - at.1).abs() < 0.03).count();
+            placed.push(at);
+            let dy = -4 + 12 * near as i32;
             let marker: DynElement<_, _> = match s.format {
                 "f32" => Circle::new(p, 5, c.filled()).into_dyn(),
                 "fixed64-q23" => TriangleMarker::new(p, 7, c.filled()).into_dyn(),
                 _ => Cross::new(p, 6, c.stroke_width(3)).into_dyn(),
             };
             chart.draw_series(std::iter::once(marker)).map_err(|e| perr(&e))?;
-            let label = EmptyElement::at(p) + Text::new(short(s), (8, -4), ("sans-serif", 11).into_font().color(&c));
+            let label = EmptyElement::at(p) + Text::new(short(s), (8, dy), ("sans-serif", 11).into_font().color(&c));
             chart.draw_series(std::iter::once(label)).map_err(|e| perr(&e))?;
         }
         chart

@@ -127,6 +127,7 @@ impl Args {
             let start = Instant::now();
             let frame = board.render(&req)?;
             let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+            eprintln!("skip       viray_demo {w}×{h}, {name}: {} rays in {wall_ms:.0} ms", rays(&frame));
             let psnr = psnr_of(&frame.rgb, &reference.rgb)?;
             rows.push(Row { scene: "viray_demo".into(), config: name.into(), frame, psnr, wall_ms });
         }
@@ -204,6 +205,7 @@ impl Args {
             req.flags = base_flags;
             let full = board.render(&req)?;
             let full_rays = rays(&full);
+            eprintln!("interp     {name} {}×{}: the (l, EPS) grid, {} frames …", s.width, s.height, steps.len() * (epss.len() + 1));
             let mut pts = Vec::new();
             for &l in &steps {
                 for &e in &epss {
@@ -249,9 +251,11 @@ impl Args {
             let s = demo.settings.with_size(1920, 1080);
             let mut req = s.to_request(1);
             req.flags = plan.flags();
+            eprintln!("full-hd    viray_demo 1920×1080 on every core, then on one thread …");
             let start = Instant::now();
             let f = board.render(&req)?;
             let wall = start.elapsed().as_secs_f64();
+            eprintln!("full-hd    {} rays in {wall:.1} s on every core", rays(&f));
             // The same frame on a board that traces on its device thread alone, right after.
             let mut one = SimBoard::new(gridrt_loopback::SimConfig { threads: 1, ..sim_config() }, &prepared)?;
             let start = Instant::now();
