@@ -95,7 +95,16 @@ impl Args {
         // Several boards: the bunny frames.
         let multi_path = self.out.join("link_multi.csv");
         let mut multi = csv::Writer::from_writer(Vec::new());
-        multi.write_record(["scene", "encoding", "baud", "devices", "band_rows", "frame_s", "speedup", "busiest_coproc_cycles"])?;
+        multi.write_record([
+            "scene",
+            "encoding",
+            "baud",
+            "devices",
+            "band_rows",
+            "frame_s",
+            "speedup",
+            "busiest_coproc_cycles",
+        ])?;
         let mut multi_pts: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
         let mut headline_multi = Vec::new();
         for m in measured.iter().filter(|m| m.scene.contains("bun")) {
@@ -174,7 +183,10 @@ impl Args {
         }
         json.insert("multi_bun_zipper_res4".into(), headline_multi.into());
         json.insert("firmware_model".into(), serde_json::to_value(fw)?);
-        super::output::write_bytes(&self.out.join("link.json"), (serde_json::to_string_pretty(&json)? + "\n").as_bytes())?;
+        super::output::write_bytes(
+            &self.out.join("link.json"),
+            (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
+        )?;
         // Reported, not enforced: small frames pay the fixed per-frame overhead (the targets
         // at 320×240 are checked by host/tests/link_targets.rs).
         for scene in ["bun_zipper_res4.obj", "stanford-bunny.obj"] {

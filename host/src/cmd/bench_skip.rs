@@ -59,7 +59,6 @@ pub struct Args {
     full_hd: bool,
 }
 
-
 fn sim_config() -> gridrt_loopback::SimConfig {
     gridrt_loopback::SimConfig { timing: TimingProfile::PIPELINED, ..gridrt_loopback::SimConfig::default() }
 }
@@ -205,7 +204,12 @@ impl Args {
             req.flags = base_flags;
             let full = board.render(&req)?;
             let full_rays = rays(&full);
-            eprintln!("interp     {name} {}×{}: the (l, EPS) grid, {} frames …", s.width, s.height, steps.len() * (epss.len() + 1));
+            eprintln!(
+                "interp     {name} {}×{}: the (l, EPS) grid, {} frames …",
+                s.width,
+                s.height,
+                steps.len() * (epss.len() + 1)
+            );
             let mut pts = Vec::new();
             for &l in &steps {
                 for &e in &epss {

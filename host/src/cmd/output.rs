@@ -78,7 +78,10 @@ fn temp_beside(path: &Path) -> PathBuf {
 
 /// Writes `path` through `write` on a temporary file beside it, renamed into place when
 /// `write` succeeds (removed when it fails).
-pub fn write_with(path: &Path, write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> anyhow::Result<()>) -> anyhow::Result<()> {
+pub fn write_with(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
     let tmp = temp_beside(path);
     let result = (|| {
         let file = std::fs::File::create(&tmp).with_context(|| format!("writing {}", path.display()))?;

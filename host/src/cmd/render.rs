@@ -243,7 +243,11 @@ impl Cmd {
         }
         let Some(info) = info else { bail!("no device") };
         if let Some(board) = self.port.board.filter(|&b| b != info.board) {
-            bail!("the device is board {} ({}), not board {board} (--board or `board` in gridrt.toml)", info.board, board_name(info.board));
+            bail!(
+                "the device is board {} ({}), not board {board} (--board or `board` in gridrt.toml)",
+                info.board,
+                board_name(info.board)
+            );
         }
         if !self.port.port.is_empty() && info.pe_count != self.scene.pes {
             eprintln!("note: the device has {} PEs; using that instead of --pes {}", info.pe_count, self.scene.pes);
