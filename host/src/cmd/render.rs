@@ -32,7 +32,7 @@ const PORT_READ_TIMEOUT: Duration = Duration::from_millis(50);
 #[derive(Debug, clap::Parser)]
 pub struct Cmd {
     #[clap(flatten)]
-    pub(super) port: PortOptions,
+    pub(crate) port: PortOptions,
     #[clap(flatten)]
     pub(super) scene: SceneOptions,
     #[clap(flatten)]
