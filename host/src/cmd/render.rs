@@ -406,7 +406,7 @@ impl Cmd {
     }
 }
 
-pub(super) fn write_png(path: &PathBuf, w: u16, h: u16, rgb: Vec<u8>) -> anyhow::Result<()> {
+pub(super) fn write_png(path: &std::path::Path, w: u16, h: u16, rgb: Vec<u8>) -> anyhow::Result<()> {
     super::output::write_rgb(path, w, h, rgb)
 }
 
