@@ -72,12 +72,15 @@ fn render_over_a_noisy_paced_line_gives_the_clean_png_and_is_never_silent() {
         .spawn()
         .unwrap();
     let mut lines: Vec<(Duration, String)> = Vec::new();
-    for line in BufReader::new(render.stdout.take().unwrap()).lines() {
+    // Progress goes to stderr; stdout (the summary) is read on a thread of its own.
+    let stdout = render.stdout.take().unwrap();
+    let summary = std::thread::spawn(move || std::io::read_to_string(stdout).unwrap());
+    for line in BufReader::new(render.stderr.take().unwrap()).lines() {
         lines.push((start.elapsed(), line.unwrap()));
     }
     let status = render.wait().unwrap();
     let end = start.elapsed();
-    let stderr = std::io::read_to_string(render.stderr.take().unwrap()).unwrap();
+    let stderr = summary.join().unwrap();
     let log: String = lines.iter().map(|(t, l)| format!("{:6.2} s  {l}\n", t.as_secs_f64())).collect();
     assert!(status.success(), "render failed:\n{log}{stderr}");
     let (up, down) = relay.injected();

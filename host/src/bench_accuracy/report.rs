@@ -1,6 +1,5 @@
 //! The bench's outputs: CSV, per-configuration summary, Pareto fronts and the SVG plot.
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use gridrt_coproc::KernelKind;
@@ -15,40 +14,39 @@ hit_mismatch_rate,t_rel_err_mean,t_rel_err_max,leak_rate,leaks,probes,overflows,
 /// The rows as CSV text (one header line, one line per row; empty fields for unknown values;
 /// `psnr_db` is `inf` for an image identical to the reference).
 pub fn to_csv(rows: &[AccuracyRow]) -> String {
-    let mut s = String::from(CSV_HEADER);
-    s.push('\n');
+    // Through the csv crate: a scene name with a comma or a quote stays one field.
+    let mut w = csv::Writer::from_writer(Vec::new());
     let opt = |v: Option<f64>, prec: usize| v.map_or(String::new(), |v| format!("{v:.prec$}"));
+    let _ = w.write_record(CSV_HEADER.split(','));
     for r in rows {
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{},{},{},{},{:.1},{:.1},{:.1},{:.2},{},{},{},{:.6},{:.3e},{:.3e},{:.6},{},{},{},{},{}",
-            r.scene,
-            r.triangles,
-            r.kernel,
-            r.format,
-            r.raygen,
-            r.width,
-            r.height,
-            r.rays,
-            r.native_ns_per_ray,
-            r.model_cycles_per_test,
-            r.model_cycles_per_ray,
-            r.model_tests_per_ray,
+        let _ = w.write_record([
+            r.scene.to_string(),
+            r.triangles.to_string(),
+            r.kernel.to_string(),
+            r.format.to_string(),
+            r.raygen.to_string(),
+            r.width.to_string(),
+            r.height.to_string(),
+            r.rays.to_string(),
+            format!("{:.1}", r.native_ns_per_ray),
+            format!("{:.1}", r.model_cycles_per_test),
+            format!("{:.1}", r.model_cycles_per_ray),
+            format!("{:.2}", r.model_tests_per_ray),
             opt(r.fw_instructions_per_ray, 1),
             r.psnr_db.map_or("inf".into(), |p| format!("{p:.2}")),
-            r.max_pixel_error,
-            r.hit_mismatch_rate,
-            r.t_rel_err_mean,
-            r.t_rel_err_max,
-            r.leak_rate,
-            r.leaks,
-            r.probes,
-            r.overflows,
-            r.bytes_per_triangle,
-            r.ops_per_test
-        );
+            r.max_pixel_error.to_string(),
+            format!("{:.6}", r.hit_mismatch_rate),
+            format!("{:.3e}", r.t_rel_err_mean),
+            format!("{:.3e}", r.t_rel_err_max),
+            format!("{:.6}", r.leak_rate),
+            r.leaks.to_string(),
+            r.probes.to_string(),
+            r.overflows.to_string(),
+            r.bytes_per_triangle.to_string(),
+            r.ops_per_test.to_string(),
+        ]);
     }
-    s
+    w.into_inner().ok().and_then(|b| String::from_utf8(b).ok()).unwrap_or_default()
 }
 
 /// Writes [`to_csv`] to `path`.
@@ -251,15 +249,23 @@ pub fn write_plot(rows: &[AccuracyRow], path: &Path) -> Result<(), AccuracyError
         chart
             .draw_series(front.iter().map(|&i| Circle::new(pts[i], 11, BLACK.stroke_width(1))))
             .map_err(|e| perr(&e))?;
+        // Labels of points that (nearly) coincide are stacked, not drawn over each other:
+        // positions in axis fractions (log axes), one line further down per neighbour.
+        let frac = |v: f64, lo: f64, hi: f64| (v.ln() - lo.ln()) / (hi.ln() - lo.ln()).max(1e-12);
+        let mut placed: Vec<(f64, f64)> = Vec::new();
         for (s, &p) in sums.iter().zip(&pts) {
             let c = colour(s.kernel);
+            let at = (frac(p.0, x0, x1), frac(p.1, y0, y1));
+            let near = placed.iter().filter(|q| (q.0 - at.0).abs() < 0.08 && (q.1 - at.1).abs() < 0.03).count();
+            placed.push(at);
+            let dy = -4 + 12 * near as i32;
             let marker: DynElement<_, _> = match s.format {
                 "f32" => Circle::new(p, 5, c.filled()).into_dyn(),
                 "fixed64-q23" => TriangleMarker::new(p, 7, c.filled()).into_dyn(),
                 _ => Cross::new(p, 6, c.stroke_width(3)).into_dyn(),
             };
             chart.draw_series(std::iter::once(marker)).map_err(|e| perr(&e))?;
-            let label = EmptyElement::at(p) + Text::new(short(s), (8, -4), ("sans-serif", 11).into_font().color(&c));
+            let label = EmptyElement::at(p) + Text::new(short(s), (8, dy), ("sans-serif", 11).into_font().color(&c));
             chart.draw_series(std::iter::once(label)).map_err(|e| perr(&e))?;
         }
         chart

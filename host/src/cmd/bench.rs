@@ -19,12 +19,12 @@ enum What {
     Accuracy(super::bench_accuracy::Args),
     /// What the pipeline plan and row interpolation save: rays, FSL words and modeled time
     /// with and without each skip, traced pixels vs PSNR over (l, EPS), and the ViRAY-like
-    /// demo at 1920×1080 (CSV, SVG plot and JSON in --out).
+    /// demo at 1920×1080 (CSV, SVG plot and JSON in --out-dir).
     Skip(super::bench_skip::Args),
-    /// The UART link (issue 6): wire bytes per frame, payload efficiency against the line
+    /// The serial link: wire bytes per frame, payload efficiency against the line
     /// rate and compression per pixel encoding on the bundled scenes, modelled frame time
     /// with transmission overlapped with ray work at 115 200 / 921 600 / 3 000 000 baud, on
-    /// 1, 2 and 4 boards (CSV, SVG plot and JSON in --out).
+    /// 1, 2 and 4 boards (CSV, SVG plot and JSON in --out-dir).
     Link(super::bench_link::Args),
     /// The whole frame on the modelled board (soft-core instructions measured on QEMU,
     /// co-processor cycles from the timing model, UART link, and what overlaps), per
@@ -32,9 +32,9 @@ enum What {
     /// (riscv32imac, riscv32imafc); every image checked against the f64 reference (JSON,
     /// and CSV + SVG in --out).
     Frame(super::bench_frame::Args),
-    /// Seed 001's point splats (issue 15): native splats/s and image error against the
-    /// ray-traced disks for 10³…10⁶ points and several shape tables, optionally soft-core
-    /// instructions per splat from QEMU (`--port`); CSV, SVG plot and JSON in --out.
+    /// Point splats: native splats/s and image error against the ray-traced disks for
+    /// 10³…10⁶ points and several shape tables, optionally soft-core instructions per splat
+    /// from QEMU (`--port`); CSV, SVG plot and JSON in --out-dir.
     Splat(super::bench_splat::Args),
 }
 

@@ -1,4 +1,4 @@
-//! `gridrt bench accuracy --out DIR`: every intersection kernel in every number format on the
+//! `gridrt bench accuracy --out-dir DIR`: every intersection kernel in every number format on the
 //! bundled scenes, against the f64 reference; writes `DIR/accuracy.csv` and
 //! `DIR/accuracy.svg` (library: [`gridrt_host::bench_accuracy`]).
 
@@ -13,7 +13,7 @@ use gridrt_host::bench_accuracy::{self as acc, AccuracyEvent, AccuracyOptions};
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Output directory (created if needed) for accuracy.csv and accuracy.svg.
-    #[arg(long, value_name = "DIR")]
+    #[arg(long = "out-dir", alias = "out", value_name = "DIR")]
     out: PathBuf,
     /// Scene files (repeatable); default: the bundled bun_zipper_res4, suzanne, teapot and
     /// cornell_box.
@@ -68,8 +68,11 @@ impl Args {
     /// Runs the bench and writes its outputs.
     pub fn run(self) -> anyhow::Result<()> {
         let mut opts = AccuracyOptions::new();
-        if !self.scenes.is_empty() {
-            opts.scenes = self.scenes;
+        // The bundled scenes travel inside the binary: the bench runs from any folder.
+        let bundled = if self.scenes.is_empty() { Some(super::scenes::Bundled::extract()?) } else { None };
+        match &bundled {
+            Some(b) => opts.scenes = acc::DEFAULT_SCENES.iter().map(|s| b.join(s)).collect(),
+            None => opts.scenes = self.scenes,
         }
         if !self.kernels.is_empty() {
             opts.kernels = self.kernels;

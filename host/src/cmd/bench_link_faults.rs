@@ -6,7 +6,7 @@
 //! ([`gridrt_host::faults::bench`]), and checks that every frame is the clean run's, byte
 //! for byte.
 //!
-//! Outputs in `--out DIR`: `link_faults.csv`, `link_faults.svg` (goodput / line rate against
+//! Outputs in `--out-dir DIR`: `link_faults.csv`, `link_faults.svg` (goodput / line rate against
 //! BER with the bounds) and `link_faults.json`.
 
 use std::path::Path;
@@ -46,7 +46,7 @@ pub struct LineArgs {
     #[arg(long, default_value_t = 13)]
     seed: u64,
     /// Fail unless the time to the frame is at most this many times the clean run's at BER
-    /// 1e-4 and at 1e-3 (the issue 13 targets; 0 = no check).
+    /// 1e-4 and at 1e-3 (0 = no check).
     #[arg(long, value_delimiter = ',', default_value = "1.25,3", value_name = "R4,R3")]
     max_ratio: Vec<f64>,
 }
@@ -114,7 +114,7 @@ pub fn run(out: &Path, scenes: &Path, width: u16, height: u16, a: &LineArgs) -> 
         );
         rows.push(row);
     }
-    std::fs::write(out.join("link_faults.csv"), csv(&rows))?;
+    super::output::write_bytes(&out.join("link_faults.csv"), csv(&rows).as_bytes())?;
     plot(&out.join("link_faults.svg"), &rows, &a.scene, a.baud)?;
     let json = serde_json::json!({
         "scene": a.scene, "width": width, "height": height, "baud": a.baud, "seed": a.seed,
@@ -170,6 +170,7 @@ fn plot(path: &Path, rows: &[FaultRow], scene: &str, baud: u32) -> anyhow::Resul
         .map_err(|e| anyhow!("{e}"))?;
     chart
         .configure_mesh()
+        .x_label_formatter(&|x| super::bench_link::short_number(*x))
         .x_desc("bit error rate, both directions (+ drops BER/10, bursts BER/100 per byte; 0 drawn at 1e-7)")
         .y_desc("payload / line rate")
         .draw()

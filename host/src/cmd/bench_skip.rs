@@ -1,7 +1,7 @@
 //! `gridrt bench skip`: what the pipeline plan and row interpolation save (issue 5).
 //!
 //! Everything runs on the loopback simulator through the real byte stream. Outputs in
-//! `--out DIR`: `skip.csv` (rays, FSL words per ray kind, co-processor cycles and modeled
+//! `--out-dir DIR`: `skip.csv` (rays, FSL words per ray kind, co-processor cycles and modeled
 //! time with each stage on/off, plus the grid-box cull), `interp.csv` and `interp.svg`
 //! (traced pixels against PSNR over a grid of (l, EPS)), `viray.json` (the 1920×1080 demo
 //! frame: modeled time at ViRAY's 320 MHz and native simulation wall time on every core and on
@@ -14,7 +14,6 @@
 //! - `coproc_model_ms`: the co-processor model's cycles (pipelined PE profile, one ray in
 //!   flight) at 320 MHz.
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -46,7 +45,7 @@ const CULLED_RAY_WORDS: u64 = 16;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Output directory (created).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long = "out-dir", alias = "out", value_name = "DIR")]
     out: PathBuf,
     /// Frame size of the skip table and the interpolation grid.
     #[arg(long, default_value_t = 320)]
@@ -58,10 +57,6 @@ pub struct Args {
     /// thread.
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     full_hd: bool,
-}
-
-fn scenes_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes")
 }
 
 fn sim_config() -> gridrt_loopback::SimConfig {
@@ -105,6 +100,9 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         std::fs::create_dir_all(&self.out).with_context(|| format!("creating {}", self.out.display()))?;
         let (w, h) = (self.width, self.height);
+        // The bundled scenes travel inside the binary: the bench runs from any folder.
+        let bundled = super::scenes::Bundled::extract()?;
+        let scenes_dir = || bundled.dir().to_path_buf();
 
         // ---------------------------------------------------------------- skip table
         let demo_path = scenes_dir().join("viray_demo.toml");
@@ -128,6 +126,7 @@ impl Args {
             let start = Instant::now();
             let frame = board.render(&req)?;
             let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+            eprintln!("skip       viray_demo {w}×{h}, {name}: {} rays in {wall_ms:.0} ms", rays(&frame));
             let psnr = psnr_of(&frame.rgb, &reference.rgb)?;
             rows.push(Row { scene: "viray_demo".into(), config: name.into(), frame, psnr, wall_ms });
         }
@@ -152,44 +151,43 @@ impl Args {
             let wall_ms = start.elapsed().as_secs_f64() * 1e3;
             rows.push(Row { scene: "viray_plain".into(), config: name.into(), frame, psnr: None, wall_ms });
         }
-        let mut csv = String::from(
-            "scene,config,plan,primary_rays,shadow_rays,reflection_rays,rays,culled_rays,fsl_words,fsl_words_primary,fsl_words_shadow,fsl_words_reflection,fsl_words_if_culled_were_sent,coproc_cycles,coproc_model_ms_320mhz,viray_model_ms,psnr_db_vs_reference,sim_wall_ms\n",
-        );
+        let mut csv = csv::Writer::from_writer(Vec::new());
+        csv.write_record("scene,config,plan,primary_rays,shadow_rays,reflection_rays,rays,culled_rays,fsl_words,fsl_words_primary,fsl_words_shadow,fsl_words_reflection,fsl_words_if_culled_were_sent,coproc_cycles,coproc_model_ms_320mhz,viray_model_ms,psnr_db_vs_reference,sim_wall_ms".split(','))?;
         for r in &rows {
             let f = &r.frame;
             let words = g(f, stat::FSL_WORDS_OUT) + g(f, stat::FSL_WORDS_IN);
-            let _ = writeln!(
-                csv,
-                "{},{},{:#06x},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{:.1}",
-                r.scene,
-                r.config,
-                g(f, stat::PLAN),
-                g(f, stat::PRIMARY_RAYS),
-                g(f, stat::SHADOW_RAYS),
-                g(f, stat::REFLECTION_RAYS),
-                rays(f),
-                g(f, stat::CULLED_RAYS),
-                words,
-                g(f, stat::FSL_WORDS_PRIMARY),
-                g(f, stat::FSL_WORDS_SHADOW),
-                g(f, stat::FSL_WORDS_REFLECTION),
-                words + CULLED_RAY_WORDS * g(f, stat::CULLED_RAYS),
-                g(f, stat::COPROC_CYCLES),
-                coproc_ms(f),
-                rays(f) as f64 / VIRAY_RAYS_PER_S * 1e3,
+            csv.write_record([
+                r.scene.clone(),
+                r.config.clone(),
+                format!("{:#06x}", g(f, stat::PLAN)),
+                g(f, stat::PRIMARY_RAYS).to_string(),
+                g(f, stat::SHADOW_RAYS).to_string(),
+                g(f, stat::REFLECTION_RAYS).to_string(),
+                rays(f).to_string(),
+                g(f, stat::CULLED_RAYS).to_string(),
+                words.to_string(),
+                g(f, stat::FSL_WORDS_PRIMARY).to_string(),
+                g(f, stat::FSL_WORDS_SHADOW).to_string(),
+                g(f, stat::FSL_WORDS_REFLECTION).to_string(),
+                (words + CULLED_RAY_WORDS * g(f, stat::CULLED_RAYS)).to_string(),
+                g(f, stat::COPROC_CYCLES).to_string(),
+                format!("{:.3}", coproc_ms(f)),
+                format!("{:.3}", rays(f) as f64 / VIRAY_RAYS_PER_S * 1e3),
                 fmt_psnr(r.psnr),
-                r.wall_ms
-            );
+                format!("{:.1}", r.wall_ms),
+            ])?;
         }
-        std::fs::write(self.out.join("skip.csv"), &csv)?;
+        let csv = csv_text(csv)?;
+        super::output::write_bytes(&self.out.join("skip.csv"), csv.as_bytes())?;
         println!("skip table ({w}×{h}):\n{csv}");
 
         // ---------------------------------------------------------------- interpolation grid
         let steps = [1u8, 2, 3, 5, 7];
         let epss = [2u8, 4, 8, 16, 31];
-        let mut icsv = String::from(
-            "scene,l,eps,mode,traced_pixels,pixels,traced_fraction,rays,rays_saved_fraction,psnr_db_vs_full\n",
-        );
+        let mut icsv = csv::Writer::from_writer(Vec::new());
+        icsv.write_record(
+            "scene,l,eps,mode,traced_pixels,pixels,traced_fraction,rays,rays_saved_fraction,psnr_db_vs_full".split(','),
+        )?;
         let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
         let meshes = [("bunny", "bun_zipper_res4.obj"), ("teapot", "teapot.obj")];
         let mut boards: Vec<(String, SimBoard, RenderSettings, Option<Plan>)> = Vec::new();
@@ -206,6 +204,12 @@ impl Args {
             req.flags = base_flags;
             let full = board.render(&req)?;
             let full_rays = rays(&full);
+            eprintln!(
+                "interp     {name} {}×{}: the (l, EPS) grid, {} frames …",
+                s.width,
+                s.height,
+                steps.len() * (epss.len() + 1)
+            );
             let mut pts = Vec::new();
             for &l in &steps {
                 for &e in &epss {
@@ -220,14 +224,18 @@ impl Args {
                         let pixels = traced + g(&f, stat::INTERPOLATED_PIXELS);
                         let psnr = psnr_of(&f.rgb, &full.rgb)?;
                         let frac = traced as f64 / pixels.max(1) as f64;
-                        let _ = writeln!(
-                            icsv,
-                            "{name},{l},{e},{},{traced},{pixels},{frac:.4},{},{:.4},{}",
-                            if adaptive { "adaptive" } else { "fixed" },
-                            rays(&f),
-                            1.0 - rays(&f) as f64 / full_rays.max(1) as f64,
-                            fmt_psnr(psnr)
-                        );
+                        icsv.write_record([
+                            name.clone(),
+                            l.to_string(),
+                            e.to_string(),
+                            (if adaptive { "adaptive" } else { "fixed" }).to_string(),
+                            traced.to_string(),
+                            pixels.to_string(),
+                            format!("{frac:.4}"),
+                            rays(&f).to_string(),
+                            format!("{:.4}", 1.0 - rays(&f) as f64 / full_rays.max(1) as f64),
+                            fmt_psnr(psnr),
+                        ])?;
                         if !adaptive {
                             pts.push((frac, psnr.unwrap_or(99.0).min(99.0)));
                         }
@@ -236,7 +244,8 @@ impl Args {
             }
             series.push((name.clone(), pts));
         }
-        std::fs::write(self.out.join("interp.csv"), &icsv)?;
+        let icsv = csv_text(icsv)?;
+        super::output::write_bytes(&self.out.join("interp.csv"), icsv.as_bytes())?;
         plot(&self.out.join("interp.svg"), &series)?;
         println!("interpolation grid:\n{icsv}");
 
@@ -246,9 +255,11 @@ impl Args {
             let s = demo.settings.with_size(1920, 1080);
             let mut req = s.to_request(1);
             req.flags = plan.flags();
+            eprintln!("full-hd    viray_demo 1920×1080 on every core, then on one thread …");
             let start = Instant::now();
             let f = board.render(&req)?;
             let wall = start.elapsed().as_secs_f64();
+            eprintln!("full-hd    {} rays in {wall:.1} s on every core", rays(&f));
             // The same frame on a board that traces on its device thread alone, right after.
             let mut one = SimBoard::new(gridrt_loopback::SimConfig { threads: 1, ..sim_config() }, &prepared)?;
             let start = Instant::now();
@@ -286,11 +297,20 @@ impl Args {
                     "psnr_db_vs_full": psnr_i,
                 },
             });
-            std::fs::write(self.out.join("viray.json"), serde_json::to_string_pretty(&summary)? + "\n")?;
+            super::output::write_bytes(
+                &self.out.join("viray.json"),
+                (serde_json::to_string_pretty(&summary)? + "\n").as_bytes(),
+            )?;
             println!("viray demo 1920×1080: {}", serde_json::to_string_pretty(&summary)?);
         }
         Ok(())
     }
+}
+
+/// The CSV a writer holds, as text.
+fn csv_text(w: csv::Writer<Vec<u8>>) -> anyhow::Result<String> {
+    let bytes = w.into_inner().map_err(|e| anyhow!("{e}"))?;
+    String::from_utf8(bytes).context("CSV text")
 }
 
 /// The 1-minute load average (Linux `/proc/loadavg`), to read wall times against.

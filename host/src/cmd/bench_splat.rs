@@ -1,7 +1,7 @@
 //! `gridrt bench splat`: seed 001's splat path natively over 10³…10⁶ points and several
 //! shape tables (splats/s, error against the f64 disks with the device's and the seed's
 //! table keying, per-pixel depth), optionally soft-core instructions per splat from a device
-//! (QEMU: `--port`); writes `splat.csv`, `splat.svg` and `splat.json` to --out.
+//! (QEMU: `--port`); writes `splat.csv`, `splat.svg` and `splat.json` to --out-dir.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -20,7 +20,7 @@ const SEED_NS_PER_SPLAT: f64 = 60.0;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Output folder (created).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long = "out-dir", alias = "out", value_name = "DIR")]
     out: PathBuf,
     /// Cloud sizes.
     #[arg(long, value_delimiter = ',', default_values_t = [1_000usize, 10_000, 100_000, 1_000_000])]
@@ -76,30 +76,31 @@ impl Args {
             Some(port) => self.device_counts(port)?,
             None => Vec::new(),
         };
-        let mut csv = String::from("points,normal_bins,steps_per_px,table_words,frame_ms,splats_per_s,ns_per_splat,seed_ns_per_splat,codewords,psnr_db,psnr_seed_affine_db,psnr_pixel_depth_db,device_instructions_per_splat\n");
+        let mut csv = csv::Writer::from_writer(Vec::new());
+        csv.write_record("points,normal_bins,steps_per_px,table_words,frame_ms,splats_per_s,ns_per_splat,seed_ns_per_splat,codewords,psnr_db,psnr_seed_affine_db,psnr_pixel_depth_db,device_instructions_per_splat".split(','))?;
         for r in &rows {
             let ipc = device.iter().find(|(n, _)| *n == r.points).and_then(|(_, d)| d.instructions_per_splat);
             let opt = |v: Option<f64>| v.map_or_else(String::new, |v| format!("{v:.3}"));
-            csv += &format!(
-                "{},{},{},{},{:.3},{:.0},{:.1},{},{},{},{},{},{}\n",
-                r.points,
-                r.normal_bins,
-                r.steps_per_px,
-                r.table_words,
-                r.frame_ms,
-                r.splats_per_s,
-                r.ns_per_splat,
-                SEED_NS_PER_SPLAT,
-                r.codewords,
+            csv.write_record([
+                r.points.to_string(),
+                r.normal_bins.to_string(),
+                r.steps_per_px.to_string(),
+                r.table_words.to_string(),
+                format!("{:.3}", r.frame_ms),
+                format!("{:.0}", r.splats_per_s),
+                format!("{:.1}", r.ns_per_splat),
+                SEED_NS_PER_SPLAT.to_string(),
+                r.codewords.to_string(),
                 opt(r.psnr_db),
                 opt(r.psnr_seed_affine_db),
                 opt(r.psnr_pixel_depth_db),
-                opt(ipc)
-            );
+                opt(ipc),
+            ])?;
         }
-        std::fs::write(self.out.join("splat.csv"), csv)?;
+        let csv = csv.into_inner().map_err(|e| anyhow!("{e}"))?;
+        super::output::write_bytes(&self.out.join("splat.csv"), &csv)?;
         let json = serde_json::json!({
-            "command": format!("gridrt bench splat --out {} --points {} --width {} --height {}{}", self.out.display(),
+            "command": format!("gridrt bench splat --out-dir {} --points {} --width {} --height {}{}", self.out.display(),
                 self.points.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(","), self.width, self.height,
                 self.port.as_ref().map_or(String::new(), |p| format!(" --port {p}"))),
             "seed_ns_per_splat": SEED_NS_PER_SPLAT,

@@ -7,30 +7,38 @@ use gridrt_coproc::{KernelKind, NumberFormat, TimingProfile};
 use gridrt_host::grid::PeMapping;
 use gridrt_host::scene::Scene;
 
+/// Built-in baud rate (the firmware's default line rate).
+pub const DEFAULT_BAUD: u32 = 115_200;
+
 /// Where the device is.
 #[derive(Debug, Clone, clap::Args)]
 #[command(next_help_heading = "Connection")]
 pub struct PortOptions {
     /// Use the in-process loopback simulator (firmware device loop + co-processor model),
     /// reached only through an in-memory UART byte stream.
-    #[arg(long, required_unless_present_any = ["port", "sim_devices"], conflicts_with = "port")]
+    #[arg(long)]
     pub sim: bool,
     /// Serial port of a board or of QEMU's pty (e.g. /dev/ttyUSB0, /dev/pts/3). Repeat it for
     /// several boards: the frame is split into row bands that the boards take from a shared
-    /// queue as they finish, and merged.
-    #[arg(long, value_name = "PATH")]
+    /// queue as they finish, and merged. [default: `port` of gridrt.toml]
+    #[arg(short = 'p', long, value_name = "PATH", env = "GRIDRT_PORT")]
     pub port: Vec<String>,
     /// Render on N simulated boards at once (implies --sim), splitting the frame as with
     /// several --port.
-    #[arg(long, value_name = "N", conflicts_with = "port", value_parser = clap::value_parser!(u16).range(1..=64))]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=64))]
     pub sim_devices: Option<u16>,
     /// Deliver the simulated boards' output no faster than --baud (8N1), so wall time and
     /// load balancing follow the modelled line rate.
     #[arg(long)]
     pub sim_paced: bool,
-    /// Baud rate for --port (and the line rate of the modelled link time).
-    #[arg(long, default_value_t = 115_200, value_name = "BAUD")]
-    pub baud: u32,
+    /// Baud rate for --port (and the line rate of the modelled link time) [default:
+    /// `baud` of gridrt.toml, else 115200].
+    #[arg(short = 'b', long, value_name = "BAUD", env = "GRIDRT_BAUD")]
+    pub baud: Option<u32>,
+    /// The board id the device must report (0 simulator, 1 qemu-virt, 2 FPGA SoC, 3 LiteX)
+    /// [default: `board` of gridrt.toml, else any].
+    #[arg(long, value_name = "ID")]
+    pub board: Option<u8>,
     /// Seconds the render may go without a new pixel (the device's ray work) before it
     /// fails. Every other wait is derived from --baud and the bytes expected.
     #[arg(long, default_value_t = 120.0, value_name = "SECONDS")]
@@ -41,13 +49,66 @@ pub struct PortOptions {
     pub turnaround: u64,
 }
 
+impl PortOptions {
+    /// Applies gridrt.toml (values not given as a flag or in the environment) and checks the
+    /// connection: a port or the simulator, not both. `GRIDRT_PORT` is ignored with --sim.
+    pub fn resolve(&mut self) -> anyhow::Result<()> {
+        let config = super::config::load()?;
+        self.resolve_with(&config, std::env::var("GRIDRT_PORT").ok())
+    }
+
+    /// [`resolve`](Self::resolve) with a given configuration and `GRIDRT_PORT`.
+    pub fn resolve_with(&mut self, config: &super::config::Config, env_port: Option<String>) -> anyhow::Result<()> {
+        let sim = self.sim || self.sim_devices.is_some();
+        if sim && !self.port.is_empty() {
+            let from_env = env_port.is_some_and(|e| self.port == [e]);
+            anyhow::ensure!(from_env, "--sim and --port exclude each other: render on the simulator or on a board");
+            self.port.clear();
+        }
+        if !sim && self.port.is_empty() {
+            match &config.port {
+                Some(p) => self.port.push(p.clone()),
+                None => anyhow::bail!(
+                    "no board given: use --port PATH (or GRIDRT_PORT, or `port` in gridrt.toml), or --sim for the simulator"
+                ),
+            }
+        }
+        self.baud = Some(self.baud.or(config.baud).unwrap_or(DEFAULT_BAUD));
+        anyhow::ensure!(self.baud != Some(0), "--baud 0: the baud rate must be positive");
+        self.board = self.board.or(config.board);
+        Ok(())
+    }
+
+    /// The baud rate in force ([`resolve`](Self::resolve) applies gridrt.toml).
+    pub fn baud(&self) -> u32 {
+        self.baud.unwrap_or(DEFAULT_BAUD)
+    }
+
+    /// Fails with a one-line error naming a `--port` that does not exist.
+    pub fn check_ports_exist(&self) -> anyhow::Result<()> {
+        for p in &self.port {
+            check_port_exists(p)?;
+        }
+        Ok(())
+    }
+}
+
+/// Fails with a one-line error when serial port `path` does not exist (Unix device paths;
+/// other systems open it to find out).
+pub fn check_port_exists(path: &str) -> anyhow::Result<()> {
+    if cfg!(unix) && !std::path::Path::new(path).exists() {
+        anyhow::bail!("serial port {path} does not exist (`gridrt ports` lists the machine's ports)");
+    }
+    Ok(())
+}
+
 /// Scene file and grid build.
 #[derive(Debug, Clone, clap::Args)]
 #[command(next_help_heading = "Scene and grid")]
 pub struct SceneOptions {
     /// Scene file: Wavefront .obj (with .mtl materials), .ply, or a .toml scene file with
     /// analytic primitives, materials, textures and a light (docs/SCENE-FILE.md).
-    #[arg(long, value_name = "PATH")]
+    #[arg(short = 's', long, value_name = "PATH")]
     pub scene: PathBuf,
     /// Processing elements of the co-processor (1..=255).
     #[arg(long, default_value_t = 4, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=255))]
@@ -247,7 +308,7 @@ pub enum Timing {
     Gridrt,
     /// A pipelined PE.
     Pipelined,
-    /// The RTL co-processor's measured timeline (rtl/README.md §4.5).
+    /// The RTL co-processor's measured timeline.
     Rtl,
 }
 

@@ -20,10 +20,10 @@ use super::common::ModelOptions;
 #[derive(Debug, clap::Parser)]
 pub struct Cmd {
     /// Serial port to serve on.
-    #[arg(long, value_name = "PATH")]
+    #[arg(short = 'p', long, value_name = "PATH")]
     port: String,
     /// Baud rate.
-    #[arg(long, default_value_t = 115_200, value_name = "BAUD")]
+    #[arg(short = 'b', long, default_value_t = 115_200, value_name = "BAUD")]
     baud: u32,
     /// Processing elements of the simulated co-processor.
     #[arg(long, default_value_t = 4, value_name = "N")]

@@ -16,8 +16,8 @@ use super::progress::CliProgress;
 /// The ELF must be linked for the bootloader's application region
 /// (`cargo xtask firmware --bin app --layout bootloaded`). Its loadable segments are sent in
 /// CRC-checked chunks, several in flight, each acknowledged selectively; only chunks the
-/// bootloader did not get are sent again, and the chunk size follows the line's error rate
-/// (SPEC.md §3.14). The bootloader reads the image back from memory and reports its CRC-32,
+/// bootloader did not get are sent again, and the chunk size follows the line's error rate.
+/// The bootloader reads the image back from memory and reports its CRC-32,
 /// which must equal ours; then it jumps to the entry point and the application must answer
 /// Hello. A refused image (wrong format version, too large, outside the region, bad CRC) is
 /// reported with the bootloader's reason; the bootloader keeps running. Every wait is
@@ -28,12 +28,13 @@ pub struct Cmd {
     /// Application ELF.
     #[arg(value_name = "APP.elf")]
     elf: PathBuf,
-    /// Serial port of the board or of QEMU's pty (see `cargo xtask qemu --bin bootloader`).
-    #[arg(long, value_name = "PATH")]
-    port: String,
-    /// Baud rate.
-    #[arg(long, default_value_t = 115_200, value_name = "BAUD")]
-    baud: u32,
+    /// Serial port of the board or of QEMU's pty (see `cargo xtask qemu --bin bootloader`)
+    /// [default: `port` of gridrt.toml].
+    #[arg(short = 'p', long, value_name = "PATH", env = "GRIDRT_PORT")]
+    port: Option<String>,
+    /// Baud rate [default: `baud` of gridrt.toml, else 115200].
+    #[arg(short = 'b', long, value_name = "BAUD", env = "GRIDRT_BAUD")]
+    baud: Option<u32>,
     /// Allowance per exchange on top of the wire time derived from --baud (USB adapter,
     /// operating system, bootloader).
     #[arg(long, default_value_t = 30, value_name = "MS")]
@@ -48,7 +49,13 @@ pub struct Cmd {
 
 impl Cmd {
     /// Runs the command.
-    pub fn run(self) -> anyhow::Result<()> {
+    pub fn run(mut self) -> anyhow::Result<()> {
+        let config = super::config::load()?;
+        let Some(port_name) = self.port.take().or(config.port) else {
+            anyhow::bail!("no board given: use --port PATH (or GRIDRT_PORT, or `port` in gridrt.toml)");
+        };
+        let baud = self.baud.or(config.baud).unwrap_or(super::common::DEFAULT_BAUD);
+        super::common::check_port_exists(&port_name)?;
         let bytes = std::fs::read(&self.elf).with_context(|| format!("reading {}", self.elf.display()))?;
         let image = FlashImage::from_elf(&bytes).with_context(|| format!("{}", self.elf.display()))?;
         println!(
@@ -60,9 +67,9 @@ impl Cmd {
             image.crc,
             image.segments.len()
         );
-        let mut port = serial::open(&self.port, self.baud, serial::DEFAULT_READ_TIMEOUT)?;
+        let mut port = serial::open(&port_name, baud, serial::DEFAULT_READ_TIMEOUT)?;
         let session =
-            SessionConfig::new(self.port.clone()).baud(self.baud).turnaround(Duration::from_millis(self.turnaround));
+            SessionConfig::new(port_name.clone()).baud(baud).turnaround(Duration::from_millis(self.turnaround));
         let cfg = FlashConfig { session, boot: !self.no_boot };
         let mut progress = CliProgress::default();
         let report = flash(&mut port, &image, &cfg, &mut |e| {
@@ -94,8 +101,8 @@ impl Cmd {
         if self.no_check {
             return Ok(());
         }
-        let cfg = SessionConfig::new(self.port.clone())
-            .baud(self.baud)
+        let cfg = SessionConfig::new(port_name.clone())
+            .baud(baud)
             .turnaround(Duration::from_millis(self.turnaround))
             .hello_timeout(Duration::from_secs(15));
         let mut session = Session::new(&mut port, cfg);

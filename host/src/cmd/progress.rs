@@ -1,9 +1,11 @@
-//! Draws the library's progress events: indicatif bars on stderr when stdout is a terminal;
-//! otherwise (a pipe, a file, a CI log) plain lines on stdout, one at each stage's start and
-//! end and one every [`LINE_EVERY`] in between — bytes, rate, retransmits, line errors and
-//! what was last heard — so a long or struggling transfer is never silent.
+//! Draws the library's progress events on stderr: indicatif bars when stderr is a terminal;
+//! otherwise (a pipe, a file, a CI log) plain lines, one at each stage's start and end and
+//! one every [`LINE_EVERY`] in between — bytes, rate, retransmits, line errors and when the
+//! device was last heard (with `--verbose`, also which message) — so a long or struggling
+//! transfer is never silent. Stdout keeps the results.
 
 use std::io::{IsTerminal, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use gridrt_host::flash::FlashEvent;
@@ -14,12 +16,35 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// at least once a second).
 pub const LINE_EVERY: Duration = Duration::from_secs(4);
 
+/// `--verbose`: progress lines name the device's last message (protocol detail).
+static VERBOSE: AtomicBool = AtomicBool::new(false);
+
+/// Sets `--verbose` for every progress display of the process.
+pub fn set_verbose(on: bool) {
+    VERBOSE.store(on, Ordering::Relaxed);
+}
+
+/// Whether `--verbose` is on.
+pub fn verbose() -> bool {
+    VERBOSE.load(Ordering::Relaxed)
+}
+
+/// When the device was last heard, without the message's fields: `0.2 s ago` out of
+/// `SceneSack {next 500, …} (seq 3) 0.2 s ago`.
+fn heard_when(last_heard: &str) -> String {
+    match last_heard.rfind(") ") {
+        Some(i) => last_heard[i + 2..].to_string(),
+        None if last_heard == "nothing" => "never".to_string(),
+        None => last_heard.to_string(),
+    }
+}
+
 /// How progress is shown.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
     /// indicatif bars on stderr.
     Bars,
-    /// Lines on stdout.
+    /// Lines on stderr.
     Lines,
 }
 
@@ -36,7 +61,7 @@ pub struct CliProgress {
 
 impl Default for CliProgress {
     fn default() -> Self {
-        Self::new(if std::io::stdout().is_terminal() { Mode::Bars } else { Mode::Lines })
+        Self::new(if std::io::stderr().is_terminal() { Mode::Bars } else { Mode::Lines })
     }
 }
 
@@ -82,7 +107,7 @@ pub fn line(a: &Activity) -> String {
         a.stage.to_string().split(' ').next_back().unwrap_or("link"),
         a.retransmits,
         a.line_errors,
-        a.last_heard
+        if verbose() { a.last_heard.clone() } else { heard_when(&a.last_heard) }
     )
 }
 
@@ -93,7 +118,7 @@ impl CliProgress {
     }
 
     fn say(&mut self, text: &str) {
-        let mut out = std::io::stdout().lock();
+        let mut out = std::io::stderr().lock();
         let _ = writeln!(out, "{text}");
         let _ = out.flush();
         self.last_line = Some(Instant::now());
@@ -237,7 +262,11 @@ mod tests {
         for part in ["upload", "500 B / 1000 B (50 %)", "250 B/s payload", "7 chunks resent", "9 line errors"] {
             assert!(l.contains(part), "`{part}` missing from: {l}");
         }
-        assert!(l.contains("last heard SceneSack"), "{l}");
+        assert!(l.contains("last heard 0.2 s ago") && !l.contains("SceneSack"), "{l}");
+        set_verbose(true);
+        let v = line(&act(Stage::Upload, 500, 2));
+        set_verbose(false);
+        assert!(v.contains("last heard SceneSack"), "{v}");
         let r = line(&act(Stage::Render, 500, 1));
         assert!(r.starts_with("render") && r.contains("500 / 1000 px verified") && r.contains("7 runs"), "{r}");
     }

@@ -32,21 +32,21 @@ const PORT_READ_TIMEOUT: Duration = Duration::from_millis(50);
 #[derive(Debug, clap::Parser)]
 pub struct Cmd {
     #[clap(flatten)]
-    pub(super) port: PortOptions,
+    pub(crate) port: PortOptions,
     #[clap(flatten)]
     pub(super) scene: SceneOptions,
     #[clap(flatten)]
     pub(super) model: ModelOptions,
-    /// Image width in pixels [default: the scene file's camera, else 320].
-    #[arg(long, help_heading = "Frame")]
+    /// Image width in pixels, 1..=4096 [default: the scene file's camera, else 320].
+    #[arg(short = 'W', long, value_name = "PX", help_heading = "Frame", value_parser = image_dim)]
     pub(super) width: Option<u16>,
-    /// Image height in pixels [default: the scene file's camera, else 240].
-    #[arg(long, help_heading = "Frame")]
+    /// Image height in pixels, 1..=4096 [default: the scene file's camera, else 240].
+    #[arg(short = 'H', long, value_name = "PX", help_heading = "Frame", value_parser = image_dim)]
     pub(super) height: Option<u16>,
     /// Do not trace shadow rays.
     #[arg(long, help_heading = "Frame")]
     no_shadows: bool,
-    /// Row interpolation (seed 003): trace every (l+1)-th pixel of a row, fill between two
+    /// Row interpolation: trace every (l+1)-th pixel of a row, fill between two
     /// traced pixels when their colours differ by less than EPS (8-bit levels) and they hit the
     /// same primitive at a close depth, else refine through the centre pixel. `l,EPS` (fixed
     /// step) or `l,EPS,adaptive`; l in 1..=15, EPS in 0..=31. BENCHMARKS.md recommends 3,8.
@@ -56,16 +56,16 @@ pub struct Cmd {
     /// comparisons).
     #[arg(long, help_heading = "Frame")]
     no_skip: bool,
-    /// Pixel encoding on the UART (SPEC.md §3.7.1): `rle` is lossless and several times
-    /// smaller on typical frames, `rgb565` is lossy.
-    #[arg(long, value_enum, default_value_t = Encoding::Rgb888, help_heading = "Link")]
+    /// Pixel encoding on the serial line: `rle` is lossless and several times smaller on
+    /// typical frames than `rgb888`; `rgb565` is lossy.
+    #[arg(long, value_enum, default_value_t = Encoding::Rle, help_heading = "Link")]
     pub(super) encoding: Encoding,
     /// Rows per request (0 = the whole frame on one board; about eight bands per board
     /// with several boards). Smaller bands cost less when a device resets.
     #[arg(long, default_value_t = 0, value_name = "ROWS", help_heading = "Link")]
     pub(super) band_rows: u16,
-    /// Output PNG.
-    #[arg(long, value_name = "PNG", help_heading = "Output")]
+    /// Output image (PNG).
+    #[arg(short = 'o', long, value_name = "PNG", help_heading = "Output")]
     pub(super) out: PathBuf,
     /// Write statistics as JSON here.
     #[arg(long, value_name = "JSON", help_heading = "Output")]
@@ -77,7 +77,7 @@ pub struct Cmd {
     /// Also write the reference image here (implies --reference).
     #[arg(long, value_name = "PNG", help_heading = "Output")]
     pub(super) reference_out: Option<PathBuf>,
-    /// Render a mesh as a point cloud (seed 001 splats): its vertices with averaged normals
+    /// Render a mesh as a point cloud (splats): its vertices with averaged normals
     /// and radii from density. A PLY with vertices and no faces is a point cloud anyway.
     #[arg(long, help_heading = "Point clouds")]
     pub(super) points: bool,
@@ -85,8 +85,7 @@ pub struct Cmd {
     /// `points` (sort-last: each board a random subset, composited by depth).
     #[arg(long, value_enum, default_value_t = Split::Rows, help_heading = "Point clouds")]
     pub(super) split: Split,
-    /// Depth-test splats per pixel (each splat's plane) instead of one Z per splat as in
-    /// seed 001.
+    /// Depth-test splats per pixel (each splat's plane) instead of one depth per splat.
     #[arg(long, help_heading = "Point clouds")]
     pub(super) pixel_depth: bool,
 }
@@ -123,19 +122,30 @@ impl From<Encoding> for PixelEncoding {
 
 impl Cmd {
     /// Runs the command.
-    pub fn run(self) -> anyhow::Result<()> {
-        // Make the output folders first, so a finished frame is never lost to a missing folder.
-        for path in std::iter::once(&self.out).chain(self.stats.iter()).chain(self.reference_out.iter()) {
-            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir).with_context(|| format!("creating output folder {}", dir.display()))?;
-            }
+    pub fn run(mut self) -> anyhow::Result<()> {
+        // Everything that can be checked before a byte is sent: the connection, the
+        // simulator's configuration, the outputs (their folders are made now, so a finished
+        // frame is never lost to a missing folder), the ports, the scene and the frame size.
+        self.port.resolve()?;
+        if self.port.port.is_empty() {
+            self.model.sim_config(self.scene.pes, self.scene.pe_mem_words)?;
         }
+        super::output::check_image(&self.out, "--out")?;
+        if let Some(path) = &self.stats {
+            super::output::check_file(path, "--stats")?;
+        }
+        if let Some(path) = &self.reference_out {
+            super::output::check_image(path, "--reference-out")?;
+        }
+        self.port.check_ports_exist()?;
         let input = gridrt_host::points::load(&self.scene.scene, self.points)
             .with_context(|| format!("loading scene {}", self.scene.scene.display()))?;
         let mesh = match input {
             gridrt_host::points::Input::Scene(s) => *s,
             gridrt_host::points::Input::Cloud(cloud) => return self.run_cloud(cloud),
         };
+        let base = mesh.settings;
+        check_size(self.width.unwrap_or(base.width), self.height.unwrap_or(base.height))?;
         if !self.port.port.is_empty() {
             self.run_on(self.open_ports()?, mesh, None)
         } else {
@@ -162,7 +172,7 @@ impl Cmd {
     fn open_ports(&self) -> anyhow::Result<Vec<(Box<dyn serialport::SerialPort>, String)>> {
         let mut ports = Vec::new();
         for path in &self.port.port {
-            let port = serialport::new(path, self.port.baud)
+            let port = serialport::new(path, self.port.baud())
                 .timeout(PORT_READ_TIMEOUT)
                 .open()
                 .with_context(|| format!("opening serial port {path}"))?;
@@ -179,7 +189,7 @@ impl Cmd {
                 let mut port = gridrt_loopback::spawn(config);
                 port.set_timeout(PORT_READ_TIMEOUT);
                 if self.port.sim_paced {
-                    port.set_line_rate(Some(self.port.baud));
+                    port.set_line_rate(Some(self.port.baud()));
                 }
                 (port, if n == 1 { "sim".to_string() } else { format!("sim{i}") })
             })
@@ -193,7 +203,7 @@ impl Cmd {
             .into_iter()
             .map(|(port, name)| {
                 let cfg = SessionConfig::new(name)
-                    .baud(self.port.baud)
+                    .baud(self.port.baud())
                     .turnaround(Duration::from_millis(self.port.turnaround))
                     .render_timeout(Duration::from_secs_f64(self.port.timeout.max(0.1)))
                     .band_rows(self.band_rows);
@@ -232,6 +242,13 @@ impl Cmd {
             }
         }
         let Some(info) = info else { bail!("no device") };
+        if let Some(board) = self.port.board.filter(|&b| b != info.board) {
+            bail!(
+                "the device is board {} ({}), not board {board} (--board or `board` in gridrt.toml)",
+                info.board,
+                board_name(info.board)
+            );
+        }
         if !self.port.port.is_empty() && info.pe_count != self.scene.pes {
             eprintln!("note: the device has {} PEs; using that instead of --pes {}", info.pe_count, self.scene.pes);
         }
@@ -350,7 +367,7 @@ impl Cmd {
         let mut stats = RenderStats::new(&facts, &prepared.grid, &frame);
         stats.coproc = coproc;
         stats.pipeline = Some(PipelineStats::new(&plan.names(), self.interp, &frame));
-        let baud = self.port.baud;
+        let baud = self.port.baud();
         let modelled_link_s = if devices.is_empty() {
             (frame.bytes_tx + frame.bytes_rx) as f64 * 10.0 / baud as f64
         } else {
@@ -382,16 +399,45 @@ impl Cmd {
 
         if let Some(path) = &self.stats {
             let json = serde_json::to_string_pretty(&stats)?;
-            std::fs::write(path, json + "\n").with_context(|| format!("writing {}", path.display()))?;
+            super::output::write_bytes(path, (json + "\n").as_bytes())?;
         }
         print_summary(&stats, &frame, &self.out, total_start.elapsed());
         Ok(())
     }
 }
 
-pub(super) fn write_png(path: &PathBuf, w: u16, h: u16, rgb: Vec<u8>) -> anyhow::Result<()> {
-    let img = image::RgbImage::from_raw(w as u32, h as u32, rgb).context("image buffer has the wrong size")?;
-    img.save(path).with_context(|| format!("writing {}", path.display()))
+pub(super) fn write_png(path: &std::path::Path, w: u16, h: u16, rgb: Vec<u8>) -> anyhow::Result<()> {
+    super::output::write_rgb(path, w, h, rgb)
+}
+
+/// `--width` / `--height`: 1..=the device's largest image side.
+fn image_dim(s: &str) -> Result<u16, String> {
+    let max = gridrt_firmware::device::MAX_IMAGE_DIM;
+    match s.parse::<u64>() {
+        Ok(v) if (1..=max as u64).contains(&v) => Ok(v as u16),
+        Ok(v) => Err(format!("{v} is not in 1..={max} pixels (the device's limit)")),
+        Err(_) => Err(format!("`{s}` is not a number of pixels")),
+    }
+}
+
+/// Checks a frame size against the device's limit (a scene file's camera may ask for more).
+pub(super) fn check_size(width: u16, height: u16) -> anyhow::Result<()> {
+    let max = gridrt_firmware::device::MAX_IMAGE_DIM;
+    if !(1..=max).contains(&width) || !(1..=max).contains(&height) {
+        bail!("frame {width}×{height} is outside the device's 1..={max} pixels per side (--width, --height)");
+    }
+    Ok(())
+}
+
+/// A board id's name (Hello's `board`).
+pub(super) fn board_name(id: u8) -> &'static str {
+    match id {
+        0 => "loopback simulator",
+        1 => "qemu-virt",
+        2 => "FPGA SoC",
+        3 => "LiteX SoC",
+        _ => "unknown board",
+    }
 }
 
 fn si(v: u64) -> String {

@@ -43,6 +43,13 @@ impl Cmd {
             info.get_or_insert(i);
         }
         let Some(info) = info else { bail!("no device") };
+        if let Some(board) = self.port.board.filter(|&b| b != info.board) {
+            bail!(
+                "the device is board {} ({}), not board {board} (--board or `board` in gridrt.toml)",
+                info.board,
+                super::render::board_name(info.board)
+            );
+        }
         let params = GridParams {
             m: self.scene.grid_m,
             pe_count: info.pe_count,
@@ -56,7 +63,7 @@ impl Cmd {
         let settings = base.with_size(self.width.unwrap_or(base.width), self.height.unwrap_or(base.height));
         if settings.width > MAX_SPLAT_WIDTH {
             bail!(
-                "splat frames are at most {MAX_SPLAT_WIDTH} pixels wide (seed 001's 9-bit X); asked for {}",
+                "splat frames are at most {MAX_SPLAT_WIDTH} pixels wide (a 9-bit X coordinate); asked for {}",
                 settings.width
             );
         }
@@ -116,7 +123,7 @@ impl Cmd {
             upload_ms,
         };
         let mut stats = RenderStats::new(&facts, &whole.grid, &frame);
-        let baud = self.port.baud;
+        let baud = self.port.baud();
         let modelled_link_s = if devices.is_empty() {
             (frame.bytes_tx + frame.bytes_rx) as f64 * 10.0 / baud as f64
         } else {
@@ -165,7 +172,7 @@ impl Cmd {
         if let Some(path) = &self.stats {
             let mut json = serde_json::to_value(&stats)?;
             json["splat"] = serde_json::to_value(&report)?;
-            std::fs::write(path, serde_json::to_string_pretty(&json)? + "\n")
+            super::output::write_bytes(path, (serde_json::to_string_pretty(&json)? + "\n").as_bytes())
                 .with_context(|| format!("writing {}", path.display()))?;
         }
         print_summary(&stats, &report, &frame, &self.out, total_start.elapsed());

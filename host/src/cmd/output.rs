@@ -1,0 +1,133 @@
+//! Output files: checked before any work (not a folder, a format the writer has, a folder
+//! that takes a new file) and written through a temporary file beside them, renamed into
+//! place, so a failure never leaves an empty or half-written file behind.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+
+/// Checks that `path` (given as `flag`) can be written as a file: not a folder, its folder
+/// exists (it is created) and takes a new file, and an existing file there can be written.
+pub fn check_file(path: &Path, flag: &str) -> anyhow::Result<()> {
+    if path.as_os_str().is_empty() {
+        anyhow::bail!("{flag}: an empty path");
+    }
+    if path.is_dir() {
+        anyhow::bail!("{flag} {}: is a folder; give a file name", path.display());
+    }
+    let dir = folder_of(path);
+    if let Some(file) = dir.ancestors().find(|a| a.exists() && !a.is_dir()) {
+        anyhow::bail!("{flag} {}: {} is a file, not a folder", path.display(), file.display());
+    }
+    std::fs::create_dir_all(&dir).with_context(|| format!("{flag} {}: creating its folder", path.display()))?;
+    if path.exists() {
+        std::fs::OpenOptions::new()
+            .append(true)
+            .open(path)
+            .with_context(|| format!("{flag} {}: cannot be written", path.display()))?;
+    }
+    let probe = temp_beside(path);
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .with_context(|| format!("{flag} {}: its folder does not take new files", path.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// [`check_file`] for an image: also an extension the image writer supports.
+pub fn check_image(path: &Path, flag: &str) -> anyhow::Result<image::ImageFormat> {
+    if path.is_dir() {
+        anyhow::bail!("{flag} {}: is a folder; give a file name", path.display());
+    }
+    let format = image_format(path, flag)?;
+    check_file(path, flag)?;
+    Ok(format)
+}
+
+/// The image format of `path`'s extension, if this build can write it.
+pub fn image_format(path: &Path, flag: &str) -> anyhow::Result<image::ImageFormat> {
+    let supported = || {
+        image::ImageFormat::all()
+            .filter(|f| f.writing_enabled())
+            .flat_map(|f| f.extensions_str().first().copied())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    match image::ImageFormat::from_path(path) {
+        Ok(f) if f.writing_enabled() => Ok(f),
+        _ => anyhow::bail!("{flag} {}: cannot write this format (supported: {})", path.display(), supported()),
+    }
+}
+
+/// The folder `path` is in (`.` for a bare file name).
+fn folder_of(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// A temporary name beside `path`.
+fn temp_beside(path: &Path) -> PathBuf {
+    let name = path.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    folder_of(path).join(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+/// Writes `path` through `write` on a temporary file beside it, renamed into place when
+/// `write` succeeds (removed when it fails).
+pub fn write_with(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let tmp = temp_beside(path);
+    let result = (|| {
+        let file = std::fs::File::create(&tmp).with_context(|| format!("writing {}", path.display()))?;
+        let mut w = std::io::BufWriter::new(file);
+        write(&mut w)?;
+        w.flush().with_context(|| format!("writing {}", path.display()))?;
+        drop(w);
+        std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Writes `bytes` to `path` (through a temporary file).
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    write_with(path, |w| w.write_all(bytes).with_context(|| format!("writing {}", path.display())))
+}
+
+/// Writes an RGB image to `path` in the format of its extension (through a temporary file).
+pub fn write_rgb(path: &Path, w: u16, h: u16, rgb: Vec<u8>) -> anyhow::Result<()> {
+    let format = image_format(path, "output")?;
+    let img = image::RgbImage::from_raw(w as u32, h as u32, rgb).context("image buffer has the wrong size")?;
+    write_with(path, |out| img.write_to(out, format).with_context(|| format!("writing {}", path.display())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn folders_unknown_formats_and_impossible_paths_are_refused_and_nothing_is_left() {
+        let dir = std::env::temp_dir().join(format!("gridrt-output-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        assert!(check_image(&dir, "--out").unwrap_err().to_string().contains("is a folder"));
+        assert!(check_image(&dir.join("x.jpg"), "--out").unwrap_err().to_string().contains("cannot write"));
+        let file = dir.join("plain");
+        std::fs::write(&file, b"x").unwrap();
+        assert!(check_image(&file.join("x.png"), "--out").is_err(), "a path under a file");
+        check_image(&dir.join("sub/x.png"), "--out").unwrap();
+        write_rgb(&dir.join("sub/x.png"), 1, 1, vec![1, 2, 3]).unwrap();
+        assert!(write_rgb(&dir.join("sub/y.png"), 2, 2, vec![1, 2, 3]).is_err());
+        let mut left: Vec<_> = std::fs::read_dir(dir.join("sub")).unwrap().map(|e| e.unwrap().file_name()).collect();
+        left.sort();
+        assert_eq!(left, ["x.png"]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
