@@ -30,7 +30,7 @@ enum What {
     /// co-processor cycles from the timing model, UART link, and what overlaps), per
     /// configuration (soft-core-only, gridrt, pipelined, host-native) and soft-core target
     /// (riscv32imac, riscv32imafc); every image checked against the f64 reference (JSON,
-    /// and CSV + SVG in --out).
+    /// and CSV + SVG in --out-dir).
     Frame(super::bench_frame::Args),
     /// Point splats: native splats/s and image error against the ray-traced disks for
     /// 10³…10⁶ points and several shape tables, optionally soft-core instructions per splat

@@ -4,7 +4,7 @@
 //! Builds the firmware images with `cargo xtask firmware` (run it from the repository),
 //! boots each on QEMU, renders the frame over its UART, renders it on the loopback simulator
 //! per co-processor profile and natively, checks every image against the f64 reference, and
-//! writes the rows as JSON (`--json`) and, with `--out DIR`, `frame.csv` and `frame.svg`.
+//! writes the rows as JSON (`--json`) and, with `--out-dir DIR`, `frame.csv` and `frame.svg`.
 
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -51,8 +51,8 @@ pub struct Args {
     /// Write the report here (JSON).
     #[arg(long, value_name = "JSON")]
     json: PathBuf,
-    /// Also write frame.csv and frame.svg (stacked bars) here.
-    #[arg(long, value_name = "DIR")]
+    /// Also write frame.csv and frame.svg (stacked bars) into this folder.
+    #[arg(long = "out-dir", alias = "out", value_name = "DIR")]
     out: Option<PathBuf>,
     /// Configurations, in report order: soft-core-only, gridrt, pipelined, rtl, host-native,
     /// and soc (the LiteX SoC simulated cycle by cycle in Verilator, measured by its own
@@ -281,7 +281,17 @@ fn print_table(r: &FrameReport) {
     }
     println!(
         "{:<15} {:<13} {:>10} {:>10} {:>10} {:>9} {:>10} {:>8}  {:<9} {:>7}  {:<10}",
-        "config", "target", "instr/ray", "cpu ms", "coproc ms", "link ms", "frame ms", "fps", "cycles", "vs soc", "image"
+        "config",
+        "target",
+        "instr/ray",
+        "cpu ms",
+        "coproc ms",
+        "link ms",
+        "frame ms",
+        "fps",
+        "cycles",
+        "vs soc",
+        "image"
     );
     for row in &r.rows {
         let image = if row.identical {

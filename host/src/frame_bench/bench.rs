@@ -10,12 +10,12 @@ use super::setup::{
     kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, FrameBenchError, Image, MeasuredCpi, Target,
 };
 use super::soc;
-use gridrt_firmware::device::Stage;
 use crate::compare::compare;
 use crate::grid::GridParams;
 use crate::pipeline::PreparedScene;
 use crate::plan::Plan;
 use crate::reference::{self, Reference, Stages};
+use gridrt_firmware::device::Stage;
 
 /// The scene prepared for the qemu-virt board's PEs, and the render request of the frame:
 /// the scene's view at `width`×`height`, the stages it needs (as `gridrt render` derives

@@ -276,10 +276,8 @@ pub(crate) fn device_row(
     // else the profile's one CPI. Not for soft-core-only: its `fsl_io` holds the whole
     // soft-float intersection, code the measurement never ran (its rows keep the profile's
     // CPI, as a model).
-    let measured = opt
-        .measured_cpi
-        .as_ref()
-        .filter(|_| target == Target::Riscv32imac && config != Configuration::SoftCoreOnly);
+    let measured =
+        opt.measured_cpi.as_ref().filter(|_| target == Target::Riscv32imac && config != Configuration::SoftCoreOnly);
     let cpi_by_stage: Option<BTreeMap<String, f64>> =
         measured.map(|m| by_stage.keys().filter_map(|s| Some((s.clone(), m.cpi(s)?))).collect());
     let cpu_cycles = match &cpi_by_stage {

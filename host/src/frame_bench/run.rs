@@ -299,7 +299,8 @@ pub fn run_native(
         let cfg = SessionConfig::new("native").render_timeout(STAGE_TIMEOUT);
         let mut session = Session::new(port, cfg);
         let mut quiet = |_: BenchEvent| {};
-        let (mut frame, upload, _) = hello_upload_render(&mut session, prepared, req, "host-native", QEMU_PES, &mut quiet)?;
+        let (mut frame, upload, _) =
+            hello_upload_render(&mut session, prepared, req, "host-native", QEMU_PES, &mut quiet)?;
         let mut best = f64::INFINITY;
         for i in 0..warmup + runs.max(1) {
             session.port_mut().busy = Duration::ZERO;

@@ -207,7 +207,11 @@ pub fn run_on_soc(
     // The bootloader's text first: then its line is idle and a `Hello` is answered at once.
     let banner = read_banner(&mut port, SOC_STAGE_TIMEOUT)
         .map_err(|what| FrameBenchError::Device(format!("soc: the bootloader: {what}")))?;
-    progress(BenchEvent::Step(format!("soc: bootloader up after {:.0} s: {}", t.elapsed().as_secs_f64(), banner.trim())));
+    progress(BenchEvent::Step(format!(
+        "soc: bootloader up after {:.0} s: {}",
+        t.elapsed().as_secs_f64(),
+        banner.trim()
+    )));
     let line = sim.wall_clock_line(clock);
     progress(BenchEvent::Step(format!(
         "soc: the simulated line's {} baud run at about {line} baud of wall-clock time here: the host's waits follow that",
@@ -303,7 +307,8 @@ mod tests {
 
     #[test]
     fn speed_line_gives_the_rate_since_start() {
-        let line = "sim: serial2pty: speed 10485760 cycles in 10.0 s: 1048576 cycles/s (running; 998123 cycles/s since start)";
+        let line =
+            "sim: serial2pty: speed 10485760 cycles in 10.0 s: 1048576 cycles/s (running; 998123 cycles/s since start)";
         let rest = line.split(SPEED_MARKER).nth(1).unwrap();
         assert_eq!(parse_speed_since_start(rest), Some(998_123.0));
         assert_eq!(parse_speed_since_start("garbage"), None);

@@ -21,6 +21,7 @@ fn options() -> BenchOptions {
         width: 16,
         height: 12,
         clock_mhz: 100.0,
+        clock_source: "option",
         baud: 921_600,
         encoding: PixelEncoding::Rle,
         tx_buffer_bytes: 16,
@@ -242,6 +243,7 @@ fn csv_and_svg_have_a_line_and_a_bar_label_per_row() {
         upload_ms: Some(0.0),
         reference_ms: 0.0,
         qemu: None,
+        soc_sim: None,
         rows,
     };
     let dir = std::env::temp_dir().join(format!("gridrt-frame-bench-{}", std::process::id()));
@@ -281,10 +283,10 @@ fn configurations_targets_and_profiles_parse_their_names() {
 }
 
 /// The `rtl` row is the RTL's: its kernel and format (the image of `--coproc rtl`), the cycles
-/// of [`TimingProfile::RTL`] on the loopback, converted at that profile's clock (GridRT's
-/// 50 MHz), while the soft-core keeps `--clock-mhz`; every other configuration keeps its kernel.
+/// of [`TimingProfile::RTL`] on the loopback, converted at the board's one clock (the SoC runs
+/// both on `sys_clk`); every other configuration keeps its kernel.
 #[test]
-fn the_rtl_row_runs_the_rtls_kernel_and_charges_its_profile_at_its_own_clock() {
+fn the_rtl_row_runs_the_rtls_kernel_and_charges_its_profile_at_the_boards_one_clock() {
     use gridrt_coproc::{KernelKind, NumberFormat};
     assert!(matches!(Configuration::Rtl.coproc(), CoprocCycles::Model(p) if p == TimingProfile::RTL));
     assert_eq!(Configuration::Rtl.kernel(), (KernelKind::Watertight, NumberFormat::Fixed64Q23));
@@ -304,11 +306,88 @@ fn the_rtl_row_runs_the_rtls_kernel_and_charges_its_profile_at_its_own_clock() {
     assert_eq!(row.coproc_profile.as_deref(), Some("rtl"));
     // A test every fourth cycle per PE: four PEs share one pipeline.
     assert_eq!(row.coproc_test_cycles, Some(gridrt_coproc::RTL_PES_PER_PIPELINE));
-    assert_eq!(row.coproc_clock_mhz, Some(50.0));
-    assert!(row.coproc_clock_source.as_deref().unwrap().contains("not a routed fmax"));
+    assert_eq!(row.coproc_clock_mhz, Some(100.0));
+    assert!(row.coproc_clock_source.as_deref().unwrap().contains("one clock domain"));
     assert!(row.coproc_cycles > 0);
-    // Co-processor cycles at 50 MHz, soft-core cycles at the bench's 100 MHz.
-    assert!((row.coproc_ms - row.coproc_cycles as f64 / 50e6 * 1e3).abs() < 1e-9, "{row:?}");
+    // Co-processor and soft-core cycles at the bench's 100 MHz.
+    assert!((row.coproc_ms - row.coproc_cycles as f64 / 100e6 * 1e3).abs() < 1e-9, "{row:?}");
     let instructions = row.instructions.unwrap() as f64;
     assert!((row.cpu_ms - instructions * 4.1 / 100e6 * 1e3).abs() < 1e-9, "{row:?}");
+}
+
+/// The soft-core-only image runs the intersection in `fsl_io`, code the SoC's measurement
+/// never ran: its rows keep the profile's CPI even when a measured per-stage CPI is given.
+#[test]
+fn measured_cpi_is_not_charged_to_the_soft_core_only_rows() {
+    let stats = serde_json::json!({ "device_counters": {
+        "stage_raygen_cycles": 2000, "stage_raygen_instret": 1000,
+        "stage_traverse_cycles": 3000, "stage_traverse_instret": 1000,
+        "stage_fsl_io_cycles": 5000, "stage_fsl_io_instret": 1000,
+        "stage_shade_cycles": 1500, "stage_shade_instret": 1000,
+        "stage_encode_cycles": 1000, "stage_encode_instret": 1000,
+    }});
+    let mut opt = options();
+    opt.measured_cpi = Some(MeasuredCpi::from_stats_json("vexriscv-imac", "soc.json", &stats.to_string()).unwrap());
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", &mut |_| {}).unwrap();
+    let cmp = compare(&run.frame.rgb, &run.frame.rgb, None, None).unwrap();
+    let row = device_row(Configuration::SoftCoreOnly, Target::Riscv32imac, &run, None, &cmp, &opt);
+    assert_eq!((row.cpu_source.as_deref(), row.cpi), (Some("cpi-model"), Some(4.1)));
+    assert!(row.cpi_by_stage.is_none());
+}
+
+/// The `soc` row takes every figure from the SoC's own counters at the row's clock, and the
+/// modelled rows of the same run state their distance from it.
+#[test]
+fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_it() {
+    use super::report::{distance_from_soc, soc_row};
+    use super::soc::{SocClock, SocRun};
+    let opt = options();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let mut run =
+        run_on_loopback(TimingProfile::RTL, Configuration::Soc.kernel(), &prepared, &req, "t", &mut |_| {}).unwrap();
+    let rtl = run.clone();
+    for (k, s) in Stage::ALL.iter().enumerate() {
+        run.frame.stats.insert(s.instret_key(), 1000);
+        run.frame.stats.insert(s.cycles_key(), 1000 * (k as u64 + 2));
+    }
+    run.frame.stats.insert(stat::FRAME_CYCLES, 50_000_000);
+    run.frame.stats.insert(stat::LINK_CYCLES, 10_000_000);
+    run.frame.stats.insert(stat::FRAME_TX_BYTES, 2304);
+    let soc = SocRun {
+        run,
+        rtl,
+        clock: SocClock { clock_mhz: 50.0, source: "target", baud: 115_200 },
+        pes: 4,
+        sim_cycles_per_s: 1e6,
+        sim_reported_cycles_per_s: None,
+        flash_s: 1.0,
+        upload_s: 1.0,
+        render_s: 50.0,
+    };
+    let cmp = compare(&soc.run.frame.rgb, &soc.run.frame.rgb, None, None).unwrap();
+    let row = soc_row(&soc, &cmp);
+    assert_eq!((row.config.as_str(), row.target.as_str()), ("soc", "riscv32imac"));
+    assert_eq!(row.board.cycles_source.as_deref(), Some("soc-sim"));
+    assert_eq!((row.board.frame_cycles, row.board.link_cycles), (Some(50_000_000), Some(10_000_000)));
+    assert!((row.frame_ms - 1000.0).abs() < 1e-9 && (row.link_ms - 200.0).abs() < 1e-9, "{row:?}");
+    // Stage cycles 2000 + 3000 + 4000 + 5000 + 6000 for 5000 instructions.
+    assert!((row.cpu_ms - 20_000.0 / 50e6 * 1e3).abs() < 1e-12);
+    assert!((row.cpi.unwrap() - 4.0).abs() < 1e-12);
+    assert_eq!(row.cpi_by_stage.as_ref().unwrap()["traverse"], 3.0);
+    assert_eq!(row.board.identical_to_rtl_sim, Some(true));
+    assert_eq!((row.board.harts, row.board.pes, row.board.baud), (Some(1), Some(4), Some(115_200)));
+    let json = serde_json::to_value(&row).unwrap();
+    for key in ["config", "frame_cycles", "cycles_source", "clock_mhz", "clock_source", "harts", "pes", "baud"] {
+        assert!(!json[key].is_null(), "{key} in {json}");
+    }
+
+    let mut modelled = row.clone();
+    modelled.config = "rtl".into();
+    modelled.frame_ms = 1100.0;
+    modelled.board.cycles_source = Some("model".into());
+    let mut rows = vec![row, modelled];
+    distance_from_soc(&mut rows);
+    assert_eq!(rows[0].board.vs_soc, None);
+    assert!((rows[1].board.vs_soc.unwrap() - 0.1).abs() < 1e-12);
 }
