@@ -23,7 +23,7 @@
 //! | `request` | render request checks, field offsets, the validated job | `fail` |
 //! | `pipeline` | the per-pixel pipeline, plan, row loop and row interpolation; renders a job, its rows on a [`RowFarm`] when one takes them | all of the above |
 //! | `farm` | [`RowTracer`]: a farm's rows traced through `pipeline`'s pixel on a link of their own; [`NoFarm`] | `stats`, `raypath`, `pipeline` |
-//! | `splat` | a `SPLATS` job: the point-splatting design's splat path over the scene's points | `fail`, `request`, `scene`, `stats` |
+//! | `splat` | a `SPLATS` job: the point-splatting path over the scene's points | `fail`, `request`, `scene`, `stats` |
 //! | `machine` | the [`Device`] state machine: frames in, answers out | all of the above |
 //!
 //! Each module uses only those listed before it in its row, never the other way round.

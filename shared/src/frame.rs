@@ -14,7 +14,7 @@
 //! Reassembly uses [`FrameAccumulator`], a fixed-capacity buffer that resynchronises at the
 //! next `0x00` after noise and reports every outcome through [`FeedResult`].
 
-// Link-facing: every index and every sum on received values is checked (ARCHITECTURE.md, link-facing modules).
+// Link-facing: every index and every sum on received values is checked (ARCHITECTURE.md).
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 use core::ops::ControlFlow;

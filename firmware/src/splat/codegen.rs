@@ -202,7 +202,7 @@ fn term(v: f32) -> u8 {
     }
 }
 
-/// Diffuse and specular terms of a splat at `p` with facing unit normal `n` (the point-splatting design:
+/// Diffuse and specular terms of a splat at `p` with facing unit normal `n` (point splatting:
 /// n_s = 1), the light's falloff and spot factor included.
 #[inline]
 fn light_terms(light: &SplatLight, eye: Vec3, p: Vec3, n: Vec3) -> (u8, u8) {
@@ -361,7 +361,7 @@ pub fn file_points<const P: usize, const T: usize>(
 }
 
 /// Streams the pass: material table, ambient, then the buckets top to bottom, and a final
-/// shift that finishes the last line. `emit` is the stage's input (the point-splatting design's DMA).
+/// shift that finishes the last line. `emit` is the stage's input (the design's DMA).
 #[allow(clippy::too_many_arguments)]
 pub fn stream<const P: usize, const T: usize, E>(
     table: &ShapeTable<T>,

@@ -5,7 +5,7 @@
 //! A splat of screen radius r (pixels) centred on a pixel corner, with unit view-space normal
 //! (nx, ny, nz) (x right, y down), covers the pixel centres (dx, dy) from the centre with
 //! `A·dx² + 2B·dx·dy + C·dy² ≤ F`, `A = 1 − ny²`, `B = nx·ny`, `C = 1 − nx²`, `F = r²·nz²`
-//! (the point-splatting design: the disk projected orthographically, the design's affine approximation; the
+//! (point splatting: the disk projected orthographically, the design's affine approximation; the
 //! sign of nz does not matter, so splats are two-sided). Row dy is the run
 //! `[(−B·dy − √disc)/A, (−B·dy + √disc)/A]`, `disc = B²dy² − A(C·dy² − F)`.
 //!

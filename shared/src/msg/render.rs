@@ -85,7 +85,7 @@ pub mod render_flags {
     pub const INTERP_EPS_SHIFT: u32 = 10;
     /// Mask of the EPS field.
     pub const INTERP_EPS_MASK: u16 = 0x1F << INTERP_EPS_SHIFT;
-    /// Render the scene's point section as splats (the point-splatting design, SPEC.md §6) instead of tracing
+    /// Render the scene's point section as splats (point splatting, SPEC.md §6) instead of tracing
     /// rays. With it, [`PRIM_IDS`] asks for each pixel's depth instead of a primitive id, the
     /// ray-stage bits (shadows, reflections, textures, specular) are ignored and the
     /// interpolation step must be 0.

@@ -257,7 +257,7 @@ fn qemu_and_loopback_do_the_same_work_for_the_same_frame() {
     assert_eq!(d.wrapper_per_word, None);
 }
 
-/// Point clouds: the QEMU firmware renders a splat frame of a point cloud (the point-splatting design's code
+/// Point clouds: the QEMU firmware renders a splat frame of a point cloud (the point-splatting code
 /// generator and splat stage on the soft-core) byte-identical to `render --sim`, and reports
 /// its instructions per splat.
 #[test]
