@@ -6,7 +6,7 @@ mod common;
 
 use common::*;
 use gridrt_shared::frame::{self, crc32, FeedResult, FrameAccumulator};
-use gridrt_shared::msg::{self, feature, Msg, MsgError, PixelEncoding, Region, RenderRequest};
+use gridrt_shared::msg::{self, feature, Msg, MsgError, PixelEncoding, Region};
 use gridrt_shared::pixel::{self, PixelError, RleEncoder};
 
 /// The §3.7.1 `Rle` worked example: 108 pixels in 14 bytes.
