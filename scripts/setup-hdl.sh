@@ -41,14 +41,7 @@ if [[ "$mode" == "--check" ]]; then
 fi
 
 apt_install() {
-  local SUDO=()
-  if [[ $(id -u) -ne 0 ]]; then
-    command -v sudo >/dev/null 2>&1 || { say "need root (or sudo) to install: $*"; exit 1; }
-    SUDO=(sudo)
-  fi
-  say "installing: $*"
-  "${SUDO[@]}" apt-get update -q
-  DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends "$@"
+  bash "$ROOT/scripts/apt-install.sh" setup-hdl "$@"
 }
 
 if command -v verilator >/dev/null 2>&1; then

@@ -17,14 +17,5 @@ if [[ ${#need[@]} -eq 0 ]]; then
   exit 0
 fi
 
-SUDO=()
-if [[ $(id -u) -ne 0 ]]; then
-  command -v sudo >/dev/null 2>&1 || { say "need root (or sudo) to install: ${need[*]}"; exit 1; }
-  SUDO=(sudo)
-fi
-
-say "installing: ${need[*]}"
-# The package lists may be missing or stale on a fresh machine.
-"${SUDO[@]}" apt-get update -q
-DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends "${need[@]}"
+bash "$(dirname "$0")/apt-install.sh" setup-qemu "${need[@]}"
 say "installed: $(qemu-system-riscv32 --version | head -1)"

@@ -63,15 +63,8 @@ fi
 bash "$ROOT/scripts/setup-hdl.sh"
 missing="$(apt_missing)"
 if [[ -n "$missing" ]]; then
-  SUDO=()
-  if [[ $(id -u) -ne 0 ]]; then
-    command -v sudo >/dev/null 2>&1 || { say "need root (or sudo) to install: $missing"; exit 1; }
-    SUDO=(sudo)
-  fi
-  say "installing: $missing"
-  "${SUDO[@]}" apt-get update -q
   # shellcheck disable=SC2086 # a list of package names
-  DEBIAN_FRONTEND=noninteractive "${SUDO[@]}" apt-get install -y -q --no-install-recommends $missing
+  bash "$ROOT/scripts/apt-install.sh" setup-soc $missing
 fi
 say "$(verilator --version)"
 

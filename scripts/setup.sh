@@ -2,7 +2,8 @@
 # One-stop setup for a fresh machine: the emulated board (QEMU, socat), the RISC-V
 # cross toolchain (rustup target, else Debian's rustc-web unpacked into .toolchain/), the HDL
 # tools (Verilator; Yosys and nextpnr-ecp5 from pip) and the LiteX SoC's (LiteX and its
-# simulation libraries in .toolchain/soc-venv/).
+# simulation libraries in .toolchain/soc-venv/), and the host tool's optional Embree
+# (libembree-dev, for `--features embree`).
 # Idempotent; the host tool itself needs only cargo.
 #
 #   bash scripts/setup.sh
@@ -12,3 +13,4 @@ bash "$here/setup-qemu.sh"
 bash "$here/setup-riscv-toolchain.sh"
 bash "$here/setup-hdl.sh"
 bash "$here/setup-soc.sh"
+bash "$here/setup-host.sh"

@@ -108,6 +108,6 @@ pub enum ArbitrationRule {
     #[default]
     IntervalChecked,
     /// GridRT as built (for comparison only): the first entry with *any* hit (`0 < t < t_max`)
-    /// wins, even if the hit point lies in a later voxel — the flaw of seed 004 §2.6.
+    /// wins, even if the hit point lies in a later voxel — GridRT's flaw.
     GridRtOriginal,
 }

@@ -1,7 +1,7 @@
 //! `gridrt-coproc`: a no_std model of the GridRT ray-intersection co-processor.
 //!
 //! Source: A. S. Nery, *GridRT: Uma Arquitetura Paralela para Ray Tracing Utilizando Volumes
-//! Uniformes*, M.Sc. thesis, COPPE/UFRJ 2010 (seed 004), with its cross-voxel flaw fixed.
+//! Uniformes*, M.Sc. thesis, COPPE/UFRJ 2010, with its cross-voxel flaw fixed.
 //!
 //! - [`Coprocessor`]: PE memories in caller-provided backing words, the FSL word interface
 //!   ([`Coprocessor::push`] / [`Coprocessor::pop`]) and a direct API for the host

@@ -1,6 +1,6 @@
 //! Number formats of the intersection kernels: `f32` and two fixed-point formats.
 //!
-//! Sources: seed 002 (Andrade Guerra 2020: every FPGA kernel in fixed point with 64-bit
+//! Sources: the ray–triangle study (Andrade Guerra 2020: every FPGA kernel in fixed point with 64-bit
 //! intermediates and about 23 fractional bits, the scene scaled into a positive box);
 //! J. Hanika, A. Keller, "Towards Hardware Ray Tracing using Fixed Point Arithmetic", IEEE
 //! Symposium on Interactive Ray Tracing 2007 (scene normalised into a positive box so that
@@ -14,7 +14,7 @@
 //! | `Fixed64Q23` | `fixed64-q23` | i32, Q8.23 | i64, Q40.23 | 2⁻²³ | scene box → [0, 16] |
 //! | `Fixed32Q16` | `fixed32-q16` | i32, Q15.16 | i32, Q15.16 | 2⁻¹⁶ | scene box → [0, 4] |
 //!
-//! `Fixed64Q23` is seed 002's choice. `Fixed32Q16` is what a small FPGA would pick: one
+//! `Fixed64Q23` is Andrade Guerra's (2020) choice. `Fixed32Q16` is what a small FPGA would pick: one
 //! 32-bit datapath, 32×32→64 multiplies (one DSP cascade) rounded straight back to 32 bits.
 //!
 //! # The fixed-point frame ([`FixedFrame`])
@@ -38,7 +38,7 @@
 //! as a miss that is reported, not as a silent wrong answer.
 //!
 //! Rounding: products are rounded to nearest (ties up) after the full-width multiply;
-//! quotients truncate toward zero (seed 002, as C and Rust integer division do).
+//! quotients truncate toward zero (Andrade Guerra 2020, as C and Rust integer division do).
 
 use core::marker::PhantomData;
 use core::ops::{Add, Div, Mul, Neg, Sub};
@@ -50,7 +50,7 @@ pub enum NumberFormat {
     /// IEEE-754 single precision (the default; the kernels of the scene image as is).
     #[default]
     F32,
-    /// Fixed point, Q8.23 storage in i32, 64-bit intermediates (seed 002).
+    /// Fixed point, Q8.23 storage in i32, 64-bit intermediates (Andrade Guerra 2020).
     Fixed64Q23,
     /// Fixed point, Q15.16 in i32 for storage and every intermediate (a small FPGA).
     Fixed32Q16,

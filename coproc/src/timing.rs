@@ -1,8 +1,8 @@
 //! Cycle accounting: timing profiles and the per-ray timeline.
 //!
-//! Source: GridRT (Nery 2010, seed 004) §6.3.2 and Table 6.14 for [`TimingProfile::GRIDRT`];
+//! Source: GridRT (Nery 2010) §6.3.2 and Table 6.14 for [`TimingProfile::GRIDRT`];
 //! the pipelined profile is this project's model of the thesis's own future work ("pipelining
-//! and more FP units per PE", seed 004 §5).
+//! and more FP units per PE", GridRT's future work).
 //!
 //! # Timeline of one ray (what [`crate::Coprocessor::trace`] charges)
 //!
@@ -63,7 +63,7 @@ pub struct TimingProfile {
     pub ray_setup_cycles: u32,
 }
 
-/// GridRT's PE program, decoded (seed 004 §2.4 from thesis App. C.3) and costed with thesis
+/// GridRT's PE program, decoded (thesis App. C.3) and costed with thesis
 /// Table 6.14. This is the instruction mix of one full pass of the triangle loop (instr. 49–124,
 /// no early exit, new best taken); it documents and brackets the 648-cycle constant.
 pub mod gridrt_pe {
@@ -407,7 +407,7 @@ impl<'a> PeTimeline<'a> {
 mod tests {
     use super::*;
 
-    /// The decoded PE loop (seed 004 §2.4) brackets the thesis's 648 cycles: Table 6.14
+    /// The decoded PE loop (thesis App. C.3) brackets the thesis's 648 cycles: Table 6.14
     /// execute cycles alone are below it, execute + 3 microprogram fetch steps per
     /// instruction are above it.
     #[test]

@@ -2,7 +2,7 @@
 //!
 //! The formulas are pinned in `docs/CONTRACTS.md` § Camera, because the host's f64 reference
 //! renderer re-implements them; keep both in step. Source: the Suffern-style pinhole camera
-//! GridRT's MicroBlaze program uses (seed 004 §2.1), with an explicit field of view.
+//! GridRT's MicroBlaze program uses (GridRT, Nery 2010), with an explicit field of view.
 //!
 //! # Number formats of ray generation ([`RayFormat`])
 //!

@@ -5,7 +5,7 @@
 //! co-processor is any [`FslLink`](crate::fsl::FslLink), and stage timing comes from a [`StageClock`]. The same code
 //! runs on the soft-core, in host tests and in the loopback simulator.
 //!
-//! Data path of one pixel (DESIGN.md §4, GridRT seed 004 §1.4 with the extended request of
+//! Data path of one pixel (DESIGN.md §4, GridRT (Nery 2010) with the extended request of
 //! `shared::fsl`): camera ray → 3D-DDA list of non-empty voxels (an empty list sends nothing)
 //! → put 8 head words + 2 words per entry, control bit on the last → get the 8 result words →
 //! Lambert shading (+ an any-hit shadow ray, feature `shadows`) → pixel span.
@@ -23,7 +23,7 @@
 //! | `request` | render request checks, field offsets, the validated job | `fail` |
 //! | `pipeline` | the per-pixel pipeline, plan, row loop and row interpolation; renders a job, its rows on a [`RowFarm`] when one takes them | all of the above |
 //! | `farm` | [`RowTracer`]: a farm's rows traced through `pipeline`'s pixel on a link of their own; [`NoFarm`] | `stats`, `raypath`, `pipeline` |
-//! | `splat` | a `SPLATS` job: seed 001's splat path over the scene's points | `fail`, `request`, `scene`, `stats` |
+//! | `splat` | a `SPLATS` job: the point-splatting path over the scene's points | `fail`, `request`, `scene`, `stats` |
 //! | `machine` | the [`Device`] state machine: frames in, answers out | all of the above |
 //!
 //! Each module uses only those listed before it in its row, never the other way round.

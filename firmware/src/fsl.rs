@@ -172,6 +172,25 @@ impl<E: LinkError> BoundedError<E> {
     }
 }
 
+/// The word interface of a link whose `model` field is the co-processor model
+/// ([`VirtualCoproc`], [`DirectKernel`]): `nput` hands the word to the model, `nget` returns
+/// its queued output words; neither can fail.
+#[cfg(feature = "virtual-coproc")]
+macro_rules! model_word_io {
+    () => {
+        type Error = core::convert::Infallible;
+
+        fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
+            self.model.push(word);
+            Ok(())
+        }
+
+        fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+            self.model.pop().ok_or(nb::Error::WouldBlock)
+        }
+    };
+}
+
 /// The co-processor model linked into the firmware as a virtual co-processor.
 ///
 /// `nput` hands the word to the model, which executes a packet as soon as its last word
@@ -184,16 +203,7 @@ pub struct VirtualCoproc<'m> {
 
 #[cfg(feature = "virtual-coproc")]
 impl FslLink for VirtualCoproc<'_> {
-    type Error = core::convert::Infallible;
-
-    fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
-        self.model.push(word);
-        Ok(())
-    }
-
-    fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
-        self.model.pop().ok_or(nb::Error::WouldBlock)
-    }
+    model_word_io!();
 }
 
 /// No co-processor: the firmware intersects each ray itself by calling the co-processor
@@ -213,16 +223,7 @@ pub struct DirectKernel<'m> {
 
 #[cfg(feature = "virtual-coproc")]
 impl FslLink for DirectKernel<'_> {
-    type Error = core::convert::Infallible;
-
-    fn nput(&mut self, word: FslWord) -> nb::Result<(), Self::Error> {
-        self.model.push(word);
-        Ok(())
-    }
-
-    fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
-        self.model.pop().ok_or(nb::Error::WouldBlock)
-    }
+    model_word_io!();
 
     const DIRECT: bool = true;
 

@@ -1,4 +1,4 @@
-//! Row interpolation (seed 003, Malcheva et al.): trace every (l+1)-th pixel of a row and fill
+//! Row interpolation (Malcheva et al.): trace every (l+1)-th pixel of a row and fill
 //! the pixels between two traced pixels linearly when the segment passes the test, else
 //! refine through the centre pixel recursively.
 //!
@@ -10,7 +10,7 @@
 //!
 //! otherwise the centre pixel is traced and both halves are tested again (bisection), so a
 //! failing segment never costs more rays than tracing it fully. The fill uses the exact
-//! integer formula `c_k = (c_L·(n−k) + c_R·k + ⌊n/2⌋) / n` per channel (seed 003 §3.3), so
+//! integer formula `c_k = (c_L·(n−k) + c_R·k + ⌊n/2⌋) / n` per channel (Malcheva et al.), so
 //! firmware, simulator and host agree bit for bit.
 //!
 //! Step modes: fixed (the seed's hardware choice) and adaptive per row (seed §3.5: the next
@@ -27,7 +27,7 @@ pub const DEPTH_REL: f32 = 1.0 / 32.0;
 /// Largest step l (the request carries 4 bits).
 pub const MAX_STEP: u8 = 15;
 
-/// Adaptive mode: largest step it grows to (seed 003 §3.5's S_MAX).
+/// Adaptive mode: largest step it grows to (the row-interpolation paper's S_MAX).
 pub const ADAPTIVE_MAX: u8 = 8;
 
 /// Adaptive mode: grow the step after this share of successful segments (percent).
@@ -215,7 +215,7 @@ pub fn fill_row<E>(
     Ok(())
 }
 
-/// Per-row step control of the adaptive mode (seed 003 §3.5).
+/// Per-row step control of the adaptive mode (Malcheva et al.).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct StepControl {
     /// Step of the next row.

@@ -11,8 +11,8 @@
 //! | [`fmath`] | `f32` polynomial sin/cos/tan/atan2/acos/pow (no libm trigonometry, no `f64`) |
 //! | [`shade`] | shading of a hit: GridRT's matte surface, ViRAY's Lambert/Oren–Nayar/Blinn–Phong/Torrance–Sparrow, Fresnel, spotlight, shadow rays (CONTRACTS.md) |
 //! | [`texture`](mod@texture) | procedural textures, mappings, bilinear filtering (feature `textures`) |
-//! | [`interp`] | row interpolation (seed 003) |
-//! | [`splat`] | seed 001's point splats: shape table, code generator (the DSP), splat stage (the FPGA) |
+//! | [`interp`] | row interpolation (Malcheva et al.) |
+//! | [`splat`] | point splats: shape table, code generator (the DSP), splat stage (the FPGA) |
 //! | [`pixels`] | frame encoder, pixel spans, running image CRC |
 //! | [`text`] | text output without `core::fmt` (error texts, banner, reports) |
 //! | [`device`] | the device state machine (UART frames ↔ FSL link) |

@@ -1,4 +1,4 @@
-//! Procedural textures (ViRAY, seed 000 §4.7: checkerboard, XOR, marble, wood, RGB dots),
+//! Procedural textures (ViRAY: checkerboard, XOR, marble, wood, RGB dots),
 //! texture-coordinate mappings (planar, cylindrical, spherical) and bilinear filtering.
 //!
 //! ViRAY generated its textures on the MicroBlaze into a 256×256 BRAM page; here the texel

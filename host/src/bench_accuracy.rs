@@ -1,6 +1,6 @@
 //! Accuracy against run time: every intersection kernel in every number format, on bundled
 //! scenes, compared with the f64 reference renderer — the library behind
-//! `gridrt bench accuracy` (issue 4, seed 002 §5.2).
+//! `gridrt bench accuracy` (after the kernel comparison of Andrade Guerra 2020).
 //!
 //! For each scene the grid and PE images are built once and the f64 reference image is
 //! rendered once ([`crate::reference`]). Then for each (kernel, number format):

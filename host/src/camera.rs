@@ -6,7 +6,7 @@
 
 use gridrt_shared::msg::{render_flags, PixelEncoding, RenderRequest};
 
-use crate::scene::Bounds;
+use crate::bounds::Bounds;
 
 /// Default image width.
 pub const DEFAULT_WIDTH: u16 = 320;

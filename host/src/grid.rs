@@ -1,7 +1,7 @@
 //! Uniform grid build: resolution (GridRT Eq. 6.1), triangle binning (exact SAT overlap on
 //! padded voxel boxes), voxel→PE mapping, and the per-PE memory images.
 //!
-//! # Resolution (seed 004 §2.2, Eq. 6.1, after Suffern)
+//! # Resolution (GridRT, Nery 2010: Eq. 6.1, after Suffern)
 //! `s = cbrt(wx·wy·wz / n)`, `n_i = floor(m·w_i / s) + 1`, clamped to `1..=255` per axis
 //! (255 keeps voxel ids below 2^24 and fits the header's u16 fields). `w` is the extent of the
 //! mesh bounding box (before padding), `n` the triangle count and `m` the multiplier.

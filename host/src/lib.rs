@@ -6,6 +6,7 @@
 //! | [`grid`] | Eq. 6.1 resolution, SAT binning, voxel→PE map, PE memory images |
 //! | [`image_format`] | the versioned scene image (`shared::scene`) |
 //! | [`pipeline`] | scene → grid → scene image in one call |
+//! | [`bounds`] | axis-aligned bounds ([`bounds::Bounds`]), below the scene model and the camera |
 //! | [`camera`] | default camera/light and [`camera::RenderSettings`] (docs/CONTRACTS.md) |
 //! | [`reference`](mod@reference) | independent f64 reference renderer (BVH + watertight test, analytic primitives, f64 shading) |
 //! | [`compare`] | PSNR and pixel/hit differences |
@@ -25,6 +26,7 @@
 #![warn(missing_docs)]
 
 pub mod bench_accuracy;
+pub mod bounds;
 pub mod camera;
 pub mod compare;
 pub mod faults;

@@ -1,4 +1,4 @@
-//! `gridrt bench link` (issue 6): wire bytes, payload efficiency and compression of the UART
+//! `gridrt bench link`: wire bytes, payload efficiency and compression of the UART
 //! link per pixel encoding, and the modelled frame time with transmission overlapped with
 //! ray work, on one or several boards.
 //!
@@ -14,7 +14,7 @@
 //!   clock, `TimingProfile::GRIDRT` charged at the kernel that runs: watertight f32, 1188
 //!   cycles per test; `SimConfig::coproc`) + firmware instructions ÷ 50 MHz (a soft-core at the same
 //!   clock, CPI 1). Firmware instructions are estimated from the row's counters with the
-//!   per-stage costs measured on QEMU for riscv32imafc (BENCHMARKS.md, issue 3: 164 raygen +
+//!   per-stage costs measured on QEMU for riscv32imafc (BENCHMARKS.md, QEMU end to end: 164 raygen +
 //!   279 shade per primary ray, 964 traverse per primary ray = 878 per traced ray, 620 FSL
 //!   I/O per primary ray = 105 per FSL word, 369 encode per pixel); [`FirmwareModel`].
 //!   The firmware waits for each ray's result (one ray in flight), so the two add up.
@@ -57,7 +57,7 @@ pub struct FirmwareModel {
 }
 
 impl FirmwareModel {
-    /// riscv32imafc on QEMU, bunny res4 320×240 (BENCHMARKS.md, issue 3).
+    /// riscv32imafc on QEMU, bunny res4 320×240 (BENCHMARKS.md, QEMU end to end).
     pub const RV32IMAFC: FirmwareModel =
         FirmwareModel { per_primary_ray: 164.0 + 279.0, per_ray: 878.0, per_fsl_word: 105.0, per_pixel: 369.0 };
 

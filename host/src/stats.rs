@@ -197,7 +197,7 @@ pub struct RenderStats {
     /// Pipeline plan, rays of each kind, interpolation and FSL words per ray kind.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pipeline: Option<PipelineStats>,
-    /// UART link: encoding, retransmissions and line errors of the render (issue 6).
+    /// UART link: encoding, retransmissions and line errors of the render.
     pub link: LinkReport,
     /// Per board, when the frame was split across several (`--port A --port B`,
     /// `--sim-devices N`).

@@ -94,7 +94,7 @@ fn malformed_scene_is_a_clear_error_not_a_panic() {
     assert!(!err.contains("panicked"), "{err}");
 }
 
-/// Issue 4: the default configuration (watertight f32) reaches ≥ 50 dB on every bundled scene.
+/// Accuracy: the default configuration (watertight f32) reaches ≥ 50 dB on every bundled scene.
 #[test]
 fn default_configuration_matches_the_reference_on_every_bundled_scene() {
     for scene in [

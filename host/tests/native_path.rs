@@ -1,5 +1,5 @@
 //! The fast native path (`gridrt_host::native`) answers every ray with the same result words
-//! as the firmware's list builder plus the co-processor model's `trace_untimed` (issue 14):
+//! as the firmware's list builder plus the co-processor model's `trace_untimed` (the fast native path):
 //! whole frames of primary rays on several scenes, and seeded random rays aimed at vertices
 //! and edges, axis-aligned and with tiny direction components, Closest and Any, bounded and
 //! unbounded, with the AVX2 filter and with the portable one.

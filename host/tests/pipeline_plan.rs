@@ -1,4 +1,4 @@
-//! Issue 5 acceptance: the pipeline plan skips what a scene does not need (through the real
+//! The pipeline plan, accepted: it skips what a scene does not need (through the real
 //! byte stream to the simulated board), the ViRAY-like demo scene matches the f64 reference,
 //! and row interpolation traces few pixels at a high PSNR.
 

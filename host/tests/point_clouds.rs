@@ -1,4 +1,4 @@
-//! Issue 15 acceptance: point clouds the project has never seen (sampled from analytic
+//! Point clouds, accepted: point clouds the project has never seen (sampled from analytic
 //! surfaces with a seeded generator, written as ASCII and binary PLY with normals and no
 //! radius) render through the real binary as splats, within 30 dB of the same points
 //! ray-traced as disks; sort-last over two simulated boards gives the one-board image; bad

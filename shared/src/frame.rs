@@ -14,7 +14,7 @@
 //! Reassembly uses [`FrameAccumulator`], a fixed-capacity buffer that resynchronises at the
 //! next `0x00` after noise and reports every outcome through [`FeedResult`].
 
-// Link-facing: every index and every sum on received values is checked (issue 9).
+// Link-facing: every index and every sum on received values is checked (ARCHITECTURE.md).
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 use core::ops::ControlFlow;
@@ -273,6 +273,36 @@ pub enum Received<'buf> {
 ///
 /// Bytes are buffered up to the next `0x00`. Empty frames (repeated delimiters) are skipped
 /// silently; they are how a sender flushes a receiver that may hold noise.
+///
+/// # Example
+///
+/// Bytes go in as they arrive; a frame comes out at its delimiter. A corrupted byte makes its
+/// frame an error, and the accumulator takes up again at the next frame.
+///
+/// ```
+/// use gridrt_shared::frame::{encode_frame, FeedResult, FrameAccumulator, FrameError, MAX_ENCODED};
+///
+/// // Hello (type 0x01), sequence number 7, payload `01 00 00 00`, on the wire:
+/// let mut buf = [0u8; MAX_ENCODED];
+/// let n = encode_frame(0x01, 7, &[0x01, 0x00, 0x00, 0x00], &mut buf).unwrap();
+/// let wire = &buf[..n];
+/// assert_eq!(wire, [0x04, 0x01, 0x01, 0x07, 0x02, 0x04, 0x02, 0x01, 0x01, 0x01, 0x05, 0x61, 0x3B, 0xDB, 0x32, 0x00]);
+///
+/// let mut acc = FrameAccumulator::<MAX_ENCODED>::new();
+/// assert_eq!(acc.feed(&wire[..6]), FeedResult::Consumed); // no delimiter yet
+/// let FeedResult::Frame { frame, rest } = acc.feed(&wire[6..]) else { panic!() };
+/// assert_eq!((frame.kind, frame.seq, frame.payload), (0x01, 7, &[0x01, 0x00, 0x00, 0x00][..]));
+/// assert!(rest.is_empty());
+///
+/// // A corrupted CRC byte (eight bits: one flipped bit would be corrected), then the frame again.
+/// let mut noisy = wire.to_vec();
+/// noisy[11] ^= 0xFF;
+/// noisy.extend_from_slice(wire);
+/// let FeedResult::BadFrame { error, rest } = acc.feed(&noisy) else { panic!() };
+/// assert_eq!((error, rest), (FrameError::DecodeBadCrc, wire));
+/// // Resynchronised at the delimiter: the next frame comes through.
+/// assert!(matches!(acc.feed(rest), FeedResult::Frame { frame, .. } if frame.seq == 7));
+/// ```
 #[derive(Debug)]
 pub struct FrameAccumulator<const N: usize = MAX_ENCODED> {
     buf: [u8; N],

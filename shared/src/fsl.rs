@@ -4,7 +4,7 @@
 //! ends with the only word whose control bit is set; the receiver uses that bit to resynchronise
 //! after an error. The first word of each packet carries the opcode in bits 31..28.
 
-// Link-facing: every index and every sum on received values is checked (issue 9).
+// Link-facing: every index and every sum on received values is checked (ARCHITECTURE.md).
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 /// One word on an FSL channel.

@@ -25,7 +25,7 @@
 //! A span's data decodes to exactly `count` pixels and ends with the op that produced the last
 //! one; anything else is an error (never a guess, never a panic).
 
-// Link-facing: every index and every sum on received values is checked (issue 9).
+// Link-facing: every index and every sum on received values is checked (ARCHITECTURE.md).
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 /// Longest `Rle` RUN count.

@@ -18,7 +18,7 @@
 //! because the row code (7, 7) that would make it one is never written (the empty row is
 //! [`RowCode::EMPTY`] = (7, 1)).
 
-// Link-facing: every index and every sum on received values is checked (issue 9).
+// Link-facing: every index and every sum on received values is checked (ARCHITECTURE.md).
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 /// One row of an 8×8 box: pixels `start ..= start + length` (so `length` is the pixel count
@@ -63,7 +63,7 @@ impl RowCode {
     }
 }
 
-/// How the 4 transmitted rows become 8 (seed 001 §2.4).
+/// How the 4 transmitted rows become 8 (point splatting).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
     /// Splats of at most 8×8 pixels centred on the box: rows 0..=3 are sent, row 7 − j is row

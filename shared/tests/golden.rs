@@ -165,17 +165,6 @@ fn largest_frame_fits_default_accumulator() {
 
 // ---------------------------------------------------------------- §3 messages
 
-/// Checks payload bytes, wire bytes and decode of one worked example.
-fn check_msg(m: Msg<'_>, seq: u16, payload: &[u8], wire_bytes: &[u8]) {
-    assert_eq!(encode_payload(&m), payload, "payload of {m:?}");
-    assert_eq!(wire(m.kind() as u8, seq, payload), wire_bytes, "wire of {m:?}");
-    let mut acc = FrameAccumulator::<{ frame::MAX_ENCODED }>::new();
-    let out = feed_all(&mut acc, wire_bytes, wire_bytes.len());
-    let [Outcome::Frame { kind, seq: s, payload: p }] = &out[..] else { panic!("{out:?}") };
-    assert_eq!((*kind, *s), (m.kind() as u8, seq));
-    assert_eq!(Msg::decode(*kind, p), Ok(m));
-}
-
 /// §3.0 type table; every other byte is unknown.
 #[test]
 fn msg_type_table() {
@@ -319,30 +308,13 @@ fn msg_scene_ack_loaded() {
     );
 }
 
-fn example_request() -> RenderRequest {
-    RenderRequest {
-        frame: 1,
-        width: 320,
-        height: 240,
-        flags: render_flags::SHADOWS | render_flags::PRIM_IDS,
-        eye: [0.0, 0.0, 5.0],
-        target: [0.0; 3],
-        up: [0.0, 1.0, 0.0],
-        fov_y_deg: 45.0,
-        light_pos: [2.0, 4.0, 3.0],
-        light_intensity: 1.0,
-        ambient: 0.15,
-        encoding: PixelEncoding::Rgb888,
-    }
-}
-
 #[test]
 fn msg_render_request() {
     assert_eq!(msg::RENDER_REQUEST_LEN, 72);
     assert_eq!((render_flags::SHADOWS, render_flags::PRIM_IDS), (1, 2));
     assert_eq!(0.15f32.to_bits(), 0x3E19_999A);
     check_msg(
-        Msg::RenderRequest(example_request()),
+        Msg::RenderRequest(example_request(PixelEncoding::Rgb888)),
         11,
         &[
             0x01, 0x00, 0x40, 0x01, 0xF0, 0x00, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,

@@ -6,35 +6,8 @@ mod common;
 
 use common::*;
 use gridrt_shared::frame::{self, crc32, FeedResult, FrameAccumulator};
-use gridrt_shared::msg::{self, feature, Msg, MsgError, PixelEncoding, Region, RenderRequest};
+use gridrt_shared::msg::{self, feature, Msg, MsgError, PixelEncoding, Region};
 use gridrt_shared::pixel::{self, PixelError, RleEncoder};
-
-fn check_msg(m: Msg<'_>, seq: u16, payload: &[u8], wire_bytes: &[u8]) {
-    assert_eq!(encode_payload(&m), payload, "payload of {m:?}");
-    assert_eq!(wire(m.kind() as u8, seq, payload), wire_bytes, "wire of {m:?}");
-    let mut acc = FrameAccumulator::<{ frame::MAX_ENCODED }>::new();
-    let out = feed_all(&mut acc, wire_bytes, wire_bytes.len());
-    let [Outcome::Frame { kind, seq: s, payload: p }] = &out[..] else { panic!("{out:?}") };
-    assert_eq!((*kind, *s), (m.kind() as u8, seq));
-    assert_eq!(Msg::decode(*kind, p), Ok(m));
-}
-
-fn example_request() -> RenderRequest {
-    RenderRequest {
-        frame: 1,
-        width: 320,
-        height: 240,
-        flags: msg::render_flags::SHADOWS | msg::render_flags::PRIM_IDS,
-        eye: [0.0, 0.0, 5.0],
-        target: [0.0; 3],
-        up: [0.0, 1.0, 0.0],
-        fov_y_deg: 45.0,
-        light_pos: [2.0, 4.0, 3.0],
-        light_intensity: 1.0,
-        ambient: 0.15,
-        encoding: PixelEncoding::Rle,
-    }
-}
 
 /// The §3.7.1 `Rle` worked example: 108 pixels in 14 bytes.
 const RLE_EXAMPLE: [u8; 14] = [0xFE, 0x0A, 0x14, 0x1E, 0x04, 0x7D, 0xAA, 0x82, 0xFE, 0x00, 0x00, 0x00, 0xC0, 0x62];
@@ -141,7 +114,7 @@ fn msg_render_region_worked_example() {
         region: Region { x0: 0, y0: 16, cols: 320, rows: 16 },
         max_span: 64,
         options: 0,
-        request: example_request(),
+        request: example_request(PixelEncoding::Rle),
     };
     check_msg(
         m,
@@ -174,7 +147,7 @@ fn msg_render_region_span_bytes() {
         region: Region { x0: 0, y0: 5, cols: 320, rows: 1 },
         max_span: 311,
         options: msg::region_options::NO_STATS | msg::region_options::SPAN_BYTES,
-        request: example_request(),
+        request: example_request(PixelEncoding::Rle),
     };
     let payload = encode_payload(&m);
     assert_eq!(payload[..12], [0x00, 0x00, 0x05, 0x00, 0x40, 0x01, 0x01, 0x00, 0x37, 0x01, 0x06, 0x00]);
@@ -226,7 +199,7 @@ fn region_messages_check_exact_lengths() {
         region: Region::full(4, 4),
         max_span: 0,
         options: 1,
-        request: example_request(),
+        request: example_request(PixelEncoding::Rle),
     });
     let re = encode_payload(&Msg::RegionEnd { frame: 1, region: Region::full(4, 4), spans: 1, crc: 2 });
     for (kind, p) in [(0x24u8, &rr), (0x25, &re)] {

@@ -47,7 +47,7 @@ fn golden_symmetric_codeword_bytes_and_rows() {
     let w = symmetric_example().pack();
     assert_eq!(w, 0x3299_A6E4_0A0E_084D);
     assert_eq!(w.to_be_bytes(), [0x32, 0x99, 0xA6, 0xE4, 0x0A, 0x0E, 0x08, 0x4D]);
-    // The DSP's two 32-bit halves (seed 001 §2.4): mode + scans + diffuse, then the rest.
+    // The DSP's two 32-bit halves (point splatting): mode + scans + diffuse, then the rest.
     assert_eq!(((w >> 32) as u32, w as u32), (0x3299_A6E4, 0x0A0E_084D));
     assert!(!is_command(w));
     assert_eq!(SplatWord::unpack(w), symmetric_example());

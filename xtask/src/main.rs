@@ -15,6 +15,7 @@ mod elf;
 mod firmware;
 mod qemu;
 mod rtl;
+mod rtl_hdl;
 mod rtl_synth;
 mod setup;
 mod soc;

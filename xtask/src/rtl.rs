@@ -13,8 +13,10 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
+
+use crate::rtl_hdl::{hdl_sources, root, Params};
 
 #[derive(Args, Debug)]
 pub struct Cmd {
@@ -28,62 +30,6 @@ enum RtlCmd {
     Sim(SimCmd),
     /// Synthesise, place and route for the ECP5-85F; report resources and fmax as JSON.
     Synth(crate::rtl_synth::SynthCmd),
-}
-
-/// Parameters of one co-processor build (the top level's Verilog parameters).
-#[derive(Args, Debug, Clone, Copy)]
-pub struct Params {
-    /// Processing elements.
-    #[arg(long, default_value_t = 4)]
-    pub pes: u32,
-    /// PEs sharing one intersection pipeline (1, 2 or 4); each issues a test every this
-    /// many cycles. 4 by default: one pipeline for 4 PEs is what closes timing on the ECP5-85F
-    /// (rtl/README.md §5).
-    #[arg(long, default_value_t = 4)]
-    pub pes_per_pipeline: u32,
-    /// Words of each PE memory (a multiple of 16 banks × 1024).
-    #[arg(long, default_value_t = 16384)]
-    pub pe_mem_words: u32,
-    /// Longest traversal list (entries).
-    #[arg(long, default_value_t = 256)]
-    pub max_list: u32,
-}
-
-impl Params {
-    /// Checks what the HDL supports.
-    pub fn validate(&self) -> Result<()> {
-        if !(1..=16).contains(&self.pes) {
-            bail!("--pes must be 1..=16");
-        }
-        if ![1, 2, 4].contains(&self.pes_per_pipeline) {
-            bail!("--pes-per-pipeline must be 1, 2 or 4");
-        }
-        if self.pe_mem_words < 16384 / 16
-            || !self.pe_mem_words.is_multiple_of(1024)
-            || !(self.pe_mem_words / 1024).is_power_of_two()
-        {
-            bail!("--pe-mem-words must be 1024 × a power of two (1024..)");
-        }
-        if !self.max_list.is_power_of_two() || !(16..=1024).contains(&self.max_list) {
-            bail!("--max-list must be a power of two in 16..=1024");
-        }
-        Ok(())
-    }
-
-    /// The Verilog parameter overrides.
-    pub fn defines(&self) -> Vec<(String, u32)> {
-        vec![
-            ("PES".into(), self.pes),
-            ("PES_PER_PIPELINE".into(), self.pes_per_pipeline),
-            ("PE_MEM_WORDS".into(), self.pe_mem_words),
-            ("MAX_LIST".into(), self.max_list),
-        ]
-    }
-
-    /// A short name for build folders.
-    pub fn tag(&self) -> String {
-        format!("p{}-s{}-m{}-l{}", self.pes, self.pes_per_pipeline, self.pe_mem_words, self.max_list)
-    }
 }
 
 #[derive(Args, Debug)]
@@ -102,23 +48,6 @@ impl Cmd {
             RtlCmd::Synth(c) => c.run(),
         }
     }
-}
-
-/// The workspace root.
-pub fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().map(Path::to_path_buf).unwrap_or_default()
-}
-
-/// Every HDL source, sorted (the co-processor and the unit harness share them).
-pub fn hdl_sources() -> Result<Vec<PathBuf>> {
-    let dir = root().join("rtl/hdl");
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .with_context(|| format!("reading {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "sv"))
-        .collect();
-    files.sort();
-    Ok(files)
 }
 
 /// FNV-1a over byte strings: a stable stamp for the build cache.

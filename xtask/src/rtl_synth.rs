@@ -14,7 +14,7 @@
 //! Yosys cell counts already exceed the device is not placed (nextpnr would spend an hour
 //! before failing): the report then has Yosys's counts, `fits` false and `fmax_mhz` null.
 
-use crate::rtl::{hdl_sources, root, Params};
+use crate::rtl_hdl::{hdl_sources, root, Params};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::path::PathBuf;

@@ -1,6 +1,6 @@
 //! The co-processor: PE memories, the FSL word interface, arbitration and cycle accounting.
 //!
-//! Source: GridRT (Nery 2010, seed 004 §1.3, §2.5–2.6, §6.2) with its cross-voxel flaw fixed
+//! Source: GridRT (Nery 2010) with its cross-voxel flaw fixed
 //! (DESIGN.md §5, CONTRACTS.md "Ray queries"); packet formats from `gridrt_shared::fsl`.
 //!
 //! # Packets (host → co-processor)

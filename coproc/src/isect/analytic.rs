@@ -4,7 +4,7 @@
 //! A primitive record holds the world → object affine map W. The ray is mapped into the
 //! canonical object space without renormalising the direction (`o' = W·o`, `d' = W·d`), so
 //! the object-space parameter t is the world-space parameter and the acceptance rule of
-//! SPEC.md §4.3 applies unchanged. Shapes (ViRAY, seed 000 §4.5, clipping made explicit):
+//! SPEC.md §4.3 applies unchanged. Shapes (ViRAY, clipping made explicit):
 //! unit sphere; open cylinder `x²+z² = 1, |y| ≤ 1`; open cone `x²+z² = (1−y)², 0 ≤ y ≤ 1`;
 //! disk and square in `y = 0`. All are two-sided; the nearest root with `t > 0` inside the
 //! clip range is returned.

@@ -1,7 +1,7 @@
 //! GridRT's PE kernel: Cramer's rule on the barycentric system.
 //!
 //! Source: P. Shirley, *Fundamentals of Computer Graphics* §4.4.2 / "Realistic Ray Tracing"
-//! (the formulation GridRT's PE program implements, seed 004 §2.4, eq. 2.8–2.11):
+//! (the formulation GridRT's PE program implements, Nery 2010, eqs. 2.8–2.11):
 //!
 //! ```text
 //! | ax−bx  ax−cx  dx | |β|   |ax−ox|
@@ -13,7 +13,7 @@
 //! j = ax−ox, …), one reciprocal of |A| (the PE's only `divfp`, instr. 87) and the PE
 //! program's early exits in its order: β < 0, γ < 0, β + γ > 1, t < 0, t > best.
 //!
-//! Fixes over the PE program (seed 004 §6.2 "Robustness"):
+//! Fixes over the PE program (GridRT's robustness notes):
 //! - the 2×2 cofactors use Kahan's `difference_of_products` (1.5 ulp) instead of `x·y − z·w`;
 //! - det ≈ 0 is rejected when |det| cannot be told from zero: |det| ≤ γ(4)·Σ|aᵢ·Cᵢ| (the
 //!   rounding bound of the cofactor expansion), so a ray parallel to the plane or a degenerate

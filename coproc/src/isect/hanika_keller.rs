@@ -2,7 +2,7 @@
 //!
 //! Source: J. Hanika, A. Keller, "Towards Hardware Ray Tracing using Fixed Point Arithmetic",
 //! IEEE Symposium on Interactive Ray Tracing 2007 (and Hanika's Ulm diploma thesis 2007);
-//! formulas as in seed 002 §1.4 (eqs. 40–44). Like Wald's test it intersects the plane
+//! formulas as in the ray–triangle study (Andrade Guerra 2020). Like Wald's test it intersects the plane
 //! first and decides inside/outside in the projection that drops the normal's dominant
 //! axis r, but the hit point is taken *relative to V0* and the edges are pre-divided by
 //! `N_r`, so no precomputed value carries an absolute position except V0 itself:

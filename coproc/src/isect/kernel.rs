@@ -66,7 +66,7 @@ pub enum KernelKind {
     Watertight,
     /// Möller and Trumbore 1997.
     MollerTrumbore,
-    /// GridRT's PE program: Shirley's Cramer's-rule barycentric test (seed 004 §2.4).
+    /// GridRT's PE program: Shirley's Cramer's-rule barycentric test (Nery 2010).
     Cramer,
     /// Wald's projection test with precomputed per-triangle data (TriAccel, 2004).
     Wald,

@@ -10,7 +10,7 @@
 //! exactly zero determinant (ray parallel to the plane, or a degenerate triangle) or a
 //! non-finite reciprocal is rejected; the barycentric tests are inclusive (u ≥ 0, v ≥ 0,
 //! u + v ≤ 1) and the kernel's lower bound is `t > 0`. Not watertight: a ray through a
-//! shared edge may miss both triangles by rounding (seed 002 compares this trade-off).
+//! shared edge may miss both triangles by rounding (Andrade Guerra 2020 compares this trade-off).
 //!
 //! Storage: the 9 vertex words (36 B; "minimum storage" is the paper's point). f32 reads
 //! them from the scene image, fixed point from the load-time table.

@@ -3,7 +3,7 @@
 //! Source: I. Wald, *Realtime Ray Tracing and Interactive Global Illumination*, PhD thesis,
 //! Saarland University 2004, §7.1 "Fast Triangle Intersection in RTRT" (after Badouel,
 //! "An Efficient Ray-Polygon Intersection", Graphics Gems 1990); formulas as reconstructed in
-//! seed 002 §1.3 (eqs. 35–39). Intersect the ray with the plane first, then test the hit
+//! the ray–triangle study (Andrade Guerra 2020). Intersect the ray with the plane first, then test the hit
 //! point's barycentrics in the 2-D projection that drops the normal's dominant axis r:
 //!
 //! ```text

@@ -16,7 +16,7 @@ fn flaw_scene() -> (Vec<Vec<u32>>, Ray, Vec<ListEntry>) {
     (vec![img0, img1], ray, list)
 }
 
-/// GridRT's flaw (seed 004 §2.6) is fixed: the big triangle's hit (t = 2.2) lies beyond voxel
+/// GridRT's flaw is fixed: the big triangle's hit (t = 2.2) lies beyond voxel
 /// 0's exit (t = 1.5), so voxel 0 does not accept it and the nearer small triangle in voxel 1
 /// (t = 1.7) wins. Under GridRT's original rule ("first PE with any hit") voxel 0 would win
 /// with the far hit — the wrong answer.

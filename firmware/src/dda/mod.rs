@@ -1,7 +1,7 @@
 //! 3D-DDA uniform-grid traversal and the traversal list of non-empty voxels.
 //!
 //! Source: J. Amanatides and A. Woo, "A Fast Voxel Traversal Algorithm for Ray Tracing",
-//! Eurographics 1987 — the algorithm GridRT's MicroBlaze runs (seed 004 §2.3, via Suffern).
+//! Eurographics 1987 — the algorithm GridRT's MicroBlaze runs (GridRT, Nery 2010, via Suffern).
 //! Two number formats walk the same way and yield the same [`VoxelStep`]s up to rounding:
 //! f32 ([`Traversal`], the default) and fixed point ([`FixedTraversal`], for soft-cores
 //! without an FPU; cargo feature `fixed-raygen` makes [`build_list`] use it).

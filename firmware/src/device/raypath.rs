@@ -1,5 +1,5 @@
 //! The ray path: one ray from its 3D-DDA traversal list to the co-processor's answer
-//! (GridRT seed 004 §1.4 with the extended request of `shared::fsl`, SPEC.md §4): the walk
+//! (GridRT, Nery 2010, with the extended request of `shared::fsl`, SPEC.md §4): the walk
 //! writes the list entries straight into the request words (`dda::WalkGrid`), the head goes
 //! in front, and the request leaves as one packet (8 head words and 2 words per entry,
 //! control bit on the last); the 8 result words come back as one packet. A link that is the

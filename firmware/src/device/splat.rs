@@ -1,4 +1,4 @@
-//! A `SPLATS` frame (SPEC.md §6.4): the scene's point section rendered by seed 001's splat
+//! A `SPLATS` frame (SPEC.md §6.4): the scene's point section rendered by the point-splatting
 //! path (`crate::splat`) instead of ray tracing, sent as the same pixel spans. With
 //! `PRIM_IDS` each pixel's auxiliary word is its depth (`u32::MAX` where no splat landed), so
 //! a host can composite several boards' images by depth.
@@ -22,7 +22,7 @@ use gridrt_shared::splat::{MaterialTerm, MAX_TERM};
 const SPLAT_STATS: usize = 15;
 
 /// The splat stage's material table for this frame: per material, the colour coefficients of
-/// the ambient, diffuse and specular terms (seed 001 §2.6; lights and ambient folded in), and
+/// the ambient, diffuse and specular terms (point splatting; lights and ambient folded in), and
 /// the ambient register.
 // Indexes only the fixed `[f32; 3]` colour arrays with 0..3.
 #[allow(clippy::indexing_slicing)]

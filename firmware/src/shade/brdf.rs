@@ -10,8 +10,8 @@
 //! Matte (GridRT):       L_o = c_d∘(k_a·L_a + vis·D·k_d) + vis·D∘k_s·f_s·c_s
 //! ```
 //! The matte form factors c_d out, as docs/CONTRACTS.md has always written a mesh's shading, so
-//! OBJ/PLY scenes render bit for bit as before. ViRAY's model follows seed 000 §4.6 with the
-//! summary's errata corrected (§8.3): the cosine uses l = light − p; Fresnel uses the correct
+//! OBJ/PLY scenes render bit for bit as before. ViRAY's model follows the ViRAY paper
+//! with its errata corrected: the cosine uses l = light − p; Fresnel uses the correct
 //! complex denominator (pbrt's exact conductor formula); exponents are real (`fmath::pow`),
 //! not limited to 10 squarings; the mirror reflectance in Torrance–Sparrow mode uses ∠(n, v)
 //! (for the mirror direction the half vector *is* n).

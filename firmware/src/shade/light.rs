@@ -1,5 +1,5 @@
 //! The point light at a hit: the request's light (position, intensity, ambient), the
-//! irradiance factor with its falloff, and ViRAY's spotlight cone (seed 000 §4.6, with the
+//! irradiance factor with its falloff, and ViRAY's spotlight cone (ViRAY, with the
 //! summary's erratum: the cone uses the spot axis, not n).
 
 use crate::fmath::try_normalize;

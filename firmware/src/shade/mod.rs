@@ -6,7 +6,7 @@
 //! Stages the scene does not need cost nothing: the device's pipeline plan skips shadow rays,
 //! reflection rays, textures and the specular term at run time, and the cargo features
 //! `shadows`, `reflections`, `specular` and `textures` remove them from the build (ViRAY's
-//! compile-time stage switches, seed 000).
+//! compile-time stage switches, ViRAY).
 //!
 //! | file | what |
 //! |---|---|

@@ -1,4 +1,4 @@
-//! The code generator: the DSP's role in seed 001 (§1.5). Per frame it transforms every point
+//! The code generator: the DSP's role in the point-splatting design. Per frame it transforms every point
 //! into the camera's frame, looks up the shape table with its quantised screen radius and
 //! view-space normal, composes the 64-bit codeword of each 8×8 tile (template | diffuse |
 //! specular | material | X | Z), and files it in a bucket keyed by the tile's top row. Then it
@@ -202,7 +202,7 @@ fn term(v: f32) -> u8 {
     }
 }
 
-/// Diffuse and specular terms of a splat at `p` with facing unit normal `n` (seed 001 §2.6:
+/// Diffuse and specular terms of a splat at `p` with facing unit normal `n` (point splatting:
 /// n_s = 1), the light's falloff and spot factor included.
 #[inline]
 fn light_terms(light: &SplatLight, eye: Vec3, p: Vec3, n: Vec3) -> (u8, u8) {
@@ -361,7 +361,7 @@ pub fn file_points<const P: usize, const T: usize>(
 }
 
 /// Streams the pass: material table, ambient, then the buckets top to bottom, and a final
-/// shift that finishes the last line. `emit` is the stage's input (seed 001's DMA).
+/// shift that finishes the last line. `emit` is the stage's input (the design's DMA).
 #[allow(clippy::too_many_arguments)]
 pub fn stream<const P: usize, const T: usize, E>(
     table: &ShapeTable<T>,

@@ -1,7 +1,7 @@
 //! Seed 001's point-splat renderer (Maršík 2008): oriented points → 64-bit codewords →
 //! depth-tested 16-line stripe buffer → finished lines. SPEC.md §6 has the formats.
 //!
-//! | module | seed 001 unit | what |
+//! | module | unit of the point-splatting design | what |
 //! |---|---|---|
 //! | [`table`] | the PC's precomputed tables | the shape table `LUT[size][nx][ny]` of codeword templates |
 //! | [`codegen`] | the DSP ("code generator") | transform, lookup, codewords, Y buckets, `shift` commands |

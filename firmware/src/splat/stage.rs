@@ -1,4 +1,4 @@
-//! The splat stage: the FPGA's role in seed 001 (§2.7), as a word-at-a-time machine that a
+//! The splat stage: the FPGA's role in the point-splatting design, as a word-at-a-time machine that a
 //! hardware block could replace one for one. It decodes codewords, keeps the 128-entry
 //! material table and the ambient register, computes each splat's colour, and depth-tests
 //! the splat's rows into a 16-line ring of 512-pixel lines (8 active, 8 imported ahead);

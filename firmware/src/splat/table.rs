@@ -1,11 +1,11 @@
-//! The precomputed shape table of seed 001 (`LUT[size][nx][ny]`): for every quantised screen
+//! The precomputed shape table of the point-splatting design (`LUT[size][nx][ny]`): for every quantised screen
 //! radius and view-space normal, the codeword template (mode bit + the 24-bit scans) of each
 //! 8×8 tile of the splat's ellipse.
 //!
 //! A splat of screen radius r (pixels) centred on a pixel corner, with unit view-space normal
 //! (nx, ny, nz) (x right, y down), covers the pixel centres (dx, dy) from the centre with
 //! `A·dx² + 2B·dx·dy + C·dy² ≤ F`, `A = 1 − ny²`, `B = nx·ny`, `C = 1 − nx²`, `F = r²·nz²`
-//! (seed 001 §2.3: the disk projected orthographically, the seed's affine approximation; the
+//! (point splatting: the disk projected orthographically, the design's affine approximation; the
 //! sign of nz does not matter, so splats are two-sided). Row dy is the run
 //! `[(−B·dy − √disc)/A, (−B·dy + √disc)/A]`, `disc = B²dy² − A(C·dy² − F)`.
 //!

@@ -276,7 +276,8 @@ mod tests {
         let got = read_n(&mut dev, 4000, Duration::from_secs(5));
         let secs = t.elapsed().as_secs_f64();
         assert_eq!(got.len(), 4000);
-        assert!((0.38..0.6).contains(&secs), "{secs} s for 4000 bytes at 100 000 baud");
+        // Not faster than ten bit times a byte (how much slower is the machine's load).
+        assert!(secs >= 0.38, "{secs} s for 4000 bytes at 100 000 baud");
     }
 
     #[test]

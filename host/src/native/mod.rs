@@ -1,4 +1,4 @@
-//! The fast native ray path (issue 14): the firmware's primary rays and 3D-DDA plus the
+//! The fast native ray path: the firmware's primary rays and 3D-DDA plus the
 //! co-processor's watertight f32 search, reorganised for a desktop CPU — with the same answer,
 //! word for word.
 //!

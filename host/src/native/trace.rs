@@ -112,35 +112,38 @@ enum Winner {
     },
 }
 
+/// One entry's triangle-group search: the arguments of [`NativeScene::entry_groups`].
+struct EntryArgs<'a> {
+    scene: &'a NativeScene,
+    pre: &'a <Watertight as Kernel>::RayData,
+    lane_ray: &'a LaneRay,
+    kind: RayKind,
+    span: &'a Span,
+    t_max: f32,
+    hi: f32,
+}
+
+impl EntryArgs<'_> {
+    /// The search with filter `F`, inlined into the caller (and so compiled with its target
+    /// features).
+    #[inline(always)]
+    fn search<F: LaneFilter>(&self) -> (Option<Winner>, u32) {
+        self.scene.entry_groups::<F>(self.pre, self.lane_ray, self.kind, self.span, self.t_max, self.hi)
+    }
+}
+
 /// How an entry's triangle groups are searched: the filter, compiled with its target features
 /// (the DDA around it needs none). Kept out of line so the walk's loop stays small.
 trait EntrySearch {
-    #[allow(clippy::too_many_arguments)]
-    fn entry(
-        scene: &NativeScene,
-        pre: &<Watertight as Kernel>::RayData,
-        lane_ray: &LaneRay,
-        kind: RayKind,
-        span: &Span,
-        t_max: f32,
-        hi: f32,
-    ) -> (Option<Winner>, u32);
+    fn entry(args: &EntryArgs) -> (Option<Winner>, u32);
 }
 
 struct PortableSearch;
 
 impl EntrySearch for PortableSearch {
     #[inline(never)]
-    fn entry(
-        scene: &NativeScene,
-        pre: &<Watertight as Kernel>::RayData,
-        lane_ray: &LaneRay,
-        kind: RayKind,
-        span: &Span,
-        t_max: f32,
-        hi: f32,
-    ) -> (Option<Winner>, u32) {
-        scene.entry_groups::<Portable>(pre, lane_ray, kind, span, t_max, hi)
+    fn entry(args: &EntryArgs) -> (Option<Winner>, u32) {
+        args.search::<Portable>()
     }
 }
 
@@ -150,34 +153,18 @@ struct Avx2Search;
 #[cfg(target_arch = "x86_64")]
 impl EntrySearch for Avx2Search {
     #[inline(always)]
-    fn entry(
-        scene: &NativeScene,
-        pre: &<Watertight as Kernel>::RayData,
-        lane_ray: &LaneRay,
-        kind: RayKind,
-        span: &Span,
-        t_max: f32,
-        hi: f32,
-    ) -> (Option<Winner>, u32) {
+    fn entry(args: &EntryArgs) -> (Option<Winner>, u32) {
         // SAFETY: `Avx2Search` is only chosen when AVX2 and FMA were detected
         // (`NativeScene::avx2`, set by `simd_available`).
-        unsafe { entry_avx2(scene, pre, lane_ray, kind, span, t_max, hi) }
+        unsafe { entry_avx2(args) }
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline(never)]
-unsafe fn entry_avx2(
-    scene: &NativeScene,
-    pre: &<Watertight as Kernel>::RayData,
-    lane_ray: &LaneRay,
-    kind: RayKind,
-    span: &Span,
-    t_max: f32,
-    hi: f32,
-) -> (Option<Winner>, u32) {
-    scene.entry_groups::<super::filter::Avx2>(pre, lane_ray, kind, span, t_max, hi)
+unsafe fn entry_avx2(args: &EntryArgs) -> (Option<Winner>, u32) {
+    args.search::<super::filter::Avx2>()
 }
 
 impl NativeScene {
@@ -294,7 +281,7 @@ impl NativeScene {
         let (w, n) = if span.ordered_len > 0 {
             self.entry_ordered(pre, ray, q.kind, span, q.t_max, hi)
         } else {
-            S::entry(self, pre, lane_ray, q.kind, span, q.t_max, hi)
+            S::entry(&EntryArgs { scene: self, pre, lane_ray, kind: q.kind, span, t_max: q.t_max, hi })
         };
         q.tests += n as u64;
         match w {

@@ -1,7 +1,7 @@
 //! `gridrt bench splat`: the native splat path (the firmware's code generator and splat stage
 //! compiled for the host) over clouds of 10³…10⁶ points and several shape-table sizes:
 //! splats per second, and image error against the same points as disks in the f64 reference,
-//! with the table keyed as the device does (local affine) and as seed 001 does (camera-frame
+//! with the table keyed as the device does (local affine) and as the point-splatting design does (camera-frame
 //! normal, orthographic at every splat).
 
 use std::time::Instant;
@@ -41,13 +41,13 @@ pub struct SplatRow {
     pub frame_ms: f64,
     /// Points per second through the native code generator and stage.
     pub splats_per_s: f64,
-    /// Nanoseconds per point (seed 001 estimates 60 ns on its FPGA).
+    /// Nanoseconds per point (the point-splatting design estimates 60 ns on its FPGA).
     pub ns_per_splat: f64,
     /// Codewords (8×8 tiles) sent.
     pub codewords: u64,
     /// PSNR against the f64 disks, device keying (local affine); `null` = identical.
     pub psnr_db: Option<f64>,
-    /// PSNR against the f64 disks with seed 001's keying.
+    /// PSNR against the f64 disks with the point-splatting design's keying.
     pub psnr_seed_affine_db: Option<f64>,
     /// PSNR with per-pixel depth (device keying).
     pub psnr_pixel_depth_db: Option<f64>,

@@ -1,4 +1,4 @@
-//! An oriented point cloud (seed 001 §2.1): centres, unit normals, radii from local density,
+//! An oriented point cloud (point splatting): centres, unit normals, radii from local density,
 //! and a ≤ 64-colour palette as materials; from a PLY file's vertices or a mesh's.
 
 use std::collections::HashMap;
@@ -144,7 +144,7 @@ impl PointCloud {
         b
     }
 
-    /// A random subset per board (seed 001 §1.6): point i goes to board `rng() mod n`, the
+    /// A random subset per board (point splatting): point i goes to board `rng() mod n`, the
     /// generator seeded so every run splits alike. Every subset keeps the whole palette.
     pub fn split(&self, n: usize, seed: u64) -> Vec<PointCloud> {
         let n = n.max(1);
@@ -170,7 +170,7 @@ fn unit(n: [f32; 3]) -> Option<[f32; 3]> {
     (l > 0.0 && l.is_finite()).then(|| n.map(|c| (c as f64 / l) as f32))
 }
 
-/// Sets every radius to the distance to its [`KNN`]-th nearest neighbour (seed 001 §2.1: the
+/// Sets every radius to the distance to its [`KNN`]-th nearest neighbour (point splatting: the
 /// denser the neighbourhood, the smaller the disk), found with a uniform grid.
 pub fn density_radii(points: &mut [CloudPoint]) -> Result<(), String> {
     let n = points.len();

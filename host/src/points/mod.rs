@@ -1,4 +1,4 @@
-//! Point clouds and seed 001's splat renderer on the host side: loading (PLY point clouds,
+//! Point clouds and the point-splatting renderer on the host side: loading (PLY point clouds,
 //! meshes as clouds), density radii and palettes (`cloud`), the cloud as a scene of disks
 //! plus the scene image's point section (`image`), and splat frames on one or several boards
 //! with sort-last compositing (`render`).

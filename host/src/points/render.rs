@@ -1,4 +1,4 @@
-//! Splat frames on one board or several: the request, and sort-last (seed 001 §1.6) — every
+//! Splat frames on one board or several: the request, and sort-last (point splatting) — every
 //! board renders its random subset of the points over the whole frame and returns colour and
 //! depth, and the host keeps, per pixel, the nearest (depth, colour); boards break depth ties
 //! by colour exactly like the splat stage does, so the composite is the one-board image.

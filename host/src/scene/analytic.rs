@@ -1,4 +1,4 @@
-//! ViRAY's analytic primitives (seed 000 §4.4–4.5) placed in the world with full affine
+//! ViRAY's analytic primitives placed in the world with full affine
 //! transforms: their bounds (for grid binning) and the plane of the flat ones.
 
 use gridrt_shared::scene::{Affine, PrimKind};

@@ -13,6 +13,7 @@ use std::path::Path;
 use gridrt_shared::scene::Material;
 
 use super::error::{Location, SceneLoadError};
+pub use crate::bounds::Bounds;
 
 /// Material 0: what faces without a material (or with an unknown one) use.
 pub const DEFAULT_MATERIAL: Material = Material { diffuse: [0.8, 0.8, 0.8], reflect: 0.0 };
@@ -46,31 +47,6 @@ pub struct Mesh {
     pub materials: Vec<Material>,
     /// What happened during loading.
     pub stats: LoadStats,
-}
-
-/// Axis-aligned bounds in f32 (the precision of the scene).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Bounds {
-    /// Minimum corner.
-    pub min: [f32; 3],
-    /// Maximum corner.
-    pub max: [f32; 3],
-}
-
-impl Bounds {
-    /// Extent along each axis, in f64.
-    pub fn extent(&self) -> [f64; 3] {
-        [0, 1, 2].map(|i| self.max[i] as f64 - self.min[i] as f64)
-    }
-    /// Centre point, in f64.
-    pub fn center(&self) -> [f64; 3] {
-        [0, 1, 2].map(|i| 0.5 * (self.min[i] as f64 + self.max[i] as f64))
-    }
-    /// Length of the diagonal, in f64.
-    pub fn diagonal_len(&self) -> f64 {
-        let e = self.extent();
-        (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt()
-    }
 }
 
 impl Mesh {

@@ -56,7 +56,7 @@ const REQUEST_WIRE: usize = RENDER_REGION_LEN + 13;
 /// Wire bytes of a `RegionEnd`.
 const END_WIRE: usize = 32;
 
-/// Row interpolation (seed 003) makes a pixel depend on its row's traced neighbours and, in
+/// Row interpolation (Malcheva et al.) makes a pixel depend on its row's traced neighbours and, in
 /// the adaptive mode, on the step chosen for the rows before: re-requested pixels only come
 /// out as in the first render when the request covers whole rows (fixed step), or the band
 /// from its first row (adaptive).

@@ -34,7 +34,7 @@ pub mod feature {
     pub const TEXTURES: u32 = 1 << 17;
     /// Specular highlights ([`render_flags::SPECULAR`](crate::msg::render_flags::SPECULAR) is honoured).
     pub const SPECULAR: u32 = 1 << 18;
-    /// Row interpolation (seed 003; the `render_flags` interpolation fields are honoured).
+    /// Row interpolation (Malcheva et al.; the `render_flags` interpolation fields are honoured).
     pub const INTERP: u32 = 1 << 19;
     /// Scenes with analytic primitives and ViRAY materials (the scene image of SPEC.md §5) are
     /// accepted.

@@ -75,7 +75,7 @@ pub mod render_flags {
     pub const TEXTURES: u16 = 1 << 3;
     /// Pipeline plan: evaluate specular BRDFs.
     pub const SPECULAR: u16 = 1 << 4;
-    /// Row interpolation: adapt the step per row (seed 003 §3.5); else a fixed step.
+    /// Row interpolation: adapt the step per row (Malcheva et al.); else a fixed step.
     pub const INTERP_ADAPTIVE: u16 = 1 << 5;
     /// Row interpolation step l (trace every (l+1)-th pixel), bits 9..6; 0 = off.
     pub const INTERP_STEP_SHIFT: u32 = 6;
@@ -85,7 +85,7 @@ pub mod render_flags {
     pub const INTERP_EPS_SHIFT: u32 = 10;
     /// Mask of the EPS field.
     pub const INTERP_EPS_MASK: u16 = 0x1F << INTERP_EPS_SHIFT;
-    /// Render the scene's point section as splats (seed 001, SPEC.md §6) instead of tracing
+    /// Render the scene's point section as splats (point splatting, SPEC.md §6) instead of tracing
     /// rays. With it, [`PRIM_IDS`] asks for each pixel's depth instead of a primitive id, the
     /// ray-stage bits (shadows, reflections, textures, specular) are ignored and the
     /// interpolation step must be 0.

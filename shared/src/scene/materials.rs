@@ -1,5 +1,5 @@
 //! Materials (SPEC.md §5.3): a 16-byte colour record and a 96-byte shading-model record per
-//! material, the models being ViRAY's (seed 000 §4.6) plus GridRT's matte surface.
+//! material, the models being ViRAY's plus GridRT's matte surface.
 
 use super::layout::{enum_u8, SceneError, MATERIAL_LEN, MATERIAL_MODEL_LEN};
 use crate::bytes::{record, Reader};

@@ -20,7 +20,7 @@
 //! | `points` | [`PointsHead`], [`PointRecord`]: the point section (flag [`scene_flags::POINTS`]) |
 //! | `stream` | [`SceneStream`], the streaming parser, and [`SceneSink`] |
 
-// Link-facing: every index and every sum on received values is checked (issue 9).
+// Link-facing: every index and every sum on received values is checked (ARCHITECTURE.md).
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
 mod geometry;

@@ -1,5 +1,5 @@
 //! The point section of a scene image (SPEC.md §5.10): an oriented point cloud for the splat
-//! renderer (seed 001), after the PE blocks, present when the header's
+//! renderer (point splatting), after the PE blocks, present when the header's
 //! [`scene_flags::POINTS`] bit is set. The same points are in the PE blocks as disks, so the
 //! ray tracer renders them too.
 

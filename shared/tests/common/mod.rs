@@ -4,7 +4,7 @@
 #![allow(dead_code)]
 
 use gridrt_shared::frame::{self, FeedResult, FrameAccumulator, FrameError};
-use gridrt_shared::msg::Msg;
+use gridrt_shared::msg::{render_flags, Msg, PixelEncoding, RenderRequest};
 use gridrt_shared::scene::{
     LightingRecord, Material, MaterialModel, ObjectRecord, SceneError, SceneHeader, SceneSink, SceneStream,
 };
@@ -497,4 +497,33 @@ pub fn cobs_wire(raw: &[u8]) -> Vec<u8> {
     out.truncate(n);
     out.push(0);
     out
+}
+
+/// Checks payload bytes, wire bytes and decode of one worked example (SPEC.md §3).
+pub fn check_msg(m: Msg<'_>, seq: u16, payload: &[u8], wire_bytes: &[u8]) {
+    assert_eq!(encode_payload(&m), payload, "payload of {m:?}");
+    assert_eq!(wire(m.kind() as u8, seq, payload), wire_bytes, "wire of {m:?}");
+    let mut acc = FrameAccumulator::<{ frame::MAX_ENCODED }>::new();
+    let out = feed_all(&mut acc, wire_bytes, wire_bytes.len());
+    let [Outcome::Frame { kind, seq: s, payload: p }] = &out[..] else { panic!("{out:?}") };
+    assert_eq!((*kind, *s), (m.kind() as u8, seq));
+    assert_eq!(Msg::decode(*kind, p), Ok(m));
+}
+
+/// The render request of the worked examples, with pixel `encoding`.
+pub fn example_request(encoding: PixelEncoding) -> RenderRequest {
+    RenderRequest {
+        frame: 1,
+        width: 320,
+        height: 240,
+        flags: render_flags::SHADOWS | render_flags::PRIM_IDS,
+        eye: [0.0, 0.0, 5.0],
+        target: [0.0; 3],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 45.0,
+        light_pos: [2.0, 4.0, 3.0],
+        light_intensity: 1.0,
+        ambient: 0.15,
+        encoding,
+    }
 }

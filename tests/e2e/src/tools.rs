@@ -14,7 +14,8 @@
 //! A skipped test passes, so it says so where a user looks: one line per test on the real
 //! standard error (libtest captures only `print!`/`eprint!`, not direct writes), which shows
 //! in the `cargo test` output next to the test's `ok`. A test that runs says which tool
-//! version it uses, the same way; `.ci/run` counts both kinds of line.
+//! version it uses, the same way; `.ci/run` counts both kinds of line and fails when a tool's
+//! tests were skipped or ran zero times (`scripts/check-tool-tests.sh`).
 //!
 //! The SoC simulation test is slow (minutes), so it also waits for an opt-in,
 //! `GRIDRT_SOC_SIM=1` ([`soc_sim_opted_in`]); `.ci/run` gives it.

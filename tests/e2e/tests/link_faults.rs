@@ -1,4 +1,4 @@
-//! Fault injection (issue 6): a lossy relay between the host session and the simulated
+//! Fault injection: a lossy relay between the host session and the simulated
 //! board flips bits (BER 1e-5, 1e-4, 1e-3), drops bytes, inserts garbage bursts and resets the
 //! board mid-frame. Under every mix the final PNG must be byte-identical to a fault-free run
 //! (no corrupted pixel is ever accepted), and the stats must show the retransmissions.

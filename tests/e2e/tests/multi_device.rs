@@ -1,4 +1,4 @@
-//! Several simulated boards render one frame (issue 6): the frame is split into row bands
+//! Several simulated boards render one frame: the frame is split into row bands
 //! taken from a shared queue, merged, and identical to a single board's frame; two boards
 //! need clearly less modelled link time than one; a board that holds the scene and dies
 //! mid-frame costs its band, not the frame.

@@ -1,4 +1,4 @@
-//! End to end on QEMU (issue 3): the soft-core firmware image runs on `qemu-system-riscv32`
+//! End to end on QEMU: the soft-core firmware image runs on `qemu-system-riscv32`
 //! (`virt`, `-icount shift=0`) and the host reaches it only through the UART's pty, with the
 //! `gridrt` CLI, as a user would.
 //!
@@ -15,7 +15,7 @@
 //!   (CRC of the original announced) and an image linked outside the application region are
 //!   refused with their reasons while the bootloader stays alive; then `gridrt flash` writes
 //!   the app built with `--layout bootloaded`, verifies and starts it, and the app renders.
-//! - `qemu_and_loopback_do_the_same_work_for_the_same_frame` (issue 10): through the runs of
+//! - `qemu_and_loopback_do_the_same_work_for_the_same_frame` (kernel-true work counters): through the runs of
 //!   `gridrt bench frame`, a 48×36 frame on the riscv32imafc image and on the loopback have
 //!   the same work counters (rays, list entries, FSL words, tests) and kernel-true cycles;
 //!   the soft-core-only image does the same rays and lists without FSL words.
@@ -201,7 +201,7 @@ fn qemu_render_matches_loopback_riscv32imafc() {
     render_matches_loopback("qemu_render_matches_loopback_riscv32imafc", "riscv32imafc", 1.54);
 }
 
-/// Issue 10's must-show: a QEMU run and the loopback give the same work counters for the
+/// Kernel-true work counters: a QEMU run and the loopback give the same work counters for the
 /// same frame (rays, list entries, FSL words, tests), through the runs `gridrt bench frame`
 /// uses, on a small frame. The soft-core-only image (no co-processor) does the same rays and
 /// lists without a single FSL word, and runs only the tests up to each winner.
@@ -257,7 +257,7 @@ fn qemu_and_loopback_do_the_same_work_for_the_same_frame() {
     assert_eq!(d.wrapper_per_word, None);
 }
 
-/// Issue 15: the QEMU firmware renders a splat frame of a point cloud (seed 001's code
+/// Point clouds: the QEMU firmware renders a splat frame of a point cloud (the point-splatting code
 /// generator and splat stage on the soft-core) byte-identical to `render --sim`, and reports
 /// its instructions per splat.
 #[test]

@@ -1,4 +1,4 @@
-//! End to end on the LiteX SoC (issue 12): the firmware on a VexRiscv soft-core with the RTL
+//! End to end on the LiteX SoC: the firmware on a VexRiscv soft-core with the RTL
 //! co-processor, simulated cycle by cycle in Verilator (`cargo xtask soc sim`), reached only
 //! through its UART's pseudo-terminal with the `gridrt` CLI, as a user would reach a board.
 //!

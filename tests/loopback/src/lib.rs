@@ -519,7 +519,7 @@ mod reset_tests {
         assert_eq!(f[0].0, 1);
     }
 
-    /// Issue 10 §3: the simulated PEs charge the kernel that runs, not GridRT's 648 cycles
+    /// Kernel-true cycle counts: the simulated PEs charge the kernel that runs, not GridRT's 648 cycles
     /// for every kernel (docs/bench-accuracy.md, model cycles per test); a pipelined PE
     /// issues a test per cycle whatever the kernel.
     #[test]
@@ -547,6 +547,8 @@ mod reset_tests {
         let f = frames(&mut port, 40);
         let t = start.elapsed();
         assert_eq!(f.len(), 40);
-        assert!(t >= Duration::from_millis(100) && t < Duration::from_millis(400), "{t:?}");
+        // Paced: not faster than the line rate (how much slower is the machine's load, not
+        // the simulator's behaviour).
+        assert!(t >= Duration::from_millis(100), "{t:?}");
     }
 }

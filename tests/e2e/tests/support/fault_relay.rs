@@ -77,11 +77,12 @@ impl FaultyPort {
 
     /// What was injected so far.
     pub fn injected(&self) -> Injected {
-        let (u, d) = (self.up.injected, self.down.injected);
+        let mut both = self.up.injected;
+        both.add(&self.down.injected);
         Injected {
-            flips: u.flips + d.flips,
-            drops: u.drops + d.drops,
-            bursts: u.bursts + d.bursts,
+            flips: both.flips,
+            drops: both.drops,
+            bursts: both.bursts,
             resets: self.resets,
             down_bytes: self.down_bytes,
             up_bytes: self.up_bytes,
