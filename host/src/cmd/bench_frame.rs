@@ -188,7 +188,7 @@ impl Args {
             (Some(_), Some(_)) => bail!("--clock-mhz and --soc-build both set the clock: give one"),
             (Some(path), None) => {
                 let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-                let c = gridrt_host::frame_bench::soc::SocClock::from_build_report(&text, self.baud)
+                let c = gridrt_host::frame_bench::SocClock::from_build_report(&text, self.baud)
                     .map_err(|e| anyhow!("{}: {e}", path.display()))?;
                 (c.clock_mhz, c.source)
             }

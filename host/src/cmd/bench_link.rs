@@ -262,8 +262,8 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], w: u16, h: u16) -> an
     chart
         .configure_mesh()
         .x_labels(8)
-        .x_label_formatter(&|x| short_number(*x))
-        .y_label_formatter(&|y| short_number(*y))
+        .x_label_formatter(&|x| super::plot::short_number(*x))
+        .y_label_formatter(&|y| super::plot::short_number(*y))
         .x_desc("baud (8N1)")
         .y_desc("frame time (s)")
         .draw()
@@ -286,49 +286,4 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], w: u16, h: u16) -> an
         .map_err(|e| anyhow!("{e}"))?;
     root.present().map_err(|e| anyhow!("{e}"))?;
     Ok(())
-}
-
-/// A tick label: 3 significant digits at most, with k / M for thousands and millions
-/// (`115k`, `1M`, `0.25`).
-pub(super) fn short_number(v: f64) -> String {
-    let trim = |s: String| {
-        if s.contains('.') {
-            s.trim_end_matches('0').trim_end_matches('.').to_string()
-        } else {
-            s
-        }
-    };
-    let a = v.abs();
-    if a >= 1e6 {
-        trim(format!("{:.2}", v / 1e6)) + "M"
-    } else if a >= 1e3 {
-        trim(format!("{:.1}", v / 1e3)) + "k"
-    } else if a >= 1.0 || a == 0.0 {
-        trim(format!("{v:.2}"))
-    } else {
-        // Small values: a short exponent form (1e-5, 2.5e-4) or 3 decimals.
-        if a >= 0.01 {
-            trim(format!("{v:.3}"))
-        } else {
-            let e = a.log10().floor() as i32;
-            let m = v / 10f64.powi(e);
-            format!("{}e{e}", trim(format!("{m:.1}")))
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::short_number;
-
-    #[test]
-    fn tick_labels_are_short() {
-        assert_eq!(short_number(115_200.0), "115.2k");
-        assert_eq!(short_number(1_000_000.0), "1M");
-        assert_eq!(short_number(3_000_000.0), "3M");
-        assert_eq!(short_number(9.999999999999999e-6), "1e-5");
-        assert_eq!(short_number(2.5e-4), "2.5e-4");
-        assert_eq!(short_number(0.25), "0.25");
-        assert_eq!(short_number(12.0), "12");
-    }
 }

@@ -170,7 +170,7 @@ fn plot(path: &Path, rows: &[FaultRow], scene: &str, baud: u32) -> anyhow::Resul
         .map_err(|e| anyhow!("{e}"))?;
     chart
         .configure_mesh()
-        .x_label_formatter(&|x| super::bench_link::short_number(*x))
+        .x_label_formatter(&|x| super::plot::short_number(*x))
         .x_desc("bit error rate, both directions (+ drops BER/10, bursts BER/100 per byte; 0 drawn at 1e-7)")
         .y_desc("payload / line rate")
         .draw()

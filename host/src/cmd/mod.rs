@@ -15,6 +15,7 @@ pub mod device;
 pub mod flash;
 pub mod monitor;
 pub mod output;
+pub mod plot;
 pub mod ports;
 pub mod progress;
 pub mod render;

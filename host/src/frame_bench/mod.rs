@@ -32,16 +32,21 @@
 //! # Configurations
 //! [`Configuration`]: `soft-core-only` (no co-processor: the firmware calls the kernel itself
 //! and every instruction is counted), `gridrt` (GridRT's multi-cycle PEs), `pipelined`, `rtl`
-//! (the RTL co-processor's kernel, format and cycles, on its own QEMU image; its clock is the
-//! profile's until a synthesis reports an fmax), and `host-native`.
+//! (the RTL co-processor's kernel, format and cycles, on its own QEMU image), `host-native`,
+//! and `soc`: the LiteX SoC simulated cycle by cycle, every figure measured by its own
+//! counters (frame cycles from the render request's arrival to the last byte leaving the UART
+//! at the baud rate in simulated time, per-stage `mcycle`/`minstret`). Every row runs at one
+//! clock: `--clock-mhz`, or a SoC build report's routed clock (`--soc-build`), else the SoC's
+//! 50 MHz target.
 //!
 //! | module | what | uses |
 //! |---|---|---|
 //! | `setup` | targets, configurations, the soft-core profile, options, events, errors | — |
 //! | [`timeline`] | per-frame quantities → frame time, the overlaps, hand-checked tests | — |
 //! | [`run`] | one frame on QEMU, on the loopback, natively; work-counter comparison | `setup` |
-//! | `report` | the rows, JSON, CSV and the SVG of stacked bars | `setup`, `run`, `timeline` |
-//! | `bench` | the bench: reference, runs, cross-checks, rows | `setup`, `run`, `report` |
+//! | [`soc`] | one frame on the LiteX SoC in Verilator (`cargo xtask soc sim`), measured by its own counters, and on `--sim --coproc rtl` | `setup`, `run` |
+//! | `report` | the rows, JSON, CSV and the SVG of stacked bars | `setup`, `run`, `soc`, `timeline` |
+//! | `bench` | the bench: reference, runs, cross-checks, rows | `setup`, `run`, `soc`, `report` |
 
 mod bench;
 mod report;
@@ -57,6 +62,6 @@ pub use report::{critical_path, write_csv, write_svg, FrameReport, FrameRow};
 pub use run::{run_native, run_on_loopback, run_on_qemu, work_differences, DeviceRun};
 pub use setup::{
     kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, CpuProfile, FrameBenchError, Image, MeasuredCpi,
-    Target,
+    SocClock, Target,
 };
 pub use timeline::{timeline, FrameWork, Timeline};

@@ -309,8 +309,33 @@ pub struct BenchOptions {
 
 impl BenchOptions {
     /// The `soc` row's clock and line: the bench's.
-    pub fn soc_clock(&self) -> crate::frame_bench::soc::SocClock {
-        crate::frame_bench::soc::SocClock { clock_mhz: self.clock_mhz, source: self.clock_source, baud: self.baud }
+    pub fn soc_clock(&self) -> SocClock {
+        SocClock { clock_mhz: self.clock_mhz, source: self.clock_source, baud: self.baud }
+    }
+}
+
+/// The SoC's clock and line, as the row reports them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SocClock {
+    /// The clock the SoC's cycles are converted at, MHz.
+    pub clock_mhz: f64,
+    /// `"routed"` (a `cargo xtask soc build --json` report's fmax) or `"target"`.
+    pub source: &'static str,
+    /// The UART's line rate in simulated time (8N1).
+    pub baud: u32,
+}
+
+impl SocClock {
+    /// The routed clock of a `cargo xtask soc build --json` report (`fmax_mhz`), capped at its
+    /// target clock (the PLL runs there; a higher fmax is margin, not speed).
+    pub fn from_build_report(text: &str, baud: u32) -> Result<Self, String> {
+        let v: serde_json::Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
+        let fmax = v["fmax_mhz"].as_f64().ok_or("no `fmax_mhz` in the report (nothing was routed?)")?;
+        let target = v["target_mhz"].as_f64().unwrap_or(fmax);
+        if !(fmax.is_finite() && fmax > 0.0) {
+            return Err(format!("fmax_mhz {fmax} is not a clock"));
+        }
+        Ok(Self { clock_mhz: fmax.min(target), source: "routed", baud })
     }
 }
 

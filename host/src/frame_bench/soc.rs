@@ -22,7 +22,7 @@ use gridrt_loopback::SimConfig;
 use gridrt_shared::msg::{stat, RenderRequest};
 
 use super::run::{finish, hello_upload_render, read_banner, work_differences, DeviceRun};
-use super::setup::{BenchEvent, FrameBenchError};
+use super::setup::{BenchEvent, FrameBenchError, SocClock};
 use crate::flash::{flash, FlashConfig, FlashEvent, FlashImage};
 use crate::grid::GridParams;
 use crate::pipeline::PreparedScene;
@@ -34,31 +34,6 @@ const SOC_STAGE_TIMEOUT: Duration = Duration::from_secs(3600);
 
 /// What `cargo xtask soc sim` prints for the speed of the simulation (`serial2pty`).
 const SPEED_MARKER: &str = "serial2pty: speed ";
-
-/// The SoC's clock and line, as the row reports them.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SocClock {
-    /// The clock the SoC's cycles are converted at, MHz.
-    pub clock_mhz: f64,
-    /// `"routed"` (a `cargo xtask soc build --json` report's fmax) or `"target"`.
-    pub source: &'static str,
-    /// The UART's line rate in simulated time (8N1).
-    pub baud: u32,
-}
-
-impl SocClock {
-    /// The routed clock of a `cargo xtask soc build --json` report (`fmax_mhz`), capped at its
-    /// target clock (the PLL runs there; a higher fmax is margin, not speed).
-    pub fn from_build_report(text: &str, baud: u32) -> Result<Self, String> {
-        let v: serde_json::Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
-        let fmax = v["fmax_mhz"].as_f64().ok_or("no `fmax_mhz` in the report (nothing was routed?)")?;
-        let target = v["target_mhz"].as_f64().unwrap_or(fmax);
-        if !(fmax.is_finite() && fmax > 0.0) {
-            return Err(format!("fmax_mhz {fmax} is not a clock"));
-        }
-        Ok(Self { clock_mhz: fmax.min(target), source: "routed", baud })
-    }
-}
 
 /// One frame on the simulated SoC, and the same frame on `--sim --coproc rtl`.
 #[derive(Debug, Clone)]

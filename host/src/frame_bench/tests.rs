@@ -341,7 +341,7 @@ fn measured_cpi_is_not_charged_to_the_soft_core_only_rows() {
 #[test]
 fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_it() {
     use super::report::{distance_from_soc, soc_row};
-    use super::soc::{SocClock, SocRun};
+    use super::soc::SocRun;
     let opt = options();
     let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
     let mut run =
