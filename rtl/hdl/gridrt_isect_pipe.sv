@@ -1,34 +1,35 @@
-// isect_pipe: the ray-triangle test, fully pipelined (one test per cycle), shared by a pair
-// of PEs (isect_share.sv).
+// gridrt_isect_pipe: the ray-triangle test, fully pipelined (one test per cycle), shared by
+// PES_PER_PIPELINE PEs (4 by default) that issue in turn (gridrt_isect_share.sv).
 //
-// Spec: rtl/README.md §3.4; twin: `twin::intersect`. Watertight test (Woop, Benthin, Wald,
+// Spec: rtl/README.md §3.4; bit-exact twin: `intersect` of the coproc crate's
+// `isect::watertight_q23` (kernel watertight, format fixed64-q23). Watertight test (Woop, Benthin, Wald,
 // JCGT 2013) in Q23 fixed point: exact integer edge functions on per-vertex-rounded sheared
 // coordinates, hit distance as the correctly rounded f32 of an exact rational.
 //
 // Inputs are one record (9 frame coordinates as i32 words, POISON = 0x80000000 where a
 // coordinate did not fit) and the ray constants of the ray setup, which stay fixed while a
 // ray's tests run. `kind`: 0 miss, 1 hit (`t` valid), 2 overflow. `tag` rides along.
-module isect_pipe #(
+module gridrt_isect_pipe #(
     parameter int TAG_W = 1,
     // The latency its users plan with (in_valid to out_valid); must equal STAGES below.
     parameter int LATENCY = 57
 ) (
-    input  logic                clk,
-    input  logic                in_valid,
-    input  logic [TAG_W-1:0]    in_tag,
-    input  logic [287:0]        rec,        // 9 x i32, word i at bits 32i+31..32i
-    // Ray constants (twin::RaySetup).
-    input  logic signed [33:0]  o0, o1, o2, // origin, world axis order
-    input  logic [1:0]          kz,
-    input  logic signed [24:0]  sx, sy,
-    input  logic                dz_neg,
-    input  logic [23:0]         dz_abs,
-    input  logic signed [9:0]   texp,
-    input  logic                ray_overflow,
-    output logic                out_valid,
-    output logic [TAG_W-1:0]    out_tag,
-    output logic [1:0]          kind,
-    output logic [31:0]         t
+    input  logic                clk_i,
+    input  logic                in_valid_i,
+    input  logic [TAG_W-1:0]    in_tag_i,
+    input  logic [287:0]        rec_i,        // 9 x i32, word i at bits 32i+31..32i
+    // Ray constants (`watertight_q23::RaySetup`).
+    input  logic signed [33:0]  o0_i, o1_i, o2_i, // origin, world axis order
+    input  logic [1:0]          kz_i,
+    input  logic signed [24:0]  sx_i, sy_i,
+    input  logic                dz_neg_i,
+    input  logic [23:0]         dz_abs_i,
+    input  logic signed [9:0]   texp_i,
+    input  logic                ray_overflow_i,
+    output logic                out_valid_o,
+    output logic [TAG_W-1:0]    out_tag_o,
+    output logic [1:0]          kind_o,
+    output logic [31:0]         t_o
 );
     // The 16 products of a test are 16 multipliers in MULT18X18D blocks (mul_pipe, latency
     // MUL); stage numbers below follow from these localparams.
@@ -48,17 +49,17 @@ module isect_pipe #(
     // ================================================================ K1: v - o, poison
     logic signed [34:0] k1_a [9];   // world order: vertex i axis a at 3i+a
     logic               k1_valid, k1_poison;
-    always_ff @(posedge clk) begin
-        k1_valid <= in_valid;
-        k1_poison <= ray_overflow;
+    always_ff @(posedge clk_i) begin
+        k1_valid <= in_valid_i;
+        k1_poison <= ray_overflow_i;
         for (int i = 0; i < 9; i++) begin
             logic signed [31:0] v;
-            v = rec[32*i +: 32];
+            v = rec_i[32*i +: 32];
             if (v == 32'sh8000_0000) k1_poison <= 1'b1;
             case (i % 3)
-                0: k1_a[i] <= 35'(v) - 35'(o0);
-                1: k1_a[i] <= 35'(v) - 35'(o1);
-                default: k1_a[i] <= 35'(v) - 35'(o2);
+                0: k1_a[i] <= 35'(v) - 35'(o0_i);
+                1: k1_a[i] <= 35'(v) - 35'(o1_i);
+                default: k1_a[i] <= 35'(v) - 35'(o2_i);
             endcase
         end
     end
@@ -67,11 +68,11 @@ module isect_pipe #(
     // Cyclic permutation moving axis kz to z: kz=0 (y,z,x), kz=1 (z,x,y), kz=2 (x,y,z).
     logic signed [34:0] k2_x [3], k2_y [3], k2_z [3];
     logic               k2_valid, k2_poison;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         k2_valid <= k1_valid;
         k2_poison <= k1_poison;
         for (int i = 0; i < 3; i++) begin
-            case (kz)
+            case (kz_i)
                 2'd0: begin k2_x[i] <= k1_a[3*i+1]; k2_y[i] <= k1_a[3*i+2]; k2_z[i] <= k1_a[3*i]; end
                 2'd1: begin k2_x[i] <= k1_a[3*i+2]; k2_y[i] <= k1_a[3*i]; k2_z[i] <= k1_a[3*i+1]; end
                 default: begin k2_x[i] <= k1_a[3*i]; k2_y[i] <= k1_a[3*i+1]; k2_z[i] <= k1_a[3*i+2]; end
@@ -83,24 +84,24 @@ module isect_pipe #(
     // sx * A.z and sy * A.z for the 3 vertices (35 x 25).
     logic signed [59:0] k6_px [3], k6_py [3];
     for (genvar i = 0; i < 3; i++) begin : g_shear
-        mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_SHEAR)) u_mx (.clk, .a(k2_z[i]), .b(sx), .p(k6_px[i]));
-        mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_SHEAR)) u_my (.clk, .a(k2_z[i]), .b(sy), .p(k6_py[i]));
+        gridrt_mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_SHEAR)) u_mx (.clk_i, .a_i(k2_z[i]), .b_i(sx_i), .p_o(k6_px[i]));
+        gridrt_mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_SHEAR)) u_my (.clk_i, .a_i(k2_z[i]), .b_i(sy_i), .p_o(k6_py[i]));
     end
     logic signed [34:0] k6_x [3], k6_y [3], k6_z [3];
     logic               k6_valid, k6_poison;
     for (genvar i = 0; i < 3; i++) begin : g_carry_xyz
-        delay #(.W(35), .N(LAT_SHEAR)) u_dx (.clk, .d(k2_x[i]), .q(k6_x[i]));
-        delay #(.W(35), .N(LAT_SHEAR)) u_dy (.clk, .d(k2_y[i]), .q(k6_y[i]));
-        delay #(.W(35), .N(LAT_SHEAR)) u_dz (.clk, .d(k2_z[i]), .q(k6_z[i]));
+        gridrt_delay #(.W(35), .N(LAT_SHEAR)) u_dx (.clk_i, .d_i(k2_x[i]), .q_o(k6_x[i]));
+        gridrt_delay #(.W(35), .N(LAT_SHEAR)) u_dy (.clk_i, .d_i(k2_y[i]), .q_o(k6_y[i]));
+        gridrt_delay #(.W(35), .N(LAT_SHEAR)) u_dz (.clk_i, .d_i(k2_z[i]), .q_o(k6_z[i]));
     end
-    delay #(.W(2), .N(LAT_SHEAR)) u_d6 (.clk, .d({k2_valid, k2_poison}), .q({k6_valid, k6_poison}));
+    gridrt_delay #(.W(2), .N(LAT_SHEAR)) u_d6 (.clk_i, .d_i({k2_valid, k2_poison}), .q_o({k6_valid, k6_poison}));
 
     // ================================================================ K7: shear rounding
     // round_half_up(s * A.z / 2^23) = floor((s * A.z + 2^22) / 2^23).
     logic signed [36:0] k7_rx [3], k7_ry [3];
     logic signed [34:0] k7_x [3], k7_y [3], k7_z [3];
     logic               k7_valid, k7_poison;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         for (int i = 0; i < 3; i++) begin
             k7_rx[i] <= 37'((k6_px[i] + 60'sd4194304) >>> 23);
             k7_ry[i] <= 37'((k6_py[i] + 60'sd4194304) >>> 23);
@@ -122,7 +123,7 @@ module isect_pipe #(
         if (!v[36]) out_of_range = v[35:29] != 0;
         else out_of_range = v[35:29] != 7'h7F || v[28:0] == 0;
     endfunction
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic signed [36:0] lx, ly;
         logic               bad;
         bad = k7_poison;
@@ -141,24 +142,24 @@ module isect_pipe #(
     // ================================================================ K9-K12: edge products
     // e0 = bx*cy - by*cx, e1 = cx*ay - cy*ax, e2 = ax*by - ay*bx (exact).
     logic signed [59:0] k12_p [6];
-    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e0 (.clk, .a(k8_x[1]), .b(k8_y[2]), .p(k12_p[0]));
-    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e1 (.clk, .a(k8_y[1]), .b(k8_x[2]), .p(k12_p[1]));
-    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e2 (.clk, .a(k8_x[2]), .b(k8_y[0]), .p(k12_p[2]));
-    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e3 (.clk, .a(k8_y[2]), .b(k8_x[0]), .p(k12_p[3]));
-    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e4 (.clk, .a(k8_x[0]), .b(k8_y[1]), .p(k12_p[4]));
-    mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e5 (.clk, .a(k8_y[0]), .b(k8_x[1]), .p(k12_p[5]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e0 (.clk_i, .a_i(k8_x[1]), .b_i(k8_y[2]), .p_o(k12_p[0]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e1 (.clk_i, .a_i(k8_y[1]), .b_i(k8_x[2]), .p_o(k12_p[1]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e2 (.clk_i, .a_i(k8_x[2]), .b_i(k8_y[0]), .p_o(k12_p[2]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e3 (.clk_i, .a_i(k8_y[2]), .b_i(k8_x[0]), .p_o(k12_p[3]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e4 (.clk_i, .a_i(k8_x[0]), .b_i(k8_y[1]), .p_o(k12_p[4]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e5 (.clk_i, .a_i(k8_y[0]), .b_i(k8_x[1]), .p_o(k12_p[5]));
     logic signed [34:0] k12_z [3];
     logic               k12_valid, k12_poison;
     for (genvar i = 0; i < 3; i++) begin : g_carry_z12
-        delay #(.W(35), .N(LAT_EDGE)) u_dz (.clk, .d(k8_z[i]), .q(k12_z[i]));
+        gridrt_delay #(.W(35), .N(LAT_EDGE)) u_dz (.clk_i, .d_i(k8_z[i]), .q_o(k12_z[i]));
     end
-    delay #(.W(2), .N(LAT_EDGE)) u_d12 (.clk, .d({k8_valid, k8_poison}), .q({k12_valid, k12_poison}));
+    gridrt_delay #(.W(2), .N(LAT_EDGE)) u_d12 (.clk_i, .d_i({k8_valid, k8_poison}), .q_o({k12_valid, k12_poison}));
 
     // ================================================================ K13: edge functions
     logic signed [60:0] k13_e [3];
     logic signed [34:0] k13_z [3];
     logic               k13_valid, k13_poison;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         for (int i = 0; i < 3; i++) begin
             k13_e[i] <= 61'(k12_p[2*i]) - 61'(k12_p[2*i+1]);
             k13_z[i] <= k12_z[i];
@@ -172,7 +173,7 @@ module isect_pipe #(
     logic signed [60:0] k14_e [3];
     logic signed [34:0] k14_z [3];
     logic               k14_valid, k14_poison, k14_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic any_neg, any_pos;
         any_neg = k13_e[0] < 0 || k13_e[1] < 0 || k13_e[2] < 0;
         any_pos = k13_e[0] > 0 || k13_e[1] > 0 || k13_e[2] > 0;
@@ -189,7 +190,7 @@ module isect_pipe #(
     logic signed [60:0] k15_e [3];
     logic signed [34:0] k15_z [3];
     logic               k15_valid, k15_poison, k15_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         k15_det <= k14_e01 + 63'(k14_e[2]);
         k15_e <= k14_e;
         k15_z <= k14_z;
@@ -203,7 +204,7 @@ module isect_pipe #(
     logic [60:0]        k16_e [3];  // >= 0 for a candidate
     logic signed [34:0] k16_z [3];
     logic               k16_valid, k16_poison, k16_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic neg;
         neg = k15_det < 0;
         for (int i = 0; i < 3; i++) k16_e[i] <= neg ? 61'(-k15_e[i]) : 61'(k15_e[i]);
@@ -217,12 +218,12 @@ module isect_pipe #(
     // ================================================================ K17: weight shift
     // r = max(0, bitlen(det) - 34).
     logic [5:0]         det_len;
-    bit_length #(.W(62)) u_det_len (.x(k16_det), .len(det_len));
+    gridrt_bit_length #(.W(62)) u_det_len (.x_i(k16_det), .len_o(det_len));
     logic [4:0]         k17_r;
     logic [60:0]        k17_e [3];
     logic signed [34:0] k17_z [3];
     logic               k17_valid, k17_poison, k17_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         k17_r <= (det_len > 6'd34) ? 5'(det_len - 6'd34) : 5'd0;
         k17_e <= k16_e;
         k17_z <= k16_z;
@@ -235,7 +236,7 @@ module isect_pipe #(
     logic signed [34:0] k18_w [3];  // < 2^34 for a candidate
     logic signed [34:0] k18_z [3];
     logic               k18_valid, k18_poison, k18_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         for (int i = 0; i < 3; i++) k18_w[i] <= 35'(k17_e[i] >> k17_r);
         k18_z <= k17_z;
         k18_valid <= k17_valid;
@@ -246,25 +247,25 @@ module isect_pipe #(
     // ================================================================ K19: weight sum
     // det' = sum of weights (< 2^34), registered while the depth products start.
     logic signed [34:0] k19_detw;
-    always_ff @(posedge clk) k19_detw <= k18_w[0] + k18_w[1] + k18_w[2];
+    always_ff @(posedge clk_i) k19_detw <= k18_w[0] + k18_w[1] + k18_w[2];
 
     // ================================================================ K19-K22: depth products
     logic signed [69:0] k22_n [3];
     for (genvar i = 0; i < 3; i++) begin : g_depth
-        mul_pipe #(.A_W(35), .B_W(35), .LATENCY(LAT_DEPTH)) u_n (.clk, .a(k18_w[i]), .b(k18_z[i]), .p(k22_n[i]));
+        gridrt_mul_pipe #(.A_W(35), .B_W(35), .LATENCY(LAT_DEPTH)) u_n (.clk_i, .a_i(k18_w[i]), .b_i(k18_z[i]), .p_o(k22_n[i]));
     end
     // Denominator det' * |dz| (K20-K23) starts one cycle later and ends with the first depth
     // sum (K23).
     logic signed [59:0] k23_den;
-    mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_DEPTH)) u_den (.clk, .a(k19_detw), .b({1'b0, dz_abs}), .p(k23_den));
+    gridrt_mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_DEPTH)) u_den (.clk_i, .a_i(k19_detw), .b_i({1'b0, dz_abs_i}), .p_o(k23_den));
     logic k22_valid, k22_poison, k22_cand;
-    delay #(.W(3), .N(LAT_DEPTH)) u_d22 (.clk, .d({k18_valid, k18_poison, k18_cand}), .q({k22_valid, k22_poison, k22_cand}));
+    gridrt_delay #(.W(3), .N(LAT_DEPTH)) u_d22 (.clk_i, .d_i({k18_valid, k18_poison, k18_cand}), .q_o({k22_valid, k22_poison, k22_cand}));
 
     // ================================================================ K23: n0 + n1
     logic signed [71:0] k23_n01;
     logic signed [69:0] k23_n2;
     logic               k23_valid, k23_poison, k23_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         k23_n01 <= 72'(k22_n[0]) + 72'(k22_n[1]);
         k23_n2 <= k22_n[2];
         k23_valid <= k22_valid;
@@ -276,7 +277,7 @@ module isect_pipe #(
     logic signed [71:0] k24_n;
     logic [57:0]        k24_den;
     logic               k24_valid, k24_poison, k24_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         k24_n <= k23_n01 + 72'(k23_n2);
         k24_den <= k23_den[57:0];
         k24_valid <= k23_valid;
@@ -289,9 +290,9 @@ module isect_pipe #(
     logic [69:0]  k25_n;
     logic [57:0]  k25_den;
     logic         k25_valid, k25_poison, k25_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic front;
-        front = dz_neg ? k24_n < 0 : k24_n > 0;
+        front = dz_neg_i ? k24_n < 0 : k24_n > 0;
         k25_n <= 70'(k24_n[71] ? -k24_n : k24_n);
         k25_den <= k24_den;
         k25_valid <= k24_valid;
@@ -302,14 +303,14 @@ module isect_pipe #(
     // ================================================================ K26: operand lengths
     logic [6:0]   n_len;
     logic [5:0]   den_len;
-    bit_length #(.W(70)) u_n_len (.x(k25_n), .len(n_len));
-    bit_length #(.W(58)) u_den_len (.x(k25_den), .len(den_len));
+    gridrt_bit_length #(.W(70)) u_n_len (.x_i(k25_n), .len_o(n_len));
+    gridrt_bit_length #(.W(58)) u_den_len (.x_i(k25_den), .len_o(den_len));
     logic [69:0]  k26_n;
     logic [57:0]  k26_den;
     logic [6:0]   k26_ln;
     logic [5:0]   k26_ld;
     logic         k26_valid, k26_poison, k26_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         k26_n <= k25_n;
         k26_den <= k25_den;
         k26_ln <= n_len;
@@ -324,10 +325,10 @@ module isect_pipe #(
     logic [57:0]         k27_dn;
     logic signed [10:0]  k27_exp;
     logic                k27_valid, k27_poison, k27_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         k27_nn <= k26_n << (7'd70 - k26_ln);
         k27_dn <= k26_den << (6'd58 - k26_ld);
-        k27_exp <= 11'($signed({4'd0, k26_ln})) - 11'($signed({5'd0, k26_ld})) - 11'sd26 + 11'(texp);
+        k27_exp <= 11'($signed({4'd0, k26_ln})) - 11'($signed({5'd0, k26_ld})) - 11'sd26 + 11'(texp_i);
         k27_valid <= k26_valid;
         k27_poison <= k26_poison;
         k27_cand <= k26_cand;
@@ -345,7 +346,7 @@ module isect_pipe #(
     assign dv_low[0] = k27_nn[12:0];
     assign dv_q[0] = 27'd0;
     for (genvar j = 0; j < DIV_STEPS; j++) begin : g_div
-        always_ff @(posedge clk) begin
+        always_ff @(posedge clk_i) begin
             logic [58:0] r;
             logic [59:0] diff;
             r = {dv_r[j][57:0], dv_low[j][12]};
@@ -364,8 +365,8 @@ module isect_pipe #(
     end
     logic signed [10:0] k54_exp;
     logic               k54_valid, k54_poison, k54_cand;
-    delay #(.W(14), .N(DIV_STEPS)) u_d54 (.clk, .d({k27_exp, k27_valid, k27_poison, k27_cand}),
-                                          .q({k54_exp, k54_valid, k54_poison, k54_cand}));
+    gridrt_delay #(.W(14), .N(DIV_STEPS)) u_d54 (.clk_i, .d_i({k27_exp, k27_valid, k27_poison, k27_cand}),
+                                          .q_o({k54_exp, k54_valid, k54_poison, k54_cand}));
 
     // ================================================================ K55: rounding position
     // The quotient q (27 bits) has its leading one at bit 26 or 25. e = exponent of the
@@ -376,7 +377,7 @@ module isect_pipe #(
     logic signed [10:0] k55_e;
     logic [4:0]         k55_dr;
     logic               k55_valid, k55_poison, k55_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic [5:0]         p;
         logic signed [10:0] e, drop;
         p = dv_q[DIV_STEPS][26] ? 6'd27 : 6'd26;
@@ -396,7 +397,7 @@ module isect_pipe #(
     logic               k56_up;
     logic signed [10:0] k56_e;
     logic               k56_valid, k56_poison, k56_cand;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic [27:0] mant;
         logic        half, rest;
         mant = k55_q >> k55_dr;
@@ -443,13 +444,13 @@ module isect_pipe #(
     end
 
     logic [TAG_W-1:0] tag_q;
-    delay #(.W(TAG_W), .N(STAGES)) u_tag (.clk, .d(in_tag), .q(tag_q));
-    always_ff @(posedge clk) begin
-        out_valid <= k56_valid;
-        t <= t_bits;
-        if (k56_poison) kind <= 2'd2;
-        else if (k56_cand && !t_zero && !t_inf) kind <= 2'd1;
-        else kind <= 2'd0;
+    gridrt_delay #(.W(TAG_W), .N(STAGES)) u_tag (.clk_i, .d_i(in_tag_i), .q_o(tag_q));
+    always_ff @(posedge clk_i) begin
+        out_valid_o <= k56_valid;
+        t_o <= t_bits;
+        if (k56_poison) kind_o <= 2'd2;
+        else if (k56_cand && !t_zero && !t_inf) kind_o <= 2'd1;
+        else kind_o <= 2'd0;
     end
-    assign out_tag = tag_q;
+    assign out_tag_o = tag_q;
 endmodule
