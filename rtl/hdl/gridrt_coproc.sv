@@ -2,8 +2,9 @@
 //
 // Two AXI4-Stream-style word streams carry the FSL packets: s_axis (requests, from the
 // soft-core) and m_axis (replies). The FSL control bit is tlast. FSL's "full" on the
-// request side is !s_axis_tready, its "exists" on the reply side is m_axis_tvalid (§4.1 of
-// the README). `idle` is high when the co-processor waits for input with nothing to send.
+// request side is !s_axis_tready_o, its "exists" on the reply side is m_axis_tvalid_o (§2 of
+// the README). `idle_o` is high when the co-processor waits for input with nothing to send.
+// The reset rst_i is synchronous and active high.
 //
 // Parameters: PES processing elements (1..16); PES_PER_PIPELINE of them share one
 // intersection pipeline (1, 2 or 4), each issuing a test every PES_PER_PIPELINE cycles; PE_MEM_WORDS
@@ -52,7 +53,7 @@ module gridrt_coproc #(
     logic [PES-1:0][AW-1:0]  res_tri;
     // Tests and results between the PEs and their shared pipelines; indices PES and above are
     // the unused lanes of the last pipeline when PES is not a multiple of PES_PER_PIPELINE.
-    // A record crosses to its pipeline in parts (pe.sv): three of 4 words read one by one
+    // A record crosses to its pipeline in parts (gridrt_pe.sv): three of 4 words read one by one
     // when four PEs share a pipeline, else PES_PER_PIPELINE parts of one read.
     localparam int PIPES = (PES + PES_PER_PIPELINE - 1) / PES_PER_PIPELINE;
     localparam int LANES = PIPES * PES_PER_PIPELINE;
@@ -104,7 +105,7 @@ module gridrt_coproc #(
     for (genvar q = 0; q < PIPES; q++) begin : g_pipe
         localparam int L0 = q * PES_PER_PIPELINE;
         gridrt_isect_share #(.LANES(PES_PER_PIPELINE), .PARTS(PARTS), .PART_W(PART_W), .PIPE_LATENCY(PIPE_LATENCY)) u_share (
-            .clk_i,
+            .clk_i, .rst_i,
             .in_valid_i(t_valid[L0 +: PES_PER_PIPELINE]), .in_part_i(t_part[L0 +: PES_PER_PIPELINE]),
             .in_chunk_i(t_chunk[L0 +: PES_PER_PIPELINE]),
             .o0_i($signed(o[0])), .o1_i($signed(o[1])), .o2_i($signed(o[2])), .kz_i(kz), .sx_i(sx), .sy_i(sy), .dz_neg_i(dz_neg), .dz_abs_i(dz_abs),

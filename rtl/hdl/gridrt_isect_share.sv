@@ -4,7 +4,7 @@
 // A lane's PE sends a test's record in PARTS parts of PART_W bits (in_part numbers them, the
 // last may be partly unused); the parts before the last wait in registers here, so the long
 // wires from each PE memory carry one part. Every PE issues in the exec cycles that are
-// multiples of LANES and sends its last part at the same offset from its issue (pe.sv's
+// multiples of LANES and sends its last part at the same offset from its issue (gridrt_pe.sv's
 // timeline), so lane l's assembled tests are delayed l cycles and the lanes take turns: at
 // most one test enters per cycle. The lanes' tests are merged by OR (a lane's delayed record
 // is zero when it has none) into one register beside the pipeline. Lane l's results are held
@@ -20,6 +20,7 @@ module gridrt_isect_share #(
     localparam int LATENCY = PIPE_LATENCY + LANES
 ) (
     input  logic                            clk_i,
+    input  logic                            rst_i,      // synchronous, active high: clears the valid bits
     // Tests of the lanes' PEs: a record's parts, low bits first, each with in_valid.
     input  logic [LANES-1:0]                in_valid_i,
     input  logic [LANES-1:0][1:0]           in_part_i,
@@ -66,13 +67,13 @@ module gridrt_isect_share #(
             assign all = {in_chunk_i[l], early};
             assign whole = all[287:0];
         end
-        gridrt_delay #(.W(1 + 288), .N(l)) u_lane (.clk_i, .d_i({whole_valid, whole_valid ? whole : 288'd0}),
-                                            .q_o({d_valid[l], d_rec[l]}));
+        gridrt_delay_rst #(.W(1), .N(l)) u_lane_valid (.clk_i, .rst_i, .d_i(whole_valid), .q_o(d_valid[l]));
+        gridrt_delay #(.W(288), .N(l)) u_lane (.clk_i, .d_i(whole_valid ? whole : 288'd0), .q_o(d_rec[l]));
     end
 `ifndef SYNTHESIS
     // The timeline keeps the lanes apart; a collision would merge two tests.
-    always_ff @(posedge clk_i)
-        if (!$onehot0(d_valid)) $fatal(1, "isect_share: two lanes' tests in the same cycle");
+    LanesApart: assert property (@(posedge clk_i) disable iff (rst_i) $onehot0(d_valid))
+        else $fatal(1, "gridrt_isect_share: two lanes' tests in the same cycle");
 `endif
 
     // The merged test, registered beside the pipeline; its lane number rides along as the tag.
@@ -88,9 +89,12 @@ module gridrt_isect_share #(
             lane = lane | (d_valid[l] ? LW'(l) : LW'(0));
             rec = rec | d_rec[l];
         end
-        m_valid <= |d_valid;
         m_lane <= lane;
         m_rec <= rec;
+    end
+    always_ff @(posedge clk_i) begin
+        if (rst_i) m_valid <= 1'b0;
+        else m_valid <= |d_valid;
     end
 
     // The ray constants, registered here: one copy next to each pipeline instead of one net
@@ -114,7 +118,7 @@ module gridrt_isect_share #(
     logic [1:0]    p_kind;
     logic [31:0]   p_t;
     gridrt_isect_pipe #(.TAG_W(LW), .LATENCY(PIPE_LATENCY)) u_pipe (
-        .clk_i, .in_valid_i(m_valid), .in_tag_i(m_lane), .rec_i(m_rec),
+        .clk_i, .rst_i, .in_valid_i(m_valid), .in_tag_i(m_lane), .rec_i(m_rec),
         .o0_i(r_o0), .o1_i(r_o1), .o2_i(r_o2), .kz_i(r_kz), .sx_i(r_sx), .sy_i(r_sy), .dz_neg_i(r_dz_neg),
         .dz_abs_i(r_dz_abs), .texp_i(r_texp), .ray_overflow_i(r_ray_overflow),
         .out_valid_o(p_valid), .out_tag_o(p_lane), .kind_o(p_kind), .t_o(p_t));
@@ -123,7 +127,8 @@ module gridrt_isect_share #(
     for (genvar l = 0; l < LANES; l++) begin : g_out
         logic mine;
         assign mine = p_valid && (LANES == 1 || p_lane == LW'(l));
-        gridrt_delay #(.W(1 + 2 + 32), .N(LANES - 1 - l)) u_lane (
-            .clk_i, .d_i({mine, p_kind, p_t}), .q_o({out_valid_o[l], out_kind_o[l], out_t_o[l]}));
+        gridrt_delay_rst #(.W(1), .N(LANES - 1 - l)) u_lane_valid (.clk_i, .rst_i, .d_i(mine), .q_o(out_valid_o[l]));
+        gridrt_delay #(.W(2 + 32), .N(LANES - 1 - l)) u_lane (
+            .clk_i, .d_i({p_kind, p_t}), .q_o({out_kind_o[l], out_t_o[l]}));
     end
 endmodule

@@ -41,7 +41,7 @@ module gridrt_units_top (
                        .huge_o(fx_huge_o));
     logic is_tag_unused;
     gridrt_isect_pipe #(.TAG_W(1)) u_is (
-        .clk_i, .in_valid_i(is_valid_i), .in_tag_i(1'b0), .rec_i(is_rec_i),
+        .clk_i, .rst_i(1'b0), .in_valid_i(is_valid_i), .in_tag_i(1'b0), .rec_i(is_rec_i),
         .o0_i(is_o0_i), .o1_i(is_o1_i), .o2_i(is_o2_i), .kz_i(is_kz_i), .sx_i(is_sx_i), .sy_i(is_sy_i),
         .dz_neg_i(is_dz_neg_i), .dz_abs_i(is_dz_abs_i), .texp_i(is_texp_i), .ray_overflow_i(is_ray_overflow_i),
         .out_valid_o(is_out_valid_o), .out_tag_o(is_tag_unused), .kind_o(is_kind_o), .t_o(is_t_o));
