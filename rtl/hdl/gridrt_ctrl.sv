@@ -110,6 +110,7 @@ module gridrt_ctrl #(
     logic signed [9:0]  frame_s;
     logic [2:0][54:0]   frame_qm;
     logic [2:0]         frame_huge;
+    logic [5:0][31:0]   frame_box;      // FRAME's box: min xyz, max xyz
 
     // ================================================================ helpers
     function automatic [31:0] err_word(input [11:0] code, input [15:0] detail);
@@ -167,33 +168,27 @@ module gridrt_ctrl #(
                       .done_o(tl_done), .coord_o(tl_coord), .normal_o(tl_normal));
 
     // ================================================================ frame computation
-    logic [5:0][31:0]  fr_box;         // min xyz, max xyz
-    logic [4:0]        fr_step;
-    logic              fr_sub_in, fr_sub_out;
-    logic [31:0]       fr_sub_a, fr_sub_b, fr_sub_y, fr_ext;
-    logic signed [9:0] fr_s;
-    logic [31:0]       fr_cv_x;
-    logic signed [54:0] fr_cv_q;
-    logic              fr_cv_huge;
-    gridrt_f32_addsub u_fr_sub (.clk_i, .in_valid_i(fr_sub_in), .a_i(fr_sub_a), .b_i(fr_sub_b), .sub_i(1'b1),
-                         .out_valid_o(fr_sub_out), .y_o(fr_sub_y));
-    // Schedule: max - min in steps 1-3, the extent's s in FR_STEP_S, the conversions of the
-    // minimum from FR_STEP_CV, the frame set in FR_STEP_END.
-    localparam int FR_ADD_LAT = 7;      // f32_addsub
-    localparam int FR_CV_LAT = 4;       // f32_to_fixed
-    localparam int FR_STEP_S = 4 + FR_ADD_LAT;
-    localparam int FR_STEP_CV = FR_STEP_S + 1;
-    localparam int FR_STEP_END = FR_STEP_CV + 2 + FR_CV_LAT;
-    logic              fr_cv_in, fr_cv_out_unused;
-    gridrt_f32_to_fixed u_fr_cv (.clk_i, .in_valid_i(fr_cv_in), .x_i(fr_cv_x), .k_i(fr_s + 10'sd23), .out_valid_o(fr_cv_out_unused),
-                          .q_o(fr_cv_q), .huge_o(fr_cv_huge));
+    // The FRAME packet's box goes to gridrt_ctrl_frame word by word; at its last word the box
+    // is checked (frame_bad: 0, or ERROR 12's detail) and, if it is good and the packet ends
+    // there, the computation starts (the FRAME phase; frame_done at its last step).
+    logic        frame_box_we, frame_start, frame_done;
+    logic [15:0] frame_bad;
     always_comb begin
-        fr_sub_in = busy == BZ_FRAME && fr_step >= 5'd1 && fr_step <= 5'd3;
-        fr_sub_a = fr_box[3 + int'(fr_step) - 1];
-        fr_sub_b = fr_box[int'(fr_step) - 1];
-        fr_cv_in = busy == BZ_FRAME && fr_step >= 5'(FR_STEP_CV) && fr_step <= 5'(FR_STEP_CV + 2);
-        fr_cv_x = fr_box[fr_cv_in ? int'(fr_step) - FR_STEP_CV : 0];
+        logic [191:0] box;
+        frame_box_we = accept && rx == RX_FRAME;
+        box = {s_tdata_i, frame_box[4], frame_box[3], frame_box[2], frame_box[1], frame_box[0]};
+        frame_bad = 16'd0;
+        for (int i = 5; i >= 0; i--) if (!is_finite(box[32*i +: 32])) frame_bad = 16'(i + 1);
+        if (frame_bad == 0) begin
+            for (int a = 2; a >= 0; a--)
+                if (f32_lt(box[32*(3 + a) +: 32], box[32*a +: 32])) frame_bad = 16'(4 + a);
+        end
+        frame_start = frame_box_we && ray_idx == 16'd6 && frame_bad == 0 && s_tlast_i;
     end
+    gridrt_ctrl_frame u_frame (
+        .clk_i, .rst_i, .box_we_i(frame_box_we), .box_idx_i(3'(ray_idx - 16'd1)), .box_word_i(s_tdata_i),
+        .box_o(frame_box), .start_i(frame_start), .run_i(busy == BZ_FRAME), .done_o(frame_done),
+        .frame_s_o(frame_s), .frame_qm_o(frame_qm), .frame_huge_o(frame_huge));
 
     // ================================================================ ray setup
     logic rs_start, rs_done, rs_overflow;
@@ -250,17 +245,14 @@ module gridrt_ctrl #(
             busy <= BZ_NONE;
             tl_wr <= 4'd0;
             loaded <= '0;
-            frame_s <= '0;
-            frame_qm <= '0;
-            frame_huge <= '0;
         end else if (accept) begin
             // ------------------------------------------------ one request word
             w = s_tdata_i;
             ctl = s_tlast_i;
             op = w[31:28];
-            case (rx)
+            unique case (rx)
                 RX_IDLE: begin
-                    case (op)
+                    unique case (op)
                         OP_LOAD: begin
                             if (w[7:0] >= 8'(PES)) begin
                                 fail(E_PE_RANGE, 16'(w[7:0]), ctl);
@@ -330,21 +322,12 @@ module gridrt_ctrl #(
                 RX_LOAD_WORDS: load_word(w, ctl);
                 RX_RAY: ray_word(w, ctl);
                 RX_FRAME: begin
-                    fr_box[ray_idx - 16'd1] <= w;
+                    // The word goes into gridrt_ctrl_frame's box (frame_box_we).
                     if (ray_idx == 16'd6) begin
-                        logic [15:0]  bad;
-                        logic [191:0] box;
-                        box = {w, fr_box[4], fr_box[3], fr_box[2], fr_box[1], fr_box[0]};
-                        bad = 16'd0;
-                        for (int i = 5; i >= 0; i--) if (!is_finite(box[32*i +: 32])) bad = 16'(i + 1);
-                        if (bad == 0) begin
-                            for (int a = 2; a >= 0; a--)
-                                if (f32_lt(box[32*(3 + a) +: 32], box[32*a +: 32])) bad = 16'(4 + a);
-                        end
-                        if (bad != 0) fail(E_BAD_FRAME, bad, ctl);
+                        if (frame_bad != 0) fail(E_BAD_FRAME, frame_bad, ctl);
                         else if (!ctl) fail(E_MISSING_CONTROL, 16'd6, 1'b0);
                         else begin
-                            fr_step <= 5'd1;
+                            // frame_start: gridrt_ctrl_frame begins.
                             busy <= BZ_FRAME;
                             rx <= RX_IDLE;
                         end
@@ -358,7 +341,7 @@ module gridrt_ctrl #(
             endcase
         end else begin
             // ------------------------------------------------ busy phases
-            case (busy)
+            unique case (busy)
                 BZ_LOOKUP: lookup_step();
                 BZ_HI: begin
                     if (hi_out) begin
@@ -382,7 +365,13 @@ module gridrt_ctrl #(
                 end
                 BZ_TRI: tri_step();
                 BZ_LOAD_FINISH: load_finish();
-                BZ_FRAME: frame_step();
+                BZ_FRAME: begin
+                    if (frame_done) begin
+                        loaded <= '0;
+                        reply({4'h9, OP_FRAME, 24'd0});
+                        busy <= BZ_NONE;
+                    end
+                end
                 BZ_SETUP: begin
                     if (rs_done) begin
                         pe_start_o <= 1'b1;
@@ -471,7 +460,7 @@ module gridrt_ctrl #(
         if (i >= 5) begin
             if (i38 < ld_vox_end) begin
                 // Voxel table: ids strictly increasing, first + count <= R.
-                case (ld_sub3)
+                unique case (ld_sub3)
                     2'd0: begin
                         if (ld_have_prev && w <= ld_prev_id) ld_bad <= 1'b1;
                         ld_prev_id <= w;
@@ -498,7 +487,7 @@ module gridrt_ctrl #(
                 ld_sub11 <= (ld_sub11 == 4'd10) ? 4'd0 : ld_sub11 + 4'd1;
             end else if (i38 < ld_need) begin
                 // Analytic primitive: kind 1..5, material <= 65535, transform finite.
-                case (ld_sub16)
+                unique case (ld_sub16)
                     4'd0: if (w == 0 || w > 32'd5) ld_bad <= 1'b1;
                     4'd1: ;
                     4'd2: if (w > 32'd65535) ld_bad <= 1'b1;
@@ -546,7 +535,7 @@ module gridrt_ctrl #(
             logic [31:0]   word;
             j = tl_done ? 4'd0 : tl_wr;
             rec_addr = AW'(ld_rec_addr) + AW'(j);
-            case (j)
+            unique case (j)
                 4'd9: word = ld_prim;
                 4'd10: word = tl_normal[0];
                 4'd11: word = tl_normal[1];
@@ -589,47 +578,6 @@ module gridrt_ctrl #(
             ref_off_q[ld_pe] <= AW'(ld_vox_end);
             pe_tri_off[ld_pe] <= AW'(ld_ref_end);
             reply({4'h9, OP_LOAD, 16'd0, 8'(ld_pe)});
-        end
-    endtask
-
-    // ---------------------------------------------------------------- FRAME computation
-    task automatic frame_step();
-        fr_step <= fr_step + 5'd1;
-        // Steps 1-3 issue max - min, results FR_ADD_LAT steps later; the extent is the largest.
-        if (fr_step == 5'(1 + FR_ADD_LAT)) fr_ext <= fr_sub_y;
-        if (fr_step == 5'(2 + FR_ADD_LAT) || fr_step == 5'(3 + FR_ADD_LAT))
-            if (fr_sub_y[30:0] > fr_ext[30:0]) fr_ext <= fr_sub_y;
-        if (fr_step == 5'(FR_STEP_S)) begin
-            // s = 4 - ceil(log2 extent); 0 for a zero extent.
-            logic signed [9:0] e;
-            logic              pow2;
-            logic [4:0]        msb;
-            msb = 5'd0;
-            for (int i = 0; i < 23; i++) if (fr_ext[i]) msb = 5'(i);
-            if (fr_ext[30:23] == 8'hFF) begin
-                e = 10'sd128;
-                pow2 = 1'b1;
-            end else if (fr_ext[30:23] != 0) begin
-                e = $signed({2'b00, fr_ext[30:23]}) - 10'sd127;
-                pow2 = fr_ext[22:0] == 0;
-            end else begin
-                e = $signed({5'd0, msb}) - 10'sd149;
-                pow2 = (fr_ext[22:0] & (fr_ext[22:0] - 23'd1)) == 0;
-            end
-            fr_s <= (fr_ext[30:0] == 0) ? 10'sd0 : (pow2 ? 10'sd4 - e : 10'sd3 - e);
-        end
-        // Conversions of the minimum in steps 8-10, ready FR_CV_LAT steps later.
-        for (int a = 0; a < 3; a++) begin
-            if (fr_step == 5'(FR_STEP_CV + FR_CV_LAT + a)) begin
-                frame_qm[a] <= fr_cv_q;
-                frame_huge[a] <= fr_cv_huge;
-            end
-        end
-        if (fr_step == 5'(FR_STEP_END)) begin
-            frame_s <= fr_s;
-            loaded <= '0;
-            reply({4'h9, OP_FRAME, 24'd0});
-            busy <= BZ_NONE;
         end
     endtask
 
@@ -692,7 +640,7 @@ module gridrt_ctrl #(
     task automatic lookup_step();
         logic [AW:0] mid;
         mid = lk_lo + ((lk_hi - lk_lo) >> 1);
-        case (lk_step)
+        unique case (lk_step)
             4'd1: begin
                 if (lk_lo >= lk_hi) begin
                     lk_step <= 4'd15;
@@ -749,7 +697,7 @@ module gridrt_ctrl #(
     // address), then 8 words.
     task automatic result_step();
         res_step <= res_step + 4'd1;
-        case (res_step)
+        unique case (res_step)
             4'd0: pe_res_k_o <= win_k;
             4'd2: begin
                 // The PE's result memory answers in this step (block RAM outputs): registered
@@ -769,7 +717,7 @@ module gridrt_ctrl #(
         if (res_step >= 4'd5 && res_step <= 4'd12) begin
             logic [31:0] rd, word;
             rd = pe_a_rdata_i[win_pe];
-            case (res_step)
+            unique case (res_step)
                 4'd5: word = {4'h8, win_hit ? 12'(win_k) : 12'd0, win_hit ? 8'(win_pe) : 8'd0, 7'd0, win_hit};
                 4'd6: word = win_hit ? win_t : 32'h7F80_0000;
                 4'd7: word = win_hit ? rd : 32'd0;
