@@ -1,6 +1,6 @@
 // gridrt_pe: one processing element: its memory, its queue of list entries, the test issue loop
 // and the per-entry result (rtl/README.md §4.3). Its tests go out on the t_* ports to the
-// intersection pipeline it shares with ISSUE_INTERVAL - 1 other PEs (isect_share.sv) and come
+// intersection pipeline it shares with ISSUE_INTERVAL - 1 other PEs (gridrt_isect_share.sv) and come
 // back on r_*.
 //
 // Timeline of a ray (the model's `PeTimeline` with issue interval I = ISSUE_INTERVAL and
@@ -83,16 +83,16 @@ module gridrt_pe #(
     if (PARTED ? (PARTS != 3 || PART_W != 128) : (PARTS != ISSUE_INTERVAL || PART_W * PARTS != 288)) begin : g_bad_parts
         $error("pe: PARTS and PART_W do not match ISSUE_INTERVAL");
     end
-    logic          active;     // executing a ray: the issue loop reads the memory
-    logic [AW-1:0] x_a_addr, x_b_addr, x_b_addr4, x_b_addr8;
-    logic          iss_valid;  // an issue in the last cycle: its ref word is read now
+    logic          active_q, active_d;     // executing a ray: the issue loop reads the memory
+    logic [AW-1:0] x_a_addr_q, x_a_addr_d, x_b_addr, x_b_addr4, x_b_addr8;
+    logic          iss_valid_q, iss_valid_d;  // an issue in the last cycle: its ref word is read now
     logic          rd_part1, rd_part2;     // PARTED: the record's second and third reads now
     logic [31:0]   w_rdata, r_word, ref_word;
     logic [32*RD_WORDS-1:0] r_window;      // a record (9 coordinates, prim) or a part of one
     logic [AW-1:0] r_addr;
     always_comb begin
-        if (!active) r_addr = c_a_addr_i;
-        else if (!WORD_PORT && iss_valid) r_addr = x_a_addr;
+        if (!active_q) r_addr = c_a_addr_i;
+        else if (!WORD_PORT && iss_valid_q) r_addr = x_a_addr_q;
         else if (PARTED && rd_part1) r_addr = x_b_addr4;
         else if (PARTED && rd_part2) r_addr = x_b_addr8;
         else r_addr = x_b_addr;
@@ -106,13 +106,13 @@ module gridrt_pe #(
     logic [31:0]   w_data_q;
     always_ff @(posedge clk_i) begin
         w_addr_q <= c_a_addr_i;
-        w_en_q <= !active && c_a_we_i && !rst_i;
+        w_en_q <= !active_q && c_a_we_i && !rst_i;
         w_data_q <= c_a_wdata_i;
     end
     gridrt_pe_mem #(.WORDS(WORDS), .BANKS(PARTED ? 4 : 16), .RD_WORDS(RD_WORDS), .WORD_PORT(WORD_PORT)) u_mem (
         .clk_i,
-        .w_addr_i(WORD_PORT ? (active ? x_a_addr : c_a_addr_i) : w_addr_q),
-        .w_en_i(WORD_PORT ? !active && c_a_we_i : w_en_q), .w_data_i(WORD_PORT ? c_a_wdata_i : w_data_q),
+        .w_addr_i(WORD_PORT ? (active_q ? x_a_addr_q : c_a_addr_i) : w_addr_q),
+        .w_en_i(WORD_PORT ? !active_q && c_a_we_i : w_en_q), .w_data_i(WORD_PORT ? c_a_wdata_i : w_data_q),
         .w_rdata_o(w_rdata), .r_addr_i(r_addr), .r_window_o(r_window), .r_word_o(r_word));
     // The single-word read: the controller's reads and the PE's ref words (the same port).
     assign ref_word = WORD_PORT ? w_rdata : r_word;
@@ -121,92 +121,108 @@ module gridrt_pe #(
     // ---------------------------------------------------------------- entry queue
     logic [KW+2*AW-1:0] q_mem [MAX_LIST];
     logic [KW+2*AW-1:0] q_rdata;
-    logic [KW:0]        q_n, q_raddr;
+    logic [KW:0]        q_n_q, q_raddr_q, q_n_d, q_raddr_d;
     logic [31:0]        hi_mem [MAX_LIST];
     always_ff @(posedge clk_i) begin
         if (q_push_i) begin
-            q_mem[q_n[KW-1:0]] <= {q_k_i, q_first_i, q_count_i};
+            q_mem[q_n_q[KW-1:0]] <= {q_k_i, q_first_i, q_count_i};
             hi_mem[q_k_i] <= q_hi_i;
         end
-        q_rdata <= q_mem[q_raddr[KW-1:0]];
+        q_rdata <= q_mem[q_raddr_q[KW-1:0]];
     end
 
     // ---------------------------------------------------------------- issue loop
     // An entry's setup is S_SETUP (SETUP - 1 cycles) then S_TAKE; S_GAP follows every issue
-    // for the rest of the issue interval. `phase` counts the cycles spent in a state.
+    // for the rest of the issue interval. `phase_q` counts the cycles spent in a state.
     localparam int SETUP = (ISSUE_INTERVAL > 2) ? ISSUE_INTERVAL : 2;
     typedef enum logic [2:0] { S_IDLE, S_SETUP, S_TAKE, S_ISSUE, S_GAP } state_t;
-    state_t        state;
-    logic [1:0]    phase;
-    logic [KW-1:0] cur_k;
-    logic [AW-1:0] cur_first, cur_count, cur_i;
-    logic          epoch;
-    logic          iss_more;   // the current entry has tests left to issue
-    logic          iss_last;
-    logic [KW-1:0] iss_k;
-    always_ff @(posedge clk_i) begin
+    state_t        state_q, state_d;
+    logic [1:0]    phase_q, phase_d;
+    logic [KW-1:0] cur_k_q, cur_k_d;
+    logic [AW-1:0] cur_first_q, cur_count_q, cur_i_q, cur_first_d, cur_count_d, cur_i_d;
+    logic          epoch_q, epoch_d;
+    logic [31:0]   issued_q, issued_d;
+    assign issued_o = issued_q;
+    logic          iss_more_q, iss_more_d;   // the current entry has tests left to issue
+    logic          iss_last_q, iss_last_d;
+    logic [KW-1:0] iss_k_q, iss_k_d;
+    always_comb begin
         logic more;
-        iss_valid <= 1'b0;
-        phase <= phase + 2'd1;
-        more = cur_i != cur_count - 1'b1;
+        state_d = state_q;
+        active_d = active_q;
+        q_n_d = q_n_q;
+        q_raddr_d = q_raddr_q;
+        epoch_d = epoch_q;
+        issued_d = issued_q;
+        cur_k_d = cur_k_q;
+        cur_first_d = cur_first_q;
+        cur_count_d = cur_count_q;
+        cur_i_d = cur_i_q;
+        iss_last_d = iss_last_q;
+        iss_k_d = iss_k_q;
+        x_a_addr_d = x_a_addr_q;
+        iss_more_d = iss_more_q;
+        iss_valid_d = 1'b0;
+        phase_d = phase_q + 2'd1;
+        more = cur_i_q != cur_count_q - 1'b1;
         if (rst_i) begin
-            state <= S_IDLE;
-            active <= 1'b0;
-            q_n <= '0;
-            q_raddr <= '0;
-            epoch <= 1'b0;
-            issued_o <= 32'd0;
+            state_d = S_IDLE;
+            active_d = 1'b0;
+            q_n_d = '0;
+            q_raddr_d = '0;
+            epoch_d = 1'b0;
+            issued_d = 32'd0;
         end else begin
             if (ray_begin_i) begin
-                q_n <= '0;
-                q_raddr <= '0;
+                q_n_d = '0;
+                q_raddr_d = '0;
             end else if (q_push_i) begin
-                q_n <= q_n + 1'b1;
+                q_n_d = q_n_q + 1'b1;
             end
             if (start_i) begin
-                state <= S_SETUP;
-                phase <= '0;
-                active <= 1'b1;
-                epoch <= !epoch;
-                issued_o <= 32'd0;
+                state_d = S_SETUP;
+                phase_d = '0;
+                active_d = 1'b1;
+                epoch_d = !epoch_q;
+                issued_d = 32'd0;
             end else if (stop_i) begin
-                state <= S_IDLE;
-                active <= 1'b0;
-                q_raddr <= '0;
+                state_d = S_IDLE;
+                active_d = 1'b0;
+                q_raddr_d = '0;
             end else begin
-                case (state)
-                    S_SETUP: if (phase == 2'(SETUP - 2)) state <= S_TAKE;
+                unique case (state_q)
+                    S_SETUP: if (phase_q == 2'(SETUP - 2)) state_d = S_TAKE;
                     S_TAKE: begin
-                        phase <= '0;
-                        if (q_raddr == q_n) begin
-                            state <= S_IDLE;
+                        phase_d = '0;
+                        if (q_raddr_q == q_n_q) begin
+                            state_d = S_IDLE;
                         end else begin
-                            {cur_k, cur_first, cur_count} <= q_rdata;
-                            cur_i <= '0;
-                            q_raddr <= q_raddr + 1'b1;
+                            {cur_k_d, cur_first_d, cur_count_d} = q_rdata;
+                            cur_i_d = '0;
+                            q_raddr_d = q_raddr_q + 1'b1;
                             if (q_rdata[AW-1:0] == 0) begin
-                                state <= S_SETUP;   // done (pend, below)
+                                state_d = S_SETUP;   // done (pend, below)
                             end else begin
-                                state <= S_ISSUE;
+                                state_d = S_ISSUE;
                             end
                         end
                     end
                     S_ISSUE: begin
-                        iss_valid <= 1'b1;
-                        iss_last <= !more;
-                        iss_k <= cur_k;
-                        x_a_addr <= ref_off_i + cur_first + cur_i;
-                        issued_o <= issued_o + 1;
-                        cur_i <= cur_i + 1'b1;
-                        iss_more <= more;
-                        phase <= '0;
-                        if (ISSUE_INTERVAL > 1) state <= S_GAP;
-                        else if (!more) state <= S_SETUP;
+                        iss_valid_d = 1'b1;
+                        iss_last_d = !more;
+                        iss_k_d = cur_k_q;
+                        x_a_addr_d = ref_off_i + cur_first_q + cur_i_q;
+                        issued_d = issued_q + 1;
+                        cur_i_d = cur_i_q + 1'b1;
+                        iss_more_d = more;
+                        phase_d = '0;
+                        if (ISSUE_INTERVAL > 1) state_d = S_GAP;
+                        else if (!more) state_d = S_SETUP;
                     end
                     S_GAP: begin
-                        if (phase == 2'(ISSUE_INTERVAL - 2)) begin
-                            state <= iss_more ? S_ISSUE : S_SETUP;
-                            phase <= '0;
+                        if (phase_q == 2'(ISSUE_INTERVAL - 2)) begin
+                            state_d = iss_more_q ? S_ISSUE : S_SETUP;
+                            phase_d = '0;
                         end
                     end
                     default: ;
@@ -215,12 +231,30 @@ module gridrt_pe #(
         end
     end
 
-    // A test issued in cycle c presents its ref address (x_a_addr) and its tag in cycle c+1;
+    always_ff @(posedge clk_i) begin
+        state_q <= state_d;
+        phase_q <= phase_d;
+        active_q <= active_d;
+        q_n_q <= q_n_d;
+        q_raddr_q <= q_raddr_d;
+        epoch_q <= epoch_d;
+        issued_q <= issued_d;
+        cur_k_q <= cur_k_d;
+        cur_first_q <= cur_first_d;
+        cur_count_q <= cur_count_d;
+        cur_i_q <= cur_i_d;
+        iss_valid_q <= iss_valid_d;
+        iss_last_q <= iss_last_d;
+        iss_k_q <= iss_k_d;
+        x_a_addr_q <= x_a_addr_d;
+        iss_more_q <= iss_more_d;
+    end
+    // A test issued in cycle c presents its ref address (x_a_addr_q) and its tag in cycle c+1;
     // the ref word arrives in c+3, the record's address is read in c+4 (and c+6, c+7) and its
     // window arrives two cycles after each read (pe_mem).
     logic [KW+1:0] tag_p2;
     logic          v_p2;
-    gridrt_delay #(.W(KW+3), .N(2)) u_dp2 (.clk_i, .d_i({iss_valid, epoch, iss_last, iss_k}), .q_o({v_p2, tag_p2}));
+    gridrt_delay #(.W(KW+3), .N(2)) u_dp2 (.clk_i, .d_i({iss_valid_q, epoch_q, iss_last_q, iss_k_q}), .q_o({v_p2, tag_p2}));
     logic [AW-1:0] ref_tri;
     assign ref_tri = ref_word[AW-1:0];
     // Record t at WORDS - 10 (t + 1) (the controller stacks them from the top down).
@@ -290,12 +324,22 @@ module gridrt_pe #(
         assign tag_in = {tag_p5, tri_p5, r_window[32*9 +: 32]};
     end
     logic [TAG_W-1:0] r_tag;
-    logic             r_expected;
     localparam int TAG_DELAY = RESULT_LATENCY + (PARTED ? 1 : PARTS);
-    gridrt_delay_ram #(.W(1 + TAG_W), .N(TAG_DELAY)) u_tag (.clk_i, .d_i({tag_in_valid, tag_in}), .q_o({r_expected, r_tag}));
+    gridrt_delay_ram #(.W(TAG_W), .N(TAG_DELAY)) u_tag (.clk_i, .d_i(tag_in), .q_o(r_tag));
 `ifndef SYNTHESIS
-    always_ff @(posedge clk_i)
-        if (!rst_i && r_valid_i != r_expected) $fatal(1, "pe: a result not RESULT_LATENCY cycles after its test");
+    // Every result comes TAG_DELAY cycles after its test's tag entered u_tag, when the tag
+    // comes out (checked from TAG_DELAY cycles after a reset on: a reset may drop the tests
+    // in flight).
+    logic r_expected;
+    int   settled_q;
+    gridrt_delay #(.W(1), .N(TAG_DELAY)) u_expected (.clk_i, .d_i(tag_in_valid), .q_o(r_expected));
+    always_ff @(posedge clk_i) begin
+        if (rst_i) settled_q <= 0;
+        else if (settled_q <= TAG_DELAY) settled_q <= settled_q + 1;
+    end
+    ResultLatency: assert property (@(posedge clk_i) disable iff (rst_i || settled_q <= TAG_DELAY)
+        r_valid_i == r_expected)
+        else $fatal(1, "gridrt_pe: a result not RESULT_LATENCY cycles after its test");
 `endif
 
     // ---------------------------------------------------------------- result stage
@@ -305,7 +349,7 @@ module gridrt_pe #(
     logic [AW-1:0] r0_tri;
     logic [31:0]   r0_t, r0_prim, r0_hi;
     always_ff @(posedge clk_i) begin
-        r0_valid <= r_valid_i && active && r_tag[TAG_W-1] == epoch;
+        r0_valid <= r_valid_i && active_q && r_tag[TAG_W-1] == epoch_q;
         r0_hit <= r_kind_i == 2'd1;
         {r0_last, r0_k} <= r_tag[TAG_W-2 -: KW+1];
         r0_tri <= r_tag[32 +: AW];
@@ -320,7 +364,7 @@ module gridrt_pe #(
     logic [AW-1:0] r1_tri;
     logic [31:0]   r1_t, r1_prim;
     always_ff @(posedge clk_i) begin
-        r1_valid <= r0_valid && active;
+        r1_valid <= r0_valid && active_q;
         r1_acc <= r0_hit && !t_max_i[31] && r0_t[30:0] < t_max_i[30:0] && !r0_hi[31] && r0_t[30:0] <= r0_hi[30:0];
         r1_last <= r0_last;
         r1_k <= r0_k;
@@ -351,7 +395,7 @@ module gridrt_pe #(
         if (start_i) begin
             best_valid <= 1'b0;
             resolved <= 1'b0;
-        end else if (r1_valid && active) begin
+        end else if (r1_valid && active_q) begin
             if (any_i) begin
                 if (r1_acc && !resolved) begin
                     emit = 1'b1;
@@ -395,48 +439,53 @@ module gridrt_pe #(
     // are in list order: the untaken ones follow the taken ones; an entry without tests is
     // done when it is taken, the others in order (`pend`, the taken entries with tests not
     // done yet), at their result stage's event, and so are their hits. So the PE's first
-    // open entry is the oldest in `pend`, else the untaken one at q_raddr, and its first hit
+    // open entry is the oldest in `pend`, else the untaken one at q_raddr_q, and its first hit
     // is the first event with a hit. Both count this cycle's events (the entry of an event
     // in ev1 is done now), like the map bits the arbiter used to keep per entry.
     // More than the entries in flight: a test's latency (≈ 70 cycles) over the 3 cycles an
     // entry with tests takes at least (voxel setup 2, one issue).
     localparam int PEND = 32;
     logic [KW-1:0]       qk_mem [MAX_LIST];     // entry k of queue index i
-    logic [KW-1:0]       head_k, next_k;        // k at q_raddr and q_raddr + 1, a cycle late
-    logic                took;                  // q_raddr moved on last cycle
+    logic [KW-1:0]       head_k, next_k;        // k at q_raddr_q and q_raddr_q + 1, a cycle late
+    logic                took;                  // q_raddr_q moved on last cycle
     logic [KW-1:0]       pend_mem [PEND];
     logic [$clog2(PEND)-1:0] pend_rd, pend_wr;
     logic [$clog2(PEND):0]   pend_n;
     always_ff @(posedge clk_i) begin
-        if (q_push_i) qk_mem[q_n[KW-1:0]] <= q_k_i;
-        head_k <= qk_mem[q_raddr[KW-1:0]];
-        next_k <= qk_mem[KW'(q_raddr[KW-1:0] + 1'b1)];
-        took <= state == S_TAKE && q_raddr != q_n && !start_i && !stop_i;
+        if (q_push_i) qk_mem[q_n_q[KW-1:0]] <= q_k_i;
+        head_k <= qk_mem[q_raddr_q[KW-1:0]];
+        next_k <= qk_mem[KW'(q_raddr_q[KW-1:0] + 1'b1)];
+        took <= state_q == S_TAKE && q_raddr_q != q_n_q && !start_i && !stop_i;
+    end
+    logic pend_push, pend_pop;
+    always_comb begin
+        pend_push = state_q == S_TAKE && q_raddr_q != q_n_q && q_rdata[AW-1:0] != 0 && !start_i && !stop_i;
+        pend_pop = ev1_valid && pend_n != 0;
     end
     always_ff @(posedge clk_i) begin
-        logic pop, push;
-        push = state == S_TAKE && q_raddr != q_n && q_rdata[AW-1:0] != 0 && !start_i && !stop_i;
-        pop = ev1_valid && pend_n != 0;
-        if (push) pend_mem[pend_wr] <= q_rdata[KW+2*AW-1 -: KW];
+        if (pend_push) pend_mem[pend_wr] <= q_rdata[KW+2*AW-1 -: KW];
         if (rst_i || start_i) begin
             pend_rd <= '0;
             pend_wr <= '0;
             pend_n <= '0;
         end else begin
-            pend_wr <= pend_wr + $clog2(PEND)'(push);
-            pend_rd <= pend_rd + $clog2(PEND)'(pop);
-            pend_n <= pend_n + ($clog2(PEND)+1)'(push) - ($clog2(PEND)+1)'(pop);
+            pend_wr <= pend_wr + $clog2(PEND)'(pend_push);
+            pend_rd <= pend_rd + $clog2(PEND)'(pend_pop);
+            pend_n <= pend_n + ($clog2(PEND)+1)'(pend_push) - ($clog2(PEND)+1)'(pend_pop);
         end
     end
 `ifndef SYNTHESIS
-    always_ff @(posedge clk_i)
-        if (!rst_i && pend_n == ($clog2(PEND)+1)'(PEND)) $fatal(1, "pe: more entries in flight than pend holds");
+    // Bounds of pend: never full (sized above the entries in flight), no pop when empty.
+    PendNeverFull: assert property (@(posedge clk_i) disable iff (rst_i) pend_n != ($clog2(PEND)+1)'(PEND))
+        else $fatal(1, "gridrt_pe: more entries in flight than pend holds");
+    PendPopNotEmpty: assert property (@(posedge clk_i) disable iff (rst_i) pend_pop |-> pend_n != 0)
+        else $fatal(1, "gridrt_pe: pop from an empty pend");
 `endif
     always_ff @(posedge clk_i) begin
         logic [KW:0] open_now;
         if (ev1_valid ? pend_n > 1 : pend_n != 0)
             open_now = {1'b0, pend_mem[ev1_valid ? pend_rd + 1'b1 : pend_rd]};
-        else if (q_raddr != q_n)
+        else if (q_raddr_q != q_n_q)
             open_now = {1'b0, took ? next_k : head_k};
         else
             open_now = (KW+1)'(MAX_LIST);
