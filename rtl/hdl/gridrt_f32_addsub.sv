@@ -1,6 +1,6 @@
 // gridrt_f32_addsub: IEEE-754 binary32 a + b or a - b, round to nearest even, subnormals in and out.
 //
-// Spec: rtl/README.md §3.5. Bit-exact with Rust's `f32` `+`/`-` except that every NaN
+// Spec: rtl/README.md §3 (IEEE-754 units). Bit-exact with Rust's `f32` `+`/`-` except that every NaN
 // result is the canonical quiet NaN 0x7FC00000 (the co-processor's only NaN sources are
 // inf - inf and inf * 0 in the normal, which the model canonicalises the same way).
 //

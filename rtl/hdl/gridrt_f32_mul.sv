@@ -1,6 +1,6 @@
 // gridrt_f32_mul: IEEE-754 binary32 a * b, round to nearest even, subnormals in and out.
 //
-// Spec: rtl/README.md §3.5. Bit-exact with Rust's `f32` `*` except that every NaN result is
+// Spec: rtl/README.md §3 (IEEE-754 units). Bit-exact with Rust's `f32` `*` except that every NaN result is
 // the canonical quiet NaN 0x7FC00000.
 //
 // Pipeline: LATENCY stages (24x24 product in MULT18X18D blocks | leading zeros | normalise |

@@ -1,11 +1,11 @@
 // gridrt_pe_mem: one PE's memory, WORDS x 32 bits in BANKS interleaved banks (word w in bank
 // w mod BANKS): 16 banks for a PE that reads a whole 10-word record at once, 4 for one that
-// reads it in three 4-word parts (pe.sv).
+// reads it in three 4-word parts (gridrt_pe.sv).
 //
 // One write port (the controller: LOAD_PE's image words, records and normals) and one read
 // port that serves every reader in turn: the controller while the PE is idle (voxel lookup,
 // the winner's triangle), the PE while it executes (ref words and records in their own
-// slots, pe.sv). A read returns a window of RD_WORDS consecutive words, each bank at its own
+// slots, gridrt_pe.sv). A read returns a window of RD_WORDS consecutive words, each bank at its own
 // row, and the one word at the address:
 // - 16 banks: the window starts at the even address r_addr & ~1 (records sit at even
 //   addresses, which halves the rotation's first step), the word is window word r_addr[0];

@@ -144,7 +144,7 @@ module gridrt_ray_setup (
                 // Permute the direction (kz=0: y,z,x; kz=1: z,x,y; kz=2: x,y,z) and set up the
                 // two divisions trunc(-dx * 2^23 / dz), trunc(-dy * 2^23 / dz).
                 logic signed [24:0] px, py, pz;
-                case (kz_o)
+                unique case (kz_o)
                     2'd0: begin px = d[1]; py = d[2]; pz = d[0]; end
                     2'd1: begin px = d[2]; py = d[0]; pz = d[1]; end
                     default: begin px = d[0]; py = d[1]; pz = d[2]; end

@@ -75,7 +75,7 @@ module gridrt_tri_loader (
             end
         end
         // x = d1y*d2z - d2y*d1z, y = d1z*d2x - d2z*d1x, z = d1x*d2y - d2x*d1y
-        case (step)
+        unique case (step)
             6'(STEP_MUL):     begin mul_in = 1'b1; mul_a = dd[1]; mul_b = dd[5]; end
             6'(STEP_MUL + 1): begin mul_in = 1'b1; mul_a = dd[4]; mul_b = dd[2]; end
             6'(STEP_MUL + 2): begin mul_in = 1'b1; mul_a = dd[2]; mul_b = dd[3]; end
@@ -97,7 +97,7 @@ module gridrt_tri_loader (
     always_comb begin
         ma = '0;
         mb = '0;
-        case (step)
+        unique case (step)
             6'(STEP_DEG_MUL):     begin ma = e1[1]; mb = e2[2]; end
             6'(STEP_DEG_MUL + 1): begin ma = e1[2]; mb = e2[1]; end
             6'(STEP_DEG_MUL + 2): begin ma = e1[2]; mb = e2[0]; end
