@@ -33,6 +33,7 @@ struct Word {
 
 int main(int argc, char** argv) {
     Verilated::commandArgs(argc, argv);
+    io::init();
     int stall = 0;
     uint64_t seed = 1;
     for (int i = 1; i + 1 < argc; i++) {

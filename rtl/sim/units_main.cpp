@@ -29,6 +29,7 @@ static uint64_t sext(uint64_t v, int bits) {
 
 int main(int argc, char** argv) {
     Verilated::commandArgs(argc, argv);
+    io::init();
     top = new Vgridrt_units_top;
     top->clk_i = 0;
     top->eval();
