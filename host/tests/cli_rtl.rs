@@ -1,7 +1,9 @@
 //! Issue-11 acceptance through the real binary: `gridrt render --sim --coproc rtl` with no
 //! further flags renders the 64×48 bun_zipper_res4 frame, its stats record the kernel and
 //! format, and the PNG is byte-identical to `--coproc model` with that kernel and format (with
-//! `--timing rtl` even the test and cycle counts are the same).
+//! `--timing rtl` even the test and cycle counts are the same). The RTL render runs the model
+//! beside the RTL (`GRIDRT_RTL_LOCKSTEP=1`): every reply word of every scene ray, each RESULT
+//! word included, is compared with the model's, and a difference fails the render.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -10,8 +12,9 @@ fn scene() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj")
 }
 
-/// Renders with `flags`; returns the PNG bytes and the stats.
-fn render(tag: &str, flags: &[&str]) -> (Vec<u8>, serde_json::Value) {
+/// Renders with `flags`; returns the PNG bytes and the stats. `lockstep`: the model runs
+/// beside the RTL and every reply word must be the model's.
+fn render(tag: &str, flags: &[&str], lockstep: bool) -> (Vec<u8>, serde_json::Value) {
     let dir = std::env::temp_dir().join(format!("gridrt-cli-rtl-{}-{tag}", std::process::id()));
     let (png, json) = (dir.join("a.png"), dir.join("a.json"));
     let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
@@ -22,6 +25,7 @@ fn render(tag: &str, flags: &[&str]) -> (Vec<u8>, serde_json::Value) {
         .arg("--stats")
         .arg(&json)
         .args(flags)
+        .env(gridrt_loopback::LOCKSTEP_VAR, if lockstep { "1" } else { "0" })
         .output()
         .unwrap();
     assert!(out.status.success(), "gridrt {flags:?} failed: {}", String::from_utf8_lossy(&out.stderr));
@@ -36,14 +40,14 @@ fn rtl_frame_is_byte_identical_to_the_model_with_its_kernel_and_format() {
     if !gridrt_rtl::sim::require_verilator("rtl_frame_is_byte_identical_to_the_model_with_its_kernel_and_format") {
         return;
     }
-    let (rtl_png, rtl) = render("rtl", &["--coproc", "rtl"]);
+    let (rtl_png, rtl) = render("rtl", &["--coproc", "rtl"], true);
     assert_eq!(rtl["coproc"], "rtl");
     let (kernel, format) = (rtl["kernel"].as_str().unwrap(), rtl["format"].as_str().unwrap());
     assert_eq!((kernel, format), ("watertight", "fixed64-q23"));
     assert_eq!(rtl["timing"], "rtl");
     assert!(rtl["coproc_rays"].as_u64().unwrap() > 500, "the bunny must be in view: {rtl}");
     let (model_png, model) =
-        render("model", &["--coproc", "model", "--kernel", kernel, "--format", format, "--timing", "rtl"]);
+        render("model", &["--coproc", "model", "--kernel", kernel, "--format", format, "--timing", "rtl"], false);
     assert_eq!(model["coproc"], "model");
     assert!(rtl_png == model_png, "PNGs differ");
     for key in ["coproc_rays", "list_entries", "fsl_words", "intersection_tests", "coproc_cycles"] {

@@ -2,8 +2,9 @@
 //
 // Two AXI4-Stream-style word streams carry the FSL packets: s_axis (requests, from the
 // soft-core) and m_axis (replies). The FSL control bit is tlast. FSL's "full" on the
-// request side is !s_axis_tready, its "exists" on the reply side is m_axis_tvalid (§4.1 of
-// the README). `idle` is high when the co-processor waits for input with nothing to send.
+// request side is !s_axis_tready_o, its "exists" on the reply side is m_axis_tvalid_o (§2 of
+// the README). `idle_o` is high when the co-processor waits for input with nothing to send.
+// The reset rst_i is synchronous and active high.
 //
 // Parameters: PES processing elements (1..16); PES_PER_PIPELINE of them share one
 // intersection pipeline (1, 2 or 4), each issuing a test every PES_PER_PIPELINE cycles; PE_MEM_WORDS
@@ -16,17 +17,17 @@ module gridrt_coproc #(
     parameter int PE_MEM_WORDS = 16384,
     parameter int MAX_LIST = 256
 ) (
-    input  logic        clk,
-    input  logic        rst,
-    input  logic [31:0] s_axis_tdata,
-    input  logic        s_axis_tlast,
-    input  logic        s_axis_tvalid,
-    output logic        s_axis_tready,
-    output logic [31:0] m_axis_tdata,
-    output logic        m_axis_tlast,
-    output logic        m_axis_tvalid,
-    input  logic        m_axis_tready,
-    output logic        idle
+    input  logic        clk_i,
+    input  logic        rst_i,
+    input  logic [31:0] s_axis_tdata_i,
+    input  logic        s_axis_tlast_i,
+    input  logic        s_axis_tvalid_i,
+    output logic        s_axis_tready_o,
+    output logic [31:0] m_axis_tdata_o,
+    output logic        m_axis_tlast_o,
+    output logic        m_axis_tvalid_o,
+    input  logic        m_axis_tready_i,
+    output logic        idle_o
 );
     localparam int AW = $clog2(PE_MEM_WORDS);
     if (PES_PER_PIPELINE != 1 && PES_PER_PIPELINE != 2 && PES_PER_PIPELINE != 4) begin : g_bad_sharing
@@ -52,7 +53,7 @@ module gridrt_coproc #(
     logic [PES-1:0][AW-1:0]  res_tri;
     // Tests and results between the PEs and their shared pipelines; indices PES and above are
     // the unused lanes of the last pipeline when PES is not a multiple of PES_PER_PIPELINE.
-    // A record crosses to its pipeline in parts (pe.sv): three of 4 words read one by one
+    // A record crosses to its pipeline in parts (gridrt_pe.sv): three of 4 words read one by one
     // when four PEs share a pipeline, else PES_PER_PIPELINE parts of one read.
     localparam int PIPES = (PES + PES_PER_PIPELINE - 1) / PES_PER_PIPELINE;
     localparam int LANES = PIPES * PES_PER_PIPELINE;
@@ -71,45 +72,62 @@ module gridrt_coproc #(
         assign t_chunk[p] = '0;
     end
 
-    ctrl #(.PES(PES), .WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST)) u_ctrl (
-        .clk, .rst,
-        .s_tdata(s_axis_tdata), .s_tlast(s_axis_tlast), .s_tvalid(s_axis_tvalid), .s_tready(s_axis_tready),
-        .m_tdata(m_axis_tdata), .m_tlast(m_axis_tlast), .m_tvalid(m_axis_tvalid), .m_tready(m_axis_tready),
-        .idle,
-        .pe_a_addr(a_addr), .pe_a_we(a_we), .pe_a_wdata(a_wdata), .pe_a_rdata(a_rdata),
-        .pe_ref_off(ref_off),
-        .pe_ray_begin(ray_begin), .pe_q_push(q_push), .pe_q_k(q_k), .pe_q_first(q_first),
-        .pe_q_count(q_count), .pe_q_hi(q_hi),
-        .pe_start(start), .pe_stop(stop), .pe_any(any), .pe_t_max(t_max), .pe_o(o), .pe_kz(kz),
-        .pe_sx(sx), .pe_sy(sy), .pe_dz_neg(dz_neg), .pe_dz_abs(dz_abs), .pe_texp(texp),
-        .pe_ray_overflow(ray_overflow), .pe_issued(issued),
-        .pe_open_k(open_k), .pe_hit_k(hit_k), .pe_res_k(res_k), .pe_res_t(res_t), .pe_res_tri(res_tri));
+    gridrt_ctrl #(.PES(PES), .WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST)) u_ctrl (
+        .clk_i, .rst_i,
+        .s_tdata_i(s_axis_tdata_i), .s_tlast_i(s_axis_tlast_i), .s_tvalid_i(s_axis_tvalid_i), .s_tready_o(s_axis_tready_o),
+        .m_tdata_o(m_axis_tdata_o), .m_tlast_o(m_axis_tlast_o), .m_tvalid_o(m_axis_tvalid_o), .m_tready_i(m_axis_tready_i),
+        .idle_o,
+        .pe_a_addr_o(a_addr), .pe_a_we_o(a_we), .pe_a_wdata_o(a_wdata), .pe_a_rdata_i(a_rdata),
+        .pe_ref_off_o(ref_off),
+        .pe_ray_begin_o(ray_begin), .pe_q_push_o(q_push), .pe_q_k_o(q_k), .pe_q_first_o(q_first),
+        .pe_q_count_o(q_count), .pe_q_hi_o(q_hi),
+        .pe_start_o(start), .pe_stop_o(stop), .pe_any_o(any), .pe_t_max_o(t_max), .pe_origin_o(o), .pe_kz_o(kz),
+        .pe_sx_o(sx), .pe_sy_o(sy), .pe_dz_neg_o(dz_neg), .pe_dz_abs_o(dz_abs), .pe_texp_o(texp),
+        .pe_ray_overflow_o(ray_overflow), .pe_issued_i(issued),
+        .pe_open_k_i(open_k), .pe_hit_k_i(hit_k), .pe_res_k_o(res_k), .pe_res_t_i(res_t), .pe_res_tri_i(res_tri));
 
     for (genvar p = 0; p < PES; p++) begin : g_pe
-        pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST), .ISSUE_INTERVAL(PES_PER_PIPELINE), .PARTS(PARTS),
+        gridrt_pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST), .ISSUE_INTERVAL(PES_PER_PIPELINE), .PARTS(PARTS),
              .PART_W(PART_W), .RESULT_LATENCY(RESULT_LATENCY)) u_pe (
-            .clk, .rst,
-            .c_a_addr(a_addr[p]), .c_a_we(a_we[p]), .c_a_wdata(a_wdata), .a_rdata(a_rdata[p]),
-            .ref_off(ref_off[p]),
-            .ray_begin, .q_push(q_push[p]), .q_k, .q_first, .q_count, .q_hi,
-            .start, .stop, .any, .t_max,
-            .issued(issued[p]),
-            .t_valid(t_valid[p]), .t_part(t_part[p]), .t_chunk(t_chunk[p]),
-            .r_valid(r_valid[p]), .r_kind(r_kind[p]), .r_t(r_t[p]),
-            .open_k(open_k[p]), .hit_k(hit_k[p]),
-            .res_k, .res_t(res_t[p]), .res_tri(res_tri[p]));
+            .clk_i, .rst_i,
+            .c_a_addr_i(a_addr[p]), .c_a_we_i(a_we[p]), .c_a_wdata_i(a_wdata), .a_rdata_o(a_rdata[p]),
+            .ref_off_i(ref_off[p]),
+            .ray_begin_i(ray_begin), .q_push_i(q_push[p]), .q_k_i(q_k), .q_first_i(q_first), .q_count_i(q_count), .q_hi_i(q_hi),
+            .start_i(start), .stop_i(stop), .any_i(any), .t_max_i(t_max),
+            .issued_o(issued[p]),
+            .t_valid_o(t_valid[p]), .t_part_o(t_part[p]), .t_chunk_o(t_chunk[p]),
+            .r_valid_i(r_valid[p]), .r_kind_i(r_kind[p]), .r_t_i(r_t[p]),
+            .open_k_o(open_k[p]), .hit_k_o(hit_k[p]),
+            .res_k_i(res_k), .res_t_o(res_t[p]), .res_tri_o(res_tri[p]));
     end
 
     // PEs q·PES_PER_PIPELINE .. (q+1)·PES_PER_PIPELINE - 1 share pipeline q (rtl/README.md §4.3).
     for (genvar q = 0; q < PIPES; q++) begin : g_pipe
         localparam int L0 = q * PES_PER_PIPELINE;
-        isect_share #(.LANES(PES_PER_PIPELINE), .PARTS(PARTS), .PART_W(PART_W), .PIPE_LATENCY(PIPE_LATENCY)) u_share (
-            .clk,
-            .in_valid(t_valid[L0 +: PES_PER_PIPELINE]), .in_part(t_part[L0 +: PES_PER_PIPELINE]),
-            .in_chunk(t_chunk[L0 +: PES_PER_PIPELINE]),
-            .o0($signed(o[0])), .o1($signed(o[1])), .o2($signed(o[2])), .kz, .sx, .sy, .dz_neg, .dz_abs,
-            .texp, .ray_overflow,
-            .out_valid(r_valid[L0 +: PES_PER_PIPELINE]), .out_kind(r_kind[L0 +: PES_PER_PIPELINE]),
-            .out_t(r_t[L0 +: PES_PER_PIPELINE]));
+        gridrt_isect_share #(.LANES(PES_PER_PIPELINE), .PARTS(PARTS), .PART_W(PART_W), .PIPE_LATENCY(PIPE_LATENCY)) u_share (
+            .clk_i, .rst_i,
+            .in_valid_i(t_valid[L0 +: PES_PER_PIPELINE]), .in_part_i(t_part[L0 +: PES_PER_PIPELINE]),
+            .in_chunk_i(t_chunk[L0 +: PES_PER_PIPELINE]),
+            .o0_i($signed(o[0])), .o1_i($signed(o[1])), .o2_i($signed(o[2])), .kz_i(kz), .sx_i(sx), .sy_i(sy), .dz_neg_i(dz_neg), .dz_abs_i(dz_abs),
+            .texp_i(texp), .ray_overflow_i(ray_overflow),
+            .out_valid_o(r_valid[L0 +: PES_PER_PIPELINE]), .out_kind_o(r_kind[L0 +: PES_PER_PIPELINE]),
+            .out_t_o(r_t[L0 +: PES_PER_PIPELINE]));
     end
+
+`ifndef SYNTHESIS
+    // AXI4-Stream handshakes: a word once offered (tvalid) stays offered, unchanged, until it
+    // is taken (tready). The request side checks the source, the reply side this design.
+    SAxisValidHeld: assert property (@(posedge clk_i) disable iff (rst_i)
+        s_axis_tvalid_i && !s_axis_tready_o |=> s_axis_tvalid_i)
+        else $error("gridrt_coproc: s_axis_tvalid_i dropped before s_axis_tready_o");
+    SAxisDataStable: assert property (@(posedge clk_i) disable iff (rst_i)
+        s_axis_tvalid_i && !s_axis_tready_o |=> $stable({s_axis_tlast_i, s_axis_tdata_i}))
+        else $error("gridrt_coproc: s_axis word changed while waiting for s_axis_tready_o");
+    MAxisValidHeld: assert property (@(posedge clk_i) disable iff (rst_i)
+        m_axis_tvalid_o && !m_axis_tready_i |=> m_axis_tvalid_o)
+        else $error("gridrt_coproc: m_axis_tvalid_o dropped before m_axis_tready_i");
+    MAxisDataStable: assert property (@(posedge clk_i) disable iff (rst_i)
+        m_axis_tvalid_o && !m_axis_tready_i |=> $stable({m_axis_tlast_o, m_axis_tdata_o}))
+        else $error("gridrt_coproc: m_axis word changed while waiting for m_axis_tready_i");
+`endif
 endmodule

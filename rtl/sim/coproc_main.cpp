@@ -7,8 +7,9 @@
 //   3                  answer the cycle counters: total lo, hi, busy lo, hi (busy = not idle)
 //   0 / end of input   exit
 //
-// Options: --stall PERCENT drops s_axis_tvalid and m_axis_tready at random in that share of
-// cycles (handshake stress; the results must not change), --seed N for that generator.
+// Options: --stall PERCENT delays offering the next request word (s_axis_tvalid; once offered
+// it is held until taken, as AXI4-Stream requires) and drops m_axis_tready at random in that
+// share of cycles (handshake stress; the results must not change), --seed N for that generator.
 #include <cstring>
 #include <deque>
 #include <random>
@@ -32,6 +33,7 @@ struct Word {
 
 int main(int argc, char** argv) {
     Verilated::commandArgs(argc, argv);
+    io::init();
     int stall = 0;
     uint64_t seed = 1;
     for (int i = 1; i + 1 < argc; i++) {
@@ -42,19 +44,20 @@ int main(int argc, char** argv) {
     auto* top = new Vgridrt_coproc;
     uint64_t cycles = 0, busy = 0;
     auto tick = [&]() {
-        top->clk = 0;
+        top->clk_i = 0;
         top->eval();
-        top->clk = 1;
+        top->clk_i = 1;
         top->eval();
         cycles++;
     };
-    top->rst = 1;
-    top->s_axis_tvalid = 0;
-    top->m_axis_tready = 0;
+    top->rst_i = 1;
+    top->s_axis_tvalid_i = 0;
+    top->m_axis_tready_i = 0;
     for (int i = 0; i < 4; i++) tick();
-    top->rst = 0;
+    top->rst_i = 0;
 
     std::deque<Word> in;
+    bool offered = false;  // the head word is on s_axis and not taken yet
     std::vector<Word> out;
     for (;;) {
         uint32_t cmd;
@@ -66,34 +69,39 @@ int main(int argc, char** argv) {
         } else if (cmd == 2) {
             uint64_t start = cycles;
             for (;;) {
-                // Inputs for this cycle (set before the rising edge).
-                bool offer = !in.empty() && !(stall && int(rng() % 100) < stall);
+                // Inputs for this cycle (set before the rising edge). AXI4-Stream: a word
+                // once offered stays offered until it is taken (the RTL asserts it).
+                bool offer = !in.empty() && (offered || !(stall && int(rng() % 100) < stall));
+                offered = offer;
                 bool take = !(stall && int(rng() % 100) < stall);
-                top->s_axis_tvalid = offer;
+                top->s_axis_tvalid_i = offer;
                 if (offer) {
-                    top->s_axis_tdata = in.front().data;
-                    top->s_axis_tlast = in.front().control & 1;
+                    top->s_axis_tdata_i = in.front().data;
+                    top->s_axis_tlast_i = in.front().control & 1;
                 }
-                top->m_axis_tready = take;
-                top->clk = 0;
+                top->m_axis_tready_i = take;
+                top->clk_i = 0;
                 top->eval();
-                bool accepted = offer && top->s_axis_tready;
-                bool emitted = take && top->m_axis_tvalid;
-                if (emitted) out.push_back({top->m_axis_tdata, top->m_axis_tlast});
-                bool was_idle = top->idle;
-                top->clk = 1;
+                bool accepted = offer && top->s_axis_tready_o;
+                bool emitted = take && top->m_axis_tvalid_o;
+                if (emitted) out.push_back({top->m_axis_tdata_o, top->m_axis_tlast_o});
+                bool was_idle = top->idle_o;
+                top->clk_i = 1;
                 top->eval();
                 cycles++;
-                if (accepted) in.pop_front();
+                if (accepted) {
+                    in.pop_front();
+                    offered = false;
+                }
                 if (!was_idle) busy++;
-                if (in.empty() && top->idle && !top->m_axis_tvalid) break;
+                if (in.empty() && top->idle_o && !top->m_axis_tvalid_o) break;
                 if (cycles - start > kWatchdogCycles) {
                     std::fprintf(stderr, "coproc sim: no progress after %llu cycles\n",
                                  (unsigned long long)(cycles - start));
                     return 2;
                 }
             }
-            top->s_axis_tvalid = 0;
+            top->s_axis_tvalid_i = 0;
             io::write_u32(uint32_t(out.size()));
             for (const Word& w : out) {
                 io::write_u32(w.data);

@@ -178,7 +178,7 @@ impl Drop for Pipe {
     }
 }
 
-/// The datapath units program (`rtl/hdl/units_top.sv`).
+/// The datapath units program (`rtl/tb/gridrt_units_top.sv`).
 pub struct Units {
     pipe: Pipe,
 }

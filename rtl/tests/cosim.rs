@@ -187,8 +187,8 @@ fn every_pipeline_sharing_gives_the_models_result_words() {
     }
 }
 
-/// The stream handshakes (s_axis_tvalid, m_axis_tready) dropped in 40 % of the cycles at
-/// random change nothing in the replies.
+/// The stream handshakes (s_axis_tvalid_i before a word is offered, m_axis_tready_i) dropped
+/// in 40 % of the cycles at random change nothing in the replies.
 #[test]
 fn stalled_handshakes_do_not_change_the_replies() {
     if !require_verilator("stalled_handshakes_do_not_change_the_replies") {

@@ -1,4 +1,4 @@
-//! The datapath blocks against their Rust twins, vector by vector (rtl/hdl/units_top.sv):
+//! The datapath blocks against their Rust twins, vector by vector (rtl/tb/gridrt_units_top.sv):
 //! IEEE-754 add/sub and mul against Rust's `f32`, the f32 → fixed conversion and the
 //! intersection pipeline against the model's kernel (`gridrt_coproc::isect::watertight_q23`).
 

@@ -43,16 +43,11 @@ from litex.soc.interconnect.csr import CSR, CSRField, CSRStatus, CSRStorage
 WORD_LAYOUT = [("data", 32)]
 
 
-# In rtl/hdl but not part of the design: the datapath blocks side by side for the unit
-# co-simulation (rtl/README.md).
-NOT_THE_DESIGN = ("units_top.sv",)
-
-
 def hdl_sources(rtl_dir):
     """The SystemVerilog files of the co-processor RTL, sorted."""
-    files = sorted(f for f in Path(rtl_dir).glob("*.sv") if f.name not in NOT_THE_DESIGN)
+    files = sorted(Path(rtl_dir).glob("*.sv"))
     if not any(f.name == "gridrt_coproc.sv" for f in files):
-        raise FileNotFoundError(f"no gridrt_coproc.sv in {rtl_dir} (the co-processor RTL, issue 11)")
+        raise FileNotFoundError(f"no gridrt_coproc.sv in {rtl_dir} (the co-processor RTL)")
     return files
 
 
@@ -82,17 +77,17 @@ class GridrtCoproc(LiteXModule):
             p_PES=pes,
             p_PE_MEM_WORDS=pe_mem_words,
             p_MAX_LIST=max_list,
-            i_clk=ClockSignal("sys"),
-            i_rst=ResetSignal("sys") | self.reset,
-            i_s_axis_tdata=self.sink.data,
-            i_s_axis_tlast=self.sink.last,
-            i_s_axis_tvalid=self.sink.valid,
-            o_s_axis_tready=self.sink.ready,
-            o_m_axis_tdata=self.source.data,
-            o_m_axis_tlast=self.source.last,
-            o_m_axis_tvalid=self.source.valid,
-            i_m_axis_tready=self.source.ready,
-            o_idle=self.idle,
+            i_clk_i=ClockSignal("sys"),
+            i_rst_i=ResetSignal("sys") | self.reset,
+            i_s_axis_tdata_i=self.sink.data,
+            i_s_axis_tlast_i=self.sink.last,
+            i_s_axis_tvalid_i=self.sink.valid,
+            o_s_axis_tready_o=self.sink.ready,
+            o_m_axis_tdata_o=self.source.data,
+            o_m_axis_tlast_o=self.source.last,
+            o_m_axis_tvalid_o=self.source.valid,
+            i_m_axis_tready_i=self.source.ready,
+            o_idle_o=self.idle,
         )
         if rtl_dir is not None:
             for f in hdl_sources(rtl_dir):

@@ -1,7 +1,7 @@
 //! `cargo xtask rtl`: build the co-processor RTL's Verilator co-simulation, or synthesise it
 //! for the ECP5-85F with the open flow (Yosys + nextpnr-ecp5).
 //!
-//! - `cargo xtask rtl sim [--pes N]` verilates `rtl/hdl/` into two programs under
+//! - `cargo xtask rtl sim [--pes N]` verilates `rtl/hdl/` (and `rtl/tb/` for the unit harness) into two programs under
 //!   `target/rtl/` and prints their paths (`COPROC_SIM: …`, `UNITS_SIM: …`). A build is
 //!   reused while its sources, parameters and Verilator version are unchanged (a stamp
 //!   file holds their hash), so tests can call this on every run.
@@ -16,7 +16,7 @@ use clap::{Args, Subcommand};
 use std::path::PathBuf;
 use std::process::Command;
 
-use crate::rtl_hdl::{hdl_sources, root, Params};
+use crate::rtl_hdl::{hdl_sources, root, tb_sources, Params};
 
 #[derive(Args, Debug)]
 pub struct Cmd {
@@ -77,6 +77,8 @@ const VERILATOR_FLAGS: &[&str] = &[
     "--exe",
     "--build",
     "-O2",
+    // The RTL's SVA assertions (stream handshakes, FIFO bounds) are checked in every simulation.
+    "--assert",
     "-Wall",
     "-Wno-DECLFILENAME",
     "-Wno-UNUSEDSIGNAL",
@@ -91,6 +93,8 @@ struct Program {
     main: &'static str,
     name: &'static str,
     with_params: bool,
+    /// Also reads `rtl/tb` (test-only tops).
+    with_tb: bool,
 }
 
 /// An exclusive `flock` on a file, released when dropped (or when the process dies).
@@ -114,15 +118,28 @@ impl BuildLock {
 }
 
 const PROGRAMS: [Program; 2] = [
-    Program { top: "gridrt_coproc", main: "coproc_main.cpp", name: "gridrt-coproc-sim", with_params: true },
-    Program { top: "units_top", main: "units_main.cpp", name: "gridrt-units-sim", with_params: false },
+    Program {
+        top: "gridrt_coproc",
+        main: "coproc_main.cpp",
+        name: "gridrt-coproc-sim",
+        with_params: true,
+        with_tb: false,
+    },
+    Program {
+        top: "gridrt_units_top",
+        main: "units_main.cpp",
+        name: "gridrt-units-sim",
+        with_params: false,
+        with_tb: true,
+    },
 ];
 
 impl SimCmd {
     fn run(self) -> Result<()> {
         self.params.validate()?;
         let version = verilator_version()?;
-        let sources = hdl_sources()?;
+        let design = hdl_sources()?;
+        let tb = tb_sources()?;
         let sim_dir = root().join("rtl/sim");
         let mut sim_files: Vec<PathBuf> = std::fs::read_dir(&sim_dir)?
             .filter_map(|e| e.ok().map(|e| e.path()))
@@ -137,6 +154,8 @@ impl SimCmd {
         for prog in &PROGRAMS {
             let dir = out_root.join(prog.name);
             let exe = dir.join(prog.name);
+            let sources: Vec<PathBuf> =
+                design.iter().chain(if prog.with_tb { tb.as_slice() } else { &[] }).cloned().collect();
             let mut parts: Vec<Vec<u8>> = vec![version.clone().into_bytes(), prog.top.as_bytes().to_vec()];
             for f in sources.iter().chain(&sim_files) {
                 parts.push(f.file_name().map(|n| n.to_string_lossy().as_bytes().to_vec()).unwrap_or_default());

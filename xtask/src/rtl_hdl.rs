@@ -66,9 +66,19 @@ pub fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().map(Path::to_path_buf).unwrap_or_default()
 }
 
-/// Every HDL source, sorted (the co-processor and the unit harness share them).
+/// Every HDL source of the design (`rtl/hdl`), sorted.
 pub fn hdl_sources() -> Result<Vec<PathBuf>> {
-    let dir = root().join("rtl/hdl");
+    sv_files("rtl/hdl")
+}
+
+/// Every test-only HDL source (`rtl/tb`: the unit harness's top), sorted.
+pub fn tb_sources() -> Result<Vec<PathBuf>> {
+    sv_files("rtl/tb")
+}
+
+/// The `.sv` files of a folder of the workspace, sorted.
+fn sv_files(folder: &str) -> Result<Vec<PathBuf>> {
+    let dir = root().join(folder);
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .with_context(|| format!("reading {}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))

@@ -1,5 +1,5 @@
 //! The watertight test in `fixed64-q23` as the RTL co-processor computes it, bit for bit
-//! (rtl/README.md §3; the HDL is `rtl/hdl/isect_pipe.sv`, `ray_setup.sv`, `tri_loader.sv`).
+//! (rtl/README.md §3; the HDL is `rtl/hdl/gridrt_isect_pipe.sv`, `gridrt_ray_setup.sv`, `gridrt_tri_loader.sv`).
 //!
 //! Woop, Benthin and Wald's watertight test (JCGT 2013) in Q23 fixed point, arranged so that a
 //! pipeline issues one test per cycle with narrow multipliers:

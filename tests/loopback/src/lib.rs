@@ -27,8 +27,8 @@ mod link;
 
 pub use config::{Backend, SimConfig, BOARD_LOOPBACK, SIM_MAX_VOXELS};
 use farm::SimFarm;
-pub use link::RtlLinkError;
 use link::SimLink;
+pub use link::{RtlLinkError, LOCKSTEP_VAR};
 
 /// Points the simulated device keeps for splat frames (SPEC.md §6): 64 B each.
 pub const SIM_MAX_POINTS: usize = 1 << 17;
@@ -84,8 +84,7 @@ impl embedded_io::Write for ChannelSink<'_> {
 /// memories), boots a fresh one and sends its banner (`Device::announce`).
 fn run_device(config: SimConfig, input: Receiver<Input>, output: Sender<(u32, Vec<u8>)>, reset: Arc<ResetState>) {
     let coproc_config = config.coproc();
-    let mut backing =
-        vec![0u32; if config.backend == Backend::Model { coproc_config.required_backing_words() } else { 0 }];
+    let mut backing = vec![0u32; if link::needs_model(&config) { coproc_config.required_backing_words() } else { 0 }];
     // The board cannot start without its co-processor: say so on the line, like firmware
     // would, then stop.
     let fail = |what: String| {
@@ -209,7 +208,7 @@ fn is_timeout(e: &io::Error) -> bool {
 pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfig) -> io::Result<()> {
     let run = move || -> io::Result<()> {
         let coproc_config = config.coproc();
-        let words = if config.backend == Backend::Model { coproc_config.required_backing_words() } else { 0 };
+        let words = if link::needs_model(&config) { coproc_config.required_backing_words() } else { 0 };
         let mut backing = vec![0u32; words];
         let invalid = |e: String| io::Error::new(io::ErrorKind::InvalidInput, e);
         let program = link::rtl_program(&config).map_err(invalid)?;

@@ -29,6 +29,24 @@ pub(crate) enum SimLink<'m> {
     Model(VirtualCoproc<'m>),
     /// The RTL in Verilator.
     Rtl(Box<CoprocSim>),
+    /// The RTL in Verilator with the model beside it ([`LOCKSTEP_VAR`]): every word goes to
+    /// both, and every reply word of the RTL (RESULT words included) must equal the model's.
+    Checked(Box<CoprocSim>, VirtualCoproc<'m>),
+}
+
+/// Environment variable that, set to `1`, runs the model beside the RTL and compares every
+/// reply word (a difference is a link error: the frame fails with both words in the message).
+pub const LOCKSTEP_VAR: &str = "GRIDRT_RTL_LOCKSTEP";
+
+/// Whether [`LOCKSTEP_VAR`] asks for the model beside the RTL.
+pub(crate) fn lockstep() -> bool {
+    std::env::var(LOCKSTEP_VAR).is_ok_and(|v| v.trim() == "1")
+}
+
+/// Whether a board of `config` needs the model's backing memory: it runs the model, alone or
+/// beside the RTL.
+pub(crate) fn needs_model(config: &SimConfig) -> bool {
+    config.backend == Backend::Model || lockstep()
 }
 
 impl FslLink for SimLink<'_> {
@@ -41,6 +59,10 @@ impl FslLink for SimLink<'_> {
                 Ok(())
             }
             Self::Rtl(s) => s.push(word).map_err(|e| nb::Error::Other(RtlLinkError(e.to_string()))),
+            Self::Checked(s, m) => {
+                m.model.push(word);
+                s.push(word).map_err(|e| nb::Error::Other(RtlLinkError(e.to_string())))
+            }
         }
     }
 
@@ -54,6 +76,16 @@ impl FslLink for SimLink<'_> {
                 Ok(None) => Err(nb::Error::WouldBlock),
                 Err(e) => Err(nb::Error::Other(RtlLinkError(e.to_string()))),
             },
+            Self::Checked(s, m) => {
+                let rtl = s.pop().map_err(|e| nb::Error::Other(RtlLinkError(e.to_string())))?;
+                let model = m.model.pop();
+                if rtl != model {
+                    return Err(nb::Error::Other(RtlLinkError(format!(
+                        "RTL reply word {rtl:?} differs from the model's {model:?}"
+                    ))));
+                }
+                rtl.ok_or(nb::Error::WouldBlock)
+            }
         }
     }
 }
@@ -99,6 +131,15 @@ pub(crate) fn open<'m>(
             model.set_number_format(config.format, FixedFrame::IDENTITY);
             Ok(SimLink::Model(VirtualCoproc { model }))
         }
-        Some(p) => CoprocSim::spawn(p, None).map(|s| SimLink::Rtl(Box::new(s))).map_err(|e| e.to_string()),
+        Some(p) => {
+            let sim = Box::new(CoprocSim::spawn(p, None).map_err(|e| e.to_string())?);
+            if !lockstep() {
+                return Ok(SimLink::Rtl(sim));
+            }
+            let mut model = Coprocessor::new(config.coproc(), backing)
+                .map_err(|e| format!("invalid co-processor configuration: {e:?}"))?;
+            model.set_number_format(config.format, FixedFrame::IDENTITY);
+            Ok(SimLink::Checked(sim, VirtualCoproc { model }))
+        }
     }
 }

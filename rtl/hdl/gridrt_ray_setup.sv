@@ -1,26 +1,27 @@
-// ray_setup: the per-ray constants every PE shares (rtl/README.md §3.2; twin: `twin::setup`).
+// gridrt_ray_setup: the per-ray constants every PE shares (rtl/README.md §3.2; twin: `setup` of the
+// coproc crate's `isect::watertight_q23`).
 //
 // From the f32 origin and direction and the frame: the dominant axis kz (pbrt-v4's
 // max_dimension), the direction Q(d, 23 - E) with E = floor(log2 |d_kz|), the origin
 // Q(o, s + 23) - Q(min) (overflow outside +-2^33), the shear trunc(-d * 2^23 / dz) for x
 // and y (two restoring dividers, two quotient bits per cycle), and the t exponent -s - E.
 // Takes LATENCY cycles from `start` to `done` whatever the input.
-module ray_setup (
-    input  logic                clk,
-    input  logic                start,
-    input  logic [2:0][31:0]    org,
-    input  logic [2:0][31:0]    dir,
-    input  logic signed [9:0]   frame_s,
-    input  logic [2:0][54:0]    frame_qm,   // signed elements
-    input  logic [2:0]          frame_huge,
-    output logic                done,
-    output logic [2:0][33:0]    o,          // signed elements
-    output logic [1:0]          kz,
-    output logic signed [24:0]  sx, sy,
-    output logic                dz_neg,
-    output logic [23:0]         dz_abs,
-    output logic signed [9:0]   texp,
-    output logic                overflow
+module gridrt_ray_setup (
+    input  logic                clk_i,
+    input  logic                start_i,
+    input  logic [2:0][31:0]    org_i,
+    input  logic [2:0][31:0]    dir_i,
+    input  logic signed [9:0]   frame_s_i,
+    input  logic [2:0][54:0]    frame_qm_i,   // signed elements
+    input  logic [2:0]          frame_huge_i,
+    output logic                done_o,
+    output logic [2:0][33:0]    o_o,          // signed elements
+    output logic [1:0]          kz_o,
+    output logic signed [24:0]  sx_o, sy_o,
+    output logic                dz_neg_o,
+    output logic [23:0]         dz_abs_o,
+    output logic signed [9:0]   texp_o,
+    output logic                overflow_o
 );
     // Schedule (steps from 1): the dominant axis in step 1; the converter takes the three
     // direction components in steps 2-4 and the origin in 5-7, each ready CV_LAT steps later;
@@ -38,7 +39,7 @@ module ray_setup (
     logic signed [9:0]  cv_k;
     logic signed [54:0] cv_q;
     logic               cv_huge;
-    f32_to_fixed u_cv (.clk, .in_valid(cv_in), .x(cv_x), .k(cv_k), .out_valid(cv_out_unused), .q(cv_q), .huge(cv_huge));
+    gridrt_f32_to_fixed u_cv (.clk_i, .in_valid_i(cv_in), .x_i(cv_x), .k_i(cv_k), .out_valid_o(cv_out_unused), .q_o(cv_q), .huge_o(cv_huge));
 
     logic [5:0]         step;      // 0 idle; 1.. running
     logic signed [9:0]  e_max;
@@ -70,12 +71,12 @@ module ray_setup (
         cv_k = 10'sd0;
         if (step >= 6'(STEP_DIR) && step < 6'(STEP_DIR + 3)) begin
             cv_in = 1'b1;
-            cv_x = dir[2'(step - 6'(STEP_DIR))];
+            cv_x = dir_i[2'(step - 6'(STEP_DIR))];
             cv_k = 10'sd23 - e_max;
         end else if (step >= 6'(STEP_ORG) && step < 6'(STEP_ORG + 3)) begin
             cv_in = 1'b1;
-            cv_x = org[2'(step - 6'(STEP_ORG))];
-            cv_k = frame_s + 10'sd23;
+            cv_x = org_i[2'(step - 6'(STEP_ORG))];
+            cv_k = frame_s_i + 10'sd23;
         end
     end
 
@@ -105,23 +106,23 @@ module ray_setup (
         div2 = {rem, q0[21:0], digit};
     endfunction
 
-    always_ff @(posedge clk) begin
-        done <= 1'b0;
-        if (start) begin
+    always_ff @(posedge clk_i) begin
+        done_o <= 1'b0;
+        if (start_i) begin
             step <= 6'd1;
-            overflow <= 1'b0;
+            overflow_o <= 1'b0;
         end else if (step != 0) begin
             step <= (step == 6'(LATENCY)) ? 6'd0 : step + 6'd1;
             if (step == 6'd1) begin
                 // max_dimension: x if |x| >= |y| and |x| >= |z|, else y if |y| >= |z|, else z.
                 logic [1:0] k;
-                if (mag(dir[0]) >= mag(dir[1]) && mag(dir[0]) >= mag(dir[2])) k = 2'd0;
-                else if (mag(dir[1]) >= mag(dir[2])) k = 2'd1;
+                if (mag(dir_i[0]) >= mag(dir_i[1]) && mag(dir_i[0]) >= mag(dir_i[2])) k = 2'd0;
+                else if (mag(dir_i[1]) >= mag(dir_i[2])) k = 2'd1;
                 else k = 2'd2;
-                kz <= k;
+                kz_o <= k;
                 // E of all three components beside the compares, then a 3-way select (the
                 // select before the leading-one search was a placed 4-PE design's path).
-                e_max <= (k == 2'd0) ? floor_log2(dir[0]) : (k == 2'd1) ? floor_log2(dir[1]) : floor_log2(dir[2]);
+                e_max <= (k == 2'd0) ? floor_log2(dir_i[0]) : (k == 2'd1) ? floor_log2(dir_i[1]) : floor_log2(dir_i[2]);
             end
             if (step >= 6'(STEP_DIR + CV_LAT) && step < 6'(STEP_DIR + CV_LAT + 3))
                 d[2'(step - 6'(STEP_DIR + CV_LAT))] <= 25'(cv_q);
@@ -129,28 +130,28 @@ module ray_setup (
             // (Constant indices: a variable index into a packed array costs a multiplier.)
             for (int i = 0; i < 3; i++) begin
                 if (step == 6'(STEP_ORG + CV_LAT + i)) begin
-                    od <= 56'(cv_q) - 56'($signed(frame_qm[i]));
-                    od_bad <= cv_huge || frame_huge[i];
+                    od <= 56'(cv_q) - 56'($signed(frame_qm_i[i]));
+                    od_bad <= cv_huge || frame_huge_i[i];
                 end
                 if (step == 6'(STEP_ORG + CV_LAT + 1 + i)) begin
                     // |od| >= 2^33 as bit tests.
                     if (od_bad || (od[55] ? (od[54:33] != '1 || od[32:0] == 0) : od[54:33] != 0))
-                        overflow <= 1'b1;
-                    o[i] <= 34'(od);
+                        overflow_o <= 1'b1;
+                    o_o[i] <= 34'(od);
                 end
             end
             if (step == 6'(STEP_PERMUTE)) begin
                 // Permute the direction (kz=0: y,z,x; kz=1: z,x,y; kz=2: x,y,z) and set up the
                 // two divisions trunc(-dx * 2^23 / dz), trunc(-dy * 2^23 / dz).
                 logic signed [24:0] px, py, pz;
-                case (kz)
+                unique case (kz_o)
                     2'd0: begin px = d[1]; py = d[2]; pz = d[0]; end
                     2'd1: begin px = d[2]; py = d[0]; pz = d[1]; end
                     default: begin px = d[0]; py = d[1]; pz = d[2]; end
                 endcase
                 den <= (pz < 0) ? 24'(-pz) : 24'(pz);
-                dz_neg <= pz < 0;
-                dz_abs <= (pz < 0) ? 24'(-pz) : 24'(pz);
+                dz_neg_o <= pz < 0;
+                dz_abs_o <= (pz < 0) ? 24'(-pz) : 24'(pz);
                 // -d/dz is negative when d and dz have the same sign (d = 0 gives q = 0).
                 sx_neg <= (px < 0) == (pz < 0);
                 sy_neg <= (py < 0) == (pz < 0);
@@ -158,7 +159,7 @@ module ray_setup (
                 ry <= (py < 0) ? 24'(-py) : 24'(py);
                 qx <= '0;
                 qy <= '0;
-                texp <= -frame_s - e_max;
+                texp_o <= -frame_s_i - e_max;
             end
             if (step > 6'(STEP_PERMUTE) && step <= 6'(STEP_PERMUTE + DIV_STEPS)) begin
                 // Quotient bits 23 and 22 first.
@@ -167,9 +168,9 @@ module ray_setup (
                 den3 <= 26'(den) + {1'b0, den, 1'b0};
             end
             if (step == 6'(LATENCY)) begin
-                sx <= sx_neg ? -$signed({1'b0, qx}) : $signed({1'b0, qx});
-                sy <= sy_neg ? -$signed({1'b0, qy}) : $signed({1'b0, qy});
-                done <= 1'b1;
+                sx_o <= sx_neg ? -$signed({1'b0, qx}) : $signed({1'b0, qx});
+                sy_o <= sy_neg ? -$signed({1'b0, qy}) : $signed({1'b0, qy});
+                done_o <= 1'b1;
             end
         end
     end

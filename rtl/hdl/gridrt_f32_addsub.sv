@@ -1,6 +1,6 @@
-// f32_addsub: IEEE-754 binary32 a + b or a - b, round to nearest even, subnormals in and out.
+// gridrt_f32_addsub: IEEE-754 binary32 a + b or a - b, round to nearest even, subnormals in and out.
 //
-// Spec: rtl/README.md §3.5. Bit-exact with Rust's `f32` `+`/`-` except that every NaN
+// Spec: rtl/README.md §3 (IEEE-754 units). Bit-exact with Rust's `f32` `+`/`-` except that every NaN
 // result is the canonical quiet NaN 0x7FC00000 (the co-processor's only NaN sources are
 // inf - inf and inf * 0 in the normal, which the model canonicalises the same way).
 //
@@ -8,24 +8,24 @@
 // round and pack); one operation per cycle; `out_valid` follows `in_valid` by LATENCY
 // cycles. The operand registers keep the callers' operand selection out of the swap's
 // compare (tri_loader's was a long path of a placed 4-PE design).
-module f32_addsub (
-    input  logic        clk,
-    input  logic        in_valid,
-    input  logic [31:0] a,
-    input  logic [31:0] b,
-    input  logic        sub,        // 1: a - b
-    output logic        out_valid,
-    output logic [31:0] y
+module gridrt_f32_addsub (
+    input  logic        clk_i,
+    input  logic        in_valid_i,
+    input  logic [31:0] a_i,
+    input  logic [31:0] b_i,
+    input  logic        sub_i,        // 1: a - b
+    output logic        out_valid_o,
+    output logic [31:0] y_o
 );
     localparam int LATENCY = 7;
 
     // ---------------------------------------------------------------- stage 0: operands
     logic        s0_valid;
     logic [31:0] s0_a, s0_b;    // s0_b: b with the operation's sign
-    always_ff @(posedge clk) begin
-        s0_valid <= in_valid;
-        s0_a <= a;
-        s0_b <= {b[31] ^ sub, b[30:0]};
+    always_ff @(posedge clk_i) begin
+        s0_valid <= in_valid_i;
+        s0_a <= a_i;
+        s0_b <= {b_i[31] ^ sub_i, b_i[30:0]};
     end
 
     // ---------------------------------------------------------------- stage 1: unpack, order
@@ -41,7 +41,7 @@ module f32_addsub (
     logic [7:0]  s1_exp;        // effective exponent of hi (subnormal: 1)
     logic [7:0]  s1_diff;       // exponent difference
     logic [23:0] s1_mhi, s1_mlo;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic [7:0] ehi, elo;
         ehi = hi[30:23];
         elo = lo[30:23];
@@ -65,7 +65,7 @@ module f32_addsub (
     logic [7:0]  s2_exp;
     logic [23:0] s2_mhi;
     logic [26:0] s2_lo;     // aligned, sticky in bit 0
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic [26:0] lo_ext;
         logic [26:0] shifted;
         logic        st;
@@ -92,7 +92,7 @@ module f32_addsub (
     logic        s3_valid, s3_nan, s3_inf, s3_sign, s3_zero_sign;
     logic [7:0]  s3_exp;
     logic [27:0] s3_sum;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         if (s2_subtract) s3_sum <= {1'b0, s2_mhi, 3'b000} - {1'b0, s2_lo};
         else             s3_sum <= {1'b0, s2_mhi, 3'b000} + {1'b0, s2_lo};
         s3_valid     <= s2_valid;
@@ -105,12 +105,12 @@ module f32_addsub (
 
     // ---------------------------------------------------------------- stage 4: leading zeros
     logic [4:0]  sum_len;
-    bit_length #(.W(28)) u_sum_len (.x(s3_sum), .len(sum_len));
+    gridrt_bit_length #(.W(28)) u_sum_len (.x_i(s3_sum), .len_o(sum_len));
     logic        s4_valid, s4_nan, s4_inf, s4_sign, s4_zero_sign;
     logic [7:0]  s4_exp;
     logic [27:0] s4_sum;
     logic [4:0]  s4_shift;  // left shift when there is no carry out
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic [4:0] lz;
         lz = 5'd28 - sum_len;
         // lz >= 1 without a carry; shift left by lz - 1, but never below exponent 1 (subnormal).
@@ -128,7 +128,7 @@ module f32_addsub (
     logic        s5_valid, s5_nan, s5_inf, s5_sign, s5_zero_sign, s5_zero;
     logic [9:0]  s5_e;      // signed headroom for the exponent arithmetic
     logic [27:0] s5_norm;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         if (s4_sum[27]) begin
             // Carry out: shift right by one, keeping the lost bit sticky.
             s5_norm <= {1'b0, s4_sum[27:2], s4_sum[1] | s4_sum[0]};
@@ -146,37 +146,15 @@ module f32_addsub (
     end
 
     // ---------------------------------------------------------------- stage 6: round, pack
+    // s5_norm[26] is the hidden bit (0 for a subnormal result); s5_norm[2:0] = G, R, S.
     logic [31:0] result;
-    always_comb begin
-        logic [9:0]  e;
-        logic [24:0] mant;
-        logic        g, r;
-        // norm[26] is the hidden bit (0 for a subnormal result); norm[2:0] = G, R, S.
-        e = s5_e;
-        g = s5_norm[2];
-        r = s5_norm[1] | s5_norm[0];
-        mant = {1'b0, s5_norm[26:3]};
-        if (g && (r || mant[0])) mant = mant + 25'd1;
-        if (mant[24]) begin
-            mant = mant >> 1;
-            e = e + 10'd1;
-        end
-        if (s5_nan)
-            result = 32'h7FC0_0000;
-        else if (s5_inf)
-            result = {s5_sign, 8'hFF, 23'd0};
-        else if (s5_zero)
-            result = {s5_zero_sign, 31'd0};
-        else if (e >= 10'd255)
-            result = {s5_sign, 8'hFF, 23'd0};
-        else if (!mant[23])
-            result = {s5_sign, 8'd0, mant[22:0]};    // subnormal (e is 1)
-        else
-            result = {s5_sign, e[7:0], mant[22:0]};
-    end
+    gridrt_f32_round_pack u_round (
+        .nan_i(s5_nan), .inf_i(s5_inf), .zero_i(s5_zero), .sign_i(s5_sign), .zero_sign_i(s5_zero_sign),
+        .exp_i({1'b0, s5_e}), .mant_i(s5_norm[26:3]), .guard_i(s5_norm[2]),
+        .sticky_i(s5_norm[1] | s5_norm[0]), .y_o(result));
 
-    always_ff @(posedge clk) begin
-        out_valid <= s5_valid;
-        y <= result;
+    always_ff @(posedge clk_i) begin
+        out_valid_o <= s5_valid;
+        y_o <= result;
     end
 endmodule

@@ -1,6 +1,6 @@
-// pe: one processing element: its memory, its queue of list entries, the test issue loop
+// gridrt_pe: one processing element: its memory, its queue of list entries, the test issue loop
 // and the per-entry result (rtl/README.md §4.3). Its tests go out on the t_* ports to the
-// intersection pipeline it shares with ISSUE_INTERVAL - 1 other PEs (isect_share.sv) and come
+// intersection pipeline it shares with ISSUE_INTERVAL - 1 other PEs (gridrt_isect_share.sv) and come
 // back on r_*.
 //
 // Timeline of a ray (the model's `PeTimeline` with issue interval I = ISSUE_INTERVAL and
@@ -12,7 +12,7 @@
 // done a fixed number of cycles after its last issue (the model's test latency: reads, the
 // record's parts, the shared pipeline, the result stage), or, for RAY_ANY, after the issue
 // of its first accepted test. `issued` counts the issues of the current ray.
-module pe #(
+module gridrt_pe #(
     parameter int WORDS = 16384,
     parameter int MAX_LIST = 256,
     // Cycles between two issues: the PEs sharing this PE's intersection pipeline (1, 2, 4).
@@ -26,46 +26,46 @@ module pe #(
     // Cycles from a test's last part on t_* to its result on r_* (isect_share).
     parameter int RESULT_LATENCY = 60
 ) (
-    input  logic                         clk,
-    input  logic                         rst,
+    input  logic                         clk_i,
+    input  logic                         rst_i,
     // Port A of the memory for the controller (load, voxel lookup, the winner's triangle);
     // ignored while the PE executes a ray. Port B is the PE's own (record windows).
-    input  logic [$clog2(WORDS)-1:0]     c_a_addr,
-    input  logic                         c_a_we,
-    input  logic [31:0]                  c_a_wdata,
-    output logic [31:0]                  a_rdata,
+    input  logic [$clog2(WORDS)-1:0]     c_a_addr_i,
+    input  logic                         c_a_we_i,
+    input  logic [31:0]                  c_a_wdata_i,
+    output logic [31:0]                  a_rdata_o,
     // Image layout (valid while loaded).
-    input  logic [$clog2(WORDS)-1:0]     ref_off,
+    input  logic [$clog2(WORDS)-1:0]     ref_off_i,
     // Entry queue, filled while the request streams in.
-    input  logic                         ray_begin,  // empties the queue
-    input  logic                         q_push,
-    input  logic [$clog2(MAX_LIST)-1:0]  q_k,
-    input  logic [$clog2(WORDS)-1:0]     q_first,
-    input  logic [$clog2(WORDS)-1:0]     q_count,
-    input  logic [31:0]                  q_hi,
+    input  logic                         ray_begin_i,  // empties the queue
+    input  logic                         q_push_i,
+    input  logic [$clog2(MAX_LIST)-1:0]  q_k_i,
+    input  logic [$clog2(WORDS)-1:0]     q_first_i,
+    input  logic [$clog2(WORDS)-1:0]     q_count_i,
+    input  logic [31:0]                  q_hi_i,
     // Execution.
-    input  logic                         start,
-    input  logic                         stop,
-    input  logic                         any,        // RAY_ANY
-    input  logic [31:0]                  t_max,
-    output logic [31:0]                  issued,
+    input  logic                         start_i,
+    input  logic                         stop_i,
+    input  logic                         any_i,        // RAY_ANY
+    input  logic [31:0]                  t_max_i,
+    output logic [31:0]                  issued_o,
     // Tests to the shared intersection pipeline: the record's parts, t_valid with each;
     // their results, in issue order, RESULT_LATENCY cycles after the last part (the test's
     // entry, triangle and prim id wait here).
-    output logic                         t_valid,
-    output logic [1:0]                   t_part,
-    output logic [PART_W-1:0]            t_chunk,
-    input  logic                         r_valid,
-    input  logic [1:0]                   r_kind,
-    input  logic [31:0]                  r_t,
+    output logic                         t_valid_o,
+    output logic [1:0]                   t_part_o,
+    output logic [PART_W-1:0]            t_chunk_o,
+    input  logic                         r_valid_i,
+    input  logic [1:0]                   r_kind_i,
+    input  logic [31:0]                  r_t_i,
     // For the arbiter: the first of this PE's list entries that is not done, and the first
     // that hit (MAX_LIST: none), with this cycle's events, registered.
-    output logic [$clog2(MAX_LIST):0]    open_k,
-    output logic [$clog2(MAX_LIST):0]    hit_k,
+    output logic [$clog2(MAX_LIST):0]    open_k_o,
+    output logic [$clog2(MAX_LIST):0]    hit_k_o,
     // Result of entry k (hit distance, local triangle), read after the ray.
-    input  logic [$clog2(MAX_LIST)-1:0]  res_k,
-    output logic [31:0]                  res_t,
-    output logic [$clog2(WORDS)-1:0]     res_tri
+    input  logic [$clog2(MAX_LIST)-1:0]  res_k_i,
+    output logic [31:0]                  res_t_o,
+    output logic [$clog2(WORDS)-1:0]     res_tri_o
 );
     localparam int AW = $clog2(WORDS);
     localparam int KW = $clog2(MAX_LIST);
@@ -83,16 +83,16 @@ module pe #(
     if (PARTED ? (PARTS != 3 || PART_W != 128) : (PARTS != ISSUE_INTERVAL || PART_W * PARTS != 288)) begin : g_bad_parts
         $error("pe: PARTS and PART_W do not match ISSUE_INTERVAL");
     end
-    logic          active;     // executing a ray: the issue loop reads the memory
-    logic [AW-1:0] x_a_addr, x_b_addr, x_b_addr4, x_b_addr8;
-    logic          iss_valid;  // an issue in the last cycle: its ref word is read now
+    logic          active_q, active_d;     // executing a ray: the issue loop reads the memory
+    logic [AW-1:0] x_a_addr_q, x_a_addr_d, x_b_addr, x_b_addr4, x_b_addr8;
+    logic          iss_valid_q, iss_valid_d;  // an issue in the last cycle: its ref word is read now
     logic          rd_part1, rd_part2;     // PARTED: the record's second and third reads now
     logic [31:0]   w_rdata, r_word, ref_word;
     logic [32*RD_WORDS-1:0] r_window;      // a record (9 coordinates, prim) or a part of one
     logic [AW-1:0] r_addr;
     always_comb begin
-        if (!active) r_addr = c_a_addr;
-        else if (!WORD_PORT && iss_valid) r_addr = x_a_addr;
+        if (!active_q) r_addr = c_a_addr_i;
+        else if (!WORD_PORT && iss_valid_q) r_addr = x_a_addr_q;
         else if (PARTED && rd_part1) r_addr = x_b_addr4;
         else if (PARTED && rd_part2) r_addr = x_b_addr8;
         else r_addr = x_b_addr;
@@ -104,108 +104,125 @@ module pe #(
     logic [AW-1:0] w_addr_q;
     logic          w_en_q;
     logic [31:0]   w_data_q;
-    always_ff @(posedge clk) begin
-        w_addr_q <= c_a_addr;
-        w_en_q <= !active && c_a_we && !rst;
-        w_data_q <= c_a_wdata;
+    always_ff @(posedge clk_i) begin
+        w_addr_q <= c_a_addr_i;
+        w_en_q <= !active_q && c_a_we_i && !rst_i;
+        w_data_q <= c_a_wdata_i;
     end
-    pe_mem #(.WORDS(WORDS), .BANKS(PARTED ? 4 : 16), .RD_WORDS(RD_WORDS), .WORD_PORT(WORD_PORT)) u_mem (
-        .clk,
-        .w_addr(WORD_PORT ? (active ? x_a_addr : c_a_addr) : w_addr_q),
-        .w_en(WORD_PORT ? !active && c_a_we : w_en_q), .w_data(WORD_PORT ? c_a_wdata : w_data_q),
-        .w_rdata, .r_addr, .r_window, .r_word);
-    assign a_rdata = WORD_PORT ? w_rdata : r_word;
+    gridrt_pe_mem #(.WORDS(WORDS), .BANKS(PARTED ? 4 : 16), .RD_WORDS(RD_WORDS), .WORD_PORT(WORD_PORT)) u_mem (
+        .clk_i,
+        .w_addr_i(WORD_PORT ? (active_q ? x_a_addr_q : c_a_addr_i) : w_addr_q),
+        .w_en_i(WORD_PORT ? !active_q && c_a_we_i : w_en_q), .w_data_i(WORD_PORT ? c_a_wdata_i : w_data_q),
+        .w_rdata_o(w_rdata), .r_addr_i(r_addr), .r_window_o(r_window), .r_word_o(r_word));
+    // The single-word read: the controller's reads and the PE's ref words (the same port).
     assign ref_word = WORD_PORT ? w_rdata : r_word;
+    assign a_rdata_o = ref_word;
 
     // ---------------------------------------------------------------- entry queue
     logic [KW+2*AW-1:0] q_mem [MAX_LIST];
     logic [KW+2*AW-1:0] q_rdata;
-    logic [KW:0]        q_n, q_raddr;
+    logic [KW:0]        q_n_q, q_raddr_q, q_n_d, q_raddr_d;
     logic [31:0]        hi_mem [MAX_LIST];
-    always_ff @(posedge clk) begin
-        if (q_push) begin
-            q_mem[q_n[KW-1:0]] <= {q_k, q_first, q_count};
-            hi_mem[q_k] <= q_hi;
+    always_ff @(posedge clk_i) begin
+        if (q_push_i) begin
+            q_mem[q_n_q[KW-1:0]] <= {q_k_i, q_first_i, q_count_i};
+            hi_mem[q_k_i] <= q_hi_i;
         end
-        q_rdata <= q_mem[q_raddr[KW-1:0]];
+        q_rdata <= q_mem[q_raddr_q[KW-1:0]];
     end
 
     // ---------------------------------------------------------------- issue loop
     // An entry's setup is S_SETUP (SETUP - 1 cycles) then S_TAKE; S_GAP follows every issue
-    // for the rest of the issue interval. `phase` counts the cycles spent in a state.
+    // for the rest of the issue interval. `phase_q` counts the cycles spent in a state.
     localparam int SETUP = (ISSUE_INTERVAL > 2) ? ISSUE_INTERVAL : 2;
     typedef enum logic [2:0] { S_IDLE, S_SETUP, S_TAKE, S_ISSUE, S_GAP } state_t;
-    state_t        state;
-    logic [1:0]    phase;
-    logic [KW-1:0] cur_k;
-    logic [AW-1:0] cur_first, cur_count, cur_i;
-    logic          epoch;
-    logic          iss_more;   // the current entry has tests left to issue
-    logic          iss_last;
-    logic [KW-1:0] iss_k;
-    always_ff @(posedge clk) begin
+    state_t        state_q, state_d;
+    logic [1:0]    phase_q, phase_d;
+    logic [KW-1:0] cur_k_q, cur_k_d;
+    logic [AW-1:0] cur_first_q, cur_count_q, cur_i_q, cur_first_d, cur_count_d, cur_i_d;
+    logic          epoch_q, epoch_d;
+    logic [31:0]   issued_q, issued_d;
+    assign issued_o = issued_q;
+    logic          iss_more_q, iss_more_d;   // the current entry has tests left to issue
+    logic          iss_last_q, iss_last_d;
+    logic [KW-1:0] iss_k_q, iss_k_d;
+    always_comb begin
         logic more;
-        iss_valid <= 1'b0;
-        phase <= phase + 2'd1;
-        more = cur_i != cur_count - 1'b1;
-        if (rst) begin
-            state <= S_IDLE;
-            active <= 1'b0;
-            q_n <= '0;
-            q_raddr <= '0;
-            epoch <= 1'b0;
-            issued <= 32'd0;
+        state_d = state_q;
+        active_d = active_q;
+        q_n_d = q_n_q;
+        q_raddr_d = q_raddr_q;
+        epoch_d = epoch_q;
+        issued_d = issued_q;
+        cur_k_d = cur_k_q;
+        cur_first_d = cur_first_q;
+        cur_count_d = cur_count_q;
+        cur_i_d = cur_i_q;
+        iss_last_d = iss_last_q;
+        iss_k_d = iss_k_q;
+        x_a_addr_d = x_a_addr_q;
+        iss_more_d = iss_more_q;
+        iss_valid_d = 1'b0;
+        phase_d = phase_q + 2'd1;
+        more = cur_i_q != cur_count_q - 1'b1;
+        if (rst_i) begin
+            state_d = S_IDLE;
+            active_d = 1'b0;
+            q_n_d = '0;
+            q_raddr_d = '0;
+            epoch_d = 1'b0;
+            issued_d = 32'd0;
         end else begin
-            if (ray_begin) begin
-                q_n <= '0;
-                q_raddr <= '0;
-            end else if (q_push) begin
-                q_n <= q_n + 1'b1;
+            if (ray_begin_i) begin
+                q_n_d = '0;
+                q_raddr_d = '0;
+            end else if (q_push_i) begin
+                q_n_d = q_n_q + 1'b1;
             end
-            if (start) begin
-                state <= S_SETUP;
-                phase <= '0;
-                active <= 1'b1;
-                epoch <= !epoch;
-                issued <= 32'd0;
-            end else if (stop) begin
-                state <= S_IDLE;
-                active <= 1'b0;
-                q_raddr <= '0;
+            if (start_i) begin
+                state_d = S_SETUP;
+                phase_d = '0;
+                active_d = 1'b1;
+                epoch_d = !epoch_q;
+                issued_d = 32'd0;
+            end else if (stop_i) begin
+                state_d = S_IDLE;
+                active_d = 1'b0;
+                q_raddr_d = '0;
             end else begin
-                case (state)
-                    S_SETUP: if (phase == 2'(SETUP - 2)) state <= S_TAKE;
+                unique case (state_q)
+                    S_SETUP: if (phase_q == 2'(SETUP - 2)) state_d = S_TAKE;
                     S_TAKE: begin
-                        phase <= '0;
-                        if (q_raddr == q_n) begin
-                            state <= S_IDLE;
+                        phase_d = '0;
+                        if (q_raddr_q == q_n_q) begin
+                            state_d = S_IDLE;
                         end else begin
-                            {cur_k, cur_first, cur_count} <= q_rdata;
-                            cur_i <= '0;
-                            q_raddr <= q_raddr + 1'b1;
+                            {cur_k_d, cur_first_d, cur_count_d} = q_rdata;
+                            cur_i_d = '0;
+                            q_raddr_d = q_raddr_q + 1'b1;
                             if (q_rdata[AW-1:0] == 0) begin
-                                state <= S_SETUP;   // done (pend, below)
+                                state_d = S_SETUP;   // done (pend, below)
                             end else begin
-                                state <= S_ISSUE;
+                                state_d = S_ISSUE;
                             end
                         end
                     end
                     S_ISSUE: begin
-                        iss_valid <= 1'b1;
-                        iss_last <= !more;
-                        iss_k <= cur_k;
-                        x_a_addr <= ref_off + cur_first + cur_i;
-                        issued <= issued + 1;
-                        cur_i <= cur_i + 1'b1;
-                        iss_more <= more;
-                        phase <= '0;
-                        if (ISSUE_INTERVAL > 1) state <= S_GAP;
-                        else if (!more) state <= S_SETUP;
+                        iss_valid_d = 1'b1;
+                        iss_last_d = !more;
+                        iss_k_d = cur_k_q;
+                        x_a_addr_d = ref_off_i + cur_first_q + cur_i_q;
+                        issued_d = issued_q + 1;
+                        cur_i_d = cur_i_q + 1'b1;
+                        iss_more_d = more;
+                        phase_d = '0;
+                        if (ISSUE_INTERVAL > 1) state_d = S_GAP;
+                        else if (!more) state_d = S_SETUP;
                     end
                     S_GAP: begin
-                        if (phase == 2'(ISSUE_INTERVAL - 2)) begin
-                            state <= iss_more ? S_ISSUE : S_SETUP;
-                            phase <= '0;
+                        if (phase_q == 2'(ISSUE_INTERVAL - 2)) begin
+                            state_d = iss_more_q ? S_ISSUE : S_SETUP;
+                            phase_d = '0;
                         end
                     end
                     default: ;
@@ -214,16 +231,34 @@ module pe #(
         end
     end
 
-    // A test issued in cycle c presents its ref address (x_a_addr) and its tag in cycle c+1;
+    always_ff @(posedge clk_i) begin
+        state_q <= state_d;
+        phase_q <= phase_d;
+        active_q <= active_d;
+        q_n_q <= q_n_d;
+        q_raddr_q <= q_raddr_d;
+        epoch_q <= epoch_d;
+        issued_q <= issued_d;
+        cur_k_q <= cur_k_d;
+        cur_first_q <= cur_first_d;
+        cur_count_q <= cur_count_d;
+        cur_i_q <= cur_i_d;
+        iss_valid_q <= iss_valid_d;
+        iss_last_q <= iss_last_d;
+        iss_k_q <= iss_k_d;
+        x_a_addr_q <= x_a_addr_d;
+        iss_more_q <= iss_more_d;
+    end
+    // A test issued in cycle c presents its ref address (x_a_addr_q) and its tag in cycle c+1;
     // the ref word arrives in c+3, the record's address is read in c+4 (and c+6, c+7) and its
     // window arrives two cycles after each read (pe_mem).
     logic [KW+1:0] tag_p2;
     logic          v_p2;
-    delay #(.W(KW+3), .N(2)) u_dp2 (.clk, .d({iss_valid, epoch, iss_last, iss_k}), .q({v_p2, tag_p2}));
+    gridrt_delay #(.W(KW+3), .N(2)) u_dp2 (.clk_i, .d_i({iss_valid_q, epoch_q, iss_last_q, iss_k_q}), .q_o({v_p2, tag_p2}));
     logic [AW-1:0] ref_tri;
     assign ref_tri = ref_word[AW-1:0];
     // Record t at WORDS - 10 (t + 1) (the controller stacks them from the top down).
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         if (v_p2) begin
             x_b_addr <= AW'(WORDS - 10) - (AW'(ref_tri) << 3) - (AW'(ref_tri) << 1);
             x_b_addr4 <= AW'(WORDS - 6) - (AW'(ref_tri) << 3) - (AW'(ref_tri) << 1);
@@ -242,18 +277,18 @@ module pe #(
         logic          v_p3, v_p5, v_p6, v_p7, v_p8;
         logic [KW+1:0] tag_p8;
         logic [AW-1:0] tri_p8;
-        delay #(.W(1), .N(1)) u_d3 (.clk, .d(v_p2), .q(v_p3));
-        delay #(.W(1), .N(2)) u_d5 (.clk, .d(v_p3), .q(v_p5));
-        delay #(.W(1), .N(1)) u_d6 (.clk, .d(v_p5), .q(v_p6));
-        delay #(.W(1), .N(2)) u_d7 (.clk, .d(v_p5), .q(v_p7));
-        delay #(.W(1), .N(2)) u_d8 (.clk, .d(v_p6), .q(v_p8));
-        delay #(.W(KW+2+AW), .N(6)) u_dtag (.clk, .d({tag_p2, ref_tri}), .q({tag_p8, tri_p8}));
+        gridrt_delay #(.W(1), .N(1)) u_d3 (.clk_i, .d_i(v_p2), .q_o(v_p3));
+        gridrt_delay #(.W(1), .N(2)) u_d5 (.clk_i, .d_i(v_p3), .q_o(v_p5));
+        gridrt_delay #(.W(1), .N(1)) u_d6 (.clk_i, .d_i(v_p5), .q_o(v_p6));
+        gridrt_delay #(.W(1), .N(2)) u_d7 (.clk_i, .d_i(v_p5), .q_o(v_p7));
+        gridrt_delay #(.W(1), .N(2)) u_d8 (.clk_i, .d_i(v_p6), .q_o(v_p8));
+        gridrt_delay #(.W(KW+2+AW), .N(6)) u_dtag (.clk_i, .d_i({tag_p2, ref_tri}), .q_o({tag_p8, tri_p8}));
         assign rd_part1 = v_p5;
         assign rd_part2 = v_p6;
-        always_ff @(posedge clk) begin
-            t_valid <= v_p5 || v_p7 || v_p8;
-            t_part <= v_p5 ? 2'd0 : (v_p7 ? 2'd1 : 2'd2);
-            t_chunk <= r_window;
+        always_ff @(posedge clk_i) begin
+            t_valid_o <= v_p5 || v_p7 || v_p8;
+            t_part_o <= v_p5 ? 2'd0 : (v_p7 ? 2'd1 : 2'd2);
+            t_chunk_o <= r_window;
         end
         // Part 2 is the record's words 8 and 9: the last coordinate and the prim id.
         assign tag_in_valid = v_p8;
@@ -267,34 +302,44 @@ module pe #(
         logic          v_p5;
         logic [287:0]  rec_rest;
         logic [1:0]    part_next;
-        delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk, .d({v_p2, tag_p2, ref_tri}), .q({v_p5, tag_p5, tri_p5}));
+        gridrt_delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk_i, .d_i({v_p2, tag_p2, ref_tri}), .q_o({v_p5, tag_p5, tri_p5}));
         assign rd_part1 = 1'b0;
         assign rd_part2 = 1'b0;
-        always_ff @(posedge clk) begin
-            t_valid <= v_p5 || part_next != 0;
+        always_ff @(posedge clk_i) begin
+            t_valid_o <= v_p5 || part_next != 0;
             if (v_p5) begin
-                t_part <= 2'd0;
-                t_chunk <= r_window[PART_W-1:0];
+                t_part_o <= 2'd0;
+                t_chunk_o <= r_window[PART_W-1:0];
                 rec_rest <= r_window[287:0] >> PART_W;
                 part_next <= (PARTS > 1) ? 2'd1 : 2'd0;
             end else if (part_next != 0) begin
-                t_part <= part_next;
-                t_chunk <= rec_rest[PART_W-1:0];
+                t_part_o <= part_next;
+                t_chunk_o <= rec_rest[PART_W-1:0];
                 rec_rest <= rec_rest >> PART_W;
                 part_next <= (part_next == 2'(PARTS - 1)) ? 2'd0 : part_next + 2'd1;
             end
-            if (rst) part_next <= '0;
+            if (rst_i) part_next <= '0;
         end
         assign tag_in_valid = v_p5;
         assign tag_in = {tag_p5, tri_p5, r_window[32*9 +: 32]};
     end
     logic [TAG_W-1:0] r_tag;
-    logic             r_expected;
     localparam int TAG_DELAY = RESULT_LATENCY + (PARTED ? 1 : PARTS);
-    delay_ram #(.W(1 + TAG_W), .N(TAG_DELAY)) u_tag (.clk, .d({tag_in_valid, tag_in}), .q({r_expected, r_tag}));
+    gridrt_delay_ram #(.W(TAG_W), .N(TAG_DELAY)) u_tag (.clk_i, .d_i(tag_in), .q_o(r_tag));
 `ifndef SYNTHESIS
-    always_ff @(posedge clk)
-        if (!rst && r_valid != r_expected) $fatal(1, "pe: a result not RESULT_LATENCY cycles after its test");
+    // Every result comes TAG_DELAY cycles after its test's tag entered u_tag, when the tag
+    // comes out (checked from TAG_DELAY cycles after a reset on: a reset may drop the tests
+    // in flight).
+    logic r_expected;
+    int   settled_q;
+    gridrt_delay #(.W(1), .N(TAG_DELAY)) u_expected (.clk_i, .d_i(tag_in_valid), .q_o(r_expected));
+    always_ff @(posedge clk_i) begin
+        if (rst_i) settled_q <= 0;
+        else if (settled_q <= TAG_DELAY) settled_q <= settled_q + 1;
+    end
+    ResultLatency: assert property (@(posedge clk_i) disable iff (rst_i || settled_q <= TAG_DELAY)
+        r_valid_i == r_expected)
+        else $fatal(1, "gridrt_pe: a result not RESULT_LATENCY cycles after its test");
 `endif
 
     // ---------------------------------------------------------------- result stage
@@ -303,13 +348,13 @@ module pe #(
     logic [KW-1:0] r0_k;
     logic [AW-1:0] r0_tri;
     logic [31:0]   r0_t, r0_prim, r0_hi;
-    always_ff @(posedge clk) begin
-        r0_valid <= r_valid && active && r_tag[TAG_W-1] == epoch;
-        r0_hit <= r_kind == 2'd1;
+    always_ff @(posedge clk_i) begin
+        r0_valid <= r_valid_i && active_q && r_tag[TAG_W-1] == epoch_q;
+        r0_hit <= r_kind_i == 2'd1;
         {r0_last, r0_k} <= r_tag[TAG_W-2 -: KW+1];
         r0_tri <= r_tag[32 +: AW];
         r0_prim <= r_tag[31:0];
-        r0_t <= r_t;
+        r0_t <= r_t_i;
         r0_hi <= hi_mem[r_tag[TAG_W-3 -: KW]];
     end
 
@@ -318,9 +363,9 @@ module pe #(
     logic [KW-1:0] r1_k;
     logic [AW-1:0] r1_tri;
     logic [31:0]   r1_t, r1_prim;
-    always_ff @(posedge clk) begin
-        r1_valid <= r0_valid && active;
-        r1_acc <= r0_hit && !t_max[31] && r0_t[30:0] < t_max[30:0] && !r0_hi[31] && r0_t[30:0] <= r0_hi[30:0];
+    always_ff @(posedge clk_i) begin
+        r1_valid <= r0_valid && active_q;
+        r1_acc <= r0_hit && !t_max_i[31] && r0_t[30:0] < t_max_i[30:0] && !r0_hi[31] && r0_t[30:0] <= r0_hi[30:0];
         r1_last <= r0_last;
         r1_k <= r0_k;
         r1_tri <= r0_tri;
@@ -337,7 +382,7 @@ module pe #(
     logic [AW-1:0] res_tri_mem [MAX_LIST];
     logic          ev1_valid, ev1_hit;   // an entry done (its k: ev1_k)
     logic [KW-1:0] ev1_k;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic          take, emit, hit;
         logic [31:0]   t_out;
         logic [AW-1:0] tri_out;
@@ -347,11 +392,11 @@ module pe #(
         hit = 1'b0;
         t_out = best_t;
         tri_out = best_tri;
-        if (start) begin
+        if (start_i) begin
             best_valid <= 1'b0;
             resolved <= 1'b0;
-        end else if (r1_valid && active) begin
-            if (any) begin
+        end else if (r1_valid && active_q) begin
+            if (any_i) begin
                 if (r1_acc && !resolved) begin
                     emit = 1'b1;
                     hit = 1'b1;
@@ -384,8 +429,8 @@ module pe #(
             res_t_mem[r1_k] <= t_out;
             res_tri_mem[r1_k] <= tri_out;
         end
-        res_t <= res_t_mem[res_k];
-        res_tri <= res_tri_mem[res_k];
+        res_t_o <= res_t_mem[res_k_i];
+        res_tri_o <= res_tri_mem[res_k_i];
     end
 
     // ---------------------------------------------------------------- open and hit entries
@@ -394,53 +439,58 @@ module pe #(
     // are in list order: the untaken ones follow the taken ones; an entry without tests is
     // done when it is taken, the others in order (`pend`, the taken entries with tests not
     // done yet), at their result stage's event, and so are their hits. So the PE's first
-    // open entry is the oldest in `pend`, else the untaken one at q_raddr, and its first hit
+    // open entry is the oldest in `pend`, else the untaken one at q_raddr_q, and its first hit
     // is the first event with a hit. Both count this cycle's events (the entry of an event
     // in ev1 is done now), like the map bits the arbiter used to keep per entry.
     // More than the entries in flight: a test's latency (≈ 70 cycles) over the 3 cycles an
     // entry with tests takes at least (voxel setup 2, one issue).
     localparam int PEND = 32;
     logic [KW-1:0]       qk_mem [MAX_LIST];     // entry k of queue index i
-    logic [KW-1:0]       head_k, next_k;        // k at q_raddr and q_raddr + 1, a cycle late
-    logic                took;                  // q_raddr moved on last cycle
+    logic [KW-1:0]       head_k, next_k;        // k at q_raddr_q and q_raddr_q + 1, a cycle late
+    logic                took;                  // q_raddr_q moved on last cycle
     logic [KW-1:0]       pend_mem [PEND];
     logic [$clog2(PEND)-1:0] pend_rd, pend_wr;
     logic [$clog2(PEND):0]   pend_n;
-    always_ff @(posedge clk) begin
-        if (q_push) qk_mem[q_n[KW-1:0]] <= q_k;
-        head_k <= qk_mem[q_raddr[KW-1:0]];
-        next_k <= qk_mem[KW'(q_raddr[KW-1:0] + 1'b1)];
-        took <= state == S_TAKE && q_raddr != q_n && !start && !stop;
+    always_ff @(posedge clk_i) begin
+        if (q_push_i) qk_mem[q_n_q[KW-1:0]] <= q_k_i;
+        head_k <= qk_mem[q_raddr_q[KW-1:0]];
+        next_k <= qk_mem[KW'(q_raddr_q[KW-1:0] + 1'b1)];
+        took <= state_q == S_TAKE && q_raddr_q != q_n_q && !start_i && !stop_i;
     end
-    always_ff @(posedge clk) begin
-        logic pop, push;
-        push = state == S_TAKE && q_raddr != q_n && q_rdata[AW-1:0] != 0 && !start && !stop;
-        pop = ev1_valid && pend_n != 0;
-        if (push) pend_mem[pend_wr] <= q_rdata[KW+2*AW-1 -: KW];
-        if (rst || start) begin
+    logic pend_push, pend_pop;
+    always_comb begin
+        pend_push = state_q == S_TAKE && q_raddr_q != q_n_q && q_rdata[AW-1:0] != 0 && !start_i && !stop_i;
+        pend_pop = ev1_valid && pend_n != 0;
+    end
+    always_ff @(posedge clk_i) begin
+        if (pend_push) pend_mem[pend_wr] <= q_rdata[KW+2*AW-1 -: KW];
+        if (rst_i || start_i) begin
             pend_rd <= '0;
             pend_wr <= '0;
             pend_n <= '0;
         end else begin
-            pend_wr <= pend_wr + $clog2(PEND)'(push);
-            pend_rd <= pend_rd + $clog2(PEND)'(pop);
-            pend_n <= pend_n + ($clog2(PEND)+1)'(push) - ($clog2(PEND)+1)'(pop);
+            pend_wr <= pend_wr + $clog2(PEND)'(pend_push);
+            pend_rd <= pend_rd + $clog2(PEND)'(pend_pop);
+            pend_n <= pend_n + ($clog2(PEND)+1)'(pend_push) - ($clog2(PEND)+1)'(pend_pop);
         end
     end
 `ifndef SYNTHESIS
-    always_ff @(posedge clk)
-        if (!rst && pend_n == ($clog2(PEND)+1)'(PEND)) $fatal(1, "pe: more entries in flight than pend holds");
+    // Bounds of pend: never full (sized above the entries in flight), no pop when empty.
+    PendNeverFull: assert property (@(posedge clk_i) disable iff (rst_i) pend_n != ($clog2(PEND)+1)'(PEND))
+        else $fatal(1, "gridrt_pe: more entries in flight than pend holds");
+    PendPopNotEmpty: assert property (@(posedge clk_i) disable iff (rst_i) pend_pop |-> pend_n != 0)
+        else $fatal(1, "gridrt_pe: pop from an empty pend");
 `endif
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic [KW:0] open_now;
         if (ev1_valid ? pend_n > 1 : pend_n != 0)
             open_now = {1'b0, pend_mem[ev1_valid ? pend_rd + 1'b1 : pend_rd]};
-        else if (q_raddr != q_n)
+        else if (q_raddr_q != q_n_q)
             open_now = {1'b0, took ? next_k : head_k};
         else
             open_now = (KW+1)'(MAX_LIST);
-        open_k <= open_now;
-        if (start) hit_k <= (KW+1)'(MAX_LIST);
-        else if (ev1_valid && ev1_hit && hit_k == (KW+1)'(MAX_LIST)) hit_k <= {1'b0, ev1_k};
+        open_k_o <= open_now;
+        if (start_i) hit_k_o <= (KW+1)'(MAX_LIST);
+        else if (ev1_valid && ev1_hit && hit_k_o == (KW+1)'(MAX_LIST)) hit_k_o <= {1'b0, ev1_k};
     end
 endmodule

@@ -1,53 +1,53 @@
-// f32_mul: IEEE-754 binary32 a * b, round to nearest even, subnormals in and out.
+// gridrt_f32_mul: IEEE-754 binary32 a * b, round to nearest even, subnormals in and out.
 //
-// Spec: rtl/README.md §3.5. Bit-exact with Rust's `f32` `*` except that every NaN result is
+// Spec: rtl/README.md §3 (IEEE-754 units). Bit-exact with Rust's `f32` `*` except that every NaN result is
 // the canonical quiet NaN 0x7FC00000.
 //
 // Pipeline: LATENCY stages (24x24 product in MULT18X18D blocks | leading zeros | normalise |
 // subnormal shift | round and pack); one operation per cycle; `out_valid` follows
 // `in_valid` by LATENCY cycles.
-module f32_mul (
-    input  logic        clk,
-    input  logic        in_valid,
-    input  logic [31:0] a,
-    input  logic [31:0] b,
-    output logic        out_valid,
-    output logic [31:0] y
+module gridrt_f32_mul (
+    input  logic        clk_i,
+    input  logic        in_valid_i,
+    input  logic [31:0] a_i,
+    input  logic [31:0] b_i,
+    output logic        out_valid_o,
+    output logic [31:0] y_o
 );
     localparam int MUL_LAT = 4;     // mul_pipe in DSP blocks
     localparam int LATENCY = MUL_LAT + 4;
 
     // ---------------------------------------------------------------- product (MUL_LAT)
     logic [49:0] prod50;
-    mul_pipe #(.A_W(25), .B_W(25), .LATENCY(MUL_LAT)) u_prod (
-        .clk, .a({1'b0, a[30:23] != 0, a[22:0]}), .b({1'b0, b[30:23] != 0, b[22:0]}), .p(prod50));
+    gridrt_mul_pipe #(.A_W(25), .B_W(25), .LATENCY(MUL_LAT)) u_prod (
+        .clk_i, .a_i({1'b0, a_i[30:23] != 0, a_i[22:0]}), .b_i({1'b0, b_i[30:23] != 0, b_i[22:0]}), .p_o(prod50));
 
     logic       f_valid, f_nan, f_inf, f_zero, f_sign;
     logic [10:0] f_exp;     // signed: ea + eb - 127 with subnormals counted as exponent 1
     logic       p_valid, p_nan, p_inf, p_zero, p_sign;
     logic [10:0] p_exp;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic [7:0] ea, eb, ea1, eb1;
         logic a_nan, b_nan, a_inf, b_inf, a_zero, b_zero;
-        ea = a[30:23];
-        eb = b[30:23];
+        ea = a_i[30:23];
+        eb = b_i[30:23];
         ea1 = (ea == 0) ? 8'd1 : ea;
         eb1 = (eb == 0) ? 8'd1 : eb;
-        a_nan  = ea == 8'hFF && a[22:0] != 0;
-        b_nan  = eb == 8'hFF && b[22:0] != 0;
-        a_inf  = ea == 8'hFF && a[22:0] == 0;
-        b_inf  = eb == 8'hFF && b[22:0] == 0;
-        a_zero = a[30:0] == 0;
-        b_zero = b[30:0] == 0;
-        f_valid <= in_valid;
+        a_nan  = ea == 8'hFF && a_i[22:0] != 0;
+        b_nan  = eb == 8'hFF && b_i[22:0] != 0;
+        a_inf  = ea == 8'hFF && a_i[22:0] == 0;
+        b_inf  = eb == 8'hFF && b_i[22:0] == 0;
+        a_zero = a_i[30:0] == 0;
+        b_zero = b_i[30:0] == 0;
+        f_valid <= in_valid_i;
         f_nan   <= a_nan || b_nan || (a_inf && b_zero) || (b_inf && a_zero);
         f_inf   <= a_inf || b_inf;
         f_zero  <= a_zero || b_zero;
-        f_sign  <= a[31] ^ b[31];
+        f_sign  <= a_i[31] ^ b_i[31];
         f_exp   <= {3'b000, ea1} + {3'b000, eb1} - 11'd127;
     end
-    delay #(.W(16), .N(MUL_LAT - 1)) u_flags (.clk, .d({f_valid, f_nan, f_inf, f_zero, f_sign, f_exp}),
-                                              .q({p_valid, p_nan, p_inf, p_zero, p_sign, p_exp}));
+    gridrt_delay #(.W(16), .N(MUL_LAT - 1)) u_flags (.clk_i, .d_i({f_valid, f_nan, f_inf, f_zero, f_sign, f_exp}),
+                                              .q_o({p_valid, p_nan, p_inf, p_zero, p_sign, p_exp}));
     logic [47:0] p_prod;
     assign p_prod = prod50[47:0];
 
@@ -55,12 +55,12 @@ module f32_mul (
     // The product of two 1.23 mantissas is 2.46: bit 46 is the units bit. The leading one
     // goes to bit 47: exponent of the result = exp + 1 - lz.
     logic [5:0]  prod_len;
-    bit_length #(.W(48)) u_prod_len (.x(p_prod), .len(prod_len));
+    gridrt_bit_length #(.W(48)) u_prod_len (.x_i(p_prod), .len_o(prod_len));
     logic        s1_valid, s1_nan, s1_inf, s1_zero, s1_sign;
     logic [47:0] s1_prod;
     logic [5:0]  s1_lz;
     logic [10:0] s1_exp;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic [5:0] lz;
         lz = 6'd48 - prod_len;
         s1_valid <= p_valid;
@@ -81,7 +81,7 @@ module f32_mul (
     logic        s2_valid, s2_nan, s2_inf, s2_zero, s2_sign, s2_sub;
     logic [47:0] s2_p, s2_drop;
     logic [10:0] s2_exp, s2_rs;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic [10:0] rs;
         rs = 11'd1 - s1_exp;
         s2_valid <= s1_valid;
@@ -102,7 +102,7 @@ module f32_mul (
     logic        s3_valid, s3_nan, s3_inf, s3_zero, s3_sign, s3_sticky;
     logic [47:0] s3_norm;
     logic [10:0] s3_exp;
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic [47:0] p;
         logic        st;
         p = s2_p;
@@ -122,37 +122,15 @@ module f32_mul (
     end
 
     // ---------------------------------------------------------------- stage 4: round, pack
+    // s3_norm[47] hidden bit, [46:24] fraction, [23] guard, [22:0] | sticky round.
     logic [31:0] result;
-    always_comb begin
-        logic [24:0] mant;
-        logic [10:0] e;
-        logic        g, r;
-        // p[47] hidden bit, p[46:24] fraction, p[23] guard, p[22:0] | sticky round.
-        mant = {1'b0, s3_norm[47:24]};
-        g = s3_norm[23];
-        r = (s3_norm[22:0] != 0) || s3_sticky;
-        e = s3_exp;
-        if (g && (r || mant[0])) mant = mant + 25'd1;
-        if (mant[24]) begin
-            mant = mant >> 1;
-            e = e + 11'd1;
-        end
-        if (s3_nan)
-            result = 32'h7FC0_0000;
-        else if (s3_inf)
-            result = {s3_sign, 8'hFF, 23'd0};
-        else if (s3_zero)
-            result = {s3_sign, 31'd0};
-        else if ($signed(e) >= 255)
-            result = {s3_sign, 8'hFF, 23'd0};
-        else if (!mant[23])
-            result = {s3_sign, 8'd0, mant[22:0]};
-        else
-            result = {s3_sign, e[7:0], mant[22:0]};
-    end
+    gridrt_f32_round_pack u_round (
+        .nan_i(s3_nan), .inf_i(s3_inf), .zero_i(s3_zero), .sign_i(s3_sign), .zero_sign_i(s3_sign),
+        .exp_i(s3_exp), .mant_i(s3_norm[47:24]), .guard_i(s3_norm[23]),
+        .sticky_i((s3_norm[22:0] != 0) || s3_sticky), .y_o(result));
 
-    always_ff @(posedge clk) begin
-        out_valid <= s3_valid;
-        y <= result;
+    always_ff @(posedge clk_i) begin
+        out_valid_o <= s3_valid;
+        y_o <= result;
     end
 endmodule

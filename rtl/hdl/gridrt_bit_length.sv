@@ -1,11 +1,11 @@
-// bit_length: the number of significant bits of an unsigned W-bit value (0 for 0), as
+// gridrt_bit_length: the number of significant bits of an unsigned W-bit value (0 for 0), as
 // 8-bit groups (each group's leading one), a priority over the groups and a select: a few
 // logic levels where a W-long priority chain would be W deep.
-module bit_length #(
+module gridrt_bit_length #(
     parameter int W = 64
 ) (
-    input  logic [W-1:0]             x,
-    output logic [$clog2(W+1)-1:0]   len
+    input  logic [W-1:0]             x_i,
+    output logic [$clog2(W+1)-1:0]   len_o
 );
     localparam int G = (W + 7) / 8;
     localparam int GW = (G > 1) ? $clog2(G) : 1;
@@ -13,7 +13,7 @@ module bit_length #(
     logic [8*G-1:0] xp;
     logic [G-1:0]   any;
     logic [2:0]     top [G];
-    assign xp = (8*G)'(x);
+    assign xp = (8*G)'(x_i);
     always_comb begin
         for (int g = 0; g < G; g++) begin
             any[g] = xp[8*g +: 8] != 0;
@@ -25,6 +25,6 @@ module bit_length #(
         logic [GW-1:0] grp;
         grp = '0;
         for (int g = 0; g < G; g++) if (any[g]) grp = GW'(g);
-        len = (any == 0) ? LW'(0) : LW'({grp, top[grp]}) + LW'(1);
+        len_o = (any == 0) ? LW'(0) : LW'({grp, top[grp]}) + LW'(1);
     end
 endmodule

@@ -1,15 +1,15 @@
-// delay_ram: W bits delayed by N cycles (N >= 2) through a block RAM ring instead of N
+// gridrt_delay_ram: W bits delayed by N cycles (N >= 2) through a block RAM ring instead of N
 // registers: one write and one read per cycle, for wide payloads that only ride along a
 // long pipeline (a PE's test tag: 56 bits over 60 stages would be 3 360 flip-flops).
 // The ring has the smallest power-of-two depth above N - 1; entry p is written in cycle t and
 // read back in cycle t + N - 1, its output register adding the last cycle.
-module delay_ram #(
+module gridrt_delay_ram #(
     parameter int W = 1,
     parameter int N = 2
 ) (
-    input  logic         clk,
-    input  logic [W-1:0] d,
-    output logic [W-1:0] q
+    input  logic         clk_i,
+    input  logic [W-1:0] d_i,
+    output logic [W-1:0] q_o
 );
     localparam int AW = $clog2(N);  // 2^AW >= N > N - 1: the read never meets the write
     if (N < 2) begin : g_bad
@@ -18,9 +18,9 @@ module delay_ram #(
     (* ram_style = "block" *)
     logic [W-1:0]  ring [2**AW];
     logic [AW-1:0] wp;
-    always_ff @(posedge clk) begin
-        ring[wp] <= d;
-        q <= ring[wp - AW'(N - 1)];
+    always_ff @(posedge clk_i) begin
+        ring[wp] <= d_i;
+        q_o <= ring[wp - AW'(N - 1)];
         wp <= wp + 1'b1;
     end
 endmodule

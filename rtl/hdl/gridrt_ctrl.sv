@@ -1,4 +1,4 @@
-// ctrl: the co-processor's protocol engine (SPEC.md §4, rtl/README.md §4.1).
+// gridrt_ctrl: the co-processor's protocol engine (SPEC.md §4, rtl/README.md §4.1).
 //
 // Receives request words, checks them in the model's order (`gridrt_coproc::coproc` module
 // doc: content checks of a word before its framing check; the first violation answers with
@@ -8,55 +8,55 @@
 // looks up each list entry's voxel as it arrives, then runs the ray setup, starts the PEs,
 // arbitrates in list order and sends the RESULT. Replies go through a 16-word output FIFO;
 // the request stream stalls (s_tready low) while a packet executes or the FIFO lacks room.
-module ctrl #(
+module gridrt_ctrl #(
     parameter int PES = 4,
     parameter int WORDS = 16384,
     parameter int MAX_LIST = 256
 ) (
-    input  logic                        clk,
-    input  logic                        rst,
+    input  logic                        clk_i,
+    input  logic                        rst_i,
     // Request stream (FSL: tlast = control bit).
-    input  logic [31:0]                 s_tdata,
-    input  logic                        s_tlast,
-    input  logic                        s_tvalid,
-    output logic                        s_tready,
+    input  logic [31:0]                 s_tdata_i,
+    input  logic                        s_tlast_i,
+    input  logic                        s_tvalid_i,
+    output logic                        s_tready_o,
     // Response stream.
-    output logic [31:0]                 m_tdata,
-    output logic                        m_tlast,
-    output logic                        m_tvalid,
-    input  logic                        m_tready,
-    output logic                        idle,
+    output logic [31:0]                 m_tdata_o,
+    output logic                        m_tlast_o,
+    output logic                        m_tvalid_o,
+    input  logic                        m_tready_i,
+    output logic                        idle_o,
     // PE memories (controller side).
-    output logic [PES-1:0][$clog2(WORDS)-1:0] pe_a_addr,
-    output logic [PES-1:0]              pe_a_we,
-    output logic [31:0]                 pe_a_wdata,
-    input  logic [PES-1:0][31:0]        pe_a_rdata,
-    output logic [PES-1:0][$clog2(WORDS)-1:0] pe_ref_off,
+    output logic [PES-1:0][$clog2(WORDS)-1:0] pe_a_addr_o,
+    output logic [PES-1:0]              pe_a_we_o,
+    output logic [31:0]                 pe_a_wdata_o,
+    input  logic [PES-1:0][31:0]        pe_a_rdata_i,
+    output logic [PES-1:0][$clog2(WORDS)-1:0] pe_ref_off_o,
     // Entry queues.
-    output logic                        pe_ray_begin,
-    output logic [PES-1:0]              pe_q_push,
-    output logic [$clog2(MAX_LIST)-1:0] pe_q_k,
-    output logic [$clog2(WORDS)-1:0]    pe_q_first,
-    output logic [$clog2(WORDS)-1:0]    pe_q_count,
-    output logic [31:0]                 pe_q_hi,
+    output logic                        pe_ray_begin_o,
+    output logic [PES-1:0]              pe_q_push_o,
+    output logic [$clog2(MAX_LIST)-1:0] pe_q_k_o,
+    output logic [$clog2(WORDS)-1:0]    pe_q_first_o,
+    output logic [$clog2(WORDS)-1:0]    pe_q_count_o,
+    output logic [31:0]                 pe_q_hi_o,
     // Execution.
-    output logic                        pe_start,
-    output logic                        pe_stop,
-    output logic                        pe_any,
-    output logic [31:0]                 pe_t_max,
-    output logic [2:0][33:0]            pe_o,
-    output logic [1:0]                  pe_kz,
-    output logic signed [24:0]          pe_sx, pe_sy,
-    output logic                        pe_dz_neg,
-    output logic [23:0]                 pe_dz_abs,
-    output logic signed [9:0]           pe_texp,
-    output logic                        pe_ray_overflow,
-    input  logic [PES-1:0][31:0]        pe_issued,
-    input  logic [PES-1:0][$clog2(MAX_LIST):0] pe_open_k,  // each PE's first open entry
-    input  logic [PES-1:0][$clog2(MAX_LIST):0] pe_hit_k,   // and first hit (MAX_LIST: none)
-    output logic [$clog2(MAX_LIST)-1:0] pe_res_k,
-    input  logic [PES-1:0][31:0]        pe_res_t,
-    input  logic [PES-1:0][$clog2(WORDS)-1:0] pe_res_tri
+    output logic                        pe_start_o,
+    output logic                        pe_stop_o,
+    output logic                        pe_any_o,
+    output logic [31:0]                 pe_t_max_o,
+    output logic [2:0][33:0]            pe_origin_o,
+    output logic [1:0]                  pe_kz_o,
+    output logic signed [24:0]          pe_sx_o, pe_sy_o,
+    output logic                        pe_dz_neg_o,
+    output logic [23:0]                 pe_dz_abs_o,
+    output logic signed [9:0]           pe_texp_o,
+    output logic                        pe_ray_overflow_o,
+    input  logic [PES-1:0][31:0]        pe_issued_i,
+    input  logic [PES-1:0][$clog2(MAX_LIST):0] pe_open_k_i,  // each PE's first open entry
+    input  logic [PES-1:0][$clog2(MAX_LIST):0] pe_hit_k_i,   // and first hit (MAX_LIST: none)
+    output logic [$clog2(MAX_LIST)-1:0] pe_res_k_o,
+    input  logic [PES-1:0][31:0]        pe_res_t_i,
+    input  logic [PES-1:0][$clog2(WORDS)-1:0] pe_res_tri_i
 );
     localparam int AW = $clog2(WORDS);
     localparam int KW = $clog2(MAX_LIST);
@@ -71,27 +71,13 @@ module ctrl #(
     localparam logic [31:0] PE_IMAGE_TAG = 32'hFFFF_0002;
 
     // ================================================================ output FIFO
-    logic [32:0] fifo [16];
-    logic [4:0]  f_count;
-    logic [3:0]  f_rd, f_wr;
+    // Replies wait here (gridrt_ctrl_out_fifo); the FSM pushes at most one word per cycle.
     logic        push;
     logic [32:0] push_word;
-    assign m_tvalid = f_count != 0;
-    assign {m_tlast, m_tdata} = fifo[f_rd];
-    always_ff @(posedge clk) begin
-        if (rst) begin
-            f_count <= '0;
-            f_rd <= '0;
-            f_wr <= '0;
-        end else begin
-            if (push) begin
-                fifo[f_wr] <= push_word;
-                f_wr <= f_wr + 1'b1;
-            end
-            if (m_tvalid && m_tready) f_rd <= f_rd + 1'b1;
-            f_count <= f_count + 5'(push) - 5'(m_tvalid && m_tready);
-        end
-    end
+    logic [4:0]  f_count;
+    gridrt_ctrl_out_fifo #(.DEPTH(16)) u_out_fifo (
+        .clk_i, .rst_i, .push_i(push), .push_word_i(push_word),
+        .m_tdata_o, .m_tlast_o, .m_tvalid_o, .m_tready_i, .count_o(f_count));
 
     // ================================================================ state
     typedef enum logic [2:0] { RX_IDLE, RX_DISCARD, RX_LOAD_COUNT, RX_LOAD_WORDS, RX_RAY, RX_FRAME } rx_t;
@@ -103,10 +89,10 @@ module ctrl #(
     logic  word_ctl;        // control bit of the word that caused the busy phase
     logic [15:0] word_idx;  // its index in the packet
 
-    assign s_tready = busy == BZ_NONE && f_count <= 5'd7 && !rst;
-    assign idle = busy == BZ_NONE && f_count == 0 && !push;
+    assign s_tready_o = busy == BZ_NONE && f_count <= 5'd7 && !rst_i;
+    assign idle_o = busy == BZ_NONE && f_count == 0 && !push;
     logic accept;
-    assign accept = s_tvalid && s_tready;
+    assign accept = s_tvalid_i && s_tready_o;
 
     // Per-PE image layout. Per-PE values indexed by a variable PE number are unpacked
     // arrays: an index into a packed array of 14-bit elements costs a multiplier for the bit
@@ -115,15 +101,16 @@ module ctrl #(
     logic [AW-1:0]          pe_voxels [PES], pe_tri_off [PES];
     logic [AW-1:0]          a_addr_q [PES], ref_off_q [PES], res_tri_in [PES];
     for (genvar p = 0; p < PES; p++) begin : g_pe_ports
-        assign pe_a_addr[p] = a_addr_q[p];
-        assign pe_ref_off[p] = ref_off_q[p];
-        assign res_tri_in[p] = pe_res_tri[p];
+        assign pe_a_addr_o[p] = a_addr_q[p];
+        assign pe_ref_off_o[p] = ref_off_q[p];
+        assign res_tri_in[p] = pe_res_tri_i[p];
     end
 
     // Frame (reset: identity, s = 0, min = 0).
     logic signed [9:0]  frame_s;
     logic [2:0][54:0]   frame_qm;
     logic [2:0]         frame_huge;
+    logic [5:0][31:0]   frame_box;      // FRAME's box: min xyz, max xyz
 
     // ================================================================ helpers
     function automatic [31:0] err_word(input [11:0] code, input [15:0] detail);
@@ -156,7 +143,7 @@ module ctrl #(
     // t_exit slack: hi = fl32(t_exit * (1 + 2^-12)).
     logic        hi_in, hi_out;
     logic [31:0] hi_y;
-    f32_mul u_hi (.clk, .in_valid(hi_in), .a(ent_texit), .b(32'h3F80_0800), .out_valid(hi_out), .y(hi_y));
+    gridrt_f32_mul u_hi (.clk_i, .in_valid_i(hi_in), .a_i(ent_texit), .b_i(32'h3F80_0800), .out_valid_o(hi_out), .y_o(hi_y));
 
     // ================================================================ loader
     logic [PW-1:0]  ld_pe;
@@ -177,51 +164,44 @@ module ctrl #(
     logic [8:0][31:0] tl_coord;
     logic [2:0][31:0] tl_normal;
     logic [3:0]     tl_wr;          // record and normal words written so far (tri_step)
-    tri_loader u_tri (.clk, .start(tl_start), .v(ld_v9), .frame_s, .frame_qm, .frame_huge,
-                      .done(tl_done), .coord(tl_coord), .normal(tl_normal));
+    gridrt_tri_loader u_tri (.clk_i, .start_i(tl_start), .v_i(ld_v9), .frame_s_i(frame_s), .frame_qm_i(frame_qm), .frame_huge_i(frame_huge),
+                      .done_o(tl_done), .coord_o(tl_coord), .normal_o(tl_normal));
 
     // ================================================================ frame computation
-    logic [5:0][31:0]  fr_box;         // min xyz, max xyz
-    logic [4:0]        fr_step;
-    logic              fr_sub_in, fr_sub_out;
-    logic [31:0]       fr_sub_a, fr_sub_b, fr_sub_y, fr_ext;
-    logic signed [9:0] fr_s;
-    logic [31:0]       fr_cv_x;
-    logic signed [54:0] fr_cv_q;
-    logic              fr_cv_huge;
-    f32_addsub u_fr_sub (.clk, .in_valid(fr_sub_in), .a(fr_sub_a), .b(fr_sub_b), .sub(1'b1),
-                         .out_valid(fr_sub_out), .y(fr_sub_y));
-    // Schedule: max - min in steps 1-3, the extent's s in FR_STEP_S, the conversions of the
-    // minimum from FR_STEP_CV, the frame set in FR_STEP_END.
-    localparam int FR_ADD_LAT = 7;      // f32_addsub
-    localparam int FR_CV_LAT = 4;       // f32_to_fixed
-    localparam int FR_STEP_S = 4 + FR_ADD_LAT;
-    localparam int FR_STEP_CV = FR_STEP_S + 1;
-    localparam int FR_STEP_END = FR_STEP_CV + 2 + FR_CV_LAT;
-    logic              fr_cv_in, fr_cv_out_unused;
-    f32_to_fixed u_fr_cv (.clk, .in_valid(fr_cv_in), .x(fr_cv_x), .k(fr_s + 10'sd23), .out_valid(fr_cv_out_unused),
-                          .q(fr_cv_q), .huge(fr_cv_huge));
+    // The FRAME packet's box goes to gridrt_ctrl_frame word by word; at its last word the box
+    // is checked (frame_bad: 0, or ERROR 12's detail) and, if it is good and the packet ends
+    // there, the computation starts (the FRAME phase; frame_done at its last step).
+    logic        frame_box_we, frame_start, frame_done;
+    logic [15:0] frame_bad;
     always_comb begin
-        fr_sub_in = busy == BZ_FRAME && fr_step >= 5'd1 && fr_step <= 5'd3;
-        fr_sub_a = fr_box[3 + int'(fr_step) - 1];
-        fr_sub_b = fr_box[int'(fr_step) - 1];
-        fr_cv_in = busy == BZ_FRAME && fr_step >= 5'(FR_STEP_CV) && fr_step <= 5'(FR_STEP_CV + 2);
-        fr_cv_x = fr_box[fr_cv_in ? int'(fr_step) - FR_STEP_CV : 0];
+        logic [191:0] box;
+        frame_box_we = accept && rx == RX_FRAME;
+        box = {s_tdata_i, frame_box[4], frame_box[3], frame_box[2], frame_box[1], frame_box[0]};
+        frame_bad = 16'd0;
+        for (int i = 5; i >= 0; i--) if (!is_finite(box[32*i +: 32])) frame_bad = 16'(i + 1);
+        if (frame_bad == 0) begin
+            for (int a = 2; a >= 0; a--)
+                if (f32_lt(box[32*(3 + a) +: 32], box[32*a +: 32])) frame_bad = 16'(4 + a);
+        end
+        frame_start = frame_box_we && ray_idx == 16'd6 && frame_bad == 0 && s_tlast_i;
     end
+    gridrt_ctrl_frame u_frame (
+        .clk_i, .rst_i, .box_we_i(frame_box_we), .box_idx_i(3'(ray_idx - 16'd1)), .box_word_i(s_tdata_i),
+        .box_o(frame_box), .start_i(frame_start), .run_i(busy == BZ_FRAME), .done_o(frame_done),
+        .frame_s_o(frame_s), .frame_qm_o(frame_qm), .frame_huge_o(frame_huge));
 
     // ================================================================ ray setup
     logic rs_start, rs_done, rs_overflow;
     logic [2:0][33:0] rs_o;
-    ray_setup u_setup (.clk, .start(rs_start), .org(ray_org), .dir(ray_dir), .frame_s, .frame_qm, .frame_huge,
-                       .done(rs_done), .o(rs_o), .kz(pe_kz), .sx(pe_sx), .sy(pe_sy), .dz_neg(pe_dz_neg),
-                       .dz_abs(pe_dz_abs), .texp(pe_texp), .overflow(rs_overflow));
-    assign pe_o = rs_o;
-    assign pe_ray_overflow = rs_overflow;
+    gridrt_ray_setup u_setup (.clk_i, .start_i(rs_start), .org_i(ray_org), .dir_i(ray_dir), .frame_s_i(frame_s), .frame_qm_i(frame_qm), .frame_huge_i(frame_huge),
+                       .done_o(rs_done), .o_o(rs_o), .kz_o(pe_kz_o), .sx_o(pe_sx_o), .sy_o(pe_sy_o), .dz_neg_o(pe_dz_neg_o),
+                       .dz_abs_o(pe_dz_abs_o), .texp_o(pe_texp_o), .overflow_o(rs_overflow));
+    assign pe_origin_o = rs_o;
+    assign pe_ray_overflow_o = rs_overflow;
 
     // ================================================================ arbiter
     logic [31:0]         ray_cnt;
     logic [2:0]          ex_step;      // exec sub-steps before arbitration
-    logic [34:0]         issued_sum, issued_prev, issued_prev2;
     logic [KW-1:0]       win_k;
     logic [PW-1:0]       win_pe;
     logic                win_hit;
@@ -232,65 +212,47 @@ module ctrl #(
     logic [31:0]         win_t;
     logic [PW-1:0]       ent_pe_of [MAX_LIST];
 
-    // The first open entry and the first hit over all PEs: each PE reports its own, with
-    // the events of a cycle, registered (pe.sv); their minimum is registered here, so the
-    // decision in a cycle sees the events of two cycles before. The entry bits only get set
-    // during a ray, so deciding on that state picks the same winner later; the test count
-    // is taken one cycle further back to match (`issued_prev2`).
-    logic [KW:0] first_hit_now, first_open_now, first_hit, first_open;
-    always_comb begin
-        first_hit_now = (KW+1)'(MAX_LIST);
-        first_open_now = (KW+1)'(MAX_LIST);
-        for (int p = 0; p < PES; p++) begin
-            if (pe_hit_k[p] < first_hit_now) first_hit_now = pe_hit_k[p];
-            if (pe_open_k[p] < first_open_now) first_open_now = pe_open_k[p];
-        end
-    end
-    always_comb begin
-        issued_sum = '0;
-        for (int p = 0; p < PES; p++) issued_sum = issued_sum + 35'(pe_issued[p]);
-    end
+    // The first open entry and the first hit over all PEs, two cycles late, and the tests
+    // issued, three cycles late (gridrt_ctrl_arbiter).
+    logic [KW:0] first_hit, first_open;
+    logic [34:0] issued_prev2;
+    gridrt_ctrl_arbiter #(.PES(PES), .MAX_LIST(MAX_LIST)) u_arbiter (
+        .clk_i, .pe_open_k_i, .pe_hit_k_i, .pe_issued_i,
+        .first_open_o(first_open), .first_hit_o(first_hit), .issued_o(issued_prev2));
 
     // ================================================================ main FSM
-    always_ff @(posedge clk) begin
+    always_ff @(posedge clk_i) begin
         logic [3:0]  op;
         logic        ctl;
         logic [31:0] w;
         push <= 1'b0;
-        pe_a_we <= '0;
-        pe_q_push <= '0;
-        pe_ray_begin <= 1'b0;
-        pe_start <= 1'b0;
-        pe_stop <= 1'b0;
+        pe_a_we_o <= '0;
+        pe_q_push_o <= '0;
+        pe_ray_begin_o <= 1'b0;
+        pe_start_o <= 1'b0;
+        pe_stop_o <= 1'b0;
         hi_in <= 1'b0;
         tl_start <= 1'b0;
         rs_start <= 1'b0;
         ray_cnt <= ray_cnt + 1;
-        issued_prev <= issued_sum;
-        issued_prev2 <= issued_prev;
-        first_hit <= first_hit_now;
-        first_open <= first_open_now;
         // Registered every cycle, from values that are stable long before they are used
         // (they were the 2-PE design's critical path as enables of begin_exec's registers).
         ent_last <= 17'(ent_k) + 17'd1 == 17'(ray_count);
-        pe_any <= ray_any;
-        pe_t_max <= ray_tmax;
-        if (rst) begin
+        pe_any_o <= ray_any;
+        pe_t_max_o <= ray_tmax;
+        if (rst_i) begin
             rx <= RX_IDLE;
             busy <= BZ_NONE;
             tl_wr <= 4'd0;
             loaded <= '0;
-            frame_s <= '0;
-            frame_qm <= '0;
-            frame_huge <= '0;
         end else if (accept) begin
             // ------------------------------------------------ one request word
-            w = s_tdata;
-            ctl = s_tlast;
+            w = s_tdata_i;
+            ctl = s_tlast_i;
             op = w[31:28];
-            case (rx)
+            unique case (rx)
                 RX_IDLE: begin
-                    case (op)
+                    unique case (op)
                         OP_LOAD: begin
                             if (w[7:0] >= 8'(PES)) begin
                                 fail(E_PE_RANGE, 16'(w[7:0]), ctl);
@@ -318,7 +280,7 @@ module ctrl #(
                                 ray_count <= w[15:0];
                                 ray_idx <= 16'd1;
                                 ent_k <= '0;
-                                pe_ray_begin <= 1'b1;
+                                pe_ray_begin_o <= 1'b1;
                                 rx <= RX_RAY;
                             end
                         end
@@ -360,21 +322,12 @@ module ctrl #(
                 RX_LOAD_WORDS: load_word(w, ctl);
                 RX_RAY: ray_word(w, ctl);
                 RX_FRAME: begin
-                    fr_box[ray_idx - 16'd1] <= w;
+                    // The word goes into gridrt_ctrl_frame's box (frame_box_we).
                     if (ray_idx == 16'd6) begin
-                        logic [15:0]  bad;
-                        logic [191:0] box;
-                        box = {w, fr_box[4], fr_box[3], fr_box[2], fr_box[1], fr_box[0]};
-                        bad = 16'd0;
-                        for (int i = 5; i >= 0; i--) if (!is_finite(box[32*i +: 32])) bad = 16'(i + 1);
-                        if (bad == 0) begin
-                            for (int a = 2; a >= 0; a--)
-                                if (f32_lt(box[32*(3 + a) +: 32], box[32*a +: 32])) bad = 16'(4 + a);
-                        end
-                        if (bad != 0) fail(E_BAD_FRAME, bad, ctl);
+                        if (frame_bad != 0) fail(E_BAD_FRAME, frame_bad, ctl);
                         else if (!ctl) fail(E_MISSING_CONTROL, 16'd6, 1'b0);
                         else begin
-                            fr_step <= 5'd1;
+                            // frame_start: gridrt_ctrl_frame begins.
                             busy <= BZ_FRAME;
                             rx <= RX_IDLE;
                         end
@@ -388,15 +341,15 @@ module ctrl #(
             endcase
         end else begin
             // ------------------------------------------------ busy phases
-            case (busy)
+            unique case (busy)
                 BZ_LOOKUP: lookup_step();
                 BZ_HI: begin
                     if (hi_out) begin
-                        pe_q_push[ent_pe] <= 1'b1;
-                        pe_q_k <= ent_k;
-                        pe_q_first <= ent_first;
-                        pe_q_count <= ent_count;
-                        pe_q_hi <= hi_y;
+                        pe_q_push_o[ent_pe] <= 1'b1;
+                        pe_q_k_o <= ent_k;
+                        pe_q_first_o <= ent_first;
+                        pe_q_count_o <= ent_count;
+                        pe_q_hi_o <= hi_y;
                         ent_pe_of[ent_k] <= ent_pe;
                         ent_k <= ent_k + 1'b1;
                         busy <= BZ_NONE;
@@ -412,10 +365,16 @@ module ctrl #(
                 end
                 BZ_TRI: tri_step();
                 BZ_LOAD_FINISH: load_finish();
-                BZ_FRAME: frame_step();
+                BZ_FRAME: begin
+                    if (frame_done) begin
+                        loaded <= '0;
+                        reply({4'h9, OP_FRAME, 24'd0});
+                        busy <= BZ_NONE;
+                    end
+                end
                 BZ_SETUP: begin
                     if (rs_done) begin
-                        pe_start <= 1'b1;
+                        pe_start_o <= 1'b1;
                         ex_step <= 3'd0;
                         busy <= BZ_EXEC;
                     end
@@ -432,7 +391,7 @@ module ctrl #(
                         win_k <= KW'(first_hit);
                         win_pe <= ent_pe_of[KW'(first_hit)];
                         win_tests <= (issued_prev2 > 35'd65535) ? 16'hFFFF : 16'(issued_prev2);
-                        pe_stop <= 1'b1;
+                        pe_stop_o <= 1'b1;
                         res_step <= 4'd0;
                         busy <= BZ_RESULT;
                     end
@@ -475,8 +434,8 @@ module ctrl #(
         index = 16'(i) + 16'd2;
         tri_end_word = 1'b0;
         a_addr_q[ld_pe] <= AW'(i);
-        pe_a_we[ld_pe] <= 1'b1;
-        pe_a_wdata <= w;
+        pe_a_we_o[ld_pe] <= 1'b1;
+        pe_a_wdata_o <= w;
         ld_i <= i + 1'b1;
         // Header.
         if (i == 0) ld_tag_ok <= w == PE_IMAGE_TAG;
@@ -501,7 +460,7 @@ module ctrl #(
         if (i >= 5) begin
             if (i38 < ld_vox_end) begin
                 // Voxel table: ids strictly increasing, first + count <= R.
-                case (ld_sub3)
+                unique case (ld_sub3)
                     2'd0: begin
                         if (ld_have_prev && w <= ld_prev_id) ld_bad <= 1'b1;
                         ld_prev_id <= w;
@@ -528,7 +487,7 @@ module ctrl #(
                 ld_sub11 <= (ld_sub11 == 4'd10) ? 4'd0 : ld_sub11 + 4'd1;
             end else if (i38 < ld_need) begin
                 // Analytic primitive: kind 1..5, material <= 65535, transform finite.
-                case (ld_sub16)
+                unique case (ld_sub16)
                     4'd0: if (w == 0 || w > 32'd5) ld_bad <= 1'b1;
                     4'd1: ;
                     4'd2: if (w > 32'd65535) ld_bad <= 1'b1;
@@ -576,7 +535,7 @@ module ctrl #(
             logic [31:0]   word;
             j = tl_done ? 4'd0 : tl_wr;
             rec_addr = AW'(ld_rec_addr) + AW'(j);
-            case (j)
+            unique case (j)
                 4'd9: word = ld_prim;
                 4'd10: word = tl_normal[0];
                 4'd11: word = tl_normal[1];
@@ -586,12 +545,12 @@ module ctrl #(
             if (j < 4'd10) begin
                 // Below address 0 a record is not written (MEM_OVERFLOW follows).
                 a_addr_q[ld_pe] <= rec_addr;
-                pe_a_we[ld_pe] <= ld_rec_addr >= 0;
+                pe_a_we_o[ld_pe] <= ld_rec_addr >= 0;
             end else begin
                 a_addr_q[ld_pe] <= AW'(ld_tri_base) + AW'(2'(j - 4'd10));
-                pe_a_we[ld_pe] <= 1'b1;
+                pe_a_we_o[ld_pe] <= 1'b1;
             end
-            pe_a_wdata <= word;
+            pe_a_wdata_o <= word;
             if (j == 4'd12) begin
                 tl_wr <= 4'd0;
                 ld_rec_addr <= ld_rec_addr - (AW+2)'(10);
@@ -619,47 +578,6 @@ module ctrl #(
             ref_off_q[ld_pe] <= AW'(ld_vox_end);
             pe_tri_off[ld_pe] <= AW'(ld_ref_end);
             reply({4'h9, OP_LOAD, 16'd0, 8'(ld_pe)});
-        end
-    endtask
-
-    // ---------------------------------------------------------------- FRAME computation
-    task automatic frame_step();
-        fr_step <= fr_step + 5'd1;
-        // Steps 1-3 issue max - min, results FR_ADD_LAT steps later; the extent is the largest.
-        if (fr_step == 5'(1 + FR_ADD_LAT)) fr_ext <= fr_sub_y;
-        if (fr_step == 5'(2 + FR_ADD_LAT) || fr_step == 5'(3 + FR_ADD_LAT))
-            if (fr_sub_y[30:0] > fr_ext[30:0]) fr_ext <= fr_sub_y;
-        if (fr_step == 5'(FR_STEP_S)) begin
-            // s = 4 - ceil(log2 extent); 0 for a zero extent.
-            logic signed [9:0] e;
-            logic              pow2;
-            logic [4:0]        msb;
-            msb = 5'd0;
-            for (int i = 0; i < 23; i++) if (fr_ext[i]) msb = 5'(i);
-            if (fr_ext[30:23] == 8'hFF) begin
-                e = 10'sd128;
-                pow2 = 1'b1;
-            end else if (fr_ext[30:23] != 0) begin
-                e = $signed({2'b00, fr_ext[30:23]}) - 10'sd127;
-                pow2 = fr_ext[22:0] == 0;
-            end else begin
-                e = $signed({5'd0, msb}) - 10'sd149;
-                pow2 = (fr_ext[22:0] & (fr_ext[22:0] - 23'd1)) == 0;
-            end
-            fr_s <= (fr_ext[30:0] == 0) ? 10'sd0 : (pow2 ? 10'sd4 - e : 10'sd3 - e);
-        end
-        // Conversions of the minimum in steps 8-10, ready FR_CV_LAT steps later.
-        for (int a = 0; a < 3; a++) begin
-            if (fr_step == 5'(FR_STEP_CV + FR_CV_LAT + a)) begin
-                frame_qm[a] <= fr_cv_q;
-                frame_huge[a] <= fr_cv_huge;
-            end
-        end
-        if (fr_step == 5'(FR_STEP_END)) begin
-            frame_s <= fr_s;
-            loaded <= '0;
-            reply({4'h9, OP_FRAME, 24'd0});
-            busy <= BZ_NONE;
         end
     endtask
 
@@ -722,7 +640,7 @@ module ctrl #(
     task automatic lookup_step();
         logic [AW:0] mid;
         mid = lk_lo + ((lk_hi - lk_lo) >> 1);
-        case (lk_step)
+        unique case (lk_step)
             4'd1: begin
                 if (lk_lo >= lk_hi) begin
                     lk_step <= 4'd15;
@@ -735,10 +653,10 @@ module ctrl #(
             4'd2: lk_step <= 4'd3;
             4'd3: lk_step <= 4'd4;
             4'd4: begin
-                if (pe_a_rdata[ent_pe] < 32'(ent_voxel)) begin
+                if (pe_a_rdata_i[ent_pe] < 32'(ent_voxel)) begin
                     lk_lo <= lk_mid + 1'b1;
                     lk_step <= 4'd1;
-                end else if (pe_a_rdata[ent_pe] > 32'(ent_voxel)) begin
+                end else if (pe_a_rdata_i[ent_pe] > 32'(ent_voxel)) begin
                     lk_hi <= lk_mid;
                     lk_step <= 4'd1;
                 end else begin
@@ -752,11 +670,11 @@ module ctrl #(
             end
             4'd6: lk_step <= 4'd7;
             4'd7: begin
-                ent_first <= AW'(pe_a_rdata[ent_pe]);
+                ent_first <= AW'(pe_a_rdata_i[ent_pe]);
                 lk_step <= 4'd8;
             end
             4'd8: begin
-                ent_count <= AW'(pe_a_rdata[ent_pe]);
+                ent_count <= AW'(pe_a_rdata_i[ent_pe]);
                 busy <= BZ_NONE;
                 if (word_ctl) fail(E_TOO_SHORT, word_idx, 1'b1);
                 else ray_idx <= ray_idx + 16'd1;
@@ -779,14 +697,14 @@ module ctrl #(
     // address), then 8 words.
     task automatic result_step();
         res_step <= res_step + 4'd1;
-        case (res_step)
-            4'd0: pe_res_k <= win_k;
+        unique case (res_step)
+            4'd0: pe_res_k_o <= win_k;
             4'd2: begin
                 // The PE's result memory answers in this step (block RAM outputs): registered
                 // here, used from the next step on.
                 win_tri <= res_tri_in[win_pe];
                 win_tri_off <= pe_tri_off[win_pe];
-                win_t <= pe_res_t[win_pe];
+                win_t <= pe_res_t_i[win_pe];
             end
             4'd3: res_base <= win_tri_off + win_tri + (win_tri << 1) + (win_tri << 3);
             4'd4: a_addr_q[win_pe] <= res_base + AW'(9);
@@ -798,8 +716,8 @@ module ctrl #(
         endcase
         if (res_step >= 4'd5 && res_step <= 4'd12) begin
             logic [31:0] rd, word;
-            rd = pe_a_rdata[win_pe];
-            case (res_step)
+            rd = pe_a_rdata_i[win_pe];
+            unique case (res_step)
                 4'd5: word = {4'h8, win_hit ? 12'(win_k) : 12'd0, win_hit ? 8'(win_pe) : 8'd0, 7'd0, win_hit};
                 4'd6: word = win_hit ? win_t : 32'h7F80_0000;
                 4'd7: word = win_hit ? rd : 32'd0;

@@ -1,4 +1,4 @@
-// mul_pipe: signed A_W x B_W -> A_W+B_W product in four MULT18X18D blocks, pipelined, with a
+// gridrt_mul_pipe: signed A_W x B_W -> A_W+B_W product in four MULT18X18D blocks, pipelined, with a
 // latency of LATENCY cycles (the caller's choice, at least the structure's 4).
 //
 // Each operand (18 < width <= 35) is split into a signed high and an unsigned 17-bit low
@@ -6,15 +6,15 @@
 // levels sum them. The product is exact; longer latencies are padded with registers at the
 // output. (A fabric variant of radix-4 rows, for the shear products when those stayed out of
 // the DSP blocks, was removed at the issue-interval-2 redesign: rtl/README.md §5.)
-module mul_pipe #(
+module gridrt_mul_pipe #(
     parameter int A_W = 35,
     parameter int B_W = 35,
     parameter int LATENCY = 4
 ) (
-    input  logic                        clk,
-    input  logic signed [A_W-1:0]       a,
-    input  logic signed [B_W-1:0]       b,
-    output logic signed [A_W+B_W-1:0]   p
+    input  logic                        clk_i,
+    input  logic signed [A_W-1:0]       a_i,
+    input  logic signed [B_W-1:0]       b_i,
+    output logic signed [A_W+B_W-1:0]   p_o
 );
     localparam int P_W = A_W + B_W;
 
@@ -32,9 +32,9 @@ module mul_pipe #(
     logic signed [35:0]    pll, plh, phl, phh;
     logic signed [P_W-1:0] hl3;         // {phh, pll}: the low part is < 2^34, no overlap
     logic signed [P_W-L-1:0] mid3;      // plh + phl
-    always_ff @(posedge clk) begin
-        a1 <= a;
-        b1 <= b;
+    always_ff @(posedge clk_i) begin
+        a1 <= a_i;
+        b1 <= b_i;
         // Each product is 18x18 signed: one MULT18X18D.
         pll <= $signed({1'b0, a1[L-1:0]}) * $signed({1'b0, b1[L-1:0]});
         plh <= $signed({1'b0, a1[L-1:0]}) * 18'($signed(b1[B_W-1:L]));
@@ -48,5 +48,5 @@ module mul_pipe #(
     if (LATENCY < STRUCT_LATENCY) begin : g_short
         $error("mul_pipe: LATENCY below the structure's");
     end
-    delay #(.W(P_W), .N(LATENCY - STRUCT_LATENCY)) u_pad (.clk, .d(prod), .q(p));
+    gridrt_delay #(.W(P_W), .N(LATENCY - STRUCT_LATENCY)) u_pad (.clk_i, .d_i(prod), .q_o(p_o));
 endmodule
