@@ -13,11 +13,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, ensure, Context};
-use gridrt_host::camera::RenderSettings;
 use gridrt_host::grid::GridParams;
 use gridrt_host::link_bench::{link_rows, measure, multi_seconds, FirmwareModel, LinkRow, Measured, BAUDS, ENCODINGS};
 use gridrt_host::multi::default_band_rows;
-use gridrt_host::pipeline::PreparedScene;
+use gridrt_host::render_settings::RenderSettings;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_shared::msg::{PixelEncoding, RenderRequest};
 
 /// The bundled scenes, in report order.

@@ -18,8 +18,8 @@ use gridrt_host::faults::relay::RelayConfig;
 use gridrt_host::faults::run::{run_session, LineRun};
 use gridrt_host::faults::Faults;
 use gridrt_host::grid::GridParams;
-use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::plan::Plan;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_host::session::{ProgressEvent, SessionConfig, Stage};
 use gridrt_shared::msg::{PixelEncoding, RenderRequest};
 

@@ -19,14 +19,14 @@ use std::time::Instant;
 
 use anyhow::{anyhow, Context};
 use gridrt_coproc::TimingProfile;
-use gridrt_host::camera::RenderSettings;
 use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
-use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::plan::{Interp, Plan};
 use gridrt_host::reference::{render as reference_render, Reference, Stages};
+use gridrt_host::render_settings::RenderSettings;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_host::session::RenderedFrame;
-use gridrt_host::simrun::SimBoard;
+use gridrt_host::sim_board::SimBoard;
 use gridrt_shared::msg::{render_flags, stat};
 
 /// ViRAY's ray throughput (seed 000 §5): 4·1920·1080 rays in 52.4 ms.

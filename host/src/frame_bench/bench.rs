@@ -12,9 +12,9 @@ use super::setup::{
 use super::soc;
 use crate::compare::compare;
 use crate::grid::GridParams;
-use crate::pipeline::PreparedScene;
 use crate::plan::Plan;
 use crate::reference::{self, Reference, Stages};
+use crate::scene_image::PreparedScene;
 use gridrt_firmware::device::Stage;
 
 /// The scene prepared for the qemu-virt board's PEs, and the render request of the frame:
