@@ -17,8 +17,7 @@
 //! | [`native`] | the fast native ray path: firmware DDA + co-processor search laid out for a CPU (SIMD, threads), word-identical results |
 //! | [`sim_board`] | [`sim_board::SimBoard`]: one frame on the in-process loopback simulator |
 //! | [`multi`] | one frame on several boards: work queue of row bands, merged result |
-//! | [`link_bench`] | `gridrt bench link`: wire bytes, efficiency, compression, modelled frame time |
-//! | [`frame_bench`] | `gridrt bench frame`: whole-frame time on the modelled board (soft-core on QEMU, co-processor model, link), per configuration and target |
+//! | [`bench`] | every bench behind `gridrt bench`: [`bench::accuracy`], [`bench::link`], [`bench::link_faults`], [`bench::frame`], [`bench::splat`] |
 //! | [`stats`] | JSON statistics |
 //! | [`plan`] | the pipeline plan (which stages a scene needs) and `--interp` |
 //!
@@ -26,15 +25,13 @@
 //! [`session::ProgressEvent`] callbacks, which only the binary draws.
 #![warn(missing_docs)]
 
-pub mod bench_accuracy;
+pub mod bench;
 pub mod bounds;
 pub mod compare;
 pub mod faults;
 pub mod flash;
-pub mod frame_bench;
 pub mod grid;
 pub mod image_format;
-pub mod link_bench;
 pub mod multi;
 pub mod native;
 pub mod plan;

@@ -101,7 +101,7 @@ impl Args {
         std::fs::create_dir_all(&self.out).with_context(|| format!("creating {}", self.out.display()))?;
         let (w, h) = (self.width, self.height);
         // The bundled scenes travel inside the binary: the bench runs from any folder.
-        let bundled = super::scenes::Bundled::extract()?;
+        let bundled = crate::cmd::scenes::Bundled::extract()?;
         let scenes_dir = || bundled.dir().to_path_buf();
 
         // ---------------------------------------------------------------- skip table
@@ -178,7 +178,7 @@ impl Args {
             ])?;
         }
         let csv = csv_text(csv)?;
-        super::output::write_bytes(&self.out.join("skip.csv"), csv.as_bytes())?;
+        crate::cmd::output::write_bytes(&self.out.join("skip.csv"), csv.as_bytes())?;
         println!("skip table ({w}×{h}):\n{csv}");
 
         // ---------------------------------------------------------------- interpolation grid
@@ -245,7 +245,7 @@ impl Args {
             series.push((name.clone(), pts));
         }
         let icsv = csv_text(icsv)?;
-        super::output::write_bytes(&self.out.join("interp.csv"), icsv.as_bytes())?;
+        crate::cmd::output::write_bytes(&self.out.join("interp.csv"), icsv.as_bytes())?;
         plot(&self.out.join("interp.svg"), &series)?;
         println!("interpolation grid:\n{icsv}");
 
@@ -297,7 +297,7 @@ impl Args {
                     "psnr_db_vs_full": psnr_i,
                 },
             });
-            super::output::write_bytes(
+            crate::cmd::output::write_bytes(
                 &self.out.join("viray.json"),
                 (serde_json::to_string_pretty(&summary)? + "\n").as_bytes(),
             )?;

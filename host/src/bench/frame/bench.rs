@@ -38,7 +38,7 @@ pub fn prepare(
     Ok((prepared, req, plan))
 }
 
-/// Runs every configuration × target of `opt` (`frame_bench` module docs) and assembles the
+/// Runs every configuration × target of `opt` (`bench::frame` module docs) and assembles the
 /// report.
 pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Result<FrameReport, FrameBenchError> {
     let (prepared, req, plan) = prepare(&opt.scene, opt.width, opt.height, opt.encoding)?;
