@@ -3,7 +3,7 @@
 one per scene, with GridRT's and ViRAY's published figures beside them.
 
 Every cell says what it is: measured (QEMU instruction counts, host wall time, image
-comparison), modelled (the frame-time model of `host/src/frame_bench/`), published (the
+comparison), modelled (the frame-time model of `host/src/bench/frame/`), published (the
 seeds' figures: ViRAY, seed 000, and GridRT, seed 004; ARCHITECTURE.md "Where each seed lives") or a bound derived from a published rate.
 
     python3 scripts/bench-frame-table.py out/frame-res4.json out/frame-bunny.json out/frame-viray.json

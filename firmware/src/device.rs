@@ -21,8 +21,9 @@
 //! | `scene` | the scene store and the upload that loads it ([`SceneSink`](gridrt_shared::scene::SceneSink), LOAD_PE over FSL) | `fail` |
 //! | `raypath` | one ray's FSL request and response, drain after a failure | `stats`, `fail`, `scene` |
 //! | `request` | render request checks, field offsets, the validated job | `fail` |
-//! | `pipeline` | the per-pixel pipeline, plan, row loop and row interpolation; renders a job, its rows on a [`RowFarm`] when one takes them | all of the above |
-//! | `farm` | [`RowTracer`]: a farm's rows traced through `pipeline`'s pixel on a link of their own; [`NoFarm`] | `stats`, `raypath`, `pipeline` |
+//! | `pipeline` | the per-pixel pipeline (primary, shadow and reflection rays, shading) and the plan checks; the per-frame constants | all of the above |
+//! | `farm` | row farming: the [`RowFarm`] hook and what crosses it ([`Rows`], [`RowDone`], [`RowFault`]); [`RowTracer`]: a farm's rows traced through `pipeline`'s pixel on a link of their own; [`NoFarm`] | `fail`, `scene`, `stats`, `raypath`, `pipeline` |
+//! | `render` | the frame loop: renders a job row by row (row interpolation, background runs), its rows on a [`RowFarm`] when one takes them, then `Stats` | all of the above |
 //! | `splat` | a `SPLATS` job: the point-splatting path over the scene's points | `fail`, `request`, `scene`, `stats` |
 //! | `machine` | the [`Device`] state machine: frames in, answers out | all of the above |
 //!
@@ -34,6 +35,7 @@ mod farm;
 mod machine;
 mod pipeline;
 mod raypath;
+mod render;
 mod request;
 mod scene;
 #[cfg(feature = "splats")]
@@ -41,9 +43,8 @@ mod splat;
 mod stats;
 
 pub use fail::{DETAIL_LINK_HARDWARE, DETAIL_LINK_OTHER, DETAIL_LINK_TIMEOUT, DETAIL_MSG_ERROR};
-pub use farm::{NoFarm, RowTracer};
+pub use farm::{NoFarm, RowDone, RowFarm, RowFault, RowTracer, Rows};
 pub use machine::{compiled_features, Device};
-pub use pipeline::{RowDone, RowFarm, RowFault, Rows};
 pub use raypath::DEFAULT_POLLS;
 pub use request::MAX_IMAGE_DIM;
 pub use scene::{MAX_MATERIALS, MAX_OBJECTS};

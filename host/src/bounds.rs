@@ -1,5 +1,5 @@
 //! Axis-aligned bounds: what the scene model ([`crate::scene`]) measures and the default
-//! camera ([`crate::camera`]) frames, below both.
+//! camera ([`crate::render_settings`]) frames, below both.
 
 /// Axis-aligned bounds in f32 (the precision of the scene).
 #[derive(Debug, Clone, Copy, PartialEq)]

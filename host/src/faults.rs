@@ -10,10 +10,9 @@
 //!   [`gridrt_loopback::run_on_port`]) opens one slave, a host (`gridrt render --port B`)
 //!   the other; neither knows the relay is there.
 //! - [`run`]: a whole session (hello, upload, render) over a relay with the simulated board
-//!   at the far end, timed; what `gridrt bench link --faults` and the end-to-end tests run.
+//!   at the far end, timed; what `gridrt bench link --faults` ([`crate::bench::link_faults`])
+//!   and the end-to-end tests run.
 
-#[cfg(unix)]
-pub mod bench;
 #[cfg(unix)]
 pub mod relay;
 #[cfg(unix)]

@@ -5,9 +5,9 @@
 //! | [`scene`] | the one scene model ([`scene::Scene`]: meshes, analytic primitives, materials, textures, lights, camera) and its loaders: OBJ (tobj), PLY, TOML scene files (docs/SCENE-FILE.md) |
 //! | [`grid`] | Eq. 6.1 resolution, SAT binning, voxel→PE map, PE memory images |
 //! | [`image_format`] | the versioned scene image (`shared::scene`) |
-//! | [`pipeline`] | scene → grid → scene image in one call |
+//! | [`scene_image`] | [`scene_image::PreparedScene`]: scene → grid → scene image in one call |
 //! | [`bounds`] | axis-aligned bounds ([`bounds::Bounds`]), below the scene model and the camera |
-//! | [`camera`] | default camera/light and [`camera::RenderSettings`] (docs/CONTRACTS.md) |
+//! | [`render_settings`] | [`render_settings::RenderSettings`]: camera, light, size, flags of a frame and their defaults (docs/CONTRACTS.md) |
 //! | [`reference`](mod@reference) | independent f64 reference renderer (BVH + watertight test, analytic primitives, f64 shading) |
 //! | [`compare`] | PSNR and pixel/hit differences |
 //! | [`flash`] | ELF → flash image, flashing through the bootloader (SPEC.md §3.11, windowed §3.14), progress events |
@@ -15,9 +15,9 @@
 //! | [`serial`] | opening serial ports (no flush on open) and listing them |
 //! | [`session`] | protocol client over any `Read + Write` byte transport, progress events |
 //! | [`native`] | the fast native ray path: firmware DDA + co-processor search laid out for a CPU (SIMD, threads), word-identical results |
+//! | [`sim_board`] | [`sim_board::SimBoard`]: one frame on the in-process loopback simulator |
 //! | [`multi`] | one frame on several boards: work queue of row bands, merged result |
-//! | [`link_bench`] | `gridrt bench link`: wire bytes, efficiency, compression, modelled frame time |
-//! | [`frame_bench`] | `gridrt bench frame`: whole-frame time on the modelled board (soft-core on QEMU, co-processor model, link), per configuration and target |
+//! | [`bench`] | every bench behind `gridrt bench`: [`bench::accuracy`], [`bench::link`], [`bench::link_faults`], [`bench::frame`], [`bench::splat`] |
 //! | [`stats`] | JSON statistics |
 //! | [`plan`] | the pipeline plan (which stages a scene needs) and `--interp` |
 //!
@@ -25,24 +25,22 @@
 //! [`session::ProgressEvent`] callbacks, which only the binary draws.
 #![warn(missing_docs)]
 
-pub mod bench_accuracy;
+pub mod bench;
 pub mod bounds;
-pub mod camera;
 pub mod compare;
 pub mod faults;
 pub mod flash;
-pub mod frame_bench;
 pub mod grid;
 pub mod image_format;
-pub mod link_bench;
 pub mod multi;
 pub mod native;
-pub mod pipeline;
 pub mod plan;
 pub mod points;
 pub mod reference;
+pub mod render_settings;
 pub mod scene;
+pub mod scene_image;
 pub mod serial;
 pub mod session;
-pub mod simrun;
+pub mod sim_board;
 pub mod stats;

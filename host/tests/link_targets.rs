@@ -5,10 +5,10 @@
 
 use std::path::Path;
 
-use gridrt_host::camera::RenderSettings;
+use gridrt_host::bench::link::{link_rows, measure, FirmwareModel};
 use gridrt_host::grid::GridParams;
-use gridrt_host::link_bench::{link_rows, measure, FirmwareModel};
-use gridrt_host::pipeline::PreparedScene;
+use gridrt_host::render_settings::RenderSettings;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_shared::msg::{PixelEncoding, RenderRequest};
 
 #[test]

@@ -9,7 +9,7 @@ use gridrt_firmware::camera::Camera;
 use gridrt_firmware::dda::{build_list, GridDesc, TraversalList};
 use gridrt_host::grid::{GridParams, PeMapping};
 use gridrt_host::native::{grid_desc, NativeScene, Trace};
-use gridrt_host::pipeline::PreparedScene;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_shared::math::{Ray, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

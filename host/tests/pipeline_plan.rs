@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 
 use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
-use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::plan::{Interp, Plan};
 use gridrt_host::reference::{render as reference_render, Reference, Stages};
 use gridrt_host::scene::Scene;
-use gridrt_host::simrun::SimBoard;
+use gridrt_host::scene_image::PreparedScene;
+use gridrt_host::sim_board::SimBoard;
 use gridrt_shared::msg::{render_flags, stat, ErrorCode};
 
 fn scenes() -> PathBuf {
@@ -121,7 +121,7 @@ fn interpolation_3_8_traces_the_documented_fraction_at_the_documented_psnr() {
         let mesh = gridrt_host::scene::load(&scenes().join(name)).unwrap();
         let prepared = PreparedScene::new(mesh, &params()).unwrap();
         let mut board = SimBoard::new(gridrt_loopback::SimConfig::default(), &prepared).unwrap();
-        let settings = gridrt_host::camera::RenderSettings::default_for(&prepared.grid.mesh_bounds);
+        let settings = gridrt_host::render_settings::RenderSettings::default_for(&prepared.grid.mesh_bounds);
         assert_eq!((settings.width, settings.height), (320, 240));
         let full = board.render(&settings.to_request(1)).unwrap();
         let mut req = settings.to_request(2);

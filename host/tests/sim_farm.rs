@@ -6,10 +6,10 @@ use std::io::{Read, Write};
 use std::path::Path;
 use std::time::Duration;
 
-use gridrt_host::camera::RenderSettings;
 use gridrt_host::grid::GridParams;
-use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::plan::Plan;
+use gridrt_host::render_settings::RenderSettings;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_host::session::{Session, SessionConfig};
 use gridrt_loopback::{SimConfig, SimPort};
 use gridrt_shared::frame::{encode_frame, FeedResult, FrameAccumulator, MAX_ENCODED};

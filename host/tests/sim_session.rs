@@ -3,11 +3,11 @@
 use std::path::Path;
 use std::time::Duration;
 
-use gridrt_host::camera::RenderSettings;
 use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
-use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::reference::{render, Reference, Stages};
+use gridrt_host::render_settings::RenderSettings;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_host::session::{ProgressEvent, Session, SessionConfig, SessionError, Stage};
 use gridrt_shared::msg::ErrorCode;
 

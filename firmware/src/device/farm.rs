@@ -1,19 +1,93 @@
 //! Row farms: the rows of a frame traced away from the device loop. A simulator's worker
 //! threads each trace rows on a link of their own to the same co-processor ([`RowTracer`],
 //! through the device loop's own `pipeline::pixel`) and the farm hands the device every row
-//! in order (`pipeline::RowFarm`); the device encodes and sends them as its own loop does.
+//! in order ([`RowFarm`]: the [`Rows`] asked for, each [`RowDone`], a [`RowFault`]); the
+//! device encodes and sends them as its own loop does (`render`).
 //! Every pixel is a pure function of the frame, the scene and the co-processor's loaded
 //! memories, so the bytes on the UART are the same whichever thread traced which row.
 //!
 //! The firmware has no farm ([`NoFarm`]): it renders every row itself.
 
-use core::ops::ControlFlow;
+use core::ops::{ControlFlow, Range};
 
-use super::pipeline::{pixel, RowDone, RowFarm, RowFault, Rows};
+use super::fail::Fail;
+use super::pipeline::{pixel, FrameCtx};
 use super::raypath::RayPath;
+use super::scene::SceneStore;
 use super::stats::{FrameStats, NoClock, Stopwatch};
 use crate::fsl::FslLink;
 use crate::interp::Sample;
+
+/// The rows of one frame a [`RowFarm`] is asked to trace: the region's rows, each over the
+/// columns its camera rays can enter the grid box through ([`Rows::columns`]).
+pub struct Rows<'a, const N: usize> {
+    pub(super) scene: &'a SceneStore<N>,
+    pub(super) ctx: &'a FrameCtx,
+    /// Image width (the culling spans depend on it).
+    pub(super) width: u16,
+    pub(super) x0: u16,
+    pub(super) x1: u16,
+    pub(super) ys: Range<u16>,
+    pub(super) polls: u32,
+}
+
+impl<const N: usize> Rows<'_, N> {
+    /// The rows, top to bottom.
+    pub fn ys(&self) -> Range<u16> {
+        self.ys.clone()
+    }
+
+    /// Most samples a row has (the region's width).
+    pub fn width(&self) -> usize {
+        self.x1.wrapping_sub(self.x0) as usize
+    }
+
+    /// The columns of row `y` that are traced; the rest of the region's row is background.
+    pub fn columns(&self, y: u16) -> Range<u16> {
+        self.ctx.row(y, self.width, self.x0, self.x1).0
+    }
+}
+
+/// A pixel of a row failed: the frame stops there, as it does in the device loop.
+#[derive(Debug, Clone, Copy)]
+pub struct RowFault {
+    /// Samples of the row done before the failing pixel.
+    pub(super) done: usize,
+    pub(super) fail: Fail,
+}
+
+impl RowFault {
+    /// Samples of the row done before the failing pixel.
+    pub fn done(&self) -> usize {
+        self.done
+    }
+}
+
+/// One traced row, handed to the device.
+pub struct RowDone<'s> {
+    /// The row.
+    pub y: u16,
+    /// The samples of its [`Rows::columns`] (all of them unless `fault`).
+    pub samples: &'s [Sample],
+    /// The failure that stopped the row, if any.
+    pub fault: Option<RowFault>,
+    /// What tracing the row counted (`RowTracer::take_stats` after it).
+    pub stats: FrameStats,
+}
+
+/// Traces the rows of a frame for the device, possibly on other threads.
+pub trait RowFarm<L> {
+    /// Traces every row of `rows` and hands each to `sink` in order, top to bottom; stops
+    /// after a row with a fault or when `sink` breaks. Returns `false` without calling `sink`
+    /// when it does not take this frame (e.g. `link` is not one it can share): the device
+    /// then renders the frame on `link` itself.
+    fn render<const N: usize>(
+        &mut self,
+        link: &L,
+        rows: &Rows<'_, N>,
+        sink: &mut dyn FnMut(RowDone<'_>) -> ControlFlow<()>,
+    ) -> bool;
+}
 
 /// Traces rows of a frame on a link of its own, counting what it does in its own
 /// [`FrameStats`] (the ray, FSL word and co-processor counters; stage clocks stay 0).

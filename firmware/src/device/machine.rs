@@ -5,7 +5,9 @@
 
 use super::fail::{Fail, Text, Trunc, DETAIL_MSG_ERROR};
 use super::farm::NoFarm;
-use super::pipeline::{self, Renderer, RowFarm};
+use super::farm::RowFarm;
+use super::pipeline;
+use super::render::Renderer;
 use super::request::{self, Target};
 use super::scene::{Reorder, SceneStore, Upload, UPLOAD_WINDOW};
 #[cfg(feature = "splats")]

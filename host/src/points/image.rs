@@ -6,10 +6,10 @@ use gridrt_shared::frame::crc32;
 use gridrt_shared::scene::{scene_flags, PointRecord, PointsHead, PrimKind, SceneHeader, HEADER_LEN};
 
 use super::cloud::PointCloud;
-use crate::camera::RenderSettings;
 use crate::grid::{build_with_prims, GridError, GridParams};
-use crate::pipeline::PreparedScene;
+use crate::render_settings::RenderSettings;
 use crate::scene::{AnalyticPrim, Bounds, LoadStats, Mesh, Scene};
+use crate::scene_image::PreparedScene;
 
 /// The disk of a point: the canonical disk (y = 0, x² + z² ≤ 1) scaled by the radius, its y
 /// axis along the normal, centred on the point.

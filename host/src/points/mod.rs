@@ -8,10 +8,11 @@
 //! | `cloud` | [`PointCloud`]: from PLY vertices or a mesh, k-NN radii, palette, random split |
 //! | `image` | disks for the ray tracer and the reference, the point section, [`prepare`] |
 //! | `render` | the splat request, [`composite`], [`render_sort_last`], [`SplatReport`] |
-//! | `bench` | `gridrt bench splat`: native splats/s and image error per cloud size and table |
 //! | `synthetic` | seeded clouds on analytic surfaces, a PLY writer |
+//!
+//! `gridrt bench splat` (native splats/s and image error per cloud size and table) is
+//! [`crate::bench::splat`].
 
-pub mod bench;
 mod cloud;
 mod image;
 mod render;

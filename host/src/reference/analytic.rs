@@ -3,7 +3,7 @@
 
 use gridrt_shared::scene::PrimKind;
 
-use crate::camera::dot;
+use super::vec3::dot;
 use crate::scene::transform::{apply_point, apply_transpose, apply_vector, Affine64};
 
 /// One analytic primitive in f64.

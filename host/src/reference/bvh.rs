@@ -4,7 +4,7 @@
 //!
 //! Hit rule: the nearest hit with `t > 0` wins; equal `t` → lowest primitive id.
 
-use crate::camera::sub;
+use super::vec3::sub;
 use crate::scene::Mesh;
 
 /// Largest triangle count of a BVH leaf.

@@ -3,7 +3,7 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use crate::camera::RenderSettings;
+use crate::render_settings::RenderSettings;
 
 /// Primitive id of a pixel whose primary ray missed.
 pub const MISS_ID: u32 = u32::MAX;

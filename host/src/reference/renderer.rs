@@ -12,10 +12,12 @@ use gridrt_shared::scene::{Falloff, ReflectMode, TextureKind};
 
 use super::analytic::Prim;
 use super::bvh::TriangleBvh;
+use super::camera::CameraF64;
 use super::frame::{render_pixels, ReferenceImage, MISS_ID};
 use super::shading::{add, diffuse, fresnel_conductor, fresnel_dielectric, outgoing, scale, specular, DirectTerm};
 use super::texture::texture;
-use crate::camera::{cross, dot, normalize, sub, CameraF64, RenderSettings};
+use super::vec3::{cross, dot, normalize, sub};
+use crate::render_settings::RenderSettings;
 use crate::scene::transform::{apply_point, from_wire, Affine64};
 use crate::scene::{Bounds, Scene};
 

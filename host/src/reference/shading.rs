@@ -4,7 +4,7 @@
 
 use gridrt_shared::scene::{DiffuseModel, MaterialModel, ReflectMode, SpecularModel};
 
-use crate::camera::{dot, normalize, sub};
+use super::vec3::{dot, normalize, sub};
 
 /// `a + b`.
 pub(super) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {

@@ -1,8 +1,9 @@
 //! Reference renderer tests: the contract's shading and shadow rule on a hand-built scene,
 //! thread-count independence.
 
+use super::camera::CameraF64;
 use super::*;
-use crate::camera::{CameraF64, RenderSettings};
+use crate::render_settings::RenderSettings;
 use crate::scene::{Mesh, Scene, Triangle, DEFAULT_MATERIAL};
 use std::path::Path;
 

@@ -4,7 +4,7 @@
 
 use gridrt_shared::scene::{Mapping, MaterialModel, TextureKind};
 
-use crate::camera::dot;
+use super::vec3::dot;
 
 fn hash(x: u32, y: u32, seed: u32) -> u32 {
     let mut h = x.wrapping_mul(0x8DA6_B343) ^ y.wrapping_mul(0xD816_3841) ^ seed.wrapping_mul(0xCB1A_B31F);

@@ -11,7 +11,7 @@ use super::error::SceneLoadError;
 use super::mesh::{Bounds, Mesh};
 use super::mesh_file::load_mesh;
 use super::model::Scene;
-use crate::camera::{Camera, RenderSettings, DEFAULT_HEIGHT, DEFAULT_WIDTH};
+use crate::render_settings::{Camera, RenderSettings, DEFAULT_HEIGHT, DEFAULT_WIDTH};
 
 mod error;
 mod lighting;

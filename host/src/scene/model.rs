@@ -9,7 +9,7 @@ use gridrt_shared::scene::{LightingRecord, Material, MaterialModel, ObjectKind, 
 
 use super::analytic::AnalyticPrim;
 use super::mesh::{Bounds, Mesh, DEFAULT_MATERIAL};
-use crate::camera::RenderSettings;
+use crate::render_settings::RenderSettings;
 
 /// Everything of a scene: geometry, materials, lights and camera.
 #[derive(Debug, Clone)]

@@ -13,9 +13,9 @@ use std::sync::OnceLock;
 use std::time::Duration;
 
 use fault_relay::{Faults, FaultyPort};
-use gridrt_host::camera::RenderSettings;
 use gridrt_host::grid::GridParams;
-use gridrt_host::pipeline::PreparedScene;
+use gridrt_host::render_settings::RenderSettings;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_host::session::{LinkStats, RenderedFrame, Session, SessionConfig};
 use gridrt_shared::msg::{PixelEncoding, RenderRequest};
 

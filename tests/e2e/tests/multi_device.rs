@@ -7,10 +7,10 @@ use std::io::{ErrorKind, Read, Write};
 use std::path::Path;
 use std::time::Duration;
 
-use gridrt_host::camera::RenderSettings;
 use gridrt_host::grid::GridParams;
 use gridrt_host::multi::render_multi;
-use gridrt_host::pipeline::PreparedScene;
+use gridrt_host::render_settings::RenderSettings;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_host::session::{Session, SessionConfig};
 use gridrt_loopback::SimPort;
 use gridrt_shared::msg::{PixelEncoding, RenderRequest};

@@ -10,7 +10,7 @@ use std::path::Path;
 use gridrt_coproc::{CoprocConfig, Coprocessor, KernelKind};
 use gridrt_firmware::dda::{build_list, GridDesc, TraversalList};
 use gridrt_host::grid::GridParams;
-use gridrt_host::pipeline::PreparedScene;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_shared::fsl::RayKind;
 use gridrt_shared::math::{Ray, Vec3};
 use rand::{Rng, SeedableRng};

@@ -208,7 +208,7 @@ fn qemu_render_matches_loopback_riscv32imafc() {
 #[test]
 fn qemu_and_loopback_do_the_same_work_for_the_same_frame() {
     use gridrt_coproc::TimingProfile;
-    use gridrt_host::frame_bench::{kernel, prepare, run_on_loopback, run_on_qemu, work_differences};
+    use gridrt_host::bench::frame::{kernel, prepare, run_on_loopback, run_on_qemu, work_differences};
     use gridrt_shared::msg::{stat, PixelEncoding};
 
     let test = "qemu_and_loopback_do_the_same_work_for_the_same_frame";
@@ -221,7 +221,7 @@ fn qemu_and_loopback_do_the_same_work_for_the_same_frame() {
     let quiet = &mut |_| {};
     let q = run_on_qemu(&coproc, &prepared, &req, "qemu", quiet).unwrap();
     let s = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "loopback", quiet).unwrap();
-    let work = |r: &gridrt_host::frame_bench::DeviceRun| {
+    let work = |r: &gridrt_host::bench::frame::DeviceRun| {
         [
             stat::PRIMARY_RAYS,
             stat::SHADOW_RAYS,

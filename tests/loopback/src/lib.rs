@@ -1,5 +1,10 @@
 //! Loopback simulator: the firmware's device loop and the co-processor in one process.
 //!
+//! This is a library the product links, not only a test crate: `gridrt-host` depends on it
+//! for `gridrt render --sim` (and `--sim` on the other subcommands, `sim_board::SimBoard`,
+//! `gridrt bench skip`); the host's and the end-to-end tests use it as well. It lives under
+//! `tests/` for history only.
+//!
 //! The host reaches the simulated board only through [`SimPort`], an in-memory byte stream
 //! with the same blocking/timeout behaviour as a serial port: the device thread sees UART
 //! bytes, the co-processor sees FSL words, and nothing else crosses. The co-processor is the

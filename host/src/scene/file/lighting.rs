@@ -5,7 +5,7 @@ use toml::Spanned;
 
 use super::error::{Ctx, SceneFileError};
 use super::schema::{f3, finite3, FalloffDef, LightDef, RenderDef};
-use crate::camera::{Light, RenderSettings};
+use crate::render_settings::{Light, RenderSettings};
 
 /// The lighting record the `[render]` table sets, and the ambient term.
 pub(super) fn render(

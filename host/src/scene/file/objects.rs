@@ -8,7 +8,7 @@ use toml::Spanned;
 use super::error::{line_of, Ctx, SceneFileError};
 use super::materials::MaterialTable;
 use super::schema::{finite3, ObjectDef, ObjectType, ScaleDef};
-use crate::camera::RenderSettings;
+use crate::render_settings::RenderSettings;
 use crate::scene::analytic::AnalyticPrim;
 use crate::scene::error::SceneLoadError;
 use crate::scene::mesh::{Bounds, Mesh, Triangle, DEFAULT_MATERIAL};

@@ -18,10 +18,10 @@ use gridrt_shared::scene::{LightingRecord, Material, MaterialModel};
 use super::options::AccuracyOptions;
 use super::probes::ProbeSet;
 use super::row::{AccuracyError, AccuracyRow};
-use crate::camera::RenderSettings;
 use crate::compare::compare;
 use crate::grid::Grid;
 use crate::reference::{ReferenceImage, MISS_ID};
+use crate::render_settings::RenderSettings;
 use crate::scene::Mesh;
 
 /// Everything a scene's configurations share.

@@ -16,7 +16,7 @@ use gridrt_shared::frame::{encode_frame, MAX_ENCODED, MAX_PAYLOAD};
 use gridrt_shared::msg::{stat, Msg, RenderRequest};
 
 use super::setup::{BenchEvent, FrameBenchError};
-use crate::pipeline::PreparedScene;
+use crate::scene_image::PreparedScene;
 use crate::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
 
 /// PEs of the qemu-virt board (`firmware/image/src/board.rs`), and of every run here.

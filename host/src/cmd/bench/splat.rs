@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Context};
 use gridrt_firmware::splat::table::TableConfig;
+use gridrt_host::bench::splat::{self, SplatRow};
 use gridrt_host::grid::GridParams;
-use gridrt_host::points::bench::{self, SplatRow};
 use gridrt_host::points::{self, synthetic, PointCloud, SplatReport};
 use gridrt_host::session::{Session, SessionConfig};
 
@@ -54,7 +54,7 @@ impl Args {
         let rows = std::thread::Builder::new()
             .stack_size(512 << 20)
             .spawn(move || {
-                bench::run(&counts, &tables, size, runs, &mut |r: &SplatRow| {
+                splat::run(&counts, &tables, size, runs, &mut |r: &SplatRow| {
                     eprintln!(
                         "{:>8} points, table {}×{} /{} px: {:>7.1} ns/splat, {:.2} M splats/s, PSNR {} (seed keying {}, per-pixel depth {})",
                         r.points,
@@ -98,7 +98,7 @@ impl Args {
             ])?;
         }
         let csv = csv.into_inner().map_err(|e| anyhow!("{e}"))?;
-        super::output::write_bytes(&self.out.join("splat.csv"), &csv)?;
+        crate::cmd::output::write_bytes(&self.out.join("splat.csv"), &csv)?;
         let json = serde_json::json!({
             "command": format!("gridrt bench splat --out-dir {} --points {} --width {} --height {}{}", self.out.display(),
                 self.points.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(","), self.width, self.height,

@@ -19,14 +19,14 @@ use std::time::Instant;
 
 use anyhow::{anyhow, Context};
 use gridrt_coproc::TimingProfile;
-use gridrt_host::camera::RenderSettings;
 use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
-use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::plan::{Interp, Plan};
 use gridrt_host::reference::{render as reference_render, Reference, Stages};
+use gridrt_host::render_settings::RenderSettings;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_host::session::RenderedFrame;
-use gridrt_host::simrun::SimBoard;
+use gridrt_host::sim_board::SimBoard;
 use gridrt_shared::msg::{render_flags, stat};
 
 /// ViRAY's ray throughput (seed 000 §5): 4·1920·1080 rays in 52.4 ms.
@@ -101,7 +101,7 @@ impl Args {
         std::fs::create_dir_all(&self.out).with_context(|| format!("creating {}", self.out.display()))?;
         let (w, h) = (self.width, self.height);
         // The bundled scenes travel inside the binary: the bench runs from any folder.
-        let bundled = super::scenes::Bundled::extract()?;
+        let bundled = crate::cmd::scenes::Bundled::extract()?;
         let scenes_dir = || bundled.dir().to_path_buf();
 
         // ---------------------------------------------------------------- skip table
@@ -178,7 +178,7 @@ impl Args {
             ])?;
         }
         let csv = csv_text(csv)?;
-        super::output::write_bytes(&self.out.join("skip.csv"), csv.as_bytes())?;
+        crate::cmd::output::write_bytes(&self.out.join("skip.csv"), csv.as_bytes())?;
         println!("skip table ({w}×{h}):\n{csv}");
 
         // ---------------------------------------------------------------- interpolation grid
@@ -245,7 +245,7 @@ impl Args {
             series.push((name.clone(), pts));
         }
         let icsv = csv_text(icsv)?;
-        super::output::write_bytes(&self.out.join("interp.csv"), icsv.as_bytes())?;
+        crate::cmd::output::write_bytes(&self.out.join("interp.csv"), icsv.as_bytes())?;
         plot(&self.out.join("interp.svg"), &series)?;
         println!("interpolation grid:\n{icsv}");
 
@@ -297,7 +297,7 @@ impl Args {
                     "psnr_db_vs_full": psnr_i,
                 },
             });
-            super::output::write_bytes(
+            crate::cmd::output::write_bytes(
                 &self.out.join("viray.json"),
                 (serde_json::to_string_pretty(&summary)? + "\n").as_bytes(),
             )?;

@@ -7,14 +7,14 @@ use anyhow::{anyhow, bail, Context};
 use gridrt_coproc::{CoprocConfig, Coprocessor, KernelKind, RayKind, TimingProfile, LIST_CAPACITY};
 use gridrt_firmware::camera::Camera;
 use gridrt_firmware::dda::{build_list, TraversalList};
-use gridrt_host::camera::RenderSettings;
 use gridrt_host::grid::{build, GridParams};
 use gridrt_host::native::{grid_desc, Hits, NativeScene, Trace};
+use gridrt_host::render_settings::RenderSettings;
 use gridrt_host::stats::BenchReport;
 use gridrt_shared::math::Vec3;
 use serde::Serialize;
 
-use super::common::SceneOptions;
+use crate::cmd::common::SceneOptions;
 
 /// Which implementation traces.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -38,8 +38,8 @@ pub struct Args {
     height: u16,
     /// Intersection kernel (the native path runs the default, watertight; others imply
     /// `--path model`).
-    #[arg(long, value_enum, default_value_t = super::common::Kernel::Watertight)]
-    kernel: super::common::Kernel,
+    #[arg(long, value_enum, default_value_t = crate::cmd::common::Kernel::Watertight)]
+    kernel: crate::cmd::common::Kernel,
     /// Implementation to time.
     #[arg(long, value_enum, default_value_t = RayPath::Native)]
     path: RayPath,

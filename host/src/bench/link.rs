@@ -33,7 +33,7 @@ use std::time::Duration;
 use gridrt_shared::msg::{stat, PixelEncoding, Region, RenderRequest};
 use serde::Serialize;
 
-use crate::pipeline::PreparedScene;
+use crate::scene_image::PreparedScene;
 use crate::session::{Canvas, Session, SessionConfig, SessionError};
 
 /// The modelled line rates.

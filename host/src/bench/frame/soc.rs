@@ -25,7 +25,7 @@ use super::run::{finish, hello_upload_render, read_banner, work_differences, Dev
 use super::setup::{BenchEvent, FrameBenchError, SocClock};
 use crate::flash::{flash, FlashConfig, FlashEvent, FlashImage};
 use crate::grid::GridParams;
-use crate::pipeline::PreparedScene;
+use crate::scene_image::PreparedScene;
 use crate::session::{Session, SessionConfig};
 
 /// How long the simulated SoC may take for one stage (flash, upload, render): a 320×240

@@ -3,7 +3,7 @@
 //! directions ([`gridrt_host::faults`]), to the simulated board (the loop `gridrt device`
 //! runs), at each bit error rate of --bers. Reports time to the frame and its ratio to the
 //! clean run, goodput of the upload and of the frame against the selective-repeat bound
-//! ([`gridrt_host::faults::bench`]), and checks that every frame is the clean run's, byte
+//! ([`gridrt_host::bench::link_faults`]), and checks that every frame is the clean run's, byte
 //! for byte.
 //!
 //! Outputs in `--out-dir DIR`: `link_faults.csv`, `link_faults.svg` (goodput / line rate against
@@ -13,17 +13,17 @@ use std::path::Path;
 use std::time::Duration;
 
 use anyhow::{anyhow, ensure, Context};
-use gridrt_host::faults::bench::{csv, fault_row, FaultRow};
+use gridrt_host::bench::link_faults::{csv, fault_row, FaultRow};
 use gridrt_host::faults::relay::RelayConfig;
 use gridrt_host::faults::run::{run_session, LineRun};
 use gridrt_host::faults::Faults;
 use gridrt_host::grid::GridParams;
-use gridrt_host::pipeline::PreparedScene;
 use gridrt_host::plan::Plan;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_host::session::{ProgressEvent, SessionConfig, Stage};
 use gridrt_shared::msg::{PixelEncoding, RenderRequest};
 
-use super::progress::CliProgress;
+use crate::cmd::progress::CliProgress;
 
 /// Options of the faulty-line measurement.
 #[derive(Debug, Clone, clap::Args)]
@@ -40,8 +40,8 @@ pub struct LineArgs {
     #[arg(long, value_delimiter = ',', default_value = "0,1e-6,1e-5,1e-4,1e-3", value_name = "BERS")]
     bers: Vec<f64>,
     /// Pixel encoding of the frame.
-    #[arg(long, value_enum, default_value_t = super::render::Encoding::Rle)]
-    encoding: super::render::Encoding,
+    #[arg(long, value_enum, default_value_t = crate::cmd::render::Encoding::Rle)]
+    encoding: crate::cmd::render::Encoding,
     /// Seed of the relay's faults.
     #[arg(long, default_value_t = 13)]
     seed: u64,
@@ -114,7 +114,7 @@ pub fn run(out: &Path, scenes: &Path, width: u16, height: u16, a: &LineArgs) -> 
         );
         rows.push(row);
     }
-    super::output::write_bytes(&out.join("link_faults.csv"), csv(&rows).as_bytes())?;
+    crate::cmd::output::write_bytes(&out.join("link_faults.csv"), csv(&rows).as_bytes())?;
     plot(&out.join("link_faults.svg"), &rows, &a.scene, a.baud)?;
     let json = serde_json::json!({
         "scene": a.scene, "width": width, "height": height, "baud": a.baud, "seed": a.seed,

@@ -1,5 +1,5 @@
 //! `gridrt bench frame`: the whole-frame time on the modelled board, per configuration ×
-//! soft-core target (model and measurements: [`gridrt_host::frame_bench`]).
+//! soft-core target (model and measurements: [`gridrt_host::bench::frame`]).
 //!
 //! Builds the firmware images with `cargo xtask firmware` (run it from the repository),
 //! boots each on QEMU, renders the frame over its UART, renders it on the loopback simulator
@@ -11,13 +11,13 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context};
-use gridrt_host::frame_bench::{
+use gridrt_host::bench::frame::{
     run_bench, write_csv, write_svg, BenchEvent, BenchOptions, Configuration, CpuProfile, FrameReport, MeasuredCpi,
     Target,
 };
 use gridrt_host::session::ProgressEvent;
 
-use super::render::Encoding;
+use crate::cmd::render::Encoding;
 
 /// The SoC's target clock (`soc/gridrt_soc/soc.py` `SYS_CLK_FREQ`).
 const SOC_TARGET_MHZ: f64 = 50.0;
@@ -188,7 +188,7 @@ impl Args {
             (Some(_), Some(_)) => bail!("--clock-mhz and --soc-build both set the clock: give one"),
             (Some(path), None) => {
                 let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-                let c = gridrt_host::frame_bench::SocClock::from_build_report(&text, self.baud)
+                let c = gridrt_host::bench::frame::SocClock::from_build_report(&text, self.baud)
                     .map_err(|e| anyhow!("{}: {e}", path.display()))?;
                 (c.clock_mhz, c.source)
             }

@@ -1,4 +1,14 @@
-//! `gridrt bench`: benchmarks of the native ray path.
+//! `gridrt bench`: one file per bench (the library's benches are `gridrt_host::bench`), and the
+//! plotting helpers they share (`plot`).
+
+pub mod accuracy;
+pub mod frame;
+pub mod link;
+pub mod link_faults;
+pub mod plot;
+pub mod rays;
+pub mod skip;
+pub mod splat;
 
 /// Benchmarks.
 #[derive(Debug, clap::Parser)]
@@ -14,28 +24,28 @@ enum What {
     /// native path (same result words as the model's `trace_untimed`, checked on every
     /// pixel), optionally on several threads and beside Embree. Reports the best of --runs
     /// after --warmup runs.
-    Rays(super::bench_rays::Args),
+    Rays(rays::Args),
     /// Accuracy against run time of every intersection kernel and number format.
-    Accuracy(super::bench_accuracy::Args),
+    Accuracy(accuracy::Args),
     /// What the pipeline plan and row interpolation save: rays, FSL words and modeled time
     /// with and without each skip, traced pixels vs PSNR over (l, EPS), and the ViRAY-like
     /// demo at 1920×1080 (CSV, SVG plot and JSON in --out-dir).
-    Skip(super::bench_skip::Args),
+    Skip(skip::Args),
     /// The serial link: wire bytes per frame, payload efficiency against the line
     /// rate and compression per pixel encoding on the bundled scenes, modelled frame time
     /// with transmission overlapped with ray work at 115 200 / 921 600 / 3 000 000 baud, on
     /// 1, 2 and 4 boards (CSV, SVG plot and JSON in --out-dir).
-    Link(super::bench_link::Args),
+    Link(link::Args),
     /// The whole frame on the modelled board (soft-core instructions measured on QEMU,
     /// co-processor cycles from the timing model, UART link, and what overlaps), per
     /// configuration (soft-core-only, gridrt, pipelined, host-native) and soft-core target
     /// (riscv32imac, riscv32imafc); every image checked against the f64 reference (JSON,
     /// and CSV + SVG in --out-dir).
-    Frame(super::bench_frame::Args),
+    Frame(frame::Args),
     /// Point splats: native splats/s and image error against the ray-traced disks for
     /// 10³…10⁶ points and several shape tables, optionally soft-core instructions per splat
     /// from QEMU (`--port`); CSV, SVG plot and JSON in --out-dir.
-    Splat(super::bench_splat::Args),
+    Splat(splat::Args),
 }
 
 impl Cmd {

@@ -6,7 +6,7 @@ use std::time::Duration;
 use gridrt_loopback::SimConfig;
 use gridrt_shared::msg::RenderRequest;
 
-use crate::pipeline::PreparedScene;
+use crate::scene_image::PreparedScene;
 use crate::session::{RenderedFrame, Session, SessionConfig, SessionError};
 
 /// A simulated board with a scene loaded; renders frames on request.

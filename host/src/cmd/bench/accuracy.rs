@@ -1,13 +1,13 @@
 //! `gridrt bench accuracy --out-dir DIR`: every intersection kernel in every number format on the
 //! bundled scenes, against the f64 reference; writes `DIR/accuracy.csv` and
-//! `DIR/accuracy.svg` (library: [`gridrt_host::bench_accuracy`]).
+//! `DIR/accuracy.svg` (library: [`gridrt_host::bench::accuracy`]).
 
 use std::path::PathBuf;
 
 use anyhow::{anyhow, Context};
 use gridrt_coproc::{KernelKind, NumberFormat};
 use gridrt_firmware::fixed::RayFormat;
-use gridrt_host::bench_accuracy::{self as acc, AccuracyEvent, AccuracyOptions};
+use gridrt_host::bench::accuracy::{self as acc, AccuracyEvent, AccuracyOptions};
 
 /// Accuracy against run time of the intersection kernels and number formats.
 #[derive(Debug, clap::Args)]
@@ -69,7 +69,7 @@ impl Args {
     pub fn run(self) -> anyhow::Result<()> {
         let mut opts = AccuracyOptions::new();
         // The bundled scenes travel inside the binary: the bench runs from any folder.
-        let bundled = if self.scenes.is_empty() { Some(super::scenes::Bundled::extract()?) } else { None };
+        let bundled = if self.scenes.is_empty() { Some(crate::cmd::scenes::Bundled::extract()?) } else { None };
         match &bundled {
             Some(b) => opts.scenes = acc::DEFAULT_SCENES.iter().map(|s| b.join(s)).collect(),
             None => opts.scenes = self.scenes,

@@ -1,5 +1,5 @@
 //! `gridrt bench link --faults`: goodput of the scene upload and of the frame against the
-//! bit error rate, measured over a paced [`PtyRelay`](super::relay::PtyRelay), next to the
+//! bit error rate, measured over a paced [`PtyRelay`](crate::faults::relay::PtyRelay), next to the
 //! selective-repeat bound (SPEC.md §3.14) for the chunk and span sizes in use.
 //!
 //! # What is measured
@@ -20,8 +20,8 @@
 
 use serde::Serialize;
 
-use super::run::LineRun;
-use super::Faults;
+use crate::faults::run::LineRun;
+use crate::faults::Faults;
 use crate::session::estimate::{best_payload, byte_error_rate, efficiency};
 use crate::session::MAX_CHUNK;
 

@@ -14,8 +14,8 @@ use gridrt_shared::math::Vec3;
 use gridrt_shared::splat::MaterialTerm;
 use serde::Serialize;
 
-use super::{cloud_scene, synthetic, PointCloud};
 use crate::compare::compare;
+use crate::points::{cloud_scene, synthetic, PointCloud};
 use crate::reference::{self, Reference, Stages};
 
 /// Largest cloud the bench holds.

@@ -1,5 +1,5 @@
 //! `gridrt bench link`: the UART link per pixel encoding on the bundled scenes, at 115 200,
-//! 921 600 and 3 000 000 baud (model: [`gridrt_host::link_bench`]).
+//! 921 600 and 3 000 000 baud (model: [`gridrt_host::bench::link`]).
 //!
 //! Outputs in `--out-dir DIR`: `link.csv` (scene × encoding × baud: wire bytes per frame,
 //! payload efficiency against the line rate, pixel rate against raw RGB888, link time, ray
@@ -8,16 +8,16 @@
 //! `link.svg` (modelled frame time against baud) and `link.json` (the headline numbers).
 //!
 //! With `--faults` it measures instead: sessions over a paced, faulty pseudo-terminal relay
-//! at several bit error rates ([`super::bench_link_faults`]).
+//! at several bit error rates ([`super::link_faults`]).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, ensure, Context};
-use gridrt_host::camera::RenderSettings;
+use gridrt_host::bench::link::{link_rows, measure, multi_seconds, FirmwareModel, LinkRow, Measured, BAUDS, ENCODINGS};
 use gridrt_host::grid::GridParams;
-use gridrt_host::link_bench::{link_rows, measure, multi_seconds, FirmwareModel, LinkRow, Measured, BAUDS, ENCODINGS};
 use gridrt_host::multi::default_band_rows;
-use gridrt_host::pipeline::PreparedScene;
+use gridrt_host::render_settings::RenderSettings;
+use gridrt_host::scene_image::PreparedScene;
 use gridrt_shared::msg::{PixelEncoding, RenderRequest};
 
 /// The bundled scenes, in report order.
@@ -48,15 +48,15 @@ pub struct Args {
     #[arg(long)]
     faults: bool,
     #[clap(flatten)]
-    line: super::bench_link_faults::LineArgs,
+    line: super::link_faults::LineArgs,
 }
 
 impl Args {
     /// Runs the bench.
     pub fn run(self) -> anyhow::Result<()> {
-        let scenes = super::scenes::Bundled::or_extract(self.scenes.as_deref())?;
+        let scenes = crate::cmd::scenes::Bundled::or_extract(self.scenes.as_deref())?;
         if self.faults {
-            return super::bench_link_faults::run(&self.out, scenes.dir(), self.width, self.height, &self.line);
+            return super::link_faults::run(&self.out, scenes.dir(), self.width, self.height, &self.line);
         }
         std::fs::create_dir_all(&self.out).with_context(|| format!("creating {}", self.out.display()))?;
         let fw = FirmwareModel::RV32IMAFC;
@@ -137,7 +137,7 @@ impl Args {
                 }
             }
         }
-        super::output::write_bytes(&multi_path, &multi.into_inner().map_err(|e| anyhow!("{e}"))?)?;
+        crate::cmd::output::write_bytes(&multi_path, &multi.into_inner().map_err(|e| anyhow!("{e}"))?)?;
 
         // Plot: bunny res4, frame time against baud.
         let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
@@ -183,7 +183,7 @@ impl Args {
         }
         json.insert("multi_bun_zipper_res4".into(), headline_multi.into());
         json.insert("firmware_model".into(), serde_json::to_value(fw)?);
-        super::output::write_bytes(
+        crate::cmd::output::write_bytes(
             &self.out.join("link.json"),
             (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
         )?;
@@ -243,7 +243,7 @@ fn write_csv(path: &Path, rows: &[LinkRow]) -> anyhow::Result<()> {
             r.bound.to_string(),
         ])?;
     }
-    super::output::write_bytes(path, &w.into_inner().map_err(|e| anyhow!("{e}"))?)
+    crate::cmd::output::write_bytes(path, &w.into_inner().map_err(|e| anyhow!("{e}"))?)
 }
 
 fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], w: u16, h: u16) -> anyhow::Result<()> {

@@ -12,9 +12,9 @@ use super::setup::{
 use super::soc;
 use crate::compare::compare;
 use crate::grid::GridParams;
-use crate::pipeline::PreparedScene;
 use crate::plan::Plan;
 use crate::reference::{self, Reference, Stages};
+use crate::scene_image::PreparedScene;
 use gridrt_firmware::device::Stage;
 
 /// The scene prepared for the qemu-virt board's PEs, and the render request of the frame:
@@ -38,7 +38,7 @@ pub fn prepare(
     Ok((prepared, req, plan))
 }
 
-/// Runs every configuration × target of `opt` (`frame_bench` module docs) and assembles the
+/// Runs every configuration × target of `opt` (`bench::frame` module docs) and assembles the
 /// report.
 pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Result<FrameReport, FrameBenchError> {
     let (prepared, req, plan) = prepare(&opt.scene, opt.width, opt.height, opt.encoding)?;

@@ -37,9 +37,9 @@
 
 use std::time::Instant;
 
-use crate::camera::RenderSettings;
 use crate::grid::{build, GridParams};
 use crate::reference::{render as reference_render, Reference, Stages};
+use crate::render_settings::RenderSettings;
 use crate::scene;
 
 mod options;
