@@ -100,7 +100,8 @@ pub struct FrameRow {
     pub cpu_ms: f64,
     /// Co-processor time of the frame (modelled).
     pub coproc_ms: f64,
-    /// Line time of the render, both directions (modelled).
+    /// Line time of the render, both directions (modelled); on `soc` the line's busy time
+    /// for the frame's bytes the SoC counted (`frame_tx_bytes` at the baud rate).
     pub link_ms: f64,
     /// The frame ([`timeline`]), or the measured wall time (host-native).
     pub frame_ms: f64,
@@ -389,7 +390,9 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
         instructions_source: Some("soc-sim".into()),
         cpu_ms: ms(cycles),
         coproc_ms: ms(coproc_cycles),
-        link_ms: ms(link_cycles),
+        // The line's busy time: the frame's bytes at the baud rate (the span from its first
+        // byte to the drain is `link_cycles`, which includes the line's idle gaps).
+        link_ms: run.stat(stat::FRAME_TX_BYTES) as f64 * 10.0 / f64::from(soc.clock.baud.max(1)) * 1e3,
         frame_ms,
         fps: if frame_ms > 0.0 { 1e3 / frame_ms } else { 0.0 },
         psnr_db,
@@ -412,7 +415,10 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
         rays_in_flight: run.rays_in_flight(),
         coproc_wait_ms: ms(run.stat(Stage::FslIo.cycles_key())),
         work_ms: ms(cycles),
-        link_hidden_ms: (ms(cycles) + ms(link_cycles) - frame_ms).max(0.0),
+        link_hidden_ms: (ms(cycles)
+            + run.stat(stat::FRAME_TX_BYTES) as f64 * 10.0 / f64::from(soc.clock.baud.max(1)) * 1e3
+            - frame_ms)
+            .max(0.0),
         primary_rays: run.stat(stat::PRIMARY_RAYS),
         shadow_rays: run.stat(stat::SHADOW_RAYS),
         reflection_rays: run.stat(stat::REFLECTION_RAYS),

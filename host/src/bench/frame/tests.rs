@@ -370,6 +370,7 @@ fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_
     assert_eq!((row.config.as_str(), row.target.as_str()), ("soc", "riscv32imac"));
     assert_eq!(row.board.cycles_source.as_deref(), Some("soc-sim"));
     assert_eq!((row.board.frame_cycles, row.board.link_cycles), (Some(50_000_000), Some(10_000_000)));
+    // The line's busy time: 2 304 bytes × 10 bits at 115 200 baud.
     assert!((row.frame_ms - 1000.0).abs() < 1e-9 && (row.link_ms - 200.0).abs() < 1e-9, "{row:?}");
     // Stage cycles 2000 + 3000 + 4000 + 5000 + 6000 for 5000 instructions.
     assert!((row.cpu_ms - 20_000.0 / 50e6 * 1e3).abs() < 1e-12);
