@@ -6,6 +6,8 @@
 //! | file | what |
 //! |---|---|
 //! | `cloud` | [`PointCloud`]: from PLY vertices or a mesh, k-NN radii, palette, random split |
+//! | `knn` | the k nearest neighbours of every point (a uniform grid) |
+//! | `normals` | normals of an `x y z`-only cloud: k-NN PCA, oriented along a spanning tree |
 //! | `image` | disks for the ray tracer and the reference, the point section, [`prepare`] |
 //! | `render` | the splat request, [`composite`], [`render_sort_last`], [`SplatReport`] |
 //! | `synthetic` | seeded clouds on analytic surfaces, a PLY writer |
@@ -15,13 +17,16 @@
 
 mod cloud;
 mod image;
+mod knn;
+mod normals;
 mod render;
 pub mod synthetic;
 
 use std::path::Path;
 
-pub use cloud::{density_radii, CloudPoint, PointCloud, RadiusSource, KNN, MAX_PALETTE};
+pub use cloud::{density_radii, CloudPoint, PointCloud, RadiusSource, KNN, MAX_PALETTE, RADIUS_SCALE};
 pub use image::{cloud_scene, disk, point_section, prepare, with_points};
+pub use normals::{estimate as estimate_normals, NORMAL_KNN};
 pub use render::{composite, render_sort_last, splat_request, SplatReport, MAX_SPLAT_WIDTH};
 
 use crate::scene::{self, LoadError, Scene, SceneLoadError};
@@ -31,7 +36,7 @@ use crate::scene::{self, LoadError, Scene, SceneLoadError};
 pub enum Input {
     /// Triangles and analytic primitives: ray traced.
     Scene(Box<Scene>),
-    /// An oriented point cloud: splatted.
+    /// A point cloud (normals from the file or estimated): splatted.
     Cloud(PointCloud),
 }
 
