@@ -87,3 +87,18 @@ fn sv_files(folder: &str) -> Result<Vec<PathBuf>> {
     files.sort();
     Ok(files)
 }
+
+/// The WebAssembly Yosys and nextpnr map a `/tmp` of their own: a checkout under `/tmp` cannot
+/// write their logs or netlists there. Says so in one line before any tool starts.
+pub fn check_not_under_tmp() -> Result<()> {
+    let root = root();
+    let real = std::fs::canonicalize(&root).unwrap_or(root);
+    if real.starts_with("/tmp") {
+        bail!(
+            "{}: the WebAssembly Yosys/nextpnr see their own /tmp, so synthesis cannot run from a checkout under /tmp; \
+             clone the repository elsewhere (e.g. under $HOME)",
+            real.display()
+        );
+    }
+    Ok(())
+}

@@ -122,6 +122,7 @@ fn json_number_after(text: &str, anchor: &str, key: &str) -> Option<f64> {
 impl SynthCmd {
     pub fn run(self) -> Result<()> {
         self.params.validate()?;
+        crate::rtl_hdl::check_not_under_tmp()?;
         let dir = root().join("target/rtl").join(format!("synth-{}", self.params.tag()));
         std::fs::create_dir_all(&dir)?;
         let netlist = dir.join("coproc.json");

@@ -87,6 +87,7 @@ fn number_after(text: &str, anchor: &str, key: &str) -> Option<f64> {
 impl BuildCmd {
     pub fn run(self) -> Result<()> {
         let FpgaBoard::Ulx3s = self.board;
+        crate::rtl_hdl::check_not_under_tmp()?;
         let dir = soc_target_dir().join("ulx3s");
         let opts = BuildOpts {
             target: Target::Riscv32imac,
