@@ -284,13 +284,13 @@ pub enum Received<'buf> {
 ///
 /// // Hello (type 0x01), sequence number 7, payload `01 00 00 00`, on the wire:
 /// let mut buf = [0u8; MAX_ENCODED];
-/// let n = encode_frame(0x01, 7, &[0x01, 0x00, 0x00, 0x00], &mut buf).unwrap();
+/// let n = encode_frame(0x01, 7, &[0x01, 0x00, 0x00, 0x00], &mut buf)?;
 /// let wire = &buf[..n];
 /// assert_eq!(wire, [0x04, 0x01, 0x01, 0x07, 0x02, 0x04, 0x02, 0x01, 0x01, 0x01, 0x05, 0x61, 0x3B, 0xDB, 0x32, 0x00]);
 ///
 /// let mut acc = FrameAccumulator::<MAX_ENCODED>::new();
 /// assert_eq!(acc.feed(&wire[..6]), FeedResult::Consumed); // no delimiter yet
-/// let FeedResult::Frame { frame, rest } = acc.feed(&wire[6..]) else { panic!() };
+/// let FeedResult::Frame { frame, rest } = acc.feed(&wire[6..]) else { return Err(FrameError::DecodeBadCrc) };
 /// assert_eq!((frame.kind, frame.seq, frame.payload), (0x01, 7, &[0x01, 0x00, 0x00, 0x00][..]));
 /// assert!(rest.is_empty());
 ///
@@ -298,10 +298,11 @@ pub enum Received<'buf> {
 /// let mut noisy = wire.to_vec();
 /// noisy[11] ^= 0xFF;
 /// noisy.extend_from_slice(wire);
-/// let FeedResult::BadFrame { error, rest } = acc.feed(&noisy) else { panic!() };
+/// let FeedResult::BadFrame { error, rest } = acc.feed(&noisy) else { return Err(FrameError::DecodeBadCrc) };
 /// assert_eq!((error, rest), (FrameError::DecodeBadCrc, wire));
 /// // Resynchronised at the delimiter: the next frame comes through.
 /// assert!(matches!(acc.feed(rest), FeedResult::Frame { frame, .. } if frame.seq == 7));
+/// # Ok::<(), FrameError>(())
 /// ```
 #[derive(Debug)]
 pub struct FrameAccumulator<const N: usize = MAX_ENCODED> {

@@ -91,12 +91,13 @@ impl<'a> Msg<'a> {
     ///
     /// let msg = Msg::Hello { protocol: 1 };
     /// let mut buf = [0u8; 16];
-    /// let n = msg.encode(&mut buf).unwrap();
+    /// let n = msg.encode(&mut buf)?;
     /// assert_eq!(buf[..n], [0x01, 0x00, 0x00, 0x00]); // protocol (u16 LE), reserved (u16)
     /// assert_eq!(msg.kind() as u8, 0x01);
     /// assert_eq!(Msg::decode(0x01, &buf[..n]), Ok(msg));
     /// assert_eq!(Msg::decode(0x01, &buf[..n - 1]), Err(MsgError::DecodeTruncated));
     /// assert_eq!(Msg::decode(0xEE, &buf[..n]), Err(MsgError::DecodeUnknownType));
+    /// # Ok::<(), MsgError>(())
     /// ```
     pub fn encode(&self, out: &mut [u8]) -> Result<usize, MsgError> {
         let mut w = Writer::new(out);

@@ -56,7 +56,7 @@ fn a_wrapper_the_device_reports_is_not_taken_out_twice() {
     assert_eq!(row.link_wrapper_instructions, Some(777));
 }
 
-/// Every field issue 10 names, plus the ones this bench adds, with the arithmetic of a
+/// Every field of the frame report, plus the ones this bench adds, with the arithmetic of a
 /// co-processor row worked out from its inputs.
 #[test]
 fn a_device_row_charges_the_firmware_without_the_wrapper_and_serialises_every_issue_field() {

@@ -1,4 +1,4 @@
-//! `gridrt bench skip`: what the pipeline plan and row interpolation save (issue 5).
+//! `gridrt bench skip`: what the pipeline plan and row interpolation save.
 //!
 //! Everything runs on the loopback simulator through the real byte stream. Outputs in
 //! `--out-dir DIR`: `skip.csv` (rays, FSL words per ray kind, co-processor cycles and modeled
