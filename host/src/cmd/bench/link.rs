@@ -278,12 +278,5 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], w: u16, h: u16) -> an
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
         chart.draw_series(pts.iter().map(|&(x, y)| Circle::new((x, y), 4, c.filled()))).map_err(|e| anyhow!("{e}"))?;
     }
-    chart
-        .configure_series_labels()
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.8))
-        .draw()
-        .map_err(|e| anyhow!("{e}"))?;
-    root.present().map_err(|e| anyhow!("{e}"))?;
-    Ok(())
+    super::plot::legend_and_present(&mut chart, &root)
 }

@@ -366,12 +366,5 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)]) -> anyhow::Result<()>
             .label(name.clone())
             .legend(move |(x, y)| Circle::new((x, y), 4, c.filled()));
     }
-    chart
-        .configure_series_labels()
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.8))
-        .draw()
-        .map_err(|e| anyhow!("{e}"))?;
-    root.present().map_err(|e| anyhow!("{e}"))?;
-    Ok(())
+    super::plot::legend_and_present(&mut chart, &root)
 }

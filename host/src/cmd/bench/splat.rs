@@ -185,12 +185,5 @@ fn plot(path: &Path, rows: &[SplatRow]) -> anyhow::Result<()> {
         .map_err(|e| anyhow!("{e}"))?
         .label("device table, seed 001's keying")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK));
-    chart
-        .configure_series_labels()
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.8))
-        .draw()
-        .map_err(|e| anyhow!("{e}"))?;
-    root.present().map_err(|e| anyhow!("{e}"))?;
-    Ok(())
+    super::plot::legend_and_present(&mut chart, &root)
 }
