@@ -42,6 +42,21 @@ pub fn prepare(
 /// report.
 pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Result<FrameReport, FrameBenchError> {
     let (prepared, req, plan) = prepare(&opt.scene, opt.width, opt.height, opt.encoding)?;
+    // The RTL's PEs hold `RtlParams::default().pe_mem_words` each: a scene whose fullest PE
+    // needs more gets no `rtl` row (the QEMU board's 2¹⁹ words would describe no hardware).
+    let skipped = rtl_skip_reason(&prepared).filter(|_| opt.configs.contains(&Configuration::Rtl));
+    let without_rtl;
+    let opt = match &skipped {
+        Some(why) => {
+            progress(BenchEvent::Step(format!("rtl: no row: {why}")));
+            without_rtl = BenchOptions {
+                configs: opt.configs.iter().copied().filter(|&c| c != Configuration::Rtl).collect(),
+                ..opt.clone()
+            };
+            &without_rtl
+        }
+        None => opt,
+    };
     // The SoC first: its per-stage CPI, measured, then describes the modelled riscv32imac rows.
     let soc = if opt.configs.contains(&Configuration::Soc) {
         let loaded = crate::scene::load(&opt.scene)?;
@@ -204,6 +219,7 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
         upload_ms: upload_bytes.map(|b| b as f64 * 10.0 / opt.baud.max(1) as f64 * 1e3),
         reference_ms,
         qemu: gridrt_qemu::version(),
+        skipped: skipped.map(|why| vec![report::SkippedRow { config: Configuration::Rtl.name().into(), why }]).unwrap_or_default(),
         soc_sim: soc.as_ref().map(|(s, _)| report::SocSimReport {
             sim_cycles_per_s: s.sim_cycles_per_s,
             sim_reported_cycles_per_s: s.sim_reported_cycles_per_s,
@@ -213,6 +229,16 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
             upload_line: "unpaced: the host-to-SoC line runs faster than the baud rate in simulation; the upload is not part of the frame".into(),
         }),
         rows,
+    })
+}
+
+/// Why the RTL co-processor cannot hold `prepared`, if it cannot: its fullest PE image against
+/// the RTL's words per PE (`gridrt_rtl::sim::RtlParams`, the build `--coproc rtl` simulates).
+pub fn rtl_skip_reason(prepared: &PreparedScene) -> Option<String> {
+    let words = gridrt_rtl::sim::RtlParams::default().pe_mem_words;
+    let fullest = prepared.grid.pe_images.iter().map(Vec::len).max().unwrap_or(0);
+    (fullest as u64 > u64::from(words)).then(|| {
+        format!("the scene's fullest PE image is {fullest} words; the RTL's PEs hold {words} words each")
     })
 }
 

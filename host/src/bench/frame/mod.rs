@@ -57,7 +57,7 @@ pub mod soc;
 mod tests;
 pub mod timeline;
 
-pub use bench::{prepare, run_bench};
+pub use bench::{prepare, rtl_skip_reason, run_bench};
 pub use report::{critical_path, write_csv, write_svg, FrameReport, FrameRow};
 pub use run::{run_native, run_on_loopback, run_on_qemu, work_differences, DeviceRun};
 pub use setup::{

@@ -61,10 +61,21 @@ pub struct FrameReport {
     pub reference_ms: f64,
     /// `qemu-system-riscv32 --version`.
     pub qemu: Option<String>,
+    /// Configurations asked for that get no row, and why.
+    pub skipped: Vec<SkippedRow>,
     /// The simulated SoC's run, with a `soc` row.
     pub soc_sim: Option<SocSimReport>,
     /// One row per configuration × target.
     pub rows: Vec<FrameRow>,
+}
+
+/// A configuration asked for that gets no row.
+#[derive(Debug, Clone, Serialize)]
+pub struct SkippedRow {
+    /// Configuration name.
+    pub config: String,
+    /// Why it has no row.
+    pub why: String,
 }
 
 /// How the `soc` row's simulation went on this machine (wall-clock figures: measured here).

@@ -243,6 +243,7 @@ fn csv_and_svg_have_a_line_and_a_bar_label_per_row() {
         upload_ms: Some(0.0),
         reference_ms: 0.0,
         qemu: None,
+        skipped: Vec::new(),
         soc_sim: None,
         rows,
     };
@@ -391,4 +392,20 @@ fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_
     distance_from_soc(&mut rows);
     assert_eq!(rows[0].board.vs_soc, None);
     assert!((rows[1].board.vs_soc.unwrap() - 0.1).abs() < 1e-12);
+}
+
+#[test]
+fn a_scene_larger_than_the_rtls_pe_memory_gets_no_rtl_row() {
+    let res3 = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/scenes/bun_zipper_res3.obj"));
+    let (big, ..) = bench::prepare(res3, 8, 6, PixelEncoding::Rle).unwrap();
+    let why = bench::rtl_skip_reason(&big).expect("res3's fullest PE exceeds the RTL's 16384 words");
+    assert!(why.contains("16384"), "{why}");
+    let (small, ..) = bench::prepare(res4(), 8, 6, PixelEncoding::Rle).unwrap();
+    assert_eq!(bench::rtl_skip_reason(&small), None, "res4 fits the RTL's 4 PEs");
+
+    let opt = BenchOptions { scene: res3.into(), configs: vec![Configuration::Rtl], targets: vec![], ..options() };
+    let report = run_bench(&opt, &mut |_| {}).unwrap();
+    assert!(report.rows.is_empty(), "no rtl row: {:?}", report.rows.iter().map(|r| &r.config).collect::<Vec<_>>());
+    assert_eq!(report.skipped.len(), 1);
+    assert_eq!(report.skipped[0].config, "rtl");
 }

@@ -56,7 +56,8 @@ pub struct Args {
     out: Option<PathBuf>,
     /// Configurations, in report order: soft-core-only, gridrt, pipelined, rtl, host-native,
     /// and soc (the LiteX SoC simulated cycle by cycle in Verilator, measured by its own
-    /// counters: a 320×240 frame takes 10–40 minutes here; not in the default list).
+    /// counters: a 320×240 frame takes 10–40 minutes here; not in the default list). A scene
+    /// whose fullest PE exceeds the RTL's 16384 words per PE gets no rtl row, and says why.
     #[arg(long, value_delimiter = ',', default_value = "soft-core-only,gridrt,pipelined,rtl,host-native")]
     configs: Vec<String>,
     /// Soft-core targets: riscv32imac, riscv32imafc.
@@ -312,5 +313,8 @@ fn print_table(r: &FrameReport) {
             row.board.cycles_source.as_deref().unwrap_or("wall"),
             row.board.vs_soc.map_or_else(|| "-".into(), |v| format!("{:+.1}%", v * 100.0)),
         );
+    }
+    for s in &r.skipped {
+        println!("{:<15} no row: {}", s.config, s.why);
     }
 }
