@@ -20,7 +20,7 @@ module gridrt_f32_mul (
     // ---------------------------------------------------------------- product (MUL_LAT)
     logic [49:0] prod50;
     gridrt_mul_pipe #(.A_W(25), .B_W(25), .LATENCY(MUL_LAT)) u_prod (
-        .clk_i, .a_i({1'b0, a_i[30:23] != 0, a_i[22:0]}), .b_i({1'b0, b_i[30:23] != 0, b_i[22:0]}), .p_o(prod50));
+        .clk_i, .en_i(1'b1), .a_i({1'b0, a_i[30:23] != 0, a_i[22:0]}), .b_i({1'b0, b_i[30:23] != 0, b_i[22:0]}), .p_o(prod50));
 
     logic       f_valid, f_nan, f_inf, f_zero, f_sign;
     logic [10:0] f_exp;     // signed: ea + eb - 127 with subnormals counted as exponent 1
@@ -46,7 +46,7 @@ module gridrt_f32_mul (
         f_sign  <= a_i[31] ^ b_i[31];
         f_exp   <= {3'b000, ea1} + {3'b000, eb1} - 11'd127;
     end
-    gridrt_delay #(.W(16), .N(MUL_LAT - 1)) u_flags (.clk_i, .d_i({f_valid, f_nan, f_inf, f_zero, f_sign, f_exp}),
+    gridrt_delay #(.W(16), .N(MUL_LAT - 1)) u_flags (.clk_i, .en_i(1'b1), .d_i({f_valid, f_nan, f_inf, f_zero, f_sign, f_exp}),
                                               .q_o({p_valid, p_nan, p_inf, p_zero, p_sign, p_exp}));
     logic [47:0] p_prod;
     assign p_prod = prod50[47:0];

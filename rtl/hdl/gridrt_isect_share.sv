@@ -68,7 +68,7 @@ module gridrt_isect_share #(
             assign whole = all[287:0];
         end
         gridrt_delay_rst #(.W(1), .N(l)) u_lane_valid (.clk_i, .rst_i, .d_i(whole_valid), .q_o(d_valid[l]));
-        gridrt_delay #(.W(288), .N(l)) u_lane (.clk_i, .d_i(whole_valid ? whole : 288'd0), .q_o(d_rec[l]));
+        gridrt_delay #(.W(288), .N(l)) u_lane (.clk_i, .en_i(1'b1), .d_i(whole_valid ? whole : 288'd0), .q_o(d_rec[l]));
     end
 `ifndef SYNTHESIS
     // The timeline keeps the lanes apart; a collision would merge two tests.
@@ -129,6 +129,6 @@ module gridrt_isect_share #(
         assign mine = p_valid && (LANES == 1 || p_lane == LW'(l));
         gridrt_delay_rst #(.W(1), .N(LANES - 1 - l)) u_lane_valid (.clk_i, .rst_i, .d_i(mine), .q_o(out_valid_o[l]));
         gridrt_delay #(.W(2 + 32), .N(LANES - 1 - l)) u_lane (
-            .clk_i, .d_i({p_kind, p_t}), .q_o({out_kind_o[l], out_t_o[l]}));
+            .clk_i, .en_i(1'b1), .d_i({p_kind, p_t}), .q_o({out_kind_o[l], out_t_o[l]}));
     end
 endmodule

@@ -1,5 +1,6 @@
 // gridrt_mul_pipe: signed A_W x B_W -> A_W+B_W product in four MULT18X18D blocks, pipelined, with a
-// latency of LATENCY cycles (the caller's choice, at least the structure's 4).
+// latency of LATENCY cycles (the caller's choice, at least the structure's 4), counted in
+// cycles with en_i high (every register holds while it is low).
 //
 // Each operand (18 < width <= 35) is split into a signed high and an unsigned 17-bit low
 // part, so each of the four partial products is one 18x18 MULT18X18D; two registered adder
@@ -12,6 +13,7 @@ module gridrt_mul_pipe #(
     parameter int LATENCY = 4
 ) (
     input  logic                        clk_i,
+    input  logic                        en_i,   // advance; tie high for a free-running pipe
     input  logic signed [A_W-1:0]       a_i,
     input  logic signed [B_W-1:0]       b_i,
     output logic signed [A_W+B_W-1:0]   p_o
@@ -32,7 +34,7 @@ module gridrt_mul_pipe #(
     logic signed [35:0]    pll, plh, phl, phh;
     logic signed [P_W-1:0] hl3;         // {phh, pll}: the low part is < 2^34, no overlap
     logic signed [P_W-L-1:0] mid3;      // plh + phl
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         a1 <= a_i;
         b1 <= b_i;
         // Each product is 18x18 signed: one MULT18X18D.
@@ -48,5 +50,5 @@ module gridrt_mul_pipe #(
     if (LATENCY < STRUCT_LATENCY) begin : g_short
         $error("mul_pipe: LATENCY below the structure's");
     end
-    gridrt_delay #(.W(P_W), .N(LATENCY - STRUCT_LATENCY)) u_pad (.clk_i, .d_i(prod), .q_o(p_o));
+    gridrt_delay #(.W(P_W), .N(LATENCY - STRUCT_LATENCY)) u_pad (.clk_i, .en_i, .d_i(prod), .q_o(p_o));
 endmodule

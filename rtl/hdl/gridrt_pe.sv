@@ -254,7 +254,7 @@ module gridrt_pe #(
     // window arrives two cycles after each read (pe_mem).
     logic [KW+1:0] tag_p2;
     logic          v_p2;
-    gridrt_delay #(.W(KW+3), .N(2)) u_dp2 (.clk_i, .d_i({iss_valid_q, epoch_q, iss_last_q, iss_k_q}), .q_o({v_p2, tag_p2}));
+    gridrt_delay #(.W(KW+3), .N(2)) u_dp2 (.clk_i, .en_i(1'b1), .d_i({iss_valid_q, epoch_q, iss_last_q, iss_k_q}), .q_o({v_p2, tag_p2}));
     logic [AW-1:0] ref_tri;
     assign ref_tri = ref_word[AW-1:0];
     // Record t at WORDS - 10 (t + 1) (the controller stacks them from the top down).
@@ -277,12 +277,12 @@ module gridrt_pe #(
         logic          v_p3, v_p5, v_p6, v_p7, v_p8;
         logic [KW+1:0] tag_p8;
         logic [AW-1:0] tri_p8;
-        gridrt_delay #(.W(1), .N(1)) u_d3 (.clk_i, .d_i(v_p2), .q_o(v_p3));
-        gridrt_delay #(.W(1), .N(2)) u_d5 (.clk_i, .d_i(v_p3), .q_o(v_p5));
-        gridrt_delay #(.W(1), .N(1)) u_d6 (.clk_i, .d_i(v_p5), .q_o(v_p6));
-        gridrt_delay #(.W(1), .N(2)) u_d7 (.clk_i, .d_i(v_p5), .q_o(v_p7));
-        gridrt_delay #(.W(1), .N(2)) u_d8 (.clk_i, .d_i(v_p6), .q_o(v_p8));
-        gridrt_delay #(.W(KW+2+AW), .N(6)) u_dtag (.clk_i, .d_i({tag_p2, ref_tri}), .q_o({tag_p8, tri_p8}));
+        gridrt_delay #(.W(1), .N(1)) u_d3 (.clk_i, .en_i(1'b1), .d_i(v_p2), .q_o(v_p3));
+        gridrt_delay #(.W(1), .N(2)) u_d5 (.clk_i, .en_i(1'b1), .d_i(v_p3), .q_o(v_p5));
+        gridrt_delay #(.W(1), .N(1)) u_d6 (.clk_i, .en_i(1'b1), .d_i(v_p5), .q_o(v_p6));
+        gridrt_delay #(.W(1), .N(2)) u_d7 (.clk_i, .en_i(1'b1), .d_i(v_p5), .q_o(v_p7));
+        gridrt_delay #(.W(1), .N(2)) u_d8 (.clk_i, .en_i(1'b1), .d_i(v_p6), .q_o(v_p8));
+        gridrt_delay #(.W(KW+2+AW), .N(6)) u_dtag (.clk_i, .en_i(1'b1), .d_i({tag_p2, ref_tri}), .q_o({tag_p8, tri_p8}));
         assign rd_part1 = v_p5;
         assign rd_part2 = v_p6;
         always_ff @(posedge clk_i) begin
@@ -302,7 +302,7 @@ module gridrt_pe #(
         logic          v_p5;
         logic [287:0]  rec_rest;
         logic [1:0]    part_next;
-        gridrt_delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk_i, .d_i({v_p2, tag_p2, ref_tri}), .q_o({v_p5, tag_p5, tri_p5}));
+        gridrt_delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk_i, .en_i(1'b1), .d_i({v_p2, tag_p2, ref_tri}), .q_o({v_p5, tag_p5, tri_p5}));
         assign rd_part1 = 1'b0;
         assign rd_part2 = 1'b0;
         always_ff @(posedge clk_i) begin
@@ -332,7 +332,7 @@ module gridrt_pe #(
     // in flight).
     logic r_expected;
     int   settled_q;
-    gridrt_delay #(.W(1), .N(TAG_DELAY)) u_expected (.clk_i, .d_i(tag_in_valid), .q_o(r_expected));
+    gridrt_delay #(.W(1), .N(TAG_DELAY)) u_expected (.clk_i, .en_i(1'b1), .d_i(tag_in_valid), .q_o(r_expected));
     always_ff @(posedge clk_i) begin
         if (rst_i) settled_q <= 0;
         else if (settled_q <= TAG_DELAY) settled_q <= settled_q + 1;

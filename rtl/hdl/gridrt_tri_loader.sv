@@ -93,7 +93,7 @@ module gridrt_tri_loader (
     logic signed [65:0] mp;
     localparam int DEG_MUL_LAT = 4;     // mul_pipe in DSP blocks
     localparam int STEP_DEG_MUL = 11 + CV_LAT;  // first of the six products (edges in the step before)
-    gridrt_mul_pipe #(.A_W(33), .B_W(33), .LATENCY(DEG_MUL_LAT)) u_dm (.clk_i, .a_i(ma), .b_i(mb), .p_o(mp));
+    gridrt_mul_pipe #(.A_W(33), .B_W(33), .LATENCY(DEG_MUL_LAT)) u_dm (.clk_i, .en_i(1'b1), .a_i(ma), .b_i(mb), .p_o(mp));
     always_comb begin
         ma = '0;
         mb = '0;
