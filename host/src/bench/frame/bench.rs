@@ -233,9 +233,9 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
 }
 
 /// Why the RTL co-processor cannot hold `prepared`, if it cannot: its fullest PE image against
-/// the RTL's words per PE (`gridrt_rtl::sim::RtlParams`, the build `--coproc rtl` simulates).
+/// the RTL's words per PE (`SimConfig::RTL`, the build `--coproc rtl` simulates).
 pub fn rtl_skip_reason(prepared: &PreparedScene) -> Option<String> {
-    let words = gridrt_rtl::sim::RtlParams::default().pe_mem_words;
+    let words = gridrt_loopback::SimConfig::RTL.pe_mem_words;
     let fullest = prepared.grid.pe_images.iter().map(Vec::len).max().unwrap_or(0);
     (fullest as u64 > u64::from(words)).then(|| {
         format!("the scene's fullest PE image is {fullest} words; the RTL's PEs hold {words} words each")
