@@ -23,6 +23,9 @@
 //!   of a `socat` pty pair and `gridrt render --port` on the other end gets the same image as
 //!   `render --sim`.
 //!
+//! - `socat_pty_monitor_prints_text_and_decoded_frames`: `gridrt monitor` on one end of a pty
+//!   pair prints the other end's text line and its `Error` frame, decoded.
+//!
 //! A missing `qemu-system-riscv32` or `socat` fails these tests; `GRIDRT_SKIP_TOOLS=qemu,socat`
 //! skips them and says so in the test output ([`gridrt_e2e::tools`]).
 
@@ -374,6 +377,60 @@ fn socat_pty_device_renders() {
     );
     // Served from its first byte on: render needs no wait (Hello is retried anyway).
     render_and_compare(&host.display().to_string(), &dir, (128, 96));
+}
+
+/// `gridrt monitor` on a real port (one end of a socat pty pair) tells a board's text lines
+/// from its frames and decodes an `Error` frame's code and text, then stops at `--timeout`.
+#[test]
+fn socat_pty_monitor_prints_text_and_decoded_frames() {
+    use gridrt_shared::frame::{encode_frame, MAX_ENCODED};
+    use std::io::{BufRead, BufReader, Write};
+    use std::process::Stdio;
+    if !require("socat_pty_monitor_prints_text_and_decoded_frames", Tool::Socat) {
+        return;
+    }
+    gridrt();
+    let dir = tempdir("monitor");
+    let (board, host) = (dir.join("board"), dir.join("host"));
+    let link = |p: &Path| format!("pty,raw,echo=0,link={}", p.display());
+    let _socat = KillOnDrop(Command::new("socat").arg(link(&board)).arg(link(&host)).spawn().unwrap());
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !(board.exists() && host.exists()) {
+        assert!(Instant::now() < deadline, "socat made no pty pair");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let mut monitor = Command::new(gridrt())
+        .args(["monitor", "--port", &host.display().to_string(), "--timeout", "4"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The port is open once monitor says so; then the board speaks.
+    let mut stderr = BufReader::new(monitor.stderr.take().unwrap());
+    let mut first = String::new();
+    stderr.read_line(&mut first).unwrap();
+    assert!(first.starts_with("monitor"), "{first}");
+
+    let mut payload = [0u8; 256];
+    let msg = msg::Msg::Error { code: msg::ErrorCode::SceneRejected, detail: 8, text: "PE block exceeds PE memory" };
+    let n = msg.encode(&mut payload).unwrap();
+    let mut wire = vec![0u8; MAX_ENCODED];
+    let m = encode_frame(msg::MsgType::Error as u8, 5, &payload[..n], &mut wire).unwrap();
+    let mut bytes = b"gridrt firmware booting\r\n".to_vec();
+    bytes.extend_from_slice(&wire[..m]);
+    let mut port = std::fs::OpenOptions::new().write(true).open(&board).unwrap();
+    port.write_all(&bytes).unwrap();
+    port.flush().unwrap();
+
+    let out = monitor.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}");
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert_eq!(lines.first().copied(), Some("text       gridrt firmware booting"), "{stdout}");
+    assert!(
+        lines.iter().any(|l| l.starts_with("error") && l.contains("SceneRejected") && l.contains("PE block exceeds")),
+        "{stdout}"
+    );
 }
 
 fn tempdir(name: &str) -> PathBuf {
