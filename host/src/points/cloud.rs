@@ -181,17 +181,34 @@ fn unit(n: [f32; 3]) -> Option<[f32; 3]> {
 }
 
 /// Sets every radius to [`RADIUS_SCALE`] times the distance to its [`KNN`]-th nearest
-/// neighbour (point splatting: the denser the neighbourhood, the smaller the disk).
+/// neighbour (point splatting: the denser the neighbourhood, the smaller the disk), at most
+/// [`RADIUS_CAP`] times the median of its neighbours' radii.
 pub fn density_radii(points: &mut [CloudPoint]) -> Result<(), String> {
     let pos: Vec<[f32; 3]> = points.iter().map(|p| p.pos).collect();
     let nb = super::knn::nearest(&pos, KNN)?;
+    let raw: Vec<f32> = (0..points.len())
+        .map(|i| {
+            let r = RADIUS_SCALE * nb.of(i).last().map_or(0.0, |(_, d2)| d2.sqrt()) as f32;
+            // Coincident points would get radius 0: give them the cell size instead.
+            if r > 0.0 { r } else { nb.cell as f32 }
+        })
+        .collect();
+    let mut around = Vec::with_capacity(KNN);
     for (i, p) in points.iter_mut().enumerate() {
-        let r = RADIUS_SCALE * nb.of(i).last().map_or(0.0, |(_, d2)| d2.sqrt()) as f32;
-        // Coincident points would get radius 0: give them the cell size instead.
-        p.radius = if r > 0.0 { r } else { nb.cell as f32 };
+        around.clear();
+        around.extend(nb.of(i).map(|(j, _)| raw[j]));
+        around.sort_by(f32::total_cmp);
+        let cap = around.get(around.len() / 2).map_or(f32::INFINITY, |m| RADIUS_CAP * m);
+        p.radius = raw[i].min(cap);
     }
     Ok(())
 }
+
+/// Largest density radius over the median of its neighbours' radii. A point at the edge of a
+/// sparse patch measures its radius to far-away points and would cover its dense neighbours
+/// with one oversized disk (clipped to the device's largest splat shape); twice the local
+/// median still closes the gaps between neighbours of a smoothly varying density.
+pub const RADIUS_CAP: f32 = 2.0;
 
 /// Quantises colours to a palette of at most 64 (4 levels per channel; each entry the mean
 /// of its points) and sets every point's material; returns the palette.
@@ -220,4 +237,30 @@ fn palette(points: &mut [CloudPoint], colours: &[[f32; 3]]) -> Vec<Material> {
             Material { diffuse: s.map(|v| (v / n as f64) as f32), reflect: 0.0 }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(x: f32, z: f32) -> CloudPoint {
+        CloudPoint { pos: [x, 0.0, z], normal: [0.0, 1.0, 0.0], radius: 0.0, material: 0 }
+    }
+
+    /// A 20×20 patch at spacing 0.01 and one stray point 0.5 away: the stray point's raw
+    /// density radius (≈ 0.4) would cover the whole patch; capped, it is at most twice its
+    /// neighbours' median, while the patch's own radii stay uncapped.
+    #[test]
+    fn a_sparse_point_beside_a_dense_patch_gets_no_oversized_disk() {
+        let mut pts: Vec<CloudPoint> =
+            (0..400).map(|i| point((i % 20) as f32 * 0.01, (i / 20) as f32 * 0.01)).collect();
+        pts.push(point(0.69, 0.095));
+        density_radii(&mut pts).unwrap();
+        let patch_max = pts[..400].iter().map(|p| p.radius).fold(0.0, f32::max);
+        let stray = pts[400].radius;
+        assert!(stray <= 2.0 * patch_max + 1e-6 && stray < 0.05, "stray {stray}, patch up to {patch_max}");
+        // Interior patch points: 0.8 × the 8th neighbour's distance (√2 · 0.01), not capped.
+        let interior = pts[10 * 20 + 10].radius;
+        assert!((interior - RADIUS_SCALE * 0.01 * 2f32.sqrt()).abs() < 1e-4, "{interior}");
+    }
 }
