@@ -56,6 +56,9 @@ pub fn python() -> Result<Command> {
     Ok(cmd)
 }
 
+/// How often [`run_logged`] says that its command is still running.
+const HEARTBEAT: std::time::Duration = std::time::Duration::from_secs(30);
+
 /// Runs `cmd`, its output going to `log` (LiteX and the tools are verbose); echoes the
 /// lines that `keep` selects and returns every `KEY: value` line as (KEY, value).
 pub fn run_logged(mut cmd: Command, log: &Path, keep: fn(&str) -> bool) -> Result<Vec<(String, String)>> {
@@ -71,16 +74,49 @@ pub fn run_logged(mut cmd: Command, log: &Path, keep: fn(&str) -> bool) -> Resul
         .with_context(|| format!("starting {:?}", cmd.get_program()))?;
     let stderr = child.stderr.take().context("stderr pipe")?;
     let log_err = std::fs::File::create(log.with_extension("stderr.log"))?;
-    let err_thread = std::thread::spawn(move || {
-        let mut log_err = log_err;
-        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-            let _ = writeln!(log_err, "{line}");
-        }
-    });
+    // Never silent: Yosys and nextpnr run for tens of minutes inside LiteX, their output only
+    // in the logs; a heartbeat says how long it has run and the last line either log got.
+    let last = std::sync::Arc::new(std::sync::Mutex::new(String::new()));
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let heartbeat = {
+        let (last, done) = (last.clone(), done.clone());
+        let start = std::time::Instant::now();
+        std::thread::spawn(move || {
+            let mut next = HEARTBEAT;
+            while !done.load(std::sync::atomic::Ordering::Relaxed) {
+                std::thread::sleep(std::time::Duration::from_millis(200));
+                if start.elapsed() >= next {
+                    next += HEARTBEAT;
+                    let line = last.lock().map(|l| l.clone()).unwrap_or_default();
+                    let line: String = line.trim().chars().take(100).collect();
+                    eprintln!("xtask: still running ({:.0} s): {line}", start.elapsed().as_secs_f64());
+                }
+            }
+        })
+    };
+    let err_thread = {
+        let last = last.clone();
+        std::thread::spawn(move || {
+            let mut log_err = log_err;
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                let _ = writeln!(log_err, "{line}");
+                if !line.trim().is_empty() {
+                    if let Ok(mut l) = last.lock() {
+                        *l = line;
+                    }
+                }
+            }
+        })
+    };
     let mut out = std::fs::File::create(log)?;
     let mut results = vec![];
     for line in BufReader::new(child.stdout.take().context("stdout pipe")?).lines().map_while(Result::ok) {
         writeln!(out, "{line}")?;
+        if !line.trim().is_empty() {
+            if let Ok(mut l) = last.lock() {
+                l.clone_from(&line);
+            }
+        }
         if let Some((k, v)) =
             line.split_once(": ").filter(|(k, _)| k.chars().all(|c| c.is_ascii_uppercase() || c == '_'))
         {
@@ -91,6 +127,8 @@ pub fn run_logged(mut cmd: Command, log: &Path, keep: fn(&str) -> bool) -> Resul
     }
     let _ = err_thread.join();
     let status = child.wait()?;
+    done.store(true, std::sync::atomic::Ordering::Relaxed);
+    let _ = heartbeat.join();
     if !status.success() {
         let err = std::fs::read_to_string(log.with_extension("stderr.log")).unwrap_or_default();
         let tail: Vec<&str> = err.lines().rev().take(25).collect();
