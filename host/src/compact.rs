@@ -30,8 +30,7 @@ pub fn encode(image: &[u8], cache_log2: u8) -> Option<Vec<u8>> {
     let header = CompactHeader { cache_log2, image_len: image.len() as u32, image_crc: crc32(image) };
     let mut c = WordCoder::new(cache_log2);
     c.out.extend_from_slice(&header.to_bytes());
-    let words: Vec<u32> =
-        image.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
+    let words: Vec<u32> = image.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
     let triangles = triangle_spans(image);
     let mut i = 0;
     let mut spans = triangles.iter().peekable();

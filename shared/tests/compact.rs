@@ -84,7 +84,7 @@ fn header_fields_are_checked() {
     assert_eq!(with(7, 1), Err(SceneError::BadCompact)); // reserved byte
     assert_eq!(with(8, 0x5D), Err(SceneError::BadCompact)); // image_len not a multiple of 4
     assert_eq!(with(12, 0), Err(SceneError::BadCrc)); // image_crc
-    // A decoder without a cache refuses every compact stream.
+                                                      // A decoder without a cache refuses every compact stream.
     let mut u: Unpacker<0> = Unpacker::new();
     assert_eq!(u.feed(&TINY_COMPACT, &mut |_, _| Ok(())), Err(SceneError::BadCompact));
 }
@@ -102,7 +102,7 @@ fn bad_ops_are_refused() {
     assert_eq!(run(&[0xA0, 0x00]), Err(SceneError::BadCompact)); // VREF to an empty cache
     assert_eq!(run(&[0x60, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F]), Err(SceneError::BadCompact)); // varint past 32 bits
     assert_eq!(run(&[0x1F]), Err(SceneError::Truncated)); // LIT 32 without its words
-    // The image is 87 words: RUN 32 × 3 = 96 words runs past its end.
+                                                          // The image is 87 words: RUN 32 × 3 = 96 words runs past its end.
     assert_eq!(run(&[0x3F, 0x3F, 0x3F]), Err(SceneError::BadCompact));
 }
 

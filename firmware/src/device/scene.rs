@@ -13,8 +13,8 @@ use gridrt_shared::fsl::{self as wire, op, FslError};
 use gridrt_shared::math::Vec3;
 use gridrt_shared::msg::DeviceInfo;
 use gridrt_shared::scene::{
-    LightingRecord, Unpacker, Material, MaterialModel, ObjectRecord, PointRecord, PointsHead, SceneError, SceneHeader, SceneSink,
-    SceneStream, EMPTY_VOXEL,
+    LightingRecord, Material, MaterialModel, ObjectRecord, PointRecord, PointsHead, SceneError, SceneHeader, SceneSink,
+    SceneStream, Unpacker, EMPTY_VOXEL,
 };
 use gridrt_shared::window::{Arrival, ReceiveWindow};
 

@@ -35,8 +35,8 @@ mod points;
 mod stream;
 
 pub use compact::{
-    compact_op, unzigzag, zigzag, CompactHeader, Sink as UnpackSink, Unpacker, COMPACT_HEADER_LEN, COMPACT_MAGIC, COMPACT_VERSION, HISTORY_WORDS,
-    MAX_CACHE_LOG2, MAX_OP_LEN,
+    compact_op, unzigzag, zigzag, CompactHeader, Sink as UnpackSink, Unpacker, COMPACT_HEADER_LEN, COMPACT_MAGIC,
+    COMPACT_VERSION, HISTORY_WORDS, MAX_CACHE_LOG2, MAX_OP_LEN,
 };
 pub use geometry::{
     affine_point, affine_transpose_vector, affine_vector, Affine, ObjectKind, ObjectRecord, PrimKind, PrimRecord,
