@@ -24,7 +24,7 @@ pub const CACHE_LOG2: u8 = 12;
 /// image is) or past `u32`. An image whose layout cannot be read is still coded exactly, word
 /// by word (only less compactly).
 pub fn encode(image: &[u8], cache_log2: u8) -> Option<Vec<u8>> {
-    if image.is_empty() || image.len() % 4 != 0 || u32::try_from(image.len()).is_err() {
+    if image.is_empty() || !image.len().is_multiple_of(4) || u32::try_from(image.len()).is_err() {
         return None;
     }
     let header = CompactHeader { cache_log2, image_len: image.len() as u32, image_crc: crc32(image) };
@@ -64,7 +64,7 @@ fn triangle_spans(image: &[u8]) -> Vec<(usize, usize)> {
         + h.object_count as usize * OBJECT_LEN
         + LIGHTING_LEN;
     for _ in 0..h.pe_count {
-        let (Some(n), true) = (word(off / 4 + 1), off % 4 == 0) else { return spans };
+        let (Some(n), true) = (word(off / 4 + 1), off.is_multiple_of(4)) else { return spans };
         let base = off / 4 + 2;
         if n >= PE_HEADER_WORDS as u32 && word(base) == Some(PE_IMAGE_TAG) {
             let f = |k: usize| word(base + k).unwrap_or(0) as usize;

@@ -361,7 +361,7 @@ impl<const C: usize> Unpacker<C> {
                 let size = 1usize << h.cache_log2;
                 let entry = self.cache.get_mut(self.cache_next).ok_or(SceneError::BadCompact)?;
                 *entry = v;
-                self.cache_next = self.cache_next.saturating_add(1) % size;
+                self.cache_next = self.cache_next.saturating_add(1) & size.wrapping_sub(1);
                 self.cache_filled = self.cache_filled.saturating_add(1).min(size);
             }
             _ => return Err(SceneError::BadCompact),
