@@ -27,6 +27,7 @@
 
 pub mod bench;
 pub mod bounds;
+pub mod compact;
 pub mod compare;
 pub mod faults;
 pub mod flash;

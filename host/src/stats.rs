@@ -7,6 +7,8 @@
 //! - `fsl_words` = `fsl_words_out` + `fsl_words_in`; `list_entries`: traversal-list entries sent.
 //! - `intersection_tests`, `coproc_cycles`: as reported by the co-processor.
 //! - `uart_bytes`: bytes on the wire in both directions from the render request to `FrameEnd`.
+//! - `upload_wire_bytes`: bytes host → device on the wire for the scene upload, framing
+//!   included (with several boards, their sum).
 //! - `wall_ms`: host wall time of the render (request to verified `FrameEnd`); `upload_ms`: of
 //!   the scene upload.
 //! - With `--reference`: `psnr_db` (`null` when the images are identical, see
@@ -155,6 +157,9 @@ pub struct RenderStats {
     pub max_pe_words: u64,
     /// Scene image size in bytes.
     pub scene_image_bytes: u64,
+    /// Bytes host → device on the wire for the scene upload (`SceneBegin` and every data
+    /// frame, framing included; compact when the device decodes it, SPEC.md §5.12).
+    pub upload_wire_bytes: u64,
     /// Camera rays.
     pub primary_rays: u64,
     /// Shadow rays.
@@ -311,6 +316,8 @@ pub struct SceneFacts {
     pub dropped_triangles: u64,
     /// Scene image size.
     pub scene_image_bytes: u64,
+    /// Bytes host → device on the wire for the upload (framing included).
+    pub upload_wire_bytes: u64,
     /// Upload time.
     pub upload_ms: f64,
 }
@@ -336,6 +343,7 @@ impl RenderStats {
             pe_mem_words: grid.pe_mem_words,
             max_pe_words: grid.max_pe_words() as u64,
             scene_image_bytes: facts.scene_image_bytes,
+            upload_wire_bytes: facts.upload_wire_bytes,
             primary_rays: primary,
             shadow_rays: shadow,
             rays: primary + shadow,

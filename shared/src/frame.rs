@@ -68,6 +68,10 @@ impl Crc32Digest {
     pub fn update(&mut self, data: &[u8]) {
         self.0.update(data)
     }
+    /// The checksum of everything added so far, without ending the digest.
+    pub fn value(&self) -> u32 {
+        self.0.clone().finalize()
+    }
     /// Returns the checksum of everything added so far.
     pub fn finalize(self) -> u32 {
         self.0.finalize()

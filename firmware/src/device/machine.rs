@@ -36,6 +36,7 @@ pub const fn compiled_features() -> u32 {
         | feature::RGB565
         | feature::RLE
         | feature::WINDOWED
+        | if cfg!(feature = "compact-scene") { feature::COMPACT_SCENE } else { 0 }
         | pipeline::pipeline_features()
 }
 

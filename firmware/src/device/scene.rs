@@ -14,7 +14,7 @@ use gridrt_shared::math::Vec3;
 use gridrt_shared::msg::DeviceInfo;
 use gridrt_shared::scene::{
     LightingRecord, Material, MaterialModel, ObjectRecord, PointRecord, PointsHead, SceneError, SceneHeader, SceneSink,
-    SceneStream, EMPTY_VOXEL,
+    SceneStream, Unpacker, EMPTY_VOXEL,
 };
 use gridrt_shared::window::{Arrival, ReceiveWindow};
 
@@ -26,6 +26,11 @@ const _: () = assert!(UPLOAD_WINDOW.is_power_of_two() && UPLOAD_WINDOW <= u16::M
 
 /// Image bytes that arrived ahead of a gap, at their offset modulo [`UPLOAD_WINDOW`].
 pub(super) type Reorder = [u8; UPLOAD_WINDOW];
+
+/// Vertex-cache entries of the compact upload decoder (SPEC.md §5.12): 4096 (48 KiB) with
+/// the `compact-scene` feature, else none (compact streams are refused with `BadCompact`, and
+/// `feature::COMPACT_SCENE` is not advertised).
+pub const VERTEX_CACHE: usize = if cfg!(feature = "compact-scene") { 4096 } else { 0 };
 
 /// Largest material table the device holds.
 pub const MAX_MATERIALS: usize = 64;
@@ -75,6 +80,8 @@ pub const MAX_OBJECTS: usize = 64;
 
 /// An upload in progress.
 pub(super) struct Upload {
+    /// Raw images pass through, compact streams are decoded (SPEC.md §5.12).
+    unpack: Unpacker<VERTEX_CACHE>,
     stream: SceneStream,
     total_len: u32,
     /// CRC-32 of the whole image, from `SceneBegin` (it also names the upload in `SceneSack`).
@@ -92,6 +99,7 @@ impl Upload {
     /// The upload `SceneBegin` announced: `total_len` bytes whose CRC-32 is `crc`.
     pub(super) fn new(total_len: u32, crc: u32) -> Self {
         Self {
+            unpack: Unpacker::new(),
             stream: SceneStream::new(),
             total_len,
             crc,
@@ -175,7 +183,13 @@ impl Upload {
         let total_len = self.total_len;
         let mut loader =
             Loader { link, store, points, info, polls, total_len, words_left: &mut self.pe_words_left, failure: None };
-        match self.stream.feed(data, &mut loader) {
+        let stream = &mut self.stream;
+        let fed = self.unpack.feed(data, &mut |bytes, compact| {
+            // A compact stream's image is as long as its compact header says (checked there).
+            loader.total_len = if compact { 0 } else { total_len };
+            stream.feed(bytes, &mut loader)
+        });
+        match fed {
             Ok(()) => {
                 self.next = end as u32;
                 Ok(())
@@ -186,6 +200,7 @@ impl Upload {
 
     /// After the last byte: the stream has checked the body CRC and every ACK; this checks
     /// that the image ended where its header said and the whole-image CRC of `SceneBegin`.
+    /// A compact stream must also have decoded to exactly its image (length and CRC-32).
     pub(super) fn finish(&mut self) -> Result<(), (SceneError, &'static str)> {
         let done = self.stream.is_done();
         let crc_ok = core::mem::take(&mut self.digest).finalize() == self.crc;
@@ -193,6 +208,8 @@ impl Upload {
             Err((SceneError::Truncated, "scene image ended early"))
         } else if !crc_ok {
             Err((SceneError::BadCrc, "scene CRC differs from SceneBegin"))
+        } else if let Err(e) = self.unpack.finish() {
+            Err((e, "compact scene stream did not decode to its image"))
         } else {
             Ok(())
         }
@@ -278,7 +295,8 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
         if h.material_count as usize > MAX_MATERIALS {
             return Err(SceneError::TooManyMaterials);
         }
-        if h.total_len != self.total_len || (self.info.pe_count != 0 && h.pe_count > self.info.pe_count) {
+        let len_differs = self.total_len != 0 && h.total_len != self.total_len;
+        if len_differs || (self.info.pe_count != 0 && h.pe_count > self.info.pe_count) {
             return Err(SceneError::BadHeader);
         }
         if self.info.pe_mem_words != 0 && h.pe_mem_words > self.info.pe_mem_words {

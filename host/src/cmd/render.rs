@@ -288,6 +288,7 @@ impl Cmd {
 
         // Upload (to every board at once).
         let upload_start = Instant::now();
+        let tx_before: u64 = sessions.iter().map(|s| s.bytes_tx()).sum();
         if let [session] = &mut sessions[..] {
             session.upload_scene(&prepared.image, &mut on_event).context("uploading the scene")?;
         } else {
@@ -316,6 +317,7 @@ impl Cmd {
             .context("uploading the scene")?;
         }
         let upload_ms = upload_start.elapsed().as_secs_f64() * 1e3;
+        let upload_wire_bytes = sessions.iter().map(|s| s.bytes_tx()).sum::<u64>() - tx_before;
 
         // Render.
         let want_reference = self.reference || self.reference_out.is_some();
@@ -362,6 +364,7 @@ impl Cmd {
             scene: self.scene.scene.display().to_string(),
             dropped_triangles: dropped,
             scene_image_bytes: prepared.image.len() as u64,
+            upload_wire_bytes,
             upload_ms,
         };
         let mut stats = RenderStats::new(&facts, &prepared.grid, &frame);

@@ -82,6 +82,7 @@ impl Cmd {
 
         // Upload (every board its image, at once).
         let upload_start = Instant::now();
+        let tx_before: u64 = sessions.iter().map(|s| s.bytes_tx()).sum();
         std::thread::scope(|sc| {
             let jobs: Vec<_> = sessions
                 .iter_mut()
@@ -93,6 +94,7 @@ impl Cmd {
         })
         .context("uploading the point cloud")?;
         let upload_ms = upload_start.elapsed().as_secs_f64() * 1e3;
+        let upload_wire_bytes = sessions.iter().map(|s| s.bytes_tx()).sum::<u64>() - tx_before;
 
         // Splat frame.
         let mut request = settings.with_shadows(false).with_prim_ids(false).to_request(1);
@@ -120,6 +122,7 @@ impl Cmd {
             scene: self.scene.scene.display().to_string(),
             dropped_triangles: 0,
             scene_image_bytes: images.iter().map(|i| i.len() as u64).sum(),
+            upload_wire_bytes,
             upload_ms,
         };
         let mut stats = RenderStats::new(&facts, &whole.grid, &frame);

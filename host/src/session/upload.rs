@@ -39,7 +39,12 @@ impl<T: Read + Write> Session<T> {
     /// session can go on with the next request.
     pub fn upload_scene(&mut self, image: &[u8], progress: &mut dyn FnMut(ProgressEvent)) -> Result<(), SessionError> {
         let windowed = self.device.is_some_and(|d| d.features & feature::WINDOWED != 0);
-        let r = if windowed { self.upload_windowed(image, progress) } else { self.upload_in_order(image, progress) };
+        // A device that decodes compact streams (SPEC.md §5.12) gets one: the same image, in
+        // about a third of the bytes; any other device gets the image itself.
+        let compact = self.device.is_some_and(|d| d.features & feature::COMPACT_SCENE != 0);
+        let packed = if compact { crate::compact::encode(image, crate::compact::CACHE_LOG2) } else { None };
+        let wire = packed.as_deref().unwrap_or(image);
+        let r = if windowed { self.upload_windowed(wire, progress) } else { self.upload_in_order(wire, progress) };
         if matches!(
             r,
             Err(SessionError::Device { .. } | SessionError::Protocol { .. } | SessionError::UploadStalled { .. })

@@ -51,4 +51,7 @@ pub mod feature {
     /// Point clouds (SPEC.md §6): the device loads a scene image's point section and renders
     /// [`render_flags::SPLATS`](crate::msg::render_flags::SPLATS) frames.
     pub const SPLATS: u32 = 1 << 21;
+    /// Compact scene uploads (SPEC.md §5.12): the device decodes a `GRTZ` stream with a
+    /// vertex cache of 4096 entries (`cache_log2` ≤ 12).
+    pub const COMPACT_SCENE: u32 = 1 << 12;
 }

@@ -70,6 +70,9 @@ pub enum SceneError {
     BadRecord,
     /// The point section holds more points than this device can hold (SPEC.md §5.10).
     TooManyPoints,
+    /// A compact scene stream (SPEC.md §5.12) is malformed: a reserved op, an over-long
+    /// varint, a vertex-cache index not yet filled, output past the declared image length.
+    BadCompact,
 }
 
 impl SceneError {
@@ -91,6 +94,7 @@ impl SceneError {
             Self::Rejected => 13,
             Self::BadRecord => 14,
             Self::TooManyPoints => 15,
+            Self::BadCompact => 16,
         }
     }
 
@@ -112,6 +116,7 @@ impl SceneError {
             Self::Rejected => "scene piece rejected by the loader",
             Self::BadRecord => "scene record field out of range",
             Self::TooManyPoints => "more points than the device can hold",
+            Self::BadCompact => "malformed compact scene stream",
         }
     }
 }

@@ -19,10 +19,12 @@
 //! | `pe_image` | [`PeImage`], the PE memory image |
 //! | `points` | [`PointsHead`], [`PointRecord`]: the point section (flag [`scene_flags::POINTS`]) |
 //! | `stream` | [`SceneStream`], the streaming parser, and [`SceneSink`] |
+//! | `compact` | [`Unpacker`]: the compact upload stream (SPEC.md §5.12) decoded into image bytes |
 
 // Link-facing: every index and every sum on received values is checked (ARCHITECTURE.md).
 #![deny(clippy::indexing_slicing, clippy::arithmetic_side_effects)]
 
+mod compact;
 mod geometry;
 mod header;
 mod layout;
@@ -32,6 +34,10 @@ mod pe_image;
 mod points;
 mod stream;
 
+pub use compact::{
+    compact_op, unzigzag, zigzag, CompactHeader, Sink as UnpackSink, Unpacker, COMPACT_HEADER_LEN, COMPACT_MAGIC,
+    COMPACT_VERSION, HISTORY_WORDS, MAX_CACHE_LOG2, MAX_OP_LEN,
+};
 pub use geometry::{
     affine_point, affine_transpose_vector, affine_vector, Affine, ObjectKind, ObjectRecord, PrimKind, PrimRecord,
     TriangleRecord,
