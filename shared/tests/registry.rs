@@ -49,6 +49,7 @@ fn code_rows() -> Vec<(&'static str, String, &'static str)> {
         ("RGB565", feature::RGB565),
         ("RLE", feature::RLE),
         ("WINDOWED", feature::WINDOWED),
+        ("COMPACT_SCENE", feature::COMPACT_SCENE),
         ("REFLECTIONS", feature::REFLECTIONS),
         ("TEXTURES", feature::TEXTURES),
         ("SPECULAR", feature::SPECULAR),
