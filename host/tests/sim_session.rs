@@ -49,6 +49,9 @@ fn sim_frame_is_identical_to_the_f64_reference() {
     // A second frame on the same session (the scene stays loaded).
     let again = s.render(&settings.with_prim_ids(false).to_request(10), &mut |_| {}).unwrap();
     assert_eq!(again.rgb, frame.rgb);
+    // It sends nothing but its request: one RenderRequest frame (72 bytes of payload, framed)
+    // or, with regions, one RenderRegion frame; no scene byte.
+    assert!(again.bytes_tx < 120, "the second frame sent {} bytes", again.bytes_tx);
 }
 
 #[test]
