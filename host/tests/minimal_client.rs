@@ -158,3 +158,57 @@ fn a_client_written_from_spec_section_8_renders_the_reference_hosts_frames() {
     }
     assert!(frames[0].chunks(3).any(|p| p != &frames[0][..3]), "the bunny must be in view");
 }
+
+/// The compact upload (SPEC.md §5.12) through the same raw client: a stream whose content was
+/// corrupted after it was encoded (its transport CRC recomputed, so only the decoder can
+/// tell), or cut short, is refused with `SceneRejected`, never loaded; the intact stream
+/// then loads and renders the same frame as the plain image.
+#[test]
+fn a_corrupted_or_cut_compact_upload_is_refused_and_the_intact_one_renders() {
+    use gridrt_shared::msg::{feature, ErrorCode};
+    let scene =
+        gridrt_host::scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj"))
+            .unwrap();
+    let config = SimConfig { pe_count: 2, pe_mem_words: 1 << 16, ..Default::default() };
+    let mut port = gridrt_loopback::spawn(config);
+    port.set_timeout(Duration::from_millis(20));
+    let mut client = MinimalClient { port, seq: 0, acc: Box::new(FrameAccumulator::new()), inbox: Default::default() };
+    let info = client.hello();
+    assert_ne!(info.features & feature::COMPACT_SCENE, 0, "the simulated board decodes compact streams");
+    let params = GridParams { pe_count: info.pe_count, pe_mem_words: info.pe_mem_words, ..Default::default() };
+    let prepared = PreparedScene::new(scene, &params).unwrap();
+    let stream = gridrt_host::compact::encode(&prepared.image, gridrt_host::compact::CACHE_LOG2).unwrap();
+    assert!(stream.len() * 2 < prepared.image.len(), "{} of {} bytes", stream.len(), prepared.image.len());
+
+    let mut flipped = stream.clone();
+    let mid = flipped.len() / 2;
+    flipped[mid] ^= 0x5A;
+    let cut = &stream[..stream.len() - 7];
+    for (what, bad) in [("flipped", &flipped[..]), ("cut", cut)] {
+        client.port.write_all(&[0]).unwrap();
+        client.send(&Msg::SceneBegin { total_len: bad.len() as u32, crc: crc32(bad) });
+        let mut refused = None;
+        'upload: for (k, c) in bad.chunks(512).enumerate() {
+            client.send(&Msg::SceneChunk { offset: (k * 512) as u32, data: c });
+            let (kind, payload) = client.next(Duration::from_secs(5)).expect("an answer to each SceneChunk");
+            match Msg::decode(kind, &payload).unwrap() {
+                Msg::SceneAck { status, .. } => assert_ne!(status, SceneStatus::Loaded, "{what}: loaded"),
+                Msg::Error { code, detail, .. } => {
+                    refused = Some((code, detail));
+                    break 'upload;
+                }
+                m => panic!("{what}: {m:?}"),
+            }
+        }
+        let (code, _) = refused.unwrap_or_else(|| panic!("{what}: the device never refused the stream"));
+        assert_eq!(code, ErrorCode::SceneRejected, "{what}");
+    }
+
+    client.upload(&stream, 512);
+    let mut req = RenderSettings::default_for(&prepared.grid.mesh_bounds).with_size(32, 24).to_request(3);
+    req.encoding = PixelEncoding::Rgb888;
+    let compact_frame = client.render(&req);
+    client.upload(&prepared.image, 512);
+    req.frame = 4;
+    assert_eq!(client.render(&req), compact_frame, "the compact and the plain upload render the same frame");
+}

@@ -293,6 +293,7 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
                 // A new upload invalidates the old scene (it will CLEAR the co-processor).
                 self.scene.loaded = false;
                 self.loaded_image = None;
+                self.end_upload();
                 self.upload = Some(Upload::new(total_len, crc));
             }
             Msg::SceneChunk { offset, data } => self.scene_data(MsgType::SceneChunk, seq, offset, data, out),
@@ -307,6 +308,13 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
                 let k = other.kind() as u8;
                 self.error(ErrorCode::UnexpectedMessage, k as u32, "message not accepted by the device", out);
             }
+        }
+    }
+
+    /// Drops the upload in progress, if any, first ending a LOAD_PE packet it left open.
+    fn end_upload(&mut self) {
+        if let Some(mut up) = self.upload.take() {
+            up.close(&mut self.render.path.link, self.render.path.polls);
         }
     }
 
@@ -341,7 +349,7 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
         let received =
             up.receive(offset, data, &mut self.ahead, &mut path.link, path.polls, &mut self.scene, points, &self.info);
         if let Err((e, failure)) = received {
-            self.upload = None;
+            self.end_upload();
             self.scene.loaded = false;
             let mut t = Text::new();
             Trunc(&mut t).put("scene rejected: ");
@@ -356,7 +364,7 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
         let sack = up.window.sack(seq, crc);
         let status = if up.complete() {
             let result = up.finish();
-            self.upload = None;
+            self.end_upload();
             if let Err((e, text)) = result {
                 return self.error(ErrorCode::SceneRejected, e.code(), text, out);
             }

@@ -198,6 +198,20 @@ impl Upload {
         }
     }
 
+    /// Ends an upload that stopped inside a PE block: the co-processor still waits for the
+    /// rest of that LOAD_PE packet and would take the next packet's words as its own (SPEC.md
+    /// §4.5). One word with the control bit ends the packet; its one answer (the co-processor's
+    /// ERROR for the short packet, or the answer it already had queued) is read and dropped.
+    /// Link failures are ignored: the next upload's CLEAR reports a dead link.
+    pub(super) fn close<L: FslLink>(&mut self, link: &mut L, polls: u32) {
+        if core::mem::take(&mut self.pe_words_left) == 0 {
+            return;
+        }
+        if link.put(FslWord::last(0), polls).is_ok() {
+            let _ = link.get(polls);
+        }
+    }
+
     /// After the last byte: the stream has checked the body CRC and every ACK; this checks
     /// that the image ended where its header said and the whole-image CRC of `SceneBegin`.
     /// A compact stream must also have decoded to exactly its image (length and CRC-32).
