@@ -190,7 +190,11 @@ pub fn density_radii(points: &mut [CloudPoint]) -> Result<(), String> {
         .map(|i| {
             let r = RADIUS_SCALE * nb.of(i).last().map_or(0.0, |(_, d2)| d2.sqrt()) as f32;
             // Coincident points would get radius 0: give them the cell size instead.
-            if r > 0.0 { r } else { nb.cell as f32 }
+            if r > 0.0 {
+                r
+            } else {
+                nb.cell as f32
+            }
         })
         .collect();
     let mut around = Vec::with_capacity(KNN);

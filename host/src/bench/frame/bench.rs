@@ -237,9 +237,8 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
 pub fn rtl_skip_reason(prepared: &PreparedScene) -> Option<String> {
     let words = gridrt_loopback::SimConfig::RTL.pe_mem_words;
     let fullest = prepared.grid.pe_images.iter().map(Vec::len).max().unwrap_or(0);
-    (fullest as u64 > u64::from(words)).then(|| {
-        format!("the scene's fullest PE image is {fullest} words; the RTL's PEs hold {words} words each")
-    })
+    (fullest as u64 > u64::from(words))
+        .then(|| format!("the scene's fullest PE image is {fullest} words; the RTL's PEs hold {words} words each"))
 }
 
 /// The link bytes of `run` become those of the loopback run `sim` of the same frame (proved
