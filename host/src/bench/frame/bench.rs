@@ -42,7 +42,7 @@ pub fn prepare(
 /// report.
 pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Result<FrameReport, FrameBenchError> {
     let (prepared, req, plan) = prepare(&opt.scene, opt.width, opt.height, opt.encoding)?;
-    // The RTL's PEs hold `RtlParams::default().pe_mem_words` each: a scene whose fullest PE
+    // The RTL's PEs hold `SimConfig::RTL.pe_mem_words` each: a scene whose fullest PE
     // needs more gets no `rtl` row (the QEMU board's 2¹⁹ words would describe no hardware).
     let skipped = rtl_skip_reason(&prepared).filter(|_| opt.configs.contains(&Configuration::Rtl));
     let without_rtl;
