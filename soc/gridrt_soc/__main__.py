@@ -59,6 +59,7 @@ def main(argv=None):
     common(ulx3s, rom=True)
     ulx3s.add_argument("--device", default="LFE5U-85F", choices=("LFE5U-25F", "LFE5U-45F", "LFE5U-85F"))
     ulx3s.add_argument("--seed", type=int, default=1, help="nextpnr placement seed")
+    ulx3s.add_argument("--baud", type=int, default=3_000_000, help="UART rate (the FT231X bridge goes up to 3 Mbaud)")
     ulx3s.add_argument("--pes", type=int, default=1, help="co-processor PEs (each takes 40 of the 85F's 208 block RAMs, the SoC's memories about 152: it holds one)")
     gen = sub.add_parser("board-files", help="write (or --check) the firmware's board files from csr.json")
     gen.add_argument("--check", action="store_true")
@@ -77,9 +78,14 @@ def main(argv=None):
         from . import ulx3s
 
         words = rom_words(args.rom_image, args.rom_base)
-        result = ulx3s.build(args.build_dir, args.rtl_dir, words, args.board_files, args.device, args.seed, args.pes)
+        result = ulx3s.build(
+            args.build_dir, args.rtl_dir, words, args.board_files, args.device, args.seed, args.pes, args.baud
+        )
         print(f"BITSTREAM: {result['bitstream']}")
         print(f"REPORT: {result['report']}")
+        print(f"BAUD: {result['baud']}")
+        print(f"BAUD_ERROR_PPM: {result['baud_error_ppm']:.4f}")
+        print(f"BAUD_JITTER: {result['baud_jitter']:.4f}")
     elif args.cmd == "board-files":
         from . import sim
 

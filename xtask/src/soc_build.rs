@@ -15,7 +15,7 @@ use std::time::Instant;
 /// Boards with a bitstream target.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum FpgaBoard {
-    /// Radiona ULX3S (ECP5, FTDI USB-serial UART at 115 200 baud).
+    /// Radiona ULX3S (ECP5, FTDI FT231X USB-serial UART, 3 000 000 baud by default).
     Ulx3s,
 }
 
@@ -65,6 +65,11 @@ pub struct BuildCmd {
     /// synth`), so the device holds one PE beside the CPU (modelled from the counts).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=16))]
     pes: u16,
+    /// The UART's rate: the ULX3S's FT231X USB-serial bridge goes up to 3 000 000 baud; give
+    /// 115200 for a host whose adapter cannot. The report states the rate's error (LiteX's
+    /// phase accumulator at `sys_clk`) and the bit-edge jitter (one `sys_clk` cycle).
+    #[arg(long, default_value_t = 3_000_000, value_parser = clap::value_parser!(u32).range(9600..=3_000_000))]
+    baud: u32,
     /// Write the resource and timing summary here (JSON).
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
@@ -108,6 +113,7 @@ impl BuildCmd {
         py.args(["ulx3s", "--build-dir"]).arg(&dir).arg("--rtl-dir").arg(self.rtl.dir());
         py.arg("--rom-image").arg(&rom);
         py.args(["--device", self.device.part(), "--seed", &self.seed.to_string(), "--pes", &self.pes.to_string()]);
+        py.args(["--baud", &self.baud.to_string()]);
         let results =
             run_logged(py, &dir.join("litex.log"), |l| l.starts_with("ulx3s:") || l.starts_with("board-files:"))?;
         let seconds = started.elapsed().as_secs_f64();
@@ -120,14 +126,19 @@ impl BuildCmd {
         let (luts, ffs, dsps, brams) = (used("TRELLIS_COMB"), used("TRELLIS_FF"), used("MULT18X18D"), used("DP16KD"));
         let fmax = number_after(&report, "\"fmax\"", "achieved").unwrap_or(0.0);
         let target = number_after(&report, "\"fmax\"", "constraint").unwrap_or(0.0);
+        let baud_error_ppm: f64 = result(&results, "BAUD_ERROR_PPM")?.parse().context("BAUD_ERROR_PPM")?;
+        let baud_jitter: f64 = result(&results, "BAUD_JITTER")?.parse().context("BAUD_JITTER")?;
         let (lut_cap, bram_cap, dsp_cap) = self.device.capacity();
         let fits = bitstream.is_file() && luts <= lut_cap && brams <= bram_cap && dsps <= dsp_cap;
         let json = format!(
-            "{{\"board\": \"ulx3s\", \"device\": \"{}-CABGA381\", \"cpu\": \"vexriscv imac\", \"pes\": {}, \"luts\": {luts}, \
+            "{{\"board\": \"ulx3s\", \"device\": \"{}-CABGA381\", \"cpu\": \"vexriscv imac\", \"harts\": 1, \
+             \"float_hw\": \"none\", \"sdram\": false, \"pes\": {}, \"luts\": {luts}, \
              \"ffs\": {ffs}, \"dsps\": {dsps}, \"brams\": {brams}, \"fmax_mhz\": {fmax:.2}, \"target_mhz\": {target:.2}, \
-             \"fits\": {fits}, \"seed\": {}, \"build_s\": {seconds:.0}, \"bitstream\": \"{}\"}}\n",
+             \"fits\": {fits}, \"baud\": {}, \"baud_error_ppm\": {baud_error_ppm:.4}, \"baud_jitter_bits\": {baud_jitter:.4}, \
+             \"seed\": {}, \"build_s\": {seconds:.0}, \"bitstream\": \"{}\"}}\n",
             self.device.part(),
             self.pes,
+            self.baud,
             self.seed,
             bitstream.display()
         );
