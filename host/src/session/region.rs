@@ -170,6 +170,7 @@ impl<T: Read + Write> Session<T> {
         let mut claims: Vec<(Region, u32)> = Vec::new();
         let mut sizer = self.sizer.take().unwrap_or_else(|| SpanSizer::new(req.encoding));
         let mut announced = vec![false; band.rows as usize];
+        let mut arrived = vec![false; band.rows as usize];
         let mut last_progress = Instant::now();
         let mut first = true;
         let mut silent = 0u32;
@@ -252,6 +253,8 @@ impl<T: Read + Write> Session<T> {
                     resend,
                     &mut waiting,
                     next_tick,
+                    (band, &mut arrived),
+                    progress,
                 )?;
                 if !matches!(w, Wait::Tick) && Instant::now() < next_tick {
                     break w;
@@ -259,6 +262,7 @@ impl<T: Read + Write> Session<T> {
                 next_tick = Instant::now() + Duration::from_secs(1);
                 progress(ProgressEvent::Activity(Activity {
                     stage,
+                    received: arrived.iter().filter(|a| **a).count() as u64 * u64::from(band.cols),
                     done: canvas.verified_pixels(band),
                     total: band.pixels(),
                     wire_tx: self.bytes_tx - tx0,
@@ -341,6 +345,8 @@ impl<T: Read + Write> Session<T> {
         resend: bool,
         waiting: &mut Waiting,
         tick: Instant,
+        (band, arrived): (Region, &mut [bool]),
+        progress: &mut dyn FnMut(ProgressEvent),
     ) -> Result<Wait, SessionError> {
         let stage = Stage::Render;
         loop {
@@ -384,6 +390,18 @@ impl<T: Read + Write> Session<T> {
                         canvas.place(y, x0, count, encoding, &data).map_err(|w| self.protocol(stage, w))?;
                     let after = inside.map_or(0, |r| canvas.missing_in(r));
                     waiting.missing = waiting.missing.saturating_sub(before.saturating_sub(after));
+                    // A row of the band whose pixels are all here (each span passed its frame
+                    // CRC): reported now, verified when its region's CRC is checked.
+                    if let Some(a) = y.checked_sub(band.y0).and_then(|i| arrived.get_mut(i as usize)) {
+                        let row = Region { x0: band.x0, y0: y, cols: band.cols, rows: 1 };
+                        if !*a && canvas.complete(row) {
+                            *a = true;
+                            let w = canvas.width as usize;
+                            let (s, e) = (3 * (y as usize * w + band.x0 as usize), 3 * band.cols as usize);
+                            let rgb = canvas.rgb.get(s..s + e).map(<[u8]>::to_vec).unwrap_or_default();
+                            progress(ProgressEvent::RowArrived { y, x0: band.x0, rgb });
+                        }
+                    }
                     if encoding.is_colour() {
                         self.link.spans_received += 1;
                         self.link.span_data_bytes += data.len() as u64;
