@@ -185,6 +185,12 @@ impl Cmd {
         // Everything that can be checked before a byte is sent: the connection, the
         // simulator's configuration, the outputs (their folders are made now, so a finished
         // frame is never lost to a missing folder), the ports, the scene and the frame size.
+        if self.out_dir.is_none() {
+            let stream_flag = [("--frames", self.frames.is_some()), ("--orbit", self.orbit.is_some()), ("--view", self.view.is_some())];
+            if let Some((flag, _)) = stream_flag.iter().find(|f| f.1) {
+                bail!("{flag} is for a stream: give --out-dir DIR for its numbered PNGs (--out writes one frame)");
+            }
+        }
         self.port.resolve()?;
         if self.port.port.is_empty() {
             self.model.sim_config(self.scene.pes, self.scene.pe_mem_words)?;
