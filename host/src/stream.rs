@@ -3,12 +3,16 @@
 //! each frame reported as it completes, with its time and wire bytes, and the stream's frame
 //! rate and line utilisation at the end.
 //!
-//! # Sequential, by the protocol
-//! A frame's request leaves the moment the previous frame's last `RegionEnd` is in (SPEC.md
-//! §3.12.3, "Flow control"): the device renders inside its receive loop and reads no request
-//! while it renders, and a soft-core's 16-byte receive FIFO would lose a request sent early.
-//! Between two frames the device → host line therefore idles for the request's wire time,
-//! the turnaround and the device's work on the first row.
+//! # Frame n+1 rendered while frame n is on the line, where the board allows it
+//! A board that advertises `REQUEST_QUEUE` (SPEC.md §3.12.3, "Flow control": the loopback
+//! simulator and `gridrt device`, whose UART path buffers what arrives during a render) gets
+//! frame n+1's request before frame n's answer is in ([`Session::send_ahead`]): two frames
+//! requested at a time, so the device starts the next frame the moment it finishes one and
+//! the device → host line does not idle between frames. Elsewhere — a soft-core renders
+//! inside its receive loop and its 16-byte receive FIFO would lose a request sent early —
+//! and on several boards (row bands from a shared queue), a frame's request leaves when the
+//! previous frame is complete, and the line idles between frames for the request's wire
+//! time, the turnaround and the device's work on the first row.
 //!
 //! # Line utilisation
 //! `line_utilisation` = the bytes the boards sent ÷ (boards × baud ÷ 10 × the stream's
@@ -36,7 +40,8 @@ pub struct FrameReport {
     pub index: u32,
     /// Frame id on the wire.
     pub frame_id: u16,
-    /// From this frame's request to its last verified pixel, ms.
+    /// From the end of the previous frame (the stream's start for frame 0) to this frame's
+    /// last verified pixel, ms.
     pub frame_ms: f64,
     /// The frame rate this frame alone would give (1000 / `frame_ms`).
     pub fps: f64,
@@ -77,6 +82,8 @@ pub struct StreamReport {
     pub baud: u32,
     /// Boards.
     pub boards: usize,
+    /// Frame n+1 was requested before frame n was in (one board with `REQUEST_QUEUE`).
+    pub requested_ahead: bool,
 }
 
 /// What a stream reports while it runs.
@@ -192,8 +199,17 @@ pub fn run<T: Read + Write + Send>(
     let start = Instant::now();
     let mut report = StreamReport { baud: plan.baud, boards, ..Default::default() };
     let mut span_bytes = 0u64;
+    // One board that queues requests: keep the next frame's request in flight.
+    let ahead = matches!(&sessions[..], [s] if s.can_send_ahead());
+    report.requested_ahead = ahead;
+    if let (true, [s]) = (ahead, &mut sessions[..]) {
+        s.send_ahead(&plan.request(0))?;
+    }
     for i in 0..plan.frames {
         let req = plan.request(i);
+        if let (true, [s]) = (ahead && i + 1 < plan.frames, &mut sessions[..]) {
+            s.send_ahead(&plan.request(i + 1))?;
+        }
         let camera = Camera { eye: req.eye, target: req.target, up: req.up, fov_y_deg: req.fov_y_deg };
         on(StreamEvent::FrameStarted { index: i, of: plan.frames, camera })?;
         let t = Instant::now();

@@ -26,6 +26,7 @@ fn prepared() -> PreparedScene {
 struct Counting {
     sim: gridrt_loopback::SimPort,
     read: Arc<AtomicU64>,
+    written: Arc<AtomicU64>,
 }
 
 impl Read for Counting {
@@ -38,7 +39,9 @@ impl Read for Counting {
 
 impl Write for Counting {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.sim.write(buf)
+        let n = self.sim.write(buf)?;
+        self.written.fetch_add(n as u64, Ordering::SeqCst);
+        Ok(n)
     }
     fn flush(&mut self) -> std::io::Result<()> {
         self.sim.flush()
@@ -46,10 +49,14 @@ impl Write for Counting {
 }
 
 fn board(p: &PreparedScene, name: &str, read: Arc<AtomicU64>) -> Session<Counting> {
+    board_w(p, name, read, Arc::default())
+}
+
+fn board_w(p: &PreparedScene, name: &str, read: Arc<AtomicU64>, written: Arc<AtomicU64>) -> Session<Counting> {
     let mut sim = gridrt_loopback::spawn(gridrt_loopback::SimConfig::default());
     sim.set_timeout(Duration::from_millis(10));
     let cfg = SessionConfig::new(name).baud(3_000_000).render_timeout(Duration::from_secs(60));
-    let mut s = Session::new(Counting { sim, read }, cfg);
+    let mut s = Session::new(Counting { sim, read, written }, cfg);
     s.hello(&mut |_| {}).unwrap();
     s.upload_scene(&p.image, &mut |_| {}).unwrap();
     s
@@ -71,8 +78,10 @@ fn plan(p: &PreparedScene, w: u16, h: u16, frames: u32) -> StreamPlan {
 #[test]
 fn rows_are_reported_as_they_arrive_not_at_the_frames_end() {
     let p = prepared();
-    let read = Arc::new(AtomicU64::new(0));
-    let mut sessions = vec![board(&p, "sim", read.clone())];
+    let (read, written) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
+    let mut sessions = vec![board_w(&p, "sim", read.clone(), written.clone())];
+    let written0 = written.load(Ordering::SeqCst);
+    let mut written_at_first_end = 0;
     let (w, h) = (64u16, 48u16);
     // Per frame: the bytes read when each row was reported, and at the frame's end.
     let mut at_rows: Vec<Vec<u64>> = Vec::new();
@@ -89,13 +98,22 @@ fn rows_are_reported_as_they_arrive_not_at_the_frames_end() {
                 at_rows.last_mut().unwrap().push(read.load(Ordering::SeqCst));
                 rows_seen.last_mut().unwrap().push(y);
             }
-            StreamEvent::FrameDone { .. } => at_end.push(read.load(Ordering::SeqCst)),
+            StreamEvent::FrameDone { report, .. } => {
+                at_end.push(read.load(Ordering::SeqCst));
+                if report.index == 0 {
+                    written_at_first_end = written.load(Ordering::SeqCst) - written0;
+                }
+            }
             StreamEvent::Progress(_) => {}
         }
         Ok(())
     })
     .unwrap();
     assert_eq!(r.frames.len(), 2);
+    // The simulator queues requests: frame 1 was asked for before frame 0 was in (two
+    // `RenderRegion`s of 97 wire bytes each, delimiter included).
+    assert!(r.requested_ahead);
+    assert!(written_at_first_end >= 2 * 97, "{written_at_first_end} B sent when frame 0 was complete");
     for (i, rows) in rows_seen.iter().enumerate() {
         let mut sorted = rows.clone();
         sorted.sort();
@@ -145,4 +163,5 @@ fn several_boards_share_every_frame_of_a_stream() {
         assert!((r.line_utilisation - expected).abs() < 1e-12);
     }
     assert_eq!((one.boards, two.boards), (1, 2));
+    assert!(one.requested_ahead && !two.requested_ahead, "requests ahead on one board only");
 }
