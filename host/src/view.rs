@@ -213,8 +213,10 @@ fn serve(mut c: TcpStream, state: &Mutex<State>) -> io::Result<()> {
             respond(&mut c, "200 OK", "application/json", "", &body)
         }
         "/live.rgba" => {
-            let extra =
-                format!("X-Frame: {}\r\nX-Rows: {}\r\nX-Width: {}\r\nX-Height: {}\r\n", s.frame, s.rows_in, s.width, s.height);
+            let extra = format!(
+                "X-Frame: {}\r\nX-Rows: {}\r\nX-Width: {}\r\nX-Height: {}\r\n",
+                s.frame, s.rows_in, s.width, s.height
+            );
             let body = s.live.clone();
             drop(s);
             respond(&mut c, "200 OK", "application/octet-stream", &extra, &body)

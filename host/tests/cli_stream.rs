@@ -36,8 +36,22 @@ fn a_sim_stream_writes_numbered_pngs_and_per_frame_stats() {
     let scene = bunny().display().to_string();
     let (o, s) = (out.display().to_string(), stats.display().to_string());
     let run = gridrt(&[
-        "render", "--sim", "--scene", &scene, "-W", "40", "-H", "30", "--frames", "3", "--orbit", "90", "--out-dir", &o,
-        "--stats", &s,
+        "render",
+        "--sim",
+        "--scene",
+        &scene,
+        "-W",
+        "40",
+        "-H",
+        "30",
+        "--frames",
+        "3",
+        "--orbit",
+        "90",
+        "--out-dir",
+        &o,
+        "--stats",
+        &s,
     ]);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
@@ -64,7 +78,8 @@ fn a_sim_stream_writes_numbered_pngs_and_per_frame_stats() {
     assert_eq!(j["camera_path"].as_str(), Some("orbit 90°"));
     // Frame 0 is the scene's own camera: the single-frame render's picture.
     let single = dir.join("single.png");
-    let one = gridrt(&["render", "--sim", "--scene", &scene, "-W", "40", "-H", "30", "--out", single.to_str().unwrap()]);
+    let one =
+        gridrt(&["render", "--sim", "--scene", &scene, "-W", "40", "-H", "30", "--out", single.to_str().unwrap()]);
     assert!(one.status.success());
     let (a, b) = (image::open(&single).unwrap().to_rgb8(), image::open(out.join("frame-0000.png")).unwrap().to_rgb8());
     assert!(a == b, "frame 0 of the orbit is the scene's camera");
@@ -119,7 +134,14 @@ fn bad_stream_input_is_one_line_before_anything_is_sent() {
 fn help_explains_the_stream_flags() {
     let out = gridrt(&["render", "--help"]);
     let help = String::from_utf8_lossy(&out.stdout);
-    for flag in ["--out-dir <DIR>", "--frames <N>", "--orbit <DEGREES>", "--view [<PORT>]", "frame-0000.png", "line_utilisation"] {
+    for flag in [
+        "--out-dir <DIR>",
+        "--frames <N>",
+        "--orbit <DEGREES>",
+        "--view [<PORT>]",
+        "frame-0000.png",
+        "line_utilisation",
+    ] {
         assert!(help.contains(flag), "--help lacks `{flag}`");
     }
     let out = gridrt(&["bench", "stream", "--help"]);

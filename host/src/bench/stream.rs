@@ -159,7 +159,10 @@ mod tests {
         assert_eq!((r.wire_per_frame, r.frame_s, r.identical), (12_000.0, 0.5, true));
         assert!((r.link_bound_fps - 0.96).abs() < 1e-9 && (r.goodput_ratio - 9_000.0 / 11_520.0).abs() < 1e-9);
         let unpaced = row("s", PixelEncoding::Rle, None, &run, &vec![vec![2]; 4]);
-        assert_eq!((unpaced.baud, unpaced.line_utilisation, unpaced.link_bound_fps, unpaced.identical), (0, 0.0, 0.0, false));
+        assert_eq!(
+            (unpaced.baud, unpaced.line_utilisation, unpaced.link_bound_fps, unpaced.identical),
+            (0, 0.0, 0.0, false)
+        );
         assert!(csv(&[r]).lines().nth(1).unwrap().starts_with("s,rle,115200,4,2.000,0.5000,12000,0.8000"));
     }
 }

@@ -65,7 +65,14 @@ pub struct Cmd {
     #[arg(long, default_value_t = 0, value_name = "ROWS", help_heading = "Link")]
     pub(super) band_rows: u16,
     /// Output image (PNG). Not with --out-dir.
-    #[arg(short = 'o', long, value_name = "PNG", help_heading = "Output", required_unless_present = "out_dir", conflicts_with = "out_dir")]
+    #[arg(
+        short = 'o',
+        long,
+        value_name = "PNG",
+        help_heading = "Output",
+        required_unless_present = "out_dir",
+        conflicts_with = "out_dir"
+    )]
     pub(super) out: Option<PathBuf>,
     /// Render a stream of frames into DIR: `frame-0000.png`, `frame-0001.png`, … (created;
     /// must take new files). --stats then holds one object per frame (`frames`: frame time,
@@ -186,7 +193,11 @@ impl Cmd {
         // simulator's configuration, the outputs (their folders are made now, so a finished
         // frame is never lost to a missing folder), the ports, the scene and the frame size.
         if self.out_dir.is_none() {
-            let stream_flag = [("--frames", self.frames.is_some()), ("--orbit", self.orbit.is_some()), ("--view", self.view.is_some())];
+            let stream_flag = [
+                ("--frames", self.frames.is_some()),
+                ("--orbit", self.orbit.is_some()),
+                ("--view", self.view.is_some()),
+            ];
             if let Some((flag, _)) = stream_flag.iter().find(|f| f.1) {
                 bail!("{flag} is for a stream: give --out-dir DIR for its numbered PNGs (--out writes one frame)");
             }
@@ -428,8 +439,9 @@ impl Cmd {
         let Setup { mut sessions, prepared, plan, settings, request, upload_ms } = setup;
         let dropped = prepared.scene.mesh.stats.dropped_degenerate;
         let mut on_event = |e| progress.handle(e);
-        let (frame, devices) = gridrt_host::stream::render_frame(&mut sessions, &request, self.band_rows, &mut on_event)
-            .context(if sessions.len() > 1 { "rendering on several boards" } else { "rendering" })?;
+        let (frame, devices) =
+            gridrt_host::stream::render_frame(&mut sessions, &request, self.band_rows, &mut on_event)
+                .context(if sessions.len() > 1 { "rendering on several boards" } else { "rendering" })?;
         drop(progress);
         let out = self.out_path();
         write_png(out, frame.width, frame.height, frame.rgb.clone())?;

@@ -202,7 +202,10 @@ mod tests {
         assert_eq!(parse_skip_list("verilator"), Ok(vec![Tool::Verilator]));
         assert_eq!(parse_skip_list("all"), Ok(Tool::ALL.to_vec()));
         let e = parse_skip_list("qemu,qemuu").unwrap_err();
-        assert!(e.contains("unknown tool `qemuu`") && e.contains("known: qemu, socat, verilator, litex, chromium, all"), "{e}");
+        assert!(
+            e.contains("unknown tool `qemuu`") && e.contains("known: qemu, socat, verilator, litex, chromium, all"),
+            "{e}"
+        );
         assert_eq!(parse_skip_list("litex,verilator"), Ok(vec![Tool::Litex, Tool::Verilator]));
         assert_eq!(parse_skip_list("chromium"), Ok(vec![Tool::Chromium]));
     }

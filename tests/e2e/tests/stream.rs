@@ -133,8 +133,11 @@ fn a_stream_over_the_paced_line_equals_the_simulated_stream() {
         wire += f["wire_rx"].as_u64().unwrap();
     }
     assert_eq!(stats["wire_rx"].as_u64(), Some(wire), "the stream's bytes are its frames'");
-    let (fps, util, elapsed) =
-        (stats["fps"].as_f64().unwrap(), stats["line_utilisation"].as_f64().unwrap(), stats["elapsed_s"].as_f64().unwrap());
+    let (fps, util, elapsed) = (
+        stats["fps"].as_f64().unwrap(),
+        stats["line_utilisation"].as_f64().unwrap(),
+        stats["elapsed_s"].as_f64().unwrap(),
+    );
     assert!((fps - frames_n as f64 / elapsed).abs() < 1e-6 * fps, "fps = frames / elapsed: {stats}");
     // Bytes ÷ (baud/10 × elapsed): positive, and a paced line cannot carry more than itself
     // (a little slack for the first bytes already on their way when the clock starts).

@@ -150,4 +150,3 @@ fn view_page_shows_the_stream() {
     drop(child);
     let _ = std::fs::remove_dir_all(&dir);
 }
-

@@ -85,8 +85,9 @@ impl Args {
             let enc = PixelEncoding::from(*enc);
             let req = RenderRequest { encoding: enc, ..base };
             let go = |baud: Option<u32>| {
-                run(&prepared.image, &req, camera, &camera_path, self.frames, baud, sim)
-                    .map_err(|e| anyhow!("{enc:?} at {}: {e:#}", baud.map_or("no pacing".into(), |b| format!("{b} baud"))))
+                run(&prepared.image, &req, camera, &camera_path, self.frames, baud, sim).map_err(|e| {
+                    anyhow!("{enc:?} at {}: {e:#}", baud.map_or("no pacing".into(), |b| format!("{b} baud")))
+                })
             };
             let unpaced = go(None)?;
             let reference = unpaced.frames.clone();
@@ -115,7 +116,10 @@ impl Args {
             "note": "loopback simulator, device → host line paced at the baud rate (8N1); baud 0 = unpaced (the device's own frame rate)",
             "rows": rows,
         });
-        crate::cmd::output::write_bytes(&self.out.join("stream.json"), (serde_json::to_string_pretty(&json)? + "\n").as_bytes())?;
+        crate::cmd::output::write_bytes(
+            &self.out.join("stream.json"),
+            (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
+        )?;
         println!("wrote {}/{{stream.csv, stream.svg, stream.json}}", self.out.display());
         for r in &rows {
             ensure!(r.identical, "{} at {} baud: a frame differs from the unpaced run's", r.encoding, r.baud);
@@ -127,7 +131,8 @@ impl Args {
 fn plot(path: &Path, rows: &[StreamRow], scene: &str) -> anyhow::Result<()> {
     use plotters::prelude::*;
     let paced: Vec<&StreamRow> = rows.iter().filter(|r| r.baud > 0).collect();
-    let (lo, hi) = paced.iter().fold((f64::MAX, 0f64), |(lo, hi), r| (lo.min(f64::from(r.baud)), hi.max(f64::from(r.baud))));
+    let (lo, hi) =
+        paced.iter().fold((f64::MAX, 0f64), |(lo, hi), r| (lo.min(f64::from(r.baud)), hi.max(f64::from(r.baud))));
     let (lo, hi) = if paced.is_empty() { (1e5, 1e7) } else { (lo / 1.5, hi * 1.5) };
     let top = rows.iter().map(|r| r.fps.max(r.link_bound_fps)).fold(0.0f64, f64::max).max(1e-3) * 1.5;
     let bottom = rows.iter().map(|r| r.fps).filter(|v| *v > 0.0).fold(top, f64::min) / 1.5;
