@@ -119,9 +119,7 @@ fn bad_stream_input_is_one_line_before_anything_is_sent() {
     let toml = dir.join("path.toml");
     std::fs::write(
         &toml,
-        format!(
-            "[[objects]]\ntype = \"sphere\"\n\n[[camera_path]]\neye = [0, 0, -3]\ntarget = [0, 0, 0]\n\n[[camera_path]]\neye = [0, 0, 3]\ntarget = [0, 0, 0]\n"
-        ),
+        "[[objects]]\ntype = \"sphere\"\n\n[[camera_path]]\neye = [0, 0, -3]\ntarget = [0, 0, 0]\n\n[[camera_path]]\neye = [0, 0, 3]\ntarget = [0, 0, 0]\n",
     )
     .unwrap();
     let out = gridrt(&["render", "--sim", "--scene", toml.to_str().unwrap(), "--out-dir", &o, "--frames", "3"]);
