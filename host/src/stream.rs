@@ -47,7 +47,8 @@ pub struct FrameReport {
     pub fps: f64,
     /// Wire bytes device → host (every board).
     pub wire_rx: u64,
-    /// Wire bytes host → device (every board).
+    /// Wire bytes host → device (every board) from the previous frame's end to this one's:
+    /// with requests sent ahead, the next frame's request rather than this one's.
     pub wire_tx: u64,
     /// Pixel spans received.
     pub spans: u32,
@@ -202,6 +203,8 @@ pub fn run<T: Read + Write + Send>(
     // One board that queues requests: keep the next frame's request in flight.
     let ahead = matches!(&sessions[..], [s] if s.can_send_ahead());
     report.requested_ahead = ahead;
+    let sent = |s: &Vec<Session<T>>| s.iter().map(Session::bytes_tx).sum::<u64>();
+    let mut tx_mark = sent(sessions);
     if let (true, [s]) = (ahead, &mut sessions[..]) {
         s.send_ahead(&plan.request(0))?;
     }
@@ -233,13 +236,14 @@ pub fn run<T: Read + Write + Send>(
             frame_ms,
             fps: if frame_ms > 0.0 { 1e3 / frame_ms } else { 0.0 },
             wire_rx: frame.bytes_rx,
-            wire_tx: frame.bytes_tx,
+            wire_tx: sent(sessions) - tx_mark,
             spans: frame.spans_received,
             regions_resent: frame.link.regions_resent,
             eye: req.eye,
             target: req.target,
             at_s: start.elapsed().as_secs_f64(),
         };
+        tx_mark = sent(sessions);
         report.wire_rx += r.wire_rx;
         report.wire_tx += r.wire_tx;
         on(StreamEvent::FrameDone { frame: &frame, report: &r, devices: &devices })?;
