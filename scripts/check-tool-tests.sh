@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Checks that CI ran the tests that need a tool (QEMU, socat, Verilator, LiteX): fails (exit 1,
+# Checks that CI ran the tests that need a tool (QEMU, socat, Verilator, LiteX, Chromium): fails (exit 1,
 # saying why) when GRIDRT_SKIP_TOOLS is set, when a log shows a test skipped by that opt-out, or
 # when any tool's tests ran zero times. The logs are `cargo test` output: each such test writes
 # one line (tests/e2e/src/tools.rs, rtl/src/sim.rs), "TEST: uses tool PROGRAM: VERSION" when it
@@ -8,7 +8,7 @@
 #   scripts/check-tool-tests.sh [LOG ...]      # no LOG: only the GRIDRT_SKIP_TOOLS check
 set -euo pipefail
 
-TOOLS=(qemu-system-riscv32 socat verilator scripts/setup-soc.sh)
+TOOLS=(qemu-system-riscv32 socat verilator scripts/setup-soc.sh chromium)
 say() { echo "check-tool-tests: $*"; }
 
 bad=0

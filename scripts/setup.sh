@@ -2,8 +2,9 @@
 # One-stop setup for a fresh machine: the emulated board (QEMU, socat), the RISC-V
 # cross toolchain (rustup target, else Debian's rustc-web unpacked into .toolchain/), the HDL
 # tools (Verilator; Yosys and nextpnr-ecp5 from pip) and the LiteX SoC's (LiteX and its
-# simulation libraries in .toolchain/soc-venv/), and the host tool's optional Embree
-# (libembree-dev, for `--features embree`).
+# simulation libraries in .toolchain/soc-venv/), the host tool's optional Embree
+# (libembree-dev, for `--features embree`), and Chromium (headless, for the `--view` page's
+# browser test).
 # Idempotent; the host tool itself needs only cargo.
 #
 #   bash scripts/setup.sh
@@ -14,3 +15,4 @@ bash "$here/setup-riscv-toolchain.sh"
 bash "$here/setup-hdl.sh"
 bash "$here/setup-soc.sh"
 bash "$here/setup-host.sh"
+bash "$here/setup-browser.sh"

@@ -35,6 +35,7 @@ test socat_pty_device_renders ... ok
 cosim_frame: uses tool verilator: Verilator 5.006 2023-01-22
 soc_frame: uses tool verilator: Verilator 5.006 2023-01-22
 soc_frame: uses tool scripts/setup-soc.sh: litex 2023.12
+view_page_shows_the_stream: uses tool chromium: Chromium 156.0.8078.108 built on Debian GNU/Linux 12 (bookworm)
 test result: ok. 3 passed; 0 failed; 0 ignored; 0 measured; 0 filtered out
 LOG
 # The same run split over two logs (the SoC test runs on its own).

@@ -7,6 +7,7 @@
 //! | [`image_format`] | the versioned scene image (`shared::scene`) |
 //! | [`scene_image`] | [`scene_image::PreparedScene`]: scene → grid → scene image in one call |
 //! | [`bounds`] | axis-aligned bounds ([`bounds::Bounds`]), below the scene model and the camera |
+//! | [`camera_path`] | camera paths of a frame stream: an orbit about the scene's centre, a scene file's keyframes |
 //! | [`render_settings`] | [`render_settings::RenderSettings`]: camera, light, size, flags of a frame and their defaults (docs/CONTRACTS.md) |
 //! | [`reference`](mod@reference) | independent f64 reference renderer (BVH + watertight test, analytic primitives, f64 shading) |
 //! | [`compare`] | PSNR and pixel/hit differences |
@@ -18,6 +19,8 @@
 //! | [`sim_board`] | [`sim_board::SimBoard`]: one frame on the in-process loopback simulator |
 //! | [`multi`] | one frame on several boards: work queue of row bands, merged result |
 //! | [`bench`] | every bench behind `gridrt bench`: [`bench::accuracy`], [`bench::link`], [`bench::link_faults`], [`bench::frame`], [`bench::splat`] |
+//! | [`stream`] | frames as a stream: one request per frame along a camera path, on one board or several, frame times, fps and line utilisation |
+//! | [`view`] | `--view`: a tiny HTTP server on 127.0.0.1 showing the frame filling in and the stream's figures |
 //! | [`stats`] | JSON statistics |
 //! | [`plan`] | the pipeline plan (which stages a scene needs) and `--interp` |
 //!
@@ -27,6 +30,7 @@
 
 pub mod bench;
 pub mod bounds;
+pub mod camera_path;
 pub mod compact;
 pub mod compare;
 pub mod faults;
@@ -45,3 +49,5 @@ pub mod serial;
 pub mod session;
 pub mod sim_board;
 pub mod stats;
+pub mod stream;
+pub mod view;

@@ -50,6 +50,7 @@ fn code_rows() -> Vec<(&'static str, String, &'static str)> {
         ("RLE", feature::RLE),
         ("WINDOWED", feature::WINDOWED),
         ("COMPACT_SCENE", feature::COMPACT_SCENE),
+        ("REQUEST_QUEUE", feature::REQUEST_QUEUE),
         ("REFLECTIONS", feature::REFLECTIONS),
         ("TEXTURES", feature::TEXTURES),
         ("SPECULAR", feature::SPECULAR),

@@ -132,7 +132,10 @@ impl<
             protocol: gridrt_shared::PROTOCOL_VERSION as u16,
             max_payload: MAX_PAYLOAD as u16,
             voxel_capacity: u32::try_from(MAX_VOXELS).unwrap_or(u32::MAX),
+            // The board declares what its UART path can do (`REQUEST_QUEUE`); the stages are
+            // the build's.
             features: compiled_features()
+                | (info.features & feature::REQUEST_QUEUE)
                 | if cfg!(feature = "splats") && MAX_POINTS > 0 && TABLE_WORDS > 0 { feature::SPLATS } else { 0 },
             ..info
         };

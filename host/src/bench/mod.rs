@@ -7,6 +7,7 @@
 //! | [`link`] | `gridrt bench link`: wire bytes, efficiency, compression, modelled frame time |
 //! | [`link_faults`] | `gridrt bench link --faults`: goodput against the bit error rate over a faulty line ([`crate::faults`]) |
 //! | [`frame`] | `gridrt bench frame`: whole-frame time on the modelled board (soft-core on QEMU, co-processor model, link), per configuration and target |
+//! | [`stream`] | `gridrt bench stream`: frame rate and link goodput of a frame stream per scene × baud × encoding, on the paced loopback |
 //! | [`splat`] | `gridrt bench splat`: the native splat path, splats per second and image error ([`crate::points`]) |
 
 pub mod accuracy;
@@ -15,3 +16,4 @@ pub mod link;
 #[cfg(unix)]
 pub mod link_faults;
 pub mod splat;
+pub mod stream;

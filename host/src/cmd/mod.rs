@@ -12,4 +12,5 @@ pub mod ports;
 pub mod progress;
 pub mod render;
 mod render_points;
+mod render_stream;
 pub mod scenes;

@@ -37,6 +37,26 @@ pub fn check_file(path: &Path, flag: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Checks that `dir` (given as `flag`) is a folder that takes new files: created when
+/// missing, refused when it is a file or cannot be written.
+pub fn check_dir(dir: &Path, flag: &str) -> anyhow::Result<()> {
+    if dir.as_os_str().is_empty() {
+        anyhow::bail!("{flag}: an empty path");
+    }
+    if let Some(file) = dir.ancestors().find(|a| a.exists() && !a.is_dir()) {
+        anyhow::bail!("{flag} {}: {} is a file, not a folder", dir.display(), file.display());
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("{flag} {}: creating the folder", dir.display()))?;
+    let probe = dir.join(format!(".gridrt-probe.{}.tmp", std::process::id()));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .with_context(|| format!("{flag} {}: the folder does not take new files", dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// [`check_file`] for an image: also an extension the image writer supports.
 pub fn check_image(path: &Path, flag: &str) -> anyhow::Result<image::ImageFormat> {
     if path.is_dir() {

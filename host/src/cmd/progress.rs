@@ -57,6 +57,11 @@ pub struct CliProgress {
     last_line: Option<Instant>,
     /// The latest activity, printed at a stage's end.
     latest: Option<Activity>,
+    /// Rows of the current frame whose pixels all arrived (frame CRCs checked).
+    rows_in: u64,
+    /// Which frame of a stream is being drawn (`frame 3/30`), if any: per-frame start
+    /// lines are left out then, and the stream prints one line per frame.
+    frame_label: Option<String>,
 }
 
 impl Default for CliProgress {
@@ -87,10 +92,10 @@ fn size(n: f64) -> String {
 /// One progress line for `a` (what `Lines` mode prints).
 pub fn line(a: &Activity) -> String {
     let secs = a.elapsed.as_secs_f64().max(1e-3);
-    let pct = if a.total > 0 { 100.0 * a.done as f64 / a.total as f64 } else { 0.0 };
+    let pct = if a.total > 0 { 100.0 * a.received.max(a.done) as f64 / a.total as f64 } else { 0.0 };
     let (done, rate, again, unit) = match a.stage {
         Stage::Render => (
-            format!("{} / {} px verified", a.done, a.total),
+            format!("{} / {} px in, {} verified", a.received, a.total, a.done),
             format!("{}/s in", size(a.wire_rx as f64 / secs)),
             "runs re-requested",
             if a.chunk == 0 { "spans default".to_string() } else { format!("spans ≤ {} B", a.chunk) },
@@ -114,7 +119,25 @@ pub fn line(a: &Activity) -> String {
 impl CliProgress {
     /// A display in `mode`.
     pub fn new(mode: Mode) -> Self {
-        Self { mode, bar: None, last_line: None, latest: None }
+        Self { mode, bar: None, last_line: None, latest: None, rows_in: 0, frame_label: None }
+    }
+
+    /// Marks the frames of a stream: `label` (e.g. `frame 3/30`) prefixes the render bar.
+    pub fn set_frame(&mut self, label: Option<String>) {
+        self.frame_label = label;
+    }
+
+    /// How progress is shown.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// One line on stderr above the bar (or plain, in `Lines` mode).
+    pub fn println(&mut self, text: &str) {
+        match &self.bar {
+            Some(b) => b.println(text),
+            None => self.say(text),
+        }
     }
 
     fn say(&mut self, text: &str) {
@@ -174,12 +197,30 @@ impl CliProgress {
             ),
             ProgressEvent::Uploaded { bytes, .. } => self.position(bytes),
             ProgressEvent::UploadRewound { offset } => self.note(format!("(resending from {offset})")),
-            ProgressEvent::RenderStarted { width, height } => self.start(
-                height as u64,
-                "render [{bar:40}] {pos}/{len} rows {elapsed_precise} eta {eta}",
-                &format!("render  {width}×{height} frame"),
-            ),
-            ProgressEvent::RowReceived { rows_done, .. } => self.position(rows_done as u64),
+            ProgressEvent::RenderStarted { width, height } => {
+                self.rows_in = 0;
+                match self.frame_label.clone() {
+                    None => self.start(
+                        height as u64,
+                        "render [{bar:40}] {pos}/{len} rows in {elapsed_precise} eta {eta} {msg}",
+                        &format!("render  {width}×{height} frame"),
+                    ),
+                    Some(label) => {
+                        self.finish();
+                        self.latest = None;
+                        if self.mode == Mode::Bars {
+                            let t = format!("{label} [{{bar:40}}] {{pos}}/{{len}} rows in {{elapsed_precise}} {{msg}}");
+                            self.bar = Some(bar(height as u64, &t));
+                        }
+                    }
+                }
+            }
+            // Counted as they arrive (every span passed its frame CRC), never at the frame's end.
+            ProgressEvent::RowArrived { .. } => {
+                self.rows_in += 1;
+                self.position(self.rows_in);
+            }
+            ProgressEvent::RowReceived { rows_done, .. } => self.note(format!("{rows_done} verified")),
             ProgressEvent::Resend { region } => {
                 self.note(format!("(re-requesting rows {}..{})", region.y0, region.y0 + region.rows))
             }
@@ -245,6 +286,7 @@ mod tests {
         Activity {
             stage,
             done,
+            received: done + 100,
             total: 1000,
             wire_tx: 2 * done,
             wire_rx: done / 2,
@@ -268,7 +310,7 @@ mod tests {
         set_verbose(false);
         assert!(v.contains("last heard SceneSack"), "{v}");
         let r = line(&act(Stage::Render, 500, 1));
-        assert!(r.starts_with("render") && r.contains("500 / 1000 px verified") && r.contains("7 runs"), "{r}");
+        assert!(r.starts_with("render") && r.contains("600 / 1000 px in, 500 verified") && r.contains("7 runs"), "{r}");
     }
 
     #[test]

@@ -8,12 +8,12 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context};
 use gridrt_host::compare::compare;
 use gridrt_host::grid::GridParams;
-use gridrt_host::multi::{render_multi, DeviceShare};
+use gridrt_host::multi::DeviceShare;
 use gridrt_host::plan::{Interp, Plan};
 use gridrt_host::reference::{self, Reference, Stages};
 use gridrt_host::scene::Scene;
 use gridrt_host::scene_image::PreparedScene;
-use gridrt_host::session::{Activity, ProgressEvent, RenderedFrame, Session, SessionConfig};
+use gridrt_host::session::{RenderedFrame, Session, SessionConfig};
 use gridrt_host::stats::{CoprocFacts, LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
 use gridrt_shared::msg::PixelEncoding;
 
@@ -64,9 +64,37 @@ pub struct Cmd {
     /// with several boards). Smaller bands cost less when a device resets.
     #[arg(long, default_value_t = 0, value_name = "ROWS", help_heading = "Link")]
     pub(super) band_rows: u16,
-    /// Output image (PNG).
-    #[arg(short = 'o', long, value_name = "PNG", help_heading = "Output")]
-    pub(super) out: PathBuf,
+    /// Output image (PNG). Not with --out-dir.
+    #[arg(
+        short = 'o',
+        long,
+        value_name = "PNG",
+        help_heading = "Output",
+        required_unless_present = "out_dir",
+        conflicts_with = "out_dir"
+    )]
+    pub(super) out: Option<PathBuf>,
+    /// Render a stream of frames into DIR: `frame-0000.png`, `frame-0001.png`, … (created;
+    /// must take new files). --stats then holds one object per frame (`frames`: frame time,
+    /// wire bytes, fps) and the stream's `fps` and `line_utilisation`.
+    #[arg(long, value_name = "DIR", help_heading = "Stream")]
+    pub(super) out_dir: Option<PathBuf>,
+    /// Frames of the stream, 1..=100000 [default: 1]. The camera follows --orbit, else the
+    /// scene file's `[[camera_path]]` keyframes (docs/SCENE-FILE.md), else stays.
+    #[arg(long, value_name = "N", help_heading = "Stream", requires = "out_dir", value_parser = frame_count)]
+    pub(super) frames: Option<u32>,
+    /// Turn the camera DEGREES about the vertical axis through the scene's centre over the
+    /// stream: frame i at i × DEGREES / N (360: a full turn, no frame twice). -3600..=3600.
+    #[arg(long, value_name = "DEGREES", help_heading = "Stream", requires = "out_dir", allow_negative_numbers = true, value_parser = orbit_degrees)]
+    pub(super) orbit: Option<f64>,
+    /// Serve a live view on http://127.0.0.1:PORT/ (PORT 0 or none: any free port; the URL
+    /// is printed): the frame filling in row by row, the last complete frame, fps and link
+    /// figures. No internet needed.
+    #[arg(long, value_name = "PORT", help_heading = "Stream", requires = "out_dir", num_args = 0..=1, default_missing_value = "0")]
+    pub(super) view: Option<u16>,
+    /// Keep serving --view this many seconds after the stream ends (0..=3600).
+    #[arg(long, value_name = "SECS", default_value_t = 0.0, help_heading = "Stream", requires = "view", value_parser = linger_secs)]
+    pub(super) view_linger: f64,
     /// Write statistics as JSON here.
     #[arg(long, value_name = "JSON", help_heading = "Output")]
     pub(super) stats: Option<PathBuf>,
@@ -88,6 +116,44 @@ pub struct Cmd {
     /// Depth-test splats per pixel (each splat's plane) instead of one depth per splat.
     #[arg(long, help_heading = "Point clouds")]
     pub(super) pixel_depth: bool,
+}
+
+/// What [`Cmd::setup`] hands to the frame or the stream.
+pub(super) struct Setup<T> {
+    pub(super) sessions: Vec<Session<T>>,
+    pub(super) prepared: PreparedScene,
+    pub(super) plan: Plan,
+    pub(super) settings: gridrt_host::render_settings::RenderSettings,
+    pub(super) request: gridrt_shared::msg::RenderRequest,
+    pub(super) upload_ms: f64,
+}
+
+/// `--frames`: 1..=[`gridrt_host::stream::MAX_FRAMES`].
+fn frame_count(s: &str) -> Result<u32, String> {
+    let max = gridrt_host::stream::MAX_FRAMES;
+    match s.parse::<u64>() {
+        Ok(v) if (1..=u64::from(max)).contains(&v) => Ok(v as u32),
+        Ok(v) => Err(format!("{v} frames is not in 1..={max}")),
+        Err(_) => Err(format!("`{s}` is not a number of frames")),
+    }
+}
+
+/// `--orbit`: finite, -3600..=3600 degrees.
+fn orbit_degrees(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v.abs() <= 3600.0 => Ok(v),
+        Ok(v) => Err(format!("{v} degrees is not in -3600..=3600")),
+        Err(_) => Err(format!("`{s}` is not a number of degrees")),
+    }
+}
+
+/// `--view-linger`: 0..=3600 seconds.
+fn linger_secs(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if (0.0..=3600.0).contains(&v) => Ok(v),
+        Ok(v) => Err(format!("{v} s is not in 0..=3600")),
+        Err(_) => Err(format!("`{s}` is not a number of seconds")),
+    }
 }
 
 /// `--split` choices.
@@ -126,11 +192,32 @@ impl Cmd {
         // Everything that can be checked before a byte is sent: the connection, the
         // simulator's configuration, the outputs (their folders are made now, so a finished
         // frame is never lost to a missing folder), the ports, the scene and the frame size.
+        if self.out_dir.is_none() {
+            let stream_flag = [
+                ("--frames", self.frames.is_some()),
+                ("--orbit", self.orbit.is_some()),
+                ("--view", self.view.is_some()),
+            ];
+            if let Some((flag, _)) = stream_flag.iter().find(|f| f.1) {
+                bail!("{flag} is for a stream: give --out-dir DIR for its numbered PNGs (--out writes one frame)");
+            }
+        }
         self.port.resolve()?;
         if self.port.port.is_empty() {
             self.model.sim_config(self.scene.pes, self.scene.pe_mem_words)?;
         }
-        super::output::check_image(&self.out, "--out")?;
+        if let Some(out) = &self.out {
+            super::output::check_image(out, "--out")?;
+        }
+        if let Some(dir) = &self.out_dir {
+            super::output::check_dir(dir, "--out-dir")?;
+            if self.reference || self.reference_out.is_some() {
+                bail!("--reference is for one frame (--out), not a stream (--out-dir)");
+            }
+            if self.points {
+                bail!("--points renders one frame (--out), not a stream (--out-dir)");
+            }
+        }
         if let Some(path) = &self.stats {
             super::output::check_file(path, "--stats")?;
         }
@@ -144,6 +231,7 @@ impl Cmd {
             gridrt_host::points::Input::Scene(s) => *s,
             gridrt_host::points::Input::Cloud(cloud) => return self.run_cloud(cloud),
         };
+        self.check_stream(&mesh)?;
         let base = mesh.settings;
         check_size(self.width.unwrap_or(base.width), self.height.unwrap_or(base.height))?;
         if !self.port.port.is_empty() {
@@ -166,6 +254,11 @@ impl Cmd {
         let config = self.model.sim_config(self.scene.pes, self.scene.pe_mem_words)?;
         gridrt_loopback::prepare(&config).map_err(anyhow::Error::msg).context("the RTL co-processor")?;
         self.run_points(self.sim_ports(config), cloud)
+    }
+
+    /// `--out` (present whenever --out-dir is not: clap enforces it).
+    pub(super) fn out_path(&self) -> &std::path::Path {
+        self.out.as_deref().unwrap_or(std::path::Path::new("frame.png"))
     }
 
     /// The serial ports of `--port`, opened at `--baud`.
@@ -212,15 +305,15 @@ impl Cmd {
             .collect()
     }
 
-    fn run_on<T: Read + Write + Send>(
+    /// Everything before the first frame: hello (the boards must agree), the grid and scene
+    /// image for the device's PEs, the upload (to every board at once), the request.
+    fn setup<T: Read + Write + Send>(
         &self,
         ports: Vec<(T, String)>,
         loaded: Scene,
-        coproc: Option<CoprocFacts>,
-    ) -> anyhow::Result<()> {
-        let total_start = Instant::now();
+        progress: &mut CliProgress,
+    ) -> anyhow::Result<Setup<T>> {
         let mut sessions = self.sessions(ports);
-        let mut progress = CliProgress::default();
         let mut on_event = |e| progress.handle(e);
 
         // Hello: the devices tell us their PEs and memories (they must agree).
@@ -272,7 +365,6 @@ impl Cmd {
             eprintln!("warning: {w}");
         }
         let prepared = PreparedScene::new(loaded, &params).context("building the grid")?;
-        let dropped = prepared.scene.mesh.stats.dropped_degenerate;
         let voxels = prepared.grid.voxel_count();
         if voxels > info.voxel_capacity {
             let d = prepared.grid.dims;
@@ -319,7 +411,7 @@ impl Cmd {
         let upload_ms = upload_start.elapsed().as_secs_f64() * 1e3;
         let upload_wire_bytes = sessions.iter().map(|s| s.bytes_tx()).sum::<u64>() - tx_before;
 
-        // Render.
+        // The frame's settings.
         let want_reference = self.reference || self.reference_out.is_some();
         let base = prepared.scene.settings;
         let plan = if self.no_skip { Plan::ALL } else { Plan::derive(&prepared.scene) };
@@ -331,35 +423,30 @@ impl Cmd {
         let mut request = settings.to_request(1);
         request.flags |= plan.flags() | self.interp.map_or(0, |i| i.flags());
         request.encoding = self.encoding.into();
-        let (frame, devices) = if let [session] = &mut sessions[..] {
-            (session.render(&request, &mut on_event).context("rendering")?, Vec::new())
-        } else {
-            on_event(ProgressEvent::RenderStarted { width: request.width, height: request.height });
-            let shared = std::sync::Mutex::new((0u32, &mut on_event));
-            let pixels = request.width as u64 * request.height as u64;
-            let (multi, _) = render_multi(sessions, &request, self.band_rows, &|_, e| {
-                let mut g = shared.lock().unwrap_or_else(|p| p.into_inner());
-                match e {
-                    ProgressEvent::RowVerified { y } => {
-                        g.0 += 1;
-                        let rows_done = g.0;
-                        (g.1)(ProgressEvent::RowReceived { y, rows_done });
-                    }
-                    // One board's activity, with the frame's verified rows as its progress.
-                    ProgressEvent::Activity(a) => {
-                        let done = g.0 as u64 * request.width as u64;
-                        (g.1)(ProgressEvent::Activity(Activity { done, total: pixels, ..a }));
-                    }
-                    _ => {}
-                }
-            })
-            .context("rendering on several boards")?;
-            on_event(ProgressEvent::Finished);
-            (multi.frame, multi.devices)
-        };
-        drop(progress);
-        write_png(&self.out, frame.width, frame.height, frame.rgb.clone())?;
+        Ok(Setup { sessions, prepared, plan, settings, request, upload_ms })
+    }
 
+    fn run_on<T: Read + Write + Send>(
+        &self,
+        ports: Vec<(T, String)>,
+        loaded: Scene,
+        coproc: Option<CoprocFacts>,
+    ) -> anyhow::Result<()> {
+        let total_start = Instant::now();
+        let mut progress = CliProgress::default();
+        let setup = self.setup(ports, loaded, &mut progress)?;
+        if let Some(dir) = &self.out_dir {
+            return self.run_stream(setup, dir, progress, total_start);
+        }
+        let Setup { mut sessions, prepared, plan, settings, request, upload_ms } = setup;
+        let dropped = prepared.scene.mesh.stats.dropped_degenerate;
+        let mut on_event = |e| progress.handle(e);
+        let (frame, devices) =
+            gridrt_host::stream::render_frame(&mut sessions, &request, self.band_rows, &mut on_event)
+                .context(if sessions.len() > 1 { "rendering on several boards" } else { "rendering" })?;
+        drop(progress);
+        let out = self.out_path();
+        write_png(out, frame.width, frame.height, frame.rgb.clone())?;
         let facts = SceneFacts {
             scene: self.scene.scene.display().to_string(),
             dropped_triangles: dropped,
@@ -381,7 +468,7 @@ impl Cmd {
         stats.devices = devices;
 
         // Reference.
-        if want_reference {
+        if self.reference || self.reference_out.is_some() {
             let start = Instant::now();
             let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(2);
             let stages = Stages {
@@ -404,7 +491,7 @@ impl Cmd {
             let json = serde_json::to_string_pretty(&stats)?;
             super::output::write_bytes(path, (json + "\n").as_bytes())?;
         }
-        print_summary(&stats, &frame, &self.out, total_start.elapsed());
+        print_summary(&stats, &frame, out, total_start.elapsed());
         Ok(())
     }
 }

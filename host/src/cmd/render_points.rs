@@ -116,7 +116,7 @@ impl Cmd {
         };
         on_event(ProgressEvent::Finished);
         drop(progress);
-        write_png(&self.out, frame.width, frame.height, frame.rgb.clone())?;
+        write_png(self.out_path(), frame.width, frame.height, frame.rgb.clone())?;
 
         let facts = SceneFacts {
             scene: self.scene.scene.display().to_string(),
@@ -178,7 +178,7 @@ impl Cmd {
             super::output::write_bytes(path, (serde_json::to_string_pretty(&json)? + "\n").as_bytes())
                 .with_context(|| format!("writing {}", path.display()))?;
         }
-        print_summary(&stats, &report, &frame, &self.out, total_start.elapsed());
+        print_summary(&stats, &report, &frame, self.out_path(), total_start.elapsed());
         Ok(())
     }
 }

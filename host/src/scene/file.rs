@@ -59,6 +59,7 @@ pub fn parse(
         lighting,
         settings: RenderSettings::default_for(&Bounds { min: [-1.0; 3], max: [1.0; 3] }),
         material_names: table.names,
+        camera_path: Vec::new(),
     };
     let bounds = world.bounds().unwrap_or(Bounds { min: [-1.0; 3], max: [1.0; 3] });
     let mut settings = RenderSettings::default_for(&bounds);
@@ -84,6 +85,23 @@ pub fn parse(
         }
     }
     world.settings = settings;
+    for k in &def.camera_path {
+        let span = k.span();
+        let k = k.get_ref();
+        let base = world.settings.camera;
+        let up = k.up.map_or(base.up, f3);
+        let fov = k.fov.unwrap_or(f64::from(base.fov_y_deg));
+        if !finite3(k.eye) || !finite3(k.target) || !up.iter().all(|c| c.is_finite()) {
+            return Err(cx.field(span, "camera_path", "eye", "eye, target and up must be finite"));
+        }
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(cx.field(span, "camera_path", "fov", "must be in (0, 180) degrees"));
+        }
+        if k.eye == k.target {
+            return Err(cx.field(span, "camera_path", "target", "must differ from eye"));
+        }
+        world.camera_path.push(Camera { eye: f3(k.eye), target: f3(k.target), up, fov_y_deg: fov as f32 });
+    }
     if world.mesh.triangles.is_empty() && world.prims.is_empty() {
         return Err(SceneFileError::Syntax { path: path.to_path_buf(), message: "the scene has no geometry".into() });
     }

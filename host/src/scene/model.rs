@@ -28,6 +28,8 @@ pub struct Scene {
     pub settings: RenderSettings,
     /// Material names (for messages), parallel to `mesh.materials`.
     pub material_names: Vec<String>,
+    /// Keyframes of a stream's camera path (a scene file's `[[camera_path]]`; empty: none).
+    pub camera_path: Vec<crate::render_settings::Camera>,
 }
 
 impl Scene {
@@ -68,6 +70,7 @@ impl Scene {
             settings: RenderSettings::default_for(&bounds),
             material_names,
             mesh,
+            camera_path: Vec::new(),
         }
     }
 }

@@ -113,6 +113,9 @@ pub struct Session<T> {
     /// the first answer. A receiver slower than the line (a simulated SoC, a bootloader
     /// busy with each chunk) lengthens every derived wait ([`Self::answer_wait`]).
     byte_time_s: f64,
+    /// First requests already sent ahead ([`Self::send_ahead`]): (frame id, band), oldest
+    /// first; `render_band` does not send these again.
+    pub(crate) ahead: std::collections::VecDeque<(u16, gridrt_shared::msg::Region)>,
 }
 
 impl<T: Read + Write> Session<T> {
@@ -140,6 +143,7 @@ impl<T: Read + Write> Session<T> {
             pace: DevicePace::default(),
             heard: None,
             byte_time_s: 0.0,
+            ahead: std::collections::VecDeque::new(),
         }
     }
 

@@ -15,6 +15,9 @@ pub struct Activity {
     pub stage: Stage,
     /// Payload done: image bytes acknowledged (upload, flash) or pixels verified (render).
     pub done: u64,
+    /// Payload received: for a render, pixels of the rows whose spans all arrived (each
+    /// passed its frame CRC), verified or not yet; otherwise = `done`.
+    pub received: u64,
     /// Payload in all.
     pub total: u64,
     /// Wire bytes sent in this operation so far.
@@ -38,7 +41,8 @@ pub struct Activity {
 ///
 /// Order: `Connected` once per [`Session::hello`](crate::session::Session::hello); for an upload `UploadStarted`, then any
 /// number of `Uploaded`/`UploadRewound`, then `UploadFinished`; for a render `RenderStarted`,
-/// `RowReceived` once per completed row (rows may complete in any order), then `Finished`.
+/// `RowArrived` as each row's pixels are all in, `RowReceived` once per verified row (rows
+/// may complete in any order), then `Finished`.
 /// When an operation fails, no further events are emitted for it and the error is returned.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ProgressEvent {
@@ -73,7 +77,18 @@ pub enum ProgressEvent {
         /// Height in pixels.
         height: u16,
     },
-    /// Row `y` is complete; `rows_done` rows are complete in total.
+    /// Every pixel of row `y` (from column `x0`, the band's width) arrived in spans that
+    /// passed their frame CRC; its region's CRC may still be checked later (then
+    /// `RowReceived` / `RowVerified`). Sent as the row arrives, never held to the frame's end.
+    RowArrived {
+        /// The row.
+        y: u16,
+        /// First column of `rgb`.
+        x0: u16,
+        /// The row's pixels, RGB8.
+        rgb: Vec<u8>,
+    },
+    /// Row `y` is complete and verified; `rows_done` rows are complete in total.
     RowReceived {
         /// The row.
         y: u16,

@@ -170,6 +170,7 @@ impl<T: Read + Write> Session<T> {
         let mut claims: Vec<(Region, u32)> = Vec::new();
         let mut sizer = self.sizer.take().unwrap_or_else(|| SpanSizer::new(req.encoding));
         let mut announced = vec![false; band.rows as usize];
+        let mut arrived = vec![false; band.rows as usize];
         let mut last_progress = Instant::now();
         let mut first = true;
         let mut silent = 0u32;
@@ -229,10 +230,15 @@ impl<T: Read + Write> Session<T> {
                 self.link.min_max_span = max_span;
             }
             let mut att = Attempt::default();
-            // A lone delimiter first: the device drops whatever noise it holds.
-            self.write_bytes(stage, &[0])?;
             let options = if max_span != 0 { options | region_options::SPAN_BYTES } else { options };
-            self.send(stage, &Msg::RenderRegion { region: gap, max_span, options, request: *req })?;
+            if resend || self.ahead.front() != Some(&(req.frame, gap)) {
+                // A lone delimiter first: the device drops whatever noise it holds.
+                self.write_bytes(stage, &[0])?;
+                self.send(stage, &Msg::RenderRegion { region: gap, max_span, options, request: *req })?;
+            } else {
+                // Sent ahead (`send_ahead`): the device is on it already.
+                self.ahead.pop_front();
+            }
             self.link.regions_requested += 1;
             let mut waiting = Waiting {
                 last: Instant::now(),
@@ -252,6 +258,8 @@ impl<T: Read + Write> Session<T> {
                     resend,
                     &mut waiting,
                     next_tick,
+                    (band, &mut arrived),
+                    progress,
                 )?;
                 if !matches!(w, Wait::Tick) && Instant::now() < next_tick {
                     break w;
@@ -259,6 +267,7 @@ impl<T: Read + Write> Session<T> {
                 next_tick = Instant::now() + Duration::from_secs(1);
                 progress(ProgressEvent::Activity(Activity {
                     stage,
+                    received: arrived.iter().filter(|a| **a).count() as u64 * u64::from(band.cols),
                     done: canvas.verified_pixels(band),
                     total: band.pixels(),
                     wire_tx: self.bytes_tx - tx0,
@@ -341,6 +350,8 @@ impl<T: Read + Write> Session<T> {
         resend: bool,
         waiting: &mut Waiting,
         tick: Instant,
+        (band, arrived): (Region, &mut [bool]),
+        progress: &mut dyn FnMut(ProgressEvent),
     ) -> Result<Wait, SessionError> {
         let stage = Stage::Render;
         loop {
@@ -384,6 +395,18 @@ impl<T: Read + Write> Session<T> {
                         canvas.place(y, x0, count, encoding, &data).map_err(|w| self.protocol(stage, w))?;
                     let after = inside.map_or(0, |r| canvas.missing_in(r));
                     waiting.missing = waiting.missing.saturating_sub(before.saturating_sub(after));
+                    // A row of the band whose pixels are all here (each span passed its frame
+                    // CRC): reported now, verified when its region's CRC is checked.
+                    if let Some(a) = y.checked_sub(band.y0).and_then(|i| arrived.get_mut(i as usize)) {
+                        let row = Region { x0: band.x0, y0: y, cols: band.cols, rows: 1 };
+                        if !*a && canvas.complete(row) {
+                            *a = true;
+                            let w = canvas.width as usize;
+                            let (s, e) = (3 * (y as usize * w + band.x0 as usize), 3 * band.cols as usize);
+                            let rgb = canvas.rgb.get(s..s + e).map(<[u8]>::to_vec).unwrap_or_default();
+                            progress(ProgressEvent::RowArrived { y, x0: band.x0, rgb });
+                        }
+                    }
                     if encoding.is_colour() {
                         self.link.spans_received += 1;
                         self.link.span_data_bytes += data.len() as u64;
@@ -445,6 +468,40 @@ impl<T: Read + Write> Session<T> {
         };
         self.link.scene_reuploads += 1;
         self.upload_scene(&scene, progress)
+    }
+
+    /// Whether [`Self::send_ahead`] works on this device: it renders `RenderRegion` and its
+    /// receiver holds requests that arrive while it renders (`REQUEST_QUEUE`, SPEC.md
+    /// §3.12.3).
+    pub fn can_send_ahead(&self) -> bool {
+        let f = self.device.map_or(0, |d| d.features);
+        self.cfg.regions
+            && f & gridrt_shared::msg::feature::RENDER_REGION != 0
+            && f & gridrt_shared::msg::feature::REQUEST_QUEUE != 0
+    }
+
+    /// Sends the first request of frame `req` now, before the frame is rendered with
+    /// [`Self::render`], so the device starts on it as soon as it finishes what it renders
+    /// now (a stream: frame n+1 rendered while frame n is on the line). Does nothing and
+    /// returns `false` unless [`Self::can_send_ahead`]. A request sent ahead is answered and
+    /// checked like any other; `render` does not send it again.
+    pub fn send_ahead(&mut self, req: &RenderRequest) -> Result<bool, SessionError> {
+        if !self.can_send_ahead() || req.width == 0 || req.height == 0 {
+            return Ok(false);
+        }
+        let stage = Stage::Render;
+        let rows = if self.cfg.band_rows == 0 { req.height } else { self.cfg.band_rows.min(req.height) };
+        let band = Region { x0: 0, y0: 0, cols: req.width, rows };
+        let max_span = self
+            .sizer
+            .as_ref()
+            .map_or_else(|| SpanSizer::new(req.encoding), Clone::clone)
+            .max_span(self.est_down.byte_error_rate());
+        let options = if max_span != 0 { region_options::SPAN_BYTES } else { 0 };
+        self.write_bytes(stage, &[0])?;
+        self.send(stage, &Msg::RenderRegion { region: band, max_span, options, request: *req })?;
+        self.ahead.push_back((req.frame, band));
+        Ok(true)
     }
 
     /// Renders a whole frame with regions of at most `cfg.band_rows` rows (0 = one region).

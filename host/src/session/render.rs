@@ -136,6 +136,8 @@ impl<T: Read + Write> Session<T> {
                         row_left[y] -= newly;
                         if row_left[y] == 0 {
                             rows_done += 1;
+                            let row = rgb[3 * y * w..3 * (y + 1) * w].to_vec();
+                            progress(ProgressEvent::RowArrived { y: y as u16, x0: 0, rgb: row });
                             progress(ProgressEvent::RowReceived { y: y as u16, rows_done });
                         }
                     }

@@ -258,6 +258,7 @@ impl<T: Read + Write> Session<T> {
         Activity {
             stage,
             done: tx.acked() as u64,
+            received: tx.acked() as u64,
             total: tx.total() as u64,
             wire_tx: self.bytes_tx - tx0,
             wire_rx: self.bytes_rx - rx0,

@@ -48,6 +48,12 @@ pub mod feature {
     /// Windowed transfers (SPEC.md §3.14): a device accepts `SceneData` and answers
     /// `SceneSack`; a bootloader accepts `FlashData` and answers `FlashSack`.
     pub const WINDOWED: u32 = 1 << 11;
+    /// The device's receiver holds a request that arrives while it renders and answers it
+    /// afterwards, in order (SPEC.md §3.12.3 "Flow control"): a host may send the next
+    /// frame's `RenderRegion` before the current frame's answer is in. A property of the
+    /// board's UART path (the loopback simulator and `gridrt device`: an OS or in-memory
+    /// buffer), not of the firmware; a soft-core's 16-byte FIFO does not have it.
+    pub const REQUEST_QUEUE: u32 = 1 << 13;
     /// Point clouds (SPEC.md §6): the device loads a scene image's point section and renders
     /// [`render_flags::SPLATS`](crate::msg::render_flags::SPLATS) frames.
     pub const SPLATS: u32 = 1 << 21;

@@ -1,11 +1,11 @@
-//! External tools a test needs (QEMU, socat, Verilator, LiteX), and the one way to do without
+//! External tools a test needs (QEMU, socat, Verilator, LiteX, Chromium), and the one way to do without
 //! them.
 //!
 //! A test that needs a tool calls [`require`] first. The tool missing is a test failure, with
 //! the install script named. Only an explicit opt-out skips such tests:
 //!
 //! ```sh
-//! GRIDRT_SKIP_TOOLS=qemu,socat,verilator,litex cargo test --workspace    # or GRIDRT_SKIP_TOOLS=all
+//! GRIDRT_SKIP_TOOLS=qemu,socat,verilator,litex,chromium cargo test --workspace    # or GRIDRT_SKIP_TOOLS=all
 //! ```
 //!
 //! The co-simulation tests (gridrt-rtl, `gridrt render --coproc rtl`) check `verilator` with
@@ -23,8 +23,8 @@
 use std::io::Write as _;
 use std::process::Command;
 
-/// Comma-separated tools whose tests are skipped (`qemu`, `socat`, `verilator`, `litex`, or
-/// `all`).
+/// Comma-separated tools whose tests are skipped (`qemu`, `socat`, `verilator`, `litex`,
+/// `chromium`, or `all`).
 pub const SKIP_VAR: &str = "GRIDRT_SKIP_TOOLS";
 
 /// Start of the line a test skipped by [`SKIP_VAR`] writes.
@@ -45,11 +45,13 @@ pub enum Tool {
     /// LiteX and its simulation libraries in the project's `.toolchain/soc-venv/` (checked with
     /// `scripts/setup-soc.sh --check`).
     Litex,
+    /// `chromium` (Debian's), headless: loads `gridrt render --view`'s page.
+    Chromium,
 }
 
 impl Tool {
     /// Every tool, in the order [`SKIP_VAR`] lists them.
-    pub const ALL: [Tool; 4] = [Tool::Qemu, Tool::Socat, Tool::Verilator, Tool::Litex];
+    pub const ALL: [Tool; 5] = [Tool::Qemu, Tool::Socat, Tool::Verilator, Tool::Litex, Tool::Chromium];
 
     /// The name [`SKIP_VAR`] uses.
     pub fn key(self) -> &'static str {
@@ -58,6 +60,7 @@ impl Tool {
             Tool::Socat => "socat",
             Tool::Verilator => "verilator",
             Tool::Litex => "litex",
+            Tool::Chromium => "chromium",
         }
     }
 
@@ -68,6 +71,7 @@ impl Tool {
             Tool::Socat => "socat",
             Tool::Verilator => "verilator",
             Tool::Litex => "scripts/setup-soc.sh",
+            Tool::Chromium => "chromium",
         }
     }
 
@@ -77,12 +81,13 @@ impl Tool {
             Tool::Qemu | Tool::Socat => "scripts/setup-qemu.sh",
             Tool::Verilator => "scripts/setup-hdl.sh",
             Tool::Litex => "scripts/setup-soc.sh",
+            Tool::Chromium => "scripts/setup-browser.sh",
         }
     }
 
     fn version_command(self) -> Command {
         match self {
-            Tool::Qemu | Tool::Verilator => {
+            Tool::Qemu | Tool::Verilator | Tool::Chromium => {
                 let mut c = Command::new(self.program());
                 c.arg("--version");
                 c
@@ -197,7 +202,11 @@ mod tests {
         assert_eq!(parse_skip_list("verilator"), Ok(vec![Tool::Verilator]));
         assert_eq!(parse_skip_list("all"), Ok(Tool::ALL.to_vec()));
         let e = parse_skip_list("qemu,qemuu").unwrap_err();
-        assert!(e.contains("unknown tool `qemuu`") && e.contains("known: qemu, socat, verilator, litex, all"), "{e}");
+        assert!(
+            e.contains("unknown tool `qemuu`") && e.contains("known: qemu, socat, verilator, litex, chromium, all"),
+            "{e}"
+        );
         assert_eq!(parse_skip_list("litex,verilator"), Ok(vec![Tool::Litex, Tool::Verilator]));
+        assert_eq!(parse_skip_list("chromium"), Ok(vec![Tool::Chromium]));
     }
 }

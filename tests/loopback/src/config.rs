@@ -107,7 +107,9 @@ impl SimConfig {
             pe_count: self.pe_count,
             voxel_capacity: SIM_MAX_VOXELS as u32,
             pe_mem_words: self.pe_mem_words,
-            features: 0,
+            // Bytes wait in an in-memory channel or the OS's pty buffer while the device
+            // renders: requests sent ahead are answered in order.
+            features: gridrt_shared::msg::feature::REQUEST_QUEUE,
         }
     }
 }

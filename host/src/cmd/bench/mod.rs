@@ -9,6 +9,7 @@ pub mod plot;
 pub mod rays;
 pub mod skip;
 pub mod splat;
+pub mod stream;
 
 /// Benchmarks.
 #[derive(Debug, clap::Parser)]
@@ -46,6 +47,11 @@ enum What {
     /// 10³…10⁶ points and several shape tables, optionally soft-core instructions per splat
     /// from QEMU (`--port`); CSV, SVG plot and JSON in --out-dir.
     Splat(splat::Args),
+    /// Frames as a stream: fps and link goodput for a scene × baud × encoding, on the
+    /// loopback simulator with its line paced at each baud rate and once unpaced (the
+    /// device's own frame rate); every frame checked against the unpaced run's (CSV, SVG
+    /// plot and JSON in --out-dir).
+    Stream(stream::Args),
 }
 
 impl Cmd {
@@ -58,6 +64,7 @@ impl Cmd {
             What::Link(a) => a.run(),
             What::Frame(a) => a.run(),
             What::Splat(a) => a.run(),
+            What::Stream(a) => a.run(),
         }
     }
 }

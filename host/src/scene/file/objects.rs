@@ -152,6 +152,7 @@ pub(super) fn objects(
         lighting: LightingRecord::default(),
         settings: RenderSettings::default_for(&Bounds { min: [-1.0; 3], max: [1.0; 3] }),
         material_names: vec![],
+        camera_path: vec![],
     };
     let default_extent = finite_world.bounds().map_or(10.0, |b| (2.0 * b.diagonal_len()).max(1.0));
     for (i, m, material, extent, span) in planes {

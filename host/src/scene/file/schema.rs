@@ -19,6 +19,21 @@ pub(super) struct FileDef {
     pub(super) materials: BTreeMap<String, Spanned<MaterialDef>>,
     #[serde(default)]
     pub(super) objects: Vec<Spanned<ObjectDef>>,
+    /// Keyframes of a stream's camera path (`gridrt render --frames N`).
+    #[serde(default)]
+    pub(super) camera_path: Vec<Spanned<KeyframeDef>>,
+}
+
+/// One keyframe of `[[camera_path]]`; `up` and `fov` default to the `[camera]`'s.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct KeyframeDef {
+    pub(super) eye: [f64; 3],
+    pub(super) target: [f64; 3],
+    #[serde(default)]
+    pub(super) up: Option<[f64; 3]>,
+    #[serde(default)]
+    pub(super) fov: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -76,3 +76,21 @@ fn errors_name_line_and_field() {
     let e = err("[camera]\neye = [0, 0, 1]\ntarget = [0, 0, 1]\n[[objects]]\ntype = \"sphere\"\n");
     assert!(e.contains("field `target`"), "{e}");
 }
+
+#[test]
+fn camera_path_keyframes_default_to_the_camera_and_are_checked() {
+    let text = format!(
+        "{OK}\n[[camera_path]]\neye = [0, 1, 5]\ntarget = [0, 0, 0]\n\n[[camera_path]]\neye = [5, 1, 0]\ntarget = [0, 1, 0]\nfov = 30\n"
+    );
+    let w = parse(Path::new("s.toml"), &text, &no_mesh).unwrap();
+    assert_eq!(w.camera_path.len(), 2);
+    assert_eq!((w.camera_path[0].fov_y_deg, w.camera_path[0].up), (45.0, [0.0, 1.0, 0.0]));
+    assert_eq!((w.camera_path[1].eye, w.camera_path[1].fov_y_deg), ([5.0, 1.0, 0.0], 30.0));
+    assert!(parse(Path::new("s.toml"), OK, &no_mesh).unwrap().camera_path.is_empty());
+    let e = err(&format!("{OK}\n[[camera_path]]\neye = [0, 0, 1]\ntarget = [0, 0, 1]\n"));
+    assert!(e.contains("camera_path") && e.contains("field `target`"), "{e}");
+    let e = err(&format!("{OK}\n[[camera_path]]\neye = [0, 0, 1]\ntarget = [0, 0, 0]\nfov = 200\n"));
+    assert!(e.contains("field `fov`"), "{e}");
+    let e = err(&format!("{OK}\n[[camera_path]]\neye = [0, 0, 1]\ntarget = [0, 0, 0]\nzoom = 2\n"));
+    assert!(e.contains("zoom"), "{e}");
+}
