@@ -92,7 +92,9 @@ fn size(n: f64) -> String {
 /// One progress line for `a` (what `Lines` mode prints).
 pub fn line(a: &Activity) -> String {
     let secs = a.elapsed.as_secs_f64().max(1e-3);
-    let pct = if a.total > 0 { 100.0 * a.received.max(a.done) as f64 / a.total as f64 } else { 0.0 };
+    // A render's rows count as they arrive; an upload's bytes when acknowledged.
+    let shown = if a.stage == Stage::Render { a.received.max(a.done) } else { a.done };
+    let pct = if a.total > 0 { 100.0 * shown as f64 / a.total as f64 } else { 0.0 };
     let (done, rate, again, unit) = match a.stage {
         Stage::Render => (
             format!("{} / {} px in, {} verified", a.received, a.total, a.done),
