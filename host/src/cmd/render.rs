@@ -126,6 +126,8 @@ pub(super) struct Setup<T> {
     pub(super) settings: gridrt_host::render_settings::RenderSettings,
     pub(super) request: gridrt_shared::msg::RenderRequest,
     pub(super) upload_ms: f64,
+    /// The scene's bytes on the wire, framing included (all boards).
+    pub(super) upload_wire_bytes: u64,
 }
 
 /// `--frames`: 1..=[`gridrt_host::stream::MAX_FRAMES`].
@@ -423,7 +425,7 @@ impl Cmd {
         let mut request = settings.to_request(1);
         request.flags |= plan.flags() | self.interp.map_or(0, |i| i.flags());
         request.encoding = self.encoding.into();
-        Ok(Setup { sessions, prepared, plan, settings, request, upload_ms })
+        Ok(Setup { sessions, prepared, plan, settings, request, upload_ms, upload_wire_bytes })
     }
 
     fn run_on<T: Read + Write + Send>(
@@ -438,7 +440,7 @@ impl Cmd {
         if let Some(dir) = &self.out_dir {
             return self.run_stream(setup, dir, progress, total_start);
         }
-        let Setup { mut sessions, prepared, plan, settings, request, upload_ms } = setup;
+        let Setup { mut sessions, prepared, plan, settings, request, upload_ms, upload_wire_bytes } = setup;
         let dropped = prepared.scene.mesh.stats.dropped_degenerate;
         let mut on_event = |e| progress.handle(e);
         let (frame, devices) =
