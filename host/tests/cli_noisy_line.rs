@@ -3,7 +3,8 @@
 //! drops and garbage bursts in both directions at BER 1e-3. The PNG equals the simulator's,
 //! and stdout (a pipe, not a terminal) gets progress lines while each stage runs.
 //!
-//! 230 400 baud keeps the test near 20 s; `gridrt bench link --faults` measures 115 200.
+//! 57 600 baud keeps each stage longer than the CLI's progress interval (the compact upload
+//! of res4 is 29 KiB), and the test near 20 s; `gridrt bench link --faults` measures 115 200.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -13,7 +14,7 @@ use std::time::{Duration, Instant};
 use gridrt_host::faults::relay::{PtyRelay, RelayConfig};
 use gridrt_host::faults::Faults;
 
-const BAUD: &str = "230400";
+const BAUD: &str = "57600";
 
 fn scene() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj")
