@@ -122,19 +122,28 @@ impl MinimalClient {
     }
 }
 
-#[test]
-fn a_client_written_from_spec_section_8_renders_the_reference_hosts_frames() {
+/// The simulated board the tests use (2 PEs of 2¹⁶ words).
+fn board() -> SimConfig {
+    SimConfig { pe_count: 2, pe_mem_words: 1 << 16, ..Default::default() }
+}
+
+/// §8 steps 1 and 2: a client on a fresh simulated board (its first sequence number `seq`),
+/// after `Hello`, and bun_zipper_res4's image for the device's PEs.
+fn connect(seq: u16) -> (MinimalClient, gridrt_shared::msg::DeviceInfo, PreparedScene) {
     let scene =
         gridrt_host::scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj"))
             .unwrap();
-    let config = SimConfig { pe_count: 2, pe_mem_words: 1 << 16, ..Default::default() };
-    let mut port = gridrt_loopback::spawn(config);
+    let mut port = gridrt_loopback::spawn(board());
     port.set_timeout(Duration::from_millis(20));
-    let mut client = MinimalClient { port, seq: 7, acc: Box::new(FrameAccumulator::new()), inbox: Default::default() };
+    let mut client = MinimalClient { port, seq, acc: Box::new(FrameAccumulator::new()), inbox: Default::default() };
     let info = client.hello();
-    // §8 step 2: the image for the device's PEs.
     let params = GridParams { pe_count: info.pe_count, pe_mem_words: info.pe_mem_words, ..Default::default() };
-    let prepared = PreparedScene::new(scene, &params).unwrap();
+    (client, info, PreparedScene::new(scene, &params).unwrap())
+}
+
+#[test]
+fn a_client_written_from_spec_section_8_renders_the_reference_hosts_frames() {
+    let (mut client, info, prepared) = connect(7);
     let chunk = 1024.min(info.max_payload as usize - 4);
     client.upload(&prepared.image, chunk);
 
@@ -147,7 +156,7 @@ fn a_client_written_from_spec_section_8_renders_the_reference_hosts_frames() {
     // §8 step 5: the scene stays loaded; the second frame needs only its request.
     let frames = [client.render(&first), client.render(&second)];
 
-    let mut port = gridrt_loopback::spawn(config);
+    let mut port = gridrt_loopback::spawn(board());
     port.set_timeout(Duration::from_millis(20));
     let mut host = Session::new(port, SessionConfig::new("sim").regions(false));
     host.hello(&mut |_| {}).unwrap();
@@ -166,17 +175,8 @@ fn a_client_written_from_spec_section_8_renders_the_reference_hosts_frames() {
 #[test]
 fn a_corrupted_or_cut_compact_upload_is_refused_and_the_intact_one_renders() {
     use gridrt_shared::msg::{feature, ErrorCode};
-    let scene =
-        gridrt_host::scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res4.obj"))
-            .unwrap();
-    let config = SimConfig { pe_count: 2, pe_mem_words: 1 << 16, ..Default::default() };
-    let mut port = gridrt_loopback::spawn(config);
-    port.set_timeout(Duration::from_millis(20));
-    let mut client = MinimalClient { port, seq: 0, acc: Box::new(FrameAccumulator::new()), inbox: Default::default() };
-    let info = client.hello();
+    let (mut client, info, prepared) = connect(0);
     assert_ne!(info.features & feature::COMPACT_SCENE, 0, "the simulated board decodes compact streams");
-    let params = GridParams { pe_count: info.pe_count, pe_mem_words: info.pe_mem_words, ..Default::default() };
-    let prepared = PreparedScene::new(scene, &params).unwrap();
     let stream = gridrt_host::compact::encode(&prepared.image, gridrt_host::compact::CACHE_LOG2).unwrap();
     assert!(stream.len() * 2 < prepared.image.len(), "{} of {} bytes", stream.len(), prepared.image.len());
 
