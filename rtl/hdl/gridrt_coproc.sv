@@ -10,12 +10,15 @@
 // intersection pipeline (1, 2 or 4), each issuing a test every PES_PER_PIPELINE cycles; PE_MEM_WORDS
 // words per PE (4 banks with 4 PEs per pipeline, else 16); MAX_LIST longest list. Bit-exact
 // twin: gridrt-coproc with kernel watertight, format fixed64-q23 (see rtl/README.md §3 for
-// the arithmetic), timing profile `TimingProfile::rtl(PES_PER_PIPELINE)`.
+// the arithmetic), timing profile `TimingProfile::rtl(PES_PER_PIPELINE)`. STOP_WHEN_EMPTY
+// (rtl/README.md §3.4): 1 in the Verilator builds, 0 (the default) for the FPGA; the answers
+// and cycles do not depend on it.
 module gridrt_coproc #(
     parameter int PES = 4,
     parameter int PES_PER_PIPELINE = 4,
     parameter int PE_MEM_WORDS = 16384,
-    parameter int MAX_LIST = 256
+    parameter int MAX_LIST = 256,
+    parameter int STOP_WHEN_EMPTY = 0
 ) (
     input  logic        clk_i,
     input  logic        rst_i,
@@ -104,7 +107,8 @@ module gridrt_coproc #(
     // PEs q·PES_PER_PIPELINE .. (q+1)·PES_PER_PIPELINE - 1 share pipeline q (rtl/README.md §4.3).
     for (genvar q = 0; q < PIPES; q++) begin : g_pipe
         localparam int L0 = q * PES_PER_PIPELINE;
-        gridrt_isect_share #(.LANES(PES_PER_PIPELINE), .PARTS(PARTS), .PART_W(PART_W), .PIPE_LATENCY(PIPE_LATENCY)) u_share (
+        gridrt_isect_share #(.LANES(PES_PER_PIPELINE), .PARTS(PARTS), .PART_W(PART_W), .PIPE_LATENCY(PIPE_LATENCY),
+                             .STOP_WHEN_EMPTY(STOP_WHEN_EMPTY)) u_share (
             .clk_i, .rst_i,
             .in_valid_i(t_valid[L0 +: PES_PER_PIPELINE]), .in_part_i(t_part[L0 +: PES_PER_PIPELINE]),
             .in_chunk_i(t_chunk[L0 +: PES_PER_PIPELINE]),

@@ -17,6 +17,7 @@ module gridrt_isect_share #(
     parameter int PARTS = 1,
     parameter int PART_W = 288,
     parameter int PIPE_LATENCY = 57,     // isect_pipe's, checked there
+    parameter int STOP_WHEN_EMPTY = 0, // isect_pipe's
     localparam int LATENCY = PIPE_LATENCY + LANES
 ) (
     input  logic                            clk_i,
@@ -117,7 +118,7 @@ module gridrt_isect_share #(
     logic [LW-1:0] p_lane;
     logic [1:0]    p_kind;
     logic [31:0]   p_t;
-    gridrt_isect_pipe #(.TAG_W(LW), .LATENCY(PIPE_LATENCY)) u_pipe (
+    gridrt_isect_pipe #(.TAG_W(LW), .LATENCY(PIPE_LATENCY), .STOP_WHEN_EMPTY(STOP_WHEN_EMPTY)) u_pipe (
         .clk_i, .rst_i, .in_valid_i(m_valid), .in_tag_i(m_lane), .rec_i(m_rec),
         .o0_i(r_o0), .o1_i(r_o1), .o2_i(r_o2), .kz_i(r_kz), .sx_i(r_sx), .sy_i(r_sy), .dz_neg_i(r_dz_neg),
         .dz_abs_i(r_dz_abs), .texp_i(r_texp), .ray_overflow_i(r_ray_overflow),

@@ -20,13 +20,16 @@ pub struct RtlParams {
     pub pe_mem_words: u32,
     /// Longest traversal list.
     pub max_list: u16,
+    /// The intersection pipe's data registers stop while no test is in flight (the
+    /// simulation's speed; the FPGA build runs them freely). Answers and cycles are the same.
+    pub stop_when_empty: bool,
 }
 
 impl Default for RtlParams {
     /// The build the tests and `render --coproc rtl` use: 4 PEs of 16 Ki words sharing one
     /// pipeline, lists of 256.
     fn default() -> Self {
-        Self { pes: 4, pes_per_pipeline: 4, pe_mem_words: 16384, max_list: 256 }
+        Self { pes: 4, pes_per_pipeline: 4, pe_mem_words: 16384, max_list: 256, stop_when_empty: true }
     }
 }
 
@@ -79,6 +82,7 @@ pub fn build(params: RtlParams) -> Result<Programs, SimError> {
         .args(["--pes-per-pipeline", &params.pes_per_pipeline.to_string()])
         .args(["--pe-mem-words", &params.pe_mem_words.to_string()])
         .args(["--max-list", &params.max_list.to_string()])
+        .args(["--stop-when-empty", &params.stop_when_empty.to_string()])
         .output()?;
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     if !out.status.success() {

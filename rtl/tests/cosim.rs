@@ -187,6 +187,29 @@ fn every_pipeline_sharing_gives_the_models_result_words() {
     }
 }
 
+/// The FPGA build (`STOP_WHEN_EMPTY` = 0: the intersection pipe's data registers run
+/// freely; every other test here runs the simulation build, whose pipe stops when empty):
+/// words, cycles and test counts as the model's.
+#[test]
+fn the_fpga_build_whose_pipe_never_stops_gives_the_models_result_words() {
+    if !require_verilator("the_fpga_build_whose_pipe_never_stops_gives_the_models_result_words") {
+        return;
+    }
+    let params = RtlParams { stop_when_empty: false, ..RtlParams::default() };
+    let programs = gridrt_rtl::sim::build(params).unwrap_or_else(|e| panic!("{e}"));
+    let mut s = CoprocSim::spawn(&programs.coproc, None).unwrap();
+    let mut m = model(params);
+    let mut rng = rng(0xF4EE);
+    let t = random_rays(
+        &mut s,
+        &mut m,
+        &mut rng,
+        (4, 10, 300),
+        Place { center: Vec3::ZERO, ext: 4.0, frame_packet: false },
+    );
+    assert!(t.rays >= 2_900 && t.hits > t.rays / 5, "{params:?}: {t:?}");
+}
+
 /// The stream handshakes (s_axis_tvalid_i before a word is offered, m_axis_tready_i) dropped
 /// in 40 % of the cycles at random change nothing in the replies.
 #[test]

@@ -55,12 +55,15 @@ class GridrtCoproc(LiteXModule):
     """``gridrt_coproc`` with LiteX stream endpoints.
 
     Parameters are the RTL's: ``pes`` processing elements, ``pe_mem_words`` words of block
-    RAM per PE, ``max_list`` longest traversal list. ``reset`` (in) resets the core
+    RAM per PE, ``max_list`` longest traversal list, ``stop_when_empty`` the intersection
+    pipe's data registers stop while no test is in flight (True for the Verilator target, whose
+    time they are; False on an FPGA, where a clock enable on each of them does not route;
+    rtl/README.md §3.4). ``reset`` (in) resets the core
     synchronously, with the system reset. ``rtl_dir`` None adds no sources (enough to export
     the memory map).
     """
 
-    def __init__(self, platform, rtl_dir, pes=4, pe_mem_words=8192, max_list=256):
+    def __init__(self, platform, rtl_dir, pes=4, pe_mem_words=8192, max_list=256, stop_when_empty=False):
         self.sink = stream.Endpoint(WORD_LAYOUT)
         self.source = stream.Endpoint(WORD_LAYOUT)
         self.idle = Signal()
@@ -77,6 +80,7 @@ class GridrtCoproc(LiteXModule):
             p_PES=pes,
             p_PE_MEM_WORDS=pe_mem_words,
             p_MAX_LIST=max_list,
+            p_STOP_WHEN_EMPTY=int(stop_when_empty),
             i_clk_i=ClockSignal("sys"),
             i_rst_i=ResetSignal("sys") | self.reset,
             i_s_axis_tdata_i=self.sink.data,
@@ -98,10 +102,12 @@ class GridrtCoprocCSR(LiteXModule):
     """The co-processor behind CSR FIFOs (module docstring: the register interface).
 
     ``fifo_depth`` words per direction (a power of two, at most 128 so that the levels fit
-    their status fields).
+    their status fields). ``stop_when_empty``: ``GridrtCoproc``'s.
     """
 
-    def __init__(self, platform, rtl_dir, pes=4, pe_mem_words=8192, max_list=256, fifo_depth=16):
+    def __init__(
+        self, platform, rtl_dir, pes=4, pe_mem_words=8192, max_list=256, fifo_depth=16, stop_when_empty=False
+    ):
         assert fifo_depth & (fifo_depth - 1) == 0 and 2 <= fifo_depth <= 128
         self.fifo_depth = fifo_depth
 
@@ -134,7 +140,7 @@ class GridrtCoprocCSR(LiteXModule):
         # # #
 
         soft_reset = self._ctrl.fields.reset
-        self.core = core = GridrtCoproc(platform, rtl_dir, pes, pe_mem_words, max_list)
+        self.core = core = GridrtCoproc(platform, rtl_dir, pes, pe_mem_words, max_list, stop_when_empty)
         self.req_fifo = req_fifo = ResetInserter()(stream.SyncFIFO(WORD_LAYOUT, fifo_depth))
         self.rsp_fifo = rsp_fifo = ResetInserter()(stream.SyncFIFO(WORD_LAYOUT, fifo_depth))
         self.comb += [

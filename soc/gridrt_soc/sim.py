@@ -57,7 +57,7 @@ _io = [
 
 def make_soc(rtl_dir, rom_words=()):
     platform = SimPlatform("SIM", _io)
-    soc = GridrtSoC(platform, RS232PHYModel(platform.request("serial")), rtl_dir, rom_words)
+    soc = GridrtSoC(platform, RS232PHYModel(platform.request("serial")), rtl_dir, rom_words, simulation=True)
     # Clock from the `clocker` module; reset for the first cycle (power-on).
     soc.crg = CRG(platform.request("sys_clk"))
     return soc

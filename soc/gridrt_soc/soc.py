@@ -51,7 +51,8 @@ class GridrtSoC(SoCCore):
     simulation). ``rom_words``: the ROM image as little-endian 32-bit words (the bootloader),
     padded to ``ROM_SIZE``; empty for an uninitialised ROM (e.g. to export csr.json only).
     ``rtl_dir``: the co-processor's SystemVerilog (rtl/hdl). ``coproc_pes``: the
-    co-processor's processing elements.
+    co-processor's processing elements. ``simulation``: a Verilator build (the co-processor's
+    pipe then stops when empty, ``GridrtCoproc``).
     """
 
     # Fixed CSR locations: the map must not depend on the order modules are added in.
@@ -63,7 +64,9 @@ class GridrtSoC(SoCCore):
         "coproc": 4,
     }
 
-    def __init__(self, platform, uart_phy, rtl_dir, rom_words=(), ident="gridrt SoC", coproc_pes=COPROC_PES):
+    def __init__(
+        self, platform, uart_phy, rtl_dir, rom_words=(), ident="gridrt SoC", coproc_pes=COPROC_PES, simulation=False
+    ):
         rom_words = list(rom_words)
         if len(rom_words) * 4 > ROM_SIZE:
             raise ValueError(f"ROM image of {len(rom_words) * 4} bytes exceeds the {ROM_SIZE}-byte ROM")
@@ -98,5 +101,6 @@ class GridrtSoC(SoCCore):
             pe_mem_words=COPROC_PE_MEM_WORDS,
             max_list=COPROC_MAX_LIST,
             fifo_depth=COPROC_FIFO_DEPTH,
+            stop_when_empty=simulation,
         )
         self.add_constant("GRIDRT_COPROC_FIFO_DEPTH", COPROC_FIFO_DEPTH)

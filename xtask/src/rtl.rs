@@ -135,7 +135,8 @@ const PROGRAMS: [Program; 2] = [
 ];
 
 impl SimCmd {
-    fn run(self) -> Result<()> {
+    fn run(mut self) -> Result<()> {
+        self.params = self.params.with_stop_default(true);
         self.params.validate()?;
         let version = verilator_version()?;
         let design = hdl_sources()?;

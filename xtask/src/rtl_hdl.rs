@@ -22,6 +22,12 @@ pub struct Params {
     /// Longest traversal list (entries).
     #[arg(long, default_value_t = 256)]
     pub max_list: u32,
+    /// Stop the intersection pipe's data registers while no test is in flight
+    /// (rtl/README.md §3.4). Default: true for `rtl sim` (they are most of Verilator's time),
+    /// false for `rtl synth` (a clock enable on every data register does not route on the
+    /// ECP5). Answers and cycles are the same either way.
+    #[arg(long, value_name = "BOOL")]
+    pub stop_when_empty: Option<bool>,
 }
 
 impl Params {
@@ -45,6 +51,16 @@ impl Params {
         Ok(())
     }
 
+    /// These parameters with `--stop-when-empty` given, `default` where it was not.
+    pub fn with_stop_default(mut self, default: bool) -> Self {
+        self.stop_when_empty.get_or_insert(default);
+        self
+    }
+
+    fn stop(&self) -> bool {
+        self.stop_when_empty.unwrap_or(false)
+    }
+
     /// The Verilog parameter overrides.
     pub fn defines(&self) -> Vec<(String, u32)> {
         vec![
@@ -52,12 +68,20 @@ impl Params {
             ("PES_PER_PIPELINE".into(), self.pes_per_pipeline),
             ("PE_MEM_WORDS".into(), self.pe_mem_words),
             ("MAX_LIST".into(), self.max_list),
+            ("STOP_WHEN_EMPTY".into(), u32::from(self.stop())),
         ]
     }
 
-    /// A short name for build folders.
+    /// A short name for build folders (`-stop` when the pipe stops when empty).
     pub fn tag(&self) -> String {
-        format!("p{}-s{}-m{}-l{}", self.pes, self.pes_per_pipeline, self.pe_mem_words, self.max_list)
+        format!(
+            "p{}-s{}-m{}-l{}{}",
+            self.pes,
+            self.pes_per_pipeline,
+            self.pe_mem_words,
+            self.max_list,
+            if self.stop() { "-stop" } else { "" }
+        )
     }
 }
 

@@ -120,7 +120,8 @@ fn json_number_after(text: &str, anchor: &str, key: &str) -> Option<f64> {
 }
 
 impl SynthCmd {
-    pub fn run(self) -> Result<()> {
+    pub fn run(mut self) -> Result<()> {
+        self.params = self.params.with_stop_default(false);
         self.params.validate()?;
         crate::rtl_hdl::check_not_under_tmp()?;
         let dir = root().join("target/rtl").join(format!("synth-{}", self.params.tag()));
@@ -247,7 +248,7 @@ impl SynthCmd {
         let json = format!(
             "{{\"device\": \"{DEVICE}\", \"pes\": {}, \"pe_mem_words\": {}, \"max_list\": {}, \"luts\": {}, \"ffs\": {}, \
              \"dsps\": {}, \"brams\": {}, \"fmax_mhz\": {}, \"target_mhz\": {}, \"fits\": {}, \"yosys_s\": {}, \
-             \"nextpnr_s\": {:.0}, \"placer\": \"{}\", \"router\": \"{}\", \"pes_per_pipeline\": {}, \"seed\": {}}}\n",
+             \"nextpnr_s\": {:.0}, \"placer\": \"{}\", \"router\": \"{}\", \"pes_per_pipeline\": {}, \"stop_when_empty\": {}, \"seed\": {}}}\n",
             self.params.pes,
             self.params.pe_mem_words,
             self.params.max_list,
@@ -263,6 +264,7 @@ impl SynthCmd {
             self.placer,
             self.router,
             self.params.pes_per_pipeline,
+            self.params.stop_when_empty.unwrap_or(false),
             self.seed
         );
         if let Some(parent) = self.json.parent().filter(|p| !p.as_os_str().is_empty()) {
