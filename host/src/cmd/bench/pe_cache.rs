@@ -291,7 +291,7 @@ fn plot(path: &Path, rows: &[CacheRow], width: u16, height: u16) -> anyhow::Resu
                 if pts.is_empty() {
                     continue;
                 }
-                let label = if w == 1 { format!("{line} B, direct") } else { format!("{line} B, {w}-way") };
+                let label = if w == 1 { format!("{line} B, direct (dashed)") } else { format!("{line} B, {w}-way") };
                 let style = colour.stroke_width(if w >= 4 { 3 } else { 1 });
                 let series = if w == 1 {
                     chart.draw_series(DashedLineSeries::new(pts.clone(), 5, 4, style))
