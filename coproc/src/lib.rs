@@ -40,7 +40,10 @@ pub mod timing;
 mod tests;
 
 pub use config::{ArbitrationRule, ConfigError, CoprocConfig, LIST_CAPACITY, OUT_QUEUE_WORDS};
-pub use coproc::{load_ack, CoprocStats, Coprocessor, RayPort, TraceInfo, CLEAR_ACK, FRAME_ACK, T_EXIT_REL_TOL};
+pub use coproc::{
+    load_ack, CoprocStats, Coprocessor, NoObserver, PeRead, PeReadKind, PeReadObserver, RayPort, TraceInfo, CLEAR_ACK,
+    FRAME_ACK, T_EXIT_REL_TOL,
+};
 pub use gridrt_shared::fsl::{FslError, FslWord, ListEntry, RayKind, RayResult};
 pub use gridrt_shared::math::Ray;
 pub use isect::{Intersector, Kernel, KernelKind, Record, RecordStatus};

@@ -7,6 +7,7 @@ use heapless::{Deque, Vec as HVec};
 use gridrt_shared::fsl::{self, op, FslError, FslWord, ListEntry, RayKind, FRAME_WORDS, RAY_HEADER_WORDS};
 use gridrt_shared::math::{Ray, Vec3};
 
+use super::observe::{NoObserver, PeReadObserver};
 use super::pes::{PeMem, Pes};
 use super::search::View;
 use crate::config::{LIST_CAPACITY, OUT_QUEUE_WORDS};
@@ -107,12 +108,17 @@ impl Link {
 
     /// Consumes one inbound word; executes a packet when its last word arrives.
     pub(super) fn push(&mut self, pes: &mut Pes<impl PeMem>, w: FslWord) {
+        self.push_observed(pes, w, &mut NoObserver);
+    }
+
+    /// [`push`](Self::push) that tells `obs` the PE-memory reads of a ray it executes.
+    pub(super) fn push_observed<O: PeReadObserver>(&mut self, pes: &mut Pes<impl PeMem>, w: FslWord, obs: &mut O) {
         pes.stats.words_in = pes.stats.words_in.saturating_add(1);
         if let Rx::Ray { kind, count, idx } = self.rx {
             // Mid-packet only the word index moves: update it in place. (Storing the whole
             // state back through the stack stalled store forwarding on every word, ~8 % of
             // a simulated frame.)
-            match self.on_ray_word(pes, kind, count, idx, w) {
+            match self.on_ray_word(pes, kind, count, idx, w, obs) {
                 Rx::Ray { idx: next, .. } => {
                     if let Rx::Ray { idx, .. } = &mut self.rx {
                         *idx = next;
@@ -133,7 +139,7 @@ impl Link {
             }
             Rx::LoadCount { pe } => self.on_load_count(pes, pe, w),
             Rx::LoadWords { pe, declared, got } => self.on_load_word(pes, pe, declared, got, w),
-            Rx::Ray { kind, count, idx } => self.on_ray_word(pes, kind, count, idx, w),
+            Rx::Ray { kind, count, idx } => self.on_ray_word(pes, kind, count, idx, w, obs),
             Rx::Frame { idx } => self.on_frame_word(pes, idx, w),
         };
     }
@@ -283,7 +289,15 @@ impl Link {
         }
     }
 
-    fn on_ray_word(&mut self, pes: &mut Pes<impl PeMem>, kind: RayKind, count: u16, idx: u32, w: FslWord) -> Rx {
+    fn on_ray_word<O: PeReadObserver>(
+        &mut self,
+        pes: &mut Pes<impl PeMem>,
+        kind: RayKind,
+        count: u16,
+        idx: u32,
+        w: FslWord,
+        obs: &mut O,
+    ) -> Rx {
         let ctl = w.control;
         let index = idx.min(u16::MAX as u32) as u16;
         let next = Rx::Ray { kind, count, idx: idx.saturating_add(1) };
@@ -300,7 +314,7 @@ impl Link {
                     if !ctl {
                         return self.fail(pes, FslError::MissingControl, index, false);
                     }
-                    return self.execute(pes, kind);
+                    return self.execute(pes, kind, obs);
                 }
             }
             if ctl {
@@ -332,7 +346,7 @@ impl Link {
             if !ctl {
                 return self.fail(pes, FslError::MissingControl, index, false);
             }
-            return self.execute(pes, kind);
+            return self.execute(pes, kind, obs);
         }
         if ctl {
             return self.fail(pes, FslError::PacketTooShort, index, true);
@@ -346,10 +360,10 @@ impl Link {
         (ray, f(7))
     }
 
-    fn execute(&mut self, pes: &mut Pes<impl PeMem>, kind: RayKind) -> Rx {
+    fn execute<O: PeReadObserver>(&mut self, pes: &mut Pes<impl PeMem>, kind: RayKind, obs: &mut O) -> Rx {
         let (ray, t_max) = self.head_ray();
         // Every word of the packet passed its check on arrival.
-        let words = pes.trace_validated(kind, &ray, t_max, &self.list).to_words();
+        let words = pes.trace_validated_observed(kind, &ray, t_max, &self.list, obs).to_words();
         let last = words.len().saturating_sub(1);
         for (i, &wd) in words.iter().enumerate() {
             self.emit(pes, wd, i == last);

@@ -68,8 +68,9 @@
 //! | --- | --- | --- |
 //! | `stats` | [`CoprocStats`], [`TraceInfo`] | — |
 //! | `image` | a loaded PE image: table offsets, the checks beyond `PeImage::parse`, vertices | — |
-//! | `search` | one ray: request checks, the list search through the PE memories, arbitration, the result | `image`, `stats` |
-//! | `pes` | the PE array: LOAD (with record tables), CLEAR, the timed trace and its counters | `image`, `search`, `stats` |
+//! | `search` | one ray: request checks, the list search through the PE memories, arbitration, the result | `image`, `stats`, `observe` |
+//! | `pes` | the PE array: LOAD (with record tables), CLEAR, the timed trace and its counters | `image`, `search`, `stats`, `observe` |
+//! | `observe` | [`PeReadObserver`]: the PE-memory reads of a timed trace, for memory studies | — |
 //! | `link` | the FSL word interface: packet receiver, resynchronisation, reply queue | `pes`, `search` |
 //!
 //! [`Coprocessor`] (this module) owns a `pes::Pes` and a `link::Link` and is the public API.
@@ -79,6 +80,7 @@
 
 mod image;
 mod link;
+mod observe;
 mod pes;
 mod search;
 mod stats;
@@ -95,6 +97,7 @@ use pes::{PeMem, Pes};
 use search::Numerics;
 
 pub use link::{load_ack, CLEAR_ACK, FRAME_ACK};
+pub use observe::{NoObserver, PeRead, PeReadKind, PeReadObserver};
 pub use search::T_EXIT_REL_TOL;
 pub use stats::{CoprocStats, TraceInfo};
 
@@ -255,6 +258,22 @@ impl<'m> Coprocessor<'m> {
         })
     }
 
+    /// [`Coprocessor::trace`] that tells `obs` every PE-memory read of the ray, in the order
+    /// the PEs make them ([`PeReadObserver`]); result and counters are those of `trace`.
+    pub fn trace_observed<O: PeReadObserver>(
+        &mut self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+        obs: &mut O,
+    ) -> Result<RayResult, FslError> {
+        self.pes.trace_timed_observed(kind, ray, t_max, list, obs).map_err(|(e, _)| {
+            self.pes.stats.errors = self.pes.stats.errors.saturating_add(1);
+            e
+        })
+    }
+
     /// Traces one ray without the cycle timeline and without touching the counters: the same
     /// validation and intersection code as [`Coprocessor::trace`] (so the same hit), for the
     /// native benchmark. `tests` counts the tests performed (entries up to the winner);
@@ -308,6 +327,12 @@ impl<'m> Coprocessor<'m> {
     /// Consumes one inbound word; executes a packet when its last word arrives.
     pub fn push(&mut self, w: FslWord) {
         self.link.push(&mut self.pes, w);
+    }
+
+    /// [`Coprocessor::push`] that tells `obs` the PE-memory reads of a ray packet it executes
+    /// ([`PeReadObserver`]); the reply words are those of `push`.
+    pub fn push_observed<O: PeReadObserver>(&mut self, w: FslWord, obs: &mut O) {
+        self.link.push_observed(&mut self.pes, w, obs);
     }
 
     /// A second word interface onto this co-processor's loaded PE memories, read-only, for

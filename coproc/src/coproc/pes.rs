@@ -6,6 +6,7 @@ use gridrt_shared::math::Ray;
 use gridrt_shared::scene::{MAX_PES, TRIANGLE_WORDS};
 
 use super::image::{record, record_at, span, span_mut, validate_image, PeSlot};
+use super::observe::{NoObserver, PeReadObserver};
 use super::search::{Numerics, View};
 use super::stats::CoprocStats;
 use crate::config::{ArbitrationRule, CoprocConfig, LIST_CAPACITY};
@@ -167,13 +168,34 @@ impl<M: PeMem> Pes<M> {
         t_max: f32,
         list: &[ListEntry],
     ) -> Result<RayResult, (FslError, u16)> {
+        self.trace_timed_observed(kind, ray, t_max, list, &mut NoObserver)
+    }
+
+    /// [`trace_timed`](Self::trace_timed) with a read observer.
+    pub(super) fn trace_timed_observed<O: PeReadObserver>(
+        &mut self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+        obs: &mut O,
+    ) -> Result<RayResult, (FslError, u16)> {
         self.view().validate(ray, t_max, list)?;
-        Ok(self.trace_validated(kind, ray, t_max, list))
+        Ok(self.trace_validated_observed(kind, ray, t_max, list, obs))
     }
 
     /// [`trace_timed`](Self::trace_timed) of a request that passed `View::validate` (the link
-    /// checks every word of a packet as it arrives: the same checks).
-    pub(super) fn trace_validated(&mut self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> RayResult {
+    /// checks every word of a packet as it arrives: the same checks), telling `obs` every
+    /// PE-memory read of the ray (`observe` module doc; the result and counters do not
+    /// depend on it).
+    pub(super) fn trace_validated_observed<O: PeReadObserver>(
+        &mut self,
+        kind: RayKind,
+        ray: &Ray,
+        t_max: f32,
+        list: &[ListEntry],
+        obs: &mut O,
+    ) -> RayResult {
         let numerics = self.numerics;
         let view = View {
             cfg: &self.cfg,
@@ -195,7 +217,7 @@ impl<M: PeMem> Pes<M> {
         // to `max_list` ≤ LIST_CAPACITY.
         let mut counts: heapless::Vec<u32, LIST_CAPACITY> = heapless::Vec::new();
         for e in list {
-            let _ = counts.push(view.lookup(e.pe, e.voxel).map_or(0, |r| r.count));
+            let _ = counts.push(view.lookup_observed(e.pe, e.voxel, obs).map_or(0, |r| r.count));
         }
         let last = found.map_or(list.len(), |f| f.k.saturating_add(1));
         let profile = self.cfg.timing;
@@ -226,8 +248,15 @@ impl<M: PeMem> Pes<M> {
             let mut tl = PeTimeline::new(&profile, &mut self.clocks);
             for (e, &n) in list.iter().zip(&counts) {
                 let at = tl.schedule(e.pe, n);
-                tests = tests.saturating_add(tl.started_before(at, n, end) as u64);
+                let started = tl.started_before(at, n, end);
+                tests = tests.saturating_add(started as u64);
+                if O::ACTIVE {
+                    view.observe_tests(e, started, obs);
+                }
             }
+        }
+        if O::ACTIVE {
+            view.observe_result(list, found, obs);
         }
         let cycles = profile.ray_io_cycles(list.len()).saturating_add(end);
         result.tests = tests.min(u16::MAX as u64) as u16;
@@ -238,6 +267,7 @@ impl<M: PeMem> Pes<M> {
         s.tests = s.tests.saturating_add(tests);
         s.cycles = s.cycles.saturating_add(cycles);
         s.overflows = s.overflows.saturating_add(info.overflows);
+        obs.ray_end(&result);
         result
     }
 }

@@ -6,6 +6,7 @@ use gridrt_shared::math::{Ray, Vec3};
 use gridrt_shared::scene::{MAX_PES, PRIM_WORDS, TRIANGLE_WORDS, VOXEL_ENTRY_WORDS};
 
 use super::image::{record, record_at, span, PeSlot};
+use super::observe::{NoObserver, PeRead, PeReadKind, PeReadObserver};
 use super::stats::TraceInfo;
 use crate::config::{ArbitrationRule, CoprocConfig};
 use crate::isect::{geometric_normal, with_kernel, Kernel};
@@ -91,24 +92,50 @@ pub(super) struct View<'a> {
 impl View<'_> {
     /// Binary search of `voxel` in PE `pe`'s voxel table.
     pub(super) fn lookup(&self, pe: u8, voxel: u32) -> Option<EntryRefs> {
+        self.lookup_observed(pe, voxel, &mut NoObserver)
+    }
+
+    /// Word `pe`'s memory starts at.
+    fn pe_base(&self, pe: u8) -> usize {
+        (pe as usize).saturating_mul(self.cfg.pe_mem_words as usize)
+    }
+
+    /// A read of `words` words at absolute index `at` of PE `pe`'s memory, as the PE sees it.
+    fn pe_read(&self, pe: u8, at: usize, words: usize, kind: PeReadKind) -> PeRead {
+        let rel = at.saturating_sub(self.pe_base(pe));
+        let words = u32::try_from(words).unwrap_or(u32::MAX);
+        PeRead { pe, addr: u32::try_from(rel).unwrap_or(u32::MAX), words, kind }
+    }
+
+    /// [`lookup`](Self::lookup) that tells `obs` what each probe reads: the entry's id word,
+    /// and at the match its first-ref and count words (the RTL's controller, rtl/README §4.1).
+    pub(super) fn lookup_observed<O: PeReadObserver>(&self, pe: u8, voxel: u32, obs: &mut O) -> Option<EntryRefs> {
         let slot = self.slots.get(pe as usize)?;
         if !slot.loaded {
             return None;
         }
         // Offsets were checked at LOAD to lie inside the PE's memory, so nothing here
         // saturates; a saturated offset would only make the checked access fail.
-        let base = (pe as usize).saturating_mul(self.cfg.pe_mem_words as usize);
+        let base = self.pe_base(pe);
         let at = |off: u32| base.saturating_add(off as usize);
         let table = span(self.mem, at(slot.hdr), slot.ref_off.saturating_sub(slot.hdr) as usize)?;
         let (mut lo, mut hi) = (0usize, slot.voxels as usize);
         while lo < hi {
             let mid = lo.midpoint(hi);
-            let &[id, first, count] = record_at::<VOXEL_ENTRY_WORDS>(table, mid.saturating_mul(VOXEL_ENTRY_WORDS))?;
+            let off = mid.saturating_mul(VOXEL_ENTRY_WORDS);
+            let &[id, first, count] = record_at::<VOXEL_ENTRY_WORDS>(table, off)?;
+            if O::ACTIVE {
+                obs.read(self.pe_read(pe, at(slot.hdr).saturating_add(off), 1, PeReadKind::VoxelTable));
+            }
             if id < voxel {
                 lo = mid.saturating_add(1);
             } else if id > voxel {
                 hi = mid;
             } else {
+                if O::ACTIVE {
+                    let words = at(slot.hdr).saturating_add(off).saturating_add(1);
+                    obs.read(self.pe_read(pe, words, 2, PeReadKind::VoxelTable));
+                }
                 return Some(EntryRefs {
                     first: at(slot.ref_off).saturating_add(first as usize),
                     count,
@@ -120,6 +147,40 @@ impl View<'_> {
             }
         }
         None
+    }
+
+    /// Tells `obs` the reads of the first `started` tests of entry `e`: each test's ref word,
+    /// then its record (the kernel's record, or the analytic primitive's).
+    pub(super) fn observe_tests<O: PeReadObserver>(&self, e: &ListEntry, started: u32, obs: &mut O) {
+        let Some(refs) = self.lookup(e.pe, e.voxel) else { return };
+        let Some(list) = span(self.mem, refs.first, refs.count as usize) else { return };
+        let (rec_words, uses_image) =
+            with_kernel!(self.cfg.kernel, self.numerics.format, K => (K::RECORD_WORDS, K::USES_IMAGE));
+        for (j, &r) in list.iter().enumerate().take(started as usize) {
+            obs.read(self.pe_read(e.pe, refs.first.saturating_add(j), 1, PeReadKind::Ref));
+            let (at, words) = if let Some(p) = r.checked_sub(refs.tris) {
+                (refs.prim_base.saturating_add((p as usize).saturating_mul(PRIM_WORDS)), PRIM_WORDS)
+            } else if uses_image {
+                (refs.tri_base.saturating_add((r as usize).saturating_mul(TRIANGLE_WORDS)), rec_words)
+            } else {
+                (refs.rec_base.saturating_add((r as usize).saturating_mul(rec_words)), rec_words)
+            };
+            obs.read(self.pe_read(e.pe, at, words, PeReadKind::Record));
+        }
+    }
+
+    /// Tells `obs` what the result stage reads of the winner: a triangle's prim id and
+    /// material (image words 9–10), then its normal (words 0–2, where the RTL keeps it); an
+    /// analytic primitive's whole record.
+    pub(super) fn observe_result<O: PeReadObserver>(&self, list: &[ListEntry], found: Option<Found>, obs: &mut O) {
+        let Some(f) = found else { return };
+        let Some(e) = list.get(f.k) else { return };
+        if f.prim {
+            obs.read(self.pe_read(e.pe, f.rec, PRIM_WORDS, PeReadKind::Result));
+        } else {
+            obs.read(self.pe_read(e.pe, f.rec.saturating_add(9), 2, PeReadKind::Result));
+            obs.read(self.pe_read(e.pe, f.rec, 3, PeReadKind::Result));
+        }
     }
 
     /// Request-level checks (ray header and ray words).

@@ -2,6 +2,7 @@
 
 mod arbitration;
 mod frame;
+mod observe;
 mod property;
 mod protocol;
 mod timing;

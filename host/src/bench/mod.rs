@@ -8,6 +8,7 @@
 //! | [`link_faults`] | `gridrt bench link --faults`: goodput against the bit error rate over a faulty line ([`crate::faults`]) |
 //! | [`frame`] | `gridrt bench frame`: whole-frame time on the modelled board (soft-core on QEMU, co-processor model, link), per configuration and target |
 //! | [`stream`] | `gridrt bench stream`: frame rate and link goodput of a frame stream per scene × baud × encoding, on the paced loopback |
+//! | [`pe_cache`] | `gridrt bench pe-cache`: hit rates and modelled cycles of a per-PE cache for PE images in SDRAM, from a frame's PE-memory reads |
 //! | [`splat`] | `gridrt bench splat`: the native splat path, splats per second and image error ([`crate::points`]) |
 
 pub mod accuracy;
@@ -15,5 +16,6 @@ pub mod frame;
 pub mod link;
 #[cfg(unix)]
 pub mod link_faults;
+pub mod pe_cache;
 pub mod splat;
 pub mod stream;

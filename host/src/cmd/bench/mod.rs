@@ -5,6 +5,7 @@ pub mod accuracy;
 pub mod frame;
 pub mod link;
 pub mod link_faults;
+pub mod pe_cache;
 pub mod plot;
 pub mod rays;
 pub mod skip;
@@ -52,6 +53,12 @@ enum What {
     /// device's own frame rate); every frame checked against the unpaced run's (CSV, SVG
     /// plot and JSON in --out-dir).
     Stream(stream::Args),
+    /// A per-PE cache for PE images kept in SDRAM instead of block RAM: one frame per scene
+    /// through the co-processor model (the RTL's kernel, format and timing), every PE's
+    /// memory reads replayed through each cache size × line × ways (LRU); hit rates
+    /// (measured), cycles per ray with a modelled LiteDRAM miss penalty, and DP16KD blocks
+    /// per PE (CSV, SVG plot and JSON in --out-dir).
+    PeCache(pe_cache::Args),
 }
 
 impl Cmd {
@@ -65,6 +72,7 @@ impl Cmd {
             What::Frame(a) => a.run(),
             What::Splat(a) => a.run(),
             What::Stream(a) => a.run(),
+            What::PeCache(a) => a.run(),
         }
     }
 }
