@@ -93,6 +93,8 @@ pub struct FaultRow {
     pub chunks_resent: u64,
     /// Pixel runs requested again.
     pub runs_rerequested: u64,
+    /// The session's link counters (spans, re-requests, probes, smallest span limit).
+    pub link: crate::session::LinkStats,
     /// Bits flipped, bytes dropped and bursts inserted, both directions together.
     pub flips: u64,
     /// Bytes dropped.
@@ -157,6 +159,7 @@ pub fn fault_row(
         identical: run.frame.rgb == clean.frame.rgb,
         chunks_resent: run.link.upload_chunks_resent,
         runs_rerequested: run.link.regions_resent,
+        link: run.link.clone(),
         flips: up.flips + down.flips,
         drops: up.drops + down.drops,
         bursts: up.bursts + down.bursts,
