@@ -107,3 +107,41 @@ fn render_over_a_noisy_paced_line_gives_the_clean_png_and_is_never_silent() {
     assert!(std::fs::read(&noisy_png).unwrap() == std::fs::read(&clean_png).unwrap(), "PNGs differ\n{log}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `gridrt bench link --faults` on a clean line: each phase's line bytes are the relay's
+/// counts, equal to what the host's session sent and received, and the line utilisation is
+/// those bytes at ten bits each over the baud rate and the phase's time (never above 1: the
+/// relay paces every byte).
+#[test]
+fn bench_link_faults_reports_the_relays_bytes_and_their_line_utilisation() {
+    let dir = std::env::temp_dir().join(format!("gridrt-faults-util-{}", std::process::id()));
+    let baud = 230_400u32;
+    let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
+        .args(["bench", "link", "--faults", "--bers", "0", "--width", "32", "--height", "24"])
+        .args(["--encoding", "rgb888", "--baud", &baud.to_string(), "--out-dir"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("link_faults.json")).unwrap()).unwrap();
+    let r = &j["rows"][0];
+    let pair = |k: &str| [r[k][0].as_u64().unwrap(), r[k][1].as_u64().unwrap()];
+    let (up_line, frame_line) = (pair("upload_line_bytes"), pair("frame_line_bytes"));
+    assert_eq!(up_line, pair("upload_session_bytes"), "upload: relay vs session\n{r}");
+    assert_eq!(frame_line, pair("frame_session_bytes"), "frame: relay vs session\n{r}");
+    // The upload carries at least the scene's compact stream; the frame its 32×24 rgb888 pixels.
+    assert!(up_line[0] > 20_000 && frame_line[1] > 32 * 24 * 3, "{r}");
+    for (phase, bytes) in [("upload", up_line[0]), ("frame", frame_line[1])] {
+        let secs = r[format!("{phase}_s")].as_f64().unwrap();
+        let util = r[format!("{phase}_line_utilisation")].as_f64().unwrap();
+        let want = bytes as f64 * 10.0 / (f64::from(baud) * secs);
+        assert!((util - want).abs() <= 1e-9 * want, "{phase}: {util} vs {want}\n{r}");
+        assert!(util > 0.0 && util <= 1.0, "{phase}: a paced line carries at most its rate: {util}\n{r}");
+    }
+    let csv = std::fs::read_to_string(dir.join("link_faults.csv")).unwrap();
+    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    for k in ["upload_line_utilisation", "frame_line_utilisation", "upload_line_bytes_up", "frame_line_bytes_down"] {
+        assert!(head.contains(&k), "CSV column {k}: {head:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -92,6 +92,35 @@ fn a_sim_stream_writes_numbered_pngs_and_per_frame_stats() {
 }
 
 #[test]
+fn apng_holds_every_frame_of_the_stream_in_order() {
+    let dir = tempdir("apng");
+    let (out, apng) = (dir.join("frames"), dir.join("orbit.png"));
+    let scene = bunny().display().to_string();
+    let (o, a) = (out.display().to_string(), apng.display().to_string());
+    let args = ["render", "--sim", "--scene", &scene, "-W", "40", "-H", "30", "--frames", "3", "--orbit", "90"];
+    let run = gridrt(&[&args[..], &["--out-dir", &o, "--apng", &a, "--apng-fps", "12.5"]].concat());
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let pngs: Vec<Vec<u8>> =
+        (0..3).map(|i| image::open(out.join(format!("frame-{i:04}.png"))).unwrap().to_rgb8().into_raw()).collect();
+    assert!(pngs[0] != pngs[1] && pngs[1] != pngs[2], "the orbit's frames differ, so order shows");
+    let file = std::io::Cursor::new(std::fs::read(&apng).unwrap());
+    let mut reader = png::Decoder::new(file).read_info().unwrap();
+    let actl = reader.info().animation_control.unwrap();
+    assert_eq!((actl.num_frames, actl.num_plays), (3, 0));
+    let mut buf = vec![0u8; reader.output_buffer_size().unwrap()];
+    for (i, want) in pngs.iter().enumerate() {
+        let got = reader.next_frame(&mut buf).unwrap();
+        let fctl = reader.info().frame_control.unwrap();
+        assert_eq!((fctl.width, fctl.height, fctl.x_offset, fctl.y_offset), (40, 30, 0, 0), "frame {i}");
+        assert_eq!((fctl.delay_num, fctl.delay_den), (80, 1000), "frame {i}: 1 / 12.5 fps");
+        assert_eq!(got.color_type, png::ColorType::Rgb);
+        assert!(&buf[..got.buffer_size()] == want.as_slice(), "frame {i} differs from frame-{i:04}.png");
+    }
+    assert!(reader.next_frame(&mut buf).is_err(), "no fourth frame");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn bad_stream_input_is_one_line_before_anything_is_sent() {
     let dir = tempdir("bad");
     let scene = bunny().display().to_string();
@@ -120,6 +149,13 @@ fn bad_stream_input_is_one_line_before_anything_is_sent() {
     let e = run(&["--out-dir", &under, "--frames", "3"]);
     assert!(e.contains("--out-dir") && e.contains("is a file, not a folder"), "{e}");
     assert!(!e.contains("gridrt-no-such-port"), "the output is checked before the port: {e}");
+    let e = run(&["--out-dir", &o, "--frames", "3", "--apng", &file.join("a.png").display().to_string()]);
+    assert!(e.contains("--apng") && e.contains("is a file, not a folder"), "{e}");
+    assert!(!e.contains("gridrt-no-such-port"), "--apng is checked before the port: {e}");
+    let e = run(&["--out-dir", &o, "--apng", "a.png", "--apng-fps", "0"]);
+    assert!(e.contains("--apng-fps") && e.contains("0 fps is not in 0.01..=1000"), "{e}");
+    let e = run(&["--out", "a.png", "--apng", "a.png"]);
+    assert!(e.contains("--out-dir"), "--apng needs --out-dir: {e}");
     // A camera path through the scene: refused before the simulator starts.
     let toml = dir.join("path.toml");
     std::fs::write(
@@ -142,6 +178,9 @@ fn help_explains_the_stream_flags() {
         "--frames <N>",
         "--orbit <DEGREES>",
         "--view [<PORT>]",
+        "--apng <FILE>",
+        "--apng-fps <FPS>",
+        "animated PNG",
         "frame-0000.png",
         "line_utilisation",
     ] {

@@ -11,6 +11,12 @@
 //! - frame: the pixel data bytes the frame needs (its spans' encoded bytes in the clean run)
 //!   over the frame time.
 //!
+//! Upload goodput counts the scene image's decoded bytes, so the compact upload (SPEC.md
+//! §5.12) puts it above 1. How busy the line was is the line utilisation, per phase in the
+//! direction that carries it: bytes the relay paced onto the line (framing, resends and
+//! everything else included) over `baud / 10 ×` the phase's wall time — host → device during
+//! the upload, device → host during the frame.
+//!
 //! # The bound
 //! [`efficiency`] of selective repeat at the byte error rate `q = 1 − (1 − b)^8` plus the
 //! drop rate, for data frames (4-byte header, the upload) and span frames (10-byte header,
@@ -53,10 +59,22 @@ pub struct FaultRow {
     pub upload_ratio: f64,
     /// `frame_s` over the clean run's.
     pub frame_ratio: f64,
-    /// Upload goodput over the line rate.
+    /// Scene image bytes (decoded, not wire bytes) per second of upload over the line rate.
     pub upload_goodput: f64,
-    /// Frame goodput over the line rate.
+    /// The clean frame's span data bytes per second of frame over the line rate.
     pub frame_goodput: f64,
+    /// Host → device bytes on the line during the upload over the line rate × upload time.
+    pub upload_line_utilisation: f64,
+    /// Device → host bytes on the line during the frame over the line rate × frame time.
+    pub frame_line_utilisation: f64,
+    /// Bytes the relay paced during the upload: [host → device, device → host].
+    pub upload_line_bytes: [u64; 2],
+    /// Bytes the relay paced during the frame: [host → device, device → host].
+    pub frame_line_bytes: [u64; 2],
+    /// Bytes the host's session counted during the upload: [sent, received].
+    pub upload_session_bytes: [u64; 2],
+    /// Bytes the host's session counted during the frame: [sent, received].
+    pub frame_session_bytes: [u64; 2],
     /// Selective-repeat bound of the upload at the best chunk size.
     pub upload_bound: f64,
     /// Bound at the chunk size the run ended with.
@@ -75,6 +93,8 @@ pub struct FaultRow {
     pub chunks_resent: u64,
     /// Pixel runs requested again.
     pub runs_rerequested: u64,
+    /// The session's link counters (spans, re-requests, probes, smallest span limit).
+    pub link: crate::session::LinkStats,
     /// Bits flipped, bytes dropped and bursts inserted, both directions together.
     pub flips: u64,
     /// Bytes dropped.
@@ -86,6 +106,11 @@ pub struct FaultRow {
 /// Byte error rate of a line with faults `f`: flips of the 8 data bits, plus drops.
 pub fn line_byte_error_rate(f: &Faults) -> f64 {
     1.0 - (1.0 - byte_error_rate(f.ber)) * (1.0 - f.drop.clamp(0.0, 1.0))
+}
+
+/// Share of a line at `baud` (8N1) that `bytes` kept busy for `secs`.
+pub fn line_utilisation(bytes: u64, baud: u32, secs: f64) -> f64 {
+    bytes as f64 * 10.0 / (f64::from(baud.max(1)) * secs.max(1e-9))
 }
 
 /// The row of `run` at faults `f`, against the clean run `clean`, for a scene image of
@@ -119,6 +144,12 @@ pub fn fault_row(
         frame_ratio: run.frame_s / clean.frame_s,
         upload_goodput: image_bytes as f64 / run.upload_s / line,
         frame_goodput: frame_payload / run.frame_s / line,
+        upload_line_utilisation: line_utilisation(run.upload_line.0, baud, run.upload_s),
+        frame_line_utilisation: line_utilisation(run.frame_line.1, baud, run.frame_s),
+        upload_line_bytes: [run.upload_line.0, run.upload_line.1],
+        frame_line_bytes: [run.frame_line.0, run.frame_line.1],
+        upload_session_bytes: [run.upload_wire.0, run.upload_wire.1],
+        frame_session_bytes: [run.frame_wire.0, run.frame_wire.1],
         upload_bound: efficiency(n_up, DATA_HEAD, q),
         upload_bound_in_use: efficiency(upload_chunk.max(1), DATA_HEAD, q),
         upload_chunk,
@@ -128,6 +159,7 @@ pub fn fault_row(
         identical: run.frame.rgb == clean.frame.rgb,
         chunks_resent: run.link.upload_chunks_resent,
         runs_rerequested: run.link.regions_resent,
+        link: run.link.clone(),
         flips: up.flips + down.flips,
         drops: up.drops + down.drops,
         bursts: up.bursts + down.bursts,
@@ -137,11 +169,11 @@ pub fn fault_row(
 /// CSV of the rows (header first).
 pub fn csv(rows: &[FaultRow]) -> String {
     let mut s = String::from(
-        "ber,drop,burst,hello_s,upload_s,frame_s,total_s,total_ratio,upload_ratio,frame_ratio,upload_goodput,upload_bound,upload_bound_in_use,upload_chunk,frame_goodput,frame_bound,frame_bound_in_use,frame_span_bytes,identical,chunks_resent,runs_rerequested,flips,drops,bursts\n",
+        "ber,drop,burst,hello_s,upload_s,frame_s,total_s,total_ratio,upload_ratio,frame_ratio,upload_goodput,upload_bound,upload_bound_in_use,upload_chunk,frame_goodput,frame_bound,frame_bound_in_use,frame_span_bytes,upload_line_utilisation,frame_line_utilisation,upload_line_bytes_up,upload_line_bytes_down,frame_line_bytes_up,frame_line_bytes_down,identical,chunks_resent,runs_rerequested,flips,drops,bursts\n",
     );
     for r in rows {
         s.push_str(&format!(
-            "{:e},{:e},{:e},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.4},{:.4},{:.4},{},{:.4},{:.4},{:.4},{:.1},{},{},{},{},{},{}\n",
+            "{:e},{:e},{:e},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.4},{:.4},{:.4},{},{:.4},{:.4},{:.4},{:.1},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{}\n",
             r.ber,
             r.drop,
             r.burst,
@@ -160,6 +192,12 @@ pub fn csv(rows: &[FaultRow]) -> String {
             r.frame_bound,
             r.frame_bound_in_use,
             r.frame_span_bytes,
+            r.upload_line_utilisation,
+            r.frame_line_utilisation,
+            r.upload_line_bytes[0],
+            r.upload_line_bytes[1],
+            r.frame_line_bytes[0],
+            r.frame_line_bytes[1],
             r.identical,
             r.chunks_resent,
             r.runs_rerequested,
@@ -180,5 +218,13 @@ mod tests {
         let q = line_byte_error_rate(&Faults::line(1e-4));
         assert!((q - (8e-4 + 1e-5)).abs() < 2e-6, "{q}");
         assert_eq!(line_byte_error_rate(&Faults::default()), 0.0);
+    }
+
+    #[test]
+    fn line_utilisation_is_ten_bits_a_byte_over_the_baud_rate() {
+        // 300 000 B in 1 s at 3 Mbaud fill the line; half as many, half of it.
+        assert!((line_utilisation(300_000, 3_000_000, 1.0) - 1.0).abs() < 1e-12);
+        assert!((line_utilisation(150_000, 3_000_000, 1.0) - 0.5).abs() < 1e-12);
+        assert!((line_utilisation(11_520, 115_200, 2.0) - 0.5).abs() < 1e-12);
     }
 }

@@ -129,6 +129,39 @@ pub fn write_rgb(path: &Path, w: u16, h: u16, rgb: Vec<u8>) -> anyhow::Result<()
     write_with(path, |out| img.write_to(out, format).with_context(|| format!("writing {}", path.display())))
 }
 
+/// An APNG frame delay for `fps` frames a second: whole milliseconds, 1..=65 535.
+pub fn apng_delay(fps: f64) -> (u16, u16) {
+    let ms = if fps.is_finite() && fps > 0.0 { (1000.0 / fps).round() } else { 1000.0 };
+    (ms.clamp(1.0, 65_535.0) as u16, 1000)
+}
+
+/// Writes the PNGs `frames` (one size) as one animated PNG at `path`, each frame shown `delay`
+/// (numerator, denominator seconds), looping forever (through a temporary file).
+pub fn write_apng(path: &Path, frames: &[PathBuf], delay: (u16, u16)) -> anyhow::Result<()> {
+    let read = |p: &PathBuf| -> anyhow::Result<image::RgbImage> {
+        Ok(image::open(p).with_context(|| format!("reading {}", p.display()))?.to_rgb8())
+    };
+    let first = read(frames.first().context("no frames to animate")?)?;
+    let (w, h) = first.dimensions();
+    let n = u32::try_from(frames.len()).context("too many frames")?;
+    let err = |e: png::EncodingError| anyhow::anyhow!("writing {}: {e}", path.display());
+    write_with(path, |out| {
+        let mut enc = png::Encoder::new(out, w, h);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_animated(n, 0).map_err(err)?;
+        enc.set_frame_delay(delay.0, delay.1).map_err(err)?;
+        let mut writer = enc.write_header().map_err(err)?;
+        writer.write_image_data(first.as_raw()).map_err(err)?;
+        for p in &frames[1..] {
+            let img = read(p)?;
+            anyhow::ensure!(img.dimensions() == (w, h), "{}: not the size of the first frame", p.display());
+            writer.write_image_data(img.as_raw()).map_err(err)?;
+        }
+        writer.finish().map_err(err)
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -149,5 +182,14 @@ mod tests {
         left.sort();
         assert_eq!(left, ["x.png"]);
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn apng_delays_are_whole_milliseconds_within_the_field() {
+        assert_eq!(apng_delay(25.0), (40, 1000));
+        assert_eq!(apng_delay(22.92), (44, 1000));
+        assert_eq!(apng_delay(0.001), (65_535, 1000));
+        assert_eq!(apng_delay(1e6), (1, 1000));
+        assert_eq!(apng_delay(0.0), (1000, 1000));
     }
 }

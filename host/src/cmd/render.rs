@@ -95,6 +95,13 @@ pub struct Cmd {
     /// Keep serving --view this many seconds after the stream ends (0..=3600).
     #[arg(long, value_name = "SECS", default_value_t = 0.0, help_heading = "Stream", requires = "view", value_parser = linger_secs)]
     pub(super) view_linger: f64,
+    /// Also write the stream as one animated PNG (APNG) to FILE, looping, every frame shown
+    /// 1 / --apng-fps s. Checked before anything is rendered, like --out.
+    #[arg(long, value_name = "FILE", help_heading = "Stream", requires = "out_dir")]
+    pub(super) apng: Option<PathBuf>,
+    /// Frames a second of --apng, 0.01..=1000 [default: the stream's measured fps].
+    #[arg(long, value_name = "FPS", help_heading = "Stream", requires = "apng", value_parser = apng_fps)]
+    pub(super) apng_fps: Option<f64>,
     /// Write statistics as JSON here.
     #[arg(long, value_name = "JSON", help_heading = "Output")]
     pub(super) stats: Option<PathBuf>,
@@ -158,6 +165,15 @@ fn linger_secs(s: &str) -> Result<f64, String> {
     }
 }
 
+/// `--apng-fps`: 0.01..=1000 frames a second.
+fn apng_fps(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if (0.01..=1000.0).contains(&v) => Ok(v),
+        Ok(v) => Err(format!("{v} fps is not in 0.01..=1000")),
+        Err(_) => Err(format!("`{s}` is not a number of frames a second")),
+    }
+}
+
 /// `--split` choices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Split {
@@ -199,6 +215,7 @@ impl Cmd {
                 ("--frames", self.frames.is_some()),
                 ("--orbit", self.orbit.is_some()),
                 ("--view", self.view.is_some()),
+                ("--apng", self.apng.is_some()),
             ];
             if let Some((flag, _)) = stream_flag.iter().find(|f| f.1) {
                 bail!("{flag} is for a stream: give --out-dir DIR for its numbered PNGs (--out writes one frame)");
@@ -213,6 +230,9 @@ impl Cmd {
         }
         if let Some(dir) = &self.out_dir {
             super::output::check_dir(dir, "--out-dir")?;
+            if let Some(p) = &self.apng {
+                super::output::check_file(p, "--apng")?;
+            }
             if self.reference || self.reference_out.is_some() {
                 bail!("--reference is for one frame (--out), not a stream (--out-dir)");
             }

@@ -178,6 +178,14 @@ impl Cmd {
             if report.boards == 1 { "" } else { "s" },
         );
         println!("upload     {upload_ms:.0} ms");
+        if let Some(p) = &self.apng {
+            let mut indices: Vec<u32> = report.frames.iter().map(|f| f.index).collect();
+            indices.sort_unstable();
+            let names: Vec<PathBuf> = indices.iter().map(|&i| dir.join(frame_name(i))).collect();
+            let fps = self.apng_fps.unwrap_or(report.fps);
+            super::output::write_apng(p, &names, super::output::apng_delay(fps))?;
+            println!("wrote      {} ({} frames, {fps:.2} fps)", p.display(), names.len());
+        }
         println!(
             "wrote      {}/{}{} ({:.1} s total)",
             dir.display(),

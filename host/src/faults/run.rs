@@ -24,10 +24,14 @@ pub struct LineRun {
     pub frame_s: f64,
     /// Seconds from the start of hello to the frame (what a user waits for).
     pub total_s: f64,
-    /// Wire bytes of the upload: (host → device, device → host).
+    /// Wire bytes of the upload as the host's session counted them: (sent, received).
     pub upload_wire: (u64, u64),
-    /// Wire bytes of the frame: (host → device, device → host).
+    /// Wire bytes of the frame as the host's session counted them: (sent, received).
     pub frame_wire: (u64, u64),
+    /// Bytes the relay paced onto the line during the upload: (host → device, device → host).
+    pub upload_line: (u64, u64),
+    /// Bytes the relay paced onto the line during the frame: (host → device, device → host).
+    pub frame_line: (u64, u64),
     /// Link counters of the whole session.
     pub link: LinkStats,
     /// What the relay did host → device.
@@ -72,19 +76,29 @@ pub fn run_session(
         .map_err(|e| RunError::Setup(e.to_string()))?;
     let host_path = relay.host_path().to_string_lossy().into_owned();
     let port = serial::open(&host_path, baud, Duration::from_millis(5)).map_err(|e| RunError::Setup(e.to_string()))?;
+    // Bytes the relay has paced so far, both directions; a phase's are the difference. A
+    // phase ends on the last byte it waits for, so its bytes have all crossed by then.
+    let line = || {
+        let (up, down) = relay.injected();
+        (up.bytes, down.bytes)
+    };
+    let since = |a: (u64, u64), b: (u64, u64)| (b.0 - a.0, b.1 - a.1);
     let result = (|| {
         let mut s = Session::new(port, session);
         let t0 = Instant::now();
         s.hello(progress)?;
         let hello_s = t0.elapsed().as_secs_f64();
         let (tx, rx) = (s.bytes_tx(), s.bytes_rx());
+        let l1 = line();
         let t1 = Instant::now();
         s.upload_scene(image, progress)?;
         let upload_s = t1.elapsed().as_secs_f64();
+        let l2 = line();
         let upload_wire = (s.bytes_tx() - tx, s.bytes_rx() - rx);
         let t2 = Instant::now();
         let frame = s.render(req, progress)?;
         let frame_s = t2.elapsed().as_secs_f64();
+        let l3 = line();
         Ok::<_, SessionError>(LineRun {
             hello_s,
             upload_s,
@@ -92,6 +106,8 @@ pub fn run_session(
             total_s: t0.elapsed().as_secs_f64(),
             upload_wire,
             frame_wire: (frame.bytes_tx, frame.bytes_rx),
+            upload_line: since(l1, l2),
+            frame_line: since(l2, l3),
             link: s.link_stats().clone(),
             up: Injected::default(),
             down: Injected::default(),

@@ -112,12 +112,30 @@ pub(crate) struct DevicePace {
     pub(crate) first: Duration,
     /// Largest frame seen from the device, wire bytes.
     pub(crate) frame: usize,
+    /// Time from a request leaving to the first message of its answer (that message's wire
+    /// time excluded), smoothed: what another request leaves the line idle for.
+    pub(crate) reply: Option<Duration>,
 }
 
 impl Default for DevicePace {
     fn default() -> Self {
-        Self { gap: Duration::from_millis(50), first: Duration::from_millis(200), frame: 64 }
+        Self { gap: Duration::from_millis(50), first: Duration::from_millis(200), frame: 64, reply: None }
     }
+}
+
+impl DevicePace {
+    /// Takes one request-to-first-answer time into [`Self::reply`] (a quarter of the way).
+    pub(crate) fn learn_reply(&mut self, t: Duration) {
+        self.reply = Some(self.reply.map_or(t, |r| (r * 3 + t) / 4));
+    }
+}
+
+/// Wire bytes another request costs: its own and its `RegionEnd`'s bytes plus the line's idle
+/// time until its answer starts — the measured reply time, at most `turnaround` (the allowance
+/// for a device not heard yet) — at `baud`.
+pub(crate) fn request_cost(wire: usize, reply: Option<Duration>, turnaround: Duration, baud: u32) -> f64 {
+    let idle = reply.map_or(turnaround, |r| r.min(turnaround));
+    wire as f64 + idle.as_secs_f64() * f64::from(baud) / 10.0
 }
 
 /// Chooses `max_span` (data bytes per span, `region_options::SPAN_BYTES`) from the device →
@@ -191,6 +209,21 @@ impl SpanSizer {
 mod tests {
     use super::*;
     use crate::session::estimate::byte_error_rate;
+
+    #[test]
+    fn another_request_costs_the_measured_reply_time_capped_by_the_turnaround() {
+        let (turn, baud) = (Duration::from_millis(30), 3_000_000);
+        // Not heard yet: the allowance, 30 ms of a 300 000 B/s line.
+        assert_eq!(request_cost(60, None, turn, baud), 60.0 + 9000.0);
+        // A quick answer: 3 ms of line.
+        assert!((request_cost(60, Some(Duration::from_millis(3)), turn, baud) - 960.0).abs() < 1e-6);
+        // A slow one costs no more than the allowance (as before the reply was measured).
+        assert_eq!(request_cost(60, Some(Duration::from_millis(80)), turn, baud), 9060.0);
+        let mut p = DevicePace::default();
+        p.learn_reply(Duration::from_millis(8));
+        p.learn_reply(Duration::from_millis(4));
+        assert_eq!(p.reply, Some(Duration::from_millis(7)));
+    }
 
     #[test]
     fn span_limit_follows_the_error_rate_in_bytes() {

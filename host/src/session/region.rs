@@ -47,7 +47,7 @@ use super::canvas::{merge_stat, Canvas, VERIFIED};
 use super::client::{Incoming, Session};
 use super::error::{SessionError, Stage};
 use super::estimate::wire_len;
-use super::link::SpanSizer;
+use super::link::{request_cost, SpanSizer};
 use super::progress::{Activity, ProgressEvent};
 use super::render::RenderedFrame;
 
@@ -192,8 +192,7 @@ impl<T: Read + Write> Session<T> {
                 (band, 0)
             } else if !runs.is_empty() {
                 let bpp = sizer.bytes_per_pixel_seen();
-                let cost =
-                    (REQUEST_WIRE + END_WIRE) as f64 + self.cfg.turnaround.as_secs_f64() * self.cfg.baud as f64 / 10.0;
+                let cost = request_cost(REQUEST_WIRE + END_WIRE, self.pace.reply, self.cfg.turnaround, self.cfg.baud);
                 let g = widen_for_interpolation(group_runs(&runs, bpp, cost, canvas), band, req.flags);
                 (g, region_options::NO_STATS)
             } else if let Some(g) = canvas.next_unverified(band) {
@@ -383,6 +382,7 @@ impl<T: Read + Write> Session<T> {
                 self.pace.gap = self.pace.gap.max(gap);
             } else {
                 self.pace.first = self.pace.first.max(gap);
+                self.pace.learn_reply(now.duration_since(last).saturating_sub(wire));
             }
             waiting.last = now;
             match m {

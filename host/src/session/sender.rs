@@ -13,7 +13,7 @@
 //!
 //! # Frames in flight
 //! Besides the receiver's window, the sender keeps in flight only what keeps the line busy
-//! for one round trip — the shortest seen from a data frame to its `Sack` — and at least
+//! for a round trip — four times the shortest seen from a data frame to its `Sack` — and at least
 //! three frames. A deeper queue gains no speed; it delays the `Sack`s that reveal a loss, and
 //! the holes waiting for their resent chunk pile up beyond the four ranges a receiver holds
 //! (a frame that would need a fifth is dropped and must be sent again).
@@ -33,6 +33,12 @@ use super::estimate::{arrival, best_payload, wire_len, LossEstimator};
 
 /// Bytes of a data message before its data (`offset`).
 pub(crate) const DATA_HEAD: usize = 4;
+
+/// Round trips in flight, in units of the shortest seen. The usual round trip on a host with
+/// other work is several times the shortest (thread wakeups, the serial driver): with small
+/// chunks on a noisy fast line, 1.5 left a 3 Mbaud upload at BER 1e-4 idle 27 % of the time
+/// (docs/bench-link.md).
+const RTT_MARGIN: f64 = 4.0;
 
 /// First chunk size, before anything is known about the line.
 const FIRST_CHUNK: usize = 512;
@@ -178,11 +184,11 @@ impl WindowSender {
         self.flights.values().filter_map(|f| f.pending.map(|p| p.1)).sum()
     }
 
-    /// Image bytes allowed in flight now: one round trip's worth at the line rate, at least
+    /// Image bytes allowed in flight now: [`RTT_MARGIN`] round trips' worth at the line rate, at least
     /// three chunks of `chunk` bytes, but no more frames than make two holes on average at
     /// byte error rate `q` (the receiver holds four), at most `max_flight`.
     fn flight_limit(&self, chunk: usize, q: f64) -> u32 {
-        let rtt = self.min_rtt.map_or(0.0, |d| d.as_secs_f64() * self.rate * 1.5) as u32;
+        let rtt = self.min_rtt.map_or(0.0, |d| d.as_secs_f64() * self.rate * RTT_MARGIN) as u32;
         let loss = 1.0 - arrival(wire_len(DATA_HEAD + chunk), q);
         let frames = if loss > 0.0 { (2.0 / loss).clamp(2.0, 1e6) as u32 } else { u32::MAX / 4 / chunk.max(1) as u32 };
         rtt.max(3 * chunk as u32).min(frames.saturating_mul(chunk as u32)).min(self.max_flight)
@@ -371,6 +377,19 @@ mod tests {
             }
         }
         panic!("transfer did not finish: {tx:?}");
+    }
+
+    #[test]
+    fn the_flight_covers_four_shortest_round_trips_within_the_other_limits() {
+        // 3 Mbaud, 300-byte chunks, the shortest round trip 3 ms (900 B of line): 3 600 B.
+        let mut tx = WindowSender::new(1 << 20, 7, 16_384, (16, 2044), 8192, 300_000.0);
+        tx.min_rtt = Some(Duration::from_millis(3));
+        assert!(tx.flight_limit(300, 0.0).abs_diff(3600) <= 1, "{}", tx.flight_limit(300, 0.0));
+        // Never under three chunks, never over the cap or two expected holes.
+        assert_eq!(tx.flight_limit(2000, 0.0), 6000);
+        tx.min_rtt = Some(Duration::from_millis(100));
+        assert_eq!(tx.flight_limit(300, 0.0), 8192);
+        assert!(tx.flight_limit(300, 1e-2) < 3600, "two holes at 1 % per byte");
     }
 
     #[test]

@@ -3,8 +3,8 @@
 //! directions ([`gridrt_host::faults`]), to the simulated board (the loop `gridrt device`
 //! runs), at each bit error rate of --bers. Reports time to the frame and its ratio to the
 //! clean run, goodput of the upload and of the frame against the selective-repeat bound
-//! ([`gridrt_host::bench::link_faults`]), and checks that every frame is the clean run's, byte
-//! for byte.
+//! ([`gridrt_host::bench::link_faults`]), the line utilisation of each phase in its direction,
+//! and checks that every frame is the clean run's, byte for byte.
 //!
 //! Outputs in `--out-dir DIR`: `link_faults.csv`, `link_faults.svg` (goodput / line rate against
 //! BER with the bounds) and `link_faults.json`.
@@ -97,13 +97,17 @@ pub fn run(out: &Path, scenes: &Path, width: u16, height: u16, a: &LineArgs) -> 
         let reference = clean.get_or_insert_with(|| run.clone()).clone();
         let row = fault_row(&f, &run, &reference, prepared.image.len(), a.baud, chunk);
         println!(
-            "   upload {:.2} s ({:.2}×), frame {:.2} s ({:.2}×), total {:.2} s ({:.2}×); goodput upload {:.3} (bound {:.3}), frame {:.3} (bound {:.3}); {} chunks resent, {} runs re-requested; identical: {}",
+            "   upload {:.2} s ({:.2}×), frame {:.2} s ({:.2}×), total {:.2} s ({:.2}×); line utilisation host → device in the upload {:.3} ({} B), device → host in the frame {:.3} ({} B); goodput: scene image B / line {:.3} (bound {:.3}), frame span B / line {:.3} (bound {:.3}); {} chunks resent, {} runs re-requested; identical: {}",
             row.upload_s,
             row.upload_ratio,
             row.frame_s,
             row.frame_ratio,
             row.total_s,
             row.total_ratio,
+            row.upload_line_utilisation,
+            row.upload_line_bytes[0],
+            row.frame_line_utilisation,
+            row.frame_line_bytes[1],
             row.upload_goodput,
             row.upload_bound,
             row.frame_goodput,
@@ -124,16 +128,18 @@ pub fn run(out: &Path, scenes: &Path, width: u16, height: u16, a: &LineArgs) -> 
     });
     std::fs::write(out.join("link_faults.json"), serde_json::to_string_pretty(&json)? + "\n")?;
 
-    println!("\n| BER | upload s | frame s | total s | × clean | upload goodput (bound) | frame goodput (bound) |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("\n| BER | upload s | frame s | total s | × clean | line utilisation: upload ↑, frame ↓ | scene image B / line (bound) | frame span B / line (bound) |");
+    println!("|---|---|---|---|---|---|---|---|");
     for r in &rows {
         println!(
-            "| {:e} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} ({:.3}) | {:.3} ({:.3}) |",
+            "| {:e} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3}, {:.3} | {:.3} ({:.3}) | {:.3} ({:.3}) |",
             r.ber,
             r.upload_s,
             r.frame_s,
             r.total_s,
             r.total_ratio,
+            r.upload_line_utilisation,
+            r.frame_line_utilisation,
             r.upload_goodput,
             r.upload_bound,
             r.frame_goodput,
@@ -156,6 +162,8 @@ fn plot(path: &Path, rows: &[FaultRow], scene: &str, baud: u32) -> anyhow::Resul
     use plotters::prelude::*;
     // BER 0 is drawn at 1e-7 on the log axis.
     let x = |b: f64| if b > 0.0 { b } else { 1e-7 };
+    // The compact upload's goodput (decoded bytes) may pass 1: the axis grows to show it.
+    let top = rows.iter().map(|r| r.upload_goodput.max(r.frame_goodput)).fold(1.0f64, f64::max) * 1.05;
     let root = SVGBackend::new(path, (900, 560)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
     let mut chart = ChartBuilder::on(&root)
@@ -166,21 +174,23 @@ fn plot(path: &Path, rows: &[FaultRow], scene: &str, baud: u32) -> anyhow::Resul
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d((5e-8f64..2e-3f64).log_scale(), 0f64..1.05f64)
+        .build_cartesian_2d((5e-8f64..2e-3f64).log_scale(), 0f64..top)
         .map_err(|e| anyhow!("{e}"))?;
     chart
         .configure_mesh()
         .x_label_formatter(&|x| super::plot::short_number(*x))
         .x_desc("bit error rate, both directions (+ drops BER/10, bursts BER/100 per byte; 0 drawn at 1e-7)")
-        .y_desc("payload / line rate")
+        .y_desc("payload or line bytes / line rate")
         .draw()
         .map_err(|e| anyhow!("{e}"))?;
     type Pick = fn(&FaultRow) -> f64;
-    let series: [(&str, Pick, RGBColor, bool); 6] = [
-        ("upload, measured", |r| r.upload_goodput, BLUE, true),
+    let series: [(&str, Pick, RGBColor, bool); 8] = [
+        ("line utilisation host → device, upload", |r| r.upload_line_utilisation, GREEN, true),
+        ("line utilisation device → host, frame", |r| r.frame_line_utilisation, BLACK, true),
+        ("upload (scene image B), measured", |r| r.upload_goodput, BLUE, true),
         ("upload bound, best chunk", |r| r.upload_bound, BLUE, false),
         ("upload bound, chunk in use", |r| r.upload_bound_in_use, CYAN, false),
-        ("frame, measured", |r| r.frame_goodput, RED, true),
+        ("frame (span B), measured", |r| r.frame_goodput, RED, true),
         ("frame bound, best span", |r| r.frame_bound, RED, false),
         ("frame bound, spans in use", |r| r.frame_bound_in_use, MAGENTA, false),
     ];
