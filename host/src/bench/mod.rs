@@ -13,6 +13,7 @@
 
 pub mod accuracy;
 pub mod frame;
+mod in_process;
 pub mod link;
 #[cfg(unix)]
 pub mod link_faults;

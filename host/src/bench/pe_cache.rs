@@ -20,12 +20,12 @@ use std::time::Duration;
 
 use gridrt_coproc::{Coprocessor, FixedFrame, PeRead, PeReadKind, PeReadObserver, RayResult};
 use gridrt_firmware::device::{Device, NoClock};
-use gridrt_firmware::embedded_io::{self, ErrorType};
 use gridrt_firmware::fsl::{FslLink, FslWord};
 use gridrt_loopback::{SimConfig, SIM_MAX_VOXELS};
 use gridrt_shared::msg::{stat, RenderRequest};
 use serde::Serialize;
 
+use super::in_process::{read_queued, VecSink};
 use crate::scene_image::PreparedScene;
 use crate::session::{RenderedFrame, Session, SessionConfig};
 
@@ -409,30 +409,7 @@ impl Write for InProcess<'_, '_> {
 
 impl Read for InProcess<'_, '_> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        if self.out.is_empty() {
-            return Err(std::io::ErrorKind::TimedOut.into());
-        }
-        let n = buf.len().min(self.out.len());
-        for (dst, src) in buf.iter_mut().zip(self.out.drain(..n)) {
-            *dst = src;
-        }
-        Ok(n)
-    }
-}
-
-struct VecSink<'a>(&'a mut VecDeque<u8>);
-
-impl ErrorType for VecSink<'_> {
-    type Error = core::convert::Infallible;
-}
-
-impl embedded_io::Write for VecSink<'_> {
-    fn write(&mut self, bytes: &[u8]) -> Result<usize, Self::Error> {
-        self.0.extend(bytes);
-        Ok(bytes.len())
-    }
-    fn flush(&mut self) -> Result<(), Self::Error> {
-        Ok(())
+        read_queued(&mut self.out, buf)
     }
 }
 

@@ -9,13 +9,13 @@ use std::time::{Duration, Instant};
 
 use gridrt_coproc::{Coprocessor, KernelKind, NumberFormat, TimingProfile};
 use gridrt_firmware::device::{Device, NoClock};
-use gridrt_firmware::embedded_io::{self, ErrorType};
 use gridrt_firmware::fsl::DirectKernel;
 use gridrt_loopback::{SimConfig, SIM_MAX_VOXELS};
 use gridrt_shared::frame::{encode_frame, MAX_ENCODED, MAX_PAYLOAD};
 use gridrt_shared::msg::{stat, Msg, RenderRequest};
 
 use super::setup::{BenchEvent, FrameBenchError};
+use crate::bench::in_process::{read_queued, VecSink};
 use crate::scene_image::PreparedScene;
 use crate::session::{ProgressEvent, RenderedFrame, Session, SessionConfig};
 
@@ -219,23 +219,6 @@ pub fn run_on_loopback_with(
     Ok(finish(frame, upload, wall_ms, String::new()))
 }
 
-/// The device's output, gathered in memory.
-struct VecSink<'a>(&'a mut VecDeque<u8>);
-
-impl ErrorType for VecSink<'_> {
-    type Error = core::convert::Infallible;
-}
-
-impl embedded_io::Write for VecSink<'_> {
-    fn write(&mut self, bytes: &[u8]) -> Result<usize, Self::Error> {
-        self.0.extend(bytes);
-        Ok(bytes.len())
-    }
-    fn flush(&mut self) -> Result<(), Self::Error> {
-        Ok(())
-    }
-}
-
 type NativeDevice<'m> = Device<DirectKernel<'m>, NoClock, SIM_MAX_VOXELS>;
 
 /// The device on this thread as a byte transport: a write runs the device on the bytes
@@ -260,14 +243,7 @@ impl Write for InProcess<'_, '_> {
 
 impl Read for InProcess<'_, '_> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        if self.out.is_empty() {
-            return Err(std::io::ErrorKind::TimedOut.into());
-        }
-        let n = buf.len().min(self.out.len());
-        for (dst, src) in buf.iter_mut().zip(self.out.drain(..n)) {
-            *dst = src;
-        }
-        Ok(n)
+        read_queued(&mut self.out, buf)
     }
 }
 
