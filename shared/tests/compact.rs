@@ -4,21 +4,8 @@
 
 mod common;
 
-use common::{TINY_COMPACT, TINY_IMAGE};
+use common::{decode_compact as decode, TINY_COMPACT, TINY_IMAGE};
 use gridrt_shared::scene::{SceneError, SceneHeader, Unpacker, COMPACT_HEADER_LEN};
-
-fn decode(stream: &[u8], chunk: usize) -> Result<Vec<u8>, SceneError> {
-    let mut u: Box<Unpacker<4096>> = Box::default();
-    let mut out = Vec::new();
-    for c in stream.chunks(chunk.max(1)) {
-        u.feed(c, &mut |b, _| {
-            out.extend_from_slice(b);
-            Ok(())
-        })?;
-    }
-    u.finish()?;
-    Ok(out)
-}
 
 #[test]
 fn golden_worked_example_decodes_to_the_tiny_image_in_any_chunking() {

@@ -252,10 +252,7 @@ impl<'m> Coprocessor<'m> {
     /// Traces one ray with cycle accounting (same validation and semantics as a RAY packet;
     /// `result.cycles` includes the request and result words the packet would take).
     pub fn trace(&mut self, kind: RayKind, ray: &Ray, t_max: f32, list: &[ListEntry]) -> Result<RayResult, FslError> {
-        self.pes.trace_timed(kind, ray, t_max, list).map_err(|(e, _)| {
-            self.pes.stats.errors = self.pes.stats.errors.saturating_add(1);
-            e
-        })
+        self.trace_observed(kind, ray, t_max, list, &mut NoObserver)
     }
 
     /// [`Coprocessor::trace`] that tells `obs` every PE-memory read of the ray, in the order

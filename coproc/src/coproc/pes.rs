@@ -6,7 +6,7 @@ use gridrt_shared::math::Ray;
 use gridrt_shared::scene::{MAX_PES, TRIANGLE_WORDS};
 
 use super::image::{record, record_at, span, span_mut, validate_image, PeSlot};
-use super::observe::{NoObserver, PeReadObserver};
+use super::observe::PeReadObserver;
 use super::search::{Numerics, View};
 use super::stats::CoprocStats;
 use crate::config::{ArbitrationRule, CoprocConfig, LIST_CAPACITY};
@@ -160,18 +160,8 @@ impl<M: PeMem> Pes<M> {
         self.clear();
     }
 
-    /// The timed path: validation, functional search, PE timeline, statistics.
-    pub(super) fn trace_timed(
-        &mut self,
-        kind: RayKind,
-        ray: &Ray,
-        t_max: f32,
-        list: &[ListEntry],
-    ) -> Result<RayResult, (FslError, u16)> {
-        self.trace_timed_observed(kind, ray, t_max, list, &mut NoObserver)
-    }
-
-    /// [`trace_timed`](Self::trace_timed) with a read observer.
+    /// The timed path: validation, functional search, PE timeline, statistics; `obs` is told
+    /// every PE-memory read ([`NoObserver`](super::observe::NoObserver) for none).
     pub(super) fn trace_timed_observed<O: PeReadObserver>(
         &mut self,
         kind: RayKind,
@@ -184,7 +174,7 @@ impl<M: PeMem> Pes<M> {
         Ok(self.trace_validated_observed(kind, ray, t_max, list, obs))
     }
 
-    /// [`trace_timed`](Self::trace_timed) of a request that passed `View::validate` (the link
+    /// [`trace_timed_observed`](Self::trace_timed_observed) of a request that passed `View::validate` (the link
     /// checks every word of a packet as it arrives: the same checks), telling `obs` every
     /// PE-memory read of the ray (`observe` module doc; the result and counters do not
     /// depend on it).

@@ -1,25 +1,13 @@
 use super::*;
-use gridrt_shared::scene::{SceneError, Unpacker};
 
 mod common {
     include!("../../../shared/tests/common/tiny.rs");
+    include!("../../../shared/tests/common/compact_decode.rs");
 }
+use common::decode_compact as decode;
 
 use crate::grid::GridParams;
 use crate::scene_image::PreparedScene;
-
-fn decode(stream: &[u8], chunk: usize) -> Result<Vec<u8>, SceneError> {
-    let mut u: Box<Unpacker<4096>> = Box::default();
-    let mut out = Vec::new();
-    for c in stream.chunks(chunk.max(1)) {
-        u.feed(c, &mut |b, _| {
-            out.extend_from_slice(b);
-            Ok(())
-        })?;
-    }
-    u.finish()?;
-    Ok(out)
-}
 
 fn bunny() -> Vec<u8> {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/scenes/bun_zipper_res4.obj");

@@ -10,6 +10,7 @@ use gridrt_shared::scene::{
 };
 
 include!("tiny.rs");
+include!("compact_decode.rs");
 
 /// Body CRC of [`TINY_IMAGE`] (bytes 64..348), header bytes 56..60.
 pub const TINY_BODY_CRC: u32 = 0xEF03_A2D3;
