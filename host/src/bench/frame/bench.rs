@@ -19,16 +19,21 @@ use gridrt_firmware::device::Stage;
 
 /// The scene prepared for the qemu-virt board's PEs, and the render request of the frame:
 /// the scene's view at `width`×`height`, the stages it needs (as `gridrt render` derives
-/// them), `encoding`.
+/// them), `encoding`; the grid's resolution multiplier `grid_m` (GridRT Eq. 6.1).
 pub fn prepare(
     scene: &Path,
     width: u16,
     height: u16,
     encoding: PixelEncoding,
+    grid_m: f64,
 ) -> Result<(PreparedScene, RenderRequest, Plan), FrameBenchError> {
     let loaded = crate::scene::load(scene)?;
-    let params =
-        GridParams { pe_count: run::QEMU_PE_COUNT, pe_mem_words: run::QEMU_PE_MEM_WORDS, ..GridParams::default() };
+    let params = GridParams {
+        m: grid_m,
+        pe_count: run::QEMU_PE_COUNT,
+        pe_mem_words: run::QEMU_PE_MEM_WORDS,
+        ..GridParams::default()
+    };
     let prepared = PreparedScene::new(loaded, &params)?;
     let plan = Plan::derive(&prepared.scene);
     let settings = prepared.scene.settings.with_size(width, height).with_shadows(plan.shadows);
@@ -41,7 +46,7 @@ pub fn prepare(
 /// Runs every configuration × target of `opt` (`bench::frame` module docs) and assembles the
 /// report.
 pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Result<FrameReport, FrameBenchError> {
-    let (prepared, req, plan) = prepare(&opt.scene, opt.width, opt.height, opt.encoding)?;
+    let (prepared, req, plan) = prepare(&opt.scene, opt.width, opt.height, opt.encoding, opt.grid_m)?;
     // The RTL's PEs hold `SimConfig::RTL.pe_mem_words` each: a scene whose fullest PE
     // needs more gets no `rtl` row (the QEMU board's 2¹⁹ words would describe no hardware).
     let skipped = rtl_skip_reason(&prepared).filter(|_| opt.configs.contains(&Configuration::Rtl));
@@ -60,7 +65,7 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
     // The SoC first: its per-stage CPI, measured, then describes the modelled riscv32imac rows.
     let soc = if opt.configs.contains(&Configuration::Soc) {
         let loaded = crate::scene::load(&opt.scene)?;
-        Some(soc::run_on_soc(&opt.repo, &loaded, &req, opt.soc_clock(), progress)?)
+        Some(soc::run_on_soc(&opt.repo, &loaded, &req, opt.grid_m, opt.soc_clock(), progress)?)
     } else {
         None
     };
@@ -209,6 +214,7 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
         number_format: format!("{format:?}").to_lowercase(),
         triangles: prepared.grid.triangle_count,
         grid: prepared.grid.dims,
+        grid_m: opt.grid_m,
         pe_count: prepared.grid.pe_count,
         plan: plan.names().iter().map(|s| s.to_string()).collect(),
         tx_buffer_bytes: opt.tx_buffer_bytes,

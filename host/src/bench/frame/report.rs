@@ -40,6 +40,8 @@ pub struct FrameReport {
     pub triangles: u32,
     /// Grid resolution.
     pub grid: [u16; 3],
+    /// Its multiplier m (GridRT Eq. 6.1).
+    pub grid_m: f64,
     /// PEs.
     pub pe_count: u16,
     /// Stages the frame runs.

@@ -288,6 +288,8 @@ pub struct BenchOptions {
     pub baud: u32,
     /// Pixel encoding.
     pub encoding: PixelEncoding,
+    /// Grid resolution multiplier m of GridRT Eq. 6.1, for every row.
+    pub grid_m: f64,
     /// Bytes the UART holds while the line drains them (`timeline`).
     pub tx_buffer_bytes: u64,
     /// Soft-core profile.

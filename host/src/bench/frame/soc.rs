@@ -161,6 +161,7 @@ pub fn run_on_soc(
     repo: &Path,
     loaded: &crate::scene::Scene,
     request: &RenderRequest,
+    grid_m: f64,
     clock: SocClock,
     progress: &mut dyn FnMut(BenchEvent),
 ) -> Result<(SocRun, PreparedScene), FrameBenchError> {
@@ -227,7 +228,8 @@ pub fn run_on_soc(
             info.pe_count, info.pe_mem_words, rtl.pe_count, rtl.pe_mem_words
         )));
     }
-    let params = GridParams { pe_count: info.pe_count, pe_mem_words: info.pe_mem_words, ..GridParams::default() };
+    let params =
+        GridParams { m: grid_m, pe_count: info.pe_count, pe_mem_words: info.pe_mem_words, ..GridParams::default() };
     let prepared = PreparedScene::new(loaded.clone(), &params)?;
     let mut req = prepared.scene.settings.with_size(request.width, request.height).to_request(request.frame);
     req.flags = request.flags;

@@ -24,6 +24,7 @@ fn options() -> BenchOptions {
         clock_source: "option",
         baud: 921_600,
         encoding: PixelEncoding::Rle,
+        grid_m: 1.0,
         tx_buffer_bytes: 16,
         cpu: CpuProfile::PICORV32,
         measured_cpi: None,
@@ -40,7 +41,7 @@ fn options() -> BenchOptions {
 #[test]
 fn a_wrapper_the_device_reports_is_not_taken_out_twice() {
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
     let quiet = &mut |_| {};
     let mut run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
     let sim = run.clone();
@@ -61,7 +62,7 @@ fn a_wrapper_the_device_reports_is_not_taken_out_twice() {
 #[test]
 fn a_device_row_charges_the_firmware_without_the_wrapper_and_serialises_every_issue_field() {
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
     let quiet = &mut |_| {};
     let mut run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
     let sim = run.clone();
@@ -151,7 +152,7 @@ fn measured_cpi_charges_each_stage_at_its_own_cpi_on_the_soft_float_target_only(
     assert_eq!(measured.cpi("fsl_io"), Some(5.0));
     let mut opt = options();
     opt.measured_cpi = Some(measured);
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
     let quiet = &mut |_| {};
     let mut run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
     let sim = run.clone();
@@ -182,7 +183,7 @@ fn measured_cpi_charges_each_stage_at_its_own_cpi_on_the_soft_float_target_only(
 #[test]
 fn host_native_renders_the_loopbacks_image_and_reports_measured_wall_time() {
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
     let quiet = &mut |_| {};
     let sim = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
     let native = run_native(&prepared, &req, 0, 2, quiet).unwrap();
@@ -207,7 +208,7 @@ fn host_native_renders_the_loopbacks_image_and_reports_measured_wall_time() {
 #[test]
 fn csv_and_svg_have_a_line_and_a_bar_label_per_row() {
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), 8, 6, opt.encoding).unwrap();
+    let (prepared, req, _) = prepare(res4(), 8, 6, opt.encoding, 1.0).unwrap();
     let quiet = &mut |_| {};
     let sim = run_on_loopback(TimingProfile::PIPELINED, kernel(), &prepared, &req, "t", quiet).unwrap();
     let cmp = compare(&sim.frame.rgb, &sim.frame.rgb, None, None).unwrap();
@@ -298,7 +299,7 @@ fn the_rtl_row_runs_the_rtls_kernel_and_charges_its_profile_at_the_boards_one_cl
     }
 
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
     let quiet = &mut |_| {};
     let sim = run_on_loopback(TimingProfile::RTL, Configuration::Rtl.kernel(), &prepared, &req, "t", quiet).unwrap();
     let cmp = compare(&sim.frame.rgb, &sim.frame.rgb, None, None).unwrap();
@@ -329,7 +330,7 @@ fn measured_cpi_is_not_charged_to_the_soft_core_only_rows() {
     }});
     let mut opt = options();
     opt.measured_cpi = Some(MeasuredCpi::from_stats_json("vexriscv-imac", "soc.json", &stats.to_string()).unwrap());
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
     let run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", &mut |_| {}).unwrap();
     let cmp = compare(&run.frame.rgb, &run.frame.rgb, None, None).unwrap();
     let row = device_row(Configuration::SoftCoreOnly, Target::Riscv32imac, &run, None, &cmp, &opt);
@@ -344,7 +345,7 @@ fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_
     use super::report::{distance_from_soc, soc_row};
     use super::soc::SocRun;
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
     let mut run =
         run_on_loopback(TimingProfile::RTL, Configuration::Soc.kernel(), &prepared, &req, "t", &mut |_| {}).unwrap();
     let rtl = run.clone();
@@ -397,10 +398,10 @@ fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_
 #[test]
 fn a_scene_larger_than_the_rtls_pe_memory_gets_no_rtl_row() {
     let res3 = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/scenes/bun_zipper_res3.obj"));
-    let (big, ..) = bench::prepare(res3, 8, 6, PixelEncoding::Rle).unwrap();
+    let (big, ..) = bench::prepare(res3, 8, 6, PixelEncoding::Rle, 1.0).unwrap();
     let why = bench::rtl_skip_reason(&big).expect("res3's fullest PE exceeds the RTL's 16384 words");
     assert!(why.contains("16384"), "{why}");
-    let (small, ..) = bench::prepare(res4(), 8, 6, PixelEncoding::Rle).unwrap();
+    let (small, ..) = bench::prepare(res4(), 8, 6, PixelEncoding::Rle, 1.0).unwrap();
     assert_eq!(bench::rtl_skip_reason(&small), None, "res4 fits the RTL's 4 PEs");
 
     let opt = BenchOptions { scene: res3.into(), configs: vec![Configuration::Rtl], targets: vec![], ..options() };

@@ -48,6 +48,11 @@ pub struct Args {
     /// Pixel encoding of the answer.
     #[arg(long, value_enum, default_value_t = Encoding::Rle)]
     encoding: Encoding,
+    /// Grid resolution multiplier m of GridRT Eq. 6.1 (n_i = floor(m·w_i/s) + 1), for every
+    /// row: smaller means fewer, fuller voxels (fewer DDA steps for the soft-core, more tests
+    /// for the co-processor).
+    #[arg(long, default_value_t = 1.0, value_name = "M", value_parser = crate::cmd::common::positive_f64)]
+    grid_m: f64,
     /// Write the report here (JSON).
     #[arg(long, value_name = "JSON")]
     json: PathBuf,
@@ -219,6 +224,7 @@ impl Args {
             clock_source,
             baud: self.baud,
             encoding: self.encoding.into(),
+            grid_m: self.grid_m,
             tx_buffer_bytes: self.tx_buffer,
             cpu,
             measured_cpi,
