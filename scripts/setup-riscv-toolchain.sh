@@ -5,7 +5,8 @@
 #   scripts/setup-riscv-toolchain.sh [--debian] [--rustup-only] [--check]
 #
 # Strategy (first that works wins):
-#   1. `rustup target add riscv32imac-unknown-none-elf riscv32imafc-unknown-none-elf`
+#   1. `rustup target add riscv32imac-unknown-none-elf riscv32imafc-unknown-none-elf
+#      riscv32im-unknown-none-elf` (the last: the SoC's VexRiscv `full+cfu`, no C, no A)
 #      for the active rustup toolchain. Plain `cargo build --target ...` then works.
 #   2. Fallback: Debian's rustc-web (+ its std sources, LLVM and lld) unpacked with
 #      `apt-get download` + `dpkg -x` into <repo>/.toolchain/ (git-ignored). The xtask
@@ -20,7 +21,7 @@ set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 TOOLCHAIN_DIR="$ROOT/.toolchain"
-TARGETS=(riscv32imac-unknown-none-elf riscv32imafc-unknown-none-elf)
+TARGETS=(riscv32imac-unknown-none-elf riscv32imafc-unknown-none-elf riscv32im-unknown-none-elf)
 # Pinned so that the std sources always match the compiler that builds them.
 RUST_DEB_VERSION="1.96.0+dfsg1-1~deb12u2"
 LLVM_MAJOR=22

@@ -12,6 +12,11 @@
 //! Addition keeps three bits below the significand (guard, round, sticky), which is enough for
 //! a correctly rounded sum or difference; multiplication rounds the exact 48-bit product.
 //! Operation order is the caller's: `sub(mul(a, b), c)` is `a * b - c`, rounded twice.
+//!
+//! With the feature `cfu-float` (the SoC's VexRiscv `full+cfu`), addition and multiplication
+//! are one custom instruction each, answered by the co-processor RTL's IEEE units behind the
+//! CPU's CFU port ([`cfu`]): the same bits, except that a NaN result is the canonical quiet
+//! NaN.
 
 use gridrt_shared::math::Vec3;
 
@@ -26,7 +31,9 @@ const INF: u32 = 0x7F80_0000;
 /// `a + b`.
 #[inline(always)]
 pub fn add(a: f32, b: f32) -> f32 {
-    if cfg!(soft_float) {
+    if cfg!(feature = "cfu-float") {
+        cfu::add(a, b)
+    } else if cfg!(soft_float) {
         add_int(a, b)
     } else {
         a + b
@@ -42,7 +49,9 @@ pub fn sub(a: f32, b: f32) -> f32 {
 /// `a · b`.
 #[inline(always)]
 pub fn mul(a: f32, b: f32) -> f32 {
-    if cfg!(soft_float) {
+    if cfg!(feature = "cfu-float") {
+        cfu::mul(a, b)
+    } else if cfg!(soft_float) {
         mul_int(a, b)
     } else {
         a * b
@@ -428,6 +437,73 @@ impl Multiplier {
             return None;
         }
         pack((ua ^ self.sign) & SIGN, e - 127, round_even::<7>(m))
+    }
+}
+
+/// The SoC's floating-point CFU (`gridrt_cfu_f32`, rtl/README.md, "The CPU's floating-point
+/// CFU"): a custom-0 R-type instruction, function `{funct7, funct3}`, `rd = rs1 ∘ rs2` on
+/// binary32 bits. The CPU must enable its CFU port first ([`cfu::enable`]). Off the RISC-V
+/// target (host tests, the loopback simulator) the unit's Rust twin answers.
+pub mod cfu {
+    use gridrt_shared::cfu as spec;
+
+    /// Enables VexRiscv's CFU port (CSR 0xBC0, bit 31; a custom instruction before this is
+    /// an illegal instruction). Nothing off the RISC-V target.
+    #[inline(always)]
+    pub fn enable() {
+        #[cfg(target_arch = "riscv32")]
+        // SAFETY: sets one bit of a machine-mode CSR that only gates custom instructions.
+        unsafe {
+            core::arch::asm!("csrs 0xBC0, {0}", in(reg) 0x8000_0000u32, options(nomem, nostack));
+        }
+    }
+
+    /// `a + b` by the unit.
+    #[inline(always)]
+    pub fn add(a: f32, b: f32) -> f32 {
+        #[cfg(target_arch = "riscv32")]
+        {
+            let y: u32;
+            // SAFETY: a register-only instruction (no memory, no stack) the CFU answers.
+            unsafe {
+                core::arch::asm!(
+                    ".insn r 0x0B, {f3}, {f7}, {y}, {a}, {b}",
+                    f3 = const spec::FUNCT3_ADD,
+                    f7 = const spec::FUNCT7,
+                    y = lateout(reg) y,
+                    a = in(reg) a.to_bits(),
+                    b = in(reg) b.to_bits(),
+                    options(pure, nomem, nostack),
+                );
+            }
+            f32::from_bits(y)
+        }
+        #[cfg(not(target_arch = "riscv32"))]
+        f32::from_bits(spec::execute(spec::ADD, a.to_bits(), b.to_bits()))
+    }
+
+    /// `a · b` by the unit.
+    #[inline(always)]
+    pub fn mul(a: f32, b: f32) -> f32 {
+        #[cfg(target_arch = "riscv32")]
+        {
+            let y: u32;
+            // SAFETY: as in `add`.
+            unsafe {
+                core::arch::asm!(
+                    ".insn r 0x0B, {f3}, {f7}, {y}, {a}, {b}",
+                    f3 = const spec::FUNCT3_MUL,
+                    f7 = const spec::FUNCT7,
+                    y = lateout(reg) y,
+                    a = in(reg) a.to_bits(),
+                    b = in(reg) b.to_bits(),
+                    options(pure, nomem, nostack),
+                );
+            }
+            f32::from_bits(y)
+        }
+        #[cfg(not(target_arch = "riscv32"))]
+        f32::from_bits(spec::execute(spec::MUL, a.to_bits(), b.to_bits()))
     }
 }
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from litex.soc.integration.common import get_mem_data
 
 from . import board_files
-from .soc import ROM_SIZE
+from .soc import CPU_VARIANTS, ROM_SIZE
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -48,6 +48,12 @@ def main(argv=None):
             help="compare the firmware's board files with csr.json (default), rewrite them, or neither",
         )
         p.add_argument("--jobs", type=int, default=2)
+        p.add_argument(
+            "--float-hw",
+            choices=tuple(CPU_VARIANTS),
+            default="none",
+            help="floating point in hardware: none (VexRiscv imac) or cfu (VexRiscv full+cfu and the f32 CFU)",
+        )
 
     sim = sub.add_parser("sim", help="generate and compile the Verilator simulation")
     common(sim, rom=True)
@@ -71,7 +77,16 @@ def main(argv=None):
         words = rom_words(args.rom_image, args.rom_base)
         clk_hz = args.clk_hz or sim.SYS_CLK_FREQ
         gateware = sim.prepare(
-            args.build_dir, args.rtl_dir, words, args.board_files, args.jobs, args.trace, clk_hz, args.baud, args.rx_baud
+            args.build_dir,
+            args.rtl_dir,
+            words,
+            args.board_files,
+            args.jobs,
+            args.trace,
+            clk_hz,
+            args.baud,
+            args.rx_baud,
+            args.float_hw,
         )
         print(f"SIM_DIR: {gateware}")
     elif args.cmd == "ulx3s":
@@ -79,7 +94,15 @@ def main(argv=None):
 
         words = rom_words(args.rom_image, args.rom_base)
         result = ulx3s.build(
-            args.build_dir, args.rtl_dir, words, args.board_files, args.device, args.seed, args.pes, args.baud
+            args.build_dir,
+            args.rtl_dir,
+            words,
+            args.board_files,
+            args.device,
+            args.seed,
+            args.pes,
+            args.baud,
+            args.float_hw,
         )
         print(f"BITSTREAM: {result['bitstream']}")
         print(f"REPORT: {result['report']}")

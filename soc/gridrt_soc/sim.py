@@ -55,9 +55,11 @@ _io = [
 ]
 
 
-def make_soc(rtl_dir, rom_words=()):
+def make_soc(rtl_dir, rom_words=(), float_hw="none"):
     platform = SimPlatform("SIM", _io)
-    soc = GridrtSoC(platform, RS232PHYModel(platform.request("serial")), rtl_dir, rom_words, simulation=True)
+    soc = GridrtSoC(
+        platform, RS232PHYModel(platform.request("serial")), rtl_dir, rom_words, simulation=True, float_hw=float_hw
+    )
     # Clock from the `clocker` module; reset for the first cycle (power-on).
     soc.crg = CRG(platform.request("sys_clk"))
     return soc
@@ -115,14 +117,25 @@ def _untraced_makefile(gateware, trace):
 OPT_LEVEL = "O3"
 
 
-def prepare(build_dir, rtl_dir, rom_words, board_files_mode, jobs=2, trace=False, clk_hz=SYS_CLK_FREQ, baud=0, rx_baud=0):
+def prepare(
+    build_dir,
+    rtl_dir,
+    rom_words,
+    board_files_mode,
+    jobs=2,
+    trace=False,
+    clk_hz=SYS_CLK_FREQ,
+    baud=0,
+    rx_baud=0,
+    float_hw="none",
+):
     """Generates and (if needed) compiles the simulator; returns its gateware directory.
 
     ``clk_hz``, ``baud``, ``rx_baud``: the UART line's pacing (``serial2pty``); 0 = unpaced.
     They are read when the simulator starts (sim_config.js): changing them rebuilds nothing.
     """
     build_dir = Path(build_dir).resolve()
-    soc = make_soc(rtl_dir, rom_words)
+    soc = make_soc(rtl_dir, rom_words, float_hw)
     # The C modules are compiled in the build tree: LiteX writes a variables.mak next to them.
     mods = build_dir / "sim_modules"
     if mods.exists():

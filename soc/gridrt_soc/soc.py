@@ -1,8 +1,10 @@
 """``GridrtSoC``: the SoC every target builds, so that all of them share one memory map.
 
 - CPU: VexRiscv, variant ``imac`` (RV32IMAC, 4 KiB I- and D-caches, ``mcycle``/``minstret``
-  readable: the firmware's stage counters). The firmware is built for
-  ``riscv32imac-unknown-none-elf``.
+  readable: the firmware's stage counters), the firmware built for
+  ``riscv32imac-unknown-none-elf``. With ``float_hw="cfu"``: variant ``full+cfu`` (RV32IM,
+  the same caches, a CFU port) with the floating-point CFU (``soc/hdl/gridrt_cfu_litex.sv``), the firmware
+  built for ``riscv32im-unknown-none-elf`` with its ``cfu-float`` feature.
 - ROM (``rom``, 32 KiB at 0x0000_0000, the reset vector): the gridrt bootloader, from the
   bitstream / the simulation's ROM image.
 - SRAM (``sram``, 16 KiB at 0x1000_0000): the bootloader's data and stack.
@@ -18,6 +20,8 @@ target only brings its clock/reset generator and UART PHY.
 
 from litex.soc.cores.uart import UART
 from litex.soc.integration.soc_core import SoCCore
+
+from pathlib import Path
 
 from .coproc import GridrtCoprocCSR
 
@@ -43,6 +47,13 @@ COPROC_PE_MEM_WORDS = 16384
 COPROC_MAX_LIST = 256
 COPROC_FIFO_DEPTH = 16
 
+# Floating point in hardware: "none" (VexRiscv imac, soft float) or "cfu" (VexRiscv
+# full+cfu and the CFU). The CPU variant per choice.
+CPU_VARIANTS = {"none": "imac", "cfu": "full+cfu"}
+# LiteX's `Cfu` module on the CPU's CFU port: a wrapper of rtl/hdl/gridrt_cfu_f32.sv, whose
+# sources come with the co-processor's.
+CFU_WRAPPER = Path(__file__).resolve().parents[1] / "hdl" / "gridrt_cfu_litex.sv"
+
 
 class GridrtSoC(SoCCore):
     """VexRiscv + ROM/SRAM/main RAM + UART + timer + the gridrt co-processor.
@@ -52,7 +63,7 @@ class GridrtSoC(SoCCore):
     padded to ``ROM_SIZE``; empty for an uninitialised ROM (e.g. to export csr.json only).
     ``rtl_dir``: the co-processor's SystemVerilog (rtl/hdl). ``coproc_pes``: the
     co-processor's processing elements. ``simulation``: a Verilator build (the co-processor's
-    pipe then stops when empty, ``GridrtCoproc``).
+    pipe then stops when empty, ``GridrtCoproc``). ``float_hw``: a key of ``CPU_VARIANTS``.
     """
 
     # Fixed CSR locations: the map must not depend on the order modules are added in.
@@ -65,8 +76,18 @@ class GridrtSoC(SoCCore):
     }
 
     def __init__(
-        self, platform, uart_phy, rtl_dir, rom_words=(), ident="gridrt SoC", coproc_pes=COPROC_PES, simulation=False
+        self,
+        platform,
+        uart_phy,
+        rtl_dir,
+        rom_words=(),
+        ident="gridrt SoC",
+        coproc_pes=COPROC_PES,
+        simulation=False,
+        float_hw="none",
     ):
+        if float_hw not in CPU_VARIANTS:
+            raise ValueError(f"float_hw {float_hw!r}: expected one of {', '.join(CPU_VARIANTS)}")
         rom_words = list(rom_words)
         if len(rom_words) * 4 > ROM_SIZE:
             raise ValueError(f"ROM image of {len(rom_words) * 4} bytes exceeds the {ROM_SIZE}-byte ROM")
@@ -77,7 +98,8 @@ class GridrtSoC(SoCCore):
             platform,
             SYS_CLK_FREQ,
             cpu_type="vexriscv",
-            cpu_variant="imac",
+            cpu_variant=CPU_VARIANTS[float_hw],
+            cpu_cfu=str(CFU_WRAPPER) if float_hw == "cfu" else None,
             integrated_rom_size=ROM_SIZE,
             integrated_rom_init=rom_words,
             integrated_sram_size=SRAM_SIZE,

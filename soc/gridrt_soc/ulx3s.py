@@ -69,10 +69,12 @@ class ULX3SCRG(LiteXModule):
         self.comb += platform.request("wifi_gpio0").eq(1)
 
 
-def make_soc(rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE):
+def make_soc(rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw="none"):
     platform = radiona_ulx3s.Platform(device=device, revision="2.0", toolchain="trellis")
     uart_phy = RS232PHY(platform.request("serial"), SYS_CLK_FREQ, baudrate=baud)
-    soc = GridrtSoC(platform, uart_phy, rtl_dir, rom_words, ident="gridrt SoC on ULX3S", coproc_pes=pes)
+    soc = GridrtSoC(
+        platform, uart_phy, rtl_dir, rom_words, ident="gridrt SoC on ULX3S", coproc_pes=pes, float_hw=float_hw
+    )
     soc.crg = ULX3SCRG(platform, SYS_CLK_FREQ)
     return soc
 
@@ -94,7 +96,7 @@ def _tool_wrappers(bin_dir):
         wrapper.chmod(0o755)
 
 
-def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes, baud=UART_BAUDRATE):
+def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes, baud=UART_BAUDRATE, float_hw="none"):
     """Builds the bitstream with ``pes`` co-processor PEs and the UART at ``baud``; returns
     its path, nextpnr's report path and the UART's real rate (``uart_rate``)."""
     build_dir = Path(build_dir).resolve()
@@ -105,7 +107,7 @@ def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes, ba
     _tool_wrappers(bin_dir)
     os.environ["PATH"] = f"{bin_dir}{os.pathsep}{os.environ['PATH']}"
 
-    soc = make_soc(rtl_dir, rom_words, device, pes, baud)
+    soc = make_soc(rtl_dir, rom_words, device, pes, baud, float_hw)
     builder = Builder(
         soc,
         output_dir=str(build_dir),
@@ -118,7 +120,7 @@ def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes, ba
     board_files.apply(board_files.render(build_dir / "csr.json", soc), board_files_mode)
     gateware = Path(builder.gateware_dir)
     start = time.monotonic()
-    print(f"ulx3s: yosys, nextpnr-ecp5 ({device}, {pes} PEs, seed {seed}), ecppack: this takes a while", flush=True)
+    print(f"ulx3s: yosys, nextpnr-ecp5 ({device}, {pes} PEs, float_hw {float_hw}, seed {seed}), ecppack: this takes a while", flush=True)
     cwd = os.getcwd()
     os.chdir(gateware)
     try:

@@ -8,8 +8,8 @@
 //! this command is killed.
 
 use crate::firmware::{Bin, BuildOpts, Layout};
-use crate::soc_tools::{build_firmware, python, result, run_logged, soc_target_dir, RtlDir};
-use crate::toolchain::{display_command, Target, ToolchainChoice};
+use crate::soc_tools::{build_firmware, python, result, run_logged, soc_target_dir, FloatHw, RtlDir};
+use crate::toolchain::{display_command, ToolchainChoice};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::io::{BufRead, BufReader};
@@ -62,6 +62,11 @@ pub struct SimCmd {
     /// the routed clock of a bitstream to time its link).
     #[arg(long)]
     clock_mhz: Option<f64>,
+    /// Floating point in hardware: none (VexRiscv imac, soft float) or cfu (VexRiscv
+    /// full+cfu with the f32 CFU; the firmware for riscv32im with `cfu-float`). Each has its
+    /// own build folder, target/soc/sim[-cfu].
+    #[arg(long, value_enum, default_value_t = FloatHw::None)]
+    float_hw: FloatHw,
 }
 
 /// serial2pty prints this for its pty.
@@ -69,11 +74,13 @@ const PTY_MARKER: &str = "serial2pty: ";
 
 impl SimCmd {
     pub fn run(self) -> Result<()> {
-        let dir = soc_target_dir().join("sim");
+        let dir = soc_target_dir().join(match self.float_hw {
+            FloatHw::None => "sim".to_string(),
+            other => format!("sim-{}", other.name()),
+        });
         let opts = BuildOpts {
-            // VexRiscv `imac`: no F extension.
-            target: Target::Riscv32imac,
-            features: vec![],
+            target: self.float_hw.target(),
+            features: self.float_hw.features(),
             bin: Bin::App,
             layout: Layout::Bootloaded,
             minimal: self.minimal,
@@ -89,6 +96,7 @@ impl SimCmd {
         py.args(["sim", "--build-dir"]).arg(&dir).arg("--rtl-dir").arg(self.rtl.dir());
         py.arg("--rom-image").arg(&rom).args(["--jobs", &self.jobs.to_string()]);
         py.args(["--baud", &self.baud.to_string(), "--rx-baud", &self.rx_baud.to_string()]);
+        py.args(["--float-hw", self.float_hw.name()]);
         if let Some(mhz) = self.clock_mhz {
             if !(mhz.is_finite() && mhz > 0.0 && mhz <= 1000.0) {
                 bail!("--clock-mhz {mhz}: expected a clock in (0, 1000] MHz");

@@ -28,6 +28,42 @@ impl RtlDir {
     }
 }
 
+/// Floating point in hardware on the SoC's CPU (`--float-hw`): the CPU variant, the
+/// firmware's target and features that go with it.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FloatHw {
+    /// VexRiscv imac, soft float (riscv32imac).
+    None,
+    /// VexRiscv full+cfu with the f32 CFU (`gridrt_cfu_f32`): riscv32im, `cfu-float`.
+    Cfu,
+}
+
+impl FloatHw {
+    /// The name in reports and in `python -m gridrt_soc --float-hw`.
+    pub fn name(self) -> &'static str {
+        match self {
+            FloatHw::None => "none",
+            FloatHw::Cfu => "cfu",
+        }
+    }
+
+    /// The firmware's target.
+    pub fn target(self) -> toolchain::Target {
+        match self {
+            FloatHw::None => toolchain::Target::Riscv32imac,
+            FloatHw::Cfu => toolchain::Target::Riscv32im,
+        }
+    }
+
+    /// The app's extra features.
+    pub fn features(self) -> Vec<String> {
+        match self {
+            FloatHw::None => vec![],
+            FloatHw::Cfu => vec!["cfu-float".into()],
+        }
+    }
+}
+
 /// The project's Python environment for LiteX (scripts/setup-soc.sh).
 pub fn venv() -> PathBuf {
     repo_root().join(".toolchain/soc-venv")

@@ -38,6 +38,10 @@ pub enum Target {
     Riscv32imac,
     /// RV32IMAFC, single-precision hard float (ilp32f).
     Riscv32imafc,
+    /// RV32IM, soft float (ilp32): the SoC's VexRiscv `full+cfu`, whose f32 add and
+    /// multiply run in the co-processor RTL's units behind its CFU port (`--features
+    /// cfu-float`).
+    Riscv32im,
 }
 
 impl Target {
@@ -45,6 +49,7 @@ impl Target {
         match self {
             Target::Riscv32imac => "riscv32imac-unknown-none-elf",
             Target::Riscv32imafc => "riscv32imafc-unknown-none-elf",
+            Target::Riscv32im => "riscv32im-unknown-none-elf",
         }
     }
 }

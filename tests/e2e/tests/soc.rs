@@ -250,3 +250,45 @@ fn soc_row_link_cycles_are_the_frames_bytes_at_the_baud_rate() {
     eprintln!("simulation speed: {speed:.0} cycles/s");
     assert!(speed > 0.0);
 }
+
+/// The SoC with floating point in hardware (`--float-hw cfu`: VexRiscv full+cfu and
+/// `gridrt_cfu_f32`, the firmware for riscv32im with `cfu-float`): `gridrt bench frame
+/// --configs soc --soc-float-hw cfu` renders the 32×24 frame byte-identical to `--sim
+/// --coproc rtl` (whose soft-core arithmetic is Rust's f32), so every f32 sum and product the
+/// CFU answered was the operator's (a unit that answers wrongly changes the walk and the
+/// shading, so the image). The row says which CPU ran.
+#[test]
+fn soc_with_the_f32_cfu_renders_like_the_rtl_cosim() {
+    let test = "soc_with_the_f32_cfu_renders_like_the_rtl_cosim";
+    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
+        return;
+    }
+    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempdir("bench-cfu");
+    let json_path = dir.join("f.json");
+    let scene = repo_root().join("tests/scenes/bun_zipper_res4.obj");
+    let log = run_gridrt(&[
+        "bench",
+        "frame",
+        "--scene",
+        &scene.display().to_string(),
+        "--configs",
+        "soc",
+        "--soc-float-hw",
+        "cfu",
+        "--width",
+        WIDTH,
+        "--height",
+        HEIGHT,
+        "--json",
+        &json_path.display().to_string(),
+    ]);
+    eprintln!("{log}");
+    let report = json(&json_path);
+    let row = &report["rows"][0];
+    assert_eq!((row["config"].as_str(), row["target"].as_str()), (Some("soc"), Some("riscv32im")), "{row}");
+    assert_eq!((row["float_hw"].as_str(), row["cpu_profile"].as_str()), (Some("cfu"), Some("vexriscv-full+cfu")));
+    assert_eq!(row["cycles_source"], "soc-sim");
+    assert_eq!(row["identical_to_rtl_sim"], true, "the CFU SoC's frame equals --sim --coproc rtl");
+    assert_eq!(row["identical"], true, "and the f64 reference");
+}

@@ -24,6 +24,9 @@ use gridrt_shared::msg::DeviceInfo;
 
 #[riscv_rt::entry]
 fn main() -> ! {
+    // Before any f32 arithmetic: a custom instruction on a disabled CFU port traps.
+    #[cfg(feature = "cfu-float")]
+    gridrt_firmware::sfloat::cfu::enable();
     let counters = CsrCounters;
     let (cycles0, instret0) = (counters.cycles(), counters.instret());
     // SAFETY: the only console owner; trap/panic reports alias it only once we stop.
@@ -40,6 +43,7 @@ fn main() -> ! {
     w.put(if cfg!(feature = "reflections") { " reflections" } else { "" });
     w.put(if cfg!(feature = "textures") { " textures" } else { "" });
     w.put(if cfg!(feature = "specular") { " specular" } else { "" });
+    w.put(if cfg!(feature = "cfu-float") { "; f32 add/mul on the CFU" } else { "" });
     w.put(")\r\n");
     let (cycles1, instret1) = (counters.cycles(), counters.instret());
     w.put("mcycle=");

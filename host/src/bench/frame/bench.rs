@@ -7,7 +7,8 @@ use gridrt_shared::msg::{stat, PixelEncoding, RenderRequest};
 use super::report::{self, FrameReport};
 use super::run::{self, run_native, run_on_loopback, run_on_qemu, work_differences, DeviceRun};
 use super::setup::{
-    kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, FrameBenchError, Image, MeasuredCpi, Target,
+    kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, FrameBenchError, Image, MeasuredCpi, SocFloatHw,
+    Target,
 };
 use super::soc;
 use crate::compare::compare;
@@ -65,22 +66,26 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
     // The SoC first: its per-stage CPI, measured, then describes the modelled riscv32imac rows.
     let soc = if opt.configs.contains(&Configuration::Soc) {
         let loaded = crate::scene::load(&opt.scene)?;
-        Some(soc::run_on_soc(&opt.repo, &loaded, &req, opt.grid_m, opt.soc_clock(), progress)?)
+        Some(soc::run_on_soc(&opt.repo, &loaded, &req, opt.grid_m, opt.soc_clock(), opt.soc_float_hw, progress)?)
     } else {
         None
     };
-    let measured = soc.as_ref().filter(|_| opt.measured_cpi.is_none()).map(|(s, _)| MeasuredCpi {
-        core: "vexriscv-imac".into(),
-        source: "this run's soc row".into(),
-        by_stage: Stage::ALL
-            .iter()
-            .map(|&st| {
-                let name = crate::stats::stage_name(st).to_string();
-                (name, (s.run.stat(st.cycles_key()), s.run.stat(st.instret_key())))
-            })
-            .filter(|(_, (c, i))| *i > 0 && c >= i)
-            .collect(),
-    });
+    // A CFU build's CPI is not the imac's: only a soft-float SoC describes the imac rows.
+    let measured =
+        soc.as_ref().filter(|_| opt.measured_cpi.is_none() && opt.soc_float_hw == SocFloatHw::None).map(|(s, _)| {
+            MeasuredCpi {
+                core: "vexriscv-imac".into(),
+                source: "this run's soc row".into(),
+                by_stage: Stage::ALL
+                    .iter()
+                    .map(|&st| {
+                        let name = crate::stats::stage_name(st).to_string();
+                        (name, (s.run.stat(st.cycles_key()), s.run.stat(st.instret_key())))
+                    })
+                    .filter(|(_, (c, i))| *i > 0 && c >= i)
+                    .collect(),
+            }
+        });
     let with_soc_cpi;
     let opt = match measured {
         Some(m) => {

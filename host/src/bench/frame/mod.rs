@@ -62,6 +62,6 @@ pub use report::{critical_path, write_csv, write_svg, FrameReport, FrameRow};
 pub use run::{run_native, run_on_loopback, run_on_qemu, work_differences, DeviceRun};
 pub use setup::{
     kernel, BenchEvent, BenchOptions, Configuration, CoprocCycles, CpuProfile, FrameBenchError, Image, MeasuredCpi,
-    SocClock, Target,
+    SocClock, SocFloatHw, Target,
 };
 pub use timeline::{timeline, FrameWork, Timeline};

@@ -11,7 +11,7 @@ use gridrt_shared::msg::stat;
 use serde::Serialize;
 
 use super::run::DeviceRun;
-use super::setup::{kernel, BenchOptions, Configuration, Target};
+use super::setup::{kernel, BenchOptions, Configuration, SocFloatHw, Target};
 use super::soc::SocRun;
 use super::timeline::{timeline, FrameWork};
 use crate::compare::Comparison;
@@ -210,6 +210,8 @@ pub struct BoardFields {
     pub clock_source: Option<String>,
     /// Harts of the soft-core.
     pub harts: Option<u32>,
+    /// `soc`: floating point in hardware on its CPU, `"none"` or `"cfu"`.
+    pub float_hw: Option<String>,
     /// PEs of the co-processor.
     pub pes: Option<u16>,
     /// Line rate of the UART (8N1).
@@ -398,7 +400,7 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
     let words = run.stat(stat::FSL_WORDS_OUT) + run.stat(stat::FSL_WORDS_IN);
     FrameRow {
         config: Configuration::Soc.name().into(),
-        target: Target::Riscv32imac.name().into(),
+        target: soc.float_hw.target().into(),
         instructions_per_primary_ray: Some(instructions as f64 / primary),
         instructions_source: Some("soc-sim".into()),
         cpu_ms: ms(cycles),
@@ -411,7 +413,7 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
         psnr_db,
         identical,
         frame_ms_source: "measured".into(),
-        cpu_profile: Some("vexriscv-imac".into()),
+        cpu_profile: Some(soc.float_hw.cpu().into()),
         cpi: Some(cycles as f64 / instructions.max(1) as f64),
         cpu_source: Some("soc-sim".into()),
         cpi_by_stage: Some(cpi_by_stage),
@@ -448,6 +450,7 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
             clock_mhz: Some(soc.clock.clock_mhz),
             clock_source: Some(soc.clock.source.into()),
             harts: Some(1),
+            float_hw: Some(soc.float_hw.name().into()),
             pes: Some(soc.pes),
             baud: Some(soc.clock.baud),
             link_cycles: Some(link_cycles),
@@ -461,7 +464,10 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
 
 /// Sets `vs_soc` on every modelled row when `rows` has a `soc` row.
 pub(crate) fn distance_from_soc(rows: &mut [FrameRow]) {
-    let Some(soc_ms) = rows.iter().find(|r| r.config == Configuration::Soc.name()).map(|r| r.frame_ms) else {
+    // The modelled rows model a soft-float VexRiscv imac: a CFU build is another CPU.
+    let soft = |r: &&FrameRow| r.board.float_hw.as_deref() != Some(SocFloatHw::Cfu.name());
+    let Some(soc_ms) = rows.iter().filter(soft).find(|r| r.config == Configuration::Soc.name()).map(|r| r.frame_ms)
+    else {
         return;
     };
     for r in rows.iter_mut().filter(|r| r.board.cycles_source.as_deref() == Some("model")) {

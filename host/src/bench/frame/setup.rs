@@ -290,6 +290,8 @@ pub struct BenchOptions {
     pub encoding: PixelEncoding,
     /// Grid resolution multiplier m of GridRT Eq. 6.1, for every row.
     pub grid_m: f64,
+    /// The `soc` row's CPU: floating point in hardware or not.
+    pub soc_float_hw: SocFloatHw,
     /// Bytes the UART holds while the line drains them (`timeline`).
     pub tx_buffer_bytes: u64,
     /// Soft-core profile.
@@ -313,6 +315,43 @@ impl BenchOptions {
     /// The `soc` row's clock and line: the bench's.
     pub fn soc_clock(&self) -> SocClock {
         SocClock { clock_mhz: self.clock_mhz, source: self.clock_source, baud: self.baud }
+    }
+}
+
+/// Floating point in hardware on the SoC's CPU (`cargo xtask soc sim --float-hw`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SocFloatHw {
+    /// VexRiscv imac, f32 in soft float; the firmware for riscv32imac.
+    #[default]
+    None,
+    /// VexRiscv full+cfu with the f32 CFU (`gridrt_cfu_f32`); the firmware for riscv32im
+    /// with `cfu-float`.
+    Cfu,
+}
+
+impl SocFloatHw {
+    /// Its name in the report and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            SocFloatHw::None => "none",
+            SocFloatHw::Cfu => "cfu",
+        }
+    }
+
+    /// The firmware's target (the row's `target`).
+    pub fn target(self) -> &'static str {
+        match self {
+            SocFloatHw::None => "riscv32imac",
+            SocFloatHw::Cfu => "riscv32im",
+        }
+    }
+
+    /// The CPU (the row's `cpu_profile`).
+    pub fn cpu(self) -> &'static str {
+        match self {
+            SocFloatHw::None => "vexriscv-imac",
+            SocFloatHw::Cfu => "vexriscv-full+cfu",
+        }
     }
 }
 

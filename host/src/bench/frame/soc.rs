@@ -22,7 +22,7 @@ use gridrt_loopback::SimConfig;
 use gridrt_shared::msg::{stat, RenderRequest};
 
 use super::run::{finish, hello_upload_render, read_banner, work_differences, DeviceRun};
-use super::setup::{BenchEvent, FrameBenchError, SocClock};
+use super::setup::{BenchEvent, FrameBenchError, SocClock, SocFloatHw};
 use crate::flash::{flash, FlashConfig, FlashEvent, FlashImage};
 use crate::grid::GridParams;
 use crate::scene_image::PreparedScene;
@@ -44,6 +44,8 @@ pub struct SocRun {
     pub rtl: DeviceRun,
     /// The clock and line.
     pub clock: SocClock,
+    /// The CPU's floating point.
+    pub float_hw: SocFloatHw,
     /// PEs of the SoC's co-processor.
     pub pes: u16,
     /// Simulated cycles per wall-clock second during the render (the frame's cycles over
@@ -67,15 +69,23 @@ struct SocSim {
 }
 
 impl SocSim {
-    fn start(repo: &Path, clock: SocClock, progress: &mut dyn FnMut(BenchEvent)) -> Result<Self, FrameBenchError> {
+    fn start(
+        repo: &Path,
+        clock: SocClock,
+        float_hw: SocFloatHw,
+        progress: &mut dyn FnMut(BenchEvent),
+    ) -> Result<Self, FrameBenchError> {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let mut cmd = Command::new(cargo);
         cmd.current_dir(repo).args(["run", "--quiet", "--package", "xtask", "--", "soc", "sim"]);
         cmd.args(["--baud", &clock.baud.to_string(), "--clock-mhz", &format!("{}", clock.clock_mhz)]);
         cmd.args(["--timeout-s", &(4 * SOC_STAGE_TIMEOUT.as_secs()).to_string()]);
+        cmd.args(["--float-hw", float_hw.name()]);
         progress(BenchEvent::Step(format!(
-            "soc: cargo xtask soc sim --baud {} --clock-mhz {} (builds the Verilated SoC the first time: minutes)",
-            clock.baud, clock.clock_mhz
+            "soc: cargo xtask soc sim --baud {} --clock-mhz {} --float-hw {} (builds the Verilated SoC the first time: minutes)",
+            clock.baud,
+            clock.clock_mhz,
+            float_hw.name()
         )));
         let mut child = cmd
             .stdout(Stdio::piped())
@@ -163,19 +173,21 @@ pub fn run_on_soc(
     request: &RenderRequest,
     grid_m: f64,
     clock: SocClock,
+    float_hw: SocFloatHw,
     progress: &mut dyn FnMut(BenchEvent),
 ) -> Result<(SocRun, PreparedScene), FrameBenchError> {
-    progress(BenchEvent::Step("soc: cargo xtask firmware --board litex --bin app --layout bootloaded".into()));
-    let app = gridrt_qemu::build_firmware(
-        repo,
-        &["--quiet"],
-        &["--board", "litex", "--bin", "app", "--layout", "bootloaded", "--jobs", "2"],
-    )
-    .map_err(|e| FrameBenchError::Build(e.to_string()))?;
+    let mut args = vec!["--board", "litex", "--bin", "app", "--layout", "bootloaded", "--jobs", "2"];
+    args.extend(["--target", float_hw.target()]);
+    if float_hw == SocFloatHw::Cfu {
+        args.extend(["--features", "cfu-float"]);
+    }
+    progress(BenchEvent::Step(format!("soc: cargo xtask firmware {}", args.join(" "))));
+    let app =
+        gridrt_qemu::build_firmware(repo, &["--quiet"], &args).map_err(|e| FrameBenchError::Build(e.to_string()))?;
     let elf = std::fs::read(&app).map_err(|e| FrameBenchError::Build(format!("{}: {e}", app.display())))?;
     let image = FlashImage::from_elf(&elf).map_err(|e| FrameBenchError::Build(format!("{}: {e}", app.display())))?;
 
-    let sim = SocSim::start(repo, clock, progress)?;
+    let sim = SocSim::start(repo, clock, float_hw, progress)?;
     let open = || crate::serial::open(&sim.pty, 115_200, crate::serial::DEFAULT_READ_TIMEOUT);
 
     let t = Instant::now();
@@ -269,6 +281,7 @@ pub fn run_on_soc(
             run,
             rtl: rtl_run,
             clock,
+            float_hw,
             pes: info.pe_count,
             flash_s,
             upload_s,

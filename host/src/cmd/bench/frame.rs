@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, bail, Context};
 use gridrt_host::bench::frame::{
     run_bench, write_csv, write_svg, BenchEvent, BenchOptions, Configuration, CpuProfile, FrameReport, MeasuredCpi,
-    Target,
+    SocFloatHw, Target,
 };
 use gridrt_host::session::ProgressEvent;
 
@@ -53,6 +53,11 @@ pub struct Args {
     /// for the co-processor).
     #[arg(long, default_value_t = 1.0, value_name = "M", value_parser = crate::cmd::common::positive_f64)]
     grid_m: f64,
+    /// The `soc` row's CPU: none (VexRiscv imac, f32 in soft float) or cfu (VexRiscv
+    /// full+cfu with the f32 CFU, the firmware for riscv32im). With cfu the soc row does not
+    /// calibrate the modelled riscv32imac rows.
+    #[arg(long, value_enum, default_value_t = SocFloat::None)]
+    soc_float_hw: SocFloat,
     /// Write the report here (JSON).
     #[arg(long, value_name = "JSON")]
     json: PathBuf,
@@ -92,6 +97,13 @@ pub struct Args {
     /// The gridrt repository (builds the firmware images with `cargo xtask firmware`).
     #[arg(long, default_value = ".", value_name = "DIR")]
     repo: PathBuf,
+}
+
+/// `--soc-float-hw`.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum SocFloat {
+    None,
+    Cfu,
 }
 
 /// Prints steps as they start and, at most every 5 s, how far an upload or render is; a
@@ -225,6 +237,10 @@ impl Args {
             baud: self.baud,
             encoding: self.encoding.into(),
             grid_m: self.grid_m,
+            soc_float_hw: match self.soc_float_hw {
+                SocFloat::None => SocFloatHw::None,
+                SocFloat::Cfu => SocFloatHw::Cfu,
+            },
             tx_buffer_bytes: self.tx_buffer,
             cpu,
             measured_cpi,
