@@ -45,6 +45,10 @@ pub const CANONICAL_NAN: u32 = 0x7FC0_0000;
 /// assert_eq!(execute(ADD, 0x3FC0_0000, 0x4010_0000), 0x4070_0000); // 1.5 + 2.25 = 3.75
 /// assert_eq!(execute(SUB, 0x3FC0_0000, 0x4010_0000), 0xBF40_0000); // 1.5 - 2.25 = -0.75
 /// assert_eq!(execute(MUL, 0x3FC0_0000, 0x4010_0000), 0x4058_0000); // 1.5 * 2.25 = 3.375
+/// // rtl/README.md §7's worked example: 0.1f and 0.2f.
+/// assert_eq!(execute(ADD, 0x3DCC_CCCD, 0x3E4C_CCCD), 0x3E99_999A);
+/// assert_eq!(execute(SUB, 0x3DCC_CCCD, 0x3E4C_CCCD), 0xBDCC_CCCD);
+/// assert_eq!(execute(MUL, 0x3DCC_CCCD, 0x3E4C_CCCD), 0x3CA3_D70B);
 /// assert_eq!(execute(MUL, 0x7F80_0000, 0), CANONICAL_NAN); // inf * 0
 /// assert_eq!(execute(3, 0x3FC0_0000, 0x4010_0000), CANONICAL_NAN); // unknown id
 /// ```
