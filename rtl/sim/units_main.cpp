@@ -8,8 +8,8 @@
 //        ray_overflow), vector = 9 record words -> (kind, t)
 // unit 5 cfu_f32: header (seed, gap percent, stall percent), vector = (function_id, rs1, rs2)
 //        -> (rd, latency: the clock edges from the command's handshake to the first edge
-//        with rsp_valid high, i.e. the earliest possible response handshake); after them two more words: the command handshakes and the
-//        response handshakes seen (both must equal count)
+//        with rsp_valid high, the earliest possible response handshake); after them two
+//        more words: the command and the response handshakes seen (both must equal count)
 // unit 0 ends the process.
 #include <cstdlib>
 #include <random>
