@@ -6,7 +6,13 @@
 // unit 3 f32_to_fixed: (x, k) -> (q_lo, q_hi, huge)
 // unit 4 isect_pipe: header (o0 lo hi, o1 lo hi, o2 lo hi, kz, sx, sy, dz_neg, dz_abs, texp,
 //        ray_overflow), vector = 9 record words -> (kind, t)
+// unit 5 cfu_f32: header (seed, gap percent, stall percent), vector = (function_id, rs1, rs2)
+//        -> (rd, latency: the clock edges from the command's handshake to the first edge
+//        with rsp_valid high, the earliest possible response handshake); after them two
+//        more words: the command and the response handshakes seen (both must equal count)
 // unit 0 ends the process.
+#include <cstdlib>
+#include <random>
 #include <vector>
 #include "Vgridrt_units_top.h"
 #include "io.h"
@@ -27,21 +33,106 @@ static uint64_t sext(uint64_t v, int bits) {
     return (v ^ m) - m;
 }
 
+// The CFU as the CPU drives it, under random back-pressure: before each command cmd_valid
+// stays low for a random gap (gap percent: the chance of one more idle cycle), and once
+// offered the command is held until cmd_ready; rsp_ready is low in stall percent of the
+// cycles. Handshakes are sampled before the clock edge (cmd_ready_o and rsp_valid_o depend
+// only on registers). A response is written as it is taken; a response without an
+// outstanding command is counted too, so the trailer shows drops and duplicates.
+static void run_cfu(const std::vector<uint32_t>& hdr, const std::vector<uint32_t>& in, uint32_t count) {
+    std::mt19937_64 rng(hdr[0]);
+    const uint32_t gap = hdr[1], stall = hdr[2];
+    auto chance = [&](uint32_t pct) { return uint32_t(rng() % 100) < pct; };
+    // Reset, as LiteX's sys reset: synchronous, a few cycles, the CPU quiet.
+    top->cfu_cmd_valid_i = 0;
+    top->cfu_rsp_ready_i = 0;
+    top->cfu_rst_i = 1;
+    for (int i = 0; i < 3; i++) tick();
+    top->cfu_rst_i = 0;
+    uint64_t commands = 0, responses = 0, idle = 0, cycle = 0, fired_at = 0;
+    uint32_t latency = 0;
+    bool seen = false;
+    uint32_t sent = 0;
+    bool offered = false;
+    // Run until every command is answered, then a while longer for stray responses.
+    int after = 0;
+    while (after < 64) {
+        if (!offered && sent < count && !chance(gap)) offered = true;
+        top->cfu_cmd_valid_i = offered;
+        if (offered) {
+            const uint32_t* v = &in[size_t(sent) * 3];
+            top->cfu_cmd_function_id_i = v[0] & 0x3FF;
+            top->cfu_cmd_inputs_0_i = v[1];
+            top->cfu_cmd_inputs_1_i = v[2];
+        } else {
+            // Garbage on an idle bus must not matter.
+            top->cfu_cmd_function_id_i = rng() & 0x3FF;
+            top->cfu_cmd_inputs_0_i = uint32_t(rng());
+            top->cfu_cmd_inputs_1_i = uint32_t(rng());
+        }
+        top->cfu_rsp_ready_i = !chance(stall);
+        top->clk_i = 0;
+        top->eval();
+        bool cmd_fire = top->cfu_cmd_valid_i && top->cfu_cmd_ready_o;
+        bool rsp_fire = top->cfu_rsp_valid_o && top->cfu_rsp_ready_i;
+        uint32_t rd = top->cfu_rsp_outputs_0_o;
+        if (top->cfu_rsp_valid_o && !seen) {
+            latency = uint32_t(cycle - fired_at);
+            seen = true;
+        }
+        top->clk_i = 1;
+        top->eval();
+        cycle++;
+        if (cmd_fire) {
+            commands++;
+            fired_at = cycle - 1;
+            sent++;
+            offered = false;
+        }
+        if (rsp_fire) {
+            // Only the first count responses are results; more are strays (counted).
+            if (responses < count) {
+                io::write_u32(rd);
+                io::write_u32(latency);
+            }
+            responses++;
+            seen = false;
+        }
+        idle = (cmd_fire || rsp_fire) ? 0 : idle + 1;
+        if (idle > 100000) {
+            std::fprintf(stderr, "units_main: cfu_f32 made no handshake in 100000 cycles (%llu commands, %llu responses of %u)\n",
+                         (unsigned long long)commands, (unsigned long long)responses, count);
+            std::exit(2);
+        }
+        if (sent == count && responses >= count) after++;
+    }
+    top->cfu_cmd_valid_i = 0;
+    top->cfu_rsp_ready_i = 0;
+    io::write_u32(uint32_t(commands));
+    io::write_u32(uint32_t(responses));
+}
+
 int main(int argc, char** argv) {
     Verilated::commandArgs(argc, argv);
     io::init();
     top = new Vgridrt_units_top;
     top->clk_i = 0;
+    top->cfu_rst_i = 1;
     top->eval();
     for (;;) {
         uint32_t unit, count;
         if (!io::read_u32(unit) || unit == 0) break;
         if (!io::read_u32(count)) break;
-        int in_words = unit == 1 ? 3 : unit == 4 ? 9 : 2;
-        int hdr_words = unit == 4 ? 13 : 0;
+        int in_words = unit == 1 || unit == 5 ? 3 : unit == 4 ? 9 : 2;
+        int hdr_words = unit == 4 ? 13 : unit == 5 ? 3 : 0;
         std::vector<uint32_t> hdr(hdr_words), in(size_t(count) * in_words);
         for (auto& w : hdr) if (!io::read_u32(w)) return 1;
         for (auto& w : in) if (!io::read_u32(w)) return 1;
+        if (unit == 5) {
+            run_cfu(hdr, in, count);
+            io::flush();
+            continue;
+        }
         if (unit == 4) {
             top->is_o0_i = (uint64_t(hdr[1]) << 32 | hdr[0]) & ((1ull << 34) - 1);
             top->is_o1_i = (uint64_t(hdr[3]) << 32 | hdr[2]) & ((1ull << 34) - 1);

@@ -197,6 +197,36 @@ pub mod unit {
     pub const TO_FIXED: u32 = 3;
     /// Intersection pipeline: ray header, 9 record words → (kind, t).
     pub const ISECT: u32 = 4;
+    /// The CPU's f32 CFU on its handshake bus: header (seed, gap %, stall %),
+    /// (function_id, rs1, rs2) → (rd, latency), then the command and response handshake counts.
+    pub const CFU: u32 = 5;
+}
+
+/// Back-pressure of a CFU run ([`Units::cfu`]): the bus as a CPU drives it, at random.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CfuStress {
+    /// Seed of the harness's generator.
+    pub seed: u32,
+    /// Percent chance, per cycle, of one more idle cycle before a command is offered
+    /// (`cmd_valid` low); once offered, a command is held until `cmd_ready`.
+    pub gap_pct: u32,
+    /// Percent of the cycles with `rsp_ready` low.
+    pub stall_pct: u32,
+}
+
+/// What a CFU run answered.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CfuRun {
+    /// The response words in order (at most one per command).
+    pub rd: Vec<u32>,
+    /// Each response's latency: the clock edges from its command's handshake to the first
+    /// edge with `rsp_valid` high (the earliest edge the response could be taken).
+    pub latency: Vec<u32>,
+    /// Command handshakes seen (`cmd_valid && cmd_ready`).
+    pub commands: u32,
+    /// Response handshakes seen (`rsp_valid && rsp_ready`), strays after the last command's
+    /// response included.
+    pub responses: u32,
 }
 
 impl Units {
@@ -219,6 +249,20 @@ impl Units {
         self.pipe.send(header)?;
         self.pipe.send(vectors)?;
         (0..count * out_words).map(|_| self.pipe.recv()).collect()
+    }
+
+    /// Runs `ops` (function_id, rs1, rs2) through `gridrt_cfu_f32` under `stress`.
+    pub fn cfu(&mut self, stress: CfuStress, ops: &[[u32; 3]]) -> Result<CfuRun, SimError> {
+        let words: Vec<u32> = ops.iter().flatten().copied().collect();
+        let header = [stress.seed, stress.gap_pct, stress.stall_pct];
+        // The harness runs until every command is answered (a dropped one ends it through its
+        // watchdog: an error here), writes the first response per command, then the counts.
+        let out = self.run(unit::CFU, &header, &words, 3, 2)?;
+        let commands = self.pipe.recv()?;
+        let responses = self.pipe.recv()?;
+        let rd = out.iter().step_by(2).copied().collect();
+        let latency = out.iter().skip(1).step_by(2).copied().collect();
+        Ok(CfuRun { rd, latency, commands, responses })
     }
 }
 

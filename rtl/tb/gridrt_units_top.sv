@@ -32,7 +32,16 @@ module gridrt_units_top (
     input  logic               is_ray_overflow_i,
     output logic               is_out_valid_o,
     output logic [1:0]         is_kind_o,
-    output logic [31:0]        is_t_o
+    output logic [31:0]        is_t_o,
+    // cfu_f32 (the CPU's CFU bus; the only unit here with a reset)
+    input  logic               cfu_rst_i,
+    input  logic               cfu_cmd_valid_i,
+    output logic               cfu_cmd_ready_o,
+    input  logic [9:0]         cfu_cmd_function_id_i,
+    input  logic [31:0]        cfu_cmd_inputs_0_i, cfu_cmd_inputs_1_i,
+    output logic               cfu_rsp_valid_o,
+    input  logic               cfu_rsp_ready_i,
+    output logic [31:0]        cfu_rsp_outputs_0_o
 );
     gridrt_f32_addsub u_add (.clk_i, .in_valid_i(add_valid_i), .a_i(add_a_i), .b_i(add_b_i), .sub_i(add_sub_i),
                       .out_valid_o(add_out_valid_o), .y_o(add_y_o));
@@ -45,4 +54,8 @@ module gridrt_units_top (
         .o0_i(is_o0_i), .o1_i(is_o1_i), .o2_i(is_o2_i), .kz_i(is_kz_i), .sx_i(is_sx_i), .sy_i(is_sy_i),
         .dz_neg_i(is_dz_neg_i), .dz_abs_i(is_dz_abs_i), .texp_i(is_texp_i), .ray_overflow_i(is_ray_overflow_i),
         .out_valid_o(is_out_valid_o), .out_tag_o(is_tag_unused), .kind_o(is_kind_o), .t_o(is_t_o));
+    gridrt_cfu_f32 u_cfu (
+        .clk_i, .rst_i(cfu_rst_i), .cmd_valid_i(cfu_cmd_valid_i), .cmd_ready_o(cfu_cmd_ready_o),
+        .cmd_function_id_i(cfu_cmd_function_id_i), .cmd_inputs_0_i(cfu_cmd_inputs_0_i), .cmd_inputs_1_i(cfu_cmd_inputs_1_i),
+        .rsp_valid_o(cfu_rsp_valid_o), .rsp_ready_i(cfu_rsp_ready_i), .rsp_outputs_0_o(cfu_rsp_outputs_0_o));
 endmodule

@@ -1,10 +1,12 @@
 //! The datapath blocks against their Rust twins, vector by vector (rtl/tb/gridrt_units_top.sv):
 //! IEEE-754 add/sub and mul against Rust's `f32`, the f32 → fixed conversion and the
-//! intersection pipeline against the model's kernel (`gridrt_coproc::isect::watertight_q23`).
+//! intersection pipeline against the model's kernel (`gridrt_coproc::isect::watertight_q23`),
+//! the CPU's f32 CFU on its handshake bus against its twin (`gridrt_shared::cfu::execute`).
 
 use gridrt_coproc::isect::watertight_q23::{self as twin, Frame, RaySetup, Test};
 use gridrt_coproc::{FixedFrame, NumberFormat};
-use gridrt_rtl::sim::{default_programs, require_verilator, unit, Units};
+use gridrt_rtl::sim::{default_programs, require_verilator, unit, CfuStress, Units};
+use gridrt_shared::cfu;
 use gridrt_shared::math::{Ray, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -216,4 +218,58 @@ fn intersection_pipeline_matches_the_twin() {
         }
     }
     assert!(hits > tests / 50, "only {hits} hits in {tests} tests");
+}
+
+/// A function id: mostly add, sub and mul, else an unknown one (funct3 3..7, another funct7,
+/// any 10 bits).
+fn cfu_function_id(rng: &mut ChaCha8Rng) -> u16 {
+    match rng.gen_range(0..20) {
+        0..=5 => cfu::ADD,
+        6..=11 => cfu::SUB,
+        12..=17 => cfu::MUL,
+        18 => cfu::function_id(rng.gen_range(1..0x80), rng.gen_range(0..3)),
+        _ => loop {
+            let id = rng.gen_range(3..0x400u16);
+            if ![cfu::ADD, cfu::SUB, cfu::MUL].contains(&id) {
+                break id;
+            }
+        },
+    }
+}
+
+#[test]
+fn cfu_answers_what_its_rust_twin_answers_under_random_back_pressure() {
+    let test = "cfu_answers_what_its_rust_twin_answers_under_random_back_pressure";
+    let Some(mut u) = units(test) else { return };
+    let mut rng = ChaCha8Rng::seed_from_u64(0xCF0);
+    // (gap %, stall %): back to back, light, heavy on each side, heavy on both.
+    let stresses = [(0, 0), (20, 20), (80, 10), (10, 80), (60, 60)];
+    let mut total = 0;
+    for (k, (gap_pct, stall_pct)) in stresses.into_iter().enumerate() {
+        let mut ops = Vec::new();
+        for _ in 0..80_000 {
+            let id = cfu_function_id(&mut rng);
+            let a = f32_sample(&mut rng);
+            let b = if rng.gen_bool(0.3) { f32_near(&mut rng, a) } else { f32_sample(&mut rng) };
+            ops.push([u32::from(id), a, b]);
+        }
+        let stress = CfuStress { seed: 0x5EED + k as u32, gap_pct, stall_pct };
+        let run = u.cfu(stress, &ops).unwrap();
+        let n = ops.len() as u32;
+        assert_eq!((run.commands, run.responses), (n, n), "{stress:?}: commands and responses of {n}");
+        assert_eq!((run.rd.len(), run.latency.len()), (ops.len(), ops.len()));
+        for ((&[id, a, b], &rd), &latency) in ops.iter().zip(&run.rd).zip(&run.latency) {
+            let want = cfu::execute(id as u16, a, b);
+            assert_eq!(rd, want, "{stress:?}: function_id {id:#x}, rs1 {a:08x}, rs2 {b:08x}: {rd:08x} vs {want:08x}");
+            // rtl/README.md §7: 7 cycles for add and sub, 8 for mul, 1 for an unknown id.
+            let want_latency = match id as u16 {
+                cfu::ADD | cfu::SUB => 7,
+                cfu::MUL => 8,
+                _ => 1,
+            };
+            assert_eq!(latency, want_latency, "{stress:?}: latency of function_id {id:#x}");
+        }
+        total += ops.len();
+    }
+    assert_eq!(total, 400_000);
 }
