@@ -12,14 +12,14 @@
 #   compiles the Verilated model), python3-venv.
 # - pip, into the project's virtual environment .toolchain/soc-venv/ (git-ignored; nothing
 #   system-wide), pinned:
-#     litex, migen, pythondata-cpu-vexriscv (the SoC builder and its CPU);
+#     litex, migen, pythondata-cpu-vexriscv (the SoC builder and its CPU), litedram (the
+#     SDRAM controller of main RAM, and its simulation model);
 #     pythondata-misc-tapcfg, pythondata-software-picolibc, pythondata-software-compiler_rt
 #       (LiteX's simulation Makefile and its header generation look them up, even with no
 #       BIOS to build);
 #     litex-boards (the ULX3S pin map; 2023.12 is the newest on PyPI, installed without its
 #       dependency pins so that it uses LiteX 2024.12).
-#   Not needed, unlike litex_sim's defaults: litedram, liteeth (no DRAM, no Ethernet in this
-#   SoC), meson, ninja and gcc-riscv64-unknown-elf (they build LiteX's BIOS; our ROM holds
+#   Not needed, unlike litex_sim's defaults: liteeth (no Ethernet in this SoC), meson, ninja and gcc-riscv64-unknown-elf (they build LiteX's BIOS; our ROM holds
 #   the Rust bootloader instead).
 #
 # --check  change nothing; exit 0 if everything is there (setup-hdl.sh's part too), 1 otherwise.
@@ -31,6 +31,7 @@ VENV="$ROOT/.toolchain/soc-venv"
 PIP_PACKAGES=(
   "litex==2024.12"
   "migen==0.10.0"
+  "litedram==2024.12"
   "pythondata-cpu-vexriscv==1.0.1.post407"
   "pythondata-misc-tapcfg==0.0.post517"
   "pythondata-software-picolibc==1.7.9.post181"
@@ -80,4 +81,4 @@ say "pip install --no-deps ${PIP_NO_DEPS[*]}"
 "$VENV/bin/python" -m pip install -q --no-deps "${PIP_NO_DEPS[@]}"
 rm -f "$VENV"/.installed-*
 touch "$STAMP"
-say "installed into .toolchain/soc-venv/: $("$VENV/bin/python" -m pip list 2>/dev/null | grep -E -i '^(litex|migen|pythondata)' | tr -s ' ' | tr '\n' ',' )"
+say "installed into .toolchain/soc-venv/: $("$VENV/bin/python" -m pip list 2>/dev/null | grep -E -i '^(litex|litedram|migen|pythondata)' | tr -s ' ' | tr '\n' ',' )"

@@ -6,8 +6,10 @@ Two files, both committed (the firmware builds without LiteX installed):
   main_ram), included by the hand-written ``litex.x`` / ``litex-bootloader.x``, which say
   what goes where;
 - ``firmware/image/src/litex_map.rs``: base and register addresses of every CSR peripheral,
-  the CSR field layouts the drivers use, and the SoC constants (clock, FIFO depths; the
-  co-processor's configuration is read from its CSRs at run time). ``board.rs`` checks at compile time that the drivers' register offsets
+  the CSR field layouts the drivers use, the SoC constants (clock, FIFO depths; the
+  co-processor's configuration is read from its CSRs at run time), and the SDRAM chip's
+  power-up sequence (``SDRAM_INIT``: LiteDRAM's for the SoC's PHY and module, its commands
+  and control words spelled with the DFII CSRs' field layout), which the bootloader runs. ``board.rs`` checks at compile time that the drivers' register offsets
   agree with these addresses.
 
 Every SoC build (``cargo xtask soc sim|build``) regenerates the text and compares it with the
@@ -27,7 +29,7 @@ MAP_RS = Path("firmware/image/src/litex_map.rs")
 # Memory regions the firmware links into (csr.json "memories"), in address order.
 MEMORIES = ("rom", "sram", "main_ram")
 # CSR peripherals the firmware drives, with their registers (csr.json "csr_registers").
-PERIPHERALS = ("ctrl", "uart", "timer0", "coproc")
+PERIPHERALS = ("ctrl", "uart", "timer0", "coproc", "sdram")
 # SoC constants the firmware uses (csr.json "constants"): (csr.json name, Rust name, type).
 CONSTANTS = (
     ("config_clock_frequency", "CLOCK_HZ", "u32"),
@@ -88,6 +90,8 @@ def map_rs(csr, soc):
         "//! Addresses are absolute; `board.rs` checks the drivers' register offsets against them.",
         "#![allow(dead_code)]",
         "",
+        "use gridrt_firmware::bsp::litedram::{SdramAction, SdramStep};",
+        "",
     ]
     for name in MEMORIES:
         up = name.upper()
@@ -118,7 +122,50 @@ def map_rs(csr, soc):
                 o.append(f"    pub const {short.upper()}_{fname.upper()}_SIZE: u32 = {size};")
         o.append("}")
     o.append("")
+    o += sdram_init_rs(soc, fields)
     return "\n".join(o)
+
+
+def _dfii_word(expr, fields):
+    """LiteDRAM's ``DFII_COMMAND_RAS|DFII_COMMAND_CS`` or ``DFII_CONTROL_CKE|…`` as
+    (``"Control"`` or ``"Command"``, the register value), from the DFII CSRs' fields."""
+    kinds = {"DFII_CONTROL_": ("Control", "dfii_control"), "DFII_COMMAND_": ("Command", "dfii_pi0_command")}
+    names = expr.split("|")
+    prefix = next((p for p in kinds if names[0].startswith(p)), None)
+    if prefix is None or not all(n.startswith(prefix) for n in names):
+        raise SystemExit(f"board-files: SDRAM init step {expr!r}: not DFII control or command bits")
+    kind, reg = kinds[prefix]
+    layout = {name: (off, size) for name, off, size in fields[("sdram", reg)]}
+    value = 0
+    for n in names:
+        off, size = layout[n[len(prefix) :].lower()]
+        assert size == 1, n
+        value |= 1 << off
+    return kind, value
+
+
+def sdram_init_rs(soc, fields):
+    """``SDRAM_INIT``: LiteDRAM's power-up sequence for the SoC's SDRAM PHY and module
+    (``litedram.init``), as LiteX's BIOS runs it (``init_sequence`` of its sdram_phy.h)."""
+    from litedram.init import get_sdram_phy_init_sequence
+
+    settings = soc.sdram.controller.settings
+    if settings.phy.nphases != 1 or settings.phy.memtype != "SDR":
+        raise SystemExit(f"board-files: the bootloader initialises one-phase SDR SDRAM, not {settings.phy.memtype}")
+    steps, _ = get_sdram_phy_init_sequence(settings.phy, settings.timing)
+    o = [
+        "/// The SDRAM chip's power-up sequence, in order (LiteDRAM's `init_sequence` for this",
+        "/// SoC's PHY and module): run by the bootloader with the DFII in software control.",
+        "pub const SDRAM_INIT: [SdramStep; " + str(len(steps)) + "] = [",
+    ]
+    for what, address, bank, expr, delay in steps:
+        kind, value = _dfii_word(expr, fields)
+        o.append(
+            f'    SdramStep {{ what: "{what}", action: SdramAction::{kind}({value:#04x}), '
+            f"address: {address:#06x}, bank: {bank}, delay: {delay} }},"
+        )
+    o += ["];", ""]
+    return o
 
 
 def render(csr_json_path, soc):

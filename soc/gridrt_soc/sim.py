@@ -25,6 +25,7 @@ import subprocess
 import time
 from pathlib import Path
 
+from litedram.phy.model import SDRAMPHYModel
 from litex.build.generic_platform import Pins, Subsignal
 from litex.build.io import CRG
 from litex.build.sim import SimPlatform
@@ -33,7 +34,7 @@ from litex.soc.cores.uart import RS232PHYModel
 from litex.soc.integration.builder import Builder
 
 from . import board_files
-from .soc import SYS_CLK_FREQ, GridrtSoC
+from .soc import SDRAM_DATA_WIDTH, SYS_CLK_FREQ, GridrtSoC, sdram_module
 
 SIM_MODULES = Path(__file__).resolve().parents[1] / "sim_modules"
 # Our side of LiteX's simulation core: veril.cpp without an unconditional --trace.
@@ -57,8 +58,18 @@ _io = [
 
 def make_soc(rtl_dir, rom_words=(), float_hw="none"):
     platform = SimPlatform("SIM", _io)
+    # The board's SDRAM chip, modelled: LiteDRAM's PHY model holds the memory and checks the
+    # chip's timings as LiteDRAM's controller drives them at the SoC's clock.
+    module = sdram_module(SYS_CLK_FREQ)
+    phy = SDRAMPHYModel(module=module, data_width=SDRAM_DATA_WIDTH, clk_freq=SYS_CLK_FREQ)
     soc = GridrtSoC(
-        platform, RS232PHYModel(platform.request("serial")), rtl_dir, rom_words, simulation=True, float_hw=float_hw
+        platform,
+        RS232PHYModel(platform.request("serial")),
+        rtl_dir,
+        rom_words,
+        simulation=True,
+        float_hw=float_hw,
+        sdram_phy=phy,
     )
     # Clock from the `clocker` module; reset for the first cycle (power-on).
     soc.crg = CRG(platform.request("sys_clk"))

@@ -8,8 +8,12 @@
 - ROM (``rom``, 32 KiB at 0x0000_0000, the reset vector): the gridrt bootloader, from the
   bitstream / the simulation's ROM image.
 - SRAM (``sram``, 16 KiB at 0x1000_0000): the bootloader's data and stack.
-- Main RAM (``main_ram``, 256 KiB of block RAM at 0x4000_0000): the application region; the
-  bootloader writes the application here (``gridrt flash``), which then uses all of it.
+- Main RAM (``main_ram`` at 0x4000_0000): the board's SDRAM through LiteDRAM (32 MiB of
+  MT48LC16M16, 16 bits wide, behind an 8 KiB L2 cache; in simulation LiteDRAM's
+  ``SDRAMPHYModel`` of the same chip). The application region: the bootloader initialises
+  the memory controller before anything else (``SDRAM_INIT`` in the board files) and writes
+  the application here (``gridrt flash``), which then uses all of it. Block RAM is left to
+  the co-processor.
 - CSRs (0xF000_0000, uncached): ``ctrl``, ``identifier_mem``, ``uart`` (LiteX UART, 64-byte
   FIFOs, a read of ``rxtx`` pops), ``timer0``, ``coproc`` (``coproc.GridrtCoprocCSR``; its
   configuration, PEs and words per PE, is readable there).
@@ -30,7 +34,21 @@ KIB = 1024
 # Sizes of the memory map (board_files writes them into the firmware's linker scripts).
 ROM_SIZE = 32 * KIB
 SRAM_SIZE = 16 * KIB
-MAIN_RAM_SIZE = 256 * KIB
+
+# Main RAM: the ULX3S's SDRAM chip, modelled the same in simulation (one memory map). The
+# module class is LiteDRAM's (``litedram.modules``); the rate 1:1 is GENSDRPHY's.
+SDRAM_MODULE = "MT48LC16M16"
+SDRAM_RATE = "1:1"
+SDRAM_DATA_WIDTH = 16
+# LiteX's L2 cache between the CPU's bus and LiteDRAM (its default size).
+SDRAM_L2_SIZE = 8 * KIB
+
+
+def sdram_module(clk_freq):
+    """The SDRAM chip's LiteDRAM module (geometry and timings at ``clk_freq``)."""
+    from litedram import modules
+
+    return getattr(modules, SDRAM_MODULE)(clk_freq, SDRAM_RATE)
 
 # Every target runs the system clock at this frequency (the simulation nominally), so that
 # csr.json and the firmware's board files are the same for all of them.
@@ -64,6 +82,8 @@ class GridrtSoC(SoCCore):
     ``rtl_dir``: the co-processor's SystemVerilog (rtl/hdl). ``coproc_pes``: the
     co-processor's processing elements. ``simulation``: a Verilator build (the co-processor's
     pipe then stops when empty, ``GridrtCoproc``). ``float_hw``: a key of ``CPU_VARIANTS``.
+    ``sdram_phy``: the target's PHY of the SDRAM chip (``GENSDRPHY`` on the board,
+    ``SDRAMPHYModel`` in simulation).
     """
 
     # Fixed CSR locations: the map must not depend on the order modules are added in.
@@ -85,6 +105,8 @@ class GridrtSoC(SoCCore):
         coproc_pes=COPROC_PES,
         simulation=False,
         float_hw="none",
+        *,
+        sdram_phy,
     ):
         if float_hw not in CPU_VARIANTS:
             raise ValueError(f"float_hw {float_hw!r}: expected one of {', '.join(CPU_VARIANTS)}")
@@ -103,12 +125,15 @@ class GridrtSoC(SoCCore):
             integrated_rom_size=ROM_SIZE,
             integrated_rom_init=rom_words,
             integrated_sram_size=SRAM_SIZE,
-            integrated_main_ram_size=MAIN_RAM_SIZE,
+            integrated_main_ram_size=0,
             with_uart=False,
             with_timer=True,
             ident=ident,
             ident_version=False,
         )
+
+        # Main RAM in SDRAM.
+        self.add_sdram("sdram", phy=sdram_phy, module=sdram_module(SYS_CLK_FREQ), l2_cache_size=SDRAM_L2_SIZE)
 
         # UART: our own instance (not add_uart) for deeper FIFOs and pop-on-read.
         self.uart_phy = uart_phy

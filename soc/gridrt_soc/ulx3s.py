@@ -17,8 +17,10 @@ import sys
 import time
 from pathlib import Path
 
-from migen import ClockDomain, Signal
+from litedram.phy import GENSDRPHY
+from migen import ClockDomain, ClockSignal, Signal
 
+from litex.build.io import DDROutput
 from litex.gen import LiteXModule
 from litex.soc.cores.clock import ECP5PLL
 from litex.soc.cores.uart import RS232PHY
@@ -50,12 +52,15 @@ TOOLS = (
 
 
 class ULX3SCRG(LiteXModule):
-    """``sys`` from the 25 MHz oscillator through the ECP5 PLL; the F1 button (``rst``)
-    resets it."""
+    """``sys`` from the 25 MHz oscillator through the ECP5 PLL, and ``sys_ps``, the same
+    clock 90° later, which drives the SDRAM chip's clock pin (the chip samples the commands
+    GENSDRPHY launches on ``sys`` in the middle of their cycle, as litex-boards' ULX3S
+    target does); the F1 button (``rst``) resets both."""
 
     def __init__(self, platform, sys_clk_freq):
         self.rst = Signal()
         self.cd_sys = ClockDomain()
+        self.cd_sys_ps = ClockDomain()
 
         # # #
 
@@ -65,6 +70,8 @@ class ULX3SCRG(LiteXModule):
         self.comb += pll.reset.eq(rst | self.rst)
         pll.register_clkin(clk25, 25e6)
         pll.create_clkout(self.cd_sys, sys_clk_freq)
+        pll.create_clkout(self.cd_sys_ps, sys_clk_freq, phase=90)
+        self.specials += DDROutput(1, 0, platform.request("sdram_clock"), ClockSignal("sys_ps"))
         # Keep the ESP32 from resetting the FPGA.
         self.comb += platform.request("wifi_gpio0").eq(1)
 
@@ -72,10 +79,18 @@ class ULX3SCRG(LiteXModule):
 def make_soc(rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw="none"):
     platform = radiona_ulx3s.Platform(device=device, revision="2.0", toolchain="trellis")
     uart_phy = RS232PHY(platform.request("serial"), SYS_CLK_FREQ, baudrate=baud)
+    crg = ULX3SCRG(platform, SYS_CLK_FREQ)
     soc = GridrtSoC(
-        platform, uart_phy, rtl_dir, rom_words, ident="gridrt SoC on ULX3S", coproc_pes=pes, float_hw=float_hw
+        platform,
+        uart_phy,
+        rtl_dir,
+        rom_words,
+        ident="gridrt SoC on ULX3S",
+        coproc_pes=pes,
+        float_hw=float_hw,
+        sdram_phy=GENSDRPHY(platform.request("sdram"), SYS_CLK_FREQ),
     )
-    soc.crg = ULX3SCRG(platform, SYS_CLK_FREQ)
+    soc.crg = crg
     return soc
 
 

@@ -66,6 +66,12 @@ mod imp {
         // SAFETY: the SiFive test device of QEMU virt; the write ends the process.
         unsafe { core::ptr::write_volatile(SIFIVE_TEST_BASE as *mut u32, value) };
     }
+
+    /// Main RAM needs no set-up on this board.
+    pub fn init_main_ram() {}
+
+    /// What main RAM is, for the bootloader's banner.
+    pub const MAIN_RAM: &str = "RAM";
 }
 
 #[cfg(feature = "board-fpga-soc")]
@@ -114,12 +120,19 @@ mod imp {
 
     /// Nothing to exit from on hardware: the caller halts.
     pub fn exit_failure(_code: u16) {}
+
+    /// Main RAM needs no set-up on this board.
+    pub fn init_main_ram() {}
+
+    /// What main RAM is, for the bootloader's banner.
+    pub const MAIN_RAM: &str = "RAM";
 }
 
 #[cfg(feature = "board-litex")]
 mod imp {
     use crate::litex_map as map;
     use gridrt_firmware::bsp::coproc_csr::{regs as coproc_regs, CoprocCsr};
+    use gridrt_firmware::bsp::litedram::{regs as dfii_regs, Dfii};
     use gridrt_firmware::bsp::litex_uart::{regs as uart_regs, LitexUart};
     use gridrt_firmware::bsp::VolatileMmio;
 
@@ -163,7 +176,29 @@ mod imp {
         assert!(1 << coproc::STATUS_REQ_OVERFLOW_OFFSET == coproc_regs::STATUS_REQ_OVERFLOW);
         assert!(1 << coproc::STATUS_RSP_UNDERFLOW_OFFSET == coproc_regs::STATUS_RSP_UNDERFLOW);
         assert!(1 << coproc::CTRL_RESET_OFFSET == coproc_regs::CTRL_RESET);
+        use map::sdram;
+        assert!(at(sdram::DFII_CONTROL, sdram::BASE, dfii_regs::CONTROL), "LiteDRAM: DFII_CONTROL");
+        assert!(at(sdram::DFII_PI0_COMMAND, sdram::BASE, dfii_regs::PI0_COMMAND), "LiteDRAM: PI0_COMMAND");
+        assert!(at(sdram::DFII_PI0_COMMAND_ISSUE, sdram::BASE, dfii_regs::PI0_COMMAND_ISSUE), "LiteDRAM: ISSUE");
+        assert!(at(sdram::DFII_PI0_ADDRESS, sdram::BASE, dfii_regs::PI0_ADDRESS), "LiteDRAM: PI0_ADDRESS");
+        assert!(at(sdram::DFII_PI0_BADDRESS, sdram::BASE, dfii_regs::PI0_BADDRESS), "LiteDRAM: PI0_BADDRESS");
+        assert!(1 << sdram::DFII_CONTROL_SEL_OFFSET == dfii_regs::CONTROL_SEL);
+        assert!(1 << sdram::DFII_CONTROL_CKE_OFFSET == dfii_regs::CONTROL_CKE);
+        assert!(1 << sdram::DFII_CONTROL_ODT_OFFSET == dfii_regs::CONTROL_ODT);
+        assert!(1 << sdram::DFII_CONTROL_RESET_N_OFFSET == dfii_regs::CONTROL_RESET_N);
     };
+
+    /// Main RAM is the board's SDRAM: runs the chip's power-up sequence (csr.json's
+    /// `SDRAM_INIT`) and hands it to LiteDRAM's controller. The bootloader calls it before
+    /// anything touches main RAM; the application, which runs from main RAM, never does.
+    pub fn init_main_ram() {
+        // SAFETY: the SoC's LiteDRAM DFII registers (csr.json, through litex_map); nothing
+        // else drives them, and main RAM is not in use yet.
+        Dfii::new(unsafe { VolatileMmio::new(map::sdram::BASE) }).init(&map::SDRAM_INIT);
+    }
+
+    /// What main RAM is, for the bootloader's banner.
+    pub const MAIN_RAM: &str = "SDRAM (LiteDRAM), initialised";
 
     /// The console UART type of this board.
     pub type Console = LitexUart<VolatileMmio>;

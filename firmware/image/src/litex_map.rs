@@ -4,6 +4,8 @@
 //! Addresses are absolute; `board.rs` checks the drivers' register offsets against them.
 #![allow(dead_code)]
 
+use gridrt_firmware::bsp::litedram::{SdramAction, SdramStep};
+
 /// Memory region `rom`: base address.
 pub const ROM_BASE: usize = 0x0000_0000;
 /// Memory region `rom`: size in bytes.
@@ -15,7 +17,7 @@ pub const SRAM_SIZE: usize = 0x4000;
 /// Memory region `main_ram`: base address.
 pub const MAIN_RAM_BASE: usize = 0x4000_0000;
 /// Memory region `main_ram`: size in bytes.
-pub const MAIN_RAM_SIZE: usize = 0x40000;
+pub const MAIN_RAM_SIZE: usize = 0x2000000;
 
 /// SoC constant `config_clock_frequency`.
 pub const CLOCK_HZ: u32 = 50000000;
@@ -168,3 +170,82 @@ pub mod coproc {
     /// `coproc_pe_mem_words`: 1 word(s), ro.
     pub const PE_MEM_WORDS: usize = 0xf000_2018;
 }
+/// CSR peripheral `sdram`: base address and registers (csr.json).
+pub mod sdram {
+    /// Base address of the peripheral's CSRs.
+    pub const BASE: usize = 0xf000_2800;
+    /// `sdram_dfii_control`: 1 word(s), rw.
+    pub const DFII_CONTROL: usize = 0xf000_2800;
+    /// Field `sel` of `dfii_control`: bit offset.
+    pub const DFII_CONTROL_SEL_OFFSET: u32 = 0;
+    /// Field `sel` of `dfii_control`: width in bits.
+    pub const DFII_CONTROL_SEL_SIZE: u32 = 1;
+    /// Field `cke` of `dfii_control`: bit offset.
+    pub const DFII_CONTROL_CKE_OFFSET: u32 = 1;
+    /// Field `cke` of `dfii_control`: width in bits.
+    pub const DFII_CONTROL_CKE_SIZE: u32 = 1;
+    /// Field `odt` of `dfii_control`: bit offset.
+    pub const DFII_CONTROL_ODT_OFFSET: u32 = 2;
+    /// Field `odt` of `dfii_control`: width in bits.
+    pub const DFII_CONTROL_ODT_SIZE: u32 = 1;
+    /// Field `reset_n` of `dfii_control`: bit offset.
+    pub const DFII_CONTROL_RESET_N_OFFSET: u32 = 3;
+    /// Field `reset_n` of `dfii_control`: width in bits.
+    pub const DFII_CONTROL_RESET_N_SIZE: u32 = 1;
+    /// `sdram_dfii_pi0_command`: 1 word(s), rw.
+    pub const DFII_PI0_COMMAND: usize = 0xf000_2804;
+    /// Field `cs` of `dfii_pi0_command`: bit offset.
+    pub const DFII_PI0_COMMAND_CS_OFFSET: u32 = 0;
+    /// Field `cs` of `dfii_pi0_command`: width in bits.
+    pub const DFII_PI0_COMMAND_CS_SIZE: u32 = 1;
+    /// Field `we` of `dfii_pi0_command`: bit offset.
+    pub const DFII_PI0_COMMAND_WE_OFFSET: u32 = 1;
+    /// Field `we` of `dfii_pi0_command`: width in bits.
+    pub const DFII_PI0_COMMAND_WE_SIZE: u32 = 1;
+    /// Field `cas` of `dfii_pi0_command`: bit offset.
+    pub const DFII_PI0_COMMAND_CAS_OFFSET: u32 = 2;
+    /// Field `cas` of `dfii_pi0_command`: width in bits.
+    pub const DFII_PI0_COMMAND_CAS_SIZE: u32 = 1;
+    /// Field `ras` of `dfii_pi0_command`: bit offset.
+    pub const DFII_PI0_COMMAND_RAS_OFFSET: u32 = 3;
+    /// Field `ras` of `dfii_pi0_command`: width in bits.
+    pub const DFII_PI0_COMMAND_RAS_SIZE: u32 = 1;
+    /// Field `wren` of `dfii_pi0_command`: bit offset.
+    pub const DFII_PI0_COMMAND_WREN_OFFSET: u32 = 4;
+    /// Field `wren` of `dfii_pi0_command`: width in bits.
+    pub const DFII_PI0_COMMAND_WREN_SIZE: u32 = 1;
+    /// Field `rden` of `dfii_pi0_command`: bit offset.
+    pub const DFII_PI0_COMMAND_RDEN_OFFSET: u32 = 5;
+    /// Field `rden` of `dfii_pi0_command`: width in bits.
+    pub const DFII_PI0_COMMAND_RDEN_SIZE: u32 = 1;
+    /// Field `cs_top` of `dfii_pi0_command`: bit offset.
+    pub const DFII_PI0_COMMAND_CS_TOP_OFFSET: u32 = 6;
+    /// Field `cs_top` of `dfii_pi0_command`: width in bits.
+    pub const DFII_PI0_COMMAND_CS_TOP_SIZE: u32 = 1;
+    /// Field `cs_bottom` of `dfii_pi0_command`: bit offset.
+    pub const DFII_PI0_COMMAND_CS_BOTTOM_OFFSET: u32 = 7;
+    /// Field `cs_bottom` of `dfii_pi0_command`: width in bits.
+    pub const DFII_PI0_COMMAND_CS_BOTTOM_SIZE: u32 = 1;
+    /// `sdram_dfii_pi0_command_issue`: 1 word(s), rw.
+    pub const DFII_PI0_COMMAND_ISSUE: usize = 0xf000_2808;
+    /// `sdram_dfii_pi0_address`: 1 word(s), rw.
+    pub const DFII_PI0_ADDRESS: usize = 0xf000_280c;
+    /// `sdram_dfii_pi0_baddress`: 1 word(s), rw.
+    pub const DFII_PI0_BADDRESS: usize = 0xf000_2810;
+    /// `sdram_dfii_pi0_wrdata`: 1 word(s), rw.
+    pub const DFII_PI0_WRDATA: usize = 0xf000_2814;
+    /// `sdram_dfii_pi0_rddata`: 1 word(s), ro.
+    pub const DFII_PI0_RDDATA: usize = 0xf000_2818;
+}
+
+/// The SDRAM chip's power-up sequence, in order (LiteDRAM's `init_sequence` for this
+/// SoC's PHY and module): run by the bootloader with the DFII in software control.
+pub const SDRAM_INIT: [SdramStep; 7] = [
+    SdramStep { what: "Bring CKE high", action: SdramAction::Control(0x0e), address: 0x0000, bank: 0, delay: 20000 },
+    SdramStep { what: "Precharge All", action: SdramAction::Command(0x0b), address: 0x0400, bank: 0, delay: 0 },
+    SdramStep { what: "Load Mode Register / Reset DLL, CL=2, BL=1", action: SdramAction::Command(0x0f), address: 0x0120, bank: 0, delay: 200 },
+    SdramStep { what: "Precharge All", action: SdramAction::Command(0x0b), address: 0x0400, bank: 0, delay: 0 },
+    SdramStep { what: "Auto Refresh", action: SdramAction::Command(0x0d), address: 0x0000, bank: 0, delay: 4 },
+    SdramStep { what: "Auto Refresh", action: SdramAction::Command(0x0d), address: 0x0000, bank: 0, delay: 4 },
+    SdramStep { what: "Load Mode Register / CL=2, BL=1", action: SdramAction::Command(0x0f), address: 0x0020, bank: 0, delay: 200 },
+];

@@ -1,5 +1,5 @@
 //! Board support: register access, byte UARTs, the co-processor links (AXI4-Stream FIFO,
-//! LiteX CSR FIFOs), counters.
+//! LiteX CSR FIFOs), the SDRAM's power-up, counters.
 //!
 //! Every driver here is generic over [`Mmio`], so the same code runs on the soft-core
 //! (through [`VolatileMmio`]) and in host unit tests (through the register-level mock in
@@ -12,6 +12,7 @@
 //! | [`axis_fifo::AxisFifo`] | Xilinx AXI4-Stream FIFO (PG080) | FPGA SoC FSL-style link to the co-processor |
 //! | [`litex_uart::LitexUart`] | LiteX UART (`litex/soc/cores/uart.py`) | LiteX SoC (`soc/`) console/host link |
 //! | [`coproc_csr::CoprocCsr`] | the co-processor's CSR FIFOs (`soc/gridrt_soc/coproc.py`) | LiteX SoC FSL-style link to the co-processor |
+//! | [`litedram::Dfii`] | LiteDRAM's DFI injector (`litedram/dfii.py`) | LiteX SoC: the SDRAM chip's power-up sequence (bootloader) |
 //!
 //! Register offsets and bit values live only in each driver's `regs.rs`; above that
 //! layer no magic numbers appear.
@@ -30,6 +31,7 @@
 
 pub mod axis_fifo;
 pub mod coproc_csr;
+pub mod litedram;
 pub mod litex_uart;
 pub mod mmio;
 #[cfg(test)]

@@ -117,7 +117,8 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     {
         let mut port = serial::open(&sim.pty, 115_200, serial::DEFAULT_READ_TIMEOUT).unwrap();
         let mut big = good.clone();
-        big.data.resize(1 << 20, 0);
+        // Larger than main RAM (the board's 32 MiB of SDRAM).
+        big.data.resize(64 << 20, 0);
         let e = flash(&mut port, &FlashImage::new(big.load_addr, big.entry, big.data), &cfg, &mut |_| {}).unwrap_err();
         eprintln!("oversized image: {e}");
         assert!(matches!(e, FlashError::Rejected { reason: Some(msg::FlashError::TooLarge), .. }), "{e}");

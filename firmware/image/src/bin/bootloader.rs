@@ -17,13 +17,16 @@ use gridrt_shared::msg::DeviceInfo;
 
 #[riscv_rt::entry]
 fn main() -> ! {
+    // Before anything can touch main RAM (the application region is there).
+    board::init_main_ram();
     // SAFETY: the only console owner; trap/panic reports alias it only once we stop.
     let mut console = unsafe { board::take_console() };
     let (start, end) = board::app_region();
     let _ = write!(
         UartWriter(&mut console),
-        "gridrt bootloader {VERSION} on {}: application region {start:#010x}..{end:#010x}; send SPEC.md 3.11 frames\r\n",
-        board::NAME
+        "gridrt bootloader {VERSION} on {}: main RAM {}; application region {start:#010x}..{end:#010x}; send SPEC.md 3.11 frames\r\n",
+        board::NAME,
+        board::MAIN_RAM
     );
     // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
     let _ = console.write_all(&[0]);
