@@ -132,8 +132,14 @@ class GridrtSoC(SoCCore):
             ident_version=False,
         )
 
-        # Main RAM in SDRAM.
-        self.add_sdram("sdram", phy=sdram_phy, module=sdram_module(SYS_CLK_FREQ), l2_cache_size=SDRAM_L2_SIZE)
+        # Main RAM in SDRAM (the PHY joins the SoC's module tree here).
+        self.sdrphy = sdram_phy
+        self.add_sdram(
+            "sdram",
+            phy=sdram_phy,
+            module=sdram_module(SYS_CLK_FREQ),
+            l2_cache_size=SDRAM_L2_SIZE,
+        )
 
         # UART: our own instance (not add_uart) for deeper FIFOs and pop-on-read.
         self.uart_phy = uart_phy

@@ -5,8 +5,8 @@
 //! report, and how long the build took.
 
 use crate::firmware::{Bin, BuildOpts, Layout};
-use crate::soc_tools::{build_firmware, python, result, run_logged, soc_target_dir, RtlDir};
-use crate::toolchain::{Target, ToolchainChoice};
+use crate::soc_tools::{build_firmware, python, result, run_logged, soc_target_dir, FloatHw, RtlDir};
+use crate::toolchain::ToolchainChoice;
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
@@ -60,9 +60,9 @@ pub struct BuildCmd {
     /// nextpnr's placement seed.
     #[arg(long, default_value_t = 1)]
     seed: u32,
-    /// Processing elements of the co-processor. Block RAM bounds them: the SoC's 304 KiB of
-    /// ROM and RAM take ≈ 152 of the LFE5U-85F's 208 DP16KD and a PE 40 (`cargo xtask rtl
-    /// synth`), so the device holds one PE beside the CPU (modelled from the counts).
+    /// Processing elements of the co-processor. Block RAM bounds them: a PE takes 40 of the
+    /// LFE5U-85F's 208 DP16KD (`cargo xtask rtl synth`); main RAM is the board's SDRAM, so
+    /// the rest is ROM, SRAM, the caches and LiteX's L2.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=16))]
     pes: u16,
     /// The UART's rate: the ULX3S's FT231X USB-serial bridge goes up to 3 000 000 baud; give
@@ -73,6 +73,10 @@ pub struct BuildCmd {
     /// Write the resource and timing summary here (JSON).
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
+    /// Floating point in hardware: none (VexRiscv imac, soft float) or cfu (VexRiscv
+    /// full+cfu with the f32 CFU; its firmware is built for riscv32im with `cfu-float`).
+    #[arg(long, value_enum, default_value_t = FloatHw::None)]
+    float_hw: FloatHw,
     #[command(flatten)]
     rtl: RtlDir,
     /// How to cross-compile the bootloader (see scripts/setup-riscv-toolchain.sh).
@@ -95,8 +99,8 @@ impl BuildCmd {
         crate::rtl_hdl::check_not_under_tmp()?;
         let dir = soc_target_dir().join("ulx3s");
         let opts = BuildOpts {
-            target: Target::Riscv32imac,
-            features: vec![],
+            target: self.float_hw.target(),
+            features: self.float_hw.features(),
             bin: Bin::Bootloader,
             layout: Layout::Bootloaded,
             minimal: false,
@@ -113,7 +117,7 @@ impl BuildCmd {
         py.args(["ulx3s", "--build-dir"]).arg(&dir).arg("--rtl-dir").arg(self.rtl.dir());
         py.arg("--rom-image").arg(&rom);
         py.args(["--device", self.device.part(), "--seed", &self.seed.to_string(), "--pes", &self.pes.to_string()]);
-        py.args(["--baud", &self.baud.to_string()]);
+        py.args(["--baud", &self.baud.to_string(), "--float-hw", self.float_hw.name()]);
         let results =
             run_logged(py, &dir.join("litex.log"), |l| l.starts_with("ulx3s:") || l.starts_with("board-files:"))?;
         let seconds = started.elapsed().as_secs_f64();
@@ -128,15 +132,21 @@ impl BuildCmd {
         let target = number_after(&report, "\"fmax\"", "constraint").unwrap_or(0.0);
         let baud_error_ppm: f64 = result(&results, "BAUD_ERROR_PPM")?.parse().context("BAUD_ERROR_PPM")?;
         let baud_jitter: f64 = result(&results, "BAUD_JITTER")?.parse().context("BAUD_JITTER")?;
+        let margin = fmax - target;
         let (lut_cap, bram_cap, dsp_cap) = self.device.capacity();
         let fits = bitstream.is_file() && luts <= lut_cap && brams <= bram_cap && dsps <= dsp_cap;
         let json = format!(
-            "{{\"board\": \"ulx3s\", \"device\": \"{}-CABGA381\", \"cpu\": \"vexriscv imac\", \"harts\": 1, \
-             \"float_hw\": \"none\", \"sdram\": false, \"pes\": {}, \"luts\": {luts}, \
-             \"ffs\": {ffs}, \"dsps\": {dsps}, \"brams\": {brams}, \"fmax_mhz\": {fmax:.2}, \"target_mhz\": {target:.2}, \
+            "{{\"board\": \"ulx3s\", \"device\": \"{}-CABGA381\", \"cpu\": \"vexriscv {}\", \"harts\": 1, \
+             \"float_hw\": \"{}\", \"sdram\": true, \"pes\": {}, \"luts\": {luts}, \
+             \"ffs\": {ffs}, \"dsps\": {dsps}, \"brams\": {brams}, \"fmax_mhz\": {fmax:.2}, \"target_mhz\": {target:.2}, \"margin_mhz\": {margin:.2}, \
              \"fits\": {fits}, \"baud\": {}, \"baud_error_ppm\": {baud_error_ppm:.4}, \"baud_jitter_bits\": {baud_jitter:.4}, \
              \"seed\": {}, \"build_s\": {seconds:.0}, \"bitstream\": \"{}\"}}\n",
             self.device.part(),
+            match self.float_hw {
+                FloatHw::None => "imac",
+                FloatHw::Cfu => "full+cfu",
+            },
+            self.float_hw.name(),
             self.pes,
             self.baud,
             self.seed,

@@ -68,7 +68,9 @@ mod imp {
     }
 
     /// Main RAM needs no set-up on this board.
-    pub fn init_main_ram() {}
+    pub fn init_main_ram() -> Result<(), usize> {
+        Ok(())
+    }
 
     /// What main RAM is, for the bootloader's banner.
     pub const MAIN_RAM: &str = "RAM";
@@ -122,7 +124,9 @@ mod imp {
     pub fn exit_failure(_code: u16) {}
 
     /// Main RAM needs no set-up on this board.
-    pub fn init_main_ram() {}
+    pub fn init_main_ram() -> Result<(), usize> {
+        Ok(())
+    }
 
     /// What main RAM is, for the bootloader's banner.
     pub const MAIN_RAM: &str = "RAM";
@@ -191,14 +195,29 @@ mod imp {
     /// Main RAM is the board's SDRAM: runs the chip's power-up sequence (csr.json's
     /// `SDRAM_INIT`) and hands it to LiteDRAM's controller. The bootloader calls it before
     /// anything touches main RAM; the application, which runs from main RAM, never does.
-    pub fn init_main_ram() {
+    /// Then writes and reads back a pattern in its first and last words: `Err(address)` at the
+    /// first word that does not hold what was written.
+    pub fn init_main_ram() -> Result<(), usize> {
         // SAFETY: the SoC's LiteDRAM DFII registers (csr.json, through litex_map); nothing
         // else drives them, and main RAM is not in use yet.
         Dfii::new(unsafe { VolatileMmio::new(map::sdram::BASE) }).init(&map::SDRAM_INIT);
+        let words = [map::MAIN_RAM_BASE, map::MAIN_RAM_BASE + 4, map::MAIN_RAM_BASE + map::MAIN_RAM_SIZE - 4];
+        for (k, &a) in words.iter().enumerate() {
+            // SAFETY: word-aligned addresses inside main RAM, which nothing uses yet.
+            unsafe { core::ptr::write_volatile(a as *mut u32, 0x5A5A_0F0F ^ (k as u32).wrapping_mul(0x0101_0101)) };
+        }
+        for (k, &a) in words.iter().enumerate() {
+            // SAFETY: as above.
+            if unsafe { core::ptr::read_volatile(a as *const u32) } != 0x5A5A_0F0F ^ (k as u32).wrapping_mul(0x0101_0101)
+            {
+                return Err(a);
+            }
+        }
+        Ok(())
     }
 
     /// What main RAM is, for the bootloader's banner.
-    pub const MAIN_RAM: &str = "SDRAM (LiteDRAM), initialised";
+    pub const MAIN_RAM: &str = "SDRAM (LiteDRAM)";
 
     /// The console UART type of this board.
     pub type Console = LitexUart<VolatileMmio>;

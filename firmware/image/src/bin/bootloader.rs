@@ -18,7 +18,7 @@ use gridrt_shared::msg::DeviceInfo;
 #[riscv_rt::entry]
 fn main() -> ! {
     // Before anything can touch main RAM (the application region is there).
-    board::init_main_ram();
+    let main_ram = board::init_main_ram();
     // SAFETY: the only console owner; trap/panic reports alias it only once we stop.
     let mut console = unsafe { board::take_console() };
     let (start, end) = board::app_region();
@@ -28,6 +28,10 @@ fn main() -> ! {
         board::NAME,
         board::MAIN_RAM
     );
+    if let Err(at) = main_ram {
+        // Images still get their read-back check, which then refuses them with `BadCrc`.
+        let _ = write!(UartWriter(&mut console), "main RAM FAILED its check at {at:#010x}\r\n");
+    }
     // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
     let _ = console.write_all(&[0]);
 
