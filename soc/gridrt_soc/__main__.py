@@ -16,7 +16,7 @@ from pathlib import Path
 from litex.soc.integration.common import get_mem_data
 
 from . import board_files
-from .soc import CPU_VARIANTS, ROM_SIZE
+from .soc import CPU_VARIANTS, ROM_SIZE, SDRAM_L2_SIZE
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -54,6 +54,12 @@ def main(argv=None):
             default="none",
             help="floating point in hardware: none (VexRiscv imac) or cfu (VexRiscv full+cfu and the f32 CFU)",
         )
+        p.add_argument(
+            "--l2-kib",
+            type=int,
+            default=SDRAM_L2_SIZE // 1024,
+            help="KiB of LiteX's L2 cache in front of the SDRAM (a power of two; 2 DP16KD per 4 KiB)",
+        )
 
     sim = sub.add_parser("sim", help="generate and compile the Verilator simulation")
     common(sim, rom=True)
@@ -87,6 +93,7 @@ def main(argv=None):
             args.baud,
             args.rx_baud,
             args.float_hw,
+            args.l2_kib * 1024,
         )
         print(f"SIM_DIR: {gateware}")
     elif args.cmd == "ulx3s":
@@ -103,6 +110,7 @@ def main(argv=None):
             args.pes,
             args.baud,
             args.float_hw,
+            args.l2_kib * 1024,
         )
         print(f"BITSTREAM: {result['bitstream']}")
         print(f"REPORT: {result['report']}")

@@ -34,7 +34,7 @@ from litex.soc.cores.uart import RS232PHYModel
 from litex.soc.integration.builder import Builder
 
 from . import board_files
-from .soc import SDRAM_DATA_WIDTH, SYS_CLK_FREQ, GridrtSoC, sdram_module
+from .soc import SDRAM_DATA_WIDTH, SDRAM_L2_SIZE, SYS_CLK_FREQ, GridrtSoC, sdram_module
 
 SIM_MODULES = Path(__file__).resolve().parents[1] / "sim_modules"
 # Our side of LiteX's simulation core: veril.cpp without an unconditional --trace.
@@ -56,7 +56,7 @@ _io = [
 ]
 
 
-def make_soc(rtl_dir, rom_words=(), float_hw="none"):
+def make_soc(rtl_dir, rom_words=(), float_hw="none", l2_size=SDRAM_L2_SIZE):
     platform = SimPlatform("SIM", _io)
     # The board's SDRAM chip, modelled: LiteDRAM's PHY model holds the memory and checks the
     # chip's timings as LiteDRAM's controller drives them at the SoC's clock.
@@ -70,6 +70,7 @@ def make_soc(rtl_dir, rom_words=(), float_hw="none"):
         simulation=True,
         float_hw=float_hw,
         sdram_phy=phy,
+        l2_size=l2_size,
     )
     # Clock from the `clocker` module; reset for the first cycle (power-on).
     soc.crg = CRG(platform.request("sys_clk"))
@@ -139,6 +140,7 @@ def prepare(
     baud=0,
     rx_baud=0,
     float_hw="none",
+    l2_size=SDRAM_L2_SIZE,
 ):
     """Generates and (if needed) compiles the simulator; returns its gateware directory.
 
@@ -146,7 +148,7 @@ def prepare(
     They are read when the simulator starts (sim_config.js): changing them rebuilds nothing.
     """
     build_dir = Path(build_dir).resolve()
-    soc = make_soc(rtl_dir, rom_words, float_hw)
+    soc = make_soc(rtl_dir, rom_words, float_hw, l2_size)
     # The C modules are compiled in the build tree: LiteX writes a variables.mak next to them.
     mods = build_dir / "sim_modules"
     if mods.exists():

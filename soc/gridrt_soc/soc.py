@@ -40,7 +40,9 @@ SRAM_SIZE = 16 * KIB
 SDRAM_MODULE = "MT48LC16M16"
 SDRAM_RATE = "1:1"
 SDRAM_DATA_WIDTH = 16
-# LiteX's L2 cache between the CPU's bus and LiteDRAM (its default size).
+# LiteX's L2 cache between the CPU's bus and LiteDRAM: its default size. It holds the hot
+# code and stack that the CPU's 4 KiB caches miss (docs/bench-frame.md measures 8 and 32
+# KiB); a target may build another (``l2_size``, a power of two), at 2 DP16KD per 4 KiB.
 SDRAM_L2_SIZE = 8 * KIB
 
 
@@ -83,7 +85,7 @@ class GridrtSoC(SoCCore):
     co-processor's processing elements. ``simulation``: a Verilator build (the co-processor's
     pipe then stops when empty, ``GridrtCoproc``). ``float_hw``: a key of ``CPU_VARIANTS``.
     ``sdram_phy``: the target's PHY of the SDRAM chip (``GENSDRPHY`` on the board,
-    ``SDRAMPHYModel`` in simulation).
+    ``SDRAMPHYModel`` in simulation). ``l2_size``: bytes of the L2 cache in front of it.
     """
 
     # Fixed CSR locations: the map must not depend on the order modules are added in.
@@ -107,9 +109,12 @@ class GridrtSoC(SoCCore):
         float_hw="none",
         *,
         sdram_phy,
+        l2_size=SDRAM_L2_SIZE,
     ):
         if float_hw not in CPU_VARIANTS:
             raise ValueError(f"float_hw {float_hw!r}: expected one of {', '.join(CPU_VARIANTS)}")
+        if l2_size < 1 * KIB or l2_size & (l2_size - 1):
+            raise ValueError(f"l2_size {l2_size}: expected a power of two of at least 1 KiB")
         rom_words = list(rom_words)
         if len(rom_words) * 4 > ROM_SIZE:
             raise ValueError(f"ROM image of {len(rom_words) * 4} bytes exceeds the {ROM_SIZE}-byte ROM")
@@ -138,7 +143,7 @@ class GridrtSoC(SoCCore):
             "sdram",
             phy=sdram_phy,
             module=sdram_module(SYS_CLK_FREQ),
-            l2_cache_size=SDRAM_L2_SIZE,
+            l2_cache_size=l2_size,
         )
 
         # UART: our own instance (not add_uart) for deeper FIFOs and pop-on-read.

@@ -28,7 +28,7 @@ from litex.soc.integration.builder import Builder
 from litex_boards.platforms import radiona_ulx3s
 
 from . import board_files
-from .soc import SYS_CLK_FREQ, GridrtSoC
+from .soc import SDRAM_L2_SIZE, SYS_CLK_FREQ, GridrtSoC
 
 # The FT231X bridge's top rate; `--baud` builds any other (115 200 for old host setups).
 UART_BAUDRATE = 3_000_000
@@ -76,7 +76,7 @@ class ULX3SCRG(LiteXModule):
         self.comb += platform.request("wifi_gpio0").eq(1)
 
 
-def make_soc(rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw="none"):
+def make_soc(rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw="none", l2_size=SDRAM_L2_SIZE):
     platform = radiona_ulx3s.Platform(device=device, revision="2.0", toolchain="trellis")
     uart_phy = RS232PHY(platform.request("serial"), SYS_CLK_FREQ, baudrate=baud)
     crg = ULX3SCRG(platform, SYS_CLK_FREQ)
@@ -89,6 +89,7 @@ def make_soc(rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw="none
         coproc_pes=pes,
         float_hw=float_hw,
         sdram_phy=GENSDRPHY(platform.request("sdram"), SYS_CLK_FREQ),
+        l2_size=l2_size,
     )
     soc.crg = crg
     return soc
@@ -111,7 +112,18 @@ def _tool_wrappers(bin_dir):
         wrapper.chmod(0o755)
 
 
-def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes, baud=UART_BAUDRATE, float_hw="none"):
+def build(
+    build_dir,
+    rtl_dir,
+    rom_words,
+    board_files_mode,
+    device,
+    seed,
+    pes,
+    baud=UART_BAUDRATE,
+    float_hw="none",
+    l2_size=SDRAM_L2_SIZE,
+):
     """Builds the bitstream with ``pes`` co-processor PEs and the UART at ``baud``; returns
     its path, nextpnr's report path and the UART's real rate (``uart_rate``)."""
     build_dir = Path(build_dir).resolve()
@@ -122,7 +134,7 @@ def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes, ba
     _tool_wrappers(bin_dir)
     os.environ["PATH"] = f"{bin_dir}{os.pathsep}{os.environ['PATH']}"
 
-    soc = make_soc(rtl_dir, rom_words, device, pes, baud, float_hw)
+    soc = make_soc(rtl_dir, rom_words, device, pes, baud, float_hw, l2_size)
     builder = Builder(
         soc,
         output_dir=str(build_dir),
@@ -135,7 +147,7 @@ def build(build_dir, rtl_dir, rom_words, board_files_mode, device, seed, pes, ba
     board_files.apply(board_files.render(build_dir / "csr.json", soc), board_files_mode)
     gateware = Path(builder.gateware_dir)
     start = time.monotonic()
-    print(f"ulx3s: yosys, nextpnr-ecp5 ({device}, {pes} PEs, float_hw {float_hw}, seed {seed}), ecppack: this takes a while", flush=True)
+    print(f"ulx3s: yosys, nextpnr-ecp5 ({device}, {pes} PEs, float_hw {float_hw}, L2 {l2_size // 1024} KiB, seed {seed}), ecppack: this takes a while", flush=True)
     cwd = os.getcwd()
     os.chdir(gateware)
     try:

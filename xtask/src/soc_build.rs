@@ -5,7 +5,9 @@
 //! report, and how long the build took.
 
 use crate::firmware::{Bin, BuildOpts, Layout};
-use crate::soc_tools::{build_firmware, python, result, run_logged, soc_target_dir, FloatHw, RtlDir};
+use crate::soc_tools::{
+    build_firmware, parse_l2_kib, python, result, run_logged, soc_target_dir, FloatHw, RtlDir, DEFAULT_L2_KIB,
+};
 use crate::toolchain::ToolchainChoice;
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
@@ -77,6 +79,10 @@ pub struct BuildCmd {
     /// full+cfu with the f32 CFU; its firmware is built for riscv32im with `cfu-float`).
     #[arg(long, value_enum, default_value_t = FloatHw::None)]
     float_hw: FloatHw,
+    /// KiB of LiteX's L2 cache in front of the SDRAM that holds main RAM (a power of two;
+    /// 2 DP16KD per 4 KiB).
+    #[arg(long, default_value_t = DEFAULT_L2_KIB, value_parser = parse_l2_kib, value_name = "KIB")]
+    l2_kib: u32,
     #[command(flatten)]
     rtl: RtlDir,
     /// How to cross-compile the bootloader (see scripts/setup-riscv-toolchain.sh).
@@ -118,6 +124,7 @@ impl BuildCmd {
         py.arg("--rom-image").arg(&rom);
         py.args(["--device", self.device.part(), "--seed", &self.seed.to_string(), "--pes", &self.pes.to_string()]);
         py.args(["--baud", &self.baud.to_string(), "--float-hw", self.float_hw.name()]);
+        py.args(["--l2-kib", &self.l2_kib.to_string()]);
         let results =
             run_logged(py, &dir.join("litex.log"), |l| l.starts_with("ulx3s:") || l.starts_with("board-files:"))?;
         let seconds = started.elapsed().as_secs_f64();
@@ -137,7 +144,7 @@ impl BuildCmd {
         let fits = bitstream.is_file() && luts <= lut_cap && brams <= bram_cap && dsps <= dsp_cap;
         let json = format!(
             "{{\"board\": \"ulx3s\", \"device\": \"{}-CABGA381\", \"cpu\": \"vexriscv {}\", \"harts\": 1, \
-             \"float_hw\": \"{}\", \"sdram\": true, \"pes\": {}, \"luts\": {luts}, \
+             \"float_hw\": \"{}\", \"sdram\": true, \"l2_kib\": {}, \"pes\": {}, \"luts\": {luts}, \
              \"ffs\": {ffs}, \"dsps\": {dsps}, \"brams\": {brams}, \"fmax_mhz\": {fmax:.2}, \"target_mhz\": {target:.2}, \"margin_mhz\": {margin:.2}, \
              \"fits\": {fits}, \"baud\": {}, \"baud_error_ppm\": {baud_error_ppm:.4}, \"baud_jitter_bits\": {baud_jitter:.4}, \
              \"seed\": {}, \"build_s\": {seconds:.0}, \"bitstream\": \"{}\"}}\n",
@@ -147,6 +154,7 @@ impl BuildCmd {
                 FloatHw::Cfu => "full+cfu",
             },
             self.float_hw.name(),
+            self.l2_kib,
             self.pes,
             self.baud,
             self.seed,

@@ -8,7 +8,9 @@
 //! this command is killed.
 
 use crate::firmware::{Bin, BuildOpts, Layout};
-use crate::soc_tools::{build_firmware, python, result, run_logged, soc_target_dir, FloatHw, RtlDir};
+use crate::soc_tools::{
+    build_firmware, parse_l2_kib, python, result, run_logged, soc_target_dir, FloatHw, RtlDir, DEFAULT_L2_KIB,
+};
 use crate::toolchain::{display_command, ToolchainChoice};
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -67,6 +69,10 @@ pub struct SimCmd {
     /// own build folder, target/soc/sim[-cfu].
     #[arg(long, value_enum, default_value_t = FloatHw::None)]
     float_hw: FloatHw,
+    /// KiB of LiteX's L2 cache in front of the SDRAM that holds main RAM (a power of two).
+    /// Another size than the default has its own build folder (target/soc/sim-l2-N).
+    #[arg(long, default_value_t = DEFAULT_L2_KIB, value_parser = parse_l2_kib, value_name = "KIB")]
+    l2_kib: u32,
 }
 
 /// serial2pty prints this for its pty.
@@ -74,10 +80,14 @@ const PTY_MARKER: &str = "serial2pty: ";
 
 impl SimCmd {
     pub fn run(self) -> Result<()> {
-        let dir = soc_target_dir().join(match self.float_hw {
+        let mut name = match self.float_hw {
             FloatHw::None => "sim".to_string(),
             other => format!("sim-{}", other.name()),
-        });
+        };
+        if self.l2_kib != DEFAULT_L2_KIB {
+            name += &format!("-l2-{}", self.l2_kib);
+        }
+        let dir = soc_target_dir().join(name);
         let opts = BuildOpts {
             target: self.float_hw.target(),
             features: self.float_hw.features(),
@@ -96,7 +106,7 @@ impl SimCmd {
         py.args(["sim", "--build-dir"]).arg(&dir).arg("--rtl-dir").arg(self.rtl.dir());
         py.arg("--rom-image").arg(&rom).args(["--jobs", &self.jobs.to_string()]);
         py.args(["--baud", &self.baud.to_string(), "--rx-baud", &self.rx_baud.to_string()]);
-        py.args(["--float-hw", self.float_hw.name()]);
+        py.args(["--float-hw", self.float_hw.name(), "--l2-kib", &self.l2_kib.to_string()]);
         if let Some(mhz) = self.clock_mhz {
             if !(mhz.is_finite() && mhz > 0.0 && mhz <= 1000.0) {
                 bail!("--clock-mhz {mhz}: expected a clock in (0, 1000] MHz");

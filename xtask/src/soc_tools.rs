@@ -64,6 +64,18 @@ impl FloatHw {
     }
 }
 
+/// KiB of LiteX's L2 cache in front of the SDRAM (main RAM) unless `--l2-kib` says otherwise
+/// (`SDRAM_L2_SIZE` of soc/gridrt_soc/soc.py).
+pub const DEFAULT_L2_KIB: u32 = 8;
+
+/// `--l2-kib`: a power of two from 1 to 256.
+pub fn parse_l2_kib(s: &str) -> Result<u32, String> {
+    match s.parse::<u32>() {
+        Ok(k) if k.is_power_of_two() && (1..=256).contains(&k) => Ok(k),
+        _ => Err(format!("`{s}`: expected a power of two from 1 to 256 (KiB of L2 cache)")),
+    }
+}
+
 /// The project's Python environment for LiteX (scripts/setup-soc.sh).
 pub fn venv() -> PathBuf {
     repo_root().join(".toolchain/soc-venv")

@@ -66,7 +66,15 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
     // The SoC first: its per-stage CPI, measured, then describes the modelled riscv32imac rows.
     let soc = if opt.configs.contains(&Configuration::Soc) {
         let loaded = crate::scene::load(&opt.scene)?;
-        Some(soc::run_on_soc(&opt.repo, &loaded, &req, opt.grid_m, opt.soc_clock(), opt.soc_float_hw, progress)?)
+        Some(soc::run_on_soc(
+            &opt.repo,
+            &loaded,
+            &req,
+            opt.grid_m,
+            opt.soc_clock(),
+            (opt.soc_float_hw, opt.soc_l2_kib),
+            progress,
+        )?)
     } else {
         None
     };

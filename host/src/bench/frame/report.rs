@@ -212,6 +212,9 @@ pub struct BoardFields {
     pub harts: Option<u32>,
     /// `soc`: floating point in hardware on its CPU, `"none"` or `"cfu"`.
     pub float_hw: Option<String>,
+    /// `soc`: KiB of the L2 cache in front of its SDRAM when `--soc-l2-kib` set one (null: the
+    /// SoC's default, 8).
+    pub l2_kib: Option<u32>,
     /// PEs of the co-processor.
     pub pes: Option<u16>,
     /// Line rate of the UART (8N1).
@@ -451,6 +454,7 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
             clock_source: Some(soc.clock.source.into()),
             harts: Some(1),
             float_hw: Some(soc.float_hw.name().into()),
+            l2_kib: soc.l2_kib,
             pes: Some(soc.pes),
             baud: Some(soc.clock.baud),
             link_cycles: Some(link_cycles),

@@ -292,6 +292,8 @@ pub struct BenchOptions {
     pub grid_m: f64,
     /// The `soc` row's CPU: floating point in hardware or not.
     pub soc_float_hw: SocFloatHw,
+    /// The `soc` row's L2 cache in front of its SDRAM, KiB (None: the SoC's default).
+    pub soc_l2_kib: Option<u32>,
     /// Bytes the UART holds while the line drains them (`timeline`).
     pub tx_buffer_bytes: u64,
     /// Soft-core profile.

@@ -46,6 +46,8 @@ pub struct SocRun {
     pub clock: SocClock,
     /// The CPU's floating point.
     pub float_hw: SocFloatHw,
+    /// The L2 cache in front of the SDRAM, KiB, when not the SoC's default.
+    pub l2_kib: Option<u32>,
     /// PEs of the SoC's co-processor.
     pub pes: u16,
     /// Simulated cycles per wall-clock second during the render (the frame's cycles over
@@ -72,7 +74,7 @@ impl SocSim {
     fn start(
         repo: &Path,
         clock: SocClock,
-        float_hw: SocFloatHw,
+        (float_hw, l2_kib): (SocFloatHw, Option<u32>),
         progress: &mut dyn FnMut(BenchEvent),
     ) -> Result<Self, FrameBenchError> {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
@@ -81,6 +83,9 @@ impl SocSim {
         cmd.args(["--baud", &clock.baud.to_string(), "--clock-mhz", &format!("{}", clock.clock_mhz)]);
         cmd.args(["--timeout-s", &(4 * SOC_STAGE_TIMEOUT.as_secs()).to_string()]);
         cmd.args(["--float-hw", float_hw.name()]);
+        if let Some(k) = l2_kib {
+            cmd.args(["--l2-kib", &k.to_string()]);
+        }
         progress(BenchEvent::Step(format!(
             "soc: cargo xtask soc sim --baud {} --clock-mhz {} --float-hw {} (builds the Verilated SoC the first time: minutes)",
             clock.baud,
@@ -173,7 +178,7 @@ pub fn run_on_soc(
     request: &RenderRequest,
     grid_m: f64,
     clock: SocClock,
-    float_hw: SocFloatHw,
+    (float_hw, l2_kib): (SocFloatHw, Option<u32>),
     progress: &mut dyn FnMut(BenchEvent),
 ) -> Result<(SocRun, PreparedScene), FrameBenchError> {
     let mut args = vec!["--board", "litex", "--bin", "app", "--layout", "bootloaded", "--jobs", "2"];
@@ -187,7 +192,7 @@ pub fn run_on_soc(
     let elf = std::fs::read(&app).map_err(|e| FrameBenchError::Build(format!("{}: {e}", app.display())))?;
     let image = FlashImage::from_elf(&elf).map_err(|e| FrameBenchError::Build(format!("{}: {e}", app.display())))?;
 
-    let sim = SocSim::start(repo, clock, float_hw, progress)?;
+    let sim = SocSim::start(repo, clock, (float_hw, l2_kib), progress)?;
     let open = || crate::serial::open(&sim.pty, 115_200, crate::serial::DEFAULT_READ_TIMEOUT);
 
     let t = Instant::now();
@@ -282,6 +287,7 @@ pub fn run_on_soc(
             rtl: rtl_run,
             clock,
             float_hw,
+            l2_kib,
             pes: info.pe_count,
             flash_s,
             upload_s,

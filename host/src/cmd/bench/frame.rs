@@ -58,6 +58,10 @@ pub struct Args {
     /// calibrate the modelled riscv32imac rows.
     #[arg(long, value_enum, default_value_t = SocFloat::None)]
     soc_float_hw: SocFloat,
+    /// The `soc` row's L2 cache in front of the SDRAM that holds main RAM, KiB (a power of
+    /// two; default: the SoC's, 8).
+    #[arg(long, value_name = "KIB", value_parser = clap::value_parser!(u32).range(1..=256))]
+    soc_l2_kib: Option<u32>,
     /// Write the report here (JSON).
     #[arg(long, value_name = "JSON")]
     json: PathBuf,
@@ -237,6 +241,7 @@ impl Args {
             baud: self.baud,
             encoding: self.encoding.into(),
             grid_m: self.grid_m,
+            soc_l2_kib: self.soc_l2_kib,
             soc_float_hw: match self.soc_float_hw {
                 SocFloat::None => SocFloatHw::None,
                 SocFloat::Cfu => SocFloatHw::Cfu,
