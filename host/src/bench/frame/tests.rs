@@ -236,6 +236,7 @@ fn csv_and_svg_have_a_line_and_a_bar_label_per_row() {
         number_format: "f32".into(),
         triangles: 946,
         grid: [11, 11, 9],
+        grid_m: 1.0,
         pe_count: 4,
         plan: vec!["shadows".into()],
         tx_buffer_bytes: 16,
