@@ -581,6 +581,23 @@ mod tests {
         assert_eq!(add_int(1.5, -1.5).to_bits(), 0);
     }
 
+    /// The CFU path off the target (the unit's Rust twin) gives the operators' sums and
+    /// products, a NaN as the canonical quiet NaN: the function ids it sends are add's and
+    /// mul's (swapped or wrong ids would answer the other operation or NaN).
+    #[test]
+    fn cfu_twin_paths_equal_the_operators_with_canonical_nans() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0x0CF0_0F32);
+        for _ in 0..200_000u32 {
+            let seed = f32::from_bits(rng.gen::<u32>() & !SIGN | 0x3F00_0000);
+            let a = operand(&mut rng, seed);
+            let b = operand(&mut rng, a);
+            for (got, want) in [(cfu::add(a, b), a + b), (cfu::mul(a, b), a * b)] {
+                let want = if want.is_nan() { f32::from_bits(0x7FC0_0000) } else { want };
+                assert_eq!(got.to_bits(), want.to_bits(), "{a:e}, {b:e}");
+            }
+        }
+    }
+
     /// A [`Multiplier`]'s products are the operator's, bit for bit, wherever it gives one
     /// (operand pairs biased to the hard cases, as above), and it gives one for every pair of
     /// normal operands with a normal product.

@@ -86,8 +86,9 @@ impl SocSim {
         if let Some(k) = l2_kib {
             cmd.args(["--l2-kib", &k.to_string()]);
         }
+        let l2 = l2_kib.map(|k| format!(" --l2-kib {k}")).unwrap_or_default();
         progress(BenchEvent::Step(format!(
-            "soc: cargo xtask soc sim --baud {} --clock-mhz {} --float-hw {} (builds the Verilated SoC the first time: minutes)",
+            "soc: cargo xtask soc sim --baud {} --clock-mhz {} --float-hw {}{l2} (builds the Verilated SoC the first time: minutes)",
             clock.baud,
             clock.clock_mhz,
             float_hw.name()
