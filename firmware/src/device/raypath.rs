@@ -45,6 +45,9 @@ pub(super) struct RayPath<L> {
     pub(super) link: L,
     /// The request being built: the head, then the list entries the walk writes.
     request: [u32; REQUEST_WORDS],
+    /// The answer's words, reused from ray to ray: a fresh zeroed array per ray was a
+    /// `memset` call. Only its first word is cleared before each answer (`exchange`).
+    result: [u32; RESULT_WORDS],
     /// Counters of the current (or last) frame.
     pub(super) stats: FrameStats,
     /// Poll budget of every blocking put/get.
@@ -61,6 +64,7 @@ impl<L: FslLink> RayPath<L> {
         Self {
             link,
             request: [0; REQUEST_WORDS],
+            result: [0; RESULT_WORDS],
             stats: FrameStats::default(),
             polls: DEFAULT_POLLS,
             eye_planes: OriginPlanes::default(),
@@ -129,8 +133,13 @@ impl<L: FslLink> RayPath<L> {
         count(class_words, len as u64);
         count(&mut s.coproc_rays, 1);
         count(&mut s.list_entries, (len.wrapping_sub(RAY_HEADER_WORDS) / ENTRY_WORDS) as u64);
-        let mut words = [0u32; RESULT_WORDS];
-        let got = self.link.get_packet(&mut words, self.polls);
+        // What the checks below read of an answer is the words it filled (`words[..n]`) and,
+        // for an empty one, word 0: cleared here, the buffer reads as a fresh zeroed one.
+        let words = &mut self.result;
+        if let Some(w) = words.first_mut() {
+            *w = 0;
+        }
+        let got = self.link.get_packet(words, self.polls);
         let (n, ended) = got.map_err(|e| Fail::link(e, "ray result"))?;
         count(&mut s.fsl_words_in, n as u64);
         count(class_words, n as u64);
@@ -143,7 +152,7 @@ impl<L: FslLink> RayPath<L> {
             let at = words.get(n.wrapping_sub(1)).copied().unwrap_or(0);
             return Err(Fail::Word(at, "ray result (misplaced control bit)"));
         }
-        let r = RayResult::from_words(&words).map_err(|_| Fail::Word(words[0], "ray result"))?;
+        let r = RayResult::from_words(words).map_err(|_| Fail::Word(words[0], "ray result"))?;
         count(&mut s.intersection_tests, r.tests as u64);
         count(&mut s.coproc_cycles, r.cycles as u64);
         Ok(r)
@@ -180,6 +189,73 @@ impl<L: FslLink> RayPath<L> {
                 Ok(_) => continue,
                 Err(_) => break,
             }
+        }
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::arithmetic_side_effects)] // tests index known-size buffers
+mod tests {
+    use super::{RayClass, RayPath};
+    use crate::fsl::{FslLink, FslWord};
+    use gridrt_shared::fsl::{op, RESULT_WORDS};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use std::collections::VecDeque;
+
+    /// Swallows what is put; plays back the scripted answer words.
+    #[derive(Default)]
+    struct Answers(VecDeque<FslWord>);
+
+    impl FslLink for Answers {
+        type Error = core::convert::Infallible;
+        fn nput(&mut self, _: FslWord) -> nb::Result<(), Self::Error> {
+            Ok(())
+        }
+        fn nget(&mut self) -> nb::Result<FslWord, Self::Error> {
+            self.0.pop_front().ok_or(nb::Error::WouldBlock)
+        }
+    }
+
+    /// A random answer: 1..=8 words (RESULT opcode or not), the control bit on its last word
+    /// or on none (then it is cut at 8 words).
+    fn random_answer(rng: &mut ChaCha8Rng) -> Vec<FslWord> {
+        let n = rng.gen_range(1..=RESULT_WORDS);
+        let ended = rng.gen_bool(0.8);
+        (0..n)
+            .map(|i| {
+                let mut data: u32 = rng.gen();
+                if i == 0 && rng.gen_bool(0.7) {
+                    data = data & 0x0FFF_FFFF | op::RESULT << 28;
+                }
+                if i + 1 == n && ended {
+                    FslWord::last(data)
+                } else {
+                    FslWord::data(data)
+                }
+            })
+            .collect()
+    }
+
+    /// The outcome of `exchange` on `path` for `answer` (debug text: `Fail` has no `==`).
+    fn outcome(path: &mut RayPath<Answers>, answer: &[FslWord]) -> String {
+        path.link.0.clear();
+        path.link.0.extend(answer.iter().copied());
+        path.polls = 4;
+        format!("{:?}", path.exchange(super::RAY_HEADER_WORDS, RayClass::Primary))
+    }
+
+    /// The answer buffer is reused from ray to ray (no zeroed array per ray): every answer,
+    /// well formed or not, is judged as a fresh path with a zeroed buffer judges it, after
+    /// whatever answers came before.
+    #[test]
+    fn a_reused_answer_buffer_judges_every_answer_as_a_fresh_one() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0x5EED_0A15);
+        let mut reused = RayPath::new(Answers::default());
+        for _ in 0..20_000 {
+            let answer = random_answer(&mut rng);
+            let fresh = outcome(&mut RayPath::new(Answers::default()), &answer);
+            assert_eq!(outcome(&mut reused, &answer), fresh, "{answer:?}");
         }
     }
 }
