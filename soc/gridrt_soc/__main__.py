@@ -72,7 +72,7 @@ def main(argv=None):
     ulx3s.add_argument("--device", default="LFE5U-85F", choices=("LFE5U-25F", "LFE5U-45F", "LFE5U-85F"))
     ulx3s.add_argument("--seed", type=int, default=1, help="nextpnr placement seed")
     ulx3s.add_argument("--baud", type=int, default=3_000_000, help="UART rate (the FT231X bridge goes up to 3 Mbaud)")
-    ulx3s.add_argument("--pes", type=int, default=1, help="co-processor PEs (each takes 40 of the 85F's 208 block RAMs, the SoC's memories about 152: it holds one)")
+    ulx3s.add_argument("--pes", type=int, default=1, help="co-processor PEs (each takes 40 of the 85F's 208 block RAMs; beside the SoC's memories 3 fit, BENCHMARKS.md)")
     gen = sub.add_parser("board-files", help="write (or --check) the firmware's board files from csr.json")
     gen.add_argument("--check", action="store_true")
 
