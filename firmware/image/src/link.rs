@@ -97,8 +97,8 @@ fn put_empty<L: FslLink>(link: &mut L, n: u32) {
 #[inline(always)]
 fn read<K: CycleCounter>(k: &K) -> StageStamp {
     // instret first, then cycles, in both reads: the two measurement points are symmetric.
-    let instret = k.instret_lo();
-    StageStamp { cycles: k.cycles_lo(), instret }
+    let (instret, cycles) = k.instret_cycles_lo();
+    StageStamp { cycles, instret }
 }
 
 /// What a word costs the firmware on a board with stream registers: one store of the word to
@@ -208,8 +208,7 @@ impl<'e, K> ModelFreeClock<'e, K> {
 impl<K: CycleCounter + Clone> StageClock for ModelFreeClock<'_, K> {
     #[inline(always)]
     fn now(&self) -> StageStamp {
-        let instret = self.counter.instret_lo();
-        let cycles = self.counter.cycles_lo();
+        let (instret, cycles) = self.counter.instret_cycles_lo();
         let ex = self.excluded;
         // Low words: the stopwatch only takes wrapping differences. The wrapper's cost
         // outside its reads is charged at one cycle per instruction (exact under QEMU's

@@ -107,4 +107,14 @@ pub trait CycleCounter {
     fn instret_lo(&self) -> u32 {
         self.instret() as u32
     }
+    /// [`instret_lo`](Self::instret_lo) then [`cycles_lo`](Self::cycles_lo), read back to
+    /// back: a counter whose two reads are separate instructions reads them in one block, so
+    /// the compiler cannot schedule other instructions between them (where it did, `mcycle`
+    /// and `minstret` differed by those instructions at that read point under QEMU's
+    /// `-icount`).
+    #[inline(always)]
+    fn instret_cycles_lo(&self) -> (u32, u32) {
+        let instret = self.instret_lo();
+        (instret, self.cycles_lo())
+    }
 }

@@ -46,7 +46,7 @@ pub(super) struct RayPath<L> {
     /// The request being built: the head, then the list entries the walk writes.
     request: [u32; REQUEST_WORDS],
     /// The answer's words, reused from ray to ray: a fresh zeroed array per ray was a
-    /// `memset` call. Only its first word is cleared before each answer (`exchange`).
+    /// `memset` call (`exchange` reads only the words an answer filled).
     result: [u32; RESULT_WORDS],
     /// Counters of the current (or last) frame.
     pub(super) stats: FrameStats,
@@ -133,12 +133,10 @@ impl<L: FslLink> RayPath<L> {
         count(class_words, len as u64);
         count(&mut s.coproc_rays, 1);
         count(&mut s.list_entries, (len.wrapping_sub(RAY_HEADER_WORDS) / ENTRY_WORDS) as u64);
-        // What the checks below read of an answer is the words it filled (`words[..n]`) and,
-        // for an empty one, word 0: cleared here, the buffer reads as a fresh zeroed one.
+        // The checks below read only words this answer filled (`words[..n]`, n ≥ 1: a read
+        // into a non-empty buffer fills at least word 0 or fails), so the reused buffer
+        // reads as a fresh zeroed one.
         let words = &mut self.result;
-        if let Some(w) = words.first_mut() {
-            *w = 0;
-        }
         let got = self.link.get_packet(words, self.polls);
         let (n, ended) = got.map_err(|e| Fail::link(e, "ray result"))?;
         count(&mut s.fsl_words_in, n as u64);

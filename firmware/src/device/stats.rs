@@ -129,7 +129,8 @@ pub struct CounterClock<T>(pub T);
 impl<T: crate::bsp::CycleCounter + Clone> StageClock for CounterClock<T> {
     #[inline(always)]
     fn now(&self) -> StageStamp {
-        StageStamp { instret: self.0.instret_lo(), cycles: self.0.cycles_lo() }
+        let (instret, cycles) = self.0.instret_cycles_lo();
+        StageStamp { instret, cycles }
     }
 }
 
