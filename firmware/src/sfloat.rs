@@ -458,52 +458,43 @@ pub mod cfu {
         }
     }
 
+    /// One instruction: `rd = rs1 ∘ rs2` of the function `funct3` on the unit; off the
+    /// target, the unit's Rust twin.
+    macro_rules! op {
+        ($funct3:path, $function:path, $a:expr, $b:expr) => {{
+            let (a, b): (f32, f32) = ($a, $b);
+            #[cfg(target_arch = "riscv32")]
+            {
+                let y: u32;
+                // SAFETY: a register-only instruction (no memory, no stack) the CFU answers.
+                unsafe {
+                    core::arch::asm!(
+                        ".insn r 0x0B, {f3}, {f7}, {y}, {a}, {b}",
+                        f3 = const $funct3,
+                        f7 = const spec::FUNCT7,
+                        y = lateout(reg) y,
+                        a = in(reg) a.to_bits(),
+                        b = in(reg) b.to_bits(),
+                        options(pure, nomem, nostack),
+                    );
+                }
+                f32::from_bits(y)
+            }
+            #[cfg(not(target_arch = "riscv32"))]
+            f32::from_bits(spec::execute($function, a.to_bits(), b.to_bits()))
+        }};
+    }
+
     /// `a + b` by the unit.
     #[inline(always)]
     pub fn add(a: f32, b: f32) -> f32 {
-        #[cfg(target_arch = "riscv32")]
-        {
-            let y: u32;
-            // SAFETY: a register-only instruction (no memory, no stack) the CFU answers.
-            unsafe {
-                core::arch::asm!(
-                    ".insn r 0x0B, {f3}, {f7}, {y}, {a}, {b}",
-                    f3 = const spec::FUNCT3_ADD,
-                    f7 = const spec::FUNCT7,
-                    y = lateout(reg) y,
-                    a = in(reg) a.to_bits(),
-                    b = in(reg) b.to_bits(),
-                    options(pure, nomem, nostack),
-                );
-            }
-            f32::from_bits(y)
-        }
-        #[cfg(not(target_arch = "riscv32"))]
-        f32::from_bits(spec::execute(spec::ADD, a.to_bits(), b.to_bits()))
+        op!(spec::FUNCT3_ADD, spec::ADD, a, b)
     }
 
     /// `a · b` by the unit.
     #[inline(always)]
     pub fn mul(a: f32, b: f32) -> f32 {
-        #[cfg(target_arch = "riscv32")]
-        {
-            let y: u32;
-            // SAFETY: as in `add`.
-            unsafe {
-                core::arch::asm!(
-                    ".insn r 0x0B, {f3}, {f7}, {y}, {a}, {b}",
-                    f3 = const spec::FUNCT3_MUL,
-                    f7 = const spec::FUNCT7,
-                    y = lateout(reg) y,
-                    a = in(reg) a.to_bits(),
-                    b = in(reg) b.to_bits(),
-                    options(pure, nomem, nostack),
-                );
-            }
-            f32::from_bits(y)
-        }
-        #[cfg(not(target_arch = "riscv32"))]
-        f32::from_bits(spec::execute(spec::MUL, a.to_bits(), b.to_bits()))
+        op!(spec::FUNCT3_MUL, spec::MUL, a, b)
     }
 }
 
