@@ -3,8 +3,8 @@
 - CPU: VexRiscv, variant ``imac`` (RV32IMAC, 4 KiB I- and D-caches, ``mcycle``/``minstret``
   readable: the firmware's stage counters), the firmware built for
   ``riscv32imac-unknown-none-elf``. With ``float_hw="cfu"``: variant ``full+cfu`` (RV32IM,
-  the same caches, a CFU port) with the floating-point CFU (``soc/hdl/gridrt_cfu_litex.sv``), the firmware
-  built for ``riscv32im-unknown-none-elf`` with its ``cfu-float`` feature.
+  the same caches, a CFU port) with the floating-point CFU (``soc/hdl/gridrt_cfu_litex.sv``),
+  the firmware built for ``riscv32im-unknown-none-elf`` with its ``cfu-float`` feature.
 - ROM (``rom``, 32 KiB at 0x0000_0000, the reset vector): the gridrt bootloader, from the
   bitstream / the simulation's ROM image.
 - SRAM (``sram``, 16 KiB at 0x1000_0000): the bootloader's data and stack.
@@ -22,10 +22,10 @@ The firmware's board files are generated from this SoC's csr.json (``board_files
 target only brings its clock/reset generator and UART PHY.
 """
 
+from pathlib import Path
+
 from litex.soc.cores.uart import UART
 from litex.soc.integration.soc_core import SoCCore
-
-from pathlib import Path
 
 from .coproc import GridrtCoprocCSR
 

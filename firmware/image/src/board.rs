@@ -195,26 +195,35 @@ mod imp {
     /// Main RAM is the board's SDRAM: runs the chip's power-up sequence (csr.json's
     /// `SDRAM_INIT`) and hands it to LiteDRAM's controller. The bootloader calls it before
     /// anything touches main RAM; the application, which runs from main RAM, never does.
-    /// Then writes and reads back a pattern in its first and last words: `Err(address)` at the
-    /// first word that does not hold what was written.
+    /// Then writes a pattern into words [`PROBE_STRIDE`] apart and into the last word, and
+    /// reads them back: `Err(address)` at the first word that does not hold what was written.
     pub fn init_main_ram() -> Result<(), usize> {
         // SAFETY: the SoC's LiteDRAM DFII registers (csr.json, through litex_map); nothing
         // else drives them, and main RAM is not in use yet.
         Dfii::new(unsafe { VolatileMmio::new(map::sdram::BASE) }).init(&map::SDRAM_INIT);
-        let words = [map::MAIN_RAM_BASE, map::MAIN_RAM_BASE + 4, map::MAIN_RAM_BASE + map::MAIN_RAM_SIZE - 4];
-        for (k, &a) in words.iter().enumerate() {
+        let last = map::MAIN_RAM_BASE + map::MAIN_RAM_SIZE - 4;
+        let words = (0..PROBES).map(|k| map::MAIN_RAM_BASE.wrapping_add(k.wrapping_mul(PROBE_STRIDE))).chain([last]);
+        let pattern = |a: usize| 0x5A5A_0F0F ^ a as u32;
+        for a in words.clone() {
             // SAFETY: word-aligned addresses inside main RAM, which nothing uses yet.
-            unsafe { core::ptr::write_volatile(a as *mut u32, 0x5A5A_0F0F ^ (k as u32).wrapping_mul(0x0101_0101)) };
+            unsafe { core::ptr::write_volatile(a as *mut u32, pattern(a)) };
         }
-        for (k, &a) in words.iter().enumerate() {
+        for a in words {
             // SAFETY: as above.
-            if unsafe { core::ptr::read_volatile(a as *const u32) } != 0x5A5A_0F0F ^ (k as u32).wrapping_mul(0x0101_0101)
-            {
+            if unsafe { core::ptr::read_volatile(a as *const u32) } != pattern(a) {
                 return Err(a);
             }
         }
         Ok(())
     }
+
+    /// The main-RAM check's stride: the largest L2 cache a build may have (`--l2-kib` 256).
+    /// LiteX's L2 is direct-mapped, so each probe evicts the one before it to the chip and
+    /// the reads come from the chip, not only from the L2.
+    const PROBE_STRIDE: usize = 256 << 10;
+    /// Probes at that stride (plus the last word).
+    const PROBES: usize = 4;
+    const _: () = assert!(PROBES * PROBE_STRIDE < map::MAIN_RAM_SIZE);
 
     /// What main RAM is, for the bootloader's banner.
     pub const MAIN_RAM: &str = "SDRAM (LiteDRAM)";
