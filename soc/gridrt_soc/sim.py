@@ -58,8 +58,9 @@ _io = [
 
 def make_soc(rtl_dir, rom_words=(), float_hw="none", l2_size=SDRAM_L2_SIZE):
     platform = SimPlatform("SIM", _io)
-    # The board's SDRAM chip, modelled: LiteDRAM's PHY model holds the memory and checks the
-    # chip's timings as LiteDRAM's controller drives them at the SoC's clock.
+    # The board's SDRAM chip, modelled: LiteDRAM's PHY model holds the memory and answers the
+    # controller's DFI commands with the chip's geometry and CAS latency (its timing checker,
+    # `verbosity`, stays off: it prints every violation and slows the simulation).
     module = sdram_module(SYS_CLK_FREQ)
     phy = SDRAMPHYModel(module=module, data_width=SDRAM_DATA_WIDTH, clk_freq=SYS_CLK_FREQ)
     soc = GridrtSoC(
