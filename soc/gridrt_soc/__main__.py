@@ -16,6 +16,7 @@ from pathlib import Path
 from litex.soc.integration.common import get_mem_data
 
 from . import board_files
+from .harts import MAX_HARTS
 from .soc import CPU_VARIANTS, ROM_SIZE, SDRAM_L2_SIZE
 
 REPO = Path(__file__).resolve().parents[2]
@@ -60,6 +61,13 @@ def main(argv=None):
             default=SDRAM_L2_SIZE // 1024,
             help="KiB of LiteX's L2 cache in front of the SDRAM (a power of two; 2 DP16KD per 4 KiB)",
         )
+        p.add_argument(
+            "--harts",
+            type=int,
+            default=1,
+            choices=range(1, MAX_HARTS + 1),
+            help="CPUs: 1, or 2 (a worker hart that traces half of each frame's rows)",
+        )
 
     sim = sub.add_parser("sim", help="generate and compile the Verilator simulation")
     common(sim, rom=True)
@@ -94,6 +102,7 @@ def main(argv=None):
             args.rx_baud,
             args.float_hw,
             args.l2_kib * 1024,
+            args.harts,
         )
         print(f"SIM_DIR: {gateware}")
     elif args.cmd == "ulx3s":
@@ -111,6 +120,7 @@ def main(argv=None):
             args.baud,
             args.float_hw,
             args.l2_kib * 1024,
+            args.harts,
         )
         print(f"BITSTREAM: {result['bitstream']}")
         print(f"REPORT: {result['report']}")

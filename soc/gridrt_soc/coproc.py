@@ -33,7 +33,7 @@ one ``status`` read (its control bit) and one ``rsp`` read.
 
 from pathlib import Path
 
-from migen import ClockSignal, If, Instance, Mux, ResetInserter, ResetSignal, Signal
+from migen import Case, ClockSignal, If, Instance, Mux, ResetInserter, ResetSignal, Signal
 
 from litex.gen import LiteXModule
 from litex.soc.interconnect import stream
@@ -98,15 +98,169 @@ class GridrtCoproc(LiteXModule):
                 platform.add_source(str(f), language="systemverilog")
 
 
+class CoprocPort(LiteXModule):
+    """One more hart's window on the co-processor: a request FIFO and a reply FIFO behind the
+    CSRs ``req``, ``req_last``, ``rsp`` and ``status`` (the first four of
+    ``GridrtCoprocCSR``'s, at the same offsets, with the same meaning; the ``idle`` bit is the
+    co-processor's). It has no ``ctrl``: only the first hart resets the co-processor.
+    ``GridrtCoprocCSR`` arbitrates between its own FIFOs and these, one packet at a time.
+    """
+
+    def __init__(self, fifo_depth=16):
+        assert fifo_depth & (fifo_depth - 1) == 0 and 2 <= fifo_depth <= 128
+        self._req = CSR(32, name="req")
+        self._req_last = CSR(32, name="req_last")
+        self._rsp = CSR(32, name="rsp")
+        self._status = _status_csr()
+        self.reset = Signal()
+        self.idle = Signal()
+
+        # # #
+
+        self.req_fifo = ResetInserter()(stream.SyncFIFO(WORD_LAYOUT, fifo_depth))
+        self.rsp_fifo = ResetInserter()(stream.SyncFIFO(WORD_LAYOUT, fifo_depth))
+        self.comb += [self.req_fifo.reset.eq(self.reset), self.rsp_fifo.reset.eq(self.reset)]
+        _fifo_csrs(self, fifo_depth, self.reset, self.idle)
+
+
+def _status_csr():
+    return CSRStatus(
+        fields=[
+            CSRField("req_space", size=8, description="Free request FIFO slots."),
+            CSRField("rsp_level", size=8, description="Reply words waiting."),
+            CSRField("rsp_last", size=1, description="Control bit of the head reply word."),
+            CSRField("idle", size=1, description="The co-processor waits for input with nothing to send."),
+            CSRField("req_overflow", size=1, description="Sticky: a request word was dropped (FIFO full)."),
+            CSRField("rsp_underflow", size=1, description="Sticky: ``rsp`` was read with no reply waiting."),
+        ],
+        name="status",
+    )
+
+
+def _fifo_csrs(m, fifo_depth, clear, idle):
+    """Connects ``m``'s ``_req``/``_req_last``/``_rsp``/``_status`` CSRs to its FIFOs."""
+    req_fifo, rsp_fifo = m.req_fifo, m.rsp_fifo
+    # CPU -> request FIFO: a write to `req` or `req_last` pushes one word.
+    m.comb += [
+        req_fifo.sink.valid.eq(m._req.re | m._req_last.re),
+        req_fifo.sink.data.eq(m._req.r | m._req_last.r),
+        req_fifo.sink.last.eq(m._req_last.re),
+    ]
+    # Reply FIFO -> CPU: `rsp` shows the head word; its read strobe pops it.
+    m.comb += [
+        m._rsp.w.eq(Mux(rsp_fifo.source.valid, rsp_fifo.source.data, 0)),
+        rsp_fifo.source.ready.eq(m._rsp.we),
+    ]
+    overflow = Signal()
+    underflow = Signal()
+    m.sync += [
+        If(clear,
+            overflow.eq(0),
+            underflow.eq(0),
+        ).Else(
+            If(req_fifo.sink.valid & ~req_fifo.sink.ready, overflow.eq(1)),
+            If(m._rsp.we & ~rsp_fifo.source.valid, underflow.eq(1)),
+        )
+    ]
+    m.comb += [
+        m._status.fields.req_space.eq(fifo_depth - req_fifo.level),
+        m._status.fields.rsp_level.eq(rsp_fifo.level),
+        m._status.fields.rsp_last.eq(rsp_fifo.source.valid & rsp_fifo.source.last),
+        m._status.fields.idle.eq(idle),
+        m._status.fields.req_overflow.eq(overflow),
+        m._status.fields.rsp_underflow.eq(underflow),
+    ]
+
+
+class PacketArbiter(LiteXModule):
+    """Shares the co-processor's two streams between ``n`` ports, one request packet and its
+    reply packet at a time.
+
+    A port is granted when it offers a word and no packet is in flight; it keeps the grant
+    until its request packet's last word went in *and* the reply packet's last word came out
+    (an ERROR may come before the request's end: the co-processor then drops the rest of the
+    packet, SPEC.md §4.5, and no other port's words may reach it meanwhile). The next grant
+    goes to the first port with a word after the one last served (round robin). Every request
+    packet has exactly one reply packet (SPEC.md §4.1), so the replies reach the hart that
+    asked. ``sinks``: each port's request stream; ``sources``: each port's reply stream.
+    """
+
+    def __init__(self, n, core_sink, core_source):
+        self.sinks = [stream.Endpoint(WORD_LAYOUT) for _ in range(n)]
+        self.sources = [stream.Endpoint(WORD_LAYOUT) for _ in range(n)]
+        self.busy = busy = Signal()
+        self.grant = grant = Signal(max=max(n, 2))
+
+        # # #
+
+        req_done = Signal()
+        rsp_done = Signal()
+        for i in range(n):
+            sink, source = self.sinks[i], self.sources[i]
+            mine = busy & (grant == i)
+            self.comb += [
+                If(mine & ~req_done,
+                    core_sink.valid.eq(sink.valid),
+                    core_sink.data.eq(sink.data),
+                    core_sink.last.eq(sink.last),
+                    sink.ready.eq(core_sink.ready),
+                ),
+                If(mine & ~rsp_done,
+                    source.valid.eq(core_source.valid),
+                    source.data.eq(core_source.data),
+                    source.last.eq(core_source.last),
+                    core_source.ready.eq(source.ready),
+                ),
+            ]
+        # The next grant: the first port with a word after the last one served.
+        pick = Signal(max=max(n, 2))
+        offer = Signal()
+        order = [[(g + 1 + k) % n for k in range(n)] for g in range(n)]
+        cases = {}
+        for g in range(n):
+            chain = None
+            for i in reversed(order[g]):
+                step = If(self.sinks[i].valid, pick.eq(i), offer.eq(1))
+                chain = step if chain is None else step.Else(chain)
+            cases[g] = chain
+        self.comb += Case(grant, cases)
+        req_end = core_sink.valid & core_sink.ready & core_sink.last
+        rsp_end = core_source.valid & core_source.ready & core_source.last
+        self.sync += [
+            If(~busy,
+                If(offer,
+                    busy.eq(1),
+                    grant.eq(pick),
+                    req_done.eq(0),
+                    rsp_done.eq(0),
+                ),
+            ).Else(
+                If(req_end, req_done.eq(1)),
+                If(rsp_end, rsp_done.eq(1)),
+                If((req_done | req_end) & (rsp_done | rsp_end), busy.eq(0)),
+            )
+        ]
+
+
 class GridrtCoprocCSR(LiteXModule):
     """The co-processor behind CSR FIFOs (module docstring: the register interface).
 
     ``fifo_depth`` words per direction (a power of two, at most 128 so that the levels fit
-    their status fields). ``stop_when_empty``: ``GridrtCoproc``'s.
+    their status fields). ``stop_when_empty``: ``GridrtCoproc``'s. ``ports``: more harts'
+    ``CoprocPort``s; a ``PacketArbiter`` shares the co-processor between them and this
+    block's own FIFOs, whose ``ctrl`` resets everything.
     """
 
     def __init__(
-        self, platform, rtl_dir, pes=4, pe_mem_words=8192, max_list=256, fifo_depth=16, stop_when_empty=False
+        self,
+        platform,
+        rtl_dir,
+        pes=4,
+        pe_mem_words=8192,
+        max_list=256,
+        fifo_depth=16,
+        stop_when_empty=False,
+        ports=(),
     ):
         assert fifo_depth & (fifo_depth - 1) == 0 and 2 <= fifo_depth <= 128
         self.fifo_depth = fifo_depth
@@ -114,21 +268,14 @@ class GridrtCoprocCSR(LiteXModule):
         self._req = CSR(32, name="req")
         self._req_last = CSR(32, name="req_last")
         self._rsp = CSR(32, name="rsp")
-        self._status = CSRStatus(
-            fields=[
-                CSRField("req_space", size=8, description="Free request FIFO slots."),
-                CSRField("rsp_level", size=8, description="Reply words waiting."),
-                CSRField("rsp_last", size=1, description="Control bit of the head reply word."),
-                CSRField("idle", size=1, description="The co-processor waits for input with nothing to send."),
-                CSRField("req_overflow", size=1, description="Sticky: a request word was dropped (FIFO full)."),
-                CSRField("rsp_underflow", size=1, description="Sticky: ``rsp`` was read with no reply waiting."),
-            ],
-            name="status",
-        )
+        self._status = _status_csr()
         self._ctrl = CSRStorage(
             fields=[
                 CSRField(
-                    "reset", size=1, pulse=True, description="Reset the co-processor and both FIFOs; clear the sticky bits."
+                    "reset",
+                    size=1,
+                    pulse=True,
+                    description="Reset the co-processor, the arbiter and every port's FIFOs; clear the sticky bits.",
                 ),
             ],
             name="ctrl",
@@ -143,45 +290,18 @@ class GridrtCoprocCSR(LiteXModule):
         self.core = core = GridrtCoproc(platform, rtl_dir, pes, pe_mem_words, max_list, stop_when_empty)
         self.req_fifo = req_fifo = ResetInserter()(stream.SyncFIFO(WORD_LAYOUT, fifo_depth))
         self.rsp_fifo = rsp_fifo = ResetInserter()(stream.SyncFIFO(WORD_LAYOUT, fifo_depth))
+        all_ports = [self, *ports]
+        self.arbiter = arbiter = ResetInserter()(PacketArbiter(len(all_ports), core.sink, core.source))
+        idle = Signal()
         self.comb += [
             core.reset.eq(soft_reset),
+            arbiter.reset.eq(soft_reset),
             req_fifo.reset.eq(soft_reset),
             rsp_fifo.reset.eq(soft_reset),
-            req_fifo.source.connect(core.sink),
-            core.source.connect(rsp_fifo.sink),
+            idle.eq(core.idle & ~arbiter.busy),
         ]
-
-        # CPU -> request FIFO: a write to `req` or `req_last` pushes one word.
-        req_space = Signal(8)
-        self.comb += [
-            req_space.eq(fifo_depth - req_fifo.level),
-            req_fifo.sink.valid.eq(self._req.re | self._req_last.re),
-            req_fifo.sink.data.eq(self._req.r | self._req_last.r),
-            req_fifo.sink.last.eq(self._req_last.re),
-        ]
-
-        # Reply FIFO -> CPU: `rsp` shows the head word; its read strobe pops it.
-        self.comb += [
-            self._rsp.w.eq(Mux(rsp_fifo.source.valid, rsp_fifo.source.data, 0)),
-            rsp_fifo.source.ready.eq(self._rsp.we),
-        ]
-
-        overflow = Signal()
-        underflow = Signal()
-        self.sync += [
-            If(soft_reset,
-                overflow.eq(0),
-                underflow.eq(0),
-            ).Else(
-                If(req_fifo.sink.valid & ~req_fifo.sink.ready, overflow.eq(1)),
-                If(self._rsp.we & ~rsp_fifo.source.valid, underflow.eq(1)),
-            )
-        ]
-        self.comb += [
-            self._status.fields.req_space.eq(req_space),
-            self._status.fields.rsp_level.eq(rsp_fifo.level),
-            self._status.fields.rsp_last.eq(rsp_fifo.source.valid & rsp_fifo.source.last),
-            self._status.fields.idle.eq(core.idle),
-            self._status.fields.req_overflow.eq(overflow),
-            self._status.fields.rsp_underflow.eq(underflow),
-        ]
+        for port, sink, source in zip(all_ports, arbiter.sinks, arbiter.sources):
+            self.comb += [port.req_fifo.source.connect(sink), source.connect(port.rsp_fifo.sink)]
+        for port in ports:
+            self.comb += [port.reset.eq(soft_reset), port.idle.eq(idle)]
+        _fifo_csrs(self, fifo_depth, soft_reset, idle)

@@ -56,7 +56,7 @@ _io = [
 ]
 
 
-def make_soc(rtl_dir, rom_words=(), float_hw="none", l2_size=SDRAM_L2_SIZE):
+def make_soc(rtl_dir, rom_words=(), float_hw="none", l2_size=SDRAM_L2_SIZE, harts=1):
     platform = SimPlatform("SIM", _io)
     # The board's SDRAM chip, modelled: LiteDRAM's PHY model holds the memory and answers the
     # controller's DFI commands with the chip's geometry and CAS latency (its timing checker,
@@ -72,6 +72,7 @@ def make_soc(rtl_dir, rom_words=(), float_hw="none", l2_size=SDRAM_L2_SIZE):
         float_hw=float_hw,
         sdram_phy=phy,
         l2_size=l2_size,
+        harts=harts,
     )
     # Clock from the `clocker` module; reset for the first cycle (power-on).
     soc.crg = CRG(platform.request("sys_clk"))
@@ -142,6 +143,7 @@ def prepare(
     rx_baud=0,
     float_hw="none",
     l2_size=SDRAM_L2_SIZE,
+    harts=1,
 ):
     """Generates and (if needed) compiles the simulator; returns its gateware directory.
 
@@ -149,7 +151,7 @@ def prepare(
     They are read when the simulator starts (sim_config.js): changing them rebuilds nothing.
     """
     build_dir = Path(build_dir).resolve()
-    soc = make_soc(rtl_dir, rom_words, float_hw, l2_size)
+    soc = make_soc(rtl_dir, rom_words, float_hw, l2_size, harts)
     # The C modules are compiled in the build tree: LiteX writes a variables.mak next to them.
     mods = build_dir / "sim_modules"
     if mods.exists():

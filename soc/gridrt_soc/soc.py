@@ -16,7 +16,11 @@
   the co-processor.
 - CSRs (0xF000_0000, uncached): ``ctrl``, ``identifier_mem``, ``uart`` (LiteX UART, 64-byte
   FIFOs, a read of ``rxtx`` pops), ``timer0``, ``coproc`` (``coproc.GridrtCoprocCSR``; its
-  configuration, PEs and words per PE, is readable there).
+  configuration, PEs and words per PE, is readable there), ``sdram`` (LiteDRAM's DFII),
+  ``harts`` (``harts.GridrtHarts``: worker harts and their mailboxes) and ``coproc1`` (the
+  second hart's port on the co-processor, ``coproc.CoprocPort``).
+- Harts: 1 by default; ``harts=2`` adds a worker VexRiscv of the same variant that traces
+  half of a frame's rows (``gridrt_firmware::harts``).
 
 The firmware's board files are generated from this SoC's csr.json (``board_files``); the
 target only brings its clock/reset generator and UART PHY.
@@ -27,7 +31,8 @@ from pathlib import Path
 from litex.soc.cores.uart import UART
 from litex.soc.integration.soc_core import SoCCore
 
-from .coproc import GridrtCoprocCSR
+from .coproc import CoprocPort, GridrtCoprocCSR
+from .harts import GridrtHarts
 
 KIB = 1024
 
@@ -86,6 +91,8 @@ class GridrtSoC(SoCCore):
     pipe then stops when empty, ``GridrtCoproc``). ``float_hw``: a key of ``CPU_VARIANTS``.
     ``sdram_phy``: the target's PHY of the SDRAM chip (``GENSDRPHY`` on the board,
     ``SDRAMPHYModel`` in simulation). ``l2_size``: bytes of the L2 cache in front of it.
+    ``harts``: CPUs, the first included (``harts.GridrtHarts``: the others are workers of
+    the same variant, each with its own port on the co-processor, ``coproc1``).
     """
 
     # Fixed CSR locations: the map must not depend on the order modules are added in.
@@ -95,6 +102,9 @@ class GridrtSoC(SoCCore):
         "uart": 2,
         "timer0": 3,
         "coproc": 4,
+        "sdram": 5,
+        "harts": 6,
+        "coproc1": 7,
     }
 
     def __init__(
@@ -110,6 +120,7 @@ class GridrtSoC(SoCCore):
         *,
         sdram_phy,
         l2_size=SDRAM_L2_SIZE,
+        harts=1,
     ):
         if float_hw not in CPU_VARIANTS:
             raise ValueError(f"float_hw {float_hw!r}: expected one of {', '.join(CPU_VARIANTS)}")
@@ -151,6 +162,16 @@ class GridrtSoC(SoCCore):
         self.uart = UART(uart_phy, tx_fifo_depth=UART_FIFO_DEPTH, rx_fifo_depth=UART_FIFO_DEPTH, rx_fifo_rx_we=True)
         self.add_constant("GRIDRT_UART_FIFO_DEPTH", UART_FIFO_DEPTH)
 
+        # Worker harts and their registers (present with one hart too: one memory map), and the
+        # second hart's port on the co-processor.
+        self.harts = GridrtHarts(
+            platform, CPU_VARIANTS[float_hw], harts, cfu=str(CFU_WRAPPER) if float_hw == "cfu" else None
+        )
+        for k, cpu in enumerate(self.harts.cpus, start=1):
+            self.bus.add_master(name=f"hart{k}_ibus", master=cpu.ibus)
+            self.bus.add_master(name=f"hart{k}_dbus", master=cpu.dbus)
+        self.coproc1 = CoprocPort(fifo_depth=COPROC_FIFO_DEPTH)
+
         # The co-processor behind CSR FIFOs.
         self.coproc = GridrtCoprocCSR(
             platform,
@@ -160,5 +181,6 @@ class GridrtSoC(SoCCore):
             max_list=COPROC_MAX_LIST,
             fifo_depth=COPROC_FIFO_DEPTH,
             stop_when_empty=simulation,
+            ports=[self.coproc1],
         )
         self.add_constant("GRIDRT_COPROC_FIFO_DEPTH", COPROC_FIFO_DEPTH)

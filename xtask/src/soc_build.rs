@@ -6,7 +6,7 @@
 
 use crate::firmware::{Bin, BuildOpts, Layout};
 use crate::soc_tools::{
-    build_firmware, parse_l2_kib, python, result, run_logged, soc_target_dir, FloatHw, RtlDir, DEFAULT_L2_KIB,
+    build_firmware, parse_harts, parse_l2_kib, python, result, run_logged, soc_target_dir, FloatHw, RtlDir, DEFAULT_L2_KIB,
 };
 use crate::toolchain::ToolchainChoice;
 use anyhow::{Context, Result};
@@ -83,6 +83,10 @@ pub struct BuildCmd {
     /// 2 DP16KD per 4 KiB).
     #[arg(long, default_value_t = DEFAULT_L2_KIB, value_parser = parse_l2_kib, value_name = "KIB")]
     l2_kib: u32,
+    /// CPUs: 1, or 2 (a second VexRiscv of the same variant, with its own port on the
+    /// co-processor, traces every second row of a frame).
+    #[arg(long, default_value_t = 1, value_parser = parse_harts, value_name = "N")]
+    harts: u32,
     #[command(flatten)]
     rtl: RtlDir,
     /// How to cross-compile the bootloader (see scripts/setup-riscv-toolchain.sh).
@@ -124,7 +128,7 @@ impl BuildCmd {
         py.arg("--rom-image").arg(&rom);
         py.args(["--device", self.device.part(), "--seed", &self.seed.to_string(), "--pes", &self.pes.to_string()]);
         py.args(["--baud", &self.baud.to_string(), "--float-hw", self.float_hw.name()]);
-        py.args(["--l2-kib", &self.l2_kib.to_string()]);
+        py.args(["--l2-kib", &self.l2_kib.to_string(), "--harts", &self.harts.to_string()]);
         let results =
             run_logged(py, &dir.join("litex.log"), |l| l.starts_with("ulx3s:") || l.starts_with("board-files:"))?;
         let seconds = started.elapsed().as_secs_f64();
@@ -143,7 +147,7 @@ impl BuildCmd {
         let (lut_cap, bram_cap, dsp_cap) = self.device.capacity();
         let fits = bitstream.is_file() && luts <= lut_cap && brams <= bram_cap && dsps <= dsp_cap;
         let json = format!(
-            "{{\"board\": \"ulx3s\", \"device\": \"{}-CABGA381\", \"cpu\": \"vexriscv {}\", \"harts\": 1, \
+            "{{\"board\": \"ulx3s\", \"device\": \"{}-CABGA381\", \"cpu\": \"vexriscv {}\", \"harts\": {}, \
              \"float_hw\": \"{}\", \"sdram\": true, \"l2_kib\": {}, \"pes\": {}, \"luts\": {luts}, \
              \"ffs\": {ffs}, \"dsps\": {dsps}, \"brams\": {brams}, \"fmax_mhz\": {fmax:.2}, \"target_mhz\": {target:.2}, \"margin_mhz\": {margin:.2}, \
              \"fits\": {fits}, \"baud\": {}, \"baud_error_ppm\": {baud_error_ppm:.4}, \"baud_jitter_bits\": {baud_jitter:.4}, \
@@ -153,6 +157,7 @@ impl BuildCmd {
                 FloatHw::None => "imac",
                 FloatHw::Cfu => "full+cfu",
             },
+            self.harts,
             self.float_hw.name(),
             self.l2_kib,
             self.pes,

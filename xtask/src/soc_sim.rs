@@ -9,7 +9,7 @@
 
 use crate::firmware::{Bin, BuildOpts, Layout};
 use crate::soc_tools::{
-    build_firmware, parse_l2_kib, python, result, run_logged, soc_target_dir, FloatHw, RtlDir, DEFAULT_L2_KIB,
+    build_firmware, parse_harts, parse_l2_kib, python, result, run_logged, soc_target_dir, FloatHw, RtlDir, DEFAULT_L2_KIB,
 };
 use crate::toolchain::{display_command, ToolchainChoice};
 use anyhow::{bail, Context, Result};
@@ -73,6 +73,11 @@ pub struct SimCmd {
     /// Another size than the default has its own build folder (target/soc/sim-l2-N).
     #[arg(long, default_value_t = DEFAULT_L2_KIB, value_parser = parse_l2_kib, value_name = "KIB")]
     l2_kib: u32,
+    /// CPUs: 1, or 2 (a second VexRiscv of the same variant, with its own port on the
+    /// co-processor, traces every second row of a frame). 2 has its own build folder
+    /// (target/soc/sim-…-harts-2).
+    #[arg(long, default_value_t = 1, value_parser = parse_harts, value_name = "N")]
+    harts: u32,
 }
 
 /// serial2pty prints this for its pty.
@@ -86,6 +91,9 @@ impl SimCmd {
         };
         if self.l2_kib != DEFAULT_L2_KIB {
             name += &format!("-l2-{}", self.l2_kib);
+        }
+        if self.harts != 1 {
+            name += &format!("-harts-{}", self.harts);
         }
         let dir = soc_target_dir().join(name);
         let opts = BuildOpts {
@@ -107,6 +115,7 @@ impl SimCmd {
         py.arg("--rom-image").arg(&rom).args(["--jobs", &self.jobs.to_string()]);
         py.args(["--baud", &self.baud.to_string(), "--rx-baud", &self.rx_baud.to_string()]);
         py.args(["--float-hw", self.float_hw.name(), "--l2-kib", &self.l2_kib.to_string()]);
+        py.args(["--harts", &self.harts.to_string()]);
         if let Some(mhz) = self.clock_mhz {
             if !(mhz.is_finite() && mhz > 0.0 && mhz <= 1000.0) {
                 bail!("--clock-mhz {mhz}: expected a clock in (0, 1000] MHz");

@@ -68,6 +68,17 @@ impl FloatHw {
 /// (`SDRAM_L2_SIZE` of soc/gridrt_soc/soc.py).
 pub const DEFAULT_L2_KIB: u32 = 8;
 
+/// Harts a SoC build may have (`MAX_HARTS` of soc/gridrt_soc/harts.py).
+pub const MAX_HARTS: u32 = 2;
+
+/// `--harts`: 1 to [`MAX_HARTS`].
+pub fn parse_harts(s: &str) -> Result<u32, String> {
+    match s.parse::<u32>() {
+        Ok(n) if (1..=MAX_HARTS).contains(&n) => Ok(n),
+        _ => Err(format!("`{s}`: expected 1 to {MAX_HARTS} harts")),
+    }
+}
+
 /// `--l2-kib`: a power of two from 1 to 256.
 pub fn parse_l2_kib(s: &str) -> Result<u32, String> {
     match s.parse::<u32>() {

@@ -12,6 +12,8 @@
 
 pub mod board;
 pub mod counters;
+#[cfg(feature = "board-litex")]
+pub mod harts;
 pub mod link;
 #[cfg(feature = "board-litex")]
 pub mod litex_map;

@@ -237,6 +237,60 @@ pub mod sdram {
     /// `sdram_dfii_pi0_rddata`: 1 word(s), ro.
     pub const DFII_PI0_RDDATA: usize = 0xf000_2818;
 }
+/// CSR peripheral `harts`: base address and registers (csr.json).
+pub mod harts {
+    /// Base address of the peripheral's CSRs.
+    pub const BASE: usize = 0xf000_3000;
+    /// `harts_count`: 1 word(s), ro.
+    pub const COUNT: usize = 0xf000_3000;
+    /// `harts_entry`: 1 word(s), rw.
+    pub const ENTRY: usize = 0xf000_3004;
+    /// `harts_run`: 1 word(s), rw.
+    pub const RUN: usize = 0xf000_3008;
+    /// `harts_job`: 1 word(s), rw.
+    pub const JOB: usize = 0xf000_300c;
+    /// `harts_taken`: 1 word(s), rw.
+    pub const TAKEN: usize = 0xf000_3010;
+    /// `harts_done`: 1 word(s), rw.
+    pub const DONE: usize = 0xf000_3014;
+}
+/// CSR peripheral `coproc1`: base address and registers (csr.json).
+pub mod coproc1 {
+    /// Base address of the peripheral's CSRs.
+    pub const BASE: usize = 0xf000_3800;
+    /// `coproc1_req`: 1 word(s), rw.
+    pub const REQ: usize = 0xf000_3800;
+    /// `coproc1_req_last`: 1 word(s), rw.
+    pub const REQ_LAST: usize = 0xf000_3804;
+    /// `coproc1_rsp`: 1 word(s), rw.
+    pub const RSP: usize = 0xf000_3808;
+    /// `coproc1_status`: 1 word(s), ro.
+    pub const STATUS: usize = 0xf000_380c;
+    /// Field `req_space` of `status`: bit offset.
+    pub const STATUS_REQ_SPACE_OFFSET: u32 = 0;
+    /// Field `req_space` of `status`: width in bits.
+    pub const STATUS_REQ_SPACE_SIZE: u32 = 8;
+    /// Field `rsp_level` of `status`: bit offset.
+    pub const STATUS_RSP_LEVEL_OFFSET: u32 = 8;
+    /// Field `rsp_level` of `status`: width in bits.
+    pub const STATUS_RSP_LEVEL_SIZE: u32 = 8;
+    /// Field `rsp_last` of `status`: bit offset.
+    pub const STATUS_RSP_LAST_OFFSET: u32 = 16;
+    /// Field `rsp_last` of `status`: width in bits.
+    pub const STATUS_RSP_LAST_SIZE: u32 = 1;
+    /// Field `idle` of `status`: bit offset.
+    pub const STATUS_IDLE_OFFSET: u32 = 17;
+    /// Field `idle` of `status`: width in bits.
+    pub const STATUS_IDLE_SIZE: u32 = 1;
+    /// Field `req_overflow` of `status`: bit offset.
+    pub const STATUS_REQ_OVERFLOW_OFFSET: u32 = 18;
+    /// Field `req_overflow` of `status`: width in bits.
+    pub const STATUS_REQ_OVERFLOW_SIZE: u32 = 1;
+    /// Field `rsp_underflow` of `status`: bit offset.
+    pub const STATUS_RSP_UNDERFLOW_OFFSET: u32 = 19;
+    /// Field `rsp_underflow` of `status`: width in bits.
+    pub const STATUS_RSP_UNDERFLOW_SIZE: u32 = 1;
+}
 
 /// The SDRAM chip's power-up sequence, in order (LiteDRAM's `init_sequence` for this
 /// SoC's PHY and module): run by the bootloader with the DFII in software control.

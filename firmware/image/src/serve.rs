@@ -3,7 +3,7 @@
 //! as it is: it implements `embedded_io::{Read, ReadReady, Write}` itself.
 
 use embedded_io::{Read, Write};
-use gridrt_firmware::device::{Device, StageClock};
+use gridrt_firmware::device::{Device, RowFarm, StageClock};
 use gridrt_firmware::fsl::FslLink;
 
 /// Bytes taken from the UART per `feed` call at most.
@@ -27,8 +27,16 @@ pub fn firmware_version() -> [u8; 3] {
 /// The device loop: wait for UART bytes, feed what arrived to the device, which answers
 /// through blocking `write_all`s to the same UART (a render runs to completion inside one `feed`; a
 /// failed write stops the frame and is counted, `Device::write_errors`). Never returns.
-pub fn serve<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, U: Read + Write>(
-    device: &mut Device<L, C, N, P, T>,
+pub fn serve<
+    L: FslLink,
+    C: StageClock,
+    const N: usize,
+    const P: usize,
+    const T: usize,
+    F: RowFarm<L>,
+    U: Read + Write,
+>(
+    device: &mut Device<L, C, N, P, T, F>,
     uart: &mut U,
 ) -> ! {
     let mut buf = [0u8; RX_BATCH];

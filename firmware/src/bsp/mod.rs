@@ -13,6 +13,7 @@
 //! | [`litex_uart::LitexUart`] | LiteX UART (`litex/soc/cores/uart.py`) | LiteX SoC (`soc/`) console/host link |
 //! | [`coproc_csr::CoprocCsr`] | the co-processor's CSR FIFOs (`soc/gridrt_soc/coproc.py`) | LiteX SoC FSL-style link to the co-processor |
 //! | [`litedram::Dfii`] | LiteDRAM's DFI injector (`litedram/dfii.py`) | LiteX SoC: the SDRAM chip's power-up sequence (bootloader) |
+//! | [`harts::HartCsr`] | the worker harts' block (`soc/gridrt_soc/harts.py`) | LiteX SoC with `--harts 2`: starting the worker, the frame's mailbox words |
 //!
 //! Register offsets and bit values live only in each driver's `regs.rs`; above that
 //! layer no magic numbers appear.
@@ -31,6 +32,7 @@
 
 pub mod axis_fifo;
 pub mod coproc_csr;
+pub mod harts;
 pub mod litedram;
 pub mod litex_uart;
 pub mod mmio;

@@ -195,14 +195,21 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     use gridrt_firmware::bsp::coproc_csr::CoprocCsr;
     use gridrt_firmware::bsp::VolatileMmio;
     use gridrt_firmware::device::{CounterClock, Device};
+    use gridrt_firmware_image::harts::HartFarm;
     use gridrt_firmware_image::link::CsrFifoLink;
 
     // SAFETY: COPROC_BASE is the co-processor's CSR FIFOs (csr.json); owned here only.
     let mut fifos = CoprocCsr::new(unsafe { VolatileMmio::new(board::COPROC_BASE) });
     fifos.init();
+    // A worker hart, if the SoC has one, traces every second row of a frame.
+    let farm = HartFarm::start();
+    let mut w = UartWriter(console);
+    w.put("harts: ");
+    w.put_dec(u64::from(farm.harts()));
+    w.put("\r\n");
     // Ends the text for a frame decoder (it becomes one bad frame, which hosts ignore).
     let _ = console.write_all(&[0]);
-    let mut device: Device<_, _, { board::MAX_VOXELS }> =
-        Device::new(CsrFifoLink(fifos), CounterClock(CsrCounters), info);
+    let mut device: Device<_, _, { board::MAX_VOXELS }, 0, 0, HartFarm> =
+        Device::with_clock_and_farm(CsrFifoLink(fifos), CounterClock(CsrCounters), info, farm);
     serve(&mut device, console)
 }

@@ -72,15 +72,18 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
             &req,
             opt.grid_m,
             opt.soc_clock(),
-            (opt.soc_float_hw, opt.soc_l2_kib),
+            (opt.soc_float_hw, opt.soc_l2_kib, opt.soc_harts),
             progress,
         )?)
     } else {
         None
     };
-    // A CFU build's CPI is not the imac's: only a soft-float SoC describes the imac rows.
-    let measured =
-        soc.as_ref().filter(|_| opt.measured_cpi.is_none() && opt.soc_float_hw == SocFloatHw::None).map(|(s, _)| {
+    // A CFU build's CPI is not the imac's, and a frame on two harts times no stage: only a
+    // soft-float, single-hart SoC describes the imac rows.
+    let measured = soc
+        .as_ref()
+        .filter(|_| opt.measured_cpi.is_none() && opt.soc_float_hw == SocFloatHw::None && opt.soc_harts == 1)
+        .map(|(s, _)| {
             MeasuredCpi {
                 core: "vexriscv-imac".into(),
                 source: "this run's soc row".into(),

@@ -452,7 +452,7 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
             frame_cycles: Some(frame_cycles),
             clock_mhz: Some(soc.clock.clock_mhz),
             clock_source: Some(soc.clock.source.into()),
-            harts: Some(1),
+            harts: Some(soc.harts),
             float_hw: Some(soc.float_hw.name().into()),
             l2_kib: soc.l2_kib,
             pes: Some(soc.pes),
@@ -468,8 +468,10 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
 
 /// Sets `vs_soc` on every modelled row when `rows` has a `soc` row.
 pub(crate) fn distance_from_soc(rows: &mut [FrameRow]) {
-    // The modelled rows model a soft-float VexRiscv imac: a CFU build is another CPU.
-    let soft = |r: &&FrameRow| r.board.float_hw.as_deref() != Some(SocFloatHw::Cfu.name());
+    // The modelled rows model one soft-float VexRiscv imac: a CFU build is another CPU, two
+    // harts another board.
+    let soft =
+        |r: &&FrameRow| r.board.float_hw.as_deref() != Some(SocFloatHw::Cfu.name()) && r.board.harts == Some(1);
     let Some(soc_ms) = rows.iter().filter(soft).find(|r| r.config == Configuration::Soc.name()).map(|r| r.frame_ms)
     else {
         return;

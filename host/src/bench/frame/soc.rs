@@ -48,6 +48,8 @@ pub struct SocRun {
     pub float_hw: SocFloatHw,
     /// The L2 cache in front of the SDRAM, KiB, when not the SoC's default.
     pub l2_kib: Option<u32>,
+    /// CPUs of the SoC (a worker hart traces every second row).
+    pub harts: u32,
     /// PEs of the SoC's co-processor.
     pub pes: u16,
     /// Simulated cycles per wall-clock second during the render (the frame's cycles over
@@ -74,7 +76,7 @@ impl SocSim {
     fn start(
         repo: &Path,
         clock: SocClock,
-        (float_hw, l2_kib): (SocFloatHw, Option<u32>),
+        (float_hw, l2_kib, harts): (SocFloatHw, Option<u32>, u32),
         progress: &mut dyn FnMut(BenchEvent),
     ) -> Result<Self, FrameBenchError> {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
@@ -86,9 +88,10 @@ impl SocSim {
         if let Some(k) = l2_kib {
             cmd.args(["--l2-kib", &k.to_string()]);
         }
+        cmd.args(["--harts", &harts.to_string()]);
         let l2 = l2_kib.map(|k| format!(" --l2-kib {k}")).unwrap_or_default();
         progress(BenchEvent::Step(format!(
-            "soc: cargo xtask soc sim --baud {} --clock-mhz {} --float-hw {}{l2} (builds the Verilated SoC the first time: minutes)",
+            "soc: cargo xtask soc sim --baud {} --clock-mhz {} --float-hw {}{l2} --harts {harts} (builds the Verilated SoC the first time: minutes)",
             clock.baud,
             clock.clock_mhz,
             float_hw.name()
@@ -179,7 +182,7 @@ pub fn run_on_soc(
     request: &RenderRequest,
     grid_m: f64,
     clock: SocClock,
-    (float_hw, l2_kib): (SocFloatHw, Option<u32>),
+    (float_hw, l2_kib, harts): (SocFloatHw, Option<u32>, u32),
     progress: &mut dyn FnMut(BenchEvent),
 ) -> Result<(SocRun, PreparedScene), FrameBenchError> {
     let mut args = vec!["--board", "litex", "--bin", "app", "--layout", "bootloaded", "--jobs", "2"];
@@ -193,7 +196,7 @@ pub fn run_on_soc(
     let elf = std::fs::read(&app).map_err(|e| FrameBenchError::Build(format!("{}: {e}", app.display())))?;
     let image = FlashImage::from_elf(&elf).map_err(|e| FrameBenchError::Build(format!("{}: {e}", app.display())))?;
 
-    let sim = SocSim::start(repo, clock, (float_hw, l2_kib), progress)?;
+    let sim = SocSim::start(repo, clock, (float_hw, l2_kib, harts), progress)?;
     let open = || crate::serial::open(&sim.pty, 115_200, crate::serial::DEFAULT_READ_TIMEOUT);
 
     let t = Instant::now();
@@ -289,6 +292,7 @@ pub fn run_on_soc(
             clock,
             float_hw,
             l2_kib,
+            harts,
             pes: info.pe_count,
             flash_s,
             upload_s,

@@ -62,6 +62,10 @@ pub struct Args {
     /// two; default: the SoC's, 8).
     #[arg(long, value_name = "KIB", value_parser = clap::value_parser!(u32).range(1..=256))]
     soc_l2_kib: Option<u32>,
+    /// The `soc` row's CPUs: 1, or 2 (a worker VexRiscv traces every second row; its frame
+    /// reports no per-stage counters and does not calibrate the modelled rows).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=2))]
+    soc_harts: u32,
     /// Write the report here (JSON).
     #[arg(long, value_name = "JSON")]
     json: PathBuf,
@@ -242,6 +246,7 @@ impl Args {
             encoding: self.encoding.into(),
             grid_m: self.grid_m,
             soc_l2_kib: self.soc_l2_kib,
+            soc_harts: self.soc_harts,
             soc_float_hw: match self.soc_float_hw {
                 SocFloat::None => SocFloatHw::None,
                 SocFloat::Cfu => SocFloatHw::Cfu,
