@@ -6,7 +6,8 @@
 //! Every pixel is a pure function of the frame, the scene and the co-processor's loaded
 //! memories, so the bytes on the UART are the same whichever thread traced which row.
 //!
-//! The firmware has no farm ([`NoFarm`]): it renders every row itself.
+//! On one hart the firmware has no farm ([`NoFarm`]): it renders every row itself. On the
+//! LiteX SoC with a worker hart the image's `HartFarm` gives the worker every second row.
 
 use core::ops::{ControlFlow, Range};
 

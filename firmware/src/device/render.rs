@@ -266,8 +266,8 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
     }
 
     /// The rows of a frame without interpolation through the farm, sent as the loop of
-    /// [`pixels`](Self::pixels) sends them (a farm only exists with a clock that reads 0, so
-    /// the stage laps of that loop add nothing); `None` when the farm does not take the
+    /// [`pixels`](Self::pixels) sends them, without its stage laps (the farm's rows are not
+    /// timed: with a clock only the whole frame is); `None` when the farm does not take the
     /// frame.
     fn farmed<const N: usize>(
         &mut self,

@@ -99,6 +99,25 @@ fn json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// `gridrt bench frame --configs soc` of bun_zipper_res4 with `args` (the frame's size and
+/// the SoC's options); the report's only row.
+fn soc_bench_row(name: &str, args: &[&str]) -> serde_json::Value {
+    let dir = tempdir(name);
+    let json_path = dir.join("f.json");
+    let scene = repo_root().join("tests/scenes/bun_zipper_res4.obj");
+    let (scene, json_arg) = (scene.display().to_string(), json_path.display().to_string());
+    let mut all = vec!["bench", "frame", "--scene", &scene, "--configs", "soc", "--json", &json_arg];
+    all.extend_from_slice(args);
+    let log = run_gridrt(&all);
+    eprintln!("{log}");
+    let mut report = json(&json_path);
+    let row = report["rows"][0].take();
+    assert_eq!((row["config"].as_str(), row["cycles_source"].as_str()), (Some("soc"), Some("soc-sim")), "{row}");
+    let mut row = row;
+    row["soc_sim"] = report["soc_sim"].take();
+    row
+}
+
 #[test]
 fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     let test = "soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim";
@@ -211,30 +230,8 @@ fn soc_row_link_cycles_are_the_frames_bytes_at_the_baud_rate() {
         return;
     }
     let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
-    let dir = tempdir("bench");
-    let json_path = dir.join("f.json");
-    let scene = repo_root().join("tests/scenes/bun_zipper_res4.obj");
-    let log = run_gridrt(&[
-        "bench",
-        "frame",
-        "--scene",
-        &scene.display().to_string(),
-        "--configs",
-        "soc",
-        "--width",
-        "8",
-        "--height",
-        "6",
-        "--encoding",
-        "rgb888",
-        "--json",
-        &json_path.display().to_string(),
-    ]);
-    eprintln!("{log}");
-    let report = json(&json_path);
-    let row = &report["rows"][0];
-    assert_eq!((row["config"].as_str(), row["target"].as_str()), (Some("soc"), Some("riscv32imac")), "{row}");
-    assert_eq!(row["cycles_source"], "soc-sim");
+    let row = soc_bench_row("bench", &["--width", "8", "--height", "6", "--encoding", "rgb888"]);
+    assert_eq!(row["target"], "riscv32imac");
     assert_eq!(row["identical_to_rtl_sim"], true, "the SoC's frame equals --sim --coproc rtl");
     let frame_cycles = row["frame_cycles"].as_u64().unwrap();
     let link_cycles = row["link_cycles"].as_u64().unwrap() as f64;
@@ -247,7 +244,7 @@ fn soc_row_link_cycles_are_the_frames_bytes_at_the_baud_rate() {
     eprintln!("link: {link_cycles} cycles for {bytes} bytes; {expected:.0} expected ({byte_time:.1} per byte)");
     assert!((link_cycles - expected).abs() <= byte_time, "{link_cycles} cycles vs {expected:.0} ± {byte_time:.0}");
     assert!(frame_cycles as f64 >= link_cycles, "the frame holds its line time: {frame_cycles} < {link_cycles}");
-    let speed = report["soc_sim"]["sim_cycles_per_s"].as_f64().unwrap();
+    let speed = row["soc_sim"]["sim_cycles_per_s"].as_f64().unwrap();
     eprintln!("simulation speed: {speed:.0} cycles/s");
     assert!(speed > 0.0);
 }
@@ -265,31 +262,28 @@ fn soc_with_the_f32_cfu_renders_like_the_rtl_cosim() {
         return;
     }
     let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
-    let dir = tempdir("bench-cfu");
-    let json_path = dir.join("f.json");
-    let scene = repo_root().join("tests/scenes/bun_zipper_res4.obj");
-    let log = run_gridrt(&[
-        "bench",
-        "frame",
-        "--scene",
-        &scene.display().to_string(),
-        "--configs",
-        "soc",
-        "--soc-float-hw",
-        "cfu",
-        "--width",
-        WIDTH,
-        "--height",
-        HEIGHT,
-        "--json",
-        &json_path.display().to_string(),
-    ]);
-    eprintln!("{log}");
-    let report = json(&json_path);
-    let row = &report["rows"][0];
-    assert_eq!((row["config"].as_str(), row["target"].as_str()), (Some("soc"), Some("riscv32im")), "{row}");
+    let row = soc_bench_row("bench-cfu", &["--soc-float-hw", "cfu", "--width", WIDTH, "--height", HEIGHT]);
+    assert_eq!(row["target"], "riscv32im");
     assert_eq!((row["float_hw"].as_str(), row["cpu_profile"].as_str()), (Some("cfu"), Some("vexriscv-full+cfu")));
-    assert_eq!(row["cycles_source"], "soc-sim");
     assert_eq!(row["identical_to_rtl_sim"], true, "the CFU SoC's frame equals --sim --coproc rtl");
+    assert_eq!(row["identical"], true, "and the f64 reference");
+}
+
+/// Two harts (`--harts 2`: a worker VexRiscv with its own port on the co-processor traces
+/// every second row): `gridrt bench frame --configs soc --soc-harts 2` renders the 32×24
+/// frame byte-identical to `--sim --coproc rtl` with the same work counted (rays, list
+/// entries, tests: `bench frame` refuses a soc row whose counts differ), so every row the
+/// worker traced reached the first hart whole, in order, and through the shared
+/// co-processor each hart got its own answers.
+#[test]
+fn soc_with_two_harts_renders_like_the_rtl_cosim() {
+    let test = "soc_with_two_harts_renders_like_the_rtl_cosim";
+    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
+        return;
+    }
+    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let row = soc_bench_row("bench-harts", &["--soc-harts", "2", "--width", WIDTH, "--height", HEIGHT]);
+    assert_eq!(row["harts"], 2, "{row}");
+    assert_eq!(row["identical_to_rtl_sim"], true, "the 2-hart SoC's frame equals --sim --coproc rtl");
     assert_eq!(row["identical"], true, "and the f64 reference");
 }
