@@ -401,10 +401,13 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
     let (kind, format) = Configuration::Soc.kernel();
     let profile = TimingProfile::RTL.for_kernel(kind, format);
     let words = run.stat(stat::FSL_WORDS_OUT) + run.stat(stat::FSL_WORDS_IN);
+    // A frame shared between harts times no stage (only the whole frame): no instruction
+    // figures rather than zeros.
+    let timed = instructions > 0;
     FrameRow {
         config: Configuration::Soc.name().into(),
         target: soc.float_hw.target().into(),
-        instructions_per_primary_ray: Some(instructions as f64 / primary),
+        instructions_per_primary_ray: timed.then(|| instructions as f64 / primary),
         instructions_source: Some("soc-sim".into()),
         cpu_ms: ms(cycles),
         coproc_ms: ms(coproc_cycles),
@@ -417,11 +420,11 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
         identical,
         frame_ms_source: "measured".into(),
         cpu_profile: Some(soc.float_hw.cpu().into()),
-        cpi: Some(cycles as f64 / instructions.max(1) as f64),
+        cpi: timed.then(|| cycles as f64 / instructions as f64),
         cpu_source: Some("soc-sim".into()),
-        cpi_by_stage: Some(cpi_by_stage),
-        instructions: Some(instructions),
-        instructions_per_primary_ray_by_stage: Some(by_stage),
+        cpi_by_stage: timed.then_some(cpi_by_stage),
+        instructions: timed.then_some(instructions),
+        instructions_per_primary_ray_by_stage: timed.then_some(by_stage),
         link_wrapper_instructions: None,
         link_wrapper_instructions_per_primary_ray: None,
         kernel: Some(kernel_name(kind, format)),

@@ -402,6 +402,52 @@ fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_
     assert!((rows[1].board.vs_soc.unwrap() - 0.1).abs() < 1e-12);
 }
 
+/// A frame shared between two harts times no stage: its row reports the frame's cycles and
+/// no instruction figures (not zeros), and the modelled one-hart rows take no distance from
+/// it.
+#[test]
+fn a_two_hart_soc_row_has_no_stage_figures_and_models_no_distance_from_it() {
+    use super::report::{distance_from_soc, soc_row};
+    use super::soc::SocRun;
+    let opt = options();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
+    let mut run =
+        run_on_loopback(TimingProfile::RTL, Configuration::Soc.kernel(), &prepared, &req, "t", &mut |_| {}).unwrap();
+    let rtl = run.clone();
+    for s in Stage::ALL {
+        run.frame.stats.insert(s.instret_key(), 0);
+        run.frame.stats.insert(s.cycles_key(), 0);
+    }
+    run.frame.stats.insert(stat::FRAME_CYCLES, 30_000_000);
+    let soc = SocRun {
+        run,
+        rtl,
+        clock: SocClock { clock_mhz: 50.0, source: "target", baud: 115_200 },
+        float_hw: SocFloatHw::None,
+        l2_kib: None,
+        harts: 2,
+        pes: 4,
+        sim_cycles_per_s: 1e6,
+        sim_reported_cycles_per_s: None,
+        flash_s: 1.0,
+        upload_s: 1.0,
+        render_s: 50.0,
+    };
+    let cmp = compare(&soc.run.frame.rgb, &soc.run.frame.rgb, None, None).unwrap();
+    let row = soc_row(&soc, &cmp);
+    assert_eq!((row.board.harts, row.board.frame_cycles), (Some(2), Some(30_000_000)));
+    assert!((row.frame_ms - 600.0).abs() < 1e-9);
+    assert_eq!((row.instructions_per_primary_ray, row.cpi, row.instructions), (None, None, None));
+    assert!(row.cpi_by_stage.is_none() && row.instructions_per_primary_ray_by_stage.is_none());
+    let mut modelled = row.clone();
+    modelled.config = "rtl".into();
+    modelled.board.cycles_source = Some("model".into());
+    modelled.board.harts = Some(1);
+    let mut rows = vec![row, modelled];
+    distance_from_soc(&mut rows);
+    assert_eq!(rows[1].board.vs_soc, None);
+}
+
 #[test]
 fn a_scene_larger_than_the_rtls_pe_memory_gets_no_rtl_row() {
     let res3 = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/scenes/bun_zipper_res3.obj"));
