@@ -66,7 +66,7 @@ def main(argv=None):
             type=int,
             default=1,
             choices=range(1, MAX_HARTS + 1),
-            help="CPUs: 1, or 2 (a worker hart that traces half of each frame's rows)",
+            help=f"CPUs, 1 to {MAX_HARTS}: the first and workers that trace rows of each frame beside it",
         )
 
     sim = sub.add_parser("sim", help="generate and compile the Verilator simulation")

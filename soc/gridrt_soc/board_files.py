@@ -29,7 +29,7 @@ MAP_RS = Path("firmware/image/src/litex_map.rs")
 # Memory regions the firmware links into (csr.json "memories"), in address order.
 MEMORIES = ("rom", "sram", "main_ram")
 # CSR peripherals the firmware drives, with their registers (csr.json "csr_registers").
-PERIPHERALS = ("ctrl", "uart", "timer0", "coproc", "sdram", "harts", "coproc1")
+PERIPHERALS = ("ctrl", "uart", "timer0", "coproc", "sdram", "harts", "coproc1", "coproc2", "coproc3")
 # SoC constants the firmware uses (csr.json "constants"): (csr.json name, Rust name, type).
 CONSTANTS = (
     ("config_clock_frequency", "CLOCK_HZ", "u32"),

@@ -1,37 +1,47 @@
 """Worker harts: more VexRiscv CPUs beside the SoC's own, sharing its buses and its
 co-processor (each through its own ``CoprocPort``), and the CSRs the harts coordinate with.
 
-The first hart (LiteX's CPU) boots from ROM and runs the firmware. A worker is held in reset
-until that firmware writes its entry point into ``entry`` and sets ``run``; it then starts
-at ``entry`` in main RAM, in code the first hart loaded. The CPUs' data caches are
-write-through and not coherent with each other: a hart invalidates its data cache (VexRiscv's
-``0x500F``) before it reads what another hart wrote, and the harts signal each other through
-the registers below, which are uncached.
+The first hart (LiteX's CPU) boots from ROM and runs the firmware. The workers are held in
+reset until that firmware writes ``entry`` and sets ``run``; worker k (1, 2, …) then starts
+at ``entry + 8·(k − 1)``, in code the first hart loaded into main RAM (a table of 8-byte
+stubs, one per worker, so that each knows its number). The CPUs' data caches are
+write-through and not coherent with each other: a hart invalidates its data cache
+(VexRiscv's ``0x500F``) before it reads what another hart wrote, and the harts signal each
+other through the registers below, which are uncached.
 
-============  ======  ===========================================================================
-register      access  meaning
-============  ======  ===========================================================================
-``count``     R       harts of this build, the first included (1: no worker)
-``entry``     RW      the workers' reset vector
-``run``       RW      bit 0: the workers run (0, the reset value, holds them in reset)
-``job``       RW      written by the first hart only: the frame the worker is asked to trace
-``taken``     RW      written by the first hart only: the worker's rows it has sent
-``done``      RW      written by the worker only: what it has traced of the frame
-============  ======  ===========================================================================
+=============  ======  ==========================================================================
+register       access  meaning
+=============  ======  ==========================================================================
+``count``      R       harts of this build, the first included (1: no worker)
+``entry``      RW      the first worker's reset vector (worker k: ``entry + 8·(k − 1)``)
+``run``        RW      bit 0: the workers run (0, the reset value, holds them in reset)
+``job``        RW      written by the first hart: the frame the workers are asked to trace
+``ticket``     RW      a read returns the counter and adds 1 to it (rows are claimed so, one
+                       bus access each, so no two harts get the same); a write sets it
+``sent``       RW      written by the first hart: the rows of the frame it has sent
+``ready``      R       bit s: row slot s holds a traced row not yet sent
+``ready_set``  W       sets the bits written as 1 in ``ready``
+``ready_clr``  W       clears the bits written as 1 in ``ready``
+``done1..3``   RW      written by worker k only: its state (``done{k}``)
+=============  ======  ==========================================================================
 
-What the last three words mean is the firmware's (``gridrt_firmware::harts``); the gateware
-only stores them. The memory map is the same for every build: the registers exist with one
-hart, ``count`` says 1.
+What the words mean is the firmware's (``gridrt_firmware::bsp::harts``); the gateware only
+stores them. The memory map is the same for every build: the registers exist with one hart,
+``count`` says 1.
 """
 
-from migen import Signal
+from migen import If, Signal
 
 from litex.gen import LiteXModule
 from litex.soc.cores.cpu.vexriscv import VexRiscv
-from litex.soc.interconnect.csr import CSRStatus, CSRStorage
+from litex.soc.interconnect.csr import CSR, CSRStatus, CSRStorage
 
-# Harts a build may have (the registers above serve one worker).
-MAX_HARTS = 2
+# Harts a build may have; the map has registers (and co-processor ports) for all of them.
+MAX_HARTS = 4
+# Bytes between two workers' entry stubs.
+ENTRY_STRIDE = 8
+# Row slots the `ready` bitmap tracks.
+SLOTS = 16
 
 
 class GridrtHarts(LiteXModule):
@@ -43,20 +53,37 @@ class GridrtHarts(LiteXModule):
         if not 1 <= harts <= MAX_HARTS:
             raise ValueError(f"harts {harts}: expected 1 to {MAX_HARTS}")
         self.count = CSRStatus(8, reset=harts, description="Harts of this build, the first included.")
-        self.entry = CSRStorage(32, description="The workers' reset vector.")
+        self.entry = CSRStorage(32, description="The first worker's reset vector; worker k starts 8·(k − 1) bytes later.")
         self.run = CSRStorage(1, description="The workers run while 1; 0 holds them in reset.")
-        self.job = CSRStorage(32, description="Written by the first hart: the worker's job.")
-        self.taken = CSRStorage(32, description="Written by the first hart: the worker's rows it has sent.")
-        self.done = CSRStorage(32, description="Written by the worker: its progress.")
+        self.job = CSRStorage(32, description="Written by the first hart: the workers' job.")
+        self._ticket = CSR(16, name="ticket")
+        self.sent = CSRStorage(16, description="Written by the first hart: rows of the frame it has sent.")
+        self.ready = CSRStatus(SLOTS, description="Bit s: row slot s holds a traced row not yet sent.")
+        self._ready_set = CSR(SLOTS, name="ready_set")
+        self._ready_clr = CSR(SLOTS, name="ready_clr")
+        for k in range(1, MAX_HARTS):
+            setattr(self, f"done{k}", CSRStorage(32, name=f"done{k}", description=f"Written by worker {k}: its state."))
 
         # # #
+
+        # The ticket counter: a read (`we`: the CSR was read) takes a number, a write sets it.
+        ticket = Signal(16)
+        self.comb += self._ticket.w.eq(ticket)
+        self.sync += If(self._ticket.re, ticket.eq(self._ticket.r)).Elif(self._ticket.we, ticket.eq(ticket + 1))
+        # The ready bitmap (one CSR access per cycle: a set and a clear never coincide).
+        ready = Signal(SLOTS)
+        self.comb += self.ready.status.eq(ready)
+        self.sync += [
+            If(self._ready_set.re, ready.eq(ready | self._ready_set.r)),
+            If(self._ready_clr.re, ready.eq(ready & ~self._ready_clr.r)),
+        ]
 
         self.cpus = []
         for k in range(1, harts):
             cpu = VexRiscv(platform, variant)
             cpu.set_reset_address(0)
             entry = Signal(32)
-            self.comb += [entry.eq(self.entry.storage), cpu.reset.eq(~self.run.storage)]
+            self.comb += [entry.eq(self.entry.storage + ENTRY_STRIDE * (k - 1)), cpu.reset.eq(~self.run.storage)]
             cpu.cpu_params.update(i_externalResetVector=entry)
             if cfu is not None:
                 cpu.add_cfu(cfu)

@@ -17,10 +17,10 @@
 - CSRs (0xF000_0000, uncached): ``ctrl``, ``identifier_mem``, ``uart`` (LiteX UART, 64-byte
   FIFOs, a read of ``rxtx`` pops), ``timer0``, ``coproc`` (``coproc.GridrtCoprocCSR``; its
   configuration, PEs and words per PE, is readable there), ``sdram`` (LiteDRAM's DFII),
-  ``harts`` (``harts.GridrtHarts``: worker harts and their mailboxes) and ``coproc1`` (the
-  second hart's port on the co-processor, ``coproc.CoprocPort``).
-- Harts: 1 by default; ``harts=2`` adds a worker VexRiscv of the same variant that traces
-  half of a frame's rows (``gridrt_firmware::harts``).
+  ``harts`` (``harts.GridrtHarts``: worker harts and the registers they coordinate
+  through) and ``coproc1..3`` (the workers' ports on the co-processor, ``coproc.CoprocPort``).
+- Harts: 1 by default; ``harts=N`` (up to 4) adds N − 1 worker VexRiscvs of the same
+  variant, which trace rows of each frame beside the first (``firmware/image/src/harts.rs``).
 
 The firmware's board files are generated from this SoC's csr.json (``board_files``); the
 target only brings its clock/reset generator and UART PHY.
@@ -32,7 +32,7 @@ from litex.soc.cores.uart import UART
 from litex.soc.integration.soc_core import SoCCore
 
 from .coproc import CoprocPort, GridrtCoprocCSR
-from .harts import GridrtHarts
+from .harts import MAX_HARTS, GridrtHarts
 
 KIB = 1024
 
@@ -92,7 +92,7 @@ class GridrtSoC(SoCCore):
     ``sdram_phy``: the target's PHY of the SDRAM chip (``GENSDRPHY`` on the board,
     ``SDRAMPHYModel`` in simulation). ``l2_size``: bytes of the L2 cache in front of it.
     ``harts``: CPUs, the first included (``harts.GridrtHarts``: the others are workers of
-    the same variant, each with its own port on the co-processor, ``coproc1``).
+    the same variant, each with its own port on the co-processor, ``coproc1..3``).
     """
 
     # Fixed CSR locations: the map must not depend on the order modules are added in.
@@ -105,6 +105,8 @@ class GridrtSoC(SoCCore):
         "sdram": 5,
         "harts": 6,
         "coproc1": 7,
+        "coproc2": 8,
+        "coproc3": 9,
     }
 
     def __init__(
@@ -162,15 +164,19 @@ class GridrtSoC(SoCCore):
         self.uart = UART(uart_phy, tx_fifo_depth=UART_FIFO_DEPTH, rx_fifo_depth=UART_FIFO_DEPTH, rx_fifo_rx_we=True)
         self.add_constant("GRIDRT_UART_FIFO_DEPTH", UART_FIFO_DEPTH)
 
-        # Worker harts and their registers (present with one hart too: one memory map), and the
-        # second hart's port on the co-processor.
+        # Worker harts and their registers, and each worker's port on the co-processor
+        # (coproc1..3; all present with one hart too: one memory map).
         self.harts = GridrtHarts(
             platform, CPU_VARIANTS[float_hw], harts, cfu=str(CFU_WRAPPER) if float_hw == "cfu" else None
         )
         for k, cpu in enumerate(self.harts.cpus, start=1):
             self.bus.add_master(name=f"hart{k}_ibus", master=cpu.ibus)
             self.bus.add_master(name=f"hart{k}_dbus", master=cpu.dbus)
-        self.coproc1 = CoprocPort(fifo_depth=COPROC_FIFO_DEPTH)
+        ports = []
+        for k in range(1, MAX_HARTS):
+            port = CoprocPort(fifo_depth=COPROC_FIFO_DEPTH)
+            setattr(self, f"coproc{k}", port)
+            ports.append(port)
 
         # The co-processor behind CSR FIFOs.
         self.coproc = GridrtCoprocCSR(
@@ -181,6 +187,6 @@ class GridrtSoC(SoCCore):
             max_list=COPROC_MAX_LIST,
             fifo_depth=COPROC_FIFO_DEPTH,
             stop_when_empty=simulation,
-            ports=[self.coproc1],
+            ports=ports[: harts - 1],
         )
         self.add_constant("GRIDRT_COPROC_FIFO_DEPTH", COPROC_FIFO_DEPTH)

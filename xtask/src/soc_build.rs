@@ -83,8 +83,8 @@ pub struct BuildCmd {
     /// 2 DP16KD per 4 KiB).
     #[arg(long, default_value_t = DEFAULT_L2_KIB, value_parser = parse_l2_kib, value_name = "KIB")]
     l2_kib: u32,
-    /// CPUs: 1, or 2 (a second VexRiscv of the same variant, with its own port on the
-    /// co-processor, traces every second row of a frame).
+    /// CPUs, 1 to 4: the first and workers (VexRiscvs of the same variant, each with its own
+    /// port on the co-processor) that trace rows of each frame beside it.
     #[arg(long, default_value_t = 1, value_parser = parse_harts, value_name = "N")]
     harts: u32,
     #[command(flatten)]

@@ -73,8 +73,8 @@ pub struct SimCmd {
     /// Another size than the default has its own build folder (target/soc/sim-l2-N).
     #[arg(long, default_value_t = DEFAULT_L2_KIB, value_parser = parse_l2_kib, value_name = "KIB")]
     l2_kib: u32,
-    /// CPUs: 1, or 2 (a second VexRiscv of the same variant, with its own port on the
-    /// co-processor, traces every second row of a frame). 2 has its own build folder
+    /// CPUs, 1 to 4: the first and workers (VexRiscvs of the same variant, each with its own
+    /// port on the co-processor) that trace rows of each frame beside it. 2 has its own build folder
     /// (target/soc/sim-…-harts-2).
     #[arg(long, default_value_t = 1, value_parser = parse_harts, value_name = "N")]
     harts: u32,

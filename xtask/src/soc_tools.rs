@@ -69,7 +69,7 @@ impl FloatHw {
 pub const DEFAULT_L2_KIB: u32 = 8;
 
 /// Harts a SoC build may have (`MAX_HARTS` of soc/gridrt_soc/harts.py).
-pub const MAX_HARTS: u32 = 2;
+pub const MAX_HARTS: u32 = 4;
 
 /// `--harts`: 1 to [`MAX_HARTS`].
 pub fn parse_harts(s: &str) -> Result<u32, String> {

@@ -181,22 +181,34 @@ mod imp {
         assert!(1 << coproc::STATUS_RSP_UNDERFLOW_OFFSET == coproc_regs::STATUS_RSP_UNDERFLOW);
         assert!(1 << coproc::CTRL_RESET_OFFSET == coproc_regs::CTRL_RESET);
         use gridrt_firmware::bsp::harts::regs as harts_regs;
-        use map::{coproc1, harts};
-        assert!(at(coproc1::REQ, coproc1::BASE, coproc_regs::REQ), "co-processor port 1: REQ");
-        assert!(at(coproc1::REQ_LAST, coproc1::BASE, coproc_regs::REQ_LAST), "co-processor port 1: REQ_LAST");
-        assert!(at(coproc1::RSP, coproc1::BASE, coproc_regs::RSP), "co-processor port 1: RSP");
-        assert!(at(coproc1::STATUS, coproc1::BASE, coproc_regs::STATUS), "co-processor port 1: STATUS");
-        assert!(coproc1::STATUS_REQ_SPACE_OFFSET == coproc_regs::STATUS_REQ_SPACE_OFFSET);
-        assert!(coproc1::STATUS_RSP_LEVEL_OFFSET == coproc_regs::STATUS_RSP_LEVEL_OFFSET);
-        assert!(1 << coproc1::STATUS_RSP_LAST_OFFSET == coproc_regs::STATUS_RSP_LAST);
-        assert!(1 << coproc1::STATUS_REQ_OVERFLOW_OFFSET == coproc_regs::STATUS_REQ_OVERFLOW);
-        assert!(1 << coproc1::STATUS_RSP_UNDERFLOW_OFFSET == coproc_regs::STATUS_RSP_UNDERFLOW);
+        use map::{coproc1, coproc2, coproc3, harts};
+        macro_rules! port {
+            ($p:ident) => {
+                assert!(at($p::REQ, $p::BASE, coproc_regs::REQ), "co-processor port: REQ");
+                assert!(at($p::REQ_LAST, $p::BASE, coproc_regs::REQ_LAST), "co-processor port: REQ_LAST");
+                assert!(at($p::RSP, $p::BASE, coproc_regs::RSP), "co-processor port: RSP");
+                assert!(at($p::STATUS, $p::BASE, coproc_regs::STATUS), "co-processor port: STATUS");
+                assert!($p::STATUS_REQ_SPACE_OFFSET == coproc_regs::STATUS_REQ_SPACE_OFFSET);
+                assert!($p::STATUS_RSP_LEVEL_OFFSET == coproc_regs::STATUS_RSP_LEVEL_OFFSET);
+                assert!(1 << $p::STATUS_RSP_LAST_OFFSET == coproc_regs::STATUS_RSP_LAST);
+                assert!(1 << $p::STATUS_REQ_OVERFLOW_OFFSET == coproc_regs::STATUS_REQ_OVERFLOW);
+                assert!(1 << $p::STATUS_RSP_UNDERFLOW_OFFSET == coproc_regs::STATUS_RSP_UNDERFLOW);
+            };
+        }
+        port!(coproc1);
+        port!(coproc2);
+        port!(coproc3);
         assert!(at(harts::COUNT, harts::BASE, harts_regs::COUNT), "harts: COUNT");
         assert!(at(harts::ENTRY, harts::BASE, harts_regs::ENTRY), "harts: ENTRY");
         assert!(at(harts::RUN, harts::BASE, harts_regs::RUN), "harts: RUN");
         assert!(at(harts::JOB, harts::BASE, harts_regs::JOB), "harts: JOB");
-        assert!(at(harts::TAKEN, harts::BASE, harts_regs::TAKEN), "harts: TAKEN");
-        assert!(at(harts::DONE, harts::BASE, harts_regs::DONE), "harts: DONE");
+        assert!(at(harts::TICKET, harts::BASE, harts_regs::TICKET), "harts: TICKET");
+        assert!(at(harts::SENT, harts::BASE, harts_regs::SENT), "harts: SENT");
+        assert!(at(harts::READY, harts::BASE, harts_regs::READY), "harts: READY");
+        assert!(at(harts::READY_SET, harts::BASE, harts_regs::READY_SET), "harts: READY_SET");
+        assert!(at(harts::READY_CLR, harts::BASE, harts_regs::READY_CLR), "harts: READY_CLR");
+        assert!(at(harts::DONE1, harts::BASE, harts_regs::DONE1), "harts: DONE1");
+        assert!(at(harts::DONE2, harts::DONE1, 4) && at(harts::DONE3, harts::DONE2, 4), "harts: DONE2, DONE3");
         use map::sdram;
         assert!(at(sdram::DFII_CONTROL, sdram::BASE, dfii_regs::CONTROL), "LiteDRAM: DFII_CONTROL");
         assert!(at(sdram::DFII_PI0_COMMAND, sdram::BASE, dfii_regs::PI0_COMMAND), "LiteDRAM: PI0_COMMAND");

@@ -1,18 +1,21 @@
-//! Two harts per frame on the LiteX SoC built with `--harts 2` (`soc/gridrt_soc/harts.py`):
-//! the worker traces every second row of a frame on its own port to the co-processor
-//! (`coproc1`), the first hart traces the others on its port and sends every row in order,
-//! as the device loop does ([`HartFarm`], a [`RowFarm`]). Each pixel is a pure function of
-//! the frame, the scene and the co-processor's memories, so the bytes on the UART are those
-//! of one hart.
+//! Several harts per frame on the LiteX SoC built with `--harts N` (`soc/gridrt_soc/harts.py`):
+//! every hart claims rows of the frame and traces them on its own port to the co-processor
+//! (`coproc`, `coproc1..3`); the first hart sends every row in order, as the device loop
+//! does, and traces a row itself whenever the next one is not ready ([`HartFarm`], a
+//! [`RowFarm`]), so the harts share the frame as their speeds allow. Each pixel is a pure
+//! function of the frame, the scene and the co-processor's memories, so the bytes on the
+//! UART are those of one hart.
 //!
-//! The mailbox words are `gridrt_firmware::bsp::harts`'s (the protocol is written there).
-//! The memory the harts share: the frame's [`Rows`] (the first hart's stack: the scene, the
-//! frame's context) and [`EXCHANGE`] (the worker's two row slots). VexRiscv's data caches
-//! are write-through and not coherent, so a hart invalidates its own ([`invalidate_dcache`])
-//! before it reads what the other wrote, and publishes a mailbox word only after a `fence`.
+//! The registers and the protocol are `gridrt_firmware::bsp::harts`'s. The memory the harts
+//! share: the frame's [`Rows`] (the first hart's stack: the scene, the frame's context) and
+//! [`EXCHANGE`] (the row slots). VexRiscv's data caches are write-through and not coherent,
+//! so a hart invalidates its own ([`invalidate_dcache`]) before it reads what another wrote,
+//! and sets a register only after a `fence`.
 //!
-//! If the worker traps or stops answering, the first hart holds it in reset, traces the
-//! rest of the frame itself and renders alone from then on.
+//! If a worker traps or the workers stop answering, the first hart holds them in reset,
+//! traces the rest of the frame itself and renders alone from then on. (A worker stopped in
+//! the middle of a request leaves the co-processor waiting for the rest of it: the first
+//! hart's requests then time out, and the frame fails with a link error.)
 
 use core::cell::UnsafeCell;
 use core::mem::MaybeUninit;
@@ -20,7 +23,7 @@ use core::ops::ControlFlow;
 use core::sync::atomic::{fence, Ordering};
 
 use gridrt_firmware::bsp::coproc_csr::CoprocCsr;
-use gridrt_firmware::bsp::harts::{Done, HartCsr, Job};
+use gridrt_firmware::bsp::harts::{regs, Done, HartCsr, Job};
 use gridrt_firmware::bsp::VolatileMmio;
 use gridrt_firmware::device::{FrameStats, RowDone, RowFarm, RowFault, RowTracer, Rows, MAX_IMAGE_DIM};
 use gridrt_firmware::interp::Sample;
@@ -31,17 +34,20 @@ use crate::litex_map as map;
 
 /// The widest row (the widest frame).
 const MAX_ROW: usize = MAX_IMAGE_DIM as usize;
-/// Bytes of the worker's stack (in .bss).
+/// Row slots: row k of a frame goes into slot k mod RING (`READY` bit k mod RING).
+const RING: u16 = regs::SLOTS;
+/// Workers at most.
+const MAX_WORKERS: usize = regs::MAX_HARTS as usize - 1;
+/// Bytes of each worker's stack (in .bss).
 const WORKER_STACK_BYTES: usize = 64 << 10;
-/// Polls of the worker's `DONE` word before the first hart gives up on it: a CSR read each,
+/// Polls of the registers before the first hart gives up on the workers: a CSR read each,
 /// far more than any row's time (a row of 4096 pixels at 10⁵ cycles per pixel is 4·10⁸
 /// cycles).
 const WORKER_POLLS: u32 = 1 << 30;
-
 /// Frames are numbered 1..=MAX_SEQ (15 bits, so that a `DONE` word is never `TRAPPED`).
 const MAX_SEQ: u16 = 0x7FFF;
 
-/// One of the worker's rows, handed over.
+/// A row handed over by a worker.
 struct Slot {
     y: u16,
     samples: [Sample; MAX_ROW],
@@ -53,36 +59,40 @@ struct Slot {
 struct Exchange {
     /// The frame's rows (the first hart writes it before posting the job).
     rows: *const Rows<'static, MAX_VOXELS>,
-    /// The worker's rows, `j % 2` for its `j`-th.
-    slots: [Slot; 2],
+    slots: [Slot; RING as usize],
     /// The first hart's own row (its stack has no room for one).
     own: [Sample; MAX_ROW],
 }
 
 struct Shared(UnsafeCell<MaybeUninit<Exchange>>);
 
-// SAFETY: the two harts touch disjoint parts of it at any time, in the order the mailbox
-// protocol sets (module docs).
+// SAFETY: the harts touch disjoint parts of it at any time, in the order the protocol sets
+// (`gridrt_firmware::bsp::harts`).
 unsafe impl Sync for Shared {}
 
-/// In .bss (an initialiser would put 144 KiB into the loaded image); [`HartFarm::start`]
-/// initialises it before the worker runs.
+/// In .bss (an initialiser would put it into the loaded image); [`HartFarm::start`]
+/// initialises it before the workers run.
 static EXCHANGE: Shared = Shared(UnsafeCell::new(MaybeUninit::uninit()));
 
 fn exchange() -> *mut Exchange {
     EXCHANGE.0.get().cast()
 }
 
-/// Gives [`EXCHANGE`] its first value, field by field (its size would overflow the stack).
+fn slot(k: u16) -> *mut Slot {
+    // SAFETY: a field of the static (k mod RING is in bounds); no reference is made.
+    unsafe { core::ptr::addr_of_mut!((*exchange()).slots).cast::<Slot>().add(usize::from(k % RING)) }
+}
+
+/// Gives [`EXCHANGE`] its first value, field by field (it is larger than the stack).
 fn init_exchange() {
     let ex = exchange();
-    // SAFETY: the worker is not running yet; all-zero bytes are valid samples, and the
-    // other fields are written whole.
+    // SAFETY: no worker runs yet; all-zero bytes are valid samples, the other fields are
+    // written whole.
     unsafe {
         core::ptr::addr_of_mut!((*ex).rows).write(core::ptr::null());
         core::ptr::addr_of_mut!((*ex).own).write_bytes(0, 1);
-        for j in 0..2 {
-            let s = slot(j);
+        for k in 0..RING {
+            let s = slot(k);
             core::ptr::addr_of_mut!((*s).y).write(0);
             core::ptr::addr_of_mut!((*s).samples).write_bytes(0, 1);
             core::ptr::addr_of_mut!((*s).fault).write(None);
@@ -92,26 +102,38 @@ fn init_exchange() {
 }
 
 #[repr(C, align(16))]
-struct Stack([u8; WORKER_STACK_BYTES]);
+struct Stacks([[u8; WORKER_STACK_BYTES]; MAX_WORKERS]);
 
-/// The worker's stack; only `_gridrt_worker_start` takes its address.
-static mut WORKER_STACK: Stack = Stack([0; WORKER_STACK_BYTES]);
+/// The workers' stacks, worker k's the k-th; only `_gridrt_worker_start` takes their address.
+static mut WORKER_STACKS: Stacks = Stacks([[0; WORKER_STACK_BYTES]; MAX_WORKERS]);
 
-// The worker's reset vector: riscv-rt's start-up is the first hart's (it zeroes .bss and
-// copies .data, which the first hart did before starting the worker), so the worker only
-// sets its global pointer, stack and trap vector. Its trap handler publishes
-// `Done::TRAPPED` and stops.
+// The workers' reset vectors: worker k starts at `_gridrt_worker_start` + 8·(k − 1)
+// (`regs::ENTRY_STRIDE`; the stubs are uncompressed so that each is 8 bytes), with its number
+// in a0. riscv-rt's start-up is the first hart's (it zeroes .bss and copies .data before
+// the workers start), so a worker only sets its global pointer, stack and trap vector.
+// Its trap handler reports `Done::TRAPPED` in its own `DONE` word and stops.
 core::arch::global_asm!(
     ".section .text.gridrt_worker, \"ax\"",
     ".balign 4",
+    ".option push",
+    ".option norvc",
     ".global _gridrt_worker_start",
     "_gridrt_worker_start:",
+    "li a0, 1",
+    "j 1f",
+    "li a0, 2",
+    "j 1f",
+    "li a0, 3",
+    "j 1f",
+    ".option pop",
+    "1:",
     ".option push",
     ".option norelax",
     "la gp, __global_pointer$",
     ".option pop",
-    "la sp, {stack}",
-    "li t0, {stack_bytes}",
+    "csrw mscratch, a0",
+    "la sp, {stacks}",
+    "slli t0, a0, {stack_shift}",
     "add sp, sp, t0",
     "csrw mie, zero",
     "la t0, 2f",
@@ -119,24 +141,29 @@ core::arch::global_asm!(
     "j {main}",
     ".balign 4",
     "2:",
-    "li t0, {done}",
+    "csrr t0, mscratch",
+    "addi t0, t0, -1",
+    "slli t0, t0, 2",
+    "li t1, {done1}",
+    "add t0, t0, t1",
     "li t1, -1",
     "sw t1, 0(t0)",
     "3:",
     "wfi",
     "j 3b",
-    stack = sym WORKER_STACK,
-    stack_bytes = const WORKER_STACK_BYTES,
+    stacks = sym WORKER_STACKS,
+    stack_shift = const WORKER_STACK_BYTES.trailing_zeros(),
     main = sym worker_main,
-    done = const map::harts::DONE,
+    done1 = const map::harts::DONE1,
 );
+const _: () = assert!(WORKER_STACK_BYTES.is_power_of_two() && regs::ENTRY_STRIDE == 8);
 
 extern "C" {
     fn _gridrt_worker_start();
 }
 
 /// Drops this hart's data-cache lines (VexRiscv's `0x500F`): the next loads read memory,
-/// where the other hart's stores are (write-through).
+/// where the other harts' stores are (write-through).
 #[inline(always)]
 fn invalidate_dcache() {
     fence(Ordering::SeqCst);
@@ -150,21 +177,27 @@ fn hart_csr() -> HartCsr<VolatileMmio> {
     HartCsr::new(unsafe { VolatileMmio::new(map::harts::BASE) })
 }
 
-/// The co-processor port at `base` (`coproc` or `coproc1`), without resetting it.
-fn port(base: usize) -> CsrFifoLink<VolatileMmio> {
+/// Hart `hart`'s port on the co-processor (0: `coproc`, k: `coproc{k}`), not reset.
+fn port(hart: u32) -> CsrFifoLink<VolatileMmio> {
+    let base = match hart {
+        1 => map::coproc1::BASE,
+        2 => map::coproc2::BASE,
+        3 => map::coproc3::BASE,
+        _ => map::coproc::BASE,
+    };
     // SAFETY: a port's CSR FIFOs; each hart uses its own, and the device loop leaves the
     // first one alone while the farm renders.
     CsrFifoLink(CoprocCsr::new(unsafe { VolatileMmio::new(base) }))
 }
 
-fn slot(j: u16) -> *mut Slot {
-    let ex = exchange();
-    // SAFETY: a field of the static; no reference is made.
-    unsafe { core::ptr::addr_of_mut!((*ex).slots).cast::<Slot>().add(usize::from(j & 1)) }
+/// The frame's rows: `(first y, count)`.
+fn extent<const N: usize>(rows: &Rows<'_, N>) -> (u16, u16) {
+    let ys = rows.ys();
+    (ys.start, ys.end.saturating_sub(ys.start))
 }
 
-/// The worker's main loop: waits for a job, traces its rows, reports, forever.
-extern "C" fn worker_main() -> ! {
+/// A worker's main loop: waits for a job, traces rows, reports, forever.
+extern "C" fn worker_main(worker: u32) -> ! {
     // Before any f32 arithmetic: a custom instruction on a disabled CFU port traps.
     #[cfg(feature = "cfu-float")]
     gridrt_firmware::sfloat::cfu::enable();
@@ -178,109 +211,100 @@ extern "C" fn worker_main() -> ! {
         last = job.seq;
         invalidate_dcache();
         // SAFETY: the first hart wrote the pointer before posting the job, and the rows,
-        // scene and frame context it points at stay as they are until this hart reports
+        // scene and frame context it points at stay as they are until every worker reports
         // `finished` (protocol step 4).
         let rows = unsafe { &*(*exchange()).rows };
-        let published = trace_rows(&csr, job, rows);
+        let traced = trace_rows(&csr, worker, job, rows);
         fence(Ordering::SeqCst);
-        csr.report(Done::Rows { seq: job.seq, rows: published, finished: true });
+        csr.report(worker, Done::Rows { seq: job.seq, rows: traced, finished: true });
     }
 }
 
-/// The worker's rows of a frame (every second one, from the region's second row); returns
-/// how many it published.
-fn trace_rows(csr: &HartCsr<VolatileMmio>, job: Job, rows: &Rows<'_, MAX_VOXELS>) -> u16 {
-    let mut tracer = RowTracer::new(rows, port(map::coproc1::BASE));
-    let mut published = 0u16;
-    for y in rows.ys().skip(1).step_by(2) {
-        // Both slots full: wait until the first hart takes one, or ends the frame.
-        loop {
+/// A worker's part of a frame: claims rows until none is left or the frame ends; returns
+/// how many it traced.
+fn trace_rows(csr: &HartCsr<VolatileMmio>, worker: u32, job: Job, rows: &Rows<'_, MAX_VOXELS>) -> u16 {
+    let (y0, n) = extent(rows);
+    let mut tracer = RowTracer::new(rows, port(worker));
+    let mut traced = 0u16;
+    while csr.job() == job {
+        let k = csr.claim();
+        if k >= n {
+            break;
+        }
+        // Slot k mod RING is free once row k − RING is sent.
+        while k >= csr.sent().saturating_add(RING) {
             if csr.job() != job {
-                return published;
-            }
-            if published.wrapping_sub(csr.taken()) < 2 {
-                break;
+                return traced;
             }
         }
-        let s = slot(published);
-        // SAFETY: the first hart reads this slot only after this hart publishes it, and has
-        // taken its previous row (the wait above).
-        let s = unsafe { &mut *s };
-        s.y = y;
-        s.fault = tracer.row(rows, y, &mut s.samples).err();
+        // SAFETY: the first hart reads this slot only after its READY bit is set below, and
+        // row k − RING, its last occupant, is sent (the wait above).
+        let s = unsafe { &mut *slot(k) };
+        s.y = y0.wrapping_add(k);
+        s.fault = tracer.row(rows, s.y, &mut s.samples).err();
         s.stats = Some(tracer.take_stats());
-        published = published.wrapping_add(1);
+        traced = traced.wrapping_add(1);
         fence(Ordering::SeqCst);
-        csr.report(Done::Rows { seq: job.seq, rows: published, finished: false });
+        csr.set_ready(k);
         if s.fault.is_some() {
             break;
         }
     }
-    published
+    traced
 }
 
-/// The first hart's side: a [`RowFarm`] that shares each frame with the worker, when the SoC
-/// has one.
+/// The first hart's side: a [`RowFarm`] that shares each frame with the workers, when the
+/// SoC has any.
 pub struct HartFarm {
     csr: HartCsr<VolatileMmio>,
     /// The last frame's number.
     seq: u16,
-    /// The worker runs and answers.
-    worker: bool,
+    /// Workers that run and answer (0: the first hart renders alone).
+    workers: u32,
 }
 
 impl HartFarm {
-    /// Starts the worker if the SoC was built with one.
+    /// Starts the workers the SoC was built with.
     pub fn start() -> Self {
         let csr = hart_csr();
-        let worker = csr.count() >= 2;
-        if worker {
+        let workers = csr.count().saturating_sub(1);
+        if workers > 0 {
             init_exchange();
             csr.start(_gridrt_worker_start as *const () as usize as u32);
         }
-        Self { csr, seq: 0, worker }
+        Self { csr, seq: 0, workers }
     }
 
-    /// Harts that render a frame (1 when the worker is absent or was stopped).
+    /// Harts that render a frame (1 when there are no workers or they were stopped).
     pub fn harts(&self) -> u32 {
-        if self.worker {
-            2
-        } else {
-            1
-        }
+        self.workers.saturating_add(1)
     }
 
-    /// Waits until the worker published row `j` of frame `seq`; false if it trapped,
-    /// stopped short or does not answer.
-    fn wait_row(&self, seq: u16, j: u16) -> bool {
-        for _ in 0..WORKER_POLLS {
-            match self.csr.done() {
-                Done::Rows { seq: s, rows, .. } if s == seq && rows > j => return true,
-                Done::Rows { seq: s, finished: true, .. } if s == seq => return false,
-                Done::Trapped => return false,
-                Done::Rows { .. } => {}
-            }
-        }
-        false
+    /// Whether a worker trapped.
+    fn trapped(&self) -> bool {
+        (1..=self.workers).any(|w| self.csr.done(w) == Done::Trapped)
     }
 
-    /// Ends frame `seq` for the worker and waits until it has stopped using the frame's
-    /// memory; a worker that does not is held in reset.
+    /// Ends frame `seq` for the workers and waits until each has stopped using the frame's
+    /// memory; workers that do not are held in reset.
     fn end(&mut self, seq: u16) {
         self.csr.post(Job { seq, cancel: true });
+        let finished = |w| matches!(self.csr.done(w), Done::Rows { seq: s, finished: true, .. } if s == seq);
         for _ in 0..WORKER_POLLS {
-            match self.csr.done() {
-                Done::Rows { seq: s, finished: true, .. } if s == seq => return,
-                Done::Trapped => break,
-                Done::Rows { .. } => {}
+            if (1..=self.workers).all(finished) {
+                return;
+            }
+            if self.trapped() {
+                break;
             }
         }
         self.give_up();
     }
 
+    /// Holds the workers in reset for good.
     fn give_up(&mut self) {
         self.csr.stop();
-        self.worker = false;
+        self.workers = 0;
     }
 }
 
@@ -291,51 +315,71 @@ impl<L> RowFarm<L> for HartFarm {
         rows: &Rows<'_, N>,
         sink: &mut dyn FnMut(RowDone<'_>) -> ControlFlow<()>,
     ) -> bool {
-        if !self.worker || N != MAX_VOXELS || rows.width() > MAX_ROW {
+        if self.workers == 0 || N != MAX_VOXELS || rows.width() > MAX_ROW {
             return false;
         }
         self.seq = if self.seq >= MAX_SEQ { 1 } else { self.seq.wrapping_add(1) };
         let seq = self.seq;
         let ex = exchange();
-        // SAFETY: the worker reads the pointer only after the job below is posted, and uses
-        // it only until it reports `finished` (`end`, before this function returns). N is
+        // SAFETY: the workers read the pointer only after the job below is posted, and use
+        // it only until they report `finished` (`end`, before this function returns). N is
         // MAX_VOXELS (checked above): the cast changes only the lifetime.
         unsafe { (*ex).rows = (rows as *const Rows<'_, N>).cast() };
-        self.csr.set_taken(0);
         fence(Ordering::SeqCst);
-        self.csr.post(Job { seq, cancel: false });
+        self.csr.open(seq);
 
-        let mut own = RowTracer::new(rows, port(map::coproc::BASE));
+        let (y0, n) = extent(rows);
+        let mut tracer = RowTracer::new(rows, port(0));
         // SAFETY: only this hart touches `own`.
-        let buf = unsafe { &mut *core::ptr::addr_of_mut!((*ex).own) };
-        let mut taken = 0u16;
-        for (k, y) in rows.ys().enumerate() {
-            let mine = k % 2 == 0 || !self.worker;
-            let (flow, fault) = if mine {
-                let fault = own.row(rows, y, buf).err();
-                (sink(RowDone { y, samples: buf, fault, stats: own.take_stats() }), fault)
-            } else if self.wait_row(seq, taken) {
+        let own = unsafe { &mut *core::ptr::addr_of_mut!((*ex).own) };
+        // The row in `own`, with what tracing it found.
+        let mut mine: Option<(u16, Option<RowFault>, FrameStats)> = None;
+        let mut claims_left = true;
+        let mut next = 0u16;
+        let mut polls = 0u32;
+        while next < n {
+            let y = y0.wrapping_add(next);
+            let (flow, fault) = if let Some((_, fault, stats)) = mine.take_if(|m| m.0 == next) {
+                (sink(RowDone { y, samples: own, fault, stats }), fault)
+            } else if self.workers > 0 && self.csr.is_ready(next) {
                 invalidate_dcache();
-                // SAFETY: the worker published this slot (`wait_row`) and will not write it
-                // again before `TAKEN` counts it.
-                let s = unsafe { &*slot(taken) };
-                let done = RowDone { y, samples: &s.samples, fault: s.fault, stats: s.stats.unwrap_or_default() };
-                let fault = s.fault;
-                let flow = sink(done);
-                taken = taken.wrapping_add(1);
-                self.csr.set_taken(taken);
+                // SAFETY: the worker that traced row `next` set its READY bit after writing
+                // the slot, and writes it again only after SENT passes it.
+                let s = unsafe { &*slot(next) };
+                let (fault, stats) = (s.fault, s.stats.unwrap_or_default());
+                let flow = sink(RowDone { y, samples: &s.samples, fault, stats });
+                self.csr.clear_ready(next);
                 (flow, fault)
+            } else if mine.is_none() && (claims_left || self.workers == 0) {
+                // The next row is not ready: trace one here meanwhile.
+                let k = if self.workers > 0 { self.csr.claim() } else { next };
+                if k < n {
+                    let fault = tracer.row(rows, y0.wrapping_add(k), own).err();
+                    mine = Some((k, fault, tracer.take_stats()));
+                } else {
+                    claims_left = false;
+                }
+                polls = 0;
+                continue;
             } else {
-                // The worker failed: this row and the rest are traced here.
-                self.give_up();
-                let fault = own.row(rows, y, buf).err();
-                (sink(RowDone { y, samples: buf, fault, stats: own.take_stats() }), fault)
+                polls = polls.wrapping_add(1);
+                if polls >= WORKER_POLLS || self.trapped() {
+                    // The workers failed: every row from `next` on is traced here.
+                    self.give_up();
+                    mine = None;
+                }
+                continue;
             };
+            next = next.wrapping_add(1);
+            if self.workers > 0 {
+                self.csr.set_sent(next);
+            }
+            polls = 0;
             if flow.is_break() || fault.is_some() {
                 break;
             }
         }
-        if self.worker {
+        if self.workers > 0 {
             self.end(seq);
         }
         true

@@ -249,10 +249,22 @@ pub mod harts {
     pub const RUN: usize = 0xf000_3008;
     /// `harts_job`: 1 word(s), rw.
     pub const JOB: usize = 0xf000_300c;
-    /// `harts_taken`: 1 word(s), rw.
-    pub const TAKEN: usize = 0xf000_3010;
-    /// `harts_done`: 1 word(s), rw.
-    pub const DONE: usize = 0xf000_3014;
+    /// `harts_ticket`: 1 word(s), rw.
+    pub const TICKET: usize = 0xf000_3010;
+    /// `harts_sent`: 1 word(s), rw.
+    pub const SENT: usize = 0xf000_3014;
+    /// `harts_ready`: 1 word(s), ro.
+    pub const READY: usize = 0xf000_3018;
+    /// `harts_ready_set`: 1 word(s), rw.
+    pub const READY_SET: usize = 0xf000_301c;
+    /// `harts_ready_clr`: 1 word(s), rw.
+    pub const READY_CLR: usize = 0xf000_3020;
+    /// `harts_done1`: 1 word(s), rw.
+    pub const DONE1: usize = 0xf000_3024;
+    /// `harts_done2`: 1 word(s), rw.
+    pub const DONE2: usize = 0xf000_3028;
+    /// `harts_done3`: 1 word(s), rw.
+    pub const DONE3: usize = 0xf000_302c;
 }
 /// CSR peripheral `coproc1`: base address and registers (csr.json).
 pub mod coproc1 {
@@ -266,6 +278,80 @@ pub mod coproc1 {
     pub const RSP: usize = 0xf000_3808;
     /// `coproc1_status`: 1 word(s), ro.
     pub const STATUS: usize = 0xf000_380c;
+    /// Field `req_space` of `status`: bit offset.
+    pub const STATUS_REQ_SPACE_OFFSET: u32 = 0;
+    /// Field `req_space` of `status`: width in bits.
+    pub const STATUS_REQ_SPACE_SIZE: u32 = 8;
+    /// Field `rsp_level` of `status`: bit offset.
+    pub const STATUS_RSP_LEVEL_OFFSET: u32 = 8;
+    /// Field `rsp_level` of `status`: width in bits.
+    pub const STATUS_RSP_LEVEL_SIZE: u32 = 8;
+    /// Field `rsp_last` of `status`: bit offset.
+    pub const STATUS_RSP_LAST_OFFSET: u32 = 16;
+    /// Field `rsp_last` of `status`: width in bits.
+    pub const STATUS_RSP_LAST_SIZE: u32 = 1;
+    /// Field `idle` of `status`: bit offset.
+    pub const STATUS_IDLE_OFFSET: u32 = 17;
+    /// Field `idle` of `status`: width in bits.
+    pub const STATUS_IDLE_SIZE: u32 = 1;
+    /// Field `req_overflow` of `status`: bit offset.
+    pub const STATUS_REQ_OVERFLOW_OFFSET: u32 = 18;
+    /// Field `req_overflow` of `status`: width in bits.
+    pub const STATUS_REQ_OVERFLOW_SIZE: u32 = 1;
+    /// Field `rsp_underflow` of `status`: bit offset.
+    pub const STATUS_RSP_UNDERFLOW_OFFSET: u32 = 19;
+    /// Field `rsp_underflow` of `status`: width in bits.
+    pub const STATUS_RSP_UNDERFLOW_SIZE: u32 = 1;
+}
+/// CSR peripheral `coproc2`: base address and registers (csr.json).
+pub mod coproc2 {
+    /// Base address of the peripheral's CSRs.
+    pub const BASE: usize = 0xf000_4000;
+    /// `coproc2_req`: 1 word(s), rw.
+    pub const REQ: usize = 0xf000_4000;
+    /// `coproc2_req_last`: 1 word(s), rw.
+    pub const REQ_LAST: usize = 0xf000_4004;
+    /// `coproc2_rsp`: 1 word(s), rw.
+    pub const RSP: usize = 0xf000_4008;
+    /// `coproc2_status`: 1 word(s), ro.
+    pub const STATUS: usize = 0xf000_400c;
+    /// Field `req_space` of `status`: bit offset.
+    pub const STATUS_REQ_SPACE_OFFSET: u32 = 0;
+    /// Field `req_space` of `status`: width in bits.
+    pub const STATUS_REQ_SPACE_SIZE: u32 = 8;
+    /// Field `rsp_level` of `status`: bit offset.
+    pub const STATUS_RSP_LEVEL_OFFSET: u32 = 8;
+    /// Field `rsp_level` of `status`: width in bits.
+    pub const STATUS_RSP_LEVEL_SIZE: u32 = 8;
+    /// Field `rsp_last` of `status`: bit offset.
+    pub const STATUS_RSP_LAST_OFFSET: u32 = 16;
+    /// Field `rsp_last` of `status`: width in bits.
+    pub const STATUS_RSP_LAST_SIZE: u32 = 1;
+    /// Field `idle` of `status`: bit offset.
+    pub const STATUS_IDLE_OFFSET: u32 = 17;
+    /// Field `idle` of `status`: width in bits.
+    pub const STATUS_IDLE_SIZE: u32 = 1;
+    /// Field `req_overflow` of `status`: bit offset.
+    pub const STATUS_REQ_OVERFLOW_OFFSET: u32 = 18;
+    /// Field `req_overflow` of `status`: width in bits.
+    pub const STATUS_REQ_OVERFLOW_SIZE: u32 = 1;
+    /// Field `rsp_underflow` of `status`: bit offset.
+    pub const STATUS_RSP_UNDERFLOW_OFFSET: u32 = 19;
+    /// Field `rsp_underflow` of `status`: width in bits.
+    pub const STATUS_RSP_UNDERFLOW_SIZE: u32 = 1;
+}
+/// CSR peripheral `coproc3`: base address and registers (csr.json).
+pub mod coproc3 {
+    /// Base address of the peripheral's CSRs.
+    pub const BASE: usize = 0xf000_4800;
+    /// `coproc3_req`: 1 word(s), rw.
+    pub const REQ: usize = 0xf000_4800;
+    /// `coproc3_req_last`: 1 word(s), rw.
+    pub const REQ_LAST: usize = 0xf000_4804;
+    /// `coproc3_rsp`: 1 word(s), rw.
+    pub const RSP: usize = 0xf000_4808;
+    /// `coproc3_status`: 1 word(s), ro.
+    pub const STATUS: usize = 0xf000_480c;
     /// Field `req_space` of `status`: bit offset.
     pub const STATUS_REQ_SPACE_OFFSET: u32 = 0;
     /// Field `req_space` of `status`: width in bits.

@@ -7,7 +7,7 @@
 //! memories, so the bytes on the UART are the same whichever thread traced which row.
 //!
 //! On one hart the firmware has no farm ([`NoFarm`]): it renders every row itself. On the
-//! LiteX SoC with a worker hart the image's `HartFarm` gives the worker every second row.
+//! LiteX SoC with worker harts the image's `HartFarm` shares each frame's rows with them.
 
 use core::ops::{ControlFlow, Range};
 

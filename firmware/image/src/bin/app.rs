@@ -201,7 +201,7 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     // SAFETY: COPROC_BASE is the co-processor's CSR FIFOs (csr.json); owned here only.
     let mut fifos = CoprocCsr::new(unsafe { VolatileMmio::new(board::COPROC_BASE) });
     fifos.init();
-    // A worker hart, if the SoC has one, traces every second row of a frame.
+    // Worker harts, if the SoC has any, trace rows of each frame beside this one.
     let farm = HartFarm::start();
     let mut w = UartWriter(console);
     w.put("harts: ");

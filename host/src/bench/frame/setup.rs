@@ -294,7 +294,7 @@ pub struct BenchOptions {
     pub soc_float_hw: SocFloatHw,
     /// The `soc` row's L2 cache in front of its SDRAM, KiB (None: the SoC's default).
     pub soc_l2_kib: Option<u32>,
-    /// The `soc` row's CPUs (1, or 2: a worker hart traces every second row).
+    /// The `soc` row's CPUs (1 to 4: workers trace rows beside the first hart).
     pub soc_harts: u32,
     /// Bytes the UART holds while the line drains them (`timeline`).
     pub tx_buffer_bytes: u64,

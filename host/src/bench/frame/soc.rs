@@ -48,7 +48,7 @@ pub struct SocRun {
     pub float_hw: SocFloatHw,
     /// The L2 cache in front of the SDRAM, KiB, when not the SoC's default.
     pub l2_kib: Option<u32>,
-    /// CPUs of the SoC (a worker hart traces every second row).
+    /// CPUs of the SoC (workers trace rows beside the first hart).
     pub harts: u32,
     /// PEs of the SoC's co-processor.
     pub pes: u16,

@@ -62,9 +62,9 @@ pub struct Args {
     /// two; default: the SoC's, 8).
     #[arg(long, value_name = "KIB", value_parser = clap::value_parser!(u32).range(1..=256))]
     soc_l2_kib: Option<u32>,
-    /// The `soc` row's CPUs: 1, or 2 (a worker VexRiscv traces every second row; its frame
-    /// reports no per-stage counters and does not calibrate the modelled rows).
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=2))]
+    /// The `soc` row's CPUs, 1 to 4 (worker VexRiscvs trace rows beside the first; such a
+    /// frame reports no per-stage counters and does not calibrate the modelled rows).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4))]
     soc_harts: u32,
     /// Write the report here (JSON).
     #[arg(long, value_name = "JSON")]
