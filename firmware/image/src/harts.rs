@@ -44,6 +44,8 @@ const WORKER_STACK_BYTES: usize = 64 << 10;
 /// far more than any row's time (a row of 4096 pixels at 10⁵ cycles per pixel is 4·10⁸
 /// cycles).
 const WORKER_POLLS: u32 = 1 << 30;
+/// `nop`s between two polls of a register.
+const PAUSE_NOPS: u32 = 32;
 /// Frames are numbered 1..=MAX_SEQ (15 bits, so that a `DONE` word is never `TRAPPED`).
 const MAX_SEQ: u16 = 0x7FFF;
 
@@ -172,6 +174,16 @@ fn invalidate_dcache() {
     unsafe { core::arch::asm!(".4byte 0x0000500F") };
 }
 
+/// Waits a little without touching the bus: a hart that polls a register back to back would
+/// take bus cycles from the others' co-processor and UART accesses.
+#[inline(always)]
+fn pause() {
+    for _ in 0..PAUSE_NOPS {
+        // SAFETY: a `nop`.
+        unsafe { core::arch::asm!("nop", options(nomem, nostack)) };
+    }
+}
+
 fn hart_csr() -> HartCsr<VolatileMmio> {
     // SAFETY: the SoC's `harts` block (csr.json); its registers are plain words.
     HartCsr::new(unsafe { VolatileMmio::new(map::harts::BASE) })
@@ -206,6 +218,7 @@ extern "C" fn worker_main(worker: u32) -> ! {
     loop {
         let job = csr.job();
         if job.seq == 0 || job.seq == last || job.cancel {
+            pause();
             continue;
         }
         last = job.seq;
@@ -236,6 +249,7 @@ fn trace_rows(csr: &HartCsr<VolatileMmio>, worker: u32, job: Job, rows: &Rows<'_
             if csr.job() != job {
                 return traced;
             }
+            pause();
         }
         // SAFETY: the first hart reads this slot only after its READY bit is set below, and
         // row k − RING, its last occupant, is sent (the wait above).
@@ -297,6 +311,7 @@ impl HartFarm {
             if self.trapped() {
                 break;
             }
+            pause();
         }
         self.give_up();
     }
@@ -362,8 +377,9 @@ impl<L> RowFarm<L> for HartFarm {
                 polls = 0;
                 continue;
             } else {
+                pause();
                 polls = polls.wrapping_add(1);
-                if polls >= WORKER_POLLS || self.trapped() {
+                if polls >= WORKER_POLLS || (polls.is_multiple_of(256) && self.trapped()) {
                     // The workers failed: every row from `next` on is traced here.
                     self.give_up();
                     mine = None;
