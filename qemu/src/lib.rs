@@ -22,7 +22,6 @@
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, Write};
-use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::{mpsc, Arc};
@@ -152,17 +151,8 @@ impl Launch {
         if pty {
             cmd.stdout(Stdio::piped()).stderr(Stdio::piped());
         }
-        // SAFETY: prctl is async-signal-safe; nothing else runs between fork and exec. The
-        // kernel then stops QEMU when the thread that started it ends, so no orphan keeps
-        // the pty.
-        unsafe {
-            cmd.pre_exec(|| {
-                if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM) != 0 {
-                    return Err(std::io::Error::last_os_error());
-                }
-                Ok(())
-            });
-        }
+        // No orphan QEMU keeps the pty.
+        end_with_parent(&mut cmd);
         let child = cmd.spawn().map_err(Error::Spawn)?;
         let mut machine = Machine { child, pty: None, hold: None };
         if !pty {
@@ -236,6 +226,22 @@ impl Drop for Machine {
         let _ = self.child.kill();
         let _ = self.child.wait();
         self.hold = None;
+    }
+}
+
+/// Makes the child `cmd` starts receive SIGTERM when the thread that started it ends (Linux
+/// `PR_SET_PDEATHSIG`; it survives the `exec` of `cargo run`), so that a killed parent leaves
+/// no orphan simulator or emulator running.
+pub fn end_with_parent(cmd: &mut Command) {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: prctl is async-signal-safe; nothing else runs between fork and exec.
+    unsafe {
+        cmd.pre_exec(|| {
+            if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
     }
 }
 

@@ -96,6 +96,9 @@ impl SocSim {
             clock.clock_mhz,
             float_hw.name()
         )));
+        // `cargo run` exec()s xtask, which stops its simulator when it ends: both end with this
+        // process even when it is killed.
+        gridrt_qemu::end_with_parent(&mut cmd);
         let mut child = cmd
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
