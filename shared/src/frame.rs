@@ -20,6 +20,7 @@
 use core::ops::ControlFlow;
 
 use crate::bytes::{Overflow, Reader, Writer};
+pub use crate::crc::{crc32, Crc32Digest};
 use crate::PROTOCOL_VERSION;
 
 /// Largest payload a frame may carry.
@@ -33,8 +34,6 @@ pub const MAX_RAW: usize = HEADER_LEN + MAX_PAYLOAD + CRC_LEN;
 /// Largest frame on the wire, COBS overhead and the `0x00` delimiter included.
 pub const MAX_ENCODED: usize = MAX_RAW + MAX_RAW / 254 + 2;
 
-const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
-
 /// CRC-32 of a whole valid raw frame (`body ‖ crc_le`), whatever the body.
 pub const CRC_OF_VALID_RAW: u32 = 0x2144_DF1C;
 /// Longest raw frame whose single flipped bit the accumulator corrects: a body of at most
@@ -42,41 +41,6 @@ pub const CRC_OF_VALID_RAW: u32 = 0x2144_DF1C;
 /// is one bit from exactly one valid frame and frames with two or three flipped bits are
 /// never "corrected" (SPEC.md §2.5).
 pub const CORRECTABLE_RAW: usize = 2974 / 8 + CRC_LEN;
-
-/// CRC-32/ISO-HDLC (the zlib/Ethernet CRC) of `data`.
-pub fn crc32(data: &[u8]) -> u32 {
-    CRC32.checksum(data)
-}
-
-/// Incremental CRC-32/ISO-HDLC, for data that arrives in pieces.
-pub struct Crc32Digest(crc::Digest<'static, u32>);
-
-impl Default for Crc32Digest {
-    fn default() -> Self {
-        Self(CRC32.digest())
-    }
-}
-
-impl core::fmt::Debug for Crc32Digest {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str("Crc32Digest")
-    }
-}
-
-impl Crc32Digest {
-    /// Adds bytes to the running checksum.
-    pub fn update(&mut self, data: &[u8]) {
-        self.0.update(data)
-    }
-    /// The checksum of everything added so far, without ending the digest.
-    pub fn value(&self) -> u32 {
-        self.0.clone().finalize()
-    }
-    /// Returns the checksum of everything added so far.
-    pub fn finalize(self) -> u32 {
-        self.0.finalize()
-    }
-}
 
 /// Everything that can go wrong while encoding or decoding a frame.
 #[non_exhaustive]

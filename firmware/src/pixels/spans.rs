@@ -169,11 +169,11 @@ impl SpanEncoder {
                 if let Some(dst) = self.data.get_mut(at..).and_then(|d| d.get_mut(..2)) {
                     dst.copy_from_slice(&v.to_le_bytes());
                 }
-                self.crc.update(&pixel::rgb565_unpack(v));
+                self.crc.update_rgb(pixel::rgb565_unpack(v));
                 2
             }
             PixelEncoding::Rle => {
-                self.crc.update(&rgb);
+                self.crc.update_rgb(rgb);
                 let dst = self.data.get_mut(at..).unwrap_or(&mut []);
                 self.rle.push(rgb, dst).map_err(|_| TxError::Msg(MsgError::EncodeBufferTooSmall))?
             }
@@ -198,7 +198,7 @@ impl SpanEncoder {
 
     /// Adds `n` pixels of colour `rgb` and primitive `prim` from (x, y) rightwards: the pixels
     /// of `n` [`push`](Self::push)es, and for `Rle` without primitive ids at the cost of
-    /// one per span (the run is encoded at once and the CRC taken over a repeated pattern);
+    /// one per span (the run is encoded at once and its CRC taken 16 pixels per step);
     /// the spans may be cut elsewhere than per pixel, never longer.
     #[allow(clippy::too_many_arguments)] // `push`'s arguments and the run length
     pub fn push_run<W: Write + ?Sized>(
@@ -217,10 +217,6 @@ impl SpanEncoder {
             }
             return Ok(());
         }
-        let mut pattern = [0u8; 3 * 16];
-        for c in pattern.chunks_exact_mut(3) {
-            c.copy_from_slice(&rgb);
-        }
         let (mut x, mut left) = (x as usize, n as usize);
         // Bounded: each round takes at least one pixel (a flushed span is empty).
         while left > 0 {
@@ -238,12 +234,7 @@ impl SpanEncoder {
             let written =
                 self.rle.push_run(rgb, k as u32, dst).map_err(|_| TxError::Msg(MsgError::EncodeBufferTooSmall))?;
             self.len = self.len.saturating_add(written);
-            let mut crc_left = k;
-            while crc_left > 0 {
-                let c = crc_left.min(16);
-                self.crc.update(pattern.get(..c.saturating_mul(3)).unwrap_or(&[]));
-                crc_left = crc_left.saturating_sub(c);
-            }
+            self.crc.update_rgb_run(rgb, k);
             self.count = self.count.saturating_add(k);
             x = x.saturating_add(k);
             left = left.saturating_sub(k);
