@@ -51,6 +51,8 @@ pub struct SpanEncoder {
     span_len: usize,
     /// Most data bytes per span.
     data_limit: usize,
+    /// One more pixel surely fits while `len < room_end` (from `data_limit` and the encoding).
+    room_end: usize,
     y: u16,
     x0: u16,
     count: usize,
@@ -78,6 +80,7 @@ impl SpanEncoder {
             encoding: PixelEncoding::Rgb888,
             span_len: MAX_SPAN_PIXELS,
             data_limit: MAX_SPAN_DATA,
+            room_end: 0,
             y: 0,
             x0: 0,
             count: 0,
@@ -112,7 +115,7 @@ impl SpanEncoder {
         self.prim_ids = prim_ids;
         self.encoding = encoding;
         self.span_len = if max_span == 0 { default } else { default.min(max_span as usize) };
-        self.data_limit = MAX_SPAN_DATA;
+        self.set_data_limit(0);
         self.count = 0;
         self.len = 0;
         self.rle = RleEncoder::new();
@@ -131,15 +134,12 @@ impl SpanEncoder {
     /// holds at least one pixel): `RenderRegion` option `SPAN_BYTES`. Call after `begin_with`.
     pub fn set_data_limit(&mut self, max_bytes: u16) {
         self.data_limit = if max_bytes == 0 { MAX_SPAN_DATA } else { MAX_SPAN_DATA.min(max_bytes as usize) };
-    }
-
-    /// True when one more pixel surely fits the data buffer and the data limit.
-    fn has_room(&self) -> bool {
         let need = match self.encoding.fixed_bytes_per_pixel() {
             Some(bpp) => bpp,
             None => RLE_MAX_PUSH_BYTES + RLE_MAX_FINISH_BYTES,
         };
-        self.len.saturating_add(need) <= self.data_limit
+        // `len + need <= data_limit`, as one comparison per pixel.
+        self.room_end = self.data_limit.saturating_add(1).saturating_sub(need);
     }
 
     /// Adds pixel (x, y). A pixel that does not continue the pending span (other row, gap), a
@@ -155,12 +155,8 @@ impl SpanEncoder {
         out: &mut W,
     ) -> Result<(), TxError> {
         let continues = self.count > 0 && y == self.y && x as usize == (self.x0 as usize).saturating_add(self.count);
-        if self.count > 0 && (!continues || self.count >= self.span_len || !self.has_room()) {
-            self.flush(tx, out)?;
-        }
-        if self.count == 0 {
-            self.y = y;
-            self.x0 = x;
+        if !(continues && self.count < self.span_len && self.len < self.room_end) {
+            self.restart(x, y, tx, out)?;
         }
         let at = self.len;
         let written = match self.encoding {
@@ -185,7 +181,7 @@ impl SpanEncoder {
                 3
             }
         };
-        // Both stay below their buffers' sizes (`has_room`, `span_len`).
+        // Both stay below their buffers' sizes (`room_end`, `span_len`).
         self.len = self.len.saturating_add(written);
         if self.prim_ids {
             if let Some(dst) = self.ids.chunks_exact_mut(4).nth(self.count) {
@@ -193,6 +189,15 @@ impl SpanEncoder {
             }
         }
         self.count = self.count.saturating_add(1);
+        Ok(())
+    }
+
+    /// Sends the pending span, if any, and starts the next at (x, y).
+    #[inline(never)]
+    fn restart<W: Write + ?Sized>(&mut self, x: u16, y: u16, tx: &mut FrameTx, out: &mut W) -> Result<(), TxError> {
+        self.flush(tx, out)?;
+        self.y = y;
+        self.x0 = x;
         Ok(())
     }
 
