@@ -19,7 +19,8 @@
 
 use core::ops::ControlFlow;
 
-use crate::bytes::{Overflow, Reader, Writer};
+use crate::bytes::Reader;
+pub use crate::crc::{crc32, Crc32Digest};
 use crate::PROTOCOL_VERSION;
 
 /// Largest payload a frame may carry.
@@ -33,8 +34,6 @@ pub const MAX_RAW: usize = HEADER_LEN + MAX_PAYLOAD + CRC_LEN;
 /// Largest frame on the wire, COBS overhead and the `0x00` delimiter included.
 pub const MAX_ENCODED: usize = MAX_RAW + MAX_RAW / 254 + 2;
 
-const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
-
 /// CRC-32 of a whole valid raw frame (`body ‖ crc_le`), whatever the body.
 pub const CRC_OF_VALID_RAW: u32 = 0x2144_DF1C;
 /// Longest raw frame whose single flipped bit the accumulator corrects: a body of at most
@@ -42,41 +41,6 @@ pub const CRC_OF_VALID_RAW: u32 = 0x2144_DF1C;
 /// is one bit from exactly one valid frame and frames with two or three flipped bits are
 /// never "corrected" (SPEC.md §2.5).
 pub const CORRECTABLE_RAW: usize = 2974 / 8 + CRC_LEN;
-
-/// CRC-32/ISO-HDLC (the zlib/Ethernet CRC) of `data`.
-pub fn crc32(data: &[u8]) -> u32 {
-    CRC32.checksum(data)
-}
-
-/// Incremental CRC-32/ISO-HDLC, for data that arrives in pieces.
-pub struct Crc32Digest(crc::Digest<'static, u32>);
-
-impl Default for Crc32Digest {
-    fn default() -> Self {
-        Self(CRC32.digest())
-    }
-}
-
-impl core::fmt::Debug for Crc32Digest {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str("Crc32Digest")
-    }
-}
-
-impl Crc32Digest {
-    /// Adds bytes to the running checksum.
-    pub fn update(&mut self, data: &[u8]) {
-        self.0.update(data)
-    }
-    /// The checksum of everything added so far, without ending the digest.
-    pub fn value(&self) -> u32 {
-        self.0.clone().finalize()
-    }
-    /// Returns the checksum of everything added so far.
-    pub fn finalize(self) -> u32 {
-        self.0.finalize()
-    }
-}
 
 /// Everything that can go wrong while encoding or decoding a frame.
 #[non_exhaustive]
@@ -153,31 +117,99 @@ pub struct Frame<'a> {
 }
 
 /// Encodes one frame into `out` and returns the number of bytes written, delimiter included.
+///
+/// Header, payload and CRC go through the COBS encoder as they are, without a raw copy of
+/// the frame; the bytes are those of `cobs::encode` of the raw frame.
 pub fn encode_frame(kind: u8, seq: u16, payload: &[u8], out: &mut [u8]) -> Result<usize, FrameError> {
     if payload.len() > MAX_PAYLOAD {
         return Err(FrameError::EncodePayloadTooLarge);
     }
-    let mut raw = [0u8; MAX_RAW];
-    let mut w = Writer::new(&mut raw);
-    // MAX_RAW = header + MAX_PAYLOAD + CRC, so none of these writes can fail.
-    let body_len = (|| -> Result<usize, Overflow> {
-        w.bytes(&[kind, PROTOCOL_VERSION])?;
-        w.u16(seq)?;
-        w.u16(payload.len() as u16)?;
-        w.bytes(payload)?;
-        Ok(w.len())
-    })()
-    .map_err(|_| FrameError::EncodePayloadTooLarge)?;
-    let crc = crc32(raw.get(..body_len).unwrap_or(&[]));
-    let raw_len = body_len.saturating_add(CRC_LEN);
-    raw.get_mut(body_len..raw_len).ok_or(FrameError::EncodePayloadTooLarge)?.copy_from_slice(&crc.to_le_bytes());
-    let raw = raw.get(..raw_len).unwrap_or(&[]);
+    // ≤ MAX_RAW: no overflow.
+    let raw_len = HEADER_LEN.saturating_add(payload.len()).saturating_add(CRC_LEN);
     if out.len() <= cobs::max_encoding_length(raw_len) {
         return Err(FrameError::EncodeBufferTooSmall);
     }
-    let n = cobs::try_encode(raw, out).map_err(|_| FrameError::EncodeBufferTooSmall)?;
+    let ([s0, s1], [l0, l1]) = (seq.to_le_bytes(), (payload.len() as u16).to_le_bytes());
+    let header = [kind, PROTOCOL_VERSION, s0, s1, l0, l1];
+    let mut crc = Crc32Digest::default();
+    crc.update(&header);
+    crc.update(payload);
+    let mut enc = CobsWriter::new(out);
+    enc.push(&header);
+    enc.push(payload);
+    enc.push(&crc.finalize().to_le_bytes());
+    let n = enc.finish().ok_or(FrameError::EncodeBufferTooSmall)?;
     *out.get_mut(n).ok_or(FrameError::EncodeBufferTooSmall)? = 0;
     Ok(n.saturating_add(1))
+}
+
+/// A COBS encoder over data pushed in pieces, writing straight into its output: the bytes of
+/// `cobs::encode` of the concatenated pieces (a final block of 254 non-zero bytes gets no
+/// empty block after it) for any non-empty data.
+struct CobsWriter<'a> {
+    out: &'a mut [u8],
+    /// Where the current block's code byte goes.
+    code_at: usize,
+    /// The current block's code: 1 + its non-zero bytes.
+    code: u8,
+    /// Where the next data byte goes.
+    at: usize,
+    /// The last byte closed a full block.
+    closed: bool,
+    /// A write fell outside `out`.
+    overflow: bool,
+}
+
+impl<'a> CobsWriter<'a> {
+    fn new(out: &'a mut [u8]) -> Self {
+        Self { out, code_at: 0, code: 1, at: 1, closed: false, overflow: false }
+    }
+
+    #[inline(always)]
+    fn set(&mut self, at: usize, b: u8) {
+        match self.out.get_mut(at) {
+            Some(slot) => *slot = b,
+            None => self.overflow = true,
+        }
+    }
+
+    /// Starts the next block after the byte at `at - 1`.
+    #[inline(always)]
+    fn close(&mut self) {
+        self.set(self.code_at, self.code);
+        self.code_at = self.at;
+        // `at` stays ≤ out.len() + 1 (every write is checked), far from `usize::MAX`.
+        self.at = self.at.saturating_add(1);
+        self.code = 1;
+    }
+
+    fn push(&mut self, data: &[u8]) {
+        for &b in data {
+            if b == 0 {
+                self.close();
+                self.closed = false;
+            } else {
+                self.set(self.at, b);
+                self.at = self.at.saturating_add(1);
+                self.code = self.code.saturating_add(1);
+                if self.code == 0xFF {
+                    self.close();
+                    self.closed = true;
+                }
+            }
+        }
+    }
+
+    /// The encoded length, `None` when it did not fit.
+    fn finish(mut self) -> Option<usize> {
+        if self.closed && self.code == 1 {
+            // The data ended with a full block: no empty block after it.
+            self.at = self.code_at;
+        } else {
+            self.set(self.code_at, self.code);
+        }
+        (!self.overflow).then_some(self.at)
+    }
 }
 
 /// Corrects one flipped bit of a COBS-decoded frame of at most [`CORRECTABLE_RAW`] bytes
@@ -639,7 +671,58 @@ mod tests {
         assert_eq!(parse_raw(&raw), Err(FrameError::DecodeBadVersion));
     }
 
+    /// The COBS writer's bytes are `cobs::encode`'s, around every block boundary.
+    #[test]
+    fn cobs_writer_matches_the_cobs_crate() {
+        let mut cases: Vec<Vec<u8>> = Vec::new();
+        for n in [1, 2, 253, 254, 255, 256, 507, 508, 509, 600] {
+            cases.push(vec![7; n]);
+            let mut v = vec![7; n];
+            v.push(0);
+            cases.push(v.clone());
+            v.insert(0, 0);
+            cases.push(v);
+        }
+        cases.push(vec![0]);
+        cases.push(vec![0, 0, 0]);
+        for data in &cases {
+            let mut want = vec![0u8; cobs::max_encoding_length(data.len())];
+            let n = cobs::encode(data, &mut want);
+            let mut got = vec![0u8; cobs::max_encoding_length(data.len()) + 1];
+            for cut in [0, 1, data.len() / 2, data.len()] {
+                let mut w = CobsWriter::new(&mut got);
+                w.push(&data[..cut]);
+                w.push(&data[cut..]);
+                let m = w.finish().unwrap();
+                assert_eq!(&got[..m], &want[..n], "len {} cut {cut}", data.len());
+            }
+            let mut small = vec![0u8; n - 1];
+            let mut w = CobsWriter::new(&mut small);
+            w.push(data);
+            assert_eq!(w.finish(), None, "len {}", data.len());
+        }
+    }
+
     proptest::proptest! {
+        /// A frame is `cobs::encode(header ‖ payload ‖ crc) ‖ 0`.
+        #[test]
+        fn frames_are_cobs_of_the_raw_frame(
+            kind: u8, seq: u16,
+            payload in proptest::collection::vec(proptest::prop_oneof![3 => 1u8..=255, 1 => proptest::strategy::Just(0u8)], 0..700),
+        ) {
+            let mut raw = vec![kind, PROTOCOL_VERSION];
+            raw.extend_from_slice(&seq.to_le_bytes());
+            raw.extend_from_slice(&(payload.len() as u16).to_le_bytes());
+            raw.extend_from_slice(&payload);
+            let crc = crc32(&raw);
+            raw.extend_from_slice(&crc.to_le_bytes());
+            let mut want = vec![0u8; cobs::max_encoding_length(raw.len()) + 1];
+            let n = cobs::encode(&raw, &mut want);
+            want.truncate(n);
+            want.push(0);
+            proptest::prop_assert_eq!(encode(kind, seq, &payload), want);
+        }
+
         #[test]
         fn any_payload_round_trips_through_noise(
             kind: u8, seq: u16,

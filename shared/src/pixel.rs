@@ -120,26 +120,29 @@ impl RleEncoder {
 
     /// Adds one pixel; returns the bytes written to `out` (0 while a run grows). On
     /// [`PixelError::BufferTooSmall`] nothing was written and the state is unchanged.
+    #[inline]
     pub fn push(&mut self, p: [u8; 3], out: &mut [u8]) -> Result<usize, PixelError> {
-        let mut tmp = [0u8; RLE_MAX_PUSH_BYTES];
-        let mut next = *self;
-        let n = if p == next.prev {
-            if next.run < RUN_LONG_MAX {
-                next.run = next.run.saturating_add(1);
-                0
-            } else {
-                let n = next.flush_run(&mut tmp)?;
-                next.run = 1;
-                n
-            }
-        } else {
-            let n = next.flush_run(&mut tmp)?;
-            let m = encode_change(next.prev, p, tmp.get_mut(n..).ok_or(PixelError::BufferTooSmall)?)?;
-            next.prev = p;
-            n.saturating_add(m)
-        };
-        out.get_mut(..n).ok_or(PixelError::BufferTooSmall)?.copy_from_slice(tmp.get(..n).unwrap_or(&[]));
-        *self = next;
+        if p == self.prev && self.run < RUN_LONG_MAX {
+            self.run = self.run.saturating_add(1);
+            return Ok(0);
+        }
+        self.push_ops(p, out)
+    }
+
+    /// [`push`](Self::push) when the pixel ends the pending run: the run's op, then the
+    /// pixel's (none when it starts the next run), each built in a register and stored
+    /// bytewise (no staging buffer to copy).
+    fn push_ops(&mut self, p: [u8; 3], out: &mut [u8]) -> Result<usize, PixelError> {
+        let (run, run_len) = run_op(self.run);
+        let same = p == self.prev;
+        let (op, op_len) = if same { (0, 0) } else { change_op(self.prev, p) };
+        let n = run_len.saturating_add(op_len);
+        let (a, b) = out.get_mut(..n).ok_or(PixelError::BufferTooSmall)?.split_at_mut(run_len);
+        put_le(a, run);
+        put_le(b, op);
+        // A full RUN_LONG was written and the pixel starts the next run, or the pixel changed.
+        self.run = u16::from(same);
+        self.prev = p;
         Ok(n)
     }
 
@@ -175,52 +178,57 @@ impl RleEncoder {
     /// Ends the span: writes a pending run; returns the bytes written. The encoder is reset
     /// (on [`PixelError::BufferTooSmall`] it is unchanged).
     pub fn finish(&mut self, out: &mut [u8]) -> Result<usize, PixelError> {
-        let mut tmp = [0u8; RLE_MAX_FINISH_BYTES];
-        let n = { *self }.flush_run(&mut tmp)?;
-        out.get_mut(..n).ok_or(PixelError::BufferTooSmall)?.copy_from_slice(tmp.get(..n).unwrap_or(&[]));
+        let n = self.flush_run(out)?;
         *self = Self::new();
         Ok(n)
     }
 
+    /// Writes the pending run's op and clears the run (unchanged on an error).
     fn flush_run(&mut self, out: &mut [u8]) -> Result<usize, PixelError> {
-        let run = core::mem::take(&mut self.run);
-        if run == 0 {
-            return Ok(0);
-        }
-        // run ≥ 1 here, so `run - 1` cannot wrap.
-        let n = run.saturating_sub(1);
-        if run <= RUN_MAX {
-            *out.first_mut().ok_or(PixelError::BufferTooSmall)? = OP_RUN | n as u8;
-            return Ok(1);
-        }
-        let dst = out.get_mut(..2).ok_or(PixelError::BufferTooSmall)?;
-        dst.copy_from_slice(&[OP_RUN_LONG | (n >> 8) as u8, n as u8]);
-        Ok(2)
+        let (w, n) = run_op(self.run);
+        put_le(out.get_mut(..n).ok_or(PixelError::BufferTooSmall)?, w);
+        self.run = 0;
+        Ok(n)
     }
 }
 
-/// Encodes `p` after `prev` with the shortest of DIFF, LUMA, RGB.
-fn encode_change(prev: [u8; 3], p: [u8; 3], out: &mut [u8]) -> Result<usize, PixelError> {
+/// The op of a run of `run` pixels (RUN or RUN_LONG; none for 0) as little-endian bytes, and
+/// its length.
+fn run_op(run: u16) -> (u32, usize) {
+    // run ≥ 1 past the first test, so `run - 1` cannot wrap.
+    let n = run.saturating_sub(1);
+    if run == 0 {
+        (0, 0)
+    } else if run <= RUN_MAX {
+        (u32::from(OP_RUN | n as u8), 1)
+    } else {
+        (u32::from_le_bytes([OP_RUN_LONG | (n >> 8) as u8, n as u8, 0, 0]), 2)
+    }
+}
+
+/// The shortest of DIFF, LUMA, RGB for `p` after `prev`, as little-endian bytes, and its length.
+fn change_op(prev: [u8; 3], p: [u8; 3]) -> (u32, usize) {
     let ([r, g, b], [pr, pg, pb]) = (p, prev);
     let (dr, dg, db) = (r.wrapping_sub(pr) as i8, g.wrapping_sub(pg) as i8, b.wrapping_sub(pb) as i8);
     // The biases below are added only to differences already range-checked, so the wrapping
     // adds never wrap.
     if (-2..=1).contains(&dr) && (-2..=1).contains(&dg) && (-2..=1).contains(&db) {
         let bias = |d: i8| d.wrapping_add(2) as u8;
-        let byte = OP_DIFF | (bias(dr) << 4) | (bias(dg) << 2) | bias(db);
-        *out.first_mut().ok_or(PixelError::BufferTooSmall)? = byte;
-        return Ok(1);
+        return (u32::from(OP_DIFF | (bias(dr) << 4) | (bias(dg) << 2) | bias(db)), 1);
     }
     let (dr_dg, db_dg) = (dr.wrapping_sub(dg), db.wrapping_sub(dg));
     if (-32..=31).contains(&dg) && (-8..=7).contains(&dr_dg) && (-8..=7).contains(&db_dg) {
-        let dst = out.get_mut(..2).ok_or(PixelError::BufferTooSmall)?;
         let (g8, rb) = (dg.wrapping_add(32) as u8, ((dr_dg.wrapping_add(8) as u8) << 4) | db_dg.wrapping_add(8) as u8);
-        dst.copy_from_slice(&[OP_LUMA | g8, rb]);
-        return Ok(2);
+        return (u32::from_le_bytes([OP_LUMA | g8, rb, 0, 0]), 2);
     }
-    let dst = out.get_mut(..4).ok_or(PixelError::BufferTooSmall)?;
-    dst.copy_from_slice(&[OP_RGB, r, g, b]);
-    Ok(4)
+    (u32::from_le_bytes([OP_RGB, r, g, b]), 4)
+}
+
+/// Stores the low `dst.len()` (≤ 4) bytes of `w`, little-endian.
+fn put_le(dst: &mut [u8], w: u32) {
+    for (d, b) in dst.iter_mut().zip(w.to_le_bytes()) {
+        *d = b;
+    }
 }
 
 /// Decodes `Rle` data of `count` pixels, calling `emit(pixel, repeat)` for each op.

@@ -51,6 +51,8 @@ pub struct SpanEncoder {
     span_len: usize,
     /// Most data bytes per span.
     data_limit: usize,
+    /// One more pixel surely fits while `len < room_end` (from `data_limit` and the encoding).
+    room_end: usize,
     y: u16,
     x0: u16,
     count: usize,
@@ -78,6 +80,7 @@ impl SpanEncoder {
             encoding: PixelEncoding::Rgb888,
             span_len: MAX_SPAN_PIXELS,
             data_limit: MAX_SPAN_DATA,
+            room_end: 0,
             y: 0,
             x0: 0,
             count: 0,
@@ -112,7 +115,7 @@ impl SpanEncoder {
         self.prim_ids = prim_ids;
         self.encoding = encoding;
         self.span_len = if max_span == 0 { default } else { default.min(max_span as usize) };
-        self.data_limit = MAX_SPAN_DATA;
+        self.set_data_limit(0);
         self.count = 0;
         self.len = 0;
         self.rle = RleEncoder::new();
@@ -131,15 +134,12 @@ impl SpanEncoder {
     /// holds at least one pixel): `RenderRegion` option `SPAN_BYTES`. Call after `begin_with`.
     pub fn set_data_limit(&mut self, max_bytes: u16) {
         self.data_limit = if max_bytes == 0 { MAX_SPAN_DATA } else { MAX_SPAN_DATA.min(max_bytes as usize) };
-    }
-
-    /// True when one more pixel surely fits the data buffer and the data limit.
-    fn has_room(&self) -> bool {
         let need = match self.encoding.fixed_bytes_per_pixel() {
             Some(bpp) => bpp,
             None => RLE_MAX_PUSH_BYTES + RLE_MAX_FINISH_BYTES,
         };
-        self.len.saturating_add(need) <= self.data_limit
+        // `len + need <= data_limit`, as one comparison per pixel.
+        self.room_end = self.data_limit.saturating_add(1).saturating_sub(need);
     }
 
     /// Adds pixel (x, y). A pixel that does not continue the pending span (other row, gap), a
@@ -155,12 +155,8 @@ impl SpanEncoder {
         out: &mut W,
     ) -> Result<(), TxError> {
         let continues = self.count > 0 && y == self.y && x as usize == (self.x0 as usize).saturating_add(self.count);
-        if self.count > 0 && (!continues || self.count >= self.span_len || !self.has_room()) {
-            self.flush(tx, out)?;
-        }
-        if self.count == 0 {
-            self.y = y;
-            self.x0 = x;
+        if !(continues && self.count < self.span_len && self.len < self.room_end) {
+            self.restart(x, y, tx, out)?;
         }
         let at = self.len;
         let written = match self.encoding {
@@ -169,11 +165,11 @@ impl SpanEncoder {
                 if let Some(dst) = self.data.get_mut(at..).and_then(|d| d.get_mut(..2)) {
                     dst.copy_from_slice(&v.to_le_bytes());
                 }
-                self.crc.update(&pixel::rgb565_unpack(v));
+                self.crc.update_rgb(pixel::rgb565_unpack(v));
                 2
             }
             PixelEncoding::Rle => {
-                self.crc.update(&rgb);
+                self.crc.update_rgb(rgb);
                 let dst = self.data.get_mut(at..).unwrap_or(&mut []);
                 self.rle.push(rgb, dst).map_err(|_| TxError::Msg(MsgError::EncodeBufferTooSmall))?
             }
@@ -185,7 +181,7 @@ impl SpanEncoder {
                 3
             }
         };
-        // Both stay below their buffers' sizes (`has_room`, `span_len`).
+        // Both stay below their buffers' sizes (`room_end`, `span_len`).
         self.len = self.len.saturating_add(written);
         if self.prim_ids {
             if let Some(dst) = self.ids.chunks_exact_mut(4).nth(self.count) {
@@ -196,9 +192,18 @@ impl SpanEncoder {
         Ok(())
     }
 
+    /// Sends the pending span, if any, and starts the next at (x, y).
+    #[inline(never)]
+    fn restart<W: Write + ?Sized>(&mut self, x: u16, y: u16, tx: &mut FrameTx, out: &mut W) -> Result<(), TxError> {
+        self.flush(tx, out)?;
+        self.y = y;
+        self.x0 = x;
+        Ok(())
+    }
+
     /// Adds `n` pixels of colour `rgb` and primitive `prim` from (x, y) rightwards: the pixels
     /// of `n` [`push`](Self::push)es, and for `Rle` without primitive ids at the cost of
-    /// one per span (the run is encoded at once and the CRC taken over a repeated pattern);
+    /// one per span (the run is encoded at once and its CRC taken 16 pixels per step);
     /// the spans may be cut elsewhere than per pixel, never longer.
     #[allow(clippy::too_many_arguments)] // `push`'s arguments and the run length
     pub fn push_run<W: Write + ?Sized>(
@@ -217,10 +222,6 @@ impl SpanEncoder {
             }
             return Ok(());
         }
-        let mut pattern = [0u8; 3 * 16];
-        for c in pattern.chunks_exact_mut(3) {
-            c.copy_from_slice(&rgb);
-        }
         let (mut x, mut left) = (x as usize, n as usize);
         // Bounded: each round takes at least one pixel (a flushed span is empty).
         while left > 0 {
@@ -238,12 +239,7 @@ impl SpanEncoder {
             let written =
                 self.rle.push_run(rgb, k as u32, dst).map_err(|_| TxError::Msg(MsgError::EncodeBufferTooSmall))?;
             self.len = self.len.saturating_add(written);
-            let mut crc_left = k;
-            while crc_left > 0 {
-                let c = crc_left.min(16);
-                self.crc.update(pattern.get(..c.saturating_mul(3)).unwrap_or(&[]));
-                crc_left = crc_left.saturating_sub(c);
-            }
+            self.crc.update_rgb_run(rgb, k);
             self.count = self.count.saturating_add(k);
             x = x.saturating_add(k);
             left = left.saturating_sub(k);
