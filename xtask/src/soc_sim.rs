@@ -9,7 +9,8 @@
 
 use crate::firmware::{Bin, BuildOpts, Layout};
 use crate::soc_tools::{
-    build_firmware, parse_harts, parse_l2_kib, python, result, run_logged, soc_target_dir, FloatHw, RtlDir, DEFAULT_L2_KIB,
+    build_firmware, parse_harts, parse_l2_kib, python, result, run_logged, soc_target_dir, FloatHw, RtlDir,
+    DEFAULT_L2_KIB,
 };
 use crate::toolchain::{display_command, ToolchainChoice};
 use anyhow::{bail, Context, Result};

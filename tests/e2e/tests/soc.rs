@@ -269,11 +269,11 @@ fn soc_with_the_f32_cfu_renders_like_the_rtl_cosim() {
     assert_eq!(row["identical"], true, "and the f64 reference");
 }
 
-/// Two harts (`--harts 2`: a worker VexRiscv with its own port on the co-processor traces
-/// every second row): `gridrt bench frame --configs soc --soc-harts 2` renders the 32×24
-/// frame byte-identical to `--sim --coproc rtl` with the same work counted (rays, list
+/// Two harts (`--harts 2`: a worker VexRiscv with its own port on the co-processor claims
+/// rows beside the first hart): `gridrt bench frame --configs soc --soc-harts 2` renders the
+/// 32×24 frame byte-identical to `--sim --coproc rtl` with the same work counted (rays, list
 /// entries, tests: `bench frame` refuses a soc row whose counts differ), so every row the
-/// worker traced reached the first hart whole, in order, and through the shared
+/// worker traced reached the first hart whole and in order, and through the shared
 /// co-processor each hart got its own answers.
 #[test]
 fn soc_with_two_harts_renders_like_the_rtl_cosim() {

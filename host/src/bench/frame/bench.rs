@@ -83,19 +83,17 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
     let measured = soc
         .as_ref()
         .filter(|_| opt.measured_cpi.is_none() && opt.soc_float_hw == SocFloatHw::None && opt.soc_harts == 1)
-        .map(|(s, _)| {
-            MeasuredCpi {
-                core: "vexriscv-imac".into(),
-                source: "this run's soc row".into(),
-                by_stage: Stage::ALL
-                    .iter()
-                    .map(|&st| {
-                        let name = crate::stats::stage_name(st).to_string();
-                        (name, (s.run.stat(st.cycles_key()), s.run.stat(st.instret_key())))
-                    })
-                    .filter(|(_, (c, i))| *i > 0 && c >= i)
-                    .collect(),
-            }
+        .map(|(s, _)| MeasuredCpi {
+            core: "vexriscv-imac".into(),
+            source: "this run's soc row".into(),
+            by_stage: Stage::ALL
+                .iter()
+                .map(|&st| {
+                    let name = crate::stats::stage_name(st).to_string();
+                    (name, (s.run.stat(st.cycles_key()), s.run.stat(st.instret_key())))
+                })
+                .filter(|(_, (c, i))| *i > 0 && c >= i)
+                .collect(),
         });
     let with_soc_cpi;
     let opt = match measured {

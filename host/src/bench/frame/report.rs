@@ -473,8 +473,7 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
 pub(crate) fn distance_from_soc(rows: &mut [FrameRow]) {
     // The modelled rows model one soft-float VexRiscv imac: a CFU build is another CPU, two
     // harts another board.
-    let soft =
-        |r: &&FrameRow| r.board.float_hw.as_deref() != Some(SocFloatHw::Cfu.name()) && r.board.harts == Some(1);
+    let soft = |r: &&FrameRow| r.board.float_hw.as_deref() != Some(SocFloatHw::Cfu.name()) && r.board.harts == Some(1);
     let Some(soc_ms) = rows.iter().filter(soft).find(|r| r.config == Configuration::Soc.name()).map(|r| r.frame_ms)
     else {
         return;
