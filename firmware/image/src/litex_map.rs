@@ -383,21 +383,9 @@ pub mod coproc3 {
 pub const SDRAM_INIT: [SdramStep; 7] = [
     SdramStep { what: "Bring CKE high", action: SdramAction::Control(0x0e), address: 0x0000, bank: 0, delay: 20000 },
     SdramStep { what: "Precharge All", action: SdramAction::Command(0x0b), address: 0x0400, bank: 0, delay: 0 },
-    SdramStep {
-        what: "Load Mode Register / Reset DLL, CL=2, BL=1",
-        action: SdramAction::Command(0x0f),
-        address: 0x0120,
-        bank: 0,
-        delay: 200,
-    },
+    SdramStep { what: "Load Mode Register / Reset DLL, CL=2, BL=1", action: SdramAction::Command(0x0f), address: 0x0120, bank: 0, delay: 200 },
     SdramStep { what: "Precharge All", action: SdramAction::Command(0x0b), address: 0x0400, bank: 0, delay: 0 },
     SdramStep { what: "Auto Refresh", action: SdramAction::Command(0x0d), address: 0x0000, bank: 0, delay: 4 },
     SdramStep { what: "Auto Refresh", action: SdramAction::Command(0x0d), address: 0x0000, bank: 0, delay: 4 },
-    SdramStep {
-        what: "Load Mode Register / CL=2, BL=1",
-        action: SdramAction::Command(0x0f),
-        address: 0x0020,
-        bank: 0,
-        delay: 200,
-    },
+    SdramStep { what: "Load Mode Register / CL=2, BL=1", action: SdramAction::Command(0x0f), address: 0x0020, bank: 0, delay: 200 },
 ];

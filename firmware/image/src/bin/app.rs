@@ -94,9 +94,7 @@ fn main() -> ! {
 #[cfg(feature = "board-qemu-virt")]
 fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     use core::fmt::Write as _;
-    use gridrt_coproc::{
-        CoprocConfig, Coprocessor, FixedFrame, KernelKind, NumberFormat, TimingProfile, LIST_CAPACITY,
-    };
+    use gridrt_coproc::{CoprocConfig, Coprocessor, FixedFrame, KernelKind, NumberFormat, TimingProfile, LIST_CAPACITY};
 
     const WORDS: usize = board::PE_COUNT as usize * board::PE_MEM_WORDS as usize;
     /// The PE memories of the virtual co-processor (zeroed .bss).
