@@ -248,6 +248,8 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
                 sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
             } else {
                 self.background(&ctx.background, region.x0, lo, y, tx, out)?;
+                // The run before the traced columns is encoding, not the first pixel's raygen.
+                sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
                 for x in lo..hi {
                     let s = pixel(&mut self.path, scene, &self.clock, &mut sw, &ctx, &rays, x)?;
                     self.spans.push(x, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
