@@ -38,7 +38,7 @@ const MAX_ROW: usize = MAX_IMAGE_DIM as usize;
 const RING: u16 = regs::SLOTS;
 /// Workers at most.
 const MAX_WORKERS: usize = regs::MAX_HARTS as usize - 1;
-/// Bytes of each worker's stack (in .bss).
+/// Bytes of each worker's stack.
 const WORKER_STACK_BYTES: usize = 64 << 10;
 /// Polls of the registers before the first hart gives up on the workers: a CSR read each,
 /// far more than any row's time (a row of 4096 pixels at 10⁵ cycles per pixel is 4·10⁸
@@ -72,8 +72,9 @@ struct Shared(UnsafeCell<MaybeUninit<Exchange>>);
 // (`gridrt_firmware::bsp::harts`).
 unsafe impl Sync for Shared {}
 
-/// In .bss (an initialiser would put it into the loaded image); [`HartFarm::start`]
-/// initialises it before the workers run.
+/// In `.uninit` (riscv-rt neither loads nor zeroes it: zeroing 1 MiB would hold up every
+/// boot, with workers or not); [`HartFarm::start`] initialises it before the workers run.
+#[link_section = ".uninit.gridrt_exchange"]
 static EXCHANGE: Shared = Shared(UnsafeCell::new(MaybeUninit::uninit()));
 
 fn exchange() -> *mut Exchange {
@@ -107,7 +108,9 @@ fn init_exchange() {
 struct Stacks([[u8; WORKER_STACK_BYTES]; MAX_WORKERS]);
 
 /// The workers' stacks, worker k's the k-th; only `_gridrt_worker_start` takes their address.
-static mut WORKER_STACKS: Stacks = Stacks([[0; WORKER_STACK_BYTES]; MAX_WORKERS]);
+/// In `.uninit`, as [`EXCHANGE`].
+#[link_section = ".uninit.gridrt_worker_stacks"]
+static mut WORKER_STACKS: MaybeUninit<Stacks> = MaybeUninit::uninit();
 
 // The workers' reset vectors: worker k starts at `_gridrt_worker_start` + 8·(k − 1)
 // (`regs::ENTRY_STRIDE`; the stubs are uncompressed so that each is 8 bytes), with its number
