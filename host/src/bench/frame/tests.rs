@@ -342,12 +342,29 @@ fn measured_cpi_is_not_charged_to_the_soft_core_only_rows() {
     assert!(row.cpi_by_stage.is_none());
 }
 
+/// A `soc` run of `harts` at 50 MHz and 115 200 baud around the given frames.
+fn soc_run(run: DeviceRun, rtl: DeviceRun, harts: u32) -> super::soc::SocRun {
+    super::soc::SocRun {
+        run,
+        rtl,
+        clock: SocClock { clock_mhz: 50.0, source: "target", baud: 115_200 },
+        float_hw: SocFloatHw::None,
+        l2_kib: None,
+        harts,
+        pes: 4,
+        sim_cycles_per_s: 1e6,
+        sim_reported_cycles_per_s: None,
+        flash_s: 1.0,
+        upload_s: 1.0,
+        render_s: 50.0,
+    }
+}
+
 /// The `soc` row takes every figure from the SoC's own counters at the row's clock, and the
 /// modelled rows of the same run state their distance from it.
 #[test]
 fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_it() {
     use super::report::{distance_from_soc, soc_row};
-    use super::soc::SocRun;
     let opt = options();
     let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
     let mut run =
@@ -360,20 +377,7 @@ fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_
     run.frame.stats.insert(stat::FRAME_CYCLES, 50_000_000);
     run.frame.stats.insert(stat::LINK_CYCLES, 10_000_000);
     run.frame.stats.insert(stat::FRAME_TX_BYTES, 2304);
-    let soc = SocRun {
-        run,
-        rtl,
-        clock: SocClock { clock_mhz: 50.0, source: "target", baud: 115_200 },
-        float_hw: SocFloatHw::None,
-        l2_kib: None,
-        harts: 1,
-        pes: 4,
-        sim_cycles_per_s: 1e6,
-        sim_reported_cycles_per_s: None,
-        flash_s: 1.0,
-        upload_s: 1.0,
-        render_s: 50.0,
-    };
+    let soc = soc_run(run, rtl, 1);
     let cmp = compare(&soc.run.frame.rgb, &soc.run.frame.rgb, None, None).unwrap();
     let row = soc_row(&soc, &cmp);
     assert_eq!((row.config.as_str(), row.target.as_str()), ("soc", "riscv32imac"));
@@ -408,7 +412,6 @@ fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_
 #[test]
 fn a_two_hart_soc_row_has_no_stage_figures_and_models_no_distance_from_it() {
     use super::report::{distance_from_soc, soc_row};
-    use super::soc::SocRun;
     let opt = options();
     let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
     let mut run =
@@ -419,20 +422,7 @@ fn a_two_hart_soc_row_has_no_stage_figures_and_models_no_distance_from_it() {
         run.frame.stats.insert(s.cycles_key(), 0);
     }
     run.frame.stats.insert(stat::FRAME_CYCLES, 30_000_000);
-    let soc = SocRun {
-        run,
-        rtl,
-        clock: SocClock { clock_mhz: 50.0, source: "target", baud: 115_200 },
-        float_hw: SocFloatHw::None,
-        l2_kib: None,
-        harts: 2,
-        pes: 4,
-        sim_cycles_per_s: 1e6,
-        sim_reported_cycles_per_s: None,
-        flash_s: 1.0,
-        upload_s: 1.0,
-        render_s: 50.0,
-    };
+    let soc = soc_run(run, rtl, 2);
     let cmp = compare(&soc.run.frame.rgb, &soc.run.frame.rgb, None, None).unwrap();
     let row = soc_row(&soc, &cmp);
     assert_eq!((row.board.harts, row.board.frame_cycles), (Some(2), Some(30_000_000)));
