@@ -164,24 +164,7 @@ mod imp {
         assert!(at(uart::TXEMPTY, uart::BASE, uart_regs::TXEMPTY), "LiteX UART: TXEMPTY");
         assert!(1 << uart::EV_PENDING_RX_OFFSET == uart_regs::EV_RX, "LiteX UART: EV_RX");
         assert!(1 << uart::EV_PENDING_TX_OFFSET == uart_regs::EV_TX, "LiteX UART: EV_TX");
-        assert!(at(coproc::REQ, coproc::BASE, coproc_regs::REQ), "co-processor: REQ");
-        assert!(at(coproc::REQ_LAST, coproc::BASE, coproc_regs::REQ_LAST), "co-processor: REQ_LAST");
-        assert!(at(coproc::RSP, coproc::BASE, coproc_regs::RSP), "co-processor: RSP");
-        assert!(at(coproc::STATUS, coproc::BASE, coproc_regs::STATUS), "co-processor: STATUS");
-        assert!(at(coproc::CTRL, coproc::BASE, coproc_regs::CTRL), "co-processor: CTRL");
-        assert!(at(coproc::PES, coproc::BASE, coproc_regs::PES), "co-processor: PES");
-        assert!(at(coproc::PE_MEM_WORDS, coproc::BASE, coproc_regs::PE_MEM_WORDS), "co-processor: PE_MEM_WORDS");
-        assert!(coproc::STATUS_REQ_SPACE_OFFSET == coproc_regs::STATUS_REQ_SPACE_OFFSET);
-        assert!(coproc::STATUS_REQ_SPACE_SIZE == coproc_regs::STATUS_LEVEL_BITS);
-        assert!(coproc::STATUS_RSP_LEVEL_OFFSET == coproc_regs::STATUS_RSP_LEVEL_OFFSET);
-        assert!(coproc::STATUS_RSP_LEVEL_SIZE == coproc_regs::STATUS_LEVEL_BITS);
-        assert!(1 << coproc::STATUS_RSP_LAST_OFFSET == coproc_regs::STATUS_RSP_LAST);
-        assert!(1 << coproc::STATUS_IDLE_OFFSET == coproc_regs::STATUS_IDLE);
-        assert!(1 << coproc::STATUS_REQ_OVERFLOW_OFFSET == coproc_regs::STATUS_REQ_OVERFLOW);
-        assert!(1 << coproc::STATUS_RSP_UNDERFLOW_OFFSET == coproc_regs::STATUS_RSP_UNDERFLOW);
-        assert!(1 << coproc::CTRL_RESET_OFFSET == coproc_regs::CTRL_RESET);
-        use gridrt_firmware::bsp::harts::regs as harts_regs;
-        use map::{coproc1, coproc2, coproc3, harts};
+        // Every port's FIFO registers (the first hart's `coproc`, the workers' `coproc1..3`).
         macro_rules! port {
             ($p:ident) => {
                 assert!(at($p::REQ, $p::BASE, coproc_regs::REQ), "co-processor port: REQ");
@@ -195,6 +178,16 @@ mod imp {
                 assert!(1 << $p::STATUS_RSP_UNDERFLOW_OFFSET == coproc_regs::STATUS_RSP_UNDERFLOW);
             };
         }
+        port!(coproc);
+        assert!(at(coproc::CTRL, coproc::BASE, coproc_regs::CTRL), "co-processor: CTRL");
+        assert!(at(coproc::PES, coproc::BASE, coproc_regs::PES), "co-processor: PES");
+        assert!(at(coproc::PE_MEM_WORDS, coproc::BASE, coproc_regs::PE_MEM_WORDS), "co-processor: PE_MEM_WORDS");
+        assert!(coproc::STATUS_REQ_SPACE_SIZE == coproc_regs::STATUS_LEVEL_BITS);
+        assert!(coproc::STATUS_RSP_LEVEL_SIZE == coproc_regs::STATUS_LEVEL_BITS);
+        assert!(1 << coproc::STATUS_IDLE_OFFSET == coproc_regs::STATUS_IDLE);
+        assert!(1 << coproc::CTRL_RESET_OFFSET == coproc_regs::CTRL_RESET);
+        use gridrt_firmware::bsp::harts::regs as harts_regs;
+        use map::{coproc1, coproc2, coproc3, harts};
         port!(coproc1);
         port!(coproc2);
         port!(coproc3);
