@@ -108,10 +108,7 @@ class CoprocPort(LiteXModule):
 
     def __init__(self, fifo_depth=16):
         assert fifo_depth & (fifo_depth - 1) == 0 and 2 <= fifo_depth <= 128
-        self._req = CSR(32, name="req")
-        self._req_last = CSR(32, name="req_last")
-        self._rsp = CSR(32, name="rsp")
-        self._status = _status_csr()
+        _fifo_regs(self)
         self.reset = Signal()
         self.idle = Signal()
 
@@ -121,6 +118,15 @@ class CoprocPort(LiteXModule):
         self.rsp_fifo = ResetInserter()(stream.SyncFIFO(WORD_LAYOUT, fifo_depth))
         self.comb += [self.req_fifo.reset.eq(self.reset), self.rsp_fifo.reset.eq(self.reset)]
         _fifo_csrs(self, fifo_depth, self.reset, self.idle)
+
+
+def _fifo_regs(m):
+    """Gives ``m`` a port's four FIFO registers, in their order: ``req``, ``req_last``, ``rsp``,
+    ``status`` (module docstring)."""
+    m._req = CSR(32, name="req")
+    m._req_last = CSR(32, name="req_last")
+    m._rsp = CSR(32, name="rsp")
+    m._status = _status_csr()
 
 
 def _status_csr():
@@ -265,10 +271,7 @@ class GridrtCoprocCSR(LiteXModule):
         assert fifo_depth & (fifo_depth - 1) == 0 and 2 <= fifo_depth <= 128
         self.fifo_depth = fifo_depth
 
-        self._req = CSR(32, name="req")
-        self._req_last = CSR(32, name="req_last")
-        self._rsp = CSR(32, name="rsp")
-        self._status = _status_csr()
+        _fifo_regs(self)
         self._ctrl = CSRStorage(
             fields=[
                 CSRField(
