@@ -38,6 +38,9 @@ use crate::grid::Grid;
 use crate::multi::DeviceShare;
 use crate::session::{LinkStats, RenderedFrame};
 
+/// One past the last per-hart key (4 harts from each base).
+const HART_KEYS_END: u8 = stat::HART_WAIT_BASE + 4;
+
 /// Name of a device statistics key.
 pub fn stat_name(key: u8) -> String {
     match key {
@@ -64,6 +67,9 @@ pub fn stat_name(key: u8) -> String {
         stat::FRAME_CYCLES => "frame_cycles".into(),
         stat::LINK_CYCLES => "link_cycles".into(),
         stat::FRAME_TX_BYTES => "frame_tx_bytes".into(),
+        k @ stat::HART_ROWS_BASE..stat::HART_BUSY_BASE => format!("hart{}_rows", k - stat::HART_ROWS_BASE),
+        k @ stat::HART_BUSY_BASE..stat::HART_WAIT_BASE => format!("hart{}_busy_cycles", k - stat::HART_BUSY_BASE),
+        k @ stat::HART_WAIT_BASE..HART_KEYS_END => format!("hart{}_wait_cycles", k - stat::HART_WAIT_BASE),
         k => {
             // Per-stage counters, keyed as the firmware sends them (`device::Stage`).
             for s in Stage::ALL {
@@ -445,6 +451,10 @@ mod tests {
         assert_eq!(stat_name(stat::COPROC_CYCLES), "coproc_cycles");
         assert_eq!(stat_name(Stage::Traverse.cycles_key()), "stage_traverse_cycles");
         assert_eq!(stat_name(0x30), "key_48");
+        assert_eq!(stat_name(stat::HART_ROWS_BASE), "hart0_rows");
+        assert_eq!(stat_name(stat::HART_BUSY_BASE + 3), "hart3_busy_cycles");
+        assert_eq!(stat_name(stat::HART_WAIT_BASE + 1), "hart1_wait_cycles");
+        assert_eq!(stat_name(stat::HART_WAIT_BASE + 4), "key_92");
     }
 }
 

@@ -136,6 +136,18 @@ fn every_bit_and_key_of_the_code_has_its_row_in_spec_section_7() {
     // s = 5 and 6.
     assert_eq!((stat::STAGE_BASE, stat::STAGE_SPLAT_CODEGEN, stat::STAGE_SPLAT_STAGE), (0x40, 0x4A, 0x4C));
     assert!(spec.iter().any(|(f, v, _)| f == "Stats key" && v == "0x40 + 2s"));
+    // The per-hart keys: base + h for harts h = 0..=3.
+    for (base, name) in [
+        (stat::HART_ROWS_BASE, "HART_ROWS_BASE"),
+        (stat::HART_BUSY_BASE, "HART_BUSY_BASE"),
+        (stat::HART_WAIT_BASE, "HART_WAIT_BASE"),
+    ] {
+        let row =
+            spec.iter().find(|(f, _, names)| f == "Stats key" && names.iter().any(|n| n == &format!("{name} + h")));
+        let Some((_, value, _)) = row else { panic!("SPEC.md §7 has no row for Stats key {name} + h") };
+        assert_eq!(value, &format!("{} + h", key(base)), "SPEC.md §7 gives {name} as {value}");
+    }
+    assert_eq!((stat::HART_ROWS_BASE + 4, stat::HART_BUSY_BASE + 4), (stat::HART_BUSY_BASE, stat::HART_WAIT_BASE));
 }
 
 #[test]
@@ -143,8 +155,8 @@ fn every_row_of_spec_section_7_names_a_constant_of_the_code() {
     let code: BTreeMap<(String, String), &str> =
         code_rows().into_iter().map(|(f, v, n)| ((f.to_string(), n.to_string()), v.leak() as &str)).collect();
     for (field, value, names) in spec_rows() {
-        if value.contains('s') {
-            continue; // the per-stage rows: a formula over the stage number
+        if value.contains(" + ") {
+            continue; // the per-stage and per-hart rows: a formula over the stage or hart number
         }
         let known = names.iter().any(|n| code.contains_key(&(field.clone(), n.clone())));
         assert!(known, "SPEC.md §7 lists {field} {value} {names:?}, which the code does not define");
@@ -158,7 +170,14 @@ fn the_registry_test_lists_every_constant_of_those_modules() {
     let root = env!("CARGO_MANIFEST_DIR");
     let listed: Vec<&str> = code_rows().into_iter().map(|(_, _, n)| n).collect();
     let skip = ["INTERP_STEP_SHIFT", "INTERP_STEP_MASK", "INTERP_EPS_SHIFT", "INTERP_EPS_MASK"];
-    let skip_stage = ["STAGE_BASE", "STAGE_SPLAT_CODEGEN", "STAGE_SPLAT_STAGE"];
+    let skip_stage = [
+        "STAGE_BASE",
+        "STAGE_SPLAT_CODEGEN",
+        "STAGE_SPLAT_STAGE",
+        "HART_ROWS_BASE",
+        "HART_BUSY_BASE",
+        "HART_WAIT_BASE",
+    ];
     for (file, module) in [
         ("src/msg/device.rs", "pub mod feature"),
         ("src/msg/render.rs", "pub mod render_flags"),

@@ -187,6 +187,30 @@ fn pause() {
     }
 }
 
+/// This hart's `mcycle`, low word (a row or a wait is far below 2^32 cycles: differences
+/// wrap correctly).
+#[inline(always)]
+fn cycles() -> u32 {
+    riscv::register::mcycle::read() as u32
+}
+
+/// Counts one row that took `busy` cycles, after `wait` cycles of waiting, to hart `hart`
+/// in `stats` (the row's counters, which the first hart adds to the frame's).
+fn charge(stats: &mut FrameStats, hart: u32, busy: u32, wait: u32) {
+    if let Some(w) = stats.harts.get_mut(hart as usize) {
+        w.rows = w.rows.wrapping_add(1);
+        w.busy_cycles = w.busy_cycles.wrapping_add(u64::from(busy));
+        w.wait_cycles = w.wait_cycles.wrapping_add(u64::from(wait));
+    }
+}
+
+/// Adds the first hart's uncharged `waited` cycles to a row's counters.
+fn charge_wait(stats: &mut FrameStats, waited: &mut u32) {
+    if let Some(w) = stats.harts.first_mut() {
+        w.wait_cycles = w.wait_cycles.wrapping_add(u64::from(core::mem::take(waited)));
+    }
+}
+
 fn hart_csr() -> HartCsr<VolatileMmio> {
     // SAFETY: the SoC's `harts` block (csr.json); its registers are plain words.
     HartCsr::new(unsafe { VolatileMmio::new(map::harts::BASE) })
@@ -248,18 +272,22 @@ fn trace_rows(csr: &HartCsr<VolatileMmio>, worker: u32, job: Job, rows: &Rows<'_
             break;
         }
         // Slot k mod RING is free once row k − RING is sent.
+        let waited = cycles();
         while k >= csr.sent().saturating_add(RING) {
             if csr.job() != job {
                 return traced;
             }
             pause();
         }
+        let started = cycles();
         // SAFETY: the first hart reads this slot only after its READY bit is set below, and
         // row k − RING, its last occupant, is sent (the wait above).
         let s = unsafe { &mut *slot(k) };
         s.y = y0.wrapping_add(k);
         s.fault = tracer.row(rows, s.y, &mut s.samples).err();
-        s.stats = Some(tracer.take_stats());
+        let mut stats = tracer.take_stats();
+        charge(&mut stats, worker, cycles().wrapping_sub(started), started.wrapping_sub(waited));
+        s.stats = Some(stats);
         traced = traced.wrapping_add(1);
         fence(Ordering::SeqCst);
         csr.set_ready(k);
@@ -355,16 +383,27 @@ impl<L> RowFarm<L> for HartFarm {
         let mut claims_left = true;
         let mut next = 0u16;
         let mut polls = 0u32;
+        // This hart's waits for the next row: since when (`None`: not waiting), and the cycles
+        // not yet charged to a row's counters.
+        let mut wait_start: Option<u32> = None;
+        let mut waited = 0u32;
         while next < n {
             let y = y0.wrapping_add(next);
-            let (flow, fault) = if let Some((_, fault, stats)) = mine.take_if(|m| m.0 == next) {
+            if let Some(w) =
+                wait_start.take_if(|_| mine.as_ref().is_some_and(|m| m.0 == next) || self.csr.is_ready(next))
+            {
+                waited = waited.wrapping_add(cycles().wrapping_sub(w));
+            }
+            let (flow, fault) = if let Some((_, fault, mut stats)) = mine.take_if(|m| m.0 == next) {
+                charge_wait(&mut stats, &mut waited);
                 (sink(RowDone { y, samples: own, fault, stats }), fault)
             } else if self.workers > 0 && self.csr.is_ready(next) {
                 invalidate_dcache();
                 // SAFETY: the worker that traced row `next` set its READY bit after writing
                 // the slot, and writes it again only after SENT passes it.
                 let s = unsafe { &*slot(next) };
-                let (fault, stats) = (s.fault, s.stats.unwrap_or_default());
+                let (fault, mut stats) = (s.fault, s.stats.unwrap_or_default());
+                charge_wait(&mut stats, &mut waited);
                 let flow = sink(RowDone { y, samples: &s.samples, fault, stats });
                 self.csr.clear_ready(next);
                 (flow, fault)
@@ -372,14 +411,23 @@ impl<L> RowFarm<L> for HartFarm {
                 // The next row is not ready: trace one here meanwhile.
                 let k = if self.workers > 0 { self.csr.claim() } else { next };
                 if k < n {
+                    let started = cycles();
+                    if let Some(w) = wait_start.take() {
+                        waited = waited.wrapping_add(started.wrapping_sub(w));
+                    }
                     let fault = tracer.row(rows, y0.wrapping_add(k), own).err();
-                    mine = Some((k, fault, tracer.take_stats()));
+                    let mut stats = tracer.take_stats();
+                    if self.workers > 0 {
+                        charge(&mut stats, 0, cycles().wrapping_sub(started), 0);
+                    }
+                    mine = Some((k, fault, stats));
                 } else {
                     claims_left = false;
                 }
                 polls = 0;
                 continue;
             } else {
+                wait_start.get_or_insert_with(cycles);
                 pause();
                 polls = polls.wrapping_add(1);
                 if polls >= WORKER_POLLS || (polls.is_multiple_of(256) && self.trapped()) {

@@ -95,10 +95,11 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         if job.no_stats {
             return Ok((spans, crc));
         }
-        let entries = self.path.stats.to_bytes();
+        let (bytes, len) = self.path.stats.to_bytes();
+        let entries = bytes.get(..len).unwrap_or(&bytes);
         // Only a write error stops the frame here (a `Stats` that does not fit a frame would be
         // a firmware bug, and the frame's pixels are all out).
-        if let Err(TxError::Write(_)) = tx.send(&Msg::Stats { frame: req.frame, entries: &entries }, out) {
+        if let Err(TxError::Write(_)) = tx.send(&Msg::Stats { frame: req.frame, entries }, out) {
             return Err(Fail::Output);
         }
         Ok((spans, crc))

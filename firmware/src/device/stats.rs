@@ -226,14 +226,33 @@ pub struct FrameStats {
     pub link_cycles: u64,
     /// Bytes written to the UART in that span.
     pub frame_tx_bytes: u64,
+    /// Where each hart's time went, in a frame shared by several harts (all zero otherwise).
+    pub harts: [HartWork; MAX_FRAME_HARTS],
+}
+
+/// Harts a frame's per-hart counters cover (`stat::HART_ROWS_BASE + h`, h < 4).
+pub const MAX_FRAME_HARTS: usize = 4;
+
+/// One hart's share of a frame (`stat::HART_ROWS_BASE`, `HART_BUSY_BASE`, `HART_WAIT_BASE`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct HartWork {
+    /// Rows it traced.
+    pub rows: u64,
+    /// Cycles it spent tracing them.
+    pub busy_cycles: u64,
+    /// Cycles it waited (the first hart for the next row, a worker for a free row slot).
+    pub wait_cycles: u64,
 }
 
 /// Stats entries of the pipeline plan (SPEC.md §3.13), the excluded work and the frame's
 /// timing (§3.8), after the per-stage counters.
 const PLAN_STATS: usize = 12;
 
-/// Number of entries in a `Msg::Stats`.
+/// Number of entries in a `Msg::Stats` (of a frame one hart traced).
 pub const STAT_COUNT: usize = 10 + 2 * Stage::ALL.len() + PLAN_STATS;
+
+/// Bytes of the longest `Msg::Stats` entries: [`STAT_COUNT`] and three per hart.
+pub const MAX_STATS_BYTES: usize = (STAT_COUNT + 3 * MAX_FRAME_HARTS) * STAT_ENTRY_LEN;
 
 impl FrameStats {
     /// Adds every counter of `o` (all but `plan`) to this one's, as if this frame had also
@@ -263,6 +282,7 @@ impl FrameStats {
             frame_cycles,
             link_cycles,
             frame_tx_bytes,
+            harts,
         } = *o;
         count(&mut self.primary_rays, primary_rays);
         count(&mut self.shadow_rays, shadow_rays);
@@ -289,6 +309,11 @@ impl FrameStats {
         count(&mut self.frame_cycles, frame_cycles);
         count(&mut self.link_cycles, link_cycles);
         count(&mut self.frame_tx_bytes, frame_tx_bytes);
+        for (h, o) in self.harts.iter_mut().zip(harts) {
+            count(&mut h.rows, o.rows);
+            count(&mut h.busy_cycles, o.busy_cycles);
+            count(&mut h.wait_cycles, o.wait_cycles);
+        }
     }
 
     /// (key, value) pairs in the order they are sent.
@@ -330,17 +355,35 @@ impl FrameStats {
         e
     }
 
+    /// The per-hart entries of a frame shared by several harts: for each hart that traced a
+    /// row, its rows, busy and wait cycles (none on a frame one hart traced).
+    pub fn hart_entries(&self) -> impl Iterator<Item = (u8, u64)> + '_ {
+        let shared = self.harts.iter().skip(1).any(|h| h.rows > 0);
+        (0u8..).zip(self.harts.iter()).filter(move |(_, w)| shared && w.rows > 0).flat_map(|(h, w)| {
+            [
+                (stat::HART_ROWS_BASE.wrapping_add(h), w.rows),
+                (stat::HART_BUSY_BASE.wrapping_add(h), w.busy_cycles),
+                (stat::HART_WAIT_BASE.wrapping_add(h), w.wait_cycles),
+            ]
+        })
+    }
+
     /// The `entries` of `Msg::Stats`: each pair as its key byte and the value in little
-    /// endian, in [`entries`](Self::entries) order.
-    pub fn to_bytes(&self) -> [u8; STAT_COUNT * STAT_ENTRY_LEN] {
-        let mut buf = [0u8; STAT_COUNT * STAT_ENTRY_LEN];
-        for (chunk, (k, v)) in buf.chunks_exact_mut(STAT_ENTRY_LEN).zip(self.entries()) {
+    /// endian, [`entries`](Self::entries) then [`hart_entries`](Self::hart_entries); the
+    /// first `len` bytes of the buffer.
+    pub fn to_bytes(&self) -> ([u8; MAX_STATS_BYTES], usize) {
+        let mut buf = [0u8; MAX_STATS_BYTES];
+        let mut len = 0usize;
+        for (chunk, (k, v)) in
+            buf.chunks_exact_mut(STAT_ENTRY_LEN).zip(self.entries().into_iter().chain(self.hart_entries()))
+        {
             if let Some((key, val)) = chunk.split_first_mut() {
                 *key = k;
                 val.copy_from_slice(&v.to_le_bytes());
             }
+            len = len.wrapping_add(STAT_ENTRY_LEN);
         }
-        buf
+        (buf, len)
     }
 }
 

@@ -16,7 +16,7 @@ use gridrt_shared::math::Vec3;
 use gridrt_shared::msg::{
     feature, render_flags, stat, DeviceInfo, ErrorCode, Msg, MsgError, MsgType, RenderRequest, SceneStatus,
 };
-use gridrt_shared::msg::{stat_entries, PixelEncoding};
+use gridrt_shared::msg::{stat_entries, PixelEncoding, STAT_ENTRY_LEN};
 use gridrt_shared::scene::{LightingRecord, Material, MaterialModel, SceneError, SceneHeader, EMPTY_VOXEL};
 use gridrt_shared::scene::{TriangleRecord, HEADER_LEN, PE_IMAGE_TAG};
 use rand::{Rng, SeedableRng};
@@ -568,3 +568,32 @@ fn stage_counters_are_reported_under_stage_keys() {
 
 mod link;
 mod upload;
+
+#[test]
+fn stats_carry_per_hart_entries_only_for_a_frame_several_harts_traced() {
+    let mut s = FrameStats::default();
+    s.harts[0] = HartWork { rows: 5, busy_cycles: 500, wait_cycles: 50 };
+    // One hart: the base entries only.
+    assert_eq!(s.hart_entries().count(), 0);
+    assert_eq!(s.to_bytes().1, STAT_COUNT * STAT_ENTRY_LEN);
+    s.harts[2] = HartWork { rows: 3, busy_cycles: 300, wait_cycles: 7 };
+    let mut other = FrameStats::default();
+    other.harts[2] = HartWork { rows: 1, busy_cycles: 100, wait_cycles: 1 };
+    s.accumulate(&other);
+    let hart: Vec<(u8, u64)> = s.hart_entries().collect();
+    assert_eq!(
+        hart,
+        [
+            (stat::HART_ROWS_BASE, 5),
+            (stat::HART_BUSY_BASE, 500),
+            (stat::HART_WAIT_BASE, 50),
+            (stat::HART_ROWS_BASE + 2, 4),
+            (stat::HART_BUSY_BASE + 2, 400),
+            (stat::HART_WAIT_BASE + 2, 8),
+        ]
+    );
+    let (bytes, len) = s.to_bytes();
+    assert_eq!(len, (STAT_COUNT + 6) * STAT_ENTRY_LEN);
+    let sent: Vec<(u8, u64)> = stat_entries(&bytes[..len]).skip(STAT_COUNT).collect();
+    assert_eq!(sent, hart);
+}

@@ -56,6 +56,14 @@ pub mod stat {
     /// Bytes the device wrote to the UART between those two instants (the frame's spans and
     /// `Stats` excluded: pixels only, framing included).
     pub const FRAME_TX_BYTES: u8 = 0x2C;
+    /// First key of the per-hart counters of a frame shared by several harts (SoC built with
+    /// `--harts N`): rows hart h traced at `HART_ROWS_BASE + h`, h = 0..=3 (0: the first).
+    pub const HART_ROWS_BASE: u8 = 0x50;
+    /// Cycles (`mcycle`) hart h spent tracing its rows: `HART_BUSY_BASE + h`.
+    pub const HART_BUSY_BASE: u8 = 0x54;
+    /// Cycles hart h waited: the first hart for the next row to be ready, a worker for a free
+    /// row slot: `HART_WAIT_BASE + h`.
+    pub const HART_WAIT_BASE: u8 = 0x58;
     /// Splat frames (SPEC.md §6): points the code generator transformed.
     pub const SPLAT_POINTS: u8 = 0x30;
     /// Splat codewords sent to the splat stage (one per 8×8 tile).

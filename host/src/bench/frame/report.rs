@@ -228,10 +228,43 @@ pub struct BoardFields {
     pub sim_cycles_per_s: Option<f64>,
     /// `soc`: byte-identical to `gridrt render --sim --coproc rtl` of the same frame.
     pub identical_to_rtl_sim: Option<bool>,
+    /// `soc` with several harts: where each hart's time went (measured, the device's
+    /// `hartN_*` counters), the first hart first; null on one hart.
+    pub hart_work: Option<Vec<HartShare>>,
     /// Modelled rows of a run with a `soc` row: this row's frame time ÷ the `soc` row's − 1
     /// (the same frame at the same clock and baud; the model's error where the row models
     /// the SoC, `rtl` on riscv32imac).
     pub vs_soc: Option<f64>,
+}
+
+/// One hart's part of a frame on the SoC (device keys `HART_*_BASE + h`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HartShare {
+    /// Rows it traced.
+    pub rows: u64,
+    /// Cycles it spent tracing them.
+    pub busy_cycles: u64,
+    /// Cycles it waited: the first hart for the next row, a worker for a free row slot.
+    pub wait_cycles: u64,
+    /// `busy_cycles` ÷ the frame's cycles.
+    pub busy_share: f64,
+}
+
+/// The per-hart counters of a frame shared by several harts (none when it has none).
+fn hart_work(run: &DeviceRun, frame_cycles: u64) -> Option<Vec<HartShare>> {
+    let shares: Vec<HartShare> = (0..4u8)
+        .map(|h| {
+            let busy = run.stat(stat::HART_BUSY_BASE + h);
+            HartShare {
+                rows: run.stat(stat::HART_ROWS_BASE + h),
+                busy_cycles: busy,
+                wait_cycles: run.stat(stat::HART_WAIT_BASE + h),
+                busy_share: busy as f64 / frame_cycles.max(1) as f64,
+            }
+        })
+        .collect();
+    let last = shares.iter().rposition(|s| s.rows > 0)?;
+    (last > 0).then(|| shares[..=last].to_vec())
 }
 
 fn per_stage(run: &DeviceRun, wrapper: u64) -> (u64, BTreeMap<String, f64>) {
@@ -464,6 +497,7 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
             frame_tx_bytes: Some(run.stat(stat::FRAME_TX_BYTES)),
             sim_cycles_per_s: Some(soc.sim_cycles_per_s),
             identical_to_rtl_sim: Some(run.frame.rgb == soc.rtl.frame.rgb),
+            hart_work: hart_work(run, frame_cycles),
             vs_soc: None,
         },
     }

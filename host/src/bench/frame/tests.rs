@@ -422,10 +422,22 @@ fn a_two_hart_soc_row_has_no_stage_figures_and_models_no_distance_from_it() {
         run.frame.stats.insert(s.cycles_key(), 0);
     }
     run.frame.stats.insert(stat::FRAME_CYCLES, 30_000_000);
+    // Where each hart's time went: the first traced 2 rows, the worker 4.
+    for (h, rows, busy, wait) in [(0u8, 2, 9_000_000, 3_000_000), (1, 4, 27_000_000, 600_000)] {
+        run.frame.stats.insert(stat::HART_ROWS_BASE + h, rows);
+        run.frame.stats.insert(stat::HART_BUSY_BASE + h, busy);
+        run.frame.stats.insert(stat::HART_WAIT_BASE + h, wait);
+    }
     let soc = soc_run(run, rtl, 2);
     let cmp = compare(&soc.run.frame.rgb, &soc.run.frame.rgb, None, None).unwrap();
     let row = soc_row(&soc, &cmp);
     assert_eq!((row.board.harts, row.board.frame_cycles), (Some(2), Some(30_000_000)));
+    let work = row.board.hart_work.as_ref().expect("per-hart counters on a two-hart frame");
+    assert_eq!(
+        work.iter().map(|w| (w.rows, w.busy_cycles, w.wait_cycles)).collect::<Vec<_>>(),
+        [(2, 9_000_000, 3_000_000), (4, 27_000_000, 600_000)]
+    );
+    assert!((work[0].busy_share - 0.3).abs() < 1e-12 && (work[1].busy_share - 0.9).abs() < 1e-12);
     assert!((row.frame_ms - 600.0).abs() < 1e-9);
     assert_eq!((row.instructions_per_primary_ray, row.cpi, row.instructions), (None, None, None));
     assert!(row.cpi_by_stage.is_none() && row.instructions_per_primary_ray_by_stage.is_none());

@@ -346,6 +346,17 @@ fn print_table(r: &FrameReport) {
             row.board.vs_soc.map_or_else(|| "-".into(), |v| format!("{:+.1}%", v * 100.0)),
         );
     }
+    for row in &r.rows {
+        for (h, w) in row.board.hart_work.iter().flatten().enumerate() {
+            println!(
+                "{:<15} hart {h}: {} rows, busy {:.1} % of the frame, waited {:.1} %",
+                row.config,
+                w.rows,
+                w.busy_share * 100.0,
+                w.wait_cycles as f64 / row.board.frame_cycles.unwrap_or(0).max(1) as f64 * 100.0
+            );
+        }
+    }
     for s in &r.skipped {
         println!("{:<15} no row: {}", s.config, s.why);
     }
