@@ -36,20 +36,26 @@ from litex.gen import LiteXModule
 from litex.soc.cores.cpu.vexriscv import VexRiscv
 from litex.soc.interconnect.csr import CSR, CSRStatus, CSRStorage
 
+from .icache import HartInstructionCache
+
 # Harts a build may have; the map has registers (and co-processor ports) for all of them.
 MAX_HARTS = 4
 # Bytes between two workers' entry stubs.
 ENTRY_STRIDE = 8
 # Row slots the `ready` bitmap tracks.
 SLOTS = 16
+# Bytes of each worker's private instruction cache (``icache.HartInstructionCache``; 0: none).
+WORKER_ICACHE_SIZE = 8 * 1024
 
 
 class GridrtHarts(LiteXModule):
     """``harts - 1`` worker CPUs of ``variant`` (with the CFU of ``cfu``, a path, when not
-    None) and the registers of the module docstring. ``cpus``: the workers, whose ``ibus``
-    and ``dbus`` the SoC adds as bus masters."""
+    None) and the registers of the module docstring. ``cpus``: the workers; ``ibuses`` and
+    ``dbuses``: their buses, which the SoC adds as bus masters (an instruction bus through
+    the worker's own ``icache_size``-byte instruction cache, ``icache.HartInstructionCache``,
+    unless that is 0)."""
 
-    def __init__(self, platform, variant, harts=1, cfu=None):
+    def __init__(self, platform, variant, harts=1, cfu=None, icache_size=WORKER_ICACHE_SIZE):
         if not 1 <= harts <= MAX_HARTS:
             raise ValueError(f"harts {harts}: expected 1 to {MAX_HARTS}")
         self.count = CSRStatus(8, reset=harts, description="Harts of this build, the first included.")
@@ -78,7 +84,7 @@ class GridrtHarts(LiteXModule):
             If(self._ready_clr.re, ready.eq(ready & ~self._ready_clr.r)),
         ]
 
-        self.cpus = []
+        self.cpus, self.ibuses, self.dbuses = [], [], []
         for k in range(1, harts):
             cpu = VexRiscv(platform, variant)
             cpu.set_reset_address(0)
@@ -89,3 +95,12 @@ class GridrtHarts(LiteXModule):
                 cpu.add_cfu(cfu)
             setattr(self, f"cpu{k}", cpu)
             self.cpus.append(cpu)
+            self.dbuses.append(cpu.dbus)
+            if icache_size:
+                icache = HartInstructionCache(icache_size)
+                # Cleared while the worker is held in reset: each run fetches the code anew.
+                self.comb += [cpu.ibus.connect(icache.cpu), icache.flush.eq(cpu.reset)]
+                setattr(self, f"icache{k}", icache)
+                self.ibuses.append(icache.bus)
+            else:
+                self.ibuses.append(cpu.ibus)

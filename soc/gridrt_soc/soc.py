@@ -148,6 +148,7 @@ class GridrtSoC(SoCCore):
             with_timer=True,
             ident=ident,
             ident_version=False,
+            bus_interconnect="crossbar" if harts > 1 else "shared",
         )
 
         # Main RAM in SDRAM (the PHY joins the SoC's module tree here).
@@ -169,9 +170,9 @@ class GridrtSoC(SoCCore):
         self.harts = GridrtHarts(
             platform, CPU_VARIANTS[float_hw], harts, cfu=str(CFU_WRAPPER) if float_hw == "cfu" else None
         )
-        for k, cpu in enumerate(self.harts.cpus, start=1):
-            self.bus.add_master(name=f"hart{k}_ibus", master=cpu.ibus)
-            self.bus.add_master(name=f"hart{k}_dbus", master=cpu.dbus)
+        for k, (ibus, dbus) in enumerate(zip(self.harts.ibuses, self.harts.dbuses), start=1):
+            self.bus.add_master(name=f"hart{k}_ibus", master=ibus)
+            self.bus.add_master(name=f"hart{k}_dbus", master=dbus)
         ports = []
         for k in range(1, MAX_HARTS):
             port = CoprocPort(fifo_depth=COPROC_FIFO_DEPTH)
