@@ -34,6 +34,7 @@ from migen import If, Signal
 
 from litex.gen import LiteXModule
 from litex.soc.cores.cpu.vexriscv import VexRiscv
+from litex.soc.interconnect import wishbone
 from litex.soc.interconnect.csr import CSR, CSRStatus, CSRStorage
 
 from .icache import HartInstructionCache
@@ -46,6 +47,11 @@ ENTRY_STRIDE = 8
 SLOTS = 16
 # Bytes of each worker's private instruction cache (``icache.HartInstructionCache``; 0: none).
 WORKER_ICACHE_SIZE = 8 * 1024
+# Each worker's private RAM, its stack: the same addresses for every worker, outside the SoC's
+# memory map (only the worker's own data bus reaches it). The firmware's worker needs about
+# 25 KiB of stack (its row tracer holds the request buffer and the origin's plane table).
+HART_RAM_BASE = 0x2000_0000
+HART_RAM_SIZE = 32 * 1024
 
 
 class GridrtHarts(LiteXModule):
@@ -53,7 +59,7 @@ class GridrtHarts(LiteXModule):
     None) and the registers of the module docstring. ``cpus``: the workers; ``ibuses`` and
     ``dbuses``: their buses, which the SoC adds as bus masters (an instruction bus through
     the worker's own ``icache_size``-byte instruction cache, ``icache.HartInstructionCache``,
-    unless that is 0)."""
+    unless that is 0; a data bus past the worker's private RAM at ``HART_RAM_BASE``)."""
 
     def __init__(self, platform, variant, harts=1, cfu=None, icache_size=WORKER_ICACHE_SIZE):
         if not 1 <= harts <= MAX_HARTS:
@@ -95,7 +101,19 @@ class GridrtHarts(LiteXModule):
                 cpu.add_cfu(cfu)
             setattr(self, f"cpu{k}", cpu)
             self.cpus.append(cpu)
-            self.dbuses.append(cpu.dbus)
+            # The private RAM (block RAM, one cycle, no other master) takes the data bus's
+            # accesses to its window; the rest go on to the SoC bus.
+            ram = wishbone.SRAM(HART_RAM_SIZE)
+            shared = wishbone.Interface(data_width=32, address_width=32, addressing="word")
+            low = (HART_RAM_SIZE // 4 - 1).bit_length()
+            window = HART_RAM_BASE // 4 >> low
+            setattr(self, f"ram{k}", ram)
+            setattr(
+                self,
+                f"dbus_decoder{k}",
+                wishbone.Decoder(cpu.dbus, [(lambda a: a[low:] == window, ram.bus), (lambda a: a[low:] != window, shared)]),
+            )
+            self.dbuses.append(shared)
             if icache_size:
                 icache = HartInstructionCache(icache_size)
                 # Cleared while the worker is held in reset: each run fetches the code anew.

@@ -32,7 +32,7 @@ from litex.soc.cores.uart import UART
 from litex.soc.integration.soc_core import SoCCore
 
 from .coproc import CoprocPort, GridrtCoprocCSR
-from .harts import MAX_HARTS, GridrtHarts
+from .harts import HART_RAM_BASE, HART_RAM_SIZE, MAX_HARTS, GridrtHarts
 
 KIB = 1024
 
@@ -170,6 +170,8 @@ class GridrtSoC(SoCCore):
         self.harts = GridrtHarts(
             platform, CPU_VARIANTS[float_hw], harts, cfu=str(CFU_WRAPPER) if float_hw == "cfu" else None
         )
+        self.add_constant("GRIDRT_HART_RAM_BASE", HART_RAM_BASE)
+        self.add_constant("GRIDRT_HART_RAM_SIZE", HART_RAM_SIZE)
         for k, (ibus, dbus) in enumerate(zip(self.harts.ibuses, self.harts.dbuses), start=1):
             self.bus.add_master(name=f"hart{k}_ibus", master=ibus)
             self.bus.add_master(name=f"hart{k}_dbus", master=dbus)

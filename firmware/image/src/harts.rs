@@ -36,10 +36,6 @@ use crate::litex_map as map;
 const MAX_ROW: usize = MAX_IMAGE_DIM as usize;
 /// Row slots: row k of a frame goes into slot k mod RING (`READY` bit k mod RING).
 const RING: u16 = regs::SLOTS;
-/// Workers at most.
-const MAX_WORKERS: usize = regs::MAX_HARTS as usize - 1;
-/// Bytes of each worker's stack.
-const WORKER_STACK_BYTES: usize = 64 << 10;
 /// Polls of the registers before the first hart gives up on the workers: a CSR read each,
 /// far more than any row's time (a row of 4096 pixels at 10⁵ cycles per pixel is 4·10⁸
 /// cycles).
@@ -104,13 +100,10 @@ fn init_exchange() {
     }
 }
 
-#[repr(C, align(16))]
-struct Stacks([[u8; WORKER_STACK_BYTES]; MAX_WORKERS]);
-
-/// The workers' stacks, worker k's the k-th; only `_gridrt_worker_start` takes their address.
-/// In `.uninit`, as [`EXCHANGE`].
-#[link_section = ".uninit.gridrt_worker_stacks"]
-static mut WORKER_STACKS: MaybeUninit<Stacks> = MaybeUninit::uninit();
+/// The top of a worker's stack: the end of its private RAM (`soc/gridrt_soc/harts.py`), at the
+/// same addresses for every worker and reached only by its own data bus, so a worker's stack
+/// traffic stays off the bus the harts share.
+const WORKER_STACK_TOP: usize = map::HART_RAM_BASE + map::HART_RAM_SIZE;
 
 // The workers' reset vectors: worker k starts at `_gridrt_worker_start` + 8·(k − 1)
 // (`regs::ENTRY_STRIDE`; the stubs are uncompressed so that each is 8 bytes), with its number
@@ -137,9 +130,7 @@ core::arch::global_asm!(
     "la gp, __global_pointer$",
     ".option pop",
     "csrw mscratch, a0",
-    "la sp, {stacks}",
-    "slli t0, a0, {stack_shift}",
-    "add sp, sp, t0",
+    "li sp, {stack_top}",
     "csrw mie, zero",
     "la t0, 2f",
     "csrw mtvec, t0",
@@ -156,12 +147,11 @@ core::arch::global_asm!(
     "3:",
     "wfi",
     "j 3b",
-    stacks = sym WORKER_STACKS,
-    stack_shift = const WORKER_STACK_BYTES.trailing_zeros(),
+    stack_top = const WORKER_STACK_TOP,
     main = sym worker_main,
     done1 = const map::harts::DONE1,
 );
-const _: () = assert!(WORKER_STACK_BYTES.is_power_of_two() && regs::ENTRY_STRIDE == 8);
+const _: () = assert!(regs::ENTRY_STRIDE == 8 && WORKER_STACK_TOP.is_multiple_of(16));
 
 extern "C" {
     fn _gridrt_worker_start();

@@ -25,6 +25,10 @@ pub const CLOCK_HZ: u32 = 50000000;
 pub const UART_FIFO_DEPTH: u32 = 64;
 /// SoC constant `gridrt_coproc_fifo_depth`.
 pub const COPROC_FIFO_DEPTH: u32 = 16;
+/// SoC constant `gridrt_hart_ram_base`.
+pub const HART_RAM_BASE: usize = 536870912;
+/// SoC constant `gridrt_hart_ram_size`.
+pub const HART_RAM_SIZE: usize = 32768;
 
 /// CSR peripheral `ctrl`: base address and registers (csr.json).
 pub mod ctrl {
