@@ -286,4 +286,10 @@ fn soc_with_two_harts_renders_like_the_rtl_cosim() {
     assert_eq!(row["harts"], 2, "{row}");
     assert_eq!(row["identical_to_rtl_sim"], true, "the 2-hart SoC's frame equals --sim --coproc rtl");
     assert_eq!(row["identical"], true, "and the f64 reference");
+    // Each hart counted its own rows: together every row of the frame, a worker among them.
+    let work = row["hart_work"].as_array().unwrap_or_else(|| panic!("per-hart counters: {row}"));
+    let rows: Vec<u64> = work.iter().map(|w| w["rows"].as_u64().unwrap()).collect();
+    assert_eq!(rows.iter().sum::<u64>(), HEIGHT.parse::<u64>().unwrap(), "{work:?}");
+    assert!(rows.len() == 2 && rows[1] > 0, "the worker traced rows: {work:?}");
+    assert!(work.iter().all(|w| w["busy_cycles"].as_u64().unwrap() > 0), "{work:?}");
 }
