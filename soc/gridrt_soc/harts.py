@@ -28,6 +28,10 @@ register       access  meaning
 What the words mean is the firmware's (``gridrt_firmware::bsp::harts``); the gateware only
 stores them. The memory map is the same for every build: the registers exist with one hart,
 ``count`` says 1.
+
+Each worker also has, for itself alone: an instruction cache (``icache.py``) in front of its
+instruction bus, and 32 KiB of block RAM at ``HART_RAM_BASE`` for its stack, which a decoder
+on its data bus reaches without the shared bus (its stores, write-through, stay off it).
 """
 
 from migen import If, Signal
@@ -108,11 +112,8 @@ class GridrtHarts(LiteXModule):
             low = (HART_RAM_SIZE // 4 - 1).bit_length()
             window = HART_RAM_BASE // 4 >> low
             setattr(self, f"ram{k}", ram)
-            setattr(
-                self,
-                f"dbus_decoder{k}",
-                wishbone.Decoder(cpu.dbus, [(lambda a: a[low:] == window, ram.bus), (lambda a: a[low:] != window, shared)]),
-            )
+            slaves = [(lambda a: a[low:] == window, ram.bus), (lambda a: a[low:] != window, shared)]
+            setattr(self, f"dbus_decoder{k}", wishbone.Decoder(cpu.dbus, slaves))
             self.dbuses.append(shared)
             if icache_size:
                 icache = HartInstructionCache(icache_size)
