@@ -30,7 +30,7 @@
 use std::collections::BTreeMap;
 
 use gridrt_firmware::device::Stage;
-use gridrt_shared::msg::stat;
+use gridrt_shared::msg::{stat, STAT_HARTS};
 use serde::Serialize;
 
 use crate::compare::Comparison;
@@ -38,8 +38,8 @@ use crate::grid::Grid;
 use crate::multi::DeviceShare;
 use crate::session::{LinkStats, RenderedFrame};
 
-/// One past the last per-hart key (4 harts from each base).
-const HART_KEYS_END: u8 = stat::HART_WAIT_BASE + 4;
+/// One past the last per-hart key.
+const HART_KEYS_END: u8 = stat::HART_WAIT_BASE + STAT_HARTS;
 
 /// Name of a device statistics key.
 pub fn stat_name(key: u8) -> String {

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use gridrt_shared::msg::{feature, region_options, render_flags, stat, FEATURE_BOOTLOADER};
+use gridrt_shared::msg::{feature, region_options, render_flags, stat, FEATURE_BOOTLOADER, STAT_HARTS};
 use gridrt_shared::scene::scene_flags;
 
 /// `(field, bit or key as written, names)` of each row of SPEC.md §7's table.
@@ -147,7 +147,10 @@ fn every_bit_and_key_of_the_code_has_its_row_in_spec_section_7() {
         let Some((_, value, _)) = row else { panic!("SPEC.md §7 has no row for Stats key {name} + h") };
         assert_eq!(value, &format!("{} + h", key(base)), "SPEC.md §7 gives {name} as {value}");
     }
-    assert_eq!((stat::HART_ROWS_BASE + 4, stat::HART_BUSY_BASE + 4), (stat::HART_BUSY_BASE, stat::HART_WAIT_BASE));
+    assert_eq!(
+        (stat::HART_ROWS_BASE + STAT_HARTS, stat::HART_BUSY_BASE + STAT_HARTS),
+        (stat::HART_BUSY_BASE, stat::HART_WAIT_BASE)
+    );
 }
 
 #[test]

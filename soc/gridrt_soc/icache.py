@@ -4,7 +4,8 @@ VexRiscv's instruction bus and the SoC bus.
 Why: every hart's 4 KiB instruction cache misses on the firmware's hot path, and with
 several harts those refills queue for the one path into main RAM (the shared bus and the L2
 in front of the SDRAM; docs/bench-frame.md, "Harts"). A worker's refills that hit here never
-reach the shared bus.
+reach the shared bus. (LiteX's ``wishbone.Cache`` is write-back and its tags have no valid
+bit to clear, so after a new firmware is flashed it could answer with the old code.)
 
 - Lines of 32 bytes (8 words), as VexRiscv's own; the line a request falls in is read from
   the bus word by word (classic Wishbone cycles), then the request is answered from it.

@@ -3,7 +3,7 @@
 //! clocks that time them ([`StageClock`]: `mcycle`/`minstret`, a board timer, or nothing)
 //! and the stopwatch the pixel loop laps.
 
-use gridrt_shared::msg::{stat, STAT_ENTRY_LEN};
+use gridrt_shared::msg::{stat, STAT_ENTRY_LEN, STAT_HARTS};
 
 /// A pair of free-running counters read at stage boundaries.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -230,8 +230,8 @@ pub struct FrameStats {
     pub harts: [HartWork; MAX_FRAME_HARTS],
 }
 
-/// Harts a frame's per-hart counters cover (`stat::HART_ROWS_BASE + h`, h < 4).
-pub const MAX_FRAME_HARTS: usize = 4;
+/// Harts a frame's per-hart counters cover (the keys' `STAT_HARTS`).
+pub const MAX_FRAME_HARTS: usize = STAT_HARTS as usize;
 
 /// One hart's share of a frame (`stat::HART_ROWS_BASE`, `HART_BUSY_BASE`, `HART_WAIT_BASE`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -32,4 +32,4 @@ pub use render::{
     RENDER_REQUEST_LEN,
 };
 pub use sack::{Sack, SackRanges, MAX_SACK_RANGES, SACK_HEAD_LEN, SACK_RANGE_LEN};
-pub use stats::{stat, stat_entries, STAT_ENTRY_LEN};
+pub use stats::{stat, stat_entries, STAT_ENTRY_LEN, STAT_HARTS};

@@ -86,6 +86,10 @@ pub mod stat {
 /// Bytes per stats entry: key u8, value u64.
 pub const STAT_ENTRY_LEN: usize = 9;
 
+/// Harts the per-hart keys cover: `stat::HART_ROWS_BASE + h` and its siblings for
+/// h < `STAT_HARTS` (each base is `STAT_HARTS` keys after the one before).
+pub const STAT_HARTS: u8 = 4;
+
 /// Iterates over the (key, value) entries of a stats payload.
 pub fn stat_entries(entries: &[u8]) -> impl Iterator<Item = (u8, u64)> + '_ {
     entries.chunks_exact(STAT_ENTRY_LEN).map(|c| {

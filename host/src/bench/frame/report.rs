@@ -7,7 +7,7 @@ use std::path::Path;
 
 use gridrt_coproc::TimingProfile;
 use gridrt_firmware::device::Stage;
-use gridrt_shared::msg::stat;
+use gridrt_shared::msg::{stat, STAT_HARTS};
 use serde::Serialize;
 
 use super::run::DeviceRun;
@@ -248,18 +248,22 @@ pub struct HartShare {
     pub wait_cycles: u64,
     /// `busy_cycles` ÷ the frame's cycles.
     pub busy_share: f64,
+    /// `wait_cycles` ÷ the frame's cycles.
+    pub wait_share: f64,
 }
 
 /// The per-hart counters of a frame shared by several harts (none when it has none).
 fn hart_work(run: &DeviceRun, frame_cycles: u64) -> Option<Vec<HartShare>> {
-    let shares: Vec<HartShare> = (0..4u8)
+    let shares: Vec<HartShare> = (0..STAT_HARTS)
         .map(|h| {
-            let busy = run.stat(stat::HART_BUSY_BASE + h);
+            let (busy, wait) = (run.stat(stat::HART_BUSY_BASE + h), run.stat(stat::HART_WAIT_BASE + h));
+            let share = |cycles: u64| cycles as f64 / frame_cycles.max(1) as f64;
             HartShare {
                 rows: run.stat(stat::HART_ROWS_BASE + h),
                 busy_cycles: busy,
-                wait_cycles: run.stat(stat::HART_WAIT_BASE + h),
-                busy_share: busy as f64 / frame_cycles.max(1) as f64,
+                wait_cycles: wait,
+                busy_share: share(busy),
+                wait_share: share(wait),
             }
         })
         .collect();

@@ -438,6 +438,7 @@ fn a_two_hart_soc_row_has_no_stage_figures_and_models_no_distance_from_it() {
         [(2, 9_000_000, 3_000_000), (4, 27_000_000, 600_000)]
     );
     assert!((work[0].busy_share - 0.3).abs() < 1e-12 && (work[1].busy_share - 0.9).abs() < 1e-12);
+    assert!((work[0].wait_share - 0.1).abs() < 1e-12 && (work[1].wait_share - 0.02).abs() < 1e-12);
     assert!((row.frame_ms - 600.0).abs() < 1e-9);
     assert_eq!((row.instructions_per_primary_ray, row.cpi, row.instructions), (None, None, None));
     assert!(row.cpi_by_stage.is_none() && row.instructions_per_primary_ray_by_stage.is_none());

@@ -353,7 +353,7 @@ fn print_table(r: &FrameReport) {
                 row.config,
                 w.rows,
                 w.busy_share * 100.0,
-                w.wait_cycles as f64 / row.board.frame_cycles.unwrap_or(0).max(1) as f64 * 100.0
+                w.wait_share * 100.0
             );
         }
     }
