@@ -30,8 +30,10 @@ stores them. The memory map is the same for every build: the registers exist wit
 ``count`` says 1.
 
 Each worker also has, for itself alone: an instruction cache (``icache.py``) in front of its
-instruction bus, and 32 KiB of block RAM at ``HART_RAM_BASE`` for its stack, which a decoder
-on its data bus reaches without the shared bus (its stores, write-through, stay off it).
+instruction bus, and 32 KiB of block RAM at ``HART_RAM_BASE`` for its stack
+(``HartPrivateRam``), which a decoder on its data bus reaches without the shared bus (its
+stores, write-through, stay off it). With workers, the first hart has such a RAM too (the
+SoC adds it, ``soc.py``): its firmware traces its rows on a stack there.
 """
 
 from migen import If, Signal
@@ -56,6 +58,24 @@ WORKER_ICACHE_SIZE = 8 * 1024
 # 25 KiB of stack (its row tracer holds the request buffer and the origin's plane table).
 HART_RAM_BASE = 0x2000_0000
 HART_RAM_SIZE = 32 * 1024
+
+
+class HartPrivateRam(LiteXModule):
+    """``HART_RAM_SIZE`` bytes of block RAM at ``HART_RAM_BASE`` for one hart alone: a decoder
+    on the hart's data bus ``dbus`` answers the accesses to that window from the RAM (one
+    cycle, no other master) and passes the rest to ``bus``, the master side the SoC adds to
+    its bus in place of ``dbus``."""
+
+    def __init__(self, dbus):
+        self.ram = ram = wishbone.SRAM(HART_RAM_SIZE)
+        self.bus = bus = wishbone.Interface(data_width=32, address_width=32, addressing="word")
+
+        # # #
+
+        low = (HART_RAM_SIZE // 4 - 1).bit_length()
+        window = HART_RAM_BASE // 4 >> low
+        slaves = [(lambda a: a[low:] == window, ram.bus), (lambda a: a[low:] != window, bus)]
+        self.decoder = wishbone.Decoder(dbus, slaves)
 
 
 class GridrtHarts(LiteXModule):
@@ -105,16 +125,9 @@ class GridrtHarts(LiteXModule):
                 cpu.add_cfu(cfu)
             setattr(self, f"cpu{k}", cpu)
             self.cpus.append(cpu)
-            # The private RAM (block RAM, one cycle, no other master) takes the data bus's
-            # accesses to its window; the rest go on to the SoC bus.
-            ram = wishbone.SRAM(HART_RAM_SIZE)
-            shared = wishbone.Interface(data_width=32, address_width=32, addressing="word")
-            low = (HART_RAM_SIZE // 4 - 1).bit_length()
-            window = HART_RAM_BASE // 4 >> low
+            ram = HartPrivateRam(cpu.dbus)
             setattr(self, f"ram{k}", ram)
-            slaves = [(lambda a: a[low:] == window, ram.bus), (lambda a: a[low:] != window, shared)]
-            setattr(self, f"dbus_decoder{k}", wishbone.Decoder(cpu.dbus, slaves))
-            self.dbuses.append(shared)
+            self.dbuses.append(ram.bus)
             if icache_size:
                 icache = HartInstructionCache(icache_size)
                 # Cleared while the worker is held in reset: each run fetches the code anew.

@@ -21,6 +21,8 @@
   through) and ``coproc1..3`` (the workers' ports on the co-processor, ``coproc.CoprocPort``).
 - Harts: 1 by default; ``harts=N`` (up to 4) adds N − 1 worker VexRiscvs of the same
   variant, which trace rows of each frame beside the first (``firmware/image/src/harts.rs``).
+  Then every hart, the first included, has 32 KiB of block RAM of its own at
+  ``HART_RAM_BASE`` (``harts.HartPrivateRam``), for the stack it traces rows on.
 
 The firmware's board files are generated from this SoC's csr.json (``board_files``); the
 target only brings its clock/reset generator and UART PHY.
@@ -32,7 +34,7 @@ from litex.soc.cores.uart import UART
 from litex.soc.integration.soc_core import SoCCore
 
 from .coproc import CoprocPort, GridrtCoprocCSR
-from .harts import HART_RAM_BASE, HART_RAM_SIZE, MAX_HARTS, GridrtHarts
+from .harts import HART_RAM_BASE, HART_RAM_SIZE, MAX_HARTS, GridrtHarts, HartPrivateRam
 
 KIB = 1024
 
@@ -170,6 +172,12 @@ class GridrtSoC(SoCCore):
         self.harts = GridrtHarts(
             platform, CPU_VARIANTS[float_hw], harts, cfu=str(CFU_WRAPPER) if float_hw == "cfu" else None
         )
+        if harts > 1:
+            # The first hart's own RAM, as each worker's: its data bus (LiteX's master
+            # `cpu_bus1`, VexRiscv's `periph_buses` being [ibus, dbus]) goes through the RAM's
+            # decoder; the SoC's bus sees the decoder's other side.
+            self.hart0_ram = HartPrivateRam(self.bus.masters["cpu_bus1"])
+            self.bus.masters["cpu_bus1"] = self.hart0_ram.bus
         self.add_constant("GRIDRT_HART_RAM_BASE", HART_RAM_BASE)
         self.add_constant("GRIDRT_HART_RAM_SIZE", HART_RAM_SIZE)
         for k, (ibus, dbus) in enumerate(zip(self.harts.ibuses, self.harts.dbuses), start=1):

@@ -103,7 +103,7 @@ fn init_exchange() {
 /// The top of a worker's stack: the end of its private RAM (`soc/gridrt_soc/harts.py`), at the
 /// same addresses for every worker and reached only by its own data bus, so a worker's stack
 /// traffic stays off the bus the harts share.
-const WORKER_STACK_TOP: usize = map::HART_RAM_BASE + map::HART_RAM_SIZE;
+const WORKER_STACK_TOP: usize = PRIVATE_STACK_TOP;
 
 // The workers' reset vectors: worker k starts at `_gridrt_worker_start` + 8·(k − 1)
 // (`regs::ENTRY_STRIDE`; the stubs are uncompressed so that each is 8 bytes), with its number
@@ -363,7 +363,24 @@ impl<L> RowFarm<L> for HartFarm {
         unsafe { (*ex).rows = (rows as *const Rows<'_, N>).cast() };
         fence(Ordering::SeqCst);
         self.csr.open(seq);
+        // The frame's loop runs on this hart's private RAM (the row tracer and every spill of
+        // the walk stay off the shared bus, as a worker's do); the device state stays where
+        // it is, in main RAM.
+        on_private_stack(&mut || self.share(rows, sink, seq));
+        true
+    }
+}
 
+impl HartFarm {
+    /// The first hart's part of frame `seq`: sends every row in order, tracing one itself
+    /// whenever the next is not ready.
+    fn share<const N: usize>(
+        &mut self,
+        rows: &Rows<'_, N>,
+        sink: &mut dyn FnMut(RowDone<'_>) -> ControlFlow<()>,
+        seq: u16,
+    ) {
+        let ex = exchange();
         let (y0, n) = extent(rows);
         let mut tracer = RowTracer::new(rows, port(0));
         // SAFETY: only this hart touches `own`.
@@ -439,6 +456,38 @@ impl<L> RowFarm<L> for HartFarm {
         if self.workers > 0 {
             self.end(seq);
         }
-        true
+    }
+}
+
+/// The top of this hart's private RAM: the stack every worker runs on, and the one the first
+/// hart traces its rows on ([`on_private_stack`]).
+const PRIVATE_STACK_TOP: usize = map::HART_RAM_BASE + map::HART_RAM_SIZE;
+
+/// Runs `f` with the stack pointer at the top of this hart's private RAM, then returns to
+/// the stack it was called on. Only on a SoC with workers: the first hart has that RAM then
+/// (`soc/gridrt_soc/soc.py`). What `f` borrows stays where it is.
+fn on_private_stack(f: &mut dyn FnMut()) {
+    extern "C" fn call(f: *mut &mut dyn FnMut()) {
+        // SAFETY: the pointer below, to a live `&mut dyn FnMut()`, used once.
+        unsafe { (*f)() }
+    }
+    let mut f = f;
+    let arg: *mut &mut dyn FnMut() = &mut f;
+    // SAFETY: the RAM is this hart's alone and nothing else lives in it while the first hart
+    // runs (a worker's RAM is its own, at the same addresses); s2 is callee-saved, so `call`
+    // gives back the caller's stack pointer in it; every caller-saved register is declared
+    // clobbered. A trap taken inside `f` runs on the private stack, as a worker's does.
+    unsafe {
+        core::arch::asm!(
+            "mv s2, sp",
+            "mv sp, {top}",
+            "jalr {call}",
+            "mv sp, s2",
+            top = in(reg) PRIVATE_STACK_TOP,
+            call = in(reg) call as extern "C" fn(*mut &mut dyn FnMut()),
+            in("a0") arg,
+            out("s2") _,
+            clobber_abi("C"),
+        );
     }
 }
