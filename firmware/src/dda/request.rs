@@ -32,6 +32,12 @@ const WIDEN: f32 = 1.0 + 2.0 * gamma(3);
 /// library call.
 const INTEGER_KEYS: bool = cfg!(soft_float);
 
+/// Unpack each reciprocal once for the inline integer product ([`Multiplier`]): on a
+/// soft-float core, where `mul` is 70 instructions, and off the target (host tests cover
+/// that path). Not on a hard-float image, nor with the f32 CFU (`cfu-float`), where `mul` is
+/// one instruction.
+const UNPACK_RECIPROCALS: bool = cfg!(all(any(soft_float, not(target_os = "none")), not(feature = "cfu-float")));
+
 /// Planes per axis: `n + 1 ≤ MAX_GRID_DIM + 1`.
 const PLANES: usize = MAX_GRID_DIM as usize + 1;
 
@@ -400,9 +406,8 @@ impl WalkGrid {
                 Some(t) => t.clip[a],
                 None => [sub(self.min[a], o[a]), sub(self.max[a], o[a])],
             };
-            // The axis's reciprocal unpacked once for both products (not on a bare-metal
-            // hard-float image, where a product is one instruction).
-            let by_inv = if cfg!(any(soft_float, not(target_os = "none"))) { Multiplier::new(inv[a]) } else { None };
+            // The axis's reciprocal unpacked once for both products.
+            let by_inv = if UNPACK_RECIPROCALS { Multiplier::new(inv[a]) } else { None };
             let mut near = product(by_inv, dn, inv[a]);
             let mut far = product(by_inv, df, inv[a]);
             let swapped = ord.lt(far, near);
@@ -499,8 +504,7 @@ impl WalkGrid {
             o: s.o[a],
             pre: s.pre,
             inv: s.inv[a],
-            // Not on a bare-metal hard-float image (its `mul` is one instruction).
-            by_inv: if cfg!(any(soft_float, not(target_os = "none"))) { Multiplier::new(s.inv[a]) } else { None },
+            by_inv: if UNPACK_RECIPROCALS { Multiplier::new(s.inv[a]) } else { None },
             t_next: f32::INFINITY,
         };
         if step != 0 {
