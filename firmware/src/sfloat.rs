@@ -5,7 +5,7 @@
 //! The integer path takes the case where both operands and the result are normal numbers
 //! (the whole of a ray's walk and shading on sane scenes) without a library call: 55
 //! instructions per `add_int` call and 48 per `mul_int` call on a frame's mix of operands,
-//! call and return included (riscv32imac, `scripts/qemu-profile.py` over an 80×60 frame of
+//! the return included (riscv32imac, `scripts/qemu-profile.py` over an 80×60 frame of
 //! bun_zipper_res4; docs/bench-firmware.md has the commands). Everything else —
 //! zeros, subnormals, infinities, NaN, overflow, an underflowing result — goes to the library,
 //! so every result is the operator's, bit for bit (pinned against the native operators by
