@@ -100,10 +100,11 @@ fn init_exchange() {
     }
 }
 
-/// The top of a worker's stack: the end of its private RAM (`soc/gridrt_soc/harts.py`), at the
-/// same addresses for every worker and reached only by its own data bus, so a worker's stack
-/// traffic stays off the bus the harts share.
-const WORKER_STACK_TOP: usize = PRIVATE_STACK_TOP;
+/// The top of a hart's private RAM (`soc/gridrt_soc/harts.py`), at the same addresses for
+/// every hart and reached only by its own data bus, so the stack traffic there stays off the
+/// bus the harts share: every worker's stack, and the one the first hart traces its rows on
+/// ([`on_private_stack`]).
+const PRIVATE_STACK_TOP: usize = map::HART_RAM_BASE + map::HART_RAM_SIZE;
 
 // The workers' reset vectors: worker k starts at `_gridrt_worker_start` + 8·(k − 1)
 // (`regs::ENTRY_STRIDE`; the stubs are uncompressed so that each is 8 bytes), with its number
@@ -147,11 +148,11 @@ core::arch::global_asm!(
     "3:",
     "wfi",
     "j 3b",
-    stack_top = const WORKER_STACK_TOP,
+    stack_top = const PRIVATE_STACK_TOP,
     main = sym worker_main,
     done1 = const map::harts::DONE1,
 );
-const _: () = assert!(regs::ENTRY_STRIDE == 8 && WORKER_STACK_TOP.is_multiple_of(16));
+const _: () = assert!(regs::ENTRY_STRIDE == 8 && PRIVATE_STACK_TOP.is_multiple_of(16));
 
 extern "C" {
     fn _gridrt_worker_start();
@@ -458,10 +459,6 @@ impl HartFarm {
         }
     }
 }
-
-/// The top of this hart's private RAM: the stack every worker runs on, and the one the first
-/// hart traces its rows on ([`on_private_stack`]).
-const PRIVATE_STACK_TOP: usize = map::HART_RAM_BASE + map::HART_RAM_SIZE;
 
 /// Runs `f` with the stack pointer at the top of this hart's private RAM, then returns to
 /// the stack it was called on. Only on a SoC with workers: the first hart has that RAM then
