@@ -10,6 +10,7 @@ module gridrt_bank_ram #(
     parameter bit A_READS = 1
 ) (
     input  logic                     clk_i,
+    input  logic                     en_i,   // the co-processor's clock enable: every register holds while low
     input  logic [$clog2(DEPTH)-1:0] a_addr_i,
     input  logic                     a_we_i,
     input  logic [W-1:0]             a_wdata_i,
@@ -19,13 +20,13 @@ module gridrt_bank_ram #(
 );
     (* no_rw_check *)
     logic [W-1:0] mem [DEPTH];
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (a_we_i) mem[a_addr_i] <= a_wdata_i;
     end
     if (A_READS) begin : g_a_reads
-        always_ff @(posedge clk_i) a_rdata_o <= mem[a_addr_i];
+        always_ff @(posedge clk_i) if (en_i) a_rdata_o <= mem[a_addr_i];
     end else begin : g_a_writes_only
         assign a_rdata_o = '0;
     end
-    always_ff @(posedge clk_i) b_rdata_o <= mem[b_addr_i];
+    always_ff @(posedge clk_i) if (en_i) b_rdata_o <= mem[b_addr_i];
 endmodule

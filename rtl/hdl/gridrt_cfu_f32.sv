@@ -60,9 +60,9 @@ module gridrt_cfu_f32 (
     assign add_valid   = cmd_fire && !rst_i && (op_add || op_sub);
     assign mul_valid   = cmd_fire && !rst_i && op_mul;
 
-    gridrt_f32_addsub u_add (.clk_i, .in_valid_i(add_valid), .a_i(cmd_inputs_0_i), .b_i(cmd_inputs_1_i),
+    gridrt_f32_addsub u_add (.clk_i, .en_i(1'b1), .in_valid_i(add_valid), .a_i(cmd_inputs_0_i), .b_i(cmd_inputs_1_i),
                              .sub_i(op_sub), .out_valid_o(add_out_valid), .y_o(add_y));
-    gridrt_f32_mul u_mul (.clk_i, .in_valid_i(mul_valid), .a_i(cmd_inputs_0_i), .b_i(cmd_inputs_1_i),
+    gridrt_f32_mul u_mul (.clk_i, .en_i(1'b1), .in_valid_i(mul_valid), .a_i(cmd_inputs_0_i), .b_i(cmd_inputs_1_i),
                           .out_valid_o(mul_out_valid), .y_o(mul_y));
 
     // ---------------------------------------------------------------- response

@@ -18,7 +18,12 @@ module gridrt_coproc #(
     parameter int PES_PER_PIPELINE = 4,
     parameter int PE_MEM_WORDS = 16384,
     parameter int MAX_LIST = 256,
-    parameter int STOP_WHEN_EMPTY = 0
+    parameter int STOP_WHEN_EMPTY = 0,
+    // 1: each PE's memory is a cache (CACHE_LINES lines of 8 words) of its image in an
+    // external memory on the mem_* port, PE p's word w at word address p·PE_MEM_WORDS + w
+    // (rtl/README.md §4.6); 0: block RAM, the mem_* port unused.
+    parameter int PE_CACHE = 0,
+    parameter int CACHE_LINES = 512
 ) (
     input  logic        clk_i,
     input  logic        rst_i,
@@ -30,7 +35,17 @@ module gridrt_coproc #(
     output logic        m_axis_tlast_o,
     output logic        m_axis_tvalid_o,
     input  logic        m_axis_tready_i,
-    output logic        idle_o
+    output logic        idle_o,
+    // The external memory (PE_CACHE): one 32-bit word per request, the request held until
+    // ack, a read's word with its ack; word addresses.
+    output logic        mem_req_o,
+    output logic        mem_we_o,
+    output logic [31:0] mem_addr_o,
+    output logic [31:0] mem_wdata_o,
+    input  logic        mem_ack_i,
+    input  logic [31:0] mem_rdata_i,
+    // Cycles the co-processor stood still for its PE memory (PE_CACHE; 0 otherwise).
+    output logic [31:0] stall_cycles_o
 );
     localparam int AW = $clog2(PE_MEM_WORDS);
     if (PES_PER_PIPELINE != 1 && PES_PER_PIPELINE != 2 && PES_PER_PIPELINE != 4) begin : g_bad_sharing
@@ -75,11 +90,103 @@ module gridrt_coproc #(
         assign t_chunk[p] = '0;
     end
 
+    // ---------------------------------------------------------------- the clock enable
+    // With PE caches the co-processor stops (en low) while a cache fetches what a read
+    // missed; the freeze controller steps the caches through FILL and the two REPLAY cycles
+    // (gridrt_pe_cache.sv). Words cross the streams only while it runs: the request side
+    // is not ready and the reply side goes through a register of its own while it stands.
+    localparam logic [1:0] PHASE_RUN = 2'd0, PHASE_FILL = 2'd1, PHASE_REPLAY_R = 2'd2, PHASE_REPLAY_R2 = 2'd3;
+    logic [1:0]     phase_q;
+    logic           en;
+    logic [PES-1:0] pc_hold, pc_ready;
+    logic           c_tready, c_tvalid, c_tlast, c_mready, c_idle;
+    logic [31:0]    c_tdata;
+    if (PE_CACHE != 0) begin : g_freeze
+        logic [31:0] stall_q;
+        always_ff @(posedge clk_i) begin
+            if (rst_i) begin
+                phase_q <= PHASE_RUN;
+                stall_q <= '0;
+            end else begin
+                case (phase_q)
+                    PHASE_RUN:       if (|pc_hold) phase_q <= PHASE_FILL;
+                    PHASE_FILL:      if (&pc_ready) phase_q <= PHASE_REPLAY_R;
+                    PHASE_REPLAY_R:  phase_q <= PHASE_REPLAY_R2;
+                    default:         phase_q <= (|pc_hold) ? PHASE_FILL : PHASE_RUN;
+                endcase
+                if (phase_q != PHASE_RUN) stall_q <= stall_q + 1'b1;
+            end
+        end
+        assign en = phase_q == PHASE_RUN;
+        assign stall_cycles_o = stall_q;
+        // The reply register: filled from the controller only while it runs.
+        logic        o_valid_q, o_last_q;
+        logic [31:0] o_data_q;
+        assign c_mready = en && (!o_valid_q || m_axis_tready_i);
+        always_ff @(posedge clk_i) begin
+            if (rst_i) o_valid_q <= 1'b0;
+            else if (c_mready) o_valid_q <= c_tvalid;
+            else if (m_axis_tready_i) o_valid_q <= 1'b0;
+            if (c_mready && c_tvalid) begin
+                o_data_q <= c_tdata;
+                o_last_q <= c_tlast;
+            end
+        end
+        assign m_axis_tvalid_o = o_valid_q;
+        assign m_axis_tdata_o = o_data_q;
+        assign m_axis_tlast_o = o_last_q;
+        assign s_axis_tready_o = en && c_tready;
+        assign idle_o = c_idle && en && !o_valid_q;
+    end else begin : g_no_freeze
+        assign phase_q = PHASE_RUN;
+        assign en = 1'b1;
+        assign stall_cycles_o = '0;
+        assign c_mready = m_axis_tready_i;
+        assign m_axis_tvalid_o = c_tvalid;
+        assign m_axis_tdata_o = c_tdata;
+        assign m_axis_tlast_o = c_tlast;
+        assign s_axis_tready_o = c_tready;
+        assign idle_o = c_idle;
+    end
+
+    // The PEs' memory requests, one at a time (the lowest PE first; a grant lasts one word).
+    logic [PES-1:0]         m_req, m_we, m_ack;
+    logic [PES-1:0][AW-1:0] m_addr;
+    logic [PES-1:0][31:0]   m_wdata;
+    if (PE_CACHE != 0) begin : g_mem_arb
+        localparam int PW = (PES > 1) ? $clog2(PES) : 1;
+        logic          busy_q;
+        logic [PW-1:0] who_q, pick;
+        always_comb begin
+            pick = '0;
+            for (int p = PES - 1; p >= 0; p--) if (m_req[p]) pick = PW'(p);
+        end
+        always_ff @(posedge clk_i) begin
+            if (rst_i) busy_q <= 1'b0;
+            else if (busy_q && mem_ack_i) busy_q <= 1'b0;
+            else if (!busy_q && |m_req) busy_q <= 1'b1;
+            if (!busy_q) who_q <= pick;
+        end
+        assign mem_req_o = busy_q;
+        assign mem_we_o = m_we[who_q];
+        assign mem_addr_o = 32'(who_q) * 32'(PE_MEM_WORDS) + 32'(m_addr[who_q]);
+        assign mem_wdata_o = m_wdata[who_q];
+        for (genvar p = 0; p < PES; p++) begin : g_ack
+            assign m_ack[p] = busy_q && mem_ack_i && who_q == PW'(p);
+        end
+    end else begin : g_no_mem
+        assign mem_req_o = 1'b0;
+        assign mem_we_o = 1'b0;
+        assign mem_addr_o = '0;
+        assign mem_wdata_o = '0;
+        assign m_ack = '0;
+    end
+
     gridrt_ctrl #(.PES(PES), .WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST)) u_ctrl (
-        .clk_i, .rst_i,
-        .s_tdata_i(s_axis_tdata_i), .s_tlast_i(s_axis_tlast_i), .s_tvalid_i(s_axis_tvalid_i), .s_tready_o(s_axis_tready_o),
-        .m_tdata_o(m_axis_tdata_o), .m_tlast_o(m_axis_tlast_o), .m_tvalid_o(m_axis_tvalid_o), .m_tready_i(m_axis_tready_i),
-        .idle_o,
+        .clk_i, .en_i(en), .rst_i,
+        .s_tdata_i(s_axis_tdata_i), .s_tlast_i(s_axis_tlast_i), .s_tvalid_i(s_axis_tvalid_i && en), .s_tready_o(c_tready),
+        .m_tdata_o(c_tdata), .m_tlast_o(c_tlast), .m_tvalid_o(c_tvalid), .m_tready_i(c_mready),
+        .idle_o(c_idle),
         .pe_a_addr_o(a_addr), .pe_a_we_o(a_we), .pe_a_wdata_o(a_wdata), .pe_a_rdata_i(a_rdata),
         .pe_ref_off_o(ref_off),
         .pe_ray_begin_o(ray_begin), .pe_q_push_o(q_push), .pe_q_k_o(q_k), .pe_q_first_o(q_first),
@@ -91,9 +198,12 @@ module gridrt_coproc #(
 
     for (genvar p = 0; p < PES; p++) begin : g_pe
         gridrt_pe #(.WORDS(PE_MEM_WORDS), .MAX_LIST(MAX_LIST), .ISSUE_INTERVAL(PES_PER_PIPELINE), .PARTS(PARTS),
-             .PART_W(PART_W), .RESULT_LATENCY(RESULT_LATENCY)) u_pe (
-            .clk_i, .rst_i,
+             .PART_W(PART_W), .RESULT_LATENCY(RESULT_LATENCY), .PE_CACHE(PE_CACHE), .CACHE_LINES(CACHE_LINES)) u_pe (
+            .clk_i, .en_i(en), .rst_i,
             .c_a_addr_i(a_addr[p]), .c_a_we_i(a_we[p]), .c_a_wdata_i(a_wdata), .a_rdata_o(a_rdata[p]),
+            .pc_phase_i(phase_q), .pc_hold_o(pc_hold[p]), .pc_ready_o(pc_ready[p]),
+            .m_req_o(m_req[p]), .m_we_o(m_we[p]), .m_addr_o(m_addr[p]), .m_wdata_o(m_wdata[p]),
+            .m_ack_i(m_ack[p]), .m_rdata_i(mem_rdata_i),
             .ref_off_i(ref_off[p]),
             .ray_begin_i(ray_begin), .q_push_i(q_push[p]), .q_k_i(q_k), .q_first_i(q_first), .q_count_i(q_count), .q_hi_i(q_hi),
             .start_i(start), .stop_i(stop), .any_i(any), .t_max_i(t_max),
@@ -109,7 +219,7 @@ module gridrt_coproc #(
         localparam int L0 = q * PES_PER_PIPELINE;
         gridrt_isect_share #(.LANES(PES_PER_PIPELINE), .PARTS(PARTS), .PART_W(PART_W), .PIPE_LATENCY(PIPE_LATENCY),
                              .STOP_WHEN_EMPTY(STOP_WHEN_EMPTY)) u_share (
-            .clk_i, .rst_i,
+            .clk_i, .en_i(en), .rst_i,
             .in_valid_i(t_valid[L0 +: PES_PER_PIPELINE]), .in_part_i(t_part[L0 +: PES_PER_PIPELINE]),
             .in_chunk_i(t_chunk[L0 +: PES_PER_PIPELINE]),
             .o0_i($signed(o[0])), .o1_i($signed(o[1])), .o2_i($signed(o[2])), .kz_i(kz), .sx_i(sx), .sy_i(sy), .dz_neg_i(dz_neg), .dz_abs_i(dz_abs),

@@ -14,6 +14,7 @@ module gridrt_ctrl #(
     parameter int MAX_LIST = 256
 ) (
     input  logic                        clk_i,
+    input  logic                        en_i,   // the co-processor's clock enable: every register holds while low
     input  logic                        rst_i,
     // Request stream (FSL: tlast = control bit).
     input  logic [31:0]                 s_tdata_i,
@@ -106,7 +107,7 @@ module gridrt_ctrl #(
     logic [32:0] push_word_d;
     logic [4:0]  f_count;
     gridrt_ctrl_out_fifo #(.DEPTH(16)) u_out_fifo (
-        .clk_i, .rst_i, .push_i(push_q), .push_word_i(push_word_q),
+        .clk_i, .en_i, .rst_i, .push_i(push_q), .push_word_i(push_word_q),
         .m_tdata_o, .m_tlast_o, .m_tvalid_o, .m_tready_i, .count_o(f_count));
 
     // ================================================================ state
@@ -194,7 +195,7 @@ module gridrt_ctrl #(
     logic        hi_in_q, hi_out;
     logic hi_in_d;
     logic [31:0] hi_y;
-    gridrt_f32_mul u_hi (.clk_i, .in_valid_i(hi_in_q), .a_i(ent_texit_q), .b_i(32'h3F80_0800), .out_valid_o(hi_out), .y_o(hi_y));
+    gridrt_f32_mul u_hi (.clk_i, .en_i, .in_valid_i(hi_in_q), .a_i(ent_texit_q), .b_i(32'h3F80_0800), .out_valid_o(hi_out), .y_o(hi_y));
 
     // ================================================================ loader
     logic [PW-1:0]  ld_pe_q;
@@ -231,7 +232,7 @@ module gridrt_ctrl #(
     logic [2:0][31:0] tl_normal;
     logic [3:0]     tl_wr_q;          // record and normal words written so far (tri_step)
     logic [3:0] tl_wr_d;
-    gridrt_tri_loader u_tri (.clk_i, .start_i(tl_start_q), .v_i(ld_v9_q), .frame_s_i(frame_s), .frame_qm_i(frame_qm), .frame_huge_i(frame_huge),
+    gridrt_tri_loader u_tri (.clk_i, .en_i, .start_i(tl_start_q), .v_i(ld_v9_q), .frame_s_i(frame_s), .frame_qm_i(frame_qm), .frame_huge_i(frame_huge),
                       .done_o(tl_done), .coord_o(tl_coord), .normal_o(tl_normal));
 
     // ================================================================ frame computation
@@ -253,7 +254,7 @@ module gridrt_ctrl #(
         frame_start = frame_box_we && ray_idx_q == 16'd6 && frame_bad == 0 && s_tlast_i;
     end
     gridrt_ctrl_frame u_frame (
-        .clk_i, .rst_i, .box_we_i(frame_box_we), .box_idx_i(3'(ray_idx_q - 16'd1)), .box_word_i(s_tdata_i),
+        .clk_i, .en_i, .rst_i, .box_we_i(frame_box_we), .box_idx_i(3'(ray_idx_q - 16'd1)), .box_word_i(s_tdata_i),
         .box_o(frame_box), .start_i(frame_start), .run_i(busy_q == BZ_FRAME), .done_o(frame_done),
         .frame_s_o(frame_s), .frame_qm_o(frame_qm), .frame_huge_o(frame_huge));
 
@@ -261,7 +262,7 @@ module gridrt_ctrl #(
     logic rs_start_q, rs_done, rs_overflow;
     logic rs_start_d;
     logic [2:0][33:0] rs_o;
-    gridrt_ray_setup u_setup (.clk_i, .start_i(rs_start_q), .org_i(ray_org_q), .dir_i(ray_dir_q), .frame_s_i(frame_s), .frame_qm_i(frame_qm), .frame_huge_i(frame_huge),
+    gridrt_ray_setup u_setup (.clk_i, .en_i, .start_i(rs_start_q), .org_i(ray_org_q), .dir_i(ray_dir_q), .frame_s_i(frame_s), .frame_qm_i(frame_qm), .frame_huge_i(frame_huge),
                        .done_o(rs_done), .o_o(rs_o), .kz_o(pe_kz_o), .sx_o(pe_sx_o), .sy_o(pe_sy_o), .dz_neg_o(pe_dz_neg_o),
                        .dz_abs_o(pe_dz_abs_o), .texp_o(pe_texp_o), .overflow_o(rs_overflow));
     assign pe_origin_o = rs_o;
@@ -296,7 +297,7 @@ module gridrt_ctrl #(
     logic [KW:0] first_hit, first_open;
     logic [34:0] issued_prev2;
     gridrt_ctrl_arbiter #(.PES(PES), .MAX_LIST(MAX_LIST)) u_arbiter (
-        .clk_i, .pe_open_k_i, .pe_hit_k_i, .pe_issued_i,
+        .clk_i, .en_i, .pe_open_k_i, .pe_hit_k_i, .pe_issued_i,
         .first_open_o(first_open), .first_hit_o(first_hit), .issued_o(issued_prev2));
 
     // ================================================================ next state
@@ -558,7 +559,7 @@ module gridrt_ctrl #(
     end
 
     // ================================================================ registers
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (rst_i) begin
             rx_q <= RX_IDLE;
             busy_q <= BZ_NONE;
@@ -648,7 +649,7 @@ module gridrt_ctrl #(
         pe_res_k_q <= pe_res_k_d;
     end
 
-    always_ff @(posedge clk_i) if (ent_pe_of_we) ent_pe_of[ent_k_q] <= ent_pe_q;
+    always_ff @(posedge clk_i) if (en_i && (ent_pe_of_we)) ent_pe_of[ent_k_q] <= ent_pe_q;
 
     // ================================================================ tasks
     task automatic reply(input [31:0] word);

@@ -11,6 +11,7 @@ module gridrt_ctrl_arbiter #(
     parameter int MAX_LIST = 256
 ) (
     input  logic                                clk_i,
+    input  logic                                en_i,   // the co-processor's clock enable: every register holds while low
     input  logic [PES-1:0][$clog2(MAX_LIST):0]  pe_open_k_i,
     input  logic [PES-1:0][$clog2(MAX_LIST):0]  pe_hit_k_i,
     input  logic [PES-1:0][31:0]                pe_issued_i,
@@ -33,7 +34,7 @@ module gridrt_ctrl_arbiter #(
         end
     end
 
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         first_hit_o <= first_hit_d;
         first_open_o <= first_open_d;
         issued_q <= issued_d;

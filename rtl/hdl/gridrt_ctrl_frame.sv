@@ -8,6 +8,7 @@
 // in STEP_END, when done_o is high. After reset the frame is the identity (s 0, min 0).
 module gridrt_ctrl_frame (
     input  logic               clk_i,
+    input  logic               en_i,   // the co-processor's clock enable: every register holds while low
     input  logic               rst_i,          // synchronous, active high
     // The box, word by word as the FRAME packet brings it.
     input  logic               box_we_i,
@@ -40,9 +41,9 @@ module gridrt_ctrl_frame (
 
     assign box_o = box_q;
 
-    gridrt_f32_addsub u_sub (.clk_i, .in_valid_i(sub_in), .a_i(sub_a), .b_i(sub_b), .sub_i(1'b1),
+    gridrt_f32_addsub u_sub (.clk_i, .en_i, .in_valid_i(sub_in), .a_i(sub_a), .b_i(sub_b), .sub_i(1'b1),
                              .out_valid_o(sub_out_unused), .y_o(sub_y));
-    gridrt_f32_to_fixed u_cv (.clk_i, .in_valid_i(cv_in), .x_i(cv_x), .k_i(s_q + 10'sd23),
+    gridrt_f32_to_fixed u_cv (.clk_i, .en_i, .in_valid_i(cv_in), .x_i(cv_x), .k_i(s_q + 10'sd23),
                               .out_valid_o(cv_out_unused), .q_o(cv_q), .huge_o(cv_huge));
 
     always_comb begin
@@ -84,12 +85,12 @@ module gridrt_ctrl_frame (
         if (step_q == 5'(STEP_S)) s_d = (ext_q[30:0] == 0) ? 10'sd0 : (pow2 ? 10'sd4 - e : 10'sd3 - e);
     end
 
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (box_we_i) box_q[box_idx_i] <= box_word_i;
     end
 
     // The schedule's registers change only outside reset, the computed ones only while run_i.
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (!rst_i && (start_i || run_i)) step_q <= step_d;
         if (!rst_i && run_i) begin
             ext_q <= ext_d;
@@ -98,7 +99,7 @@ module gridrt_ctrl_frame (
     end
 
     // The frame: the conversions of the minimum, ready CV_LAT steps after each, then s.
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (rst_i) begin
             frame_s_o <= '0;
             frame_qm_o <= '0;

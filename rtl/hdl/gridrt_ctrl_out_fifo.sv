@@ -7,6 +7,7 @@ module gridrt_ctrl_out_fifo #(
     parameter int DEPTH = 16
 ) (
     input  logic                       clk_i,
+    input  logic                       en_i,   // the co-processor's clock enable: every register holds while low
     input  logic                       rst_i,        // synchronous, active high
     input  logic                       push_i,
     input  logic [32:0]                push_word_i,  // {control bit, data}
@@ -35,7 +36,7 @@ module gridrt_ctrl_out_fifo #(
         count_d = count_q + CW'(push_i) - CW'(pop);
     end
 
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (rst_i) begin
             count_q <= '0;
             rd_q <= '0;
@@ -47,15 +48,15 @@ module gridrt_ctrl_out_fifo #(
         end
     end
 
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (!rst_i && push_i) mem_q[wr_q] <= push_word_i;
     end
 
 `ifndef SYNTHESIS
     // Bounds: no push into a full FIFO, no pop from an empty one.
-    PushNotFull: assert property (@(posedge clk_i) disable iff (rst_i) push_i |-> count_q < CW'(DEPTH))
+    PushNotFull: assert property (@(posedge clk_i) disable iff (!en_i || rst_i) push_i |-> count_q < CW'(DEPTH))
         else $error("gridrt_ctrl_out_fifo: push into a full FIFO");
-    PopNotEmpty: assert property (@(posedge clk_i) disable iff (rst_i) pop |-> count_q != 0)
+    PopNotEmpty: assert property (@(posedge clk_i) disable iff (!en_i || rst_i) pop |-> count_q != 0)
         else $error("gridrt_ctrl_out_fifo: pop from an empty FIFO");
 `endif
 endmodule

@@ -8,6 +8,7 @@ module gridrt_delay_ram #(
     parameter int N = 2
 ) (
     input  logic         clk_i,
+    input  logic         en_i,   // the co-processor's clock enable: every register holds while low
     input  logic [W-1:0] d_i,
     output logic [W-1:0] q_o
 );
@@ -18,7 +19,7 @@ module gridrt_delay_ram #(
     (* ram_style = "block" *)
     logic [W-1:0]  ring [2**AW];
     logic [AW-1:0] wp;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         ring[wp] <= d_i;
         q_o <= ring[wp - AW'(N - 1)];
         wp <= wp + 1'b1;

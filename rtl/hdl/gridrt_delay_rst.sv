@@ -5,6 +5,7 @@ module gridrt_delay_rst #(
     parameter int N = 1
 ) (
     input  logic         clk_i,
+    input  logic         en_i,   // the co-processor's clock enable: every register holds while low
     input  logic         rst_i,  // synchronous, active high
     input  logic [W-1:0] d_i,
     output logic [W-1:0] q_o
@@ -13,7 +14,7 @@ module gridrt_delay_rst #(
         assign q_o = d_i;
     end else begin : g_regs
         logic [W-1:0] r_q [N];
-        always_ff @(posedge clk_i) begin
+        always_ff @(posedge clk_i) if (en_i) begin
             if (rst_i) begin
                 for (int i = 0; i < N; i++) r_q[i] <= '0;
             end else begin

@@ -10,6 +10,7 @@
 // compare (tri_loader's was a long path of a placed 4-PE design).
 module gridrt_f32_addsub (
     input  logic        clk_i,
+    input  logic        en_i,   // the co-processor's clock enable: every register holds while low
     input  logic        in_valid_i,
     input  logic [31:0] a_i,
     input  logic [31:0] b_i,
@@ -22,7 +23,7 @@ module gridrt_f32_addsub (
     // ---------------------------------------------------------------- stage 0: operands
     logic        s0_valid;
     logic [31:0] s0_a, s0_b;    // s0_b: b with the operation's sign
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         s0_valid <= in_valid_i;
         s0_a <= a_i;
         s0_b <= {b_i[31] ^ sub_i, b_i[30:0]};
@@ -41,7 +42,7 @@ module gridrt_f32_addsub (
     logic [7:0]  s1_exp;        // effective exponent of hi (subnormal: 1)
     logic [7:0]  s1_diff;       // exponent difference
     logic [23:0] s1_mhi, s1_mlo;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic [7:0] ehi, elo;
         ehi = hi[30:23];
         elo = lo[30:23];
@@ -65,7 +66,7 @@ module gridrt_f32_addsub (
     logic [7:0]  s2_exp;
     logic [23:0] s2_mhi;
     logic [26:0] s2_lo;     // aligned, sticky in bit 0
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic [26:0] lo_ext;
         logic [26:0] shifted;
         logic        st;
@@ -92,7 +93,7 @@ module gridrt_f32_addsub (
     logic        s3_valid, s3_nan, s3_inf, s3_sign, s3_zero_sign;
     logic [7:0]  s3_exp;
     logic [27:0] s3_sum;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (s2_subtract) s3_sum <= {1'b0, s2_mhi, 3'b000} - {1'b0, s2_lo};
         else             s3_sum <= {1'b0, s2_mhi, 3'b000} + {1'b0, s2_lo};
         s3_valid     <= s2_valid;
@@ -110,7 +111,7 @@ module gridrt_f32_addsub (
     logic [7:0]  s4_exp;
     logic [27:0] s4_sum;
     logic [4:0]  s4_shift;  // left shift when there is no carry out
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic [4:0] lz;
         lz = 5'd28 - sum_len;
         // lz >= 1 without a carry; shift left by lz - 1, but never below exponent 1 (subnormal).
@@ -128,7 +129,7 @@ module gridrt_f32_addsub (
     logic        s5_valid, s5_nan, s5_inf, s5_sign, s5_zero_sign, s5_zero;
     logic [9:0]  s5_e;      // signed headroom for the exponent arithmetic
     logic [27:0] s5_norm;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (s4_sum[27]) begin
             // Carry out: shift right by one, keeping the lost bit sticky.
             s5_norm <= {1'b0, s4_sum[27:2], s4_sum[1] | s4_sum[0]};
@@ -153,7 +154,7 @@ module gridrt_f32_addsub (
         .exp_i({1'b0, s5_e}), .mant_i(s5_norm[26:3]), .guard_i(s5_norm[2]),
         .sticky_i(s5_norm[1] | s5_norm[0]), .y_o(result));
 
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         out_valid_o <= s5_valid;
         y_o <= result;
     end

@@ -8,6 +8,7 @@
 // `in_valid` by LATENCY cycles.
 module gridrt_f32_mul (
     input  logic        clk_i,
+    input  logic        en_i,   // the co-processor's clock enable: every register holds while low
     input  logic        in_valid_i,
     input  logic [31:0] a_i,
     input  logic [31:0] b_i,
@@ -20,13 +21,13 @@ module gridrt_f32_mul (
     // ---------------------------------------------------------------- product (MUL_LAT)
     logic [49:0] prod50;
     gridrt_mul_pipe #(.A_W(25), .B_W(25), .LATENCY(MUL_LAT)) u_prod (
-        .clk_i, .en_i(1'b1), .a_i({1'b0, a_i[30:23] != 0, a_i[22:0]}), .b_i({1'b0, b_i[30:23] != 0, b_i[22:0]}), .p_o(prod50));
+        .clk_i, .en_i(en_i), .a_i({1'b0, a_i[30:23] != 0, a_i[22:0]}), .b_i({1'b0, b_i[30:23] != 0, b_i[22:0]}), .p_o(prod50));
 
     logic       f_valid, f_nan, f_inf, f_zero, f_sign;
     logic [10:0] f_exp;     // signed: ea + eb - 127 with subnormals counted as exponent 1
     logic       p_valid, p_nan, p_inf, p_zero, p_sign;
     logic [10:0] p_exp;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic [7:0] ea, eb, ea1, eb1;
         logic a_nan, b_nan, a_inf, b_inf, a_zero, b_zero;
         ea = a_i[30:23];
@@ -46,7 +47,7 @@ module gridrt_f32_mul (
         f_sign  <= a_i[31] ^ b_i[31];
         f_exp   <= {3'b000, ea1} + {3'b000, eb1} - 11'd127;
     end
-    gridrt_delay #(.W(16), .N(MUL_LAT - 1)) u_flags (.clk_i, .en_i(1'b1), .d_i({f_valid, f_nan, f_inf, f_zero, f_sign, f_exp}),
+    gridrt_delay #(.W(16), .N(MUL_LAT - 1)) u_flags (.clk_i, .en_i(en_i), .d_i({f_valid, f_nan, f_inf, f_zero, f_sign, f_exp}),
                                               .q_o({p_valid, p_nan, p_inf, p_zero, p_sign, p_exp}));
     logic [47:0] p_prod;
     assign p_prod = prod50[47:0];
@@ -60,7 +61,7 @@ module gridrt_f32_mul (
     logic [47:0] s1_prod;
     logic [5:0]  s1_lz;
     logic [10:0] s1_exp;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic [5:0] lz;
         lz = 6'd48 - prod_len;
         s1_valid <= p_valid;
@@ -81,7 +82,7 @@ module gridrt_f32_mul (
     logic        s2_valid, s2_nan, s2_inf, s2_zero, s2_sign, s2_sub;
     logic [47:0] s2_p, s2_drop;
     logic [10:0] s2_exp, s2_rs;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic [10:0] rs;
         rs = 11'd1 - s1_exp;
         s2_valid <= s1_valid;
@@ -102,7 +103,7 @@ module gridrt_f32_mul (
     logic        s3_valid, s3_nan, s3_inf, s3_zero, s3_sign, s3_sticky;
     logic [47:0] s3_norm;
     logic [10:0] s3_exp;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic [47:0] p;
         logic        st;
         p = s2_p;
@@ -129,7 +130,7 @@ module gridrt_f32_mul (
         .exp_i(s3_exp), .mant_i(s3_norm[47:24]), .guard_i(s3_norm[23]),
         .sticky_i((s3_norm[22:0] != 0) || s3_sticky), .y_o(result));
 
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         out_valid_o <= s3_valid;
         y_o <= result;
     end

@@ -7,6 +7,7 @@
 // conversion per cycle; `out_valid` follows `in_valid` by LATENCY cycles.
 module gridrt_f32_to_fixed (
     input  logic               clk_i,
+    input  logic               en_i,   // the co-processor's clock enable: every register holds while low
     input  logic               in_valid_i,
     input  logic [31:0]        x_i,
     input  logic signed [9:0]  k_i,
@@ -20,7 +21,7 @@ module gridrt_f32_to_fixed (
     logic               s0_valid;
     logic [31:0]        s0_x;
     logic signed [9:0]  s0_k;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         s0_valid <= in_valid_i;
         s0_x <= x_i;
         s0_k <= k_i;
@@ -38,7 +39,7 @@ module gridrt_f32_to_fixed (
     logic [4:0]         s1_len;
     logic signed [10:0] s1_shift;
     logic [5:0]         s1_sh;  // left shift (s1_left) or right shift d = min(-sh, 25)
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic signed [10:0] sh;
         sh = ((s0_x[30:23] == 0) ? -11'sd149 : $signed({3'b000, s0_x[30:23]}) - 11'sd150) + 11'(s0_k);
         s1_valid <= s0_valid;
@@ -54,7 +55,7 @@ module gridrt_f32_to_fixed (
     // ---------------------------------------------------------------- stage 2: shift, round
     logic        s2_valid, s2_sign, s2_huge;
     logic [54:0] s2_mag;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic [24:0] rounded;
         logic        huge_v;
         rounded = ({1'b0, s1_mant} + (25'd1 << (s1_sh - 6'd1))) >> s1_sh;
@@ -68,7 +69,7 @@ module gridrt_f32_to_fixed (
     end
 
     // ---------------------------------------------------------------- stage 3: sign
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         out_valid_o <= s2_valid;
         huge_o <= s2_huge;
         q_o <= s2_sign ? -$signed(s2_mag) : $signed(s2_mag);

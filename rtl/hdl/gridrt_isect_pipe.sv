@@ -19,6 +19,7 @@ module gridrt_isect_pipe #(
     parameter int STOP_WHEN_EMPTY = 0
 ) (
     input  logic                clk_i,
+    input  logic                en_i,   // the co-processor's clock enable: every register holds while low
     input  logic                rst_i,      // synchronous, active high: clears the valid bits
     input  logic                in_valid_i,
     input  logic [TAG_W-1:0]    in_tag_i,
@@ -59,7 +60,8 @@ module gridrt_isect_pipe #(
     if (STOP_WHEN_EMPTY != 0 && STOP_WHEN_EMPTY != 1) begin : g_bad_stop
         $error("isect_pipe: STOP_WHEN_EMPTY must be 0 or 1");
     end
-    logic pipe_en;
+    logic pipe_en, pipe_go;   // pipe_go: pipe_en while the co-processor's clock is enabled
+    assign pipe_go = en_i && pipe_en;
     if (STOP_WHEN_EMPTY == 1) begin : g_stop
         logic [6:0] drain_q, drain_d;
         if (STAGES + 1 > 127) begin : g_bad_drain
@@ -70,7 +72,7 @@ module gridrt_isect_pipe #(
             if (in_valid_i) drain_d = 7'(STAGES + 1);
             else if (drain_q != '0) drain_d = drain_q - 7'd1;
         end
-        always_ff @(posedge clk_i) begin
+        always_ff @(posedge clk_i) if (en_i) begin
             if (rst_i) drain_q <= '0;
             else drain_q <= drain_d;
         end
@@ -82,7 +84,7 @@ module gridrt_isect_pipe #(
     // ================================================================ K1: v - o, poison
     logic signed [34:0] rel_a [9];   // world order: vertex i axis a at 3i+a
     logic               rel_valid, rel_poison;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         rel_poison <= ray_overflow_i;
         for (int i = 0; i < 9; i++) begin
             logic signed [31:0] v;
@@ -100,7 +102,7 @@ module gridrt_isect_pipe #(
     // Cyclic permutation moving axis kz to z: kz=0 (y,z,x), kz=1 (z,x,y), kz=2 (x,y,z).
     logic signed [34:0] perm_x [3], perm_y [3], perm_z [3];
     logic               perm_valid, perm_poison;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         perm_poison <= rel_poison;
         for (int i = 0; i < 3; i++) begin
             unique case (kz_i)
@@ -115,25 +117,25 @@ module gridrt_isect_pipe #(
     // sx * A.z and sy * A.z for the 3 vertices (35 x 25).
     logic signed [59:0] shprod_px [3], shprod_py [3];
     for (genvar i = 0; i < 3; i++) begin : g_shear
-        gridrt_mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_SHEAR)) u_mx (.clk_i, .en_i(pipe_en), .a_i(perm_z[i]), .b_i(sx_i), .p_o(shprod_px[i]));
-        gridrt_mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_SHEAR)) u_my (.clk_i, .en_i(pipe_en), .a_i(perm_z[i]), .b_i(sy_i), .p_o(shprod_py[i]));
+        gridrt_mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_SHEAR)) u_mx (.clk_i, .en_i(pipe_go), .a_i(perm_z[i]), .b_i(sx_i), .p_o(shprod_px[i]));
+        gridrt_mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_SHEAR)) u_my (.clk_i, .en_i(pipe_go), .a_i(perm_z[i]), .b_i(sy_i), .p_o(shprod_py[i]));
     end
     logic signed [34:0] shprod_x [3], shprod_y [3], shprod_z [3];
     logic               shprod_valid, shprod_poison;
     for (genvar i = 0; i < 3; i++) begin : g_carry_xyz
-        gridrt_delay #(.W(35), .N(LAT_SHEAR)) u_dx (.clk_i, .en_i(pipe_en), .d_i(perm_x[i]), .q_o(shprod_x[i]));
-        gridrt_delay #(.W(35), .N(LAT_SHEAR)) u_dy (.clk_i, .en_i(pipe_en), .d_i(perm_y[i]), .q_o(shprod_y[i]));
-        gridrt_delay #(.W(35), .N(LAT_SHEAR)) u_dz (.clk_i, .en_i(pipe_en), .d_i(perm_z[i]), .q_o(shprod_z[i]));
+        gridrt_delay #(.W(35), .N(LAT_SHEAR)) u_dx (.clk_i, .en_i(pipe_go), .d_i(perm_x[i]), .q_o(shprod_x[i]));
+        gridrt_delay #(.W(35), .N(LAT_SHEAR)) u_dy (.clk_i, .en_i(pipe_go), .d_i(perm_y[i]), .q_o(shprod_y[i]));
+        gridrt_delay #(.W(35), .N(LAT_SHEAR)) u_dz (.clk_i, .en_i(pipe_go), .d_i(perm_z[i]), .q_o(shprod_z[i]));
     end
-    gridrt_delay_rst #(.W(1), .N(LAT_SHEAR)) u_shprod_valid (.clk_i, .rst_i, .d_i(perm_valid), .q_o(shprod_valid));
-    gridrt_delay #(.W(1), .N(LAT_SHEAR)) u_shprod_flags (.clk_i, .en_i(pipe_en), .d_i(perm_poison), .q_o(shprod_poison));
+    gridrt_delay_rst #(.W(1), .N(LAT_SHEAR)) u_shprod_valid (.clk_i, .en_i, .rst_i, .d_i(perm_valid), .q_o(shprod_valid));
+    gridrt_delay #(.W(1), .N(LAT_SHEAR)) u_shprod_flags (.clk_i, .en_i(pipe_go), .d_i(perm_poison), .q_o(shprod_poison));
 
     // ================================================================ K7: shear rounding
     // round_half_up(s * A.z / 2^23) = floor((s * A.z + 2^22) / 2^23).
     logic signed [36:0] shrnd_rx [3], shrnd_ry [3];
     logic signed [34:0] shrnd_x [3], shrnd_y [3], shrnd_z [3];
     logic               shrnd_valid, shrnd_poison;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         for (int i = 0; i < 3; i++) begin
             shrnd_rx[i] <= 37'((shprod_px[i] + 60'sd4194304) >>> 23);
             shrnd_ry[i] <= 37'((shprod_py[i] + 60'sd4194304) >>> 23);
@@ -154,7 +156,7 @@ module gridrt_isect_pipe #(
         if (!v[36]) out_of_range = v[35:29] != 0;
         else out_of_range = v[35:29] != 7'h7F || v[28:0] == 0;
     endfunction
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         logic signed [36:0] lx, ly;
         logic               bad;
         bad = shrnd_poison;
@@ -172,25 +174,25 @@ module gridrt_isect_pipe #(
     // ================================================================ K9-K12: edge products
     // e0 = bx*cy - by*cx, e1 = cx*ay - cy*ax, e2 = ax*by - ay*bx (exact).
     logic signed [59:0] edprod_p [6];
-    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e0 (.clk_i, .en_i(pipe_en), .a_i(lat_x[1]), .b_i(lat_y[2]), .p_o(edprod_p[0]));
-    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e1 (.clk_i, .en_i(pipe_en), .a_i(lat_y[1]), .b_i(lat_x[2]), .p_o(edprod_p[1]));
-    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e2 (.clk_i, .en_i(pipe_en), .a_i(lat_x[2]), .b_i(lat_y[0]), .p_o(edprod_p[2]));
-    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e3 (.clk_i, .en_i(pipe_en), .a_i(lat_y[2]), .b_i(lat_x[0]), .p_o(edprod_p[3]));
-    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e4 (.clk_i, .en_i(pipe_en), .a_i(lat_x[0]), .b_i(lat_y[1]), .p_o(edprod_p[4]));
-    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e5 (.clk_i, .en_i(pipe_en), .a_i(lat_y[0]), .b_i(lat_x[1]), .p_o(edprod_p[5]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e0 (.clk_i, .en_i(pipe_go), .a_i(lat_x[1]), .b_i(lat_y[2]), .p_o(edprod_p[0]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e1 (.clk_i, .en_i(pipe_go), .a_i(lat_y[1]), .b_i(lat_x[2]), .p_o(edprod_p[1]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e2 (.clk_i, .en_i(pipe_go), .a_i(lat_x[2]), .b_i(lat_y[0]), .p_o(edprod_p[2]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e3 (.clk_i, .en_i(pipe_go), .a_i(lat_y[2]), .b_i(lat_x[0]), .p_o(edprod_p[3]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e4 (.clk_i, .en_i(pipe_go), .a_i(lat_x[0]), .b_i(lat_y[1]), .p_o(edprod_p[4]));
+    gridrt_mul_pipe #(.A_W(30), .B_W(30), .LATENCY(LAT_EDGE)) u_e5 (.clk_i, .en_i(pipe_go), .a_i(lat_y[0]), .b_i(lat_x[1]), .p_o(edprod_p[5]));
     logic signed [34:0] edprod_z [3];
     logic               edprod_valid, edprod_poison;
     for (genvar i = 0; i < 3; i++) begin : g_carry_z12
-        gridrt_delay #(.W(35), .N(LAT_EDGE)) u_dz (.clk_i, .en_i(pipe_en), .d_i(lat_z[i]), .q_o(edprod_z[i]));
+        gridrt_delay #(.W(35), .N(LAT_EDGE)) u_dz (.clk_i, .en_i(pipe_go), .d_i(lat_z[i]), .q_o(edprod_z[i]));
     end
-    gridrt_delay_rst #(.W(1), .N(LAT_EDGE)) u_edprod_valid (.clk_i, .rst_i, .d_i(lat_valid), .q_o(edprod_valid));
-    gridrt_delay #(.W(1), .N(LAT_EDGE)) u_edprod_flags (.clk_i, .en_i(pipe_en), .d_i(lat_poison), .q_o(edprod_poison));
+    gridrt_delay_rst #(.W(1), .N(LAT_EDGE)) u_edprod_valid (.clk_i, .en_i, .rst_i, .d_i(lat_valid), .q_o(edprod_valid));
+    gridrt_delay #(.W(1), .N(LAT_EDGE)) u_edprod_flags (.clk_i, .en_i(pipe_go), .d_i(lat_poison), .q_o(edprod_poison));
 
     // ================================================================ K13: edge functions
     logic signed [60:0] edge_e [3];
     logic signed [34:0] edge_z [3];
     logic               edge_valid, edge_poison;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         for (int i = 0; i < 3; i++) begin
             edge_e[i] <= 61'(edprod_p[2*i]) - 61'(edprod_p[2*i+1]);
             edge_z[i] <= edprod_z[i];
@@ -203,7 +205,7 @@ module gridrt_isect_pipe #(
     logic signed [60:0] sgn_e [3];
     logic signed [34:0] sgn_z [3];
     logic               sgn_valid, sgn_poison, sgn_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         logic any_neg, any_pos;
         any_neg = edge_e[0] < 0 || edge_e[1] < 0 || edge_e[2] < 0;
         any_pos = edge_e[0] > 0 || edge_e[1] > 0 || edge_e[2] > 0;
@@ -219,7 +221,7 @@ module gridrt_isect_pipe #(
     logic signed [60:0] dsum_e [3];
     logic signed [34:0] dsum_z [3];
     logic               dsum_valid, dsum_poison, dsum_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         dsum_det <= sgn_e01 + 63'(sgn_e[2]);
         dsum_e <= sgn_e;
         dsum_z <= sgn_z;
@@ -232,7 +234,7 @@ module gridrt_isect_pipe #(
     logic [60:0]        norm_e [3];  // >= 0 for a candidate
     logic signed [34:0] norm_z [3];
     logic               norm_valid, norm_poison, norm_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         logic neg;
         neg = dsum_det < 0;
         for (int i = 0; i < 3; i++) norm_e[i] <= neg ? 61'(-dsum_e[i]) : 61'(dsum_e[i]);
@@ -250,7 +252,7 @@ module gridrt_isect_pipe #(
     logic [60:0]        wsh_e [3];
     logic signed [34:0] wsh_z [3];
     logic               wsh_valid, wsh_poison, wsh_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         wsh_r <= (det_len > 6'd34) ? 5'(det_len - 6'd34) : 5'd0;
         wsh_e <= norm_e;
         wsh_z <= norm_z;
@@ -262,7 +264,7 @@ module gridrt_isect_pipe #(
     logic signed [34:0] wgt_w [3];  // < 2^34 for a candidate
     logic signed [34:0] wgt_z [3];
     logic               wgt_valid, wgt_poison, wgt_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         for (int i = 0; i < 3; i++) wgt_w[i] <= 35'(wsh_e[i] >> wsh_r);
         wgt_z <= wsh_z;
         wgt_poison <= wsh_poison;
@@ -272,26 +274,26 @@ module gridrt_isect_pipe #(
     // ================================================================ K19: weight sum
     // det' = sum of weights (< 2^34), registered while the depth products start.
     logic signed [34:0] wsum_detw;
-    always_ff @(posedge clk_i) if (pipe_en) wsum_detw <= wgt_w[0] + wgt_w[1] + wgt_w[2];
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) wsum_detw <= wgt_w[0] + wgt_w[1] + wgt_w[2];
 
     // ================================================================ K19-K22: depth products
     logic signed [69:0] dprod_n [3];
     for (genvar i = 0; i < 3; i++) begin : g_depth
-        gridrt_mul_pipe #(.A_W(35), .B_W(35), .LATENCY(LAT_DEPTH)) u_n (.clk_i, .en_i(pipe_en), .a_i(wgt_w[i]), .b_i(wgt_z[i]), .p_o(dprod_n[i]));
+        gridrt_mul_pipe #(.A_W(35), .B_W(35), .LATENCY(LAT_DEPTH)) u_n (.clk_i, .en_i(pipe_go), .a_i(wgt_w[i]), .b_i(wgt_z[i]), .p_o(dprod_n[i]));
     end
     // Denominator det' * |dz| (K20-K23) starts one cycle later and ends with the first depth
     // sum (K23).
     logic signed [59:0] dpart_den;
-    gridrt_mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_DEPTH)) u_den (.clk_i, .en_i(pipe_en), .a_i(wsum_detw), .b_i({1'b0, dz_abs_i}), .p_o(dpart_den));
+    gridrt_mul_pipe #(.A_W(35), .B_W(25), .LATENCY(LAT_DEPTH)) u_den (.clk_i, .en_i(pipe_go), .a_i(wsum_detw), .b_i({1'b0, dz_abs_i}), .p_o(dpart_den));
     logic dprod_valid, dprod_poison, dprod_cand;
-    gridrt_delay_rst #(.W(1), .N(LAT_DEPTH)) u_dprod_valid (.clk_i, .rst_i, .d_i(wgt_valid), .q_o(dprod_valid));
-    gridrt_delay #(.W(2), .N(LAT_DEPTH)) u_dprod_flags (.clk_i, .en_i(pipe_en), .d_i({wgt_poison, wgt_cand}), .q_o({dprod_poison, dprod_cand}));
+    gridrt_delay_rst #(.W(1), .N(LAT_DEPTH)) u_dprod_valid (.clk_i, .en_i, .rst_i, .d_i(wgt_valid), .q_o(dprod_valid));
+    gridrt_delay #(.W(2), .N(LAT_DEPTH)) u_dprod_flags (.clk_i, .en_i(pipe_go), .d_i({wgt_poison, wgt_cand}), .q_o({dprod_poison, dprod_cand}));
 
     // ================================================================ K23: n0 + n1
     logic signed [71:0] dpart_n01;
     logic signed [69:0] dpart_n2;
     logic               dpart_valid, dpart_poison, dpart_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         dpart_n01 <= 72'(dprod_n[0]) + 72'(dprod_n[1]);
         dpart_n2 <= dprod_n[2];
         dpart_poison <= dprod_poison;
@@ -302,7 +304,7 @@ module gridrt_isect_pipe #(
     logic signed [71:0] depth_n;
     logic [57:0]        depth_den;
     logic               depth_valid, depth_poison, depth_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         depth_n <= dpart_n01 + 72'(dpart_n2);
         depth_den <= dpart_den[57:0];
         depth_poison <= dpart_poison;
@@ -314,7 +316,7 @@ module gridrt_isect_pipe #(
     logic [69:0]  front_n;
     logic [57:0]  front_den;
     logic         front_valid, front_poison, front_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         logic front;
         front = dz_neg_i ? depth_n < 0 : depth_n > 0;
         front_n <= 70'(depth_n[71] ? -depth_n : depth_n);
@@ -333,7 +335,7 @@ module gridrt_isect_pipe #(
     logic [6:0]   len_ln;
     logic [5:0]   len_ld;
     logic         len_valid, len_poison, len_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         len_n <= front_n;
         len_den <= front_den;
         len_ln <= n_len;
@@ -347,7 +349,7 @@ module gridrt_isect_pipe #(
     logic [57:0]         opnd_dn;
     logic signed [10:0]  opnd_exp;
     logic                opnd_valid, opnd_poison, opnd_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         opnd_nn <= len_n << (7'd70 - len_ln);
         opnd_dn <= len_den << (6'd58 - len_ld);
         opnd_exp <= 11'($signed({4'd0, len_ln})) - 11'($signed({5'd0, len_ld})) - 11'sd26 + 11'(texp_i);
@@ -367,7 +369,7 @@ module gridrt_isect_pipe #(
     assign dv_low[0] = opnd_nn[12:0];
     assign dv_q[0] = 27'd0;
     for (genvar j = 0; j < DIV_STEPS; j++) begin : g_div
-        always_ff @(posedge clk_i) if (pipe_en) begin
+        always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
             logic [58:0] r;
             logic [59:0] diff;
             r = {dv_r[j][57:0], dv_low[j][12]};
@@ -386,8 +388,8 @@ module gridrt_isect_pipe #(
     end
     logic signed [10:0] quo_exp;
     logic               quo_valid, quo_poison, quo_cand;
-    gridrt_delay_rst #(.W(1), .N(DIV_STEPS)) u_quo_valid (.clk_i, .rst_i, .d_i(opnd_valid), .q_o(quo_valid));
-    gridrt_delay #(.W(13), .N(DIV_STEPS)) u_quo_flags (.clk_i, .en_i(pipe_en), .d_i({opnd_exp, opnd_poison, opnd_cand}),
+    gridrt_delay_rst #(.W(1), .N(DIV_STEPS)) u_quo_valid (.clk_i, .en_i, .rst_i, .d_i(opnd_valid), .q_o(quo_valid));
+    gridrt_delay #(.W(13), .N(DIV_STEPS)) u_quo_flags (.clk_i, .en_i(pipe_go), .d_i({opnd_exp, opnd_poison, opnd_cand}),
                                                     .q_o({quo_exp, quo_poison, quo_cand}));
 
     // ================================================================ K55: rounding position
@@ -399,7 +401,7 @@ module gridrt_isect_pipe #(
     logic signed [10:0] rpos_e;
     logic [4:0]         rpos_dr;
     logic               rpos_valid, rpos_poison, rpos_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         logic [5:0]         p;
         logic signed [10:0] e, drop;
         p = dv_q[DIV_STEPS][26] ? 6'd27 : 6'd26;
@@ -418,7 +420,7 @@ module gridrt_isect_pipe #(
     logic               rnd_up;
     logic signed [10:0] rnd_e;
     logic               rnd_valid, rnd_poison, rnd_cand;
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         logic [27:0] mant;
         logic        half, rest;
         mant = rpos_q >> rpos_dr;
@@ -464,8 +466,8 @@ module gridrt_isect_pipe #(
     end
 
     logic [TAG_W-1:0] tag_q;
-    gridrt_delay #(.W(TAG_W), .N(STAGES)) u_tag (.clk_i, .en_i(pipe_en), .d_i(in_tag_i), .q_o(tag_q));
-    always_ff @(posedge clk_i) if (pipe_en) begin
+    gridrt_delay #(.W(TAG_W), .N(STAGES)) u_tag (.clk_i, .en_i(pipe_go), .d_i(in_tag_i), .q_o(tag_q));
+    always_ff @(posedge clk_i) if (en_i && (pipe_en)) begin
         t_o <= t_bits;
         if (rnd_poison) kind_o <= 2'd2;
         else if (rnd_cand && !t_zero && !t_inf) kind_o <= 2'd1;
@@ -476,7 +478,7 @@ module gridrt_isect_pipe #(
     // ================================================================ valid bits
     // Every stage's valid bit, cleared by the reset (the stages' data registers have none):
     // no test is in flight after a reset.
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (rst_i) begin
             rel_valid <= 1'b0;
             perm_valid <= 1'b0;
@@ -520,7 +522,7 @@ module gridrt_isect_pipe #(
 
 `ifndef SYNTHESIS
     // A stopped pipe holds no test: every valid bit is clear while the data registers hold.
-    StoppedWhenEmpty: assert property (@(posedge clk_i) disable iff (rst_i) !pipe_en |->
+    StoppedWhenEmpty: assert property (@(posedge clk_i) disable iff (!en_i || rst_i) !pipe_en |->
         !(rel_valid || perm_valid || shprod_valid || shrnd_valid || lat_valid || edprod_valid ||
           edge_valid || sgn_valid || dsum_valid || norm_valid || wsh_valid || wgt_valid ||
           dprod_valid || dpart_valid || depth_valid || front_valid || len_valid || opnd_valid ||

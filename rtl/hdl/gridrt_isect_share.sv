@@ -21,6 +21,7 @@ module gridrt_isect_share #(
     localparam int LATENCY = PIPE_LATENCY + LANES
 ) (
     input  logic                            clk_i,
+    input  logic                            en_i,   // the co-processor's clock enable: every register holds while low
     input  logic                            rst_i,      // synchronous, active high: clears the valid bits
     // Tests of the lanes' PEs: a record's parts, low bits first, each with in_valid.
     input  logic [LANES-1:0]                in_valid_i,
@@ -63,17 +64,17 @@ module gridrt_isect_share #(
             logic [PARTS*PART_W-1:0]     all;
             for (genvar q = 0; q < PARTS - 1; q++) begin : g_early
                 always_ff @(posedge clk_i)
-                    if (in_valid_i[l] && in_part_i[l] == 2'(q)) early[q*PART_W +: PART_W] <= in_chunk_i[l];
+                    if (en_i && (in_valid_i[l] && in_part_i[l] == 2'(q))) early[q*PART_W +: PART_W] <= in_chunk_i[l];
             end
             assign all = {in_chunk_i[l], early};
             assign whole = all[287:0];
         end
-        gridrt_delay_rst #(.W(1), .N(l)) u_lane_valid (.clk_i, .rst_i, .d_i(whole_valid), .q_o(d_valid[l]));
-        gridrt_delay #(.W(288), .N(l)) u_lane (.clk_i, .en_i(1'b1), .d_i(whole_valid ? whole : 288'd0), .q_o(d_rec[l]));
+        gridrt_delay_rst #(.W(1), .N(l)) u_lane_valid (.clk_i, .en_i, .rst_i, .d_i(whole_valid), .q_o(d_valid[l]));
+        gridrt_delay #(.W(288), .N(l)) u_lane (.clk_i, .en_i(en_i), .d_i(whole_valid ? whole : 288'd0), .q_o(d_rec[l]));
     end
 `ifndef SYNTHESIS
     // The timeline keeps the lanes apart; a collision would merge two tests.
-    LanesApart: assert property (@(posedge clk_i) disable iff (rst_i) $onehot0(d_valid))
+    LanesApart: assert property (@(posedge clk_i) disable iff (!en_i || rst_i) $onehot0(d_valid))
         else $fatal(1, "gridrt_isect_share: two lanes' tests in the same cycle");
 `endif
 
@@ -81,7 +82,7 @@ module gridrt_isect_share #(
     logic          m_valid;
     logic [LW-1:0] m_lane;
     logic [287:0]  m_rec;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic [LW-1:0] lane;
         logic [287:0]  rec;
         lane = '0;
@@ -93,7 +94,7 @@ module gridrt_isect_share #(
         m_lane <= lane;
         m_rec <= rec;
     end
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (rst_i) m_valid <= 1'b0;
         else m_valid <= |d_valid;
     end
@@ -109,7 +110,7 @@ module gridrt_isect_share #(
     logic               r_dz_neg, r_ray_overflow;
     logic [23:0]        r_dz_abs;
     logic signed [9:0]  r_texp;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         {r_o0, r_o1, r_o2, r_kz, r_sx, r_sy} <= {o0_i, o1_i, o2_i, kz_i, sx_i, sy_i};
         {r_dz_neg, r_dz_abs, r_texp, r_ray_overflow} <= {dz_neg_i, dz_abs_i, texp_i, ray_overflow_i};
     end
@@ -119,7 +120,7 @@ module gridrt_isect_share #(
     logic [1:0]    p_kind;
     logic [31:0]   p_t;
     gridrt_isect_pipe #(.TAG_W(LW), .LATENCY(PIPE_LATENCY), .STOP_WHEN_EMPTY(STOP_WHEN_EMPTY)) u_pipe (
-        .clk_i, .rst_i, .in_valid_i(m_valid), .in_tag_i(m_lane), .rec_i(m_rec),
+        .clk_i, .en_i, .rst_i, .in_valid_i(m_valid), .in_tag_i(m_lane), .rec_i(m_rec),
         .o0_i(r_o0), .o1_i(r_o1), .o2_i(r_o2), .kz_i(r_kz), .sx_i(r_sx), .sy_i(r_sy), .dz_neg_i(r_dz_neg),
         .dz_abs_i(r_dz_abs), .texp_i(r_texp), .ray_overflow_i(r_ray_overflow),
         .out_valid_o(p_valid), .out_tag_o(p_lane), .kind_o(p_kind), .t_o(p_t));
@@ -128,8 +129,8 @@ module gridrt_isect_share #(
     for (genvar l = 0; l < LANES; l++) begin : g_out
         logic mine;
         assign mine = p_valid && (LANES == 1 || p_lane == LW'(l));
-        gridrt_delay_rst #(.W(1), .N(LANES - 1 - l)) u_lane_valid (.clk_i, .rst_i, .d_i(mine), .q_o(out_valid_o[l]));
+        gridrt_delay_rst #(.W(1), .N(LANES - 1 - l)) u_lane_valid (.clk_i, .en_i, .rst_i, .d_i(mine), .q_o(out_valid_o[l]));
         gridrt_delay #(.W(2 + 32), .N(LANES - 1 - l)) u_lane (
-            .clk_i, .en_i(1'b1), .d_i({p_kind, p_t}), .q_o({out_kind_o[l], out_t_o[l]}));
+            .clk_i, .en_i(en_i), .d_i({p_kind, p_t}), .q_o({out_kind_o[l], out_t_o[l]}));
     end
 endmodule

@@ -24,9 +24,14 @@ module gridrt_pe #(
     parameter int PARTS = 2,
     parameter int PART_W = 144,
     // Cycles from a test's last part on t_* to its result on r_* (isect_share).
-    parameter int RESULT_LATENCY = 60
+    parameter int RESULT_LATENCY = 60,
+    // 1: the memory is a cache of the PE's image in an external memory (gridrt_pe_cache,
+    // ISSUE_INTERVAL 4 only) of CACHE_LINES 8-word lines; 0: block RAM (gridrt_pe_mem).
+    parameter int PE_CACHE = 0,
+    parameter int CACHE_LINES = 512
 ) (
     input  logic                         clk_i,
+    input  logic                         en_i,   // the co-processor's clock enable: every register holds while low
     input  logic                         rst_i,
     // Port A of the memory for the controller (load, voxel lookup, the winner's triangle);
     // ignored while the PE executes a ray. Port B is the PE's own (record windows).
@@ -34,6 +39,17 @@ module gridrt_pe #(
     input  logic                         c_a_we_i,
     input  logic [31:0]                  c_a_wdata_i,
     output logic [31:0]                  a_rdata_o,
+    // PE_CACHE: the freeze controller's phase, this PE's requests to it, its external memory
+    // (gridrt_pe_cache); unused with block RAM.
+    input  logic [1:0]                   pc_phase_i,
+    output logic                         pc_hold_o,
+    output logic                         pc_ready_o,
+    output logic                         m_req_o,
+    output logic                         m_we_o,
+    output logic [$clog2(WORDS)-1:0]     m_addr_o,
+    output logic [31:0]                  m_wdata_o,
+    input  logic                         m_ack_i,
+    input  logic [31:0]                  m_rdata_i,
     // Image layout (valid while loaded).
     input  logic [$clog2(WORDS)-1:0]     ref_off_i,
     // Entry queue, filled while the request streams in.
@@ -86,7 +102,7 @@ module gridrt_pe #(
     logic          active_q, active_d;     // executing a ray: the issue loop reads the memory
     logic [AW-1:0] x_a_addr_q, x_a_addr_d, x_b_addr, x_b_addr4, x_b_addr8;
     logic          iss_valid_q, iss_valid_d;  // an issue in the last cycle: its ref word is read now
-    logic          rd_part1, rd_part2;     // PARTED: the record's second and third reads now
+    logic          rd_part0, rd_part1, rd_part2;   // PARTED: the record's three reads now
     logic [31:0]   w_rdata, r_word, ref_word;
     logic [32*RD_WORDS-1:0] r_window;      // a record (9 coordinates, prim) or a part of one
     logic [AW-1:0] r_addr;
@@ -104,16 +120,39 @@ module gridrt_pe #(
     logic [AW-1:0] w_addr_q;
     logic          w_en_q;
     logic [31:0]   w_data_q;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         w_addr_q <= c_a_addr_i;
         w_en_q <= !active_q && c_a_we_i && !rst_i;
         w_data_q <= c_a_wdata_i;
     end
-    gridrt_pe_mem #(.WORDS(WORDS), .BANKS(PARTED ? 4 : 16), .RD_WORDS(RD_WORDS), .WORD_PORT(WORD_PORT)) u_mem (
-        .clk_i,
-        .w_addr_i(WORD_PORT ? (active_q ? x_a_addr_q : c_a_addr_i) : w_addr_q),
-        .w_en_i(WORD_PORT ? !active_q && c_a_we_i : w_en_q), .w_data_i(WORD_PORT ? c_a_wdata_i : w_data_q),
-        .w_rdata_o(w_rdata), .r_addr_i(r_addr), .r_window_o(r_window), .r_word_o(r_word));
+    if (PE_CACHE != 0) begin : g_cache
+        if (!PARTED) begin : g_bad_cache
+            $error("pe: PE_CACHE needs ISSUE_INTERVAL 4");
+        end
+        // The reads the PE uses: the controller's while idle (any cycle it does not write),
+        // the ref word and the record's three parts while it executes.
+        logic r_valid;
+        assign r_valid = active_q ? (iss_valid_q || rd_part0 || rd_part1 || rd_part2) : !c_a_we_i;
+        gridrt_pe_cache #(.WORDS(WORDS), .LINES(CACHE_LINES)) u_cache (
+            .clk_i, .rst_i, .en_i, .phase_i(pc_phase_i),
+            .w_addr_i(w_addr_q), .w_en_i(w_en_q), .w_data_i(w_data_q),
+            .r_addr_i(r_addr), .r_valid_i(r_valid), .r_window_o(r_window), .r_word_o(r_word),
+            .hold_o(pc_hold_o), .ready_o(pc_ready_o),
+            .m_req_o, .m_we_o, .m_addr_o, .m_wdata_o, .m_ack_i, .m_rdata_i);
+        assign w_rdata = '0;
+    end else begin : g_bram
+        gridrt_pe_mem #(.WORDS(WORDS), .BANKS(PARTED ? 4 : 16), .RD_WORDS(RD_WORDS), .WORD_PORT(WORD_PORT)) u_mem (
+            .clk_i, .en_i,
+            .w_addr_i(WORD_PORT ? (active_q ? x_a_addr_q : c_a_addr_i) : w_addr_q),
+            .w_en_i(WORD_PORT ? !active_q && c_a_we_i : w_en_q), .w_data_i(WORD_PORT ? c_a_wdata_i : w_data_q),
+            .w_rdata_o(w_rdata), .r_addr_i(r_addr), .r_window_o(r_window), .r_word_o(r_word));
+        assign pc_hold_o = 1'b0;
+        assign pc_ready_o = 1'b1;
+        assign m_req_o = 1'b0;
+        assign m_we_o = 1'b0;
+        assign m_addr_o = '0;
+        assign m_wdata_o = '0;
+    end
     // The single-word read: the controller's reads and the PE's ref words (the same port).
     assign ref_word = WORD_PORT ? w_rdata : r_word;
     assign a_rdata_o = ref_word;
@@ -123,7 +162,7 @@ module gridrt_pe #(
     logic [KW+2*AW-1:0] q_rdata;
     logic [KW:0]        q_n_q, q_raddr_q, q_n_d, q_raddr_d;
     logic [31:0]        hi_mem [MAX_LIST];
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (q_push_i) begin
             q_mem[q_n_q[KW-1:0]] <= {q_k_i, q_first_i, q_count_i};
             hi_mem[q_k_i] <= q_hi_i;
@@ -231,7 +270,7 @@ module gridrt_pe #(
         end
     end
 
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         state_q <= state_d;
         phase_q <= phase_d;
         active_q <= active_d;
@@ -254,11 +293,11 @@ module gridrt_pe #(
     // window arrives two cycles after each read (pe_mem).
     logic [KW+1:0] tag_p2;
     logic          v_p2;
-    gridrt_delay #(.W(KW+3), .N(2)) u_dp2 (.clk_i, .en_i(1'b1), .d_i({iss_valid_q, epoch_q, iss_last_q, iss_k_q}), .q_o({v_p2, tag_p2}));
+    gridrt_delay #(.W(KW+3), .N(2)) u_dp2 (.clk_i, .en_i(en_i), .d_i({iss_valid_q, epoch_q, iss_last_q, iss_k_q}), .q_o({v_p2, tag_p2}));
     logic [AW-1:0] ref_tri;
     assign ref_tri = ref_word[AW-1:0];
     // Record t at WORDS - 10 (t + 1) (the controller stacks them from the top down).
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (v_p2) begin
             x_b_addr <= AW'(WORDS - 10) - (AW'(ref_tri) << 3) - (AW'(ref_tri) << 1);
             x_b_addr4 <= AW'(WORDS - 6) - (AW'(ref_tri) << 3) - (AW'(ref_tri) << 1);
@@ -277,15 +316,16 @@ module gridrt_pe #(
         logic          v_p3, v_p5, v_p6, v_p7, v_p8;
         logic [KW+1:0] tag_p8;
         logic [AW-1:0] tri_p8;
-        gridrt_delay #(.W(1), .N(1)) u_d3 (.clk_i, .en_i(1'b1), .d_i(v_p2), .q_o(v_p3));
-        gridrt_delay #(.W(1), .N(2)) u_d5 (.clk_i, .en_i(1'b1), .d_i(v_p3), .q_o(v_p5));
-        gridrt_delay #(.W(1), .N(1)) u_d6 (.clk_i, .en_i(1'b1), .d_i(v_p5), .q_o(v_p6));
-        gridrt_delay #(.W(1), .N(2)) u_d7 (.clk_i, .en_i(1'b1), .d_i(v_p5), .q_o(v_p7));
-        gridrt_delay #(.W(1), .N(2)) u_d8 (.clk_i, .en_i(1'b1), .d_i(v_p6), .q_o(v_p8));
-        gridrt_delay #(.W(KW+2+AW), .N(6)) u_dtag (.clk_i, .en_i(1'b1), .d_i({tag_p2, ref_tri}), .q_o({tag_p8, tri_p8}));
+        gridrt_delay #(.W(1), .N(1)) u_d3 (.clk_i, .en_i(en_i), .d_i(v_p2), .q_o(v_p3));
+        gridrt_delay #(.W(1), .N(2)) u_d5 (.clk_i, .en_i(en_i), .d_i(v_p3), .q_o(v_p5));
+        gridrt_delay #(.W(1), .N(1)) u_d6 (.clk_i, .en_i(en_i), .d_i(v_p5), .q_o(v_p6));
+        gridrt_delay #(.W(1), .N(2)) u_d7 (.clk_i, .en_i(en_i), .d_i(v_p5), .q_o(v_p7));
+        gridrt_delay #(.W(1), .N(2)) u_d8 (.clk_i, .en_i(en_i), .d_i(v_p6), .q_o(v_p8));
+        gridrt_delay #(.W(KW+2+AW), .N(6)) u_dtag (.clk_i, .en_i(en_i), .d_i({tag_p2, ref_tri}), .q_o({tag_p8, tri_p8}));
+        assign rd_part0 = v_p3;
         assign rd_part1 = v_p5;
         assign rd_part2 = v_p6;
-        always_ff @(posedge clk_i) begin
+        always_ff @(posedge clk_i) if (en_i) begin
             t_valid_o <= v_p5 || v_p7 || v_p8;
             t_part_o <= v_p5 ? 2'd0 : (v_p7 ? 2'd1 : 2'd2);
             t_chunk_o <= r_window;
@@ -302,10 +342,11 @@ module gridrt_pe #(
         logic          v_p5;
         logic [287:0]  rec_rest;
         logic [1:0]    part_next;
-        gridrt_delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk_i, .en_i(1'b1), .d_i({v_p2, tag_p2, ref_tri}), .q_o({v_p5, tag_p5, tri_p5}));
+        gridrt_delay #(.W(KW+3+AW), .N(3)) u_dp5 (.clk_i, .en_i(en_i), .d_i({v_p2, tag_p2, ref_tri}), .q_o({v_p5, tag_p5, tri_p5}));
+        assign rd_part0 = 1'b0;
         assign rd_part1 = 1'b0;
         assign rd_part2 = 1'b0;
-        always_ff @(posedge clk_i) begin
+        always_ff @(posedge clk_i) if (en_i) begin
             t_valid_o <= v_p5 || part_next != 0;
             if (v_p5) begin
                 t_part_o <= 2'd0;
@@ -325,19 +366,19 @@ module gridrt_pe #(
     end
     logic [TAG_W-1:0] r_tag;
     localparam int TAG_DELAY = RESULT_LATENCY + (PARTED ? 1 : PARTS);
-    gridrt_delay_ram #(.W(TAG_W), .N(TAG_DELAY)) u_tag (.clk_i, .d_i(tag_in), .q_o(r_tag));
+    gridrt_delay_ram #(.W(TAG_W), .N(TAG_DELAY)) u_tag (.clk_i, .en_i, .d_i(tag_in), .q_o(r_tag));
 `ifndef SYNTHESIS
     // Every result comes TAG_DELAY cycles after its test's tag entered u_tag, when the tag
     // comes out (checked from TAG_DELAY cycles after a reset on: a reset may drop the tests
     // in flight).
     logic r_expected;
     int   settled_q;
-    gridrt_delay #(.W(1), .N(TAG_DELAY)) u_expected (.clk_i, .en_i(1'b1), .d_i(tag_in_valid), .q_o(r_expected));
-    always_ff @(posedge clk_i) begin
+    gridrt_delay #(.W(1), .N(TAG_DELAY)) u_expected (.clk_i, .en_i(en_i), .d_i(tag_in_valid), .q_o(r_expected));
+    always_ff @(posedge clk_i) if (en_i) begin
         if (rst_i) settled_q <= 0;
         else if (settled_q <= TAG_DELAY) settled_q <= settled_q + 1;
     end
-    ResultLatency: assert property (@(posedge clk_i) disable iff (rst_i || settled_q <= TAG_DELAY)
+    ResultLatency: assert property (@(posedge clk_i) disable iff (!en_i || rst_i || settled_q <= TAG_DELAY)
         r_valid_i == r_expected)
         else $fatal(1, "gridrt_pe: a result not RESULT_LATENCY cycles after its test");
 `endif
@@ -348,7 +389,7 @@ module gridrt_pe #(
     logic [KW-1:0] r0_k;
     logic [AW-1:0] r0_tri;
     logic [31:0]   r0_t, r0_prim, r0_hi;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         r0_valid <= r_valid_i && active_q && r_tag[TAG_W-1] == epoch_q;
         r0_hit <= r_kind_i == 2'd1;
         {r0_last, r0_k} <= r_tag[TAG_W-2 -: KW+1];
@@ -363,7 +404,7 @@ module gridrt_pe #(
     logic [KW-1:0] r1_k;
     logic [AW-1:0] r1_tri;
     logic [31:0]   r1_t, r1_prim;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         r1_valid <= r0_valid && active_q;
         r1_acc <= r0_hit && !t_max_i[31] && r0_t[30:0] < t_max_i[30:0] && !r0_hi[31] && r0_t[30:0] <= r0_hi[30:0];
         r1_last <= r0_last;
@@ -382,7 +423,7 @@ module gridrt_pe #(
     logic [AW-1:0] res_tri_mem [MAX_LIST];
     logic          ev1_valid, ev1_hit;   // an entry done (its k: ev1_k)
     logic [KW-1:0] ev1_k;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic          take, emit, hit;
         logic [31:0]   t_out;
         logic [AW-1:0] tri_out;
@@ -451,7 +492,7 @@ module gridrt_pe #(
     logic [KW-1:0]       pend_mem [PEND];
     logic [$clog2(PEND)-1:0] pend_rd, pend_wr;
     logic [$clog2(PEND):0]   pend_n;
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (q_push_i) qk_mem[q_n_q[KW-1:0]] <= q_k_i;
         head_k <= qk_mem[q_raddr_q[KW-1:0]];
         next_k <= qk_mem[KW'(q_raddr_q[KW-1:0] + 1'b1)];
@@ -462,7 +503,7 @@ module gridrt_pe #(
         pend_push = state_q == S_TAKE && q_raddr_q != q_n_q && q_rdata[AW-1:0] != 0 && !start_i && !stop_i;
         pend_pop = ev1_valid && pend_n != 0;
     end
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         if (pend_push) pend_mem[pend_wr] <= q_rdata[KW+2*AW-1 -: KW];
         if (rst_i || start_i) begin
             pend_rd <= '0;
@@ -476,12 +517,12 @@ module gridrt_pe #(
     end
 `ifndef SYNTHESIS
     // Bounds of pend: never full (sized above the entries in flight), no pop when empty.
-    PendNeverFull: assert property (@(posedge clk_i) disable iff (rst_i) pend_n != ($clog2(PEND)+1)'(PEND))
+    PendNeverFull: assert property (@(posedge clk_i) disable iff (!en_i || rst_i) pend_n != ($clog2(PEND)+1)'(PEND))
         else $fatal(1, "gridrt_pe: more entries in flight than pend holds");
-    PendPopNotEmpty: assert property (@(posedge clk_i) disable iff (rst_i) pend_pop |-> pend_n != 0)
+    PendPopNotEmpty: assert property (@(posedge clk_i) disable iff (!en_i || rst_i) pend_pop |-> pend_n != 0)
         else $fatal(1, "gridrt_pe: pop from an empty pend");
 `endif
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         logic [KW:0] open_now;
         if (ev1_valid ? pend_n > 1 : pend_n != 0)
             open_now = {1'b0, pend_mem[ev1_valid ? pend_rd + 1'b1 : pend_rd]};

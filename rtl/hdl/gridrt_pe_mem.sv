@@ -22,6 +22,7 @@ module gridrt_pe_mem #(
     parameter bit WORD_PORT = 0
 ) (
     input  logic                      clk_i,
+    input  logic                      en_i,   // the co-processor's clock enable: every register holds while low
     input  logic [$clog2(WORDS)-1:0]  w_addr_i,
     input  logic                      w_en_i,
     input  logic [31:0]               w_data_i,
@@ -57,14 +58,14 @@ module gridrt_pe_mem #(
 
     for (genvar b = 0; b < BANKS; b++) begin : g_bank
         gridrt_bank_ram #(.W(32), .DEPTH(ROWS), .A_READS(WORD_PORT)) u_bank (
-            .clk_i,
+            .clk_i, .en_i,
             .a_addr_i(w_addr_i[AW-1:BW]), .a_we_i(w_en_b[b]), .a_wdata_i(w_data_i), .a_rdata_o(w_rd_b[b]),
             .b_addr_i(r_row_b[b]), .b_rdata_o(rd_b[b]));
     end
 
     logic [BW-1:0] start_q;
     logic          odd_q, odd_qq;     // r_addr[0], one and two cycles later
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         start_q <= start;
         odd_q <= r_addr_i[0];
         odd_qq <= odd_q;
@@ -77,18 +78,18 @@ module gridrt_pe_mem #(
         always_comb begin
             for (int m = 0; m < 16; m++) rot_lo[m] = rd_b[4'(m) + {2'b00, start_q[1], 1'b0}];
         end
-        always_ff @(posedge clk_i)
+        always_ff @(posedge clk_i) if (en_i)
             for (int j = 0; j < RD_WORDS; j++) r_window_o[32*j +: 32] <= rot_lo[4'(j) + {start_q[3:2], 2'b00}];
         assign r_word_o = odd_qq ? r_window_o[63:32] : r_window_o[31:0];
     end else begin : g_rotate4
-        always_ff @(posedge clk_i)
+        always_ff @(posedge clk_i) if (en_i)
             for (int j = 0; j < 4; j++) r_window_o[32*j +: 32] <= rd_b[2'(j) + start_q];
         assign r_word_o = r_window_o[31:0];
     end
 
     if (WORD_PORT) begin : g_word_port
         logic [BW-1:0] w_sel;
-        always_ff @(posedge clk_i) begin
+        always_ff @(posedge clk_i) if (en_i) begin
             w_sel <= w_addr_i[BW-1:0];
             w_rdata_o <= w_rd_b[w_sel];
         end

@@ -8,6 +8,7 @@
 // Takes LATENCY cycles from `start` to `done` whatever the input.
 module gridrt_ray_setup (
     input  logic                clk_i,
+    input  logic                en_i,   // the co-processor's clock enable: every register holds while low
     input  logic                start_i,
     input  logic [2:0][31:0]    org_i,
     input  logic [2:0][31:0]    dir_i,
@@ -39,7 +40,7 @@ module gridrt_ray_setup (
     logic signed [9:0]  cv_k;
     logic signed [54:0] cv_q;
     logic               cv_huge;
-    gridrt_f32_to_fixed u_cv (.clk_i, .in_valid_i(cv_in), .x_i(cv_x), .k_i(cv_k), .out_valid_o(cv_out_unused), .q_o(cv_q), .huge_o(cv_huge));
+    gridrt_f32_to_fixed u_cv (.clk_i, .en_i, .in_valid_i(cv_in), .x_i(cv_x), .k_i(cv_k), .out_valid_o(cv_out_unused), .q_o(cv_q), .huge_o(cv_huge));
 
     logic [5:0]         step;      // 0 idle; 1.. running
     logic signed [9:0]  e_max;
@@ -106,7 +107,7 @@ module gridrt_ray_setup (
         div2 = {rem, q0[21:0], digit};
     endfunction
 
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         done_o <= 1'b0;
         if (start_i) begin
             step <= 6'd1;

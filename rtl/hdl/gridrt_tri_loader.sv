@@ -8,6 +8,7 @@
 // Takes LATENCY cycles from `start` to `done`.
 module gridrt_tri_loader (
     input  logic               clk_i,
+    input  logic               en_i,   // the co-processor's clock enable: every register holds while low
     input  logic               start_i,
     input  logic [8:0][31:0]   v_i,          // ax ay az bx by bz cx cy cz (f32)
     input  logic signed [9:0]  frame_s_i,
@@ -38,7 +39,7 @@ module gridrt_tri_loader (
     localparam int CV_LAT = 4;          // f32_to_fixed
     assign cv_in = step >= 6'd1 && step <= 6'd9;
     assign cv_x = cv_in ? v_i[ci] : 32'd0;
-    gridrt_f32_to_fixed u_cv (.clk_i, .in_valid_i(cv_in), .x_i(cv_x), .k_i(frame_s_i + 10'sd23), .out_valid_o(cv_out_unused),
+    gridrt_f32_to_fixed u_cv (.clk_i, .en_i, .in_valid_i(cv_in), .x_i(cv_x), .k_i(frame_s_i + 10'sd23), .out_valid_o(cv_out_unused),
                        .q_o(cv_q), .huge_o(cv_huge));
 
     logic        ovf;
@@ -47,8 +48,8 @@ module gridrt_tri_loader (
     // ---------------------------------------------------------------- f32 units
     logic        add_in, add_out, mul_in, mul_out;
     logic [31:0] add_a, add_b, add_y, mul_a, mul_b, mul_y;
-    gridrt_f32_addsub u_add (.clk_i, .in_valid_i(add_in), .a_i(add_a), .b_i(add_b), .sub_i(1'b1), .out_valid_o(add_out), .y_o(add_y));
-    gridrt_f32_mul u_mul (.clk_i, .in_valid_i(mul_in), .a_i(mul_a), .b_i(mul_b), .out_valid_o(mul_out), .y_o(mul_y));
+    gridrt_f32_addsub u_add (.clk_i, .en_i, .in_valid_i(add_in), .a_i(add_a), .b_i(add_b), .sub_i(1'b1), .out_valid_o(add_out), .y_o(add_y));
+    gridrt_f32_mul u_mul (.clk_i, .en_i, .in_valid_i(mul_in), .a_i(mul_a), .b_i(mul_b), .out_valid_o(mul_out), .y_o(mul_y));
     logic [31:0] dd [6];    // d1 = b - a (0..2), d2 = c - a (3..5)
     logic [31:0] pp [6];    // cross-product terms
     // Subtractions issued in steps 1..6 (d) and STEP_NSUB.. (n); products from STEP_MUL.
@@ -93,7 +94,7 @@ module gridrt_tri_loader (
     logic signed [65:0] mp;
     localparam int DEG_MUL_LAT = 4;     // mul_pipe in DSP blocks
     localparam int STEP_DEG_MUL = 11 + CV_LAT;  // first of the six products (edges in the step before)
-    gridrt_mul_pipe #(.A_W(33), .B_W(33), .LATENCY(DEG_MUL_LAT)) u_dm (.clk_i, .en_i(1'b1), .a_i(ma), .b_i(mb), .p_o(mp));
+    gridrt_mul_pipe #(.A_W(33), .B_W(33), .LATENCY(DEG_MUL_LAT)) u_dm (.clk_i, .en_i(en_i), .a_i(ma), .b_i(mb), .p_o(mp));
     always_comb begin
         ma = '0;
         mb = '0;
@@ -110,7 +111,7 @@ module gridrt_tri_loader (
     logic signed [65:0] dp [6];
     logic               degenerate;
 
-    always_ff @(posedge clk_i) begin
+    always_ff @(posedge clk_i) if (en_i) begin
         done_o <= 1'b0;
         if (start_i) begin
             step <= 6'd1;

@@ -20,6 +20,9 @@ pub struct RtlParams {
     pub pe_mem_words: u32,
     /// Longest traversal list.
     pub max_list: u16,
+    /// 0: block-RAM PE memories; N: each PE's memory in the harness's external memory
+    /// behind a cache of N 8-word lines (`cargo xtask rtl sim --pe-cache-lines`).
+    pub pe_cache_lines: u32,
     /// The intersection pipe's data registers stop while no test is in flight (the
     /// simulation's speed; the FPGA build runs them freely). Answers and cycles are the same.
     pub stop_when_empty: bool,
@@ -29,8 +32,20 @@ impl Default for RtlParams {
     /// The build the tests and `render --coproc rtl` use: 4 PEs of 16 Ki words sharing one
     /// pipeline, lists of 256.
     fn default() -> Self {
-        Self { pes: 4, pes_per_pipeline: 4, pe_mem_words: 16384, max_list: 256, stop_when_empty: true }
+        Self { pes: 4, pes_per_pipeline: 4, pe_mem_words: 16384, max_list: 256, pe_cache_lines: 0, stop_when_empty: true }
     }
+}
+
+/// What the PE caches did since the program started (`CoprocSim::pe_memory`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PeMemoryCounts {
+    /// Cycles the co-processor stood still for its caches (line fills, the write buffer,
+    /// the tag clear after the reset).
+    pub stall_cycles: u64,
+    /// Words read from the external memory (line fills).
+    pub reads: u32,
+    /// Words written to it (LOAD_PE's image and records, written through).
+    pub writes: u32,
 }
 
 /// Paths of one build's programs.
@@ -82,6 +97,7 @@ pub fn build(params: RtlParams) -> Result<Programs, SimError> {
         .args(["--pes-per-pipeline", &params.pes_per_pipeline.to_string()])
         .args(["--pe-mem-words", &params.pe_mem_words.to_string()])
         .args(["--max-list", &params.max_list.to_string()])
+        .args(["--pe-cache-lines", &params.pe_cache_lines.to_string()])
         .args(["--stop-when-empty", &params.stop_when_empty.to_string()])
         .output()?;
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
@@ -291,20 +307,20 @@ impl CoprocSim {
     /// Starts the program; `stall` = (percent, seed) makes the harness drop the stream
     /// handshakes at random (the replies must not change).
     pub fn spawn(program: &Path, stall: Option<(u32, u64)>) -> Result<Self, SimError> {
-        let pipe = match stall {
-            None => Pipe::spawn(program)?,
-            Some((pct, seed)) => {
-                let mut child = Command::new(program)
-                    .args(["--stall", &pct.to_string(), "--seed", &seed.to_string()])
-                    .stdin(Stdio::piped())
-                    .stdout(Stdio::piped())
-                    .spawn()?;
-                let tx = BufWriter::new(child.stdin.take().ok_or_else(|| std::io::Error::other("no stdin"))?);
-                let rx = BufReader::new(child.stdout.take().ok_or_else(|| std::io::Error::other("no stdout"))?);
-                Pipe { child, tx, rx }
-            }
+        let args: Vec<String> = match stall {
+            None => vec![],
+            Some((pct, seed)) => vec!["--stall".into(), pct.to_string(), "--seed".into(), seed.to_string()],
         };
-        Ok(Self { pipe, pending: false, out: Default::default() })
+        Self::spawn_with(program, &args)
+    }
+
+    /// Starts the program with harness options (`--stall P`, `--seed N`, `--mem-latency N`:
+    /// `rtl/sim/coproc_main.cpp`).
+    pub fn spawn_with(program: &Path, args: &[String]) -> Result<Self, SimError> {
+        let mut child = Command::new(program).args(args).stdin(Stdio::piped()).stdout(Stdio::piped()).spawn()?;
+        let tx = BufWriter::new(child.stdin.take().ok_or_else(|| std::io::Error::other("no stdin"))?);
+        let rx = BufReader::new(child.stdout.take().ok_or_else(|| std::io::Error::other("no stdout"))?);
+        Ok(Self { pipe: Pipe { child, tx, rx }, pending: false, out: Default::default() })
     }
 
     /// Queues one request word.
@@ -333,6 +349,13 @@ impl CoprocSim {
             self.drain()?;
         }
         Ok(self.out.pop_front())
+    }
+
+    /// The PE-memory counters of a build with PE caches (zero otherwise).
+    pub fn pe_memory(&mut self) -> Result<PeMemoryCounts, SimError> {
+        self.pipe.send(&[4])?;
+        let w: Vec<u32> = (0..4).map(|_| self.pipe.recv()).collect::<Result<_, _>>()?;
+        Ok(PeMemoryCounts { stall_cycles: (w[1] as u64) << 32 | w[0] as u64, reads: w[2], writes: w[3] })
     }
 
     /// The cycle counters.

@@ -43,14 +43,14 @@ module gridrt_units_top (
     input  logic               cfu_rsp_ready_i,
     output logic [31:0]        cfu_rsp_outputs_0_o
 );
-    gridrt_f32_addsub u_add (.clk_i, .in_valid_i(add_valid_i), .a_i(add_a_i), .b_i(add_b_i), .sub_i(add_sub_i),
+    gridrt_f32_addsub u_add (.clk_i, .en_i(1'b1), .in_valid_i(add_valid_i), .a_i(add_a_i), .b_i(add_b_i), .sub_i(add_sub_i),
                       .out_valid_o(add_out_valid_o), .y_o(add_y_o));
-    gridrt_f32_mul u_mul (.clk_i, .in_valid_i(mul_valid_i), .a_i(mul_a_i), .b_i(mul_b_i), .out_valid_o(mul_out_valid_o), .y_o(mul_y_o));
-    gridrt_f32_to_fixed u_fx (.clk_i, .in_valid_i(fx_valid_i), .x_i(fx_x_i), .k_i(fx_k_i), .out_valid_o(fx_out_valid_o), .q_o(fx_q_o),
+    gridrt_f32_mul u_mul (.clk_i, .en_i(1'b1), .in_valid_i(mul_valid_i), .a_i(mul_a_i), .b_i(mul_b_i), .out_valid_o(mul_out_valid_o), .y_o(mul_y_o));
+    gridrt_f32_to_fixed u_fx (.clk_i, .en_i(1'b1), .in_valid_i(fx_valid_i), .x_i(fx_x_i), .k_i(fx_k_i), .out_valid_o(fx_out_valid_o), .q_o(fx_q_o),
                        .huge_o(fx_huge_o));
     logic is_tag_unused;
     gridrt_isect_pipe #(.TAG_W(1)) u_is (
-        .clk_i, .rst_i(1'b0), .in_valid_i(is_valid_i), .in_tag_i(1'b0), .rec_i(is_rec_i),
+        .clk_i, .en_i(1'b1), .rst_i(1'b0), .in_valid_i(is_valid_i), .in_tag_i(1'b0), .rec_i(is_rec_i),
         .o0_i(is_o0_i), .o1_i(is_o1_i), .o2_i(is_o2_i), .kz_i(is_kz_i), .sx_i(is_sx_i), .sy_i(is_sy_i),
         .dz_neg_i(is_dz_neg_i), .dz_abs_i(is_dz_abs_i), .texp_i(is_texp_i), .ray_overflow_i(is_ray_overflow_i),
         .out_valid_o(is_out_valid_o), .out_tag_o(is_tag_unused), .kind_o(is_kind_o), .t_o(is_t_o));

@@ -345,3 +345,77 @@ fn a_full_pe_memory_keeps_every_record_and_one_word_more_overflows() {
         assert!(hits >= 100, "{what}: {hits} of 120 rays hit");
     }
 }
+
+/// PE memories as caches of an external memory (`--pe-cache-lines`, rtl/README.md §4.6):
+/// random rays over random scenes give the model's words, cycles and test counts included,
+/// whatever the memory's latency and with the stream handshakes stalled, through caches of
+/// 16 lines (most reads miss and lines evict each other) and of 512. The caches did stop
+/// the co-processor and fetch lines (a build whose memories were block RAM would not).
+#[test]
+fn pe_caches_give_the_models_result_words() {
+    if !require_verilator("pe_caches_give_the_models_result_words") {
+        return;
+    }
+    for (lines, latency, stall, seed) in [(16u32, 8u32, None, 0xCAC1u64), (512, 1, Some((20, 7)), 0xCAC2), (16, 23, Some((10, 3)), 0xCAC3)] {
+        let params = RtlParams { pe_cache_lines: lines, ..RtlParams::default() };
+        let programs = gridrt_rtl::sim::build(params).unwrap_or_else(|e| panic!("{e}"));
+        let mut args = vec!["--mem-latency".to_string(), latency.to_string()];
+        if let Some((pct, seed)) = stall {
+            args.extend(["--stall".to_string(), pct.to_string(), "--seed".to_string(), seed.to_string()]);
+        }
+        let mut s = CoprocSim::spawn_with(&programs.coproc, &args).unwrap();
+        let mut m = model(params);
+        let mut rng = rng(seed);
+        let t = random_rays(
+            &mut s,
+            &mut m,
+            &mut rng,
+            (4, 8, 250),
+            Place { center: Vec3::new(3.0, -1.0, 2.0), ext: 4.0, frame_packet: true },
+        );
+        assert!(t.rays >= 1_900 && t.hits > t.rays / 5, "{lines} lines: {t:?}");
+        let mem = s.pe_memory().unwrap();
+        assert!(mem.reads > 0 && mem.writes > 0 && mem.stall_cycles > 0, "{lines} lines: {mem:?}");
+    }
+}
+
+/// A PE image far larger than block RAM holds (20 000 triangles: 200 000 words of records,
+/// with PE_MEM_WORDS 2²⁰ in the external memory behind a 512-line cache) loads, and rays at
+/// its first and last triangles give the model's words.
+#[test]
+fn a_pe_image_beyond_block_ram_loads_through_the_cache() {
+    if !require_verilator("a_pe_image_beyond_block_ram_loads_through_the_cache") {
+        return;
+    }
+    let params = RtlParams { pe_mem_words: 1 << 20, pe_cache_lines: 512, ..RtlParams::default() };
+    let programs = gridrt_rtl::sim::build(params).unwrap_or_else(|e| panic!("{e}"));
+    let mut s = CoprocSim::spawn(&programs.coproc, None).unwrap();
+    let mut m = model(params);
+    let mut rng = rng(0xB16);
+    let n = 20_000u32;
+    let tris: Vec<support::Tri> = (0..n)
+        .map(|i| {
+            let c = Vec3::new(rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0));
+            let mut p = || c + Vec3::new(rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5));
+            support::Tri { v: [p(), p(), p()], prim: i, material: i % 65536 }
+        })
+        .collect();
+    let img = padded_image(&tris, 0);
+    assert!(img.len() + 10 * tris.len() > 16384 * 8, "{} words", img.len() + 10 * tris.len());
+    assert_valid(&img);
+    let ack = exchange(&mut s, &mut m, &load_packet(0, &img), &|| "load".into());
+    assert_eq!(ack, framed(&[0x9100_0000]));
+    let mut hits = 0;
+    for i in (0..40).chain(n as usize - 40..n as usize) {
+        let t = tris[i];
+        let target = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
+        let ray = Ray { origin: target + Vec3::new(0.3, -7.0, 0.2), dir: Vec3::new(-0.3, 7.0, -0.2) };
+        let list = [ListEntry { voxel: i as u32 / 100, pe: 0, t_exit: f32::INFINITY }];
+        let kind = if i % 3 == 0 { RayKind::Any } else { RayKind::Closest };
+        let got = exchange(&mut s, &mut m, &ray_packet(kind, &ray, f32::INFINITY, &list), &|| format!("ray at triangle {i}"));
+        hits += (got[0].data & 1) as usize;
+    }
+    assert!(hits >= 70, "{hits} of 80 rays hit");
+    let mem = s.pe_memory().unwrap();
+    assert!(mem.writes as usize >= img.len() + 10 * tris.len(), "{mem:?}");
+}

@@ -22,6 +22,12 @@ pub struct Params {
     /// Longest traversal list (entries).
     #[arg(long, default_value_t = 256)]
     pub max_list: u32,
+    /// 0: each PE's memory is block RAM (`--pe-mem-words` of it). N > 0: each PE keeps its
+    /// `--pe-mem-words` in an external memory (the `mem_*` port; SDRAM on the board) and reads
+    /// it through a direct-mapped cache of N lines of 8 words (rtl/README.md §4.6). Needs
+    /// `--pes-per-pipeline 4`.
+    #[arg(long, default_value_t = 0, value_name = "LINES")]
+    pub pe_cache_lines: u32,
     /// Stop the intersection pipe's data registers while no test is in flight
     /// (rtl/README.md §3.4). Default: true for `rtl sim` (they are most of Verilator's time),
     /// false for `rtl synth` (a clock enable on every data register does not route on the
@@ -48,6 +54,17 @@ impl Params {
         if !self.max_list.is_power_of_two() || !(16..=1024).contains(&self.max_list) {
             bail!("--max-list must be a power of two in 16..=1024");
         }
+        if self.pe_cache_lines != 0 {
+            if !self.pe_cache_lines.is_power_of_two() || !(4..=4096).contains(&self.pe_cache_lines) {
+                bail!("--pe-cache-lines must be 0 or a power of two in 4..=4096");
+            }
+            if self.pe_cache_lines * 8 >= self.pe_mem_words {
+                bail!("--pe-cache-lines × 8 words must be smaller than --pe-mem-words");
+            }
+            if self.pes_per_pipeline != 4 {
+                bail!("--pe-cache-lines needs --pes-per-pipeline 4");
+            }
+        }
         Ok(())
     }
 
@@ -69,17 +86,20 @@ impl Params {
             ("PE_MEM_WORDS".into(), self.pe_mem_words),
             ("MAX_LIST".into(), self.max_list),
             ("STOP_WHEN_EMPTY".into(), u32::from(self.stop())),
+            ("PE_CACHE".into(), u32::from(self.pe_cache_lines != 0)),
+            ("CACHE_LINES".into(), if self.pe_cache_lines != 0 { self.pe_cache_lines } else { 512 }),
         ]
     }
 
     /// A short name for build folders (`-stop` when the pipe stops when empty).
     pub fn tag(&self) -> String {
         format!(
-            "p{}-s{}-m{}-l{}{}",
+            "p{}-s{}-m{}-l{}{}{}",
             self.pes,
             self.pes_per_pipeline,
             self.pe_mem_words,
             self.max_list,
+            if self.pe_cache_lines != 0 { format!("-c{}", self.pe_cache_lines) } else { String::new() },
             if self.stop() { "-stop" } else { "" }
         )
     }
