@@ -32,7 +32,14 @@ impl Default for RtlParams {
     /// The build the tests and `render --coproc rtl` use: 4 PEs of 16 Ki words sharing one
     /// pipeline, lists of 256.
     fn default() -> Self {
-        Self { pes: 4, pes_per_pipeline: 4, pe_mem_words: 16384, max_list: 256, pe_cache_lines: 0, stop_when_empty: true }
+        Self {
+            pes: 4,
+            pes_per_pipeline: 4,
+            pe_mem_words: 16384,
+            max_list: 256,
+            pe_cache_lines: 0,
+            stop_when_empty: true,
+        }
     }
 }
 

@@ -356,7 +356,9 @@ fn pe_caches_give_the_models_result_words() {
     if !require_verilator("pe_caches_give_the_models_result_words") {
         return;
     }
-    for (lines, latency, stall, seed) in [(16u32, 8u32, None, 0xCAC1u64), (512, 1, Some((20, 7)), 0xCAC2), (16, 23, Some((10, 3)), 0xCAC3)] {
+    for (lines, latency, stall, seed) in
+        [(16u32, 8u32, None, 0xCAC1u64), (512, 1, Some((20, 7)), 0xCAC2), (16, 23, Some((10, 3)), 0xCAC3)]
+    {
         let params = RtlParams { pe_cache_lines: lines, ..RtlParams::default() };
         let programs = gridrt_rtl::sim::build(params).unwrap_or_else(|e| panic!("{e}"));
         let mut args = vec!["--mem-latency".to_string(), latency.to_string()];
@@ -412,7 +414,8 @@ fn a_pe_image_beyond_block_ram_loads_through_the_cache() {
         let ray = Ray { origin: target + Vec3::new(0.3, -7.0, 0.2), dir: Vec3::new(-0.3, 7.0, -0.2) };
         let list = [ListEntry { voxel: i as u32 / 100, pe: 0, t_exit: f32::INFINITY }];
         let kind = if i % 3 == 0 { RayKind::Any } else { RayKind::Closest };
-        let got = exchange(&mut s, &mut m, &ray_packet(kind, &ray, f32::INFINITY, &list), &|| format!("ray at triangle {i}"));
+        let got =
+            exchange(&mut s, &mut m, &ray_packet(kind, &ray, f32::INFINITY, &list), &|| format!("ray at triangle {i}"));
         hits += (got[0].data & 1) as usize;
     }
     assert!(hits >= 70, "{hits} of 80 rays hit");

@@ -92,6 +92,10 @@ class GridrtCoproc(LiteXModule):
             o_m_axis_tvalid_o=self.source.valid,
             i_m_axis_tready_i=self.source.ready,
             o_idle_o=self.idle,
+            # PE memories in block RAM (PE_CACHE 0, the default): the external memory port
+            # (rtl/README.md §4.6) is unused.
+            i_mem_ack_i=0,
+            i_mem_rdata_i=0,
         )
         if rtl_dir is not None:
             for f in hdl_sources(rtl_dir):
