@@ -34,6 +34,10 @@ pub struct SimConfig {
     /// UART bytes are the same either way. Frames with row interpolation, and the RTL
     /// backend, always run on the device thread.
     pub threads: u16,
+    /// With [`Backend::Rtl`]: 0 for PE memories in block RAM, N for PE memories in the
+    /// harness's external memory behind caches of N 8-word lines (rtl/README.md §4.6; the
+    /// answers are the same).
+    pub pe_cache_lines: u32,
 }
 
 /// The co-processor of a simulated board.
@@ -57,6 +61,7 @@ impl Default for SimConfig {
             format: NumberFormat::F32,
             backend: Backend::Model,
             threads: 0,
+            pe_cache_lines: 0,
         }
     }
 }
@@ -74,6 +79,7 @@ impl SimConfig {
         format: NumberFormat::Fixed64Q23,
         backend: Backend::Rtl,
         threads: 1,
+        pe_cache_lines: 0,
     };
 }
 

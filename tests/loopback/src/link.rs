@@ -96,6 +96,7 @@ pub(crate) fn rtl_params(config: &SimConfig) -> RtlParams {
         pes: config.pe_count,
         pe_mem_words: config.pe_mem_words,
         max_list: config.max_list,
+        pe_cache_lines: config.pe_cache_lines,
         ..RtlParams::default()
     }
 }
