@@ -74,7 +74,7 @@ pub struct SimCmd {
     #[arg(long, value_enum, default_value_t = FloatHw::Cfu)]
     float_hw: FloatHw,
     /// KiB of LiteX's L2 cache in front of the SDRAM that holds main RAM (a power of two).
-    /// Another size than the default has its own build folder (target/soc/sim-l2-N).
+    /// Another size than the default has its own build folder (target/soc/sim-…-l2-N).
     #[arg(long, default_value_t = DEFAULT_L2_KIB, value_parser = parse_l2_kib, value_name = "KIB")]
     l2_kib: u32,
     /// CPUs, 1 to 4: the first and workers (VexRiscvs of the same variant, each with its own
