@@ -1,10 +1,11 @@
 """``GridrtSoC``: the SoC every target builds, so that all of them share one memory map.
 
-- CPU: VexRiscv, variant ``imac`` (RV32IMAC, 4 KiB I- and D-caches, ``mcycle``/``minstret``
-  readable: the firmware's stage counters), the firmware built for
-  ``riscv32imac-unknown-none-elf``. With ``float_hw="cfu"``: variant ``full+cfu`` (RV32IM,
-  the same caches, a CFU port) with the floating-point CFU (``soc/hdl/gridrt_cfu_litex.sv``),
-  the firmware built for ``riscv32im-unknown-none-elf`` with its ``cfu-float`` feature.
+- CPU: VexRiscv, variant ``full+cfu`` (RV32IM, 4 KiB I- and D-caches, ``mcycle``/``minstret``
+  readable: the firmware's stage counters, a CFU port) with the floating-point CFU
+  (``soc/hdl/gridrt_cfu_litex.sv``), the firmware built for ``riscv32im-unknown-none-elf``
+  with its ``cfu-float`` feature: the default, ``float_hw="cfu"``. With ``float_hw="none"``:
+  variant ``imac`` (RV32IMAC, the same caches, no CFU; f32 in soft float), the firmware built
+  for ``riscv32imac-unknown-none-elf``.
 - ROM (``rom``, 32 KiB at 0x0000_0000, the reset vector): the gridrt bootloader, from the
   bitstream / the simulation's ROM image.
 - SRAM (``sram``, 16 KiB at 0x1000_0000): the bootloader's data and stack.
@@ -77,6 +78,9 @@ COPROC_FIFO_DEPTH = 16
 # Floating point in hardware: "none" (VexRiscv imac, soft float) or "cfu" (VexRiscv
 # full+cfu and the CFU). The CPU variant per choice.
 CPU_VARIANTS = {"none": "imac", "cfu": "full+cfu"}
+# The default, as in `cargo xtask soc sim|build`: the CFU measured fewer frame cycles than
+# the imac (BENCHMARKS.md, "Whole frame"); the imac is the smaller CPU, for small boards.
+DEFAULT_FLOAT_HW = "cfu"
 # LiteX's `Cfu` module on the CPU's CFU port: a wrapper of rtl/hdl/gridrt_cfu_f32.sv, whose
 # sources come with the co-processor's.
 CFU_WRAPPER = Path(__file__).resolve().parents[1] / "hdl" / "gridrt_cfu_litex.sv"
@@ -120,7 +124,7 @@ class GridrtSoC(SoCCore):
         ident="gridrt SoC",
         coproc_pes=COPROC_PES,
         simulation=False,
-        float_hw="none",
+        float_hw=DEFAULT_FLOAT_HW,
         *,
         sdram_phy,
         l2_size=SDRAM_L2_SIZE,

@@ -28,7 +28,7 @@ from litex.soc.integration.builder import Builder
 from litex_boards.platforms import radiona_ulx3s
 
 from . import board_files
-from .soc import SDRAM_L2_SIZE, SYS_CLK_FREQ, GridrtSoC
+from .soc import DEFAULT_FLOAT_HW, SDRAM_L2_SIZE, SYS_CLK_FREQ, GridrtSoC
 
 # The FT231X bridge's top rate; `--baud` builds any other (115 200 for old host setups).
 UART_BAUDRATE = 3_000_000
@@ -76,7 +76,7 @@ class ULX3SCRG(LiteXModule):
         self.comb += platform.request("wifi_gpio0").eq(1)
 
 
-def make_soc(rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw="none", l2_size=SDRAM_L2_SIZE, harts=1):
+def make_soc(rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw=DEFAULT_FLOAT_HW, l2_size=SDRAM_L2_SIZE, harts=1):
     platform = radiona_ulx3s.Platform(device=device, revision="2.0", toolchain="trellis")
     uart_phy = RS232PHY(platform.request("serial"), SYS_CLK_FREQ, baudrate=baud)
     crg = ULX3SCRG(platform, SYS_CLK_FREQ)
@@ -122,7 +122,7 @@ def build(
     seed,
     pes,
     baud=UART_BAUDRATE,
-    float_hw="none",
+    float_hw=DEFAULT_FLOAT_HW,
     l2_size=SDRAM_L2_SIZE,
     harts=1,
 ):

