@@ -70,6 +70,13 @@ def main(argv=None):
             choices=range(1, MAX_HARTS + 1),
             help=f"CPUs, 1 to {MAX_HARTS}: the first and workers that trace rows of each frame beside it",
         )
+        p.add_argument(
+            "--pe-cache-lines",
+            type=int,
+            default=0,
+            help="0: PE memories in block RAM (16384 words each); N (a power of two, 4..4096): each PE's"
+            " 2^20 words in the SDRAM's upper half, read through a cache of N 8-word lines (rtl/README.md 4.6)",
+        )
 
     sim = sub.add_parser("sim", help="generate and compile the Verilator simulation")
     common(sim, rom=True)
@@ -87,6 +94,9 @@ def main(argv=None):
     gen.add_argument("--check", action="store_true")
 
     args = parser.parse_args(argv)
+    lines = getattr(args, "pe_cache_lines", 0)
+    if lines and (lines & (lines - 1) or not 4 <= lines <= 4096):
+        parser.error(f"--pe-cache-lines {lines}: expected 0 or a power of two in 4..4096")
     if args.cmd == "sim":
         from . import sim
 
@@ -105,6 +115,7 @@ def main(argv=None):
             args.float_hw,
             args.l2_kib * 1024,
             args.harts,
+            args.pe_cache_lines,
         )
         print(f"SIM_DIR: {gateware}")
     elif args.cmd == "ulx3s":
@@ -123,6 +134,7 @@ def main(argv=None):
             args.float_hw,
             args.l2_kib * 1024,
             args.harts,
+            args.pe_cache_lines,
         )
         print(f"BITSTREAM: {result['bitstream']}")
         print(f"REPORT: {result['report']}")

@@ -36,7 +36,7 @@ from pathlib import Path
 from migen import Case, ClockSignal, If, Instance, Mux, ResetInserter, ResetSignal, Signal
 
 from litex.gen import LiteXModule
-from litex.soc.interconnect import stream
+from litex.soc.interconnect import stream, wishbone
 from litex.soc.interconnect.csr import CSR, CSRField, CSRStatus, CSRStorage
 
 # The stream of 32-bit FSL words; `last` (every LiteX endpoint has it) is the control bit.
@@ -54,8 +54,10 @@ def hdl_sources(rtl_dir):
 class GridrtCoproc(LiteXModule):
     """``gridrt_coproc`` with LiteX stream endpoints.
 
-    Parameters are the RTL's: ``pes`` processing elements, ``pe_mem_words`` words of block
-    RAM per PE, ``max_list`` longest traversal list, ``stop_when_empty`` the intersection
+    Parameters are the RTL's: ``pes`` processing elements, ``pe_mem_words`` words of memory
+    per PE (block RAM, or with ``pe_cache_lines`` > 0 an external memory on ``mem_bus``, a
+    Wishbone master, read through a cache of that many 8-word lines per PE: rtl/README.md
+    §4.6; ``mem_word_base`` is the images' first word on that bus), ``max_list`` longest traversal list, ``stop_when_empty`` the intersection
     pipe's data registers stop while no test is in flight (True for the Verilator target, whose
     time they are; False on an FPGA, where a clock enable on each of them does not route;
     rtl/README.md §3.4). ``reset`` (in) resets the core
@@ -63,7 +65,10 @@ class GridrtCoproc(LiteXModule):
     the memory map).
     """
 
-    def __init__(self, platform, rtl_dir, pes=4, pe_mem_words=8192, max_list=256, stop_when_empty=False):
+    def __init__(
+        self, platform, rtl_dir, pes=4, pe_mem_words=8192, max_list=256, stop_when_empty=False, pe_cache_lines=0,
+        mem_word_base=0,
+    ):
         self.sink = stream.Endpoint(WORD_LAYOUT)
         self.source = stream.Endpoint(WORD_LAYOUT)
         self.idle = Signal()
@@ -72,15 +77,41 @@ class GridrtCoproc(LiteXModule):
         self.pes = pes
         self.pe_mem_words = pe_mem_words
         self.max_list = max_list
+        # With PE caches: the PE images' memory, PE p's word w at word mem_word_base +
+        # p·pe_mem_words + w of this bus (rtl/README.md §4.6).
+        self.mem_bus = wishbone.Interface(data_width=32, adr_width=30, addressing="word") if pe_cache_lines else None
 
         # # #
 
+        if pe_cache_lines:
+            mem_req, mem_we = Signal(), Signal()
+            mem_addr = Signal(32)
+            mem_ports = dict(
+                o_mem_req_o=mem_req,
+                o_mem_we_o=mem_we,
+                o_mem_addr_o=mem_addr,
+                o_mem_wdata_o=self.mem_bus.dat_w,
+                i_mem_ack_i=self.mem_bus.ack,
+                i_mem_rdata_i=self.mem_bus.dat_r,
+            )
+            self.comb += [
+                self.mem_bus.cyc.eq(mem_req),
+                self.mem_bus.stb.eq(mem_req),
+                self.mem_bus.we.eq(mem_we),
+                self.mem_bus.sel.eq(0b1111),
+                self.mem_bus.adr.eq(mem_word_base + mem_addr),
+            ]
+        else:
+            # PE memories in block RAM: the external memory port is unused.
+            mem_ports = dict(i_mem_ack_i=0, i_mem_rdata_i=0)
         self.specials += Instance(
             "gridrt_coproc",
             p_PES=pes,
             p_PE_MEM_WORDS=pe_mem_words,
             p_MAX_LIST=max_list,
             p_STOP_WHEN_EMPTY=int(stop_when_empty),
+            p_PE_CACHE=int(bool(pe_cache_lines)),
+            p_CACHE_LINES=pe_cache_lines or 512,
             i_clk_i=ClockSignal("sys"),
             i_rst_i=ResetSignal("sys") | self.reset,
             i_s_axis_tdata_i=self.sink.data,
@@ -92,10 +123,7 @@ class GridrtCoproc(LiteXModule):
             o_m_axis_tvalid_o=self.source.valid,
             i_m_axis_tready_i=self.source.ready,
             o_idle_o=self.idle,
-            # PE memories in block RAM (PE_CACHE 0, the default): the external memory port
-            # (rtl/README.md §4.6) is unused.
-            i_mem_ack_i=0,
-            i_mem_rdata_i=0,
+            **mem_ports,
         )
         if rtl_dir is not None:
             for f in hdl_sources(rtl_dir):
@@ -271,6 +299,8 @@ class GridrtCoprocCSR(LiteXModule):
         fifo_depth=16,
         stop_when_empty=False,
         ports=(),
+        pe_cache_lines=0,
+        mem_word_base=0,
     ):
         assert fifo_depth & (fifo_depth - 1) == 0 and 2 <= fifo_depth <= 128
         self.fifo_depth = fifo_depth
@@ -294,7 +324,9 @@ class GridrtCoprocCSR(LiteXModule):
         # # #
 
         soft_reset = self._ctrl.fields.reset
-        self.core = core = GridrtCoproc(platform, rtl_dir, pes, pe_mem_words, max_list, stop_when_empty)
+        self.core = core = GridrtCoproc(
+            platform, rtl_dir, pes, pe_mem_words, max_list, stop_when_empty, pe_cache_lines, mem_word_base
+        )
         self.req_fifo = req_fifo = ResetInserter()(stream.SyncFIFO(WORD_LAYOUT, fifo_depth))
         self.rsp_fifo = rsp_fifo = ResetInserter()(stream.SyncFIFO(WORD_LAYOUT, fifo_depth))
         all_ports = [self, *ports]

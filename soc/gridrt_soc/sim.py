@@ -56,7 +56,7 @@ _io = [
 ]
 
 
-def make_soc(rtl_dir, rom_words=(), float_hw=DEFAULT_FLOAT_HW, l2_size=SDRAM_L2_SIZE, harts=1):
+def make_soc(rtl_dir, rom_words=(), float_hw=DEFAULT_FLOAT_HW, l2_size=SDRAM_L2_SIZE, harts=1, pe_cache_lines=0):
     platform = SimPlatform("SIM", _io)
     # The board's SDRAM chip, modelled: LiteDRAM's PHY model holds the memory and answers the
     # controller's DFI commands with the chip's geometry and CAS latency (its timing checker,
@@ -73,6 +73,7 @@ def make_soc(rtl_dir, rom_words=(), float_hw=DEFAULT_FLOAT_HW, l2_size=SDRAM_L2_
         sdram_phy=phy,
         l2_size=l2_size,
         harts=harts,
+        pe_cache_lines=pe_cache_lines,
     )
     # Clock from the `clocker` module; reset for the first cycle (power-on).
     soc.crg = CRG(platform.request("sys_clk"))
@@ -144,6 +145,7 @@ def prepare(
     float_hw=DEFAULT_FLOAT_HW,
     l2_size=SDRAM_L2_SIZE,
     harts=1,
+    pe_cache_lines=0,
 ):
     """Generates and (if needed) compiles the simulator; returns its gateware directory.
 
@@ -151,7 +153,7 @@ def prepare(
     They are read when the simulator starts (sim_config.js): changing them rebuilds nothing.
     """
     build_dir = Path(build_dir).resolve()
-    soc = make_soc(rtl_dir, rom_words, float_hw, l2_size, harts)
+    soc = make_soc(rtl_dir, rom_words, float_hw, l2_size, harts, pe_cache_lines)
     # The C modules are compiled in the build tree: LiteX writes a variables.mak next to them.
     mods = build_dir / "sim_modules"
     if mods.exists():

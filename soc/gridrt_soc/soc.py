@@ -9,12 +9,16 @@
 - ROM (``rom``, 32 KiB at 0x0000_0000, the reset vector): the gridrt bootloader, from the
   bitstream / the simulation's ROM image.
 - SRAM (``sram``, 16 KiB at 0x1000_0000): the bootloader's data and stack.
-- Main RAM (``main_ram`` at 0x4000_0000): the board's SDRAM through LiteDRAM (32 MiB of
-  MT48LC16M16, 16 bits wide, behind an 8 KiB L2 cache; in simulation LiteDRAM's
-  ``SDRAMPHYModel`` of the same chip). The application region: the bootloader initialises
-  the memory controller before anything else (``SDRAM_INIT`` in the board files) and writes
-  the application here (``gridrt flash``), which then uses all of it. Block RAM is left to
-  the co-processor.
+- Main RAM (``main_ram``, 16 MiB at 0x4000_0000): the lower half of the board's SDRAM
+  through LiteDRAM (32 MiB of MT48LC16M16, 16 bits wide, behind an 8 KiB L2 cache; in
+  simulation LiteDRAM's ``SDRAMPHYModel`` of the same chip). The application region: the
+  bootloader initialises the memory controller before anything else (``SDRAM_INIT`` in the
+  board files) and writes the application here (``gridrt flash``), which then uses all of
+  it. Block RAM is left to the co-processor.
+- PE images (the upper 16 MiB of the SDRAM, not on the CPU's bus): with ``pe_cache_lines``
+  > 0 the co-processor keeps each PE's memory there, 2²⁰ words per PE, and reads it through a
+  cache of that many 8-word lines per PE (rtl/README.md §4.6), on a LiteDRAM port of its
+  own; else its PE memories are block RAM (16 384 words each).
 - CSRs (0xF000_0000, uncached): ``ctrl``, ``identifier_mem``, ``uart`` (LiteX UART, 64-byte
   FIFOs, a read of ``rxtx`` pops), ``timer0``, ``coproc`` (``coproc.GridrtCoprocCSR``; its
   configuration, PEs and words per PE, is readable there), ``sdram`` (LiteDRAM's DFII),
@@ -31,6 +35,7 @@ target only brings its clock/reset generator and UART PHY.
 
 from pathlib import Path
 
+from litedram.frontend.wishbone import LiteDRAMWishbone2Native
 from litex.soc.cores.uart import UART
 from litex.soc.integration.soc_core import SoCCore
 
@@ -52,6 +57,11 @@ SDRAM_DATA_WIDTH = 16
 # code and stack that the CPU's 4 KiB caches miss (docs/bench-frame.md measures 8 and 32
 # KiB); a target may build another (``l2_size``, a power of two), at 2 DP16KD per 4 KiB.
 SDRAM_L2_SIZE = 8 * KIB
+# The SDRAM's halves: main RAM, then the PE images (with PE caches: each PE's memory of
+# COPROC_PE_IMAGE_WORDS words, 4 PEs × 4 MiB).
+MAIN_RAM_SIZE = 16 * KIB * KIB
+PE_IMAGES_OFFSET = MAIN_RAM_SIZE
+COPROC_PE_IMAGE_WORDS = 1 << 20
 
 
 def sdram_module(clk_freq):
@@ -99,6 +109,8 @@ class GridrtSoC(SoCCore):
     ``SDRAMPHYModel`` in simulation). ``l2_size``: bytes of the L2 cache in front of it.
     ``harts``: CPUs, the first included (``harts.GridrtHarts``: the others are workers of
     the same variant, each with its own port on the co-processor, ``coproc1..3``).
+    ``pe_cache_lines``: 0 for PE memories in block RAM; N for PE images in the SDRAM's upper
+    half behind caches of N lines (module docstring).
     """
 
     # Fixed CSR locations: the map must not depend on the order modules are added in.
@@ -129,6 +141,7 @@ class GridrtSoC(SoCCore):
         sdram_phy,
         l2_size=SDRAM_L2_SIZE,
         harts=1,
+        pe_cache_lines=0,
     ):
         if float_hw not in CPU_VARIANTS:
             raise ValueError(f"float_hw {float_hw!r}: expected one of {', '.join(CPU_VARIANTS)}")
@@ -163,6 +176,7 @@ class GridrtSoC(SoCCore):
             "sdram",
             phy=sdram_phy,
             module=sdram_module(SYS_CLK_FREQ),
+            size=MAIN_RAM_SIZE,
             l2_cache_size=l2_size,
         )
 
@@ -198,10 +212,18 @@ class GridrtSoC(SoCCore):
             platform,
             rtl_dir,
             pes=coproc_pes,
-            pe_mem_words=COPROC_PE_MEM_WORDS,
+            pe_mem_words=COPROC_PE_IMAGE_WORDS if pe_cache_lines else COPROC_PE_MEM_WORDS,
             max_list=COPROC_MAX_LIST,
             fifo_depth=COPROC_FIFO_DEPTH,
             stop_when_empty=simulation,
             ports=ports[: harts - 1],
+            pe_cache_lines=pe_cache_lines,
+            mem_word_base=PE_IMAGES_OFFSET // 4,
         )
+        if pe_cache_lines:
+            # The PE images' own LiteDRAM port (word addresses from the SDRAM's start), beside
+            # the L2's: the CPUs' caches do not see them.
+            self.coproc_mem = LiteDRAMWishbone2Native(
+                wishbone=self.coproc.core.mem_bus, port=self.sdram.crossbar.get_port(), base_address=0
+            )
         self.add_constant("GRIDRT_COPROC_FIFO_DEPTH", COPROC_FIFO_DEPTH)

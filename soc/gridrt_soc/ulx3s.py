@@ -76,7 +76,10 @@ class ULX3SCRG(LiteXModule):
         self.comb += platform.request("wifi_gpio0").eq(1)
 
 
-def make_soc(rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw=DEFAULT_FLOAT_HW, l2_size=SDRAM_L2_SIZE, harts=1):
+def make_soc(
+    rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw=DEFAULT_FLOAT_HW, l2_size=SDRAM_L2_SIZE, harts=1,
+    pe_cache_lines=0,
+):
     platform = radiona_ulx3s.Platform(device=device, revision="2.0", toolchain="trellis")
     uart_phy = RS232PHY(platform.request("serial"), SYS_CLK_FREQ, baudrate=baud)
     crg = ULX3SCRG(platform, SYS_CLK_FREQ)
@@ -91,6 +94,7 @@ def make_soc(rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw=DEFAU
         sdram_phy=GENSDRPHY(platform.request("sdram"), SYS_CLK_FREQ),
         l2_size=l2_size,
         harts=harts,
+        pe_cache_lines=pe_cache_lines,
     )
     soc.crg = crg
     return soc
@@ -125,6 +129,7 @@ def build(
     float_hw=DEFAULT_FLOAT_HW,
     l2_size=SDRAM_L2_SIZE,
     harts=1,
+    pe_cache_lines=0,
 ):
     """Builds the bitstream with ``pes`` co-processor PEs and the UART at ``baud``; returns
     its path, nextpnr's report path and the UART's real rate (``uart_rate``)."""
@@ -136,7 +141,7 @@ def build(
     _tool_wrappers(bin_dir)
     os.environ["PATH"] = f"{bin_dir}{os.pathsep}{os.environ['PATH']}"
 
-    soc = make_soc(rtl_dir, rom_words, device, pes, baud, float_hw, l2_size, harts)
+    soc = make_soc(rtl_dir, rom_words, device, pes, baud, float_hw, l2_size, harts, pe_cache_lines)
     builder = Builder(
         soc,
         output_dir=str(build_dir),
@@ -149,7 +154,7 @@ def build(
     board_files.apply(board_files.render(build_dir / "csr.json", soc), board_files_mode)
     gateware = Path(builder.gateware_dir)
     start = time.monotonic()
-    print(f"ulx3s: yosys, nextpnr-ecp5 ({device}, {pes} PEs, {harts} harts, float_hw {float_hw}, L2 {l2_size // 1024} KiB, seed {seed}), ecppack: this takes a while", flush=True)
+    print(f"ulx3s: yosys, nextpnr-ecp5 ({device}, {pes} PEs, {harts} harts, float_hw {float_hw}, L2 {l2_size // 1024} KiB, PE cache lines {pe_cache_lines}, seed {seed}), ecppack: this takes a while", flush=True)
     cwd = os.getcwd()
     os.chdir(gateware)
     try:

@@ -82,6 +82,22 @@ pub struct SimCmd {
     /// (target/soc/sim-…-harts-2).
     #[arg(long, default_value_t = 1, value_parser = parse_harts, value_name = "N")]
     harts: u32,
+    /// 0 (default): PE memories in block RAM, 16 384 words each. N (a power of two,
+    /// 4..=4096): each PE's 2²⁰ words in the SDRAM's upper half, read through a cache of N
+    /// 8-word lines (rtl/README.md §4.6): scenes beyond block RAM. Its own build folder
+    /// (target/soc/sim-…-pec-N).
+    #[arg(long, default_value_t = 0, value_parser = parse_pe_cache_lines, value_name = "LINES")]
+    pe_cache_lines: u32,
+}
+
+/// `--pe-cache-lines`: 0, or a power of two in 4..=4096.
+fn parse_pe_cache_lines(s: &str) -> Result<u32, String> {
+    let n: u32 = s.parse().map_err(|_| format!("`{s}` is not a number of lines"))?;
+    if n == 0 || (n.is_power_of_two() && (4..=4096).contains(&n)) {
+        Ok(n)
+    } else {
+        Err(format!("{n}: expected 0 or a power of two in 4..=4096"))
+    }
 }
 
 /// serial2pty prints this for its pty.
@@ -100,6 +116,9 @@ impl SimCmd {
         }
         if self.harts != 1 {
             name += &format!("-harts-{}", self.harts);
+        }
+        if self.pe_cache_lines != 0 {
+            name += &format!("-pec-{}", self.pe_cache_lines);
         }
         name
     }
@@ -126,6 +145,7 @@ impl SimCmd {
         py.args(["--baud", &self.baud.to_string(), "--rx-baud", &self.rx_baud.to_string()]);
         py.args(["--float-hw", self.float_hw.name(), "--l2-kib", &self.l2_kib.to_string()]);
         py.args(["--harts", &self.harts.to_string()]);
+        py.args(["--pe-cache-lines", &self.pe_cache_lines.to_string()]);
         if let Some(mhz) = self.clock_mhz {
             if !(mhz.is_finite() && mhz > 0.0 && mhz <= 1000.0) {
                 bail!("--clock-mhz {mhz}: expected a clock in (0, 1000] MHz");
@@ -257,10 +277,25 @@ mod tests {
             &["--harts", "2"],
             &["--float-hw", "none", "--harts", "2"],
             &["--l2-kib", "64", "--harts", "4"],
+            &["--pe-cache-lines", "512"],
         ]
         .iter()
         .map(|a| parse(a).build_dir_name())
         .collect();
-        assert_eq!(names, ["sim-cfu", "sim", "sim-cfu-harts-2", "sim-harts-2", "sim-cfu-l2-64-harts-4"]);
+        assert_eq!(
+            names,
+            ["sim-cfu", "sim", "sim-cfu-harts-2", "sim-harts-2", "sim-cfu-l2-64-harts-4", "sim-cfu-pec-512"]
+        );
+    }
+
+    #[test]
+    fn pe_cache_lines_are_zero_or_a_power_of_two_in_range() {
+        assert_eq!(parse(&[]).pe_cache_lines, 0);
+        for ok in ["0", "4", "512", "4096"] {
+            assert!(Cli::try_parse_from(["sim", "--pe-cache-lines", ok]).is_ok(), "{ok}");
+        }
+        for bad in ["2", "500", "8192", "x"] {
+            assert!(Cli::try_parse_from(["sim", "--pe-cache-lines", bad]).is_err(), "{bad}");
+        }
     }
 }

@@ -17,7 +17,7 @@ pub const SRAM_SIZE: usize = 0x4000;
 /// Memory region `main_ram`: base address.
 pub const MAIN_RAM_BASE: usize = 0x4000_0000;
 /// Memory region `main_ram`: size in bytes.
-pub const MAIN_RAM_SIZE: usize = 0x2000000;
+pub const MAIN_RAM_SIZE: usize = 0x1000000;
 
 /// SoC constant `config_clock_frequency`.
 pub const CLOCK_HZ: u32 = 50000000;

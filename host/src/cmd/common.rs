@@ -181,6 +181,11 @@ pub struct ModelOptions {
     /// device thread alone, as firmware does). The bytes it sends do not depend on it.
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub sim_threads: u16,
+    /// With --coproc rtl: 0 keeps each PE's memory in block RAM; N keeps it in an external
+    /// memory read through a cache of N 8-word lines (a power of two, 4..=4096; the SoC's
+    /// PE caches, rtl/README.md §4.6). The image is the same either way.
+    #[arg(long, default_value_t = 0, value_name = "LINES")]
+    pub pe_cache_lines: u32,
 }
 
 impl ModelOptions {
@@ -191,6 +196,9 @@ impl ModelOptions {
         let kernel = self.kernel.unwrap_or(Kernel::Watertight);
         match self.coproc {
             Coproc::Model => {
+                if self.pe_cache_lines != 0 {
+                    anyhow::bail!("--pe-cache-lines is the RTL's: use it with --coproc rtl");
+                }
                 let d = gridrt_loopback::SimConfig::default();
                 Ok(gridrt_loopback::SimConfig {
                     pe_count: pes,
@@ -217,9 +225,14 @@ impl ModelOptions {
                 if self.timing.is_some_and(|t| t != Timing::Rtl) {
                     anyhow::bail!("--coproc rtl counts its own cycles: --timing rtl (or leave it out)");
                 }
+                let lines = self.pe_cache_lines;
+                if lines != 0 && (!lines.is_power_of_two() || !(4..=4096).contains(&lines)) {
+                    anyhow::bail!("--pe-cache-lines {lines}: expected 0 or a power of two in 4..=4096");
+                }
                 Ok(gridrt_loopback::SimConfig {
                     pe_count: pes,
                     pe_mem_words: pe_mem_words.unwrap_or(rtl.pe_mem_words),
+                    pe_cache_lines: lines,
                     ..rtl
                 })
             }
