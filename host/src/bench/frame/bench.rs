@@ -73,7 +73,7 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
             &req,
             opt.grid_m,
             opt.soc_clock(),
-            (opt.soc_float_hw, opt.soc_l2_kib, opt.soc_harts),
+            (opt.soc_float_hw, opt.soc_l2_kib, opt.soc_harts, opt.soc_pe_cache_lines),
             progress,
         )?)
     } else {

@@ -215,6 +215,8 @@ pub struct BoardFields {
     /// `soc`: KiB of the L2 cache in front of its SDRAM when `--soc-l2-kib` set one (null: the
     /// SoC's default, 8).
     pub l2_kib: Option<u32>,
+    /// `soc`: PE memories as caches of N 8-word lines in front of the SDRAM (null: block RAM).
+    pub pe_cache_lines: Option<u32>,
     /// PEs of the co-processor.
     pub pes: Option<u16>,
     /// Line rate of the UART (8N1).
@@ -495,6 +497,7 @@ pub(crate) fn soc_row(soc: &SocRun, cmp: &Comparison) -> FrameRow {
             harts: Some(soc.harts),
             float_hw: Some(soc.float_hw.name().into()),
             l2_kib: soc.l2_kib,
+            pe_cache_lines: Some(soc.pe_cache_lines).filter(|&n| n != 0),
             pes: Some(soc.pes),
             baud: Some(soc.clock.baud),
             link_cycles: Some(link_cycles),

@@ -297,6 +297,9 @@ pub struct BenchOptions {
     pub soc_l2_kib: Option<u32>,
     /// The `soc` row's CPUs (1 to 4: workers trace rows beside the first hart).
     pub soc_harts: u32,
+    /// The `soc` row's PE memories: 0 block RAM, N the PE images in SDRAM behind caches of N
+    /// 8-word lines (and `--sim --coproc rtl` the same).
+    pub soc_pe_cache_lines: u32,
     /// Bytes the UART holds while the line drains them (`timeline`).
     pub tx_buffer_bytes: u64,
     /// Soft-core profile.

@@ -50,6 +50,8 @@ pub struct SocRun {
     pub l2_kib: Option<u32>,
     /// CPUs of the SoC (workers trace rows beside the first hart).
     pub harts: u32,
+    /// Lines of each PE cache (0: PE memories in block RAM).
+    pub pe_cache_lines: u32,
     /// PEs of the SoC's co-processor.
     pub pes: u16,
     /// Simulated cycles per wall-clock second during the render (the frame's cycles over
@@ -76,7 +78,7 @@ impl SocSim {
     fn start(
         repo: &Path,
         clock: SocClock,
-        (float_hw, l2_kib, harts): (SocFloatHw, Option<u32>, u32),
+        (float_hw, l2_kib, harts, pe_cache_lines): (SocFloatHw, Option<u32>, u32, u32),
         progress: &mut dyn FnMut(BenchEvent),
     ) -> Result<Self, FrameBenchError> {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
@@ -88,10 +90,10 @@ impl SocSim {
         if let Some(k) = l2_kib {
             cmd.args(["--l2-kib", &k.to_string()]);
         }
-        cmd.args(["--harts", &harts.to_string()]);
+        cmd.args(["--harts", &harts.to_string(), "--pe-cache-lines", &pe_cache_lines.to_string()]);
         let l2 = l2_kib.map(|k| format!(" --l2-kib {k}")).unwrap_or_default();
         progress(BenchEvent::Step(format!(
-            "soc: cargo xtask soc sim --baud {} --clock-mhz {} --float-hw {}{l2} --harts {harts} (builds the Verilated SoC the first time: minutes)",
+            "soc: cargo xtask soc sim --baud {} --clock-mhz {} --float-hw {}{l2} --harts {harts} --pe-cache-lines {pe_cache_lines} (builds the Verilated SoC the first time: minutes)",
             clock.baud,
             clock.clock_mhz,
             float_hw.name()
@@ -185,7 +187,7 @@ pub fn run_on_soc(
     request: &RenderRequest,
     grid_m: f64,
     clock: SocClock,
-    (float_hw, l2_kib, harts): (SocFloatHw, Option<u32>, u32),
+    (float_hw, l2_kib, harts, pe_cache_lines): (SocFloatHw, Option<u32>, u32, u32),
     progress: &mut dyn FnMut(BenchEvent),
 ) -> Result<(SocRun, PreparedScene), FrameBenchError> {
     let mut args = vec!["--board", "litex", "--bin", "app", "--layout", "bootloaded", "--jobs", "2"];
@@ -199,7 +201,7 @@ pub fn run_on_soc(
     let elf = std::fs::read(&app).map_err(|e| FrameBenchError::Build(format!("{}: {e}", app.display())))?;
     let image = FlashImage::from_elf(&elf).map_err(|e| FrameBenchError::Build(format!("{}: {e}", app.display())))?;
 
-    let sim = SocSim::start(repo, clock, (float_hw, l2_kib, harts), progress)?;
+    let sim = SocSim::start(repo, clock, (float_hw, l2_kib, harts, pe_cache_lines), progress)?;
     let open = || crate::serial::open(&sim.pty, 115_200, crate::serial::DEFAULT_READ_TIMEOUT);
 
     let t = Instant::now();
@@ -245,7 +247,13 @@ pub fn run_on_soc(
     let cfg = session_cfg(SessionConfig::new(sim.pty.clone())).render_timeout(SOC_STAGE_TIMEOUT).regions(false);
     let mut session = Session::new(open()?, cfg);
     let info = session.hello(&mut |_| {})?;
-    let rtl = SimConfig::RTL;
+    // The same co-processor in the loopback simulator: with PE caches, PE memories of the
+    // size the SoC reports behind caches of the same lines.
+    let rtl = if pe_cache_lines != 0 {
+        SimConfig { pe_mem_words: info.pe_mem_words, pe_cache_lines, ..SimConfig::RTL }
+    } else {
+        SimConfig::RTL
+    };
     if (info.pe_count, info.pe_mem_words) != (rtl.pe_count, rtl.pe_mem_words) {
         return Err(FrameBenchError::Device(format!(
             "soc: the SoC's co-processor has {} PEs of {} words; `--sim --coproc rtl` has {} of {}: not the same frame",
@@ -296,6 +304,7 @@ pub fn run_on_soc(
             float_hw,
             l2_kib,
             harts,
+            pe_cache_lines,
             pes: info.pe_count,
             flash_s,
             upload_s,

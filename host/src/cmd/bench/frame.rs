@@ -68,6 +68,12 @@ pub struct Args {
     /// frame reports no per-stage counters and does not calibrate the modelled rows).
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4))]
     soc_harts: u32,
+    /// The `soc` row's PE memories: 0 (default) block RAM, 16 384 words per PE; N (a power of
+    /// two, 4..=4096) each PE's 2²⁰ words in the SDRAM behind a cache of N 8-word lines
+    /// (`cargo xtask soc sim --pe-cache-lines`; rtl/README.md §4.6), for scenes beyond block
+    /// RAM. `--sim --coproc rtl`, which the row is checked against, uses the same.
+    #[arg(long, value_name = "LINES", default_value_t = 0, value_parser = pe_cache_lines)]
+    soc_pe_cache_lines: u32,
     /// Write the report here (JSON).
     #[arg(long, value_name = "JSON")]
     json: PathBuf,
@@ -250,6 +256,7 @@ impl Args {
             grid_m: self.grid_m,
             soc_l2_kib: self.soc_l2_kib,
             soc_harts: self.soc_harts,
+            soc_pe_cache_lines: self.soc_pe_cache_lines,
             soc_float_hw: match self.soc_float_hw {
                 SocFloat::None => SocFloatHw::None,
                 SocFloat::Cfu => SocFloatHw::Cfu,
@@ -288,6 +295,16 @@ impl Args {
         }
         println!("wrote {}", wrote.join(", "));
         Ok(())
+    }
+}
+
+/// `--soc-pe-cache-lines`: 0, or a power of two in 4..=4096.
+fn pe_cache_lines(s: &str) -> Result<u32, String> {
+    let n: u32 = s.parse().map_err(|_| format!("`{s}` is not a number of lines"))?;
+    if n == 0 || (n.is_power_of_two() && (4..=4096).contains(&n)) {
+        Ok(n)
+    } else {
+        Err(format!("{n}: expected 0 or a power of two in 4..=4096"))
     }
 }
 
