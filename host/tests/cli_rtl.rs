@@ -15,12 +15,23 @@ fn scene() -> PathBuf {
 /// Renders with `flags`; returns the PNG bytes and the stats. `lockstep`: the model runs
 /// beside the RTL and every reply word must be the model's.
 fn render(tag: &str, flags: &[&str], lockstep: bool) -> (Vec<u8>, serde_json::Value) {
+    render_scene(&scene(), ("64", "48"), tag, flags, lockstep)
+}
+
+/// `render` of `scene` at `size`.
+fn render_scene(
+    scene: &Path,
+    (width, height): (&str, &str),
+    tag: &str,
+    flags: &[&str],
+    lockstep: bool,
+) -> (Vec<u8>, serde_json::Value) {
     let dir = std::env::temp_dir().join(format!("gridrt-cli-rtl-{}-{tag}", std::process::id()));
     let (png, json) = (dir.join("a.png"), dir.join("a.json"));
     let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
         .args(["render", "--sim", "--scene"])
-        .arg(scene())
-        .args(["--width", "64", "--height", "48", "--out"])
+        .arg(scene)
+        .args(["--width", width, "--height", height, "--out"])
         .arg(&png)
         .arg("--stats")
         .arg(&json)
@@ -72,5 +83,45 @@ fn rtl_refuses_another_kernel_or_format() {
         assert!(!out.status.success(), "{flags:?} must fail");
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains("--coproc rtl"), "{flags:?}: {err}");
+    }
+}
+
+/// PE memories beyond block RAM (rtl/README.md §4.6): bun_zipper_res3 needs more than the
+/// 16 384 words per PE of block RAM; with `--pe-mem-words 1048576 --pe-cache-lines 512` the
+/// RTL keeps them in its external memory behind caches and renders the frame byte-identical
+/// to the model, every reply word compared (lockstep).
+#[test]
+fn rtl_with_pe_caches_renders_a_scene_beyond_block_ram_like_the_model() {
+    if !gridrt_rtl::sim::require_verilator("rtl_with_pe_caches_renders_a_scene_beyond_block_ram_like_the_model") {
+        return;
+    }
+    let res3 = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/bun_zipper_res3.obj");
+    let words = ["--pe-mem-words", "1048576"];
+    let rtl_flags = [&["--coproc", "rtl", "--pe-cache-lines", "512"][..], &words].concat();
+    let (rtl_png, rtl) = render_scene(&res3, ("32", "24"), "res3-rtl", &rtl_flags, true);
+    assert!(rtl["coproc_rays"].as_u64().unwrap() > 100, "the bunny must be in view: {rtl}");
+    let model_flags =
+        [&["--coproc", "model", "--kernel", "watertight", "--format", "fixed64-q23", "--timing", "rtl"][..], &words]
+            .concat();
+    let (model_png, model) = render_scene(&res3, ("32", "24"), "res3-model", &model_flags, false);
+    assert!(rtl_png == model_png, "PNGs differ");
+    for key in ["coproc_rays", "list_entries", "intersection_tests", "coproc_cycles"] {
+        assert_eq!(rtl[key], model[key], "{key}");
+    }
+}
+
+#[test]
+fn pe_cache_lines_are_the_rtls_and_a_power_of_two() {
+    for flags in [&["--pe-cache-lines", "512"][..], &["--coproc", "rtl", "--pe-cache-lines", "500"]] {
+        let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
+            .args(["render", "--sim", "--scene"])
+            .arg(scene())
+            .args(["--out", "/nonexistent/never.png"])
+            .args(flags)
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{flags:?} must fail");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("--pe-cache-lines"), "{flags:?}: {err}");
     }
 }

@@ -6,7 +6,7 @@
 
 use crate::firmware::{Bin, BuildOpts, Layout};
 use crate::soc_tools::{
-    build_firmware, parse_harts, parse_l2_kib, python, result, run_logged, soc_target_dir, FloatHw, RtlDir,
+    build_firmware, parse_harts, parse_l2_kib, parse_pe_cache_lines, python, result, run_logged, soc_target_dir, FloatHw, RtlDir,
     DEFAULT_L2_KIB,
 };
 use crate::toolchain::ToolchainChoice;
@@ -91,6 +91,11 @@ pub struct BuildCmd {
     /// port on the co-processor) that trace rows of each frame beside it.
     #[arg(long, default_value_t = 1, value_parser = parse_harts, value_name = "N")]
     harts: u32,
+    /// 0 (default): PE memories in block RAM (16 384 words, 32 DP16KD per PE). N (a power of
+    /// two, 4..=4096): each PE's 2²⁰ words in the SDRAM's upper half, read through a cache of
+    /// N 8-word lines (rtl/README.md §4.6).
+    #[arg(long, default_value_t = 0, value_parser = parse_pe_cache_lines, value_name = "LINES")]
+    pe_cache_lines: u32,
     #[command(flatten)]
     rtl: RtlDir,
     /// How to cross-compile the bootloader (see scripts/setup-riscv-toolchain.sh).
@@ -133,6 +138,7 @@ impl BuildCmd {
         py.args(["--device", self.device.part(), "--seed", &self.seed.to_string(), "--pes", &self.pes.to_string()]);
         py.args(["--baud", &self.baud.to_string(), "--float-hw", self.float_hw.name()]);
         py.args(["--l2-kib", &self.l2_kib.to_string(), "--harts", &self.harts.to_string()]);
+        py.args(["--pe-cache-lines", &self.pe_cache_lines.to_string()]);
         let results =
             run_logged(py, &dir.join("litex.log"), |l| l.starts_with("ulx3s:") || l.starts_with("board-files:"))?;
         let seconds = started.elapsed().as_secs_f64();
@@ -152,7 +158,7 @@ impl BuildCmd {
         let fits = bitstream.is_file() && luts <= lut_cap && brams <= bram_cap && dsps <= dsp_cap;
         let json = format!(
             "{{\"board\": \"ulx3s\", \"device\": \"{}-CABGA381\", \"cpu\": \"vexriscv {}\", \"harts\": {}, \
-             \"float_hw\": \"{}\", \"sdram\": true, \"l2_kib\": {}, \"pes\": {}, \"luts\": {luts}, \
+             \"float_hw\": \"{}\", \"sdram\": true, \"l2_kib\": {}, \"pes\": {}, \"pe_cache_lines\": {}, \"luts\": {luts}, \
              \"ffs\": {ffs}, \"dsps\": {dsps}, \"brams\": {brams}, \"fmax_mhz\": {fmax:.2}, \"target_mhz\": {target:.2}, \"margin_mhz\": {margin:.2}, \
              \"fits\": {fits}, \"baud\": {}, \"baud_error_ppm\": {baud_error_ppm:.4}, \"baud_jitter_bits\": {baud_jitter:.4}, \
              \"seed\": {}, \"build_s\": {seconds:.0}, \"bitstream\": \"{}\"}}\n",
@@ -165,6 +171,7 @@ impl BuildCmd {
             self.float_hw.name(),
             self.l2_kib,
             self.pes,
+            self.pe_cache_lines,
             self.baud,
             self.seed,
             bitstream.display()

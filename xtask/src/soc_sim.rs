@@ -10,7 +10,7 @@
 
 use crate::firmware::{Bin, BuildOpts, Layout};
 use crate::soc_tools::{
-    build_firmware, parse_harts, parse_l2_kib, python, result, run_logged, soc_target_dir, FloatHw, RtlDir,
+    build_firmware, parse_harts, parse_l2_kib, parse_pe_cache_lines, python, result, run_logged, soc_target_dir, FloatHw, RtlDir,
     DEFAULT_L2_KIB,
 };
 use crate::toolchain::{display_command, ToolchainChoice};
@@ -88,16 +88,6 @@ pub struct SimCmd {
     /// (target/soc/sim-…-pec-N).
     #[arg(long, default_value_t = 0, value_parser = parse_pe_cache_lines, value_name = "LINES")]
     pe_cache_lines: u32,
-}
-
-/// `--pe-cache-lines`: 0, or a power of two in 4..=4096.
-fn parse_pe_cache_lines(s: &str) -> Result<u32, String> {
-    let n: u32 = s.parse().map_err(|_| format!("`{s}` is not a number of lines"))?;
-    if n == 0 || (n.is_power_of_two() && (4..=4096).contains(&n)) {
-        Ok(n)
-    } else {
-        Err(format!("{n}: expected 0 or a power of two in 4..=4096"))
-    }
 }
 
 /// serial2pty prints this for its pty.

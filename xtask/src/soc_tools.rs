@@ -79,6 +79,16 @@ pub fn parse_harts(s: &str) -> Result<u32, String> {
     }
 }
 
+/// `--pe-cache-lines`: 0, or a power of two in 4..=4096.
+pub fn parse_pe_cache_lines(s: &str) -> Result<u32, String> {
+    let n: u32 = s.parse().map_err(|_| format!("`{s}` is not a number of lines"))?;
+    if n == 0 || (n.is_power_of_two() && (4..=4096).contains(&n)) {
+        Ok(n)
+    } else {
+        Err(format!("{n}: expected 0 or a power of two in 4..=4096"))
+    }
+}
+
 /// `--l2-kib`: a power of two from 1 to 256.
 pub fn parse_l2_kib(s: &str) -> Result<u32, String> {
     match s.parse::<u32>() {

@@ -229,6 +229,10 @@ impl ModelOptions {
                 if lines != 0 && (!lines.is_power_of_two() || !(4..=4096).contains(&lines)) {
                     anyhow::bail!("--pe-cache-lines {lines}: expected 0 or a power of two in 4..=4096");
                 }
+                let words = pe_mem_words.unwrap_or(rtl.pe_mem_words);
+                if lines != 0 && u64::from(lines) * 8 >= u64::from(words) {
+                    anyhow::bail!("--pe-cache-lines {lines}: 8 words a line must stay below --pe-mem-words {words}");
+                }
                 Ok(gridrt_loopback::SimConfig {
                     pe_count: pes,
                     pe_mem_words: pe_mem_words.unwrap_or(rtl.pe_mem_words),
