@@ -17,7 +17,7 @@ from litex.soc.integration.common import get_mem_data
 
 from . import board_files
 from .harts import MAX_HARTS
-from .soc import CPU_VARIANTS, DEFAULT_FLOAT_HW, ROM_SIZE, SDRAM_L2_SIZE
+from .soc import CPU_VARIANTS, DEFAULT_FLOAT_HW, DEFAULT_PE_CACHE_LINES, ROM_SIZE, SDRAM_L2_SIZE
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -73,9 +73,10 @@ def main(argv=None):
         p.add_argument(
             "--pe-cache-lines",
             type=int,
-            default=0,
-            help="0: PE memories in block RAM (16384 words each); N (a power of two, 4..4096): each PE's"
-            " 2^20 words in the SDRAM's upper half, read through a cache of N 8-word lines (rtl/README.md 4.6)",
+            default=DEFAULT_PE_CACHE_LINES,
+            help=f"N (a power of two, 4..4096; default {DEFAULT_PE_CACHE_LINES}): each PE's 2^20 words in the SDRAM's"
+            " upper half, read through a cache of N 8-word lines (rtl/README.md 4.6); 0: PE memories in block RAM"
+            " (16384 words each)",
         )
 
     sim = sub.add_parser("sim", help="generate and compile the Verilator simulation")

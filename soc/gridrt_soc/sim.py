@@ -34,7 +34,7 @@ from litex.soc.cores.uart import RS232PHYModel
 from litex.soc.integration.builder import Builder
 
 from . import board_files
-from .soc import DEFAULT_FLOAT_HW, SDRAM_DATA_WIDTH, SDRAM_L2_SIZE, SYS_CLK_FREQ, GridrtSoC, sdram_module
+from .soc import DEFAULT_FLOAT_HW, DEFAULT_PE_CACHE_LINES, SDRAM_DATA_WIDTH, SDRAM_L2_SIZE, SYS_CLK_FREQ, GridrtSoC, sdram_module
 
 SIM_MODULES = Path(__file__).resolve().parents[1] / "sim_modules"
 # Our side of LiteX's simulation core: veril.cpp without an unconditional --trace.
@@ -56,7 +56,7 @@ _io = [
 ]
 
 
-def make_soc(rtl_dir, rom_words=(), float_hw=DEFAULT_FLOAT_HW, l2_size=SDRAM_L2_SIZE, harts=1, pe_cache_lines=0):
+def make_soc(rtl_dir, rom_words=(), float_hw=DEFAULT_FLOAT_HW, l2_size=SDRAM_L2_SIZE, harts=1, pe_cache_lines=DEFAULT_PE_CACHE_LINES):
     platform = SimPlatform("SIM", _io)
     # The board's SDRAM chip, modelled: LiteDRAM's PHY model holds the memory and answers the
     # controller's DFI commands with the chip's geometry and CAS latency (its timing checker,
@@ -145,7 +145,7 @@ def prepare(
     float_hw=DEFAULT_FLOAT_HW,
     l2_size=SDRAM_L2_SIZE,
     harts=1,
-    pe_cache_lines=0,
+    pe_cache_lines=DEFAULT_PE_CACHE_LINES,
 ):
     """Generates and (if needed) compiles the simulator; returns its gateware directory.
 

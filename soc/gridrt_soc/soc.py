@@ -91,6 +91,9 @@ CPU_VARIANTS = {"none": "imac", "cfu": "full+cfu"}
 # The default, as in `cargo xtask soc sim|build`: the CFU measured fewer frame cycles than
 # the imac (BENCHMARKS.md, "Whole frame"); the imac is the smaller CPU, for small boards.
 DEFAULT_FLOAT_HW = "cfu"
+# PE memories by default: the PE images in SDRAM behind caches of this many 8-word lines
+# (rtl/README.md §4.6), so that scenes beyond block RAM load; 0 is block RAM.
+DEFAULT_PE_CACHE_LINES = 512
 # LiteX's `Cfu` module on the CPU's CFU port: a wrapper of rtl/hdl/gridrt_cfu_f32.sv, whose
 # sources come with the co-processor's.
 CFU_WRAPPER = Path(__file__).resolve().parents[1] / "hdl" / "gridrt_cfu_litex.sv"
@@ -141,7 +144,7 @@ class GridrtSoC(SoCCore):
         sdram_phy,
         l2_size=SDRAM_L2_SIZE,
         harts=1,
-        pe_cache_lines=0,
+        pe_cache_lines=DEFAULT_PE_CACHE_LINES,
     ):
         if float_hw not in CPU_VARIANTS:
             raise ValueError(f"float_hw {float_hw!r}: expected one of {', '.join(CPU_VARIANTS)}")

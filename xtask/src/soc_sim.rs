@@ -10,8 +10,8 @@
 
 use crate::firmware::{Bin, BuildOpts, Layout};
 use crate::soc_tools::{
-    build_firmware, parse_harts, parse_l2_kib, parse_pe_cache_lines, python, result, run_logged, soc_target_dir, FloatHw, RtlDir,
-    DEFAULT_L2_KIB,
+    build_firmware, parse_harts, parse_l2_kib, parse_pe_cache_lines, python, result, run_logged, soc_target_dir,
+    FloatHw, RtlDir, DEFAULT_L2_KIB, DEFAULT_PE_CACHE_LINES,
 };
 use crate::toolchain::{display_command, ToolchainChoice};
 use anyhow::{bail, Context, Result};
@@ -82,11 +82,12 @@ pub struct SimCmd {
     /// (target/soc/sim-…-harts-2).
     #[arg(long, default_value_t = 1, value_parser = parse_harts, value_name = "N")]
     harts: u32,
-    /// 0 (default): PE memories in block RAM, 16 384 words each. N (a power of two,
-    /// 4..=4096): each PE's 2²⁰ words in the SDRAM's upper half, read through a cache of N
-    /// 8-word lines (rtl/README.md §4.6): scenes beyond block RAM. Its own build folder
-    /// (target/soc/sim-…-pec-N).
-    #[arg(long, default_value_t = 0, value_parser = parse_pe_cache_lines, value_name = "LINES")]
+    /// Each PE's 2²⁰ words in the SDRAM's upper half, read through a cache of this many
+    /// 8-word lines (a power of two, 4..=4096; default 512, 16 KiB per PE; rtl/README.md
+    /// §4.6), so that scenes beyond block RAM load; 0: PE memories in block RAM, 16 384 words
+    /// each (the SoC before PE caches). Another value has its own build folder
+    /// (target/soc/sim-…-pec-N, `-bram` for 0).
+    #[arg(long, default_value_t = DEFAULT_PE_CACHE_LINES, value_parser = parse_pe_cache_lines, value_name = "LINES")]
     pe_cache_lines: u32,
 }
 
@@ -107,8 +108,10 @@ impl SimCmd {
         if self.harts != 1 {
             name += &format!("-harts-{}", self.harts);
         }
-        if self.pe_cache_lines != 0 {
-            name += &format!("-pec-{}", self.pe_cache_lines);
+        match self.pe_cache_lines {
+            DEFAULT_PE_CACHE_LINES => {}
+            0 => name += "-bram",
+            n => name += &format!("-pec-{n}"),
         }
         name
     }
@@ -267,20 +270,21 @@ mod tests {
             &["--harts", "2"],
             &["--float-hw", "none", "--harts", "2"],
             &["--l2-kib", "64", "--harts", "4"],
-            &["--pe-cache-lines", "512"],
+            &["--pe-cache-lines", "64"],
+            &["--pe-cache-lines", "0", "--float-hw", "none"],
         ]
         .iter()
         .map(|a| parse(a).build_dir_name())
         .collect();
         assert_eq!(
             names,
-            ["sim-cfu", "sim", "sim-cfu-harts-2", "sim-harts-2", "sim-cfu-l2-64-harts-4", "sim-cfu-pec-512"]
+            ["sim-cfu", "sim", "sim-cfu-harts-2", "sim-harts-2", "sim-cfu-l2-64-harts-4", "sim-cfu-pec-64", "sim-bram"]
         );
     }
 
     #[test]
     fn pe_cache_lines_are_zero_or_a_power_of_two_in_range() {
-        assert_eq!(parse(&[]).pe_cache_lines, 0);
+        assert_eq!(parse(&[]).pe_cache_lines, 512);
         for ok in ["0", "4", "512", "4096"] {
             assert!(Cli::try_parse_from(["sim", "--pe-cache-lines", ok]).is_ok(), "{ok}");
         }

@@ -68,6 +68,10 @@ impl FloatHw {
 /// (`SDRAM_L2_SIZE` of soc/gridrt_soc/soc.py).
 pub const DEFAULT_L2_KIB: u32 = 8;
 
+/// Lines of each PE cache unless `--pe-cache-lines` says otherwise (`DEFAULT_PE_CACHE_LINES`
+/// of soc/gridrt_soc/soc.py): the PE images in SDRAM, so that scenes beyond block RAM load.
+pub const DEFAULT_PE_CACHE_LINES: u32 = 512;
+
 /// Harts a SoC build may have (`MAX_HARTS` of soc/gridrt_soc/harts.py).
 pub const MAX_HARTS: u32 = 4;
 

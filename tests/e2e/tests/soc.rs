@@ -148,7 +148,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     {
         let mut port = serial::open(&sim.pty, 115_200, serial::DEFAULT_READ_TIMEOUT).unwrap();
         let mut big = good.clone();
-        // Larger than main RAM (the board's 32 MiB of SDRAM).
+        // Larger than main RAM (the lower 16 MiB of the board's SDRAM).
         big.data.resize(64 << 20, 0);
         let e = flash(&mut port, &FlashImage::new(big.load_addr, big.entry, big.data), &cfg, &mut |_| {}).unwrap_err();
         eprintln!("oversized image: {e}");
@@ -167,6 +167,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     eprintln!("{log}flash: {:.0} s", t.elapsed().as_secs_f64());
     assert!(log.contains("verified") && log.contains("running    application"), "{log}");
     assert!(log.contains("on board 3: 4 PEs"), "the flashed app must answer, not the bootloader: {log}");
+    assert!(log.contains("1048576"), "the default SoC keeps 2^20 words per PE in SDRAM: {log}");
 
     let dir = tempdir("render");
     let p = |p: &Path| p.display().to_string();
@@ -188,7 +189,11 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     );
 
     let (sim_out, sim_stats) = (p(&sim_png), p(&sim_json));
-    let mut rtl_args = vec!["render", "--sim", "--coproc", "rtl"];
+    // The same co-processor: the SoC's default keeps each PE's 2²⁰ words in SDRAM behind
+    // caches of 512 lines (rtl/README.md §4.6).
+    let pe_memory = ["--pe-mem-words", "1048576"];
+    let mut rtl_args = vec!["render", "--sim", "--coproc", "rtl", "--pe-cache-lines", "512"];
+    rtl_args.extend(pe_memory);
     rtl_args.extend(frame);
     rtl_args.extend(["--out", &sim_out, "--stats", &sim_stats]);
     run_gridrt(&rtl_args);
@@ -205,6 +210,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     let (model_out, model_stats) = (p(&model_png), p(&model_json));
     let mut model_args = vec!["render", "--sim", "--coproc", "model", "--kernel", "watertight"];
     model_args.extend(["--format", "fixed64-q23", "--timing", "rtl"]);
+    model_args.extend(pe_memory);
     model_args.extend(frame);
     model_args.extend(["--out", &model_out, "--stats", &model_stats]);
     run_gridrt(&model_args);

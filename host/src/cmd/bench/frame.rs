@@ -68,11 +68,12 @@ pub struct Args {
     /// frame reports no per-stage counters and does not calibrate the modelled rows).
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4))]
     soc_harts: u32,
-    /// The `soc` row's PE memories: 0 (default) block RAM, 16 384 words per PE; N (a power of
-    /// two, 4..=4096) each PE's 2²⁰ words in the SDRAM behind a cache of N 8-word lines
-    /// (`cargo xtask soc sim --pe-cache-lines`; rtl/README.md §4.6), for scenes beyond block
-    /// RAM. `--sim --coproc rtl`, which the row is checked against, uses the same.
-    #[arg(long, value_name = "LINES", default_value_t = 0, value_parser = pe_cache_lines)]
+    /// The `soc` row's PE memories: each PE's 2²⁰ words in the SDRAM behind a cache of this
+    /// many 8-word lines (a power of two, 4..=4096; default 512, the SoC's: `cargo xtask soc
+    /// sim --pe-cache-lines`, rtl/README.md §4.6), so that scenes beyond block RAM load; 0:
+    /// block RAM, 16 384 words per PE. `--sim --coproc rtl`, which the row is checked
+    /// against, uses the same.
+    #[arg(long, value_name = "LINES", default_value_t = 512, value_parser = pe_cache_lines)]
     soc_pe_cache_lines: u32,
     /// Write the report here (JSON).
     #[arg(long, value_name = "JSON")]
@@ -402,5 +403,9 @@ mod tests {
         assert_eq!(parse(&[]).soc_float_hw, SocFloat::Cfu);
         assert_eq!(parse(&["--soc-float-hw", "none"]).soc_float_hw, SocFloat::None);
         assert_eq!(parse(&[]).soc_harts, 1);
+        assert_eq!(parse(&[]).soc_pe_cache_lines, 512);
+        assert_eq!(parse(&["--soc-pe-cache-lines", "0"]).soc_pe_cache_lines, 0);
+        assert!(Cli::try_parse_from(["frame", "--scene", "a.obj", "--json", "f.json", "--soc-pe-cache-lines", "3"])
+            .is_err());
     }
 }
