@@ -66,6 +66,19 @@ fn rtl_frame_is_byte_identical_to_the_model_with_its_kernel_and_format() {
     }
 }
 
+/// `render --sim` with `flags` fails (before any output is written); its standard error.
+fn refused(flags: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
+        .args(["render", "--sim", "--scene"])
+        .arg(scene())
+        .args(["--out", "/nonexistent/never.png"])
+        .args(flags)
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "{flags:?} must fail");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 #[test]
 fn rtl_refuses_another_kernel_or_format() {
     for flags in [
@@ -73,15 +86,7 @@ fn rtl_refuses_another_kernel_or_format() {
         &["--coproc", "rtl", "--kernel", "wald"],
         &["--coproc", "rtl", "--timing", "gridrt"],
     ] {
-        let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
-            .args(["render", "--sim", "--scene"])
-            .arg(scene())
-            .args(["--out", "/nonexistent/never.png"])
-            .args(flags)
-            .output()
-            .unwrap();
-        assert!(!out.status.success(), "{flags:?} must fail");
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = refused(flags);
         assert!(err.contains("--coproc rtl"), "{flags:?}: {err}");
     }
 }
@@ -112,16 +117,12 @@ fn rtl_with_pe_caches_renders_a_scene_beyond_block_ram_like_the_model() {
 
 #[test]
 fn pe_cache_lines_are_the_rtls_and_a_power_of_two() {
-    for flags in [&["--pe-cache-lines", "512"][..], &["--coproc", "rtl", "--pe-cache-lines", "500"]] {
-        let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
-            .args(["render", "--sim", "--scene"])
-            .arg(scene())
-            .args(["--out", "/nonexistent/never.png"])
-            .args(flags)
-            .output()
-            .unwrap();
-        assert!(!out.status.success(), "{flags:?} must fail");
-        let err = String::from_utf8_lossy(&out.stderr);
+    for flags in [
+        &["--pe-cache-lines", "512"][..],
+        &["--coproc", "rtl", "--pe-cache-lines", "500"],
+        &["--coproc", "rtl", "--pe-cache-lines", "4096"],
+    ] {
+        let err = refused(flags);
         assert!(err.contains("--pe-cache-lines"), "{flags:?}: {err}");
     }
 }

@@ -297,6 +297,40 @@ fn padded_image(tris: &[support::Tri], pad: usize) -> Vec<u32> {
     w
 }
 
+/// `n` small random triangles (each within a 1-unit cube in ±4), prim ids 0..n.
+fn small_triangles(rng: &mut ChaCha8Rng, n: u32) -> Vec<support::Tri> {
+    (0..n)
+        .map(|i| {
+            let c = Vec3::new(rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0));
+            let mut p = || c + Vec3::new(rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5));
+            support::Tri { v: [p(), p(), p()], prim: i, material: i % 65536 }
+        })
+        .collect()
+}
+
+/// A ray at the centre of each triangle `which` of a `padded_image` loaded into PE 0 (its
+/// voxel: index / 100), Any for every third: the model's words; returns the hits.
+fn rays_at_triangles(
+    s: &mut CoprocSim,
+    m: &mut Coprocessor,
+    tris: &[support::Tri],
+    which: impl Iterator<Item = usize>,
+    what: &str,
+) -> usize {
+    let mut hits = 0;
+    for i in which {
+        let t = tris[i];
+        let target = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
+        let ray = Ray { origin: target + Vec3::new(0.3, -7.0, 0.2), dir: Vec3::new(-0.3, 7.0, -0.2) };
+        let list = [ListEntry { voxel: i as u32 / 100, pe: 0, t_exit: f32::INFINITY }];
+        let kind = if i % 3 == 0 { RayKind::Any } else { RayKind::Closest };
+        let got =
+            exchange(s, m, &ray_packet(kind, &ray, f32::INFINITY, &list), &|| format!("{what}: ray at triangle {i}"));
+        hits += (got[0].data & 1) as usize;
+    }
+    hits
+}
+
 /// The triangles' records fill the PE memory up to the last word (n + 10 T = PE_MEM_WORDS, n
 /// even and odd): rays at the first and the last triangles give the model's words, so no
 /// record overwrote the image or another record. One word more is MEM_OVERFLOW, as in the
@@ -310,13 +344,7 @@ fn a_full_pe_memory_keeps_every_record_and_one_word_more_overflows() {
     let mut s = sim(None);
     let mut m = model(params);
     let mut rng = rng(0xF11);
-    let tris: Vec<support::Tri> = (0..700u32)
-        .map(|i| {
-            let c = Vec3::new(rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0));
-            let mut p = || c + Vec3::new(rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5));
-            support::Tri { v: [p(), p(), p()], prim: i, material: i % 65536 }
-        })
-        .collect();
+    let tris = small_triangles(&mut rng, 700);
     let words = params.pe_mem_words as usize;
     let full_pad = words - 10 * tris.len() - padded_image(&tris, 0).len();
     for (pad, fits) in [(full_pad, true), (full_pad - 1, true), (full_pad + 1, false), (full_pad + 2, false)] {
@@ -330,18 +358,7 @@ fn a_full_pe_memory_keeps_every_record_and_one_word_more_overflows() {
             continue;
         }
         assert_eq!(ack, framed(&[0x9100_0000]), "{what}");
-        let mut hits = 0;
-        for i in (0..60).chain(640..700) {
-            let t = tris[i];
-            let target = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
-            let ray = Ray { origin: target + Vec3::new(0.3, -7.0, 0.2), dir: Vec3::new(-0.3, 7.0, -0.2) };
-            let list = [ListEntry { voxel: i as u32 / 100, pe: 0, t_exit: f32::INFINITY }];
-            let kind = if i % 3 == 0 { RayKind::Any } else { RayKind::Closest };
-            let got = exchange(&mut s, &mut m, &ray_packet(kind, &ray, f32::INFINITY, &list), &|| {
-                format!("{what}: ray at triangle {i}")
-            });
-            hits += (got[0].data & 1) as usize;
-        }
+        let hits = rays_at_triangles(&mut s, &mut m, &tris, (0..60).chain(640..700), &what);
         assert!(hits >= 100, "{what}: {hits} of 120 rays hit");
     }
 }
@@ -395,29 +412,13 @@ fn a_pe_image_beyond_block_ram_loads_through_the_cache() {
     let mut m = model(params);
     let mut rng = rng(0xB16);
     let n = 20_000u32;
-    let tris: Vec<support::Tri> = (0..n)
-        .map(|i| {
-            let c = Vec3::new(rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0), rng.gen_range(-4.0..4.0));
-            let mut p = || c + Vec3::new(rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5), rng.gen_range(-0.5..0.5));
-            support::Tri { v: [p(), p(), p()], prim: i, material: i % 65536 }
-        })
-        .collect();
+    let tris = small_triangles(&mut rng, n);
     let img = padded_image(&tris, 0);
     assert!(img.len() + 10 * tris.len() > 16384 * 8, "{} words", img.len() + 10 * tris.len());
     assert_valid(&img);
     let ack = exchange(&mut s, &mut m, &load_packet(0, &img), &|| "load".into());
     assert_eq!(ack, framed(&[0x9100_0000]));
-    let mut hits = 0;
-    for i in (0..40).chain(n as usize - 40..n as usize) {
-        let t = tris[i];
-        let target = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
-        let ray = Ray { origin: target + Vec3::new(0.3, -7.0, 0.2), dir: Vec3::new(-0.3, 7.0, -0.2) };
-        let list = [ListEntry { voxel: i as u32 / 100, pe: 0, t_exit: f32::INFINITY }];
-        let kind = if i % 3 == 0 { RayKind::Any } else { RayKind::Closest };
-        let got =
-            exchange(&mut s, &mut m, &ray_packet(kind, &ray, f32::INFINITY, &list), &|| format!("ray at triangle {i}"));
-        hits += (got[0].data & 1) as usize;
-    }
+    let hits = rays_at_triangles(&mut s, &mut m, &tris, (0..40).chain(n as usize - 40..n as usize), "2^20 words");
     assert!(hits >= 70, "{hits} of 80 rays hit");
     let mem = s.pe_memory().unwrap();
     assert!(mem.writes as usize >= img.len() + 10 * tris.len(), "{mem:?}");
