@@ -28,7 +28,7 @@
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -54,7 +54,7 @@ const DEFAULT_SOC_APP: [&str; 10] =
     ["--board", "litex", "--target", "riscv32im", "--features", "cfu-float", "--bin", "app", "--layout", "bootloaded"];
 
 /// `cargo xtask firmware ARGS`; the ELF path it prints.
-use gridrt_e2e::builds::{cargo, check, repo_root, run_gridrt};
+use gridrt_e2e::builds::{cargo, check, gridrt, repo_root, run_gridrt};
 
 fn build_firmware(args: &[&str]) -> PathBuf {
     let out = cargo("run").args(["--package", "xtask", "--", "firmware", "--jobs", "2"]).args(args).output().unwrap();
@@ -233,6 +233,35 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
         assert!(i > 0 && c >= i, "{stage}: {c} cycles for {i} instructions");
         eprintln!("{stage:>8}: {c:>10} cycles {i:>10} instructions  CPI {:.3}", c as f64 / i as f64);
     }
+
+    // A scene beyond block RAM: bun_zipper_res3's fullest PE needs more than the 16 384 words
+    // of a block-RAM PE (the simulator refuses it there), and the SoC, whose PE images are in
+    // SDRAM, renders it as `--sim --coproc rtl` with the same PE caches does.
+    let res3 = p(&repo_root().join("tests/scenes/bun_zipper_res3.obj"));
+    let frame3 = ["--scene", &res3, "--width", WIDTH, "--height", HEIGHT];
+    let bram = Command::new(gridrt())
+        .args(["render", "--sim", "--pe-mem-words", "16384", "--out"])
+        .arg(dir.join("bram.png"))
+        .args(frame3)
+        .output()
+        .unwrap();
+    let why = String::from_utf8_lossy(&bram.stderr);
+    assert!(!bram.status.success() && why.contains("scene too large"), "res3 must not fit block RAM: {why}");
+    let (soc3, rtl3) = (p(&dir.join("soc3.png")), p(&dir.join("rtl3.png")));
+    let t = Instant::now();
+    let mut soc_args = vec!["render", "--port", &sim.pty, "--timeout", &timeout, "--out", &soc3];
+    soc_args.extend(frame3);
+    eprintln!("{}", run_gridrt(&soc_args));
+    eprintln!("soc render of res3: {:.0} s", t.elapsed().as_secs_f64());
+    let mut rtl_args = vec!["render", "--sim", "--coproc", "rtl", "--pe-cache-lines", "512", "--out", &rtl3];
+    rtl_args.extend(pe_memory);
+    rtl_args.extend(frame3);
+    run_gridrt(&rtl_args);
+    assert_eq!(
+        std::fs::read(&soc3).unwrap(),
+        std::fs::read(&rtl3).unwrap(),
+        "res3: SoC vs --sim --coproc rtl PNG bytes"
+    );
 }
 
 /// `gridrt bench frame --configs soc` on a tiny frame: the `soc` row is measured on the
