@@ -270,9 +270,11 @@ mod imp {
     }
     /// Board id in `Msg::Version` (SPEC.md §3.2).
     pub const BOARD_ID: u8 = 3;
-    /// Largest grid the app accepts (voxels): 16³ doubled. The voxel map lives on the stack
-    /// in main RAM with the rest of the device state (boards/litex.x).
-    pub const MAX_VOXELS: usize = 1 << 13;
+    /// Largest grid the app accepts (voxels): 64³, as on QEMU, for scenes like stanford-bunny
+    /// (45×45×35) whose PE images are in SDRAM. The voxel map (a byte per voxel, 256 KiB)
+    /// lives on the stack in main RAM with the rest of the device state (boards/litex.x),
+    /// never on a hart's own 32 KiB stack.
+    pub const MAX_VOXELS: usize = 1 << 18;
 
     /// The co-processor's configuration, `(PEs, words per PE)`, as the SoC was built: read
     /// from its CSRs, so one image serves every build of the SoC.

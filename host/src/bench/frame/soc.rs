@@ -263,6 +263,15 @@ pub fn run_on_soc(
     let params =
         GridParams { m: grid_m, pe_count: info.pe_count, pe_mem_words: info.pe_mem_words, ..GridParams::default() };
     let prepared = PreparedScene::new(loaded.clone(), &params)?;
+    // Refused here, before minutes of simulated upload, as `gridrt render` refuses it.
+    let voxels = prepared.grid.voxel_count();
+    if voxels > info.voxel_capacity {
+        let d = prepared.grid.dims;
+        return Err(FrameBenchError::Device(format!(
+            "soc: grid {}×{}×{} = {voxels} voxels exceeds the SoC firmware's capacity of {} voxels; use a smaller --grid-m",
+            d[0], d[1], d[2], info.voxel_capacity
+        )));
+    }
     let mut req = prepared.scene.settings.with_size(request.width, request.height).to_request(request.frame);
     req.flags = request.flags;
     req.encoding = request.encoding;
