@@ -356,10 +356,15 @@ impl<T: Read + Write> Session<T> {
         // One Hello per derived answer wait (at least 100 ms: a device may be busy for a
         // moment), until the device had `hello_timeout` to boot.
         let wait = self.answer_wait(16, 36).max(Duration::from_millis(100));
-        while start.elapsed() < self.cfg.hello_timeout {
+        // A device still sending an earlier session's frames (a slow board finishing regions
+        // that host re-requested) is alive but busy: each such frame gives it another
+        // `hello_timeout`, up to `render_timeout` in all.
+        let mut deadline = start + self.cfg.hello_timeout;
+        let patience = start + self.cfg.render_timeout.max(self.cfg.hello_timeout);
+        while Instant::now() < deadline {
             let sent = Instant::now();
             self.send(stage, &Msg::Hello { protocol: PROTOCOL_VERSION as u16 })?;
-            let until = (Instant::now() + wait).min(start + self.cfg.hello_timeout);
+            let until = (Instant::now() + wait).min(deadline);
             while let Some(m) = self.poll(stage, until)? {
                 match m {
                     Incoming::Version(info) => {
@@ -384,8 +389,9 @@ impl<T: Read + Write> Session<T> {
                     }
                     // Noise before our Hello, or stale traffic from an earlier session: an
                     // earlier host may have left answers unread (e.g. a bootloader's refusal
-                    // of the data that followed a refused FlashBegin).
-                    _ => {}
+                    // of the data that followed a refused FlashBegin), or the device is
+                    // still sending an earlier frame's rows.
+                    _ => deadline = deadline.max((Instant::now() + self.cfg.hello_timeout).min(patience)),
                 }
             }
         }

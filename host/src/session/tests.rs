@@ -393,3 +393,56 @@ fn hello_timeout_without_device() {
     assert!(matches!(err, SessionError::Timeout { stage: Stage::Hello, last_seq: None, .. }));
     assert!(err.to_string().contains("ttyUSB9: timed out during hello"), "{err}");
 }
+
+/// A device still sending an earlier session's frames: it ignores Hello while `busy` lasts
+/// and sends a stale frame (an `Error` nobody asked for) every 20 ms, then answers.
+struct BusyDevice {
+    inner: FakeDevice,
+    busy_until: std::time::Instant,
+    next_stale: std::time::Instant,
+}
+
+impl BusyDevice {
+    fn new(busy: Duration) -> Self {
+        let now = std::time::Instant::now();
+        Self { inner: FakeDevice::new(Faults::default()), busy_until: now + busy, next_stale: now }
+    }
+}
+
+impl Write for BusyDevice {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if std::time::Instant::now() < self.busy_until {
+            return Ok(buf.len());
+        }
+        self.inner.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Read for BusyDevice {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let now = std::time::Instant::now();
+        if now < self.busy_until && now >= self.next_stale {
+            self.next_stale = now + Duration::from_millis(20);
+            self.inner.emit(&Msg::Error { code: ErrorCode::NoScene, detail: 0, text: "stale" });
+        }
+        self.inner.read(buf)
+    }
+}
+
+#[test]
+fn hello_waits_for_a_device_still_sending_an_earlier_sessions_frames() {
+    let cfg = SessionConfig::new("busy0")
+        .baud(1_000_000)
+        .hello_timeout(Duration::from_millis(100))
+        .render_timeout(Duration::from_secs(5));
+    let mut s = Session::new(BusyDevice::new(Duration::from_millis(400)), cfg.clone());
+    assert_eq!(s.hello(&mut |_| {}).unwrap().pe_count, 4, "busy for 400 ms, hello_timeout 100 ms");
+    // Patience has a bound: a device that never stops talking fails after render_timeout.
+    let mut s = Session::new(BusyDevice::new(Duration::from_secs(60)), cfg.render_timeout(Duration::from_millis(300)));
+    // (Unbounded, it would answer after the device's 60 s.)
+    let err = s.hello(&mut |_| {}).unwrap_err();
+    assert!(matches!(err, SessionError::Timeout { stage: Stage::Hello, .. }), "{err}");
+}
