@@ -45,6 +45,10 @@ const HEIGHT: &str = "24";
 /// One simulation at a time: they share the Verilated SoC's build folder, and the machine.
 static ONE_SOC: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
+/// The rate `gridrt render --port` derives its waits from here: about what the simulated
+/// 3 Mbaud line gives in wall-clock time (`gridrt bench frame` prints its measured figure).
+const SIM_WALL_BAUD: &str = "19200";
+
 /// Seconds the simulation may run in all (flash, upload and render of the small frame).
 const SIM_TIMEOUT_S: u32 = 2400;
 
@@ -177,7 +181,9 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     let frame = ["--scene", &scene, "--width", WIDTH, "--height", HEIGHT];
     let t = Instant::now();
     let timeout = SIM_TIMEOUT_S.to_string();
-    let mut soc_args = vec!["render", "--port", &sim.pty, "--timeout", &timeout];
+    // The host's waits at about the simulated line's wall-clock pace (the simulation runs
+    // ~100× slower than the board): no region is re-requested and rendered twice.
+    let mut soc_args = vec!["render", "--port", &sim.pty, "--timeout", &timeout, "--baud", SIM_WALL_BAUD];
     let (soc_out, soc_stats) = (p(&soc_png), p(&soc_json));
     soc_args.extend(frame);
     soc_args.extend(["--out", &soc_out, "--stats", &soc_stats]);
@@ -249,7 +255,8 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     assert!(!bram.status.success() && why.contains("scene too large"), "res3 must not fit block RAM: {why}");
     let (soc3, rtl3) = (p(&dir.join("soc3.png")), p(&dir.join("rtl3.png")));
     let t = Instant::now();
-    let mut soc_args = vec!["render", "--port", &sim.pty, "--timeout", &timeout, "--out", &soc3];
+    let mut soc_args =
+        vec!["render", "--port", &sim.pty, "--timeout", &timeout, "--baud", SIM_WALL_BAUD, "--out", &soc3];
     soc_args.extend(frame3);
     eprintln!("{}", run_gridrt(&soc_args));
     eprintln!("soc render of res3: {:.0} s", t.elapsed().as_secs_f64());
