@@ -10,7 +10,8 @@
 //! - `gridrt flash` writes the app built for `--board litex --target riscv32im --features
 //!   cfu-float`, verifies and starts it;
 //! - `gridrt render --port` of a 32×24 bun_zipper_res4 frame is byte-identical to
-//!   `gridrt render --sim --coproc rtl` with the same flags (the co-processor RTL is the same
+//!   `gridrt render --sim --coproc rtl` with the same co-processor (the default SoC keeps
+//!   each PE's 2²⁰ words in SDRAM behind 512-line caches; the co-processor RTL is the same
 //!   in both; the soft-core runs the same firmware as the loopback simulator, whose f32 is
 //!   Rust's: so every sum and product the CFU answered was the operator's, as a wrong answer
 //!   changes the walk and the shading, so the image), and to `--coproc model` at the RTL's
@@ -19,7 +20,8 @@
 //!   instruction of a real soft-core, printed per stage.
 //!
 //! The imac SoC (`--float-hw none`) has its own test,
-//! `soc_with_the_imac_renders_like_the_rtl_cosim`.
+//! `soc_with_the_imac_renders_like_the_rtl_cosim`; a scene beyond block RAM (bun_zipper_res3)
+//! too, `soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim`.
 //!
 //! It runs only with `GRIDRT_SOC_SIM=1` (it takes minutes: see BENCHMARKS.md, "The LiteX
 //! SoC"); `.ci/run` sets it. Then missing Verilator or LiteX fails the test;
@@ -44,10 +46,6 @@ const HEIGHT: &str = "24";
 
 /// One simulation at a time: they share the Verilated SoC's build folder, and the machine.
 static ONE_SOC: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
-/// The rate `gridrt render --port` derives its waits from here: about what the simulated
-/// 3 Mbaud line gives in wall-clock time (`gridrt bench frame` prints its measured figure).
-const SIM_WALL_BAUD: &str = "19200";
 
 /// Seconds the simulation may run in all (flash, upload and render of the small frame).
 const SIM_TIMEOUT_S: u32 = 2400;
@@ -118,9 +116,14 @@ fn json(path: &Path) -> serde_json::Value {
 /// `gridrt bench frame --configs soc` of bun_zipper_res4 with `args` (the frame's size and
 /// the SoC's options); the report's only row.
 fn soc_bench_row(name: &str, args: &[&str]) -> serde_json::Value {
+    soc_bench_row_of("bun_zipper_res4.obj", name, args)
+}
+
+/// `soc_bench_row` of `tests/scenes/SCENE`.
+fn soc_bench_row_of(scene: &str, name: &str, args: &[&str]) -> serde_json::Value {
     let dir = tempdir(name);
     let json_path = dir.join("f.json");
-    let scene = repo_root().join("tests/scenes/bun_zipper_res4.obj");
+    let scene = repo_root().join("tests/scenes").join(scene);
     let (scene, json_arg) = (scene.display().to_string(), json_path.display().to_string());
     let mut all = vec!["bench", "frame", "--scene", &scene, "--configs", "soc", "--json", &json_arg];
     all.extend_from_slice(args);
@@ -183,7 +186,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     let timeout = SIM_TIMEOUT_S.to_string();
     // The host's waits at about the simulated line's wall-clock pace (the simulation runs
     // ~100× slower than the board): no region is re-requested and rendered twice.
-    let mut soc_args = vec!["render", "--port", &sim.pty, "--timeout", &timeout, "--baud", SIM_WALL_BAUD];
+    let mut soc_args = vec!["render", "--port", &sim.pty, "--timeout", &timeout];
     let (soc_out, soc_stats) = (p(&soc_png), p(&soc_json));
     soc_args.extend(frame);
     soc_args.extend(["--out", &soc_out, "--stats", &soc_stats]);
@@ -239,36 +242,6 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
         assert!(i > 0 && c >= i, "{stage}: {c} cycles for {i} instructions");
         eprintln!("{stage:>8}: {c:>10} cycles {i:>10} instructions  CPI {:.3}", c as f64 / i as f64);
     }
-
-    // A scene beyond block RAM: bun_zipper_res3's fullest PE needs more than the 16 384 words
-    // of a block-RAM PE (the simulator refuses it there), and the SoC, whose PE images are in
-    // SDRAM, renders it as `--sim --coproc rtl` with the same PE caches does.
-    let res3 = p(&repo_root().join("tests/scenes/bun_zipper_res3.obj"));
-    let frame3 = ["--scene", &res3, "--width", WIDTH, "--height", HEIGHT];
-    let bram = Command::new(gridrt())
-        .args(["render", "--sim", "--pe-mem-words", "16384", "--out"])
-        .arg(dir.join("bram.png"))
-        .args(frame3)
-        .output()
-        .unwrap();
-    let why = String::from_utf8_lossy(&bram.stderr);
-    assert!(!bram.status.success() && why.contains("scene too large"), "res3 must not fit block RAM: {why}");
-    let (soc3, rtl3) = (p(&dir.join("soc3.png")), p(&dir.join("rtl3.png")));
-    let t = Instant::now();
-    let mut soc_args =
-        vec!["render", "--port", &sim.pty, "--timeout", &timeout, "--baud", SIM_WALL_BAUD, "--out", &soc3];
-    soc_args.extend(frame3);
-    eprintln!("{}", run_gridrt(&soc_args));
-    eprintln!("soc render of res3: {:.0} s", t.elapsed().as_secs_f64());
-    let mut rtl_args = vec!["render", "--sim", "--coproc", "rtl", "--pe-cache-lines", "512", "--out", &rtl3];
-    rtl_args.extend(pe_memory);
-    rtl_args.extend(frame3);
-    run_gridrt(&rtl_args);
-    assert_eq!(
-        std::fs::read(&soc3).unwrap(),
-        std::fs::read(&rtl3).unwrap(),
-        "res3: SoC vs --sim --coproc rtl PNG bytes"
-    );
 }
 
 /// `gridrt bench frame --configs soc` on a tiny frame: the `soc` row is measured on the
@@ -346,4 +319,30 @@ fn soc_with_two_harts_renders_like_the_rtl_cosim() {
     assert_eq!(rows.iter().sum::<u64>(), HEIGHT.parse::<u64>().unwrap(), "{work:?}");
     assert!(rows.len() == 2 && rows[1] > 0, "the worker traced rows: {work:?}");
     assert!(work.iter().all(|w| w["busy_cycles"].as_u64().unwrap() > 0), "{work:?}");
+}
+
+/// A scene beyond block RAM: bun_zipper_res3's fullest PE needs more than the 16 384 words of
+/// a block-RAM PE (the simulator refuses it there); the default SoC, whose PE images are in
+/// SDRAM behind 512-line caches, renders the 32×24 frame identical to `--sim --coproc rtl`
+/// with the same PE memories (`gridrt bench frame --configs soc`).
+#[test]
+fn soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim() {
+    let test = "soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim";
+    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
+        return;
+    }
+    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let res3 = repo_root().join("tests/scenes/bun_zipper_res3.obj");
+    let bram = Command::new(gridrt())
+        .args(["render", "--sim", "--pe-mem-words", "16384", "--width", WIDTH, "--height", HEIGHT, "--out"])
+        .arg(tempdir("bram").join("bram.png"))
+        .arg("--scene")
+        .arg(&res3)
+        .output()
+        .unwrap();
+    let why = String::from_utf8_lossy(&bram.stderr);
+    assert!(!bram.status.success() && why.contains("scene too large"), "res3 must not fit block RAM: {why}");
+    let row = soc_bench_row_of("bun_zipper_res3.obj", "bench-res3", &["--width", WIDTH, "--height", HEIGHT]);
+    assert_eq!(row["pe_cache_lines"].as_u64(), Some(512), "{row}");
+    assert_eq!(row["identical_to_rtl_sim"], true, "the SoC's res3 frame equals --sim --coproc rtl: {row}");
 }
