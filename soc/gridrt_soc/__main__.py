@@ -74,9 +74,9 @@ def main(argv=None):
             "--pe-cache-lines",
             type=int,
             default=DEFAULT_PE_CACHE_LINES,
-            help=f"N (a power of two, 4..4096; default {DEFAULT_PE_CACHE_LINES}): each PE's 2^20 words in the SDRAM's"
-            " upper half, read through a cache of N 8-word lines (rtl/README.md 4.6); 0: PE memories in block RAM"
-            " (16384 words each)",
+            help=f"N (a power of two, 4..4096; default {DEFAULT_PE_CACHE_LINES} for sim, 0 for ulx3s until a build"
+            " with caches closes timing): each PE's 2^20 words in the SDRAM's upper half, read through a cache of N"
+            " 8-word lines (rtl/README.md 4.6); 0: PE memories in block RAM (16384 words each)",
         )
 
     sim = sub.add_parser("sim", help="generate and compile the Verilator simulation")
@@ -87,6 +87,7 @@ def main(argv=None):
     sim.add_argument("--rx-baud", type=int, default=0, help="host -> SoC line rate in simulated time (0: unpaced)")
     ulx3s = sub.add_parser("ulx3s", help="build the ULX3S bitstream (yosys, nextpnr-ecp5, ecppack)")
     common(ulx3s, rom=True)
+    ulx3s.set_defaults(pe_cache_lines=0)
     ulx3s.add_argument("--device", default="LFE5U-85F", choices=("LFE5U-25F", "LFE5U-45F", "LFE5U-85F"))
     ulx3s.add_argument("--seed", type=int, default=1, help="nextpnr placement seed")
     ulx3s.add_argument("--baud", type=int, default=3_000_000, help="UART rate (the FT231X bridge goes up to 3 Mbaud)")

@@ -28,7 +28,7 @@ from litex.soc.integration.builder import Builder
 from litex_boards.platforms import radiona_ulx3s
 
 from . import board_files
-from .soc import DEFAULT_FLOAT_HW, DEFAULT_PE_CACHE_LINES, SDRAM_L2_SIZE, SYS_CLK_FREQ, GridrtSoC
+from .soc import DEFAULT_FLOAT_HW, SDRAM_L2_SIZE, SYS_CLK_FREQ, GridrtSoC
 
 # The FT231X bridge's top rate; `--baud` builds any other (115 200 for old host setups).
 UART_BAUDRATE = 3_000_000
@@ -78,7 +78,7 @@ class ULX3SCRG(LiteXModule):
 
 def make_soc(
     rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw=DEFAULT_FLOAT_HW, l2_size=SDRAM_L2_SIZE, harts=1,
-    pe_cache_lines=DEFAULT_PE_CACHE_LINES,
+    pe_cache_lines=0,
 ):
     platform = radiona_ulx3s.Platform(device=device, revision="2.0", toolchain="trellis")
     uart_phy = RS232PHY(platform.request("serial"), SYS_CLK_FREQ, baudrate=baud)
@@ -129,7 +129,7 @@ def build(
     float_hw=DEFAULT_FLOAT_HW,
     l2_size=SDRAM_L2_SIZE,
     harts=1,
-    pe_cache_lines=DEFAULT_PE_CACHE_LINES,
+    pe_cache_lines=0,
 ):
     """Builds the bitstream with ``pes`` co-processor PEs and the UART at ``baud``; returns
     its path, nextpnr's report path and the UART's real rate (``uart_rate``)."""

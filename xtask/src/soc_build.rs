@@ -7,7 +7,7 @@
 use crate::firmware::{Bin, BuildOpts, Layout};
 use crate::soc_tools::{
     build_firmware, parse_harts, parse_l2_kib, parse_pe_cache_lines, python, result, run_logged, soc_target_dir,
-    FloatHw, RtlDir, DEFAULT_L2_KIB, DEFAULT_PE_CACHE_LINES,
+    FloatHw, RtlDir, DEFAULT_L2_KIB,
 };
 use crate::toolchain::ToolchainChoice;
 use anyhow::{Context, Result};
@@ -91,10 +91,12 @@ pub struct BuildCmd {
     /// port on the co-processor) that trace rows of each frame beside it.
     #[arg(long, default_value_t = 1, value_parser = parse_harts, value_name = "N")]
     harts: u32,
-    /// Each PE's 2²⁰ words in the SDRAM's upper half, read through a cache of this many
-    /// 8-word lines (a power of two, 4..=4096; default 512, 16 KiB per PE; rtl/README.md
-    /// §4.6); 0: PE memories in block RAM (16 384 words, 32 DP16KD per PE).
-    #[arg(long, default_value_t = DEFAULT_PE_CACHE_LINES, value_parser = parse_pe_cache_lines, value_name = "LINES")]
+    /// 0 (default on the board for now): PE memories in block RAM (16 384 words, 32 DP16KD
+    /// per PE). N (a power of two, 4..=4096; the simulation's default is 512): each PE's 2²⁰
+    /// words in the SDRAM's upper half, read through a cache of N 8-word lines (rtl/README.md
+    /// §4.6). The board keeps block RAM until a build with caches closes timing: 4 PEs and 2
+    /// harts with 512 lines fit but were estimated at 31.6 MHz (BENCHMARKS.md).
+    #[arg(long, default_value_t = 0, value_parser = parse_pe_cache_lines, value_name = "LINES")]
     pe_cache_lines: u32,
     #[command(flatten)]
     rtl: RtlDir,
