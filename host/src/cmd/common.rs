@@ -183,7 +183,7 @@ pub struct ModelOptions {
     pub sim_threads: u16,
     /// With --coproc rtl: 0 keeps each PE's memory in block RAM; N keeps it in an external
     /// memory read through a cache of N 8-word lines (a power of two, 4..=4096; the SoC's
-    /// PE caches, rtl/README.md §4.6). The image is the same either way.
+    /// PE caches, rtl/README.md section 4.6). The image is the same either way.
     #[arg(long, default_value_t = 0, value_name = "LINES")]
     pub pe_cache_lines: u32,
 }

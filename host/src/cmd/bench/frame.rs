@@ -70,7 +70,7 @@ pub struct Args {
     soc_harts: u32,
     /// The `soc` row's PE memories: each PE's 2²⁰ words in the SDRAM behind a cache of this
     /// many 8-word lines (a power of two, 4..=4096; default 512, the SoC's: `cargo xtask soc
-    /// sim --pe-cache-lines`, rtl/README.md §4.6), so that scenes beyond block RAM load; 0:
+    /// sim --pe-cache-lines`, rtl/README.md section 4.6), so that scenes beyond block RAM load; 0:
     /// block RAM, 16 384 words per PE. `--sim --coproc rtl`, which the row is checked
     /// against, uses the same.
     #[arg(long, value_name = "LINES", default_value_t = 512, value_parser = pe_cache_lines)]
