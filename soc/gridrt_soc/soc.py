@@ -61,6 +61,7 @@ SDRAM_L2_SIZE = 8 * KIB
 # COPROC_PE_IMAGE_WORDS words, 4 PEs × 4 MiB).
 MAIN_RAM_SIZE = 16 * KIB * KIB
 PE_IMAGES_OFFSET = MAIN_RAM_SIZE
+PE_IMAGES_SIZE = 16 * KIB * KIB
 COPROC_PE_IMAGE_WORDS = 1 << 20
 
 
@@ -146,6 +147,8 @@ class GridrtSoC(SoCCore):
         harts=1,
         pe_cache_lines=DEFAULT_PE_CACHE_LINES,
     ):
+        if pe_cache_lines and coproc_pes * COPROC_PE_IMAGE_WORDS * 4 > PE_IMAGES_SIZE:
+            raise ValueError(f"{coproc_pes} PEs × {COPROC_PE_IMAGE_WORDS} words exceed the SDRAM's {PE_IMAGES_SIZE} bytes for PE images")
         if float_hw not in CPU_VARIANTS:
             raise ValueError(f"float_hw {float_hw!r}: expected one of {', '.join(CPU_VARIANTS)}")
         if l2_size < 1 * KIB or l2_size & (l2_size - 1):
