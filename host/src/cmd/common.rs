@@ -231,7 +231,7 @@ impl ModelOptions {
                 }
                 let words = pe_mem_words.unwrap_or(rtl.pe_mem_words);
                 if lines != 0 && u64::from(lines) * 8 >= u64::from(words) {
-                    anyhow::bail!("--pe-cache-lines {lines}: 8 words a line must stay below --pe-mem-words {words}");
+                    anyhow::bail!("--pe-cache-lines {lines}: a cache of {lines} × 8 words must be smaller than --pe-mem-words {words}");
                 }
                 Ok(gridrt_loopback::SimConfig {
                     pe_count: pes,
