@@ -125,6 +125,17 @@ pub struct SceneOptions {
     pub mapping: Mapping,
 }
 
+/// `--pe-cache-lines` (render) and `--soc-pe-cache-lines` (bench frame): 0, or a power of two
+/// in 4..=4096.
+pub(crate) fn pe_cache_lines(s: &str) -> Result<u32, String> {
+    let n: u32 = s.parse().map_err(|_| format!("`{s}` is not a number of lines"))?;
+    if n == 0 || (n.is_power_of_two() && (4..=4096).contains(&n)) {
+        Ok(n)
+    } else {
+        Err(format!("{n}: expected 0 or a power of two in 4..=4096"))
+    }
+}
+
 pub(crate) fn positive_f64(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
@@ -184,7 +195,7 @@ pub struct ModelOptions {
     /// With --coproc rtl: 0 keeps each PE's memory in block RAM; N keeps it in an external
     /// memory read through a cache of N 8-word lines (a power of two, 4..=4096; the SoC's
     /// PE caches, rtl/README.md section 4.6). The image is the same either way.
-    #[arg(long, default_value_t = 0, value_name = "LINES")]
+    #[arg(long, default_value_t = 0, value_name = "LINES", value_parser = pe_cache_lines)]
     pub pe_cache_lines: u32,
 }
 
@@ -226,9 +237,6 @@ impl ModelOptions {
                     anyhow::bail!("--coproc rtl counts its own cycles: --timing rtl (or leave it out)");
                 }
                 let lines = self.pe_cache_lines;
-                if lines != 0 && (!lines.is_power_of_two() || !(4..=4096).contains(&lines)) {
-                    anyhow::bail!("--pe-cache-lines {lines}: expected 0 or a power of two in 4..=4096");
-                }
                 let words = pe_mem_words.unwrap_or(rtl.pe_mem_words);
                 if lines != 0 && u64::from(lines) * 8 >= u64::from(words) {
                     anyhow::bail!("--pe-cache-lines {lines}: a cache of {lines} × 8 words must be smaller than --pe-mem-words {words}");

@@ -73,7 +73,7 @@ pub struct Args {
     /// sim --pe-cache-lines`, rtl/README.md section 4.6), so that scenes beyond block RAM load; 0:
     /// block RAM, 16 384 words per PE. `--sim --coproc rtl`, which the row is checked
     /// against, uses the same.
-    #[arg(long, value_name = "LINES", default_value_t = 512, value_parser = pe_cache_lines)]
+    #[arg(long, value_name = "LINES", default_value_t = 512, value_parser = crate::cmd::common::pe_cache_lines)]
     soc_pe_cache_lines: u32,
     /// Write the report here (JSON).
     #[arg(long, value_name = "JSON")]
@@ -296,16 +296,6 @@ impl Args {
         }
         println!("wrote {}", wrote.join(", "));
         Ok(())
-    }
-}
-
-/// `--soc-pe-cache-lines`: 0, or a power of two in 4..=4096.
-fn pe_cache_lines(s: &str) -> Result<u32, String> {
-    let n: u32 = s.parse().map_err(|_| format!("`{s}` is not a number of lines"))?;
-    if n == 0 || (n.is_power_of_two() && (4..=4096).contains(&n)) {
-        Ok(n)
-    } else {
-        Err(format!("{n}: expected 0 or a power of two in 4..=4096"))
     }
 }
 
