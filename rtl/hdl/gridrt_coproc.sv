@@ -23,7 +23,11 @@ module gridrt_coproc #(
     // external memory on the mem_* port, PE p's word w at word address p·PE_MEM_WORDS + w
     // (rtl/README.md §4.6); 0: block RAM, the mem_* port unused.
     parameter int PE_CACHE = 0,
-    parameter int CACHE_LINES = 512
+    parameter int CACHE_LINES = 512,
+    // 1 (ECP5 builds with PE_CACHE): the clock enable reaches its ~30 000 registers through a
+    // global network (a DCCA, as a clock does) instead of a fabric net (rtl/README.md §4.6).
+    // Yosys only (`SYNTHESIS`); simulations see the plain net.
+    parameter int EN_ECP5_GLOBAL = 0
 ) (
     input  logic        clk_i,
     input  logic        rst_i,
@@ -102,22 +106,38 @@ module gridrt_coproc #(
     logic           c_tready, c_tvalid, c_tlast, c_mready, c_idle;
     logic [31:0]    c_tdata;
     if (PE_CACHE != 0) begin : g_freeze
+        logic [1:0]  phase_d;
+        logic        run_q;   // phase_q == PHASE_RUN, a register of its own: en comes straight from it
         logic [31:0] stall_q;
+        always_comb begin
+            phase_d = phase_q;
+            case (phase_q)
+                PHASE_RUN:       if (|pc_hold) phase_d = PHASE_FILL;
+                PHASE_FILL:      if (&pc_ready) phase_d = PHASE_REPLAY_R;
+                PHASE_REPLAY_R:  phase_d = PHASE_REPLAY_R2;
+                default:         phase_d = (|pc_hold) ? PHASE_FILL : PHASE_RUN;
+            endcase
+        end
         always_ff @(posedge clk_i) begin
             if (rst_i) begin
                 phase_q <= PHASE_RUN;
+                run_q <= 1'b1;
                 stall_q <= '0;
             end else begin
-                case (phase_q)
-                    PHASE_RUN:       if (|pc_hold) phase_q <= PHASE_FILL;
-                    PHASE_FILL:      if (&pc_ready) phase_q <= PHASE_REPLAY_R;
-                    PHASE_REPLAY_R:  phase_q <= PHASE_REPLAY_R2;
-                    default:         phase_q <= (|pc_hold) ? PHASE_FILL : PHASE_RUN;
-                endcase
+                phase_q <= phase_d;
+                run_q <= phase_d == PHASE_RUN;
                 if (phase_q != PHASE_RUN) stall_q <= stall_q + 1'b1;
             end
         end
-        assign en = phase_q == PHASE_RUN;
+        if (EN_ECP5_GLOBAL != 0) begin : g_en_global
+`ifdef SYNTHESIS
+            DCCA u_en_dcca (.CLKI(run_q), .CE(1'b1), .CLKO(en));
+`else
+            assign en = run_q;
+`endif
+        end else begin : g_en_fabric
+            assign en = run_q;
+        end
         assign stall_cycles_o = stall_q;
         // The reply register: filled from the controller only while it runs.
         logic        o_valid_q, o_last_q;
@@ -229,6 +249,10 @@ module gridrt_coproc #(
     end
 
 `ifndef SYNTHESIS
+    // The clock enable is high exactly in RUN (it has a register of its own, run_q).
+    EnIsRun: assert property (@(posedge clk_i) disable iff (rst_i) en == (phase_q == PHASE_RUN))
+        else $error("gridrt_coproc: en_i out of step with the freeze controller");
+
     // AXI4-Stream handshakes: a word once offered (tvalid) stays offered, unchanged, until it
     // is taken (tready). The request side checks the source, the reply side this design.
     SAxisValidHeld: assert property (@(posedge clk_i) disable iff (rst_i)

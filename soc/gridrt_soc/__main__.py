@@ -17,7 +17,7 @@ from litex.soc.integration.common import get_mem_data
 
 from . import board_files
 from .harts import MAX_HARTS
-from .soc import CPU_VARIANTS, DEFAULT_FLOAT_HW, DEFAULT_PE_CACHE_LINES, ROM_SIZE, SDRAM_L2_SIZE
+from .soc import CPU_VARIANTS, DEFAULT_FLOAT_HW, DEFAULT_PE_CACHE_LINES, ROM_SIZE, SDRAM_L2_SIZE, ULX3S_HARTS, ULX3S_PES
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -74,9 +74,9 @@ def main(argv=None):
             "--pe-cache-lines",
             type=int,
             default=DEFAULT_PE_CACHE_LINES,
-            help=f"N (a power of two, 4..4096; default {DEFAULT_PE_CACHE_LINES} for sim, 0 for ulx3s until a build"
-            " with caches closes timing): each PE's 2^20 words in the SDRAM's upper half, read through a cache of N"
-            " 8-word lines (rtl/README.md 4.6); 0: PE memories in block RAM (16384 words each)",
+            help=f"N (a power of two, 4..4096; default {DEFAULT_PE_CACHE_LINES}): each PE's 2^20 words in the SDRAM's"
+            " upper half, read through a cache of N 8-word lines (rtl/README.md 4.6); 0: PE memories in block RAM"
+            " (16384 words each)",
         )
 
     sim = sub.add_parser("sim", help="generate and compile the Verilator simulation")
@@ -87,11 +87,17 @@ def main(argv=None):
     sim.add_argument("--rx-baud", type=int, default=0, help="host -> SoC line rate in simulated time (0: unpaced)")
     ulx3s = sub.add_parser("ulx3s", help="build the ULX3S bitstream (yosys, nextpnr-ecp5, ecppack)")
     common(ulx3s, rom=True)
-    ulx3s.set_defaults(pe_cache_lines=0)
+    ulx3s.set_defaults(harts=ULX3S_HARTS)
     ulx3s.add_argument("--device", default="LFE5U-85F", choices=("LFE5U-25F", "LFE5U-45F", "LFE5U-85F"))
     ulx3s.add_argument("--seed", type=int, default=1, help="nextpnr placement seed")
     ulx3s.add_argument("--baud", type=int, default=3_000_000, help="UART rate (the FT231X bridge goes up to 3 Mbaud)")
-    ulx3s.add_argument("--pes", type=int, default=1, help="co-processor PEs (each takes 40 of the 85F's 208 block RAMs; beside the SoC's memories 3 fit, BENCHMARKS.md)")
+    ulx3s.add_argument(
+        "--pes",
+        type=int,
+        default=ULX3S_PES,
+        help=f"co-processor PEs (default {ULX3S_PES}; with --pe-cache-lines 0 each takes 40 of the 85F's 208 block RAMs"
+        " and 3 fit beside the SoC's memories, BENCHMARKS.md)",
+    )
     gen = sub.add_parser("board-files", help="write (or --check) the firmware's board files from csr.json")
     gen.add_argument("--check", action="store_true")
 

@@ -57,7 +57,8 @@ class GridrtCoproc(LiteXModule):
     Parameters are the RTL's: ``pes`` processing elements, ``pe_mem_words`` words of memory
     per PE (block RAM, or with ``pe_cache_lines`` > 0 an external memory on ``mem_bus``, a
     Wishbone master, read through a cache of that many 8-word lines per PE: rtl/README.md
-    §4.6; ``mem_word_base`` is the images' first word on that bus), ``max_list`` longest traversal list, ``stop_when_empty`` the intersection
+    §4.6; ``mem_word_base`` is the images' first word on that bus; ``en_ecp5_global``: the
+    caches' clock enable on an ECP5 global network, for the FPGA build), ``max_list`` longest traversal list, ``stop_when_empty`` the intersection
     pipe's data registers stop while no test is in flight (True for the Verilator target, whose
     time they are; False on an FPGA, where a clock enable on each of them does not route;
     rtl/README.md §3.4). ``reset`` (in) resets the core
@@ -67,7 +68,7 @@ class GridrtCoproc(LiteXModule):
 
     def __init__(
         self, platform, rtl_dir, pes=4, pe_mem_words=8192, max_list=256, stop_when_empty=False, pe_cache_lines=0,
-        mem_word_base=0,
+        mem_word_base=0, en_ecp5_global=False,
     ):
         self.sink = stream.Endpoint(WORD_LAYOUT)
         self.source = stream.Endpoint(WORD_LAYOUT)
@@ -112,6 +113,7 @@ class GridrtCoproc(LiteXModule):
             p_STOP_WHEN_EMPTY=int(stop_when_empty),
             p_PE_CACHE=int(bool(pe_cache_lines)),
             p_CACHE_LINES=pe_cache_lines or 512,
+            p_EN_ECP5_GLOBAL=int(en_ecp5_global and bool(pe_cache_lines)),
             i_clk_i=ClockSignal("sys"),
             i_rst_i=ResetSignal("sys") | self.reset,
             i_s_axis_tdata_i=self.sink.data,
@@ -286,7 +288,8 @@ class GridrtCoprocCSR(LiteXModule):
     ``fifo_depth`` words per direction (a power of two, at most 128 so that the levels fit
     their status fields). ``stop_when_empty``: ``GridrtCoproc``'s. ``ports``: more harts'
     ``CoprocPort``s; a ``PacketArbiter`` shares the co-processor between them and this
-    block's own FIFOs, whose ``ctrl`` resets everything.
+    block's own FIFOs, whose ``ctrl`` resets everything. ``pe_cache_lines``, ``mem_word_base``,
+    ``en_ecp5_global``: ``GridrtCoproc``'s.
     """
 
     def __init__(
@@ -301,6 +304,7 @@ class GridrtCoprocCSR(LiteXModule):
         ports=(),
         pe_cache_lines=0,
         mem_word_base=0,
+        en_ecp5_global=False,
     ):
         assert fifo_depth & (fifo_depth - 1) == 0 and 2 <= fifo_depth <= 128
         self.fifo_depth = fifo_depth
@@ -325,7 +329,7 @@ class GridrtCoprocCSR(LiteXModule):
 
         soft_reset = self._ctrl.fields.reset
         self.core = core = GridrtCoproc(
-            platform, rtl_dir, pes, pe_mem_words, max_list, stop_when_empty, pe_cache_lines, mem_word_base
+            platform, rtl_dir, pes, pe_mem_words, max_list, stop_when_empty, pe_cache_lines, mem_word_base, en_ecp5_global
         )
         self.req_fifo = req_fifo = ResetInserter()(stream.SyncFIFO(WORD_LAYOUT, fifo_depth))
         self.rsp_fifo = rsp_fifo = ResetInserter()(stream.SyncFIFO(WORD_LAYOUT, fifo_depth))

@@ -95,6 +95,10 @@ DEFAULT_FLOAT_HW = "cfu"
 # PE memories by default: the PE images in SDRAM behind caches of this many 8-word lines
 # (rtl/README.md §4.6), so that scenes beyond block RAM load; 0 is block RAM.
 DEFAULT_PE_CACHE_LINES = 512
+# The ULX3S build's default size (`cargo xtask soc build` keeps them in step): 4 PEs behind
+# the caches above and a second hart fit the LFE5U-85F (BENCHMARKS.md, "The LiteX SoC").
+ULX3S_PES = 4
+ULX3S_HARTS = 2
 # LiteX's `Cfu` module on the CPU's CFU port: a wrapper of rtl/hdl/gridrt_cfu_f32.sv, whose
 # sources come with the co-processor's.
 CFU_WRAPPER = Path(__file__).resolve().parents[1] / "hdl" / "gridrt_cfu_litex.sv"
@@ -225,6 +229,8 @@ class GridrtSoC(SoCCore):
             ports=ports[: harts - 1],
             pe_cache_lines=pe_cache_lines,
             mem_word_base=PE_IMAGES_OFFSET // 4,
+            # The one FPGA this SoC builds for is the ECP5 (ulx3s.py).
+            en_ecp5_global=not simulation,
         )
         if pe_cache_lines:
             # The PE images' own LiteDRAM port (word addresses from the SDRAM's start), beside

@@ -28,7 +28,7 @@ from litex.soc.integration.builder import Builder
 from litex_boards.platforms import radiona_ulx3s
 
 from . import board_files
-from .soc import DEFAULT_FLOAT_HW, SDRAM_L2_SIZE, SYS_CLK_FREQ, GridrtSoC
+from .soc import DEFAULT_FLOAT_HW, DEFAULT_PE_CACHE_LINES, SDRAM_L2_SIZE, SYS_CLK_FREQ, ULX3S_HARTS, ULX3S_PES, GridrtSoC
 
 # The FT231X bridge's top rate; `--baud` builds any other (115 200 for old host setups).
 UART_BAUDRATE = 3_000_000
@@ -77,8 +77,8 @@ class ULX3SCRG(LiteXModule):
 
 
 def make_soc(
-    rtl_dir, rom_words, device, pes, baud=UART_BAUDRATE, float_hw=DEFAULT_FLOAT_HW, l2_size=SDRAM_L2_SIZE, harts=1,
-    pe_cache_lines=0,
+    rtl_dir, rom_words, device, pes=ULX3S_PES, baud=UART_BAUDRATE, float_hw=DEFAULT_FLOAT_HW, l2_size=SDRAM_L2_SIZE,
+    harts=ULX3S_HARTS, pe_cache_lines=DEFAULT_PE_CACHE_LINES,
 ):
     platform = radiona_ulx3s.Platform(device=device, revision="2.0", toolchain="trellis")
     uart_phy = RS232PHY(platform.request("serial"), SYS_CLK_FREQ, baudrate=baud)

@@ -63,10 +63,10 @@ pub struct BuildCmd {
     /// nextpnr's placement seed.
     #[arg(long, default_value_t = 1)]
     seed: u32,
-    /// Processing elements of the co-processor. Block RAM bounds them: a PE takes 40 of the
-    /// LFE5U-85F's 208 DP16KD (`cargo xtask rtl synth`); main RAM is the board's SDRAM, so
-    /// the rest is ROM, SRAM, the caches and LiteX's L2.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=16))]
+    /// Processing elements of the co-processor. With PE caches (the default) a PE takes its
+    /// cache's 4 + tag DP16KD; with `--pe-cache-lines 0` 40 of the LFE5U-85F's 208 and 3 fit
+    /// beside ROM, SRAM, the CPUs' caches and LiteX's L2 (BENCHMARKS.md, "The LiteX SoC").
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u16).range(1..=16))]
     pes: u16,
     /// The UART's rate: the ULX3S's FT231X USB-serial bridge goes up to 3 000 000 baud; give
     /// 115200 for a host whose adapter cannot. The report states the rate's error (LiteX's
@@ -89,14 +89,12 @@ pub struct BuildCmd {
     l2_kib: u32,
     /// CPUs, 1 to 4: the first and workers (VexRiscvs of the same variant, each with its own
     /// port on the co-processor) that trace rows of each frame beside it.
-    #[arg(long, default_value_t = 1, value_parser = parse_harts, value_name = "N")]
+    #[arg(long, default_value_t = 2, value_parser = parse_harts, value_name = "N")]
     harts: u32,
-    /// 0 (default on the board for now): PE memories in block RAM (16 384 words, 32 DP16KD
-    /// per PE). N (a power of two, 4..=4096; the simulation's default is 512): each PE's 2²⁰
-    /// words in the SDRAM's upper half, read through a cache of N 8-word lines (rtl/README.md
-    /// §4.6). The board keeps block RAM until a build with caches closes timing: 4 PEs and 2
-    /// harts with 512 lines fit but were estimated at 31.6 MHz (BENCHMARKS.md).
-    #[arg(long, default_value_t = 0, value_parser = parse_pe_cache_lines, value_name = "LINES")]
+    /// N (a power of two, 4..=4096; default 512, as in the simulation): each PE's 2²⁰ words
+    /// in the SDRAM's upper half, read through a cache of N 8-word lines (rtl/README.md §4.6).
+    /// 0: PE memories in block RAM (16 384 words, 32 DP16KD per PE).
+    #[arg(long, default_value_t = 512, value_parser = parse_pe_cache_lines, value_name = "LINES")]
     pe_cache_lines: u32,
     #[command(flatten)]
     rtl: RtlDir,
