@@ -212,4 +212,14 @@ mod tests {
         assert_eq!(parse(&[]).float_hw, FloatHw::Cfu);
         assert_eq!(parse(&["--float-hw", "none"]).float_hw, FloatHw::None);
     }
+
+    #[test]
+    fn the_board_build_without_flags_has_4_pes_2_harts_and_pe_caches() {
+        let parse =
+            |args: &[&str]| Cli::try_parse_from(["build", "--board", "ulx3s"].iter().chain(args)).unwrap().build;
+        let b = parse(&[]);
+        assert_eq!((b.pes, b.harts, b.pe_cache_lines), (4, 2, 512));
+        let small = parse(&["--pes", "1", "--harts", "1", "--pe-cache-lines", "0"]);
+        assert_eq!((small.pes, small.harts, small.pe_cache_lines), (1, 1, 0));
+    }
 }
