@@ -85,6 +85,8 @@ pub struct OriginPlanes {
     clip: [[f32; 2]; 3],
     /// `plane − o` per axis and plane.
     diff: [[f32; PLANES]; 3],
+    /// Per axis: `min ≤ o ≤ max` on integer keys (`WalkGrid::walk`'s one-product clip).
+    in_slab: [bool; 3],
     /// Per axis: a ray from this origin that enters the box through a face of the axis
     /// starts in the cell at that face (the bound is in `WalkGrid::fill_origin_planes`).
     face_cell: [bool; 3],
@@ -103,6 +105,7 @@ impl Default for OriginPlanes {
             dims: [0; 3],
             clip: [[0.0; 2]; 3],
             diff: [[0.0; PLANES]; 3],
+            in_slab: [false; 3],
             face_cell: [false; 3],
             origin_cell16: [None; 3],
         }
@@ -230,6 +233,7 @@ impl WalkGrid {
             table.max[a] = self.max[a].to_bits();
             table.dims[a] = self.dims[a] as u32;
             table.clip[a] = [sub(self.min[a], o), sub(self.max[a], o)];
+            table.in_slab[a] = key(self.min[a]) <= key(o) && key(o) <= key(self.max[a]);
             let n = self.dims[a].clamp(0, PLANES as i32 - 1) as usize;
             for (d, &p) in table.diff[a].iter_mut().zip(&self.planes[a]).take(n + 1) {
                 *d = sub(p, o);
@@ -385,18 +389,25 @@ impl WalkGrid {
         let mut far_least = f32::INFINITY;
         // The axis through whose face the ray enters (t0 > 0), and whether that is the max face.
         let mut face: Option<(usize, bool)> = None;
-        // An origin inside the box (min ≤ o ≤ max on every axis, shadow rays) with finite
-        // reciprocals (integer keys): every near distance is ≤ 0 (its two products have
-        // opposite signs), so t0 stays +0, and the far one is the product of the face ahead:
-        // `max − o` going up, `min − o` going down — one subtraction and one multiplication
-        // per axis instead of two of each (the same far distances, bit for bit).
-        let inside = ord.keys
-            && table.is_none()
-            && (0..3).all(|a| key(self.min[a]) <= key(o[a]) && key(o[a]) <= key(self.max[a]));
+        // An origin inside the slab of an axis (min ≤ o ≤ max) with finite reciprocals (integer
+        // keys): its near distance is ≤ 0 (its two products have opposite signs), so it never
+        // raises t0, and the far one is the product of the face ahead: `max − o` going up,
+        // `min − o` going down — one product (and subtraction) instead of two (the same far
+        // distance, bit for bit; of zeros of either sign, the same key). Shadow rays start
+        // inside the box (every axis), camera rays mostly inside the slabs across the view.
         for a in 0..3 {
-            if inside {
-                let ahead = if d[a].to_bits() >> 31 == 0 { self.max[a] } else { self.min[a] };
-                let far = mul(sub(ahead, o[a]), inv[a]);
+            let in_slab = ord.keys
+                && match table {
+                    Some(t) => t.in_slab[a],
+                    None => key(self.min[a]) <= key(o[a]) && key(o[a]) <= key(self.max[a]),
+                };
+            if in_slab {
+                let up = d[a].to_bits() >> 31 == 0;
+                let ahead = match table {
+                    Some(t) => t.clip[a][usize::from(up)],
+                    None => sub(if up { self.max[a] } else { self.min[a] }, o[a]),
+                };
+                let far = mul(ahead, inv[a]);
                 if ord.lt(far, far_least) {
                     far_least = far;
                 }
