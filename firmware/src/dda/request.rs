@@ -407,7 +407,8 @@ impl WalkGrid {
                     Some(t) => t.clip[a][usize::from(up)],
                     None => sub(if up { self.max[a] } else { self.min[a] }, o[a]),
                 };
-                let far = mul(ahead, inv[a]);
+                let by_inv = if UNPACK_RECIPROCALS { Multiplier::new(inv[a]) } else { None };
+                let far = product(by_inv, ahead, inv[a]);
                 if ord.lt(far, far_least) {
                     far_least = far;
                 }
