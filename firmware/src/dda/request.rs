@@ -19,7 +19,7 @@
 //! come from the scene upload and the caller, are accessed with `get`.
 
 use super::grid::{GridDesc, MAX_GRID_DIM};
-use crate::sfloat::{add, div, mul, sub, trunc_i32, Multiplier};
+use crate::sfloat::{add, mul, recip, sub, trunc_i32, Multiplier};
 use gridrt_shared::fsl::VOXEL_MASK;
 use gridrt_shared::math::{gamma, Ray};
 use gridrt_shared::scene::EMPTY_VOXEL;
@@ -189,7 +189,7 @@ impl WalkGrid {
         if !self.valid || !valid_ray || t_max.is_nan() {
             return 0;
         }
-        let inv = [div(1.0, d[0]), div(1.0, d[1]), div(1.0, d[2])];
+        let inv = [recip(d[0]), recip(d[1]), recip(d[2])];
         // Without an infinite reciprocal no clip distance or boundary can be NaN (finite ·
         // finite), and the comparisons may be made on integers (module doc); a soft-float core
         // does so.
