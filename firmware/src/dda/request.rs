@@ -170,9 +170,10 @@ impl WalkGrid {
 
     /// [`write_entries_in`](Self::write_entries_in) with the origin's subtractions from
     /// `table` (the caller checked it is this ray's).
-    // Inline on hard-float cores, where the plain walk then folds to what it was before the
-    // table; one copy on soft-float cores (measured: faster there, and smaller).
-    #[cfg_attr(not(soft_float), inline(always))]
+    // Inline: on hard-float cores the plain walk then folds to what it was before the table;
+    // on soft-float cores there are two copies, with and without a table (each folds its
+    // branches on the table).
+    #[inline(always)]
     pub(super) fn write_entries_with(
         &self,
         keys: bool,
@@ -199,6 +200,7 @@ impl WalkGrid {
 
     /// [`write_entries`](Self::write_entries), comparing on integer keys where that is exact
     /// (`keys`) or always in f32.
+    #[cfg_attr(soft_float, inline(never))]
     pub(super) fn write_entries_in(
         &self,
         keys: bool,
@@ -260,6 +262,7 @@ impl WalkGrid {
     /// [`write_entries`](Self::write_entries) for rays that mostly share an origin (camera
     /// rays): the subtractions that depend only on the origin come from `table`, which is
     /// rebuilt first when it is not this ray's origin's on this grid. The same entries.
+    #[cfg_attr(soft_float, inline(never))]
     pub fn write_entries_from(
         &self,
         table: &mut OriginPlanes,
