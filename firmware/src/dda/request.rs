@@ -58,6 +58,8 @@ pub struct WalkGrid {
     /// `(n / extent) · 2^16` per axis: the start cell in 16.16 fixed point without a division
     /// ([`WalkGrid::start_cell`]); 0 where that is not exact.
     scale16: [f32; 3],
+    /// `scale16` unpacked for the inline product (`Multiplier`), where that is used.
+    by_scale16: [Option<Multiplier>; 3],
     /// The walk's hard bound `nx + ny + nz`.
     bound: u32,
     /// Boundary plane k of axis a: `min + k·(extent/n)`, and exactly `max` for k = n.
@@ -130,6 +132,7 @@ impl WalkGrid {
             dims: [1; 3],
             stride: [1, 0, 0],
             scale16: [0.0; 3],
+            by_scale16: [None; 3],
             bound: 0,
             planes: [[0.0; PLANES]; 3],
         };
@@ -150,6 +153,7 @@ impl WalkGrid {
             // overflows: there the error bound of `start_cell` does not hold.
             let s = n as f32 / extent;
             w.scale16[a] = if s.is_normal() && (s * 65536.0).is_finite() { s * 65536.0 } else { 0.0 };
+            w.by_scale16[a] = if UNPACK_RECIPROCALS { Multiplier::new(w.scale16[a]) } else { None };
             // `Traversal`'s `Planes::plane`: the same f32 expression per plane.
             let size = extent / n as f32;
             for (k, p) in w.planes[a].iter_mut().enumerate().take(n as usize + 1) {
@@ -296,7 +300,7 @@ impl WalkGrid {
         let n = self.dims[a];
         if fast && self.scale16[a].to_bits() != 0 {
             // 16.16 fixed point (saturating; NaN → 0, which is cell 0 as in the formula).
-            let f = trunc_i32(mul(q, self.scale16[a]));
+            let f = trunc_i32(product(self.by_scale16[a], q, self.scale16[a]));
             let frac = f & 0xFFFF;
             let boundary = f.saturating_add(0x8000) >> 16;
             let near = !(32..=0xFFFF - 32).contains(&frac);
