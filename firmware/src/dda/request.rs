@@ -443,7 +443,8 @@ impl WalkGrid {
                 far_least = far;
             }
         }
-        let widened = mul(far_least, WIDEN);
+        let by_widen = if UNPACK_RECIPROCALS { Multiplier::new(WIDEN) } else { None };
+        let widened = product(by_widen, far_least, WIDEN);
         let t1 = if ord.lt(widened, t_max) { widened } else { t_max };
         if t1.is_nan() || ord.le(t1, t0) || !finite(t0) {
             return 0;
