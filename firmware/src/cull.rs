@@ -163,7 +163,7 @@ impl BoxSpans {
 }
 
 /// Pixels added on each side of a cell's projection in an [`OccupancyMask`].
-const MASK_MARGIN_PX: f32 = 0.5;
+const MASK_MARGIN_PX: f32 = 0.25;
 
 /// Tiles of an [`OccupancyMask`] per image axis: 128, so that a 320×240 frame has tiles
 /// of 3×2 pixels (a tile's slack is paid as empty walks).
@@ -182,8 +182,9 @@ const ROW_WORDS: usize = TILES as usize / 32;
 /// `|δ·r| ≤ Hr = Σ hᵢ|rᵢ|` (and `Hu`, `Hf` for the other camera axes), so in front of the eye
 /// by `z > Hf` it projects within `(Hr + |sx|·Hf)/(z − Hf)` of the centre's screen coordinate
 /// `sx` (the same with `Hu` and `sy`): `x − s = (δ·r − s·δ·f)/(z + δ·f)`. Widened by
-/// [`MASK_MARGIN_PX`] and 2⁻¹⁰ of the coordinate (the f32 rounding of both projections,
-/// about 10⁻³ pixel, far below it). The walk's own rounding (a few 2⁻²⁴ of
+/// [`MASK_MARGIN_PX`] and 2⁻¹⁶ of the coordinate: the f32 rounding of this projection and
+/// of the camera's rays is a few 2⁻²⁴ of the coordinates plus the image size (below 0.02
+/// pixel for 65 535 columns). The walk's own rounding (a few 2⁻²⁴ of
 /// the eye's distance plus the box size) is far below the growth. A cell within `2·Hf` of the
 /// eye plane, or projecting more than 2²⁰ pixels away, sets every tile (no culling).
 /// Pinned by `pixels_in_clear_tiles_meet_only_empty_cells`.
@@ -251,7 +252,7 @@ impl OccupancyMask {
                     if !near {
                         return every;
                     }
-                    let margin = |p: f32, d: f32| MASK_MARGIN_PX + (p.abs() + d) * (1.0 / 1024.0);
+                    let margin = |p: f32, d: f32| MASK_MARGIN_PX + (p.abs() + d) * (1.0 / 65536.0);
                     let (mx, my) = (dx + margin(px, dx), dy + margin(py, dy));
                     let tile = |v: f32, size: u32| ((v.max(0.0) as u32) / size).min(TILES - 1);
                     let (tx0, tx1) = (tile(px - mx, tile_w), tile(px + mx, tile_w));
