@@ -70,6 +70,16 @@ pub fn div(a: f32, b: f32) -> f32 {
     }
 }
 
+/// `1 / b`.
+#[inline(always)]
+pub fn recip(b: f32) -> f32 {
+    if cfg!(soft_float) {
+        recip_int(b)
+    } else {
+        1.0 / b
+    }
+}
+
 /// `a + b` of glam's `Vec3`.
 #[inline(always)]
 pub fn vadd(a: Vec3, b: Vec3) -> Vec3 {
@@ -212,8 +222,21 @@ fn mul_slow(a: f32, b: f32) -> f32 {
 /// `divu`), the quotient from it, then corrected against its exact remainder, so the
 /// rounding is the operator's whatever the estimate's error.
 #[inline(never)]
-#[allow(clippy::arithmetic_side_effects)] // bounded by the normal-number ranges checked first
 pub fn div_int(a: f32, b: f32) -> f32 {
+    div_inline(a, b)
+}
+
+/// `1 / b` as [`div_int`] computes it, with the dividend's steps folded (the walk's three
+/// reciprocals per ray).
+#[inline(never)]
+pub fn recip_int(b: f32) -> f32 {
+    div_inline(1.0, b)
+}
+
+/// [`div_int`], inline.
+#[inline(always)]
+#[allow(clippy::arithmetic_side_effects)] // bounded by the normal-number ranges checked first
+fn div_inline(a: f32, b: f32) -> f32 {
     let (ua, ub) = (a.to_bits(), b.to_bits());
     let (aa, ab) = (ua & !SIGN, ub & !SIGN);
     if !normal(aa) || !normal(ab) {
@@ -562,11 +585,15 @@ mod tests {
             let b = operand(&mut rng, a);
             let (a, b) = if i & 1 == 0 { (a, b) } else { (b, a) };
             assert!(same(div_int(a, b), a / b), "{a:e} / {b:e}: {:e} != {:e}", div_int(a, b), a / b);
+            assert!(same(recip_int(b), 1.0 / b), "1 / {b:e}: {:e} != {:e}", recip_int(b), 1.0 / b);
         }
         // Every divisor significand against 1 and against the largest numerator significand.
         for m in 0..1u32 << 23 {
             let b = f32::from_bits(0x3F80_0000 | m);
             assert!(same(div_int(1.0, b), 1.0 / b), "1 / {b:e}");
+            for b in [b, -b, b * 1e-30, b * 1e30, b * 1e-38, b * 1e38] {
+                assert!(same(recip_int(b), 1.0 / b), "recip {b:e}");
+            }
             let a = f32::from_bits(0x3FFF_FFFF);
             assert!(same(div_int(a, b), a / b), "{a:e} / {b:e}");
         }

@@ -19,7 +19,7 @@
 //! come from the scene upload and the caller, are accessed with `get`.
 
 use super::grid::{GridDesc, MAX_GRID_DIM};
-use crate::sfloat::{add, div, mul, sub, trunc_i32, Multiplier};
+use crate::sfloat::{add, mul, recip, sub, trunc_i32, Multiplier};
 use gridrt_shared::fsl::VOXEL_MASK;
 use gridrt_shared::math::{gamma, Ray};
 use gridrt_shared::scene::EMPTY_VOXEL;
@@ -58,6 +58,8 @@ pub struct WalkGrid {
     /// `(n / extent) · 2^16` per axis: the start cell in 16.16 fixed point without a division
     /// ([`WalkGrid::start_cell`]); 0 where that is not exact.
     scale16: [f32; 3],
+    /// `scale16` unpacked for the inline product (`Multiplier`), where that is used.
+    by_scale16: [Option<Multiplier>; 3],
     /// The walk's hard bound `nx + ny + nz`.
     bound: u32,
     /// Boundary plane k of axis a: `min + k·(extent/n)`, and exactly `max` for k = n.
@@ -85,6 +87,8 @@ pub struct OriginPlanes {
     clip: [[f32; 2]; 3],
     /// `plane − o` per axis and plane.
     diff: [[f32; PLANES]; 3],
+    /// Per axis: `min ≤ o ≤ max` on integer keys (`WalkGrid::walk`'s one-product clip).
+    in_slab: [bool; 3],
     /// Per axis: a ray from this origin that enters the box through a face of the axis
     /// starts in the cell at that face (the bound is in `WalkGrid::fill_origin_planes`).
     face_cell: [bool; 3],
@@ -103,6 +107,7 @@ impl Default for OriginPlanes {
             dims: [0; 3],
             clip: [[0.0; 2]; 3],
             diff: [[0.0; PLANES]; 3],
+            in_slab: [false; 3],
             face_cell: [false; 3],
             origin_cell16: [None; 3],
         }
@@ -127,6 +132,7 @@ impl WalkGrid {
             dims: [1; 3],
             stride: [1, 0, 0],
             scale16: [0.0; 3],
+            by_scale16: [None; 3],
             bound: 0,
             planes: [[0.0; PLANES]; 3],
         };
@@ -147,6 +153,7 @@ impl WalkGrid {
             // overflows: there the error bound of `start_cell` does not hold.
             let s = n as f32 / extent;
             w.scale16[a] = if s.is_normal() && (s * 65536.0).is_finite() { s * 65536.0 } else { 0.0 };
+            w.by_scale16[a] = if UNPACK_RECIPROCALS { Multiplier::new(w.scale16[a]) } else { None };
             // `Traversal`'s `Planes::plane`: the same f32 expression per plane.
             let size = extent / n as f32;
             for (k, p) in w.planes[a].iter_mut().enumerate().take(n as usize + 1) {
@@ -167,9 +174,10 @@ impl WalkGrid {
 
     /// [`write_entries_in`](Self::write_entries_in) with the origin's subtractions from
     /// `table` (the caller checked it is this ray's).
-    // Inline on hard-float cores, where the plain walk then folds to what it was before the
-    // table; one copy on soft-float cores (measured: faster there, and smaller).
-    #[cfg_attr(not(soft_float), inline(always))]
+    // Inline: on hard-float cores the plain walk then folds to what it was before the table;
+    // on soft-float cores there are two copies, with and without a table (each folds its
+    // branches on the table).
+    #[inline(always)]
     pub(super) fn write_entries_with(
         &self,
         keys: bool,
@@ -186,7 +194,7 @@ impl WalkGrid {
         if !self.valid || !valid_ray || t_max.is_nan() {
             return 0;
         }
-        let inv = [div(1.0, d[0]), div(1.0, d[1]), div(1.0, d[2])];
+        let inv = [recip(d[0]), recip(d[1]), recip(d[2])];
         // Without an infinite reciprocal no clip distance or boundary can be NaN (finite ·
         // finite), and the comparisons may be made on integers (module doc); a soft-float core
         // does so.
@@ -196,6 +204,7 @@ impl WalkGrid {
 
     /// [`write_entries`](Self::write_entries), comparing on integer keys where that is exact
     /// (`keys`) or always in f32.
+    #[cfg_attr(soft_float, inline(never))]
     pub(super) fn write_entries_in(
         &self,
         keys: bool,
@@ -230,6 +239,7 @@ impl WalkGrid {
             table.max[a] = self.max[a].to_bits();
             table.dims[a] = self.dims[a] as u32;
             table.clip[a] = [sub(self.min[a], o), sub(self.max[a], o)];
+            table.in_slab[a] = key(self.min[a]) <= key(o) && key(o) <= key(self.max[a]);
             let n = self.dims[a].clamp(0, PLANES as i32 - 1) as usize;
             for (d, &p) in table.diff[a].iter_mut().zip(&self.planes[a]).take(n + 1) {
                 *d = sub(p, o);
@@ -256,6 +266,7 @@ impl WalkGrid {
     /// [`write_entries`](Self::write_entries) for rays that mostly share an origin (camera
     /// rays): the subtractions that depend only on the origin come from `table`, which is
     /// rebuilt first when it is not this ray's origin's on this grid. The same entries.
+    #[cfg_attr(soft_float, inline(never))]
     pub fn write_entries_from(
         &self,
         table: &mut OriginPlanes,
@@ -289,7 +300,7 @@ impl WalkGrid {
         let n = self.dims[a];
         if fast && self.scale16[a].to_bits() != 0 {
             // 16.16 fixed point (saturating; NaN → 0, which is cell 0 as in the formula).
-            let f = trunc_i32(mul(q, self.scale16[a]));
+            let f = trunc_i32(product(self.by_scale16[a], q, self.scale16[a]));
             let frac = f & 0xFFFF;
             let boundary = f.saturating_add(0x8000) >> 16;
             let near = !(32..=0xFFFF - 32).contains(&frac);
@@ -385,18 +396,26 @@ impl WalkGrid {
         let mut far_least = f32::INFINITY;
         // The axis through whose face the ray enters (t0 > 0), and whether that is the max face.
         let mut face: Option<(usize, bool)> = None;
-        // An origin inside the box (min ≤ o ≤ max on every axis, shadow rays) with finite
-        // reciprocals (integer keys): every near distance is ≤ 0 (its two products have
-        // opposite signs), so t0 stays +0, and the far one is the product of the face ahead:
-        // `max − o` going up, `min − o` going down — one subtraction and one multiplication
-        // per axis instead of two of each (the same far distances, bit for bit).
-        let inside = ord.keys
-            && table.is_none()
-            && (0..3).all(|a| key(self.min[a]) <= key(o[a]) && key(o[a]) <= key(self.max[a]));
+        // An origin inside the slab of an axis (min ≤ o ≤ max) with finite reciprocals (integer
+        // keys): its near distance is ≤ 0 (its two products have opposite signs), so it never
+        // raises t0, and the far one is the product of the face ahead: `max − o` going up,
+        // `min − o` going down — one product (and subtraction) instead of two (the same far
+        // distance, bit for bit; of zeros of either sign, the same key). Shadow rays start
+        // inside the box (every axis), camera rays mostly inside the slabs across the view.
         for a in 0..3 {
-            if inside {
-                let ahead = if d[a].to_bits() >> 31 == 0 { self.max[a] } else { self.min[a] };
-                let far = mul(sub(ahead, o[a]), inv[a]);
+            let in_slab = ord.keys
+                && match table {
+                    Some(t) => t.in_slab[a],
+                    None => key(self.min[a]) <= key(o[a]) && key(o[a]) <= key(self.max[a]),
+                };
+            if in_slab {
+                let up = d[a].to_bits() >> 31 == 0;
+                let ahead = match table {
+                    Some(t) => t.clip[a][usize::from(up)],
+                    None => sub(if up { self.max[a] } else { self.min[a] }, o[a]),
+                };
+                let by_inv = if UNPACK_RECIPROCALS { Multiplier::new(inv[a]) } else { None };
+                let far = product(by_inv, ahead, inv[a]);
                 if ord.lt(far, far_least) {
                     far_least = far;
                 }
@@ -424,7 +443,8 @@ impl WalkGrid {
                 far_least = far;
             }
         }
-        let widened = mul(far_least, WIDEN);
+        let by_widen = if UNPACK_RECIPROCALS { Multiplier::new(WIDEN) } else { None };
+        let widened = product(by_widen, far_least, WIDEN);
         let t1 = if ord.lt(widened, t_max) { widened } else { t_max };
         if t1.is_nan() || ord.le(t1, t0) || !finite(t0) {
             return 0;

@@ -251,13 +251,25 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
                 self.background(&ctx.background, region.x0, lo, y, tx, out)?;
                 // The run before the traced columns is encoding, not the first pixel's raygen.
                 sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
+                // Pixels in clear tiles of the occupancy mask are the background without a ray
+                // (`pixel` would return it at once): each run of them goes out as one
+                // background run, like the columns outside the span.
+                let mut clear_from = None;
                 for x in lo..hi {
+                    if !ctx.occupancy.may_hit(x, y) {
+                        clear_from = clear_from.or(Some(x));
+                        continue;
+                    }
+                    if let Some(from) = clear_from.take() {
+                        self.background(&ctx.background, from, x, y, tx, out)?;
+                        sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
+                    }
                     let s = pixel(&mut self.path, scene, &self.clock, &mut sw, &ctx, &rays, x)?;
                     self.spans.push(x, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
                     count(&mut self.path.stats.pixels, 1);
                     sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
                 }
-                self.background(&ctx.background, hi, x1, y, tx, out)?;
+                self.background(&ctx.background, clear_from.unwrap_or(hi), x1, y, tx, out)?;
             }
             // Flush per row so the host sees progress while the next row renders.
             self.spans.flush(tx, out).map_err(Fail::tx)?;

@@ -108,7 +108,30 @@ pub fn shadow_epsilon(grid_diag_len: f32, p: Vec3) -> f32 {
 /// [`shadow_epsilon`] with its per-scene term `1e-4 · |grid box diagonal|` computed already.
 #[inline]
 pub fn shadow_epsilon_from(diag_term: f32, p: Vec3) -> f32 {
-    add(diag_term, mul(SHADOW_EPS_POS, max_abs(p)))
+    add(diag_term, times_eps_pos(max_abs(p)))
+}
+
+/// `SHADOW_EPS_POS · x` for `x ≥ 0` (or NaN): a product by 2⁻²⁰ is exact while it stays
+/// normal, so for a biased exponent of 21..=254 it is the exponent lowered by 20 (no `mul`
+/// call on a soft-float core); the rest goes to `mul`.
+#[inline(always)]
+fn times_eps_pos(x: f32) -> f32 {
+    if cfg!(soft_float) {
+        eps_pos_by_exponent(x)
+    } else {
+        mul(SHADOW_EPS_POS, x)
+    }
+}
+
+/// [`times_eps_pos`] on a soft-float core.
+#[inline(always)]
+fn eps_pos_by_exponent(x: f32) -> f32 {
+    let b = x.to_bits();
+    if (21..255).contains(&(b >> 23)) {
+        f32::from_bits(b - (20 << 23))
+    } else {
+        mul(SHADOW_EPS_POS, x)
+    }
 }
 
 /// Shadow ray: origin p' = p + n·ε, direction L' = light − p' (not normalised); trace it
@@ -163,6 +186,20 @@ mod tests {
             assert_eq!(cache.unit(prim, normal).map(|v| v.to_array().map(f32::to_bits)), want, "{prim} {normal:?}");
         }
         assert!(hits > 1000 && hits < lookups, "{hits} of {lookups}");
+    }
+
+    /// The exponent shift gives `mul`'s product for every non-negative f32 whose shift it
+    /// takes, and the boundary cases around it.
+    #[test]
+    fn eps_pos_product_equals_the_multiplication() {
+        assert_eq!(SHADOW_EPS_POS, 2f32.powi(-20));
+        let edges = [0, 1, 0x0A00_0000, 0x0A7F_FFFF, 0x0A80_0000, 0x7F7F_FFFF, 0x7F80_0000, 0x7FC0_0000];
+        for b in (0..0x7F80_0000u32).step_by(97).chain(0x0A00_0000..0x0A80_0100).chain(edges) {
+            let x = f32::from_bits(b);
+            let want = SHADOW_EPS_POS * x;
+            assert!(eps_pos_by_exponent(x).to_bits() == want.to_bits() || want.is_nan(), "{x:e}");
+            assert!(times_eps_pos(x).to_bits() == want.to_bits() || want.is_nan(), "{x:e}");
+        }
     }
 
     #[test]
