@@ -63,9 +63,10 @@ pub struct BuildCmd {
     /// nextpnr's placement seed.
     #[arg(long, default_value_t = 1)]
     seed: u32,
-    /// Processing elements of the co-processor. With PE caches (the default) a PE takes its
-    /// cache's 4 + tag DP16KD; with `--pe-cache-lines 0` 40 of the LFE5U-85F's 208 and 3 fit
-    /// beside ROM, SRAM, the CPUs' caches and LiteX's L2 (BENCHMARKS.md, "The LiteX SoC").
+    /// Processing elements of the co-processor. With PE caches (the default) a PE's block RAM
+    /// is its cache's, and 4 PEs fit; with `--pe-cache-lines 0` a PE takes 40 of the
+    /// LFE5U-85F's 208 DP16KD and 3 fit beside ROM, SRAM, the CPUs' caches and LiteX's L2
+    /// (BENCHMARKS.md, "The LiteX SoC").
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u16).range(1..=16))]
     pes: u16,
     /// The UART's rate: the ULX3S's FT231X USB-serial bridge goes up to 3 000 000 baud; give
