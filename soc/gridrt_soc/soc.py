@@ -38,6 +38,7 @@ from pathlib import Path
 from litedram.frontend.wishbone import LiteDRAMWishbone2Native
 from litex.soc.cores.uart import UART
 from litex.soc.interconnect import wishbone
+from migen.fhdl.simplify import FullMemoryWE
 from litex.soc.integration.soc_core import SoCCore
 
 from .coproc import CoprocPort, GridrtCoprocCSR
@@ -243,10 +244,10 @@ class GridrtSoC(SoCCore):
             # a time; a write-back cache of PE_LINE_BITS-wide lines in front of the port turns
             # a PE cache's 8-word line fill into one SDRAM burst and 7 hits.
             line_bus = wishbone.Interface(data_width=PE_LINE_BITS, address_width=32, addressing="word")
-            # Without LiteX's FullMemoryWE (which splits the data into byte-wide memories, 32
-            # DP16KD here): Yosys maps the byte enables onto DP16KD's own.
-            self.coproc_line_cache = wishbone.Cache(
-                cachesize=PE_LINE_CACHE_SIZE // 4, master=self.coproc.core.mem_bus, slave=line_bus, reverse=False
+            self.coproc_line_cache = FullMemoryWE()(
+                wishbone.Cache(
+                    cachesize=PE_LINE_CACHE_SIZE // 4, master=self.coproc.core.mem_bus, slave=line_bus, reverse=False
+                )
             )
             self.coproc_mem = LiteDRAMWishbone2Native(
                 wishbone=line_bus, port=self.sdram.crossbar.get_port(), base_address=0
