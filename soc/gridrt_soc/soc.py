@@ -37,8 +37,6 @@ from pathlib import Path
 
 from litedram.frontend.wishbone import LiteDRAMWishbone2Native
 from litex.soc.cores.uart import UART
-from litex.soc.interconnect import wishbone
-from migen.fhdl.simplify import FullMemoryWE
 from litex.soc.integration.soc_core import SoCCore
 
 from .coproc import CoprocPort, GridrtCoprocCSR
@@ -65,10 +63,6 @@ MAIN_RAM_SIZE = 16 * KIB * KIB
 PE_IMAGES_OFFSET = MAIN_RAM_SIZE
 PE_IMAGES_SIZE = 16 * KIB * KIB
 COPROC_PE_IMAGE_WORDS = 1 << 20
-# In front of the PE images' SDRAM port (with PE caches): a write-back cache whose lines are
-# the PE caches' (8 words), 8 DP16KD.
-PE_LINE_BITS = 256
-PE_LINE_CACHE_SIZE = 16 * KIB
 
 
 def sdram_module(clk_freq):
@@ -240,16 +234,8 @@ class GridrtSoC(SoCCore):
         )
         if pe_cache_lines:
             # The PE images' own LiteDRAM port (word addresses from the SDRAM's start), beside
-            # the L2's: the CPUs' caches do not see them. The co-processor asks for one word at
-            # a time; a write-back cache of PE_LINE_BITS-wide lines in front of the port turns
-            # a PE cache's 8-word line fill into one SDRAM burst and 7 hits.
-            line_bus = wishbone.Interface(data_width=PE_LINE_BITS, address_width=32, addressing="word")
-            self.coproc_line_cache = FullMemoryWE()(
-                wishbone.Cache(
-                    cachesize=PE_LINE_CACHE_SIZE // 4, master=self.coproc.core.mem_bus, slave=line_bus, reverse=False
-                )
-            )
+            # the L2's: the CPUs' caches do not see them.
             self.coproc_mem = LiteDRAMWishbone2Native(
-                wishbone=line_bus, port=self.sdram.crossbar.get_port(), base_address=0
+                wishbone=self.coproc.core.mem_bus, port=self.sdram.crossbar.get_port(), base_address=0
             )
         self.add_constant("GRIDRT_COPROC_FIFO_DEPTH", COPROC_FIFO_DEPTH)
