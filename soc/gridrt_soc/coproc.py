@@ -113,7 +113,7 @@ class GridrtCoproc(LiteXModule):
             p_STOP_WHEN_EMPTY=int(stop_when_empty),
             p_PE_CACHE=int(bool(pe_cache_lines)),
             p_CACHE_LINES=pe_cache_lines or 512,
-            p_EN_ECP5_GLOBAL=int(en_ecp5_global and bool(pe_cache_lines)),
+            p_EN_ECP5_GLOBAL=int(en_ecp5_global),  # the RTL uses it only with PE_CACHE
             i_clk_i=ClockSignal("sys"),
             i_rst_i=ResetSignal("sys") | self.reset,
             i_s_axis_tdata_i=self.sink.data,
