@@ -50,7 +50,7 @@ pub use request::MAX_IMAGE_DIM;
 pub use scene::{MAX_MATERIALS, MAX_OBJECTS};
 pub use stats::{
     CounterClock, ExcludedWork, FrameStats, HartWork, NoClock, Stage, StageClock, StageCount, StageStamp,
-    MAX_FRAME_HARTS, STAT_COUNT,
+    UploadWork, MAX_FRAME_HARTS, STAT_COUNT,
 };
 
 #[cfg(test)]

@@ -12,7 +12,7 @@ use super::request::{self, Target};
 use super::scene::{Reorder, SceneStore, Upload, UPLOAD_WINDOW};
 #[cfg(feature = "splats")]
 use super::splat;
-use super::stats::{FrameStats, NoClock, StageClock};
+use super::stats::{cycles_between, FrameStats, NoClock, StageClock, StageStamp, UploadWork};
 use crate::fsl::FslLink;
 use crate::pixels::FrameTx;
 #[cfg(feature = "splats")]
@@ -56,6 +56,12 @@ struct Core<L, C, const N: usize, const P: usize, const T: usize, F> {
     /// Answers held back until the input at hand is used up (SPEC.md §3.14): the `SceneSack`
     /// of the last `SceneData`, and a corrupt frame after it.
     held: Held,
+    /// The cycles of the upload in progress (or the last one) so far.
+    upload_work: UploadWork,
+    /// When the last input batch of the upload in progress ended.
+    upload_lap: Option<StageStamp>,
+    /// An upload began in the batch at hand.
+    upload_began: bool,
     /// The point cloud, shape table and stage of `SPLATS` frames, and their span encoder.
     #[cfg(feature = "splats")]
     splat: SplatEngine<P, T>,
@@ -157,6 +163,9 @@ impl<
                 ahead: [0; UPLOAD_WINDOW],
                 loaded_image: None,
                 held: Held::default(),
+                upload_work: UploadWork::default(),
+                upload_lap: None,
+                upload_began: false,
                 #[cfg(feature = "splats")]
                 splat: SplatEngine::new(),
                 #[cfg(feature = "splats")]
@@ -171,6 +180,8 @@ impl<
     /// one call share one `SceneSack`, sent before this returns (SPEC.md §3.14).
     pub fn feed(&mut self, input: &[u8], out: &mut impl Write) {
         let core = &mut self.core;
+        let start = core.render.clock().now();
+        let uploading = core.upload.is_some();
         self.rx.feed_all(input, |received| {
             match received {
                 Received::Frame(frame) => core.handle(frame.kind, frame.seq, frame.payload, out),
@@ -179,6 +190,7 @@ impl<
             ControlFlow::<()>::Continue(())
         });
         core.flush(out);
+        core.time_upload(start, uploading);
     }
 
     /// The boot banner (SPEC.md §3.12): a lone `0x00` (flushes whatever the host's receiver
@@ -305,6 +317,10 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
                 self.loaded_image = None;
                 self.end_upload();
                 self.upload = Some(Upload::new(total_len, crc));
+                self.upload_work = UploadWork::default();
+                self.upload_lap = None;
+                self.upload_began = true;
+                self.render.upload = UploadWork::default();
             }
             Msg::SceneChunk { offset, data } => self.scene_data(MsgType::SceneChunk, seq, offset, data, out),
             Msg::SceneData { offset, data } => self.scene_data(MsgType::SceneData, seq, offset, data, out),
@@ -319,6 +335,25 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
                 self.error(ErrorCode::UnexpectedMessage, k as u32, "message not accepted by the device", out);
             }
         }
+    }
+
+    /// Adds the input batch that began at `start` (and, when an upload was in progress
+    /// before it, the wait since the previous batch) to the upload's cycles.
+    fn time_upload(&mut self, start: StageStamp, uploading: bool) {
+        let began = core::mem::take(&mut self.upload_began);
+        if !uploading && !began {
+            return;
+        }
+        let now = self.render.clock().now();
+        let w = &mut self.upload_work;
+        if let Some(last) = self.upload_lap.take().filter(|_| uploading) {
+            w.cycles = w.cycles.wrapping_add(cycles_between(last, start));
+        }
+        let batch = cycles_between(start, now);
+        w.cycles = w.cycles.wrapping_add(batch);
+        w.feed_cycles = w.feed_cycles.wrapping_add(batch);
+        self.upload_lap = self.upload.is_some().then_some(now);
+        self.render.upload = *w;
     }
 
     /// Drops the upload in progress, if any, first ending a LOAD_PE packet it left open.
@@ -351,6 +386,7 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
             let expected = up.next;
             return self.error(ErrorCode::BadOffset, expected, "scene chunk out of order", out);
         }
+        let parse_start = self.render.clock().now();
         let path = &mut self.render.path;
         #[cfg(feature = "splats")]
         let points: &mut dyn crate::splat::PointSink = &mut self.splat;
@@ -358,6 +394,8 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
         let points: &mut dyn crate::splat::PointSink = &mut crate::splat::NoPoints;
         let received =
             up.receive(offset, data, &mut self.ahead, &mut path.link, path.polls, &mut self.scene, points, &self.info);
+        let parsed = cycles_between(parse_start, self.render.clock().now());
+        self.upload_work.parse_cycles = self.upload_work.parse_cycles.wrapping_add(parsed);
         if let Err((e, failure)) = received {
             self.end_upload();
             self.scene.loaded = false;

@@ -16,7 +16,7 @@ use super::pipeline::{check_plan, compiled_plan, pixel, FrameCtx};
 use super::raypath::RayPath;
 use super::request::{field, Job};
 use super::scene::SceneStore;
-use super::stats::{count, cycles_between, FrameStats, FrameWriter, Stage, StageClock, Stopwatch};
+use super::stats::{count, cycles_between, FrameStats, FrameWriter, Stage, StageClock, Stopwatch, UploadWork};
 use crate::camera::ColumnTerms;
 use crate::cull::{BoxSpans, OccupancyMask};
 use crate::fsl::FslLink;
@@ -37,11 +37,12 @@ pub(super) struct Renderer<L, C, F> {
     /// Row buffer of the row interpolation.
     row: [Sample; MAX_INTERP_WIDTH],
     farm: F,
+    /// What loading the current scene cost: sent with every frame's `Stats`.
+    pub(super) upload: UploadWork,
 }
 
 impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
-    /// The stage clock (the splat path times its stages with it too).
-    #[cfg(feature = "splats")]
+    /// The stage clock (the splat path and the upload are timed with it too).
     pub(super) fn clock(&self) -> &C {
         &self.clock
     }
@@ -55,6 +56,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
             spans: SpanEncoder::new(),
             row: [Sample::default(); MAX_INTERP_WIDTH],
             farm,
+            upload: UploadWork::default(),
         }
     }
 
@@ -69,7 +71,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         out: &mut impl Write,
     ) -> Result<(u32, u32), Fail> {
         let req = job.req;
-        self.path.stats = FrameStats::default();
+        self.path.stats = FrameStats { upload: self.upload, ..FrameStats::default() };
         let prim_ids = req.flags & render_flags::PRIM_IDS != 0 && !job.crc_only;
         if job.span_bytes {
             self.spans.begin_with(req.frame, prim_ids, req.encoding, 0);

@@ -144,9 +144,16 @@ impl Upload {
             a if !a.accepted() => return Ok(a),
             _ => {}
         }
+        let skip = old_next.saturating_sub(offset) as usize;
+        // In order with nothing waiting beyond it (the usual case): fed straight from the
+        // frame, without a pass through `ahead`.
+        if let Arrival::Advanced { from, to } = arrival {
+            if offset <= from && u64::from(to) == u64::from(offset).saturating_add(data.len() as u64) {
+                return self.feed(data.get(skip..).unwrap_or(&[]), link, polls, store, points, info).map(|()| arrival);
+            }
+        }
         // New bytes start at or after `old_next` and end within the window: each lands in its
         // own slot of `ahead` (offset modulo the window), never on a byte still waiting.
-        let skip = old_next.saturating_sub(offset) as usize;
         let mut pos = offset.max(old_next) as usize;
         for &b in data.get(skip..).unwrap_or(&[]) {
             if let Some(slot) = ahead.get_mut(pos % UPLOAD_WINDOW) {

@@ -228,6 +228,21 @@ pub struct FrameStats {
     pub frame_tx_bytes: u64,
     /// Where each hart's time went, in a frame shared by several harts (all zero otherwise).
     pub harts: [HartWork; MAX_FRAME_HARTS],
+    /// What loading the current scene cost (all zero without a cycle counter).
+    pub upload: UploadWork,
+}
+
+/// The cycles of the upload that loaded the current scene (`stat::UPLOAD_CYCLES`,
+/// `UPLOAD_FEED_CYCLES`, `UPLOAD_PARSE_CYCLES`), each the sum of laps shorter than 2^32
+/// cycles: one UART batch or the wait before it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct UploadWork {
+    /// From the batch holding `SceneBegin` to the batch completing the upload.
+    pub cycles: u64,
+    /// Of those, inside the device's input handling.
+    pub feed_cycles: u64,
+    /// Of the feed cycles, inside the scene parser and loader.
+    pub parse_cycles: u64,
 }
 
 /// Harts a frame's per-hart counters cover (the keys' `STAT_HARTS`).
@@ -251,8 +266,11 @@ const PLAN_STATS: usize = 12;
 /// Number of entries in a `Msg::Stats` (of a frame one hart traced).
 pub const STAT_COUNT: usize = 10 + 2 * Stage::ALL.len() + PLAN_STATS;
 
-/// Bytes of the longest `Msg::Stats` entries: [`STAT_COUNT`] and three per hart.
-pub const MAX_STATS_BYTES: usize = (STAT_COUNT + 3 * MAX_FRAME_HARTS) * STAT_ENTRY_LEN;
+/// Entries of [`FrameStats::upload_entries`].
+const UPLOAD_STATS: usize = 3;
+
+/// Bytes of the longest `Msg::Stats` entries: [`STAT_COUNT`], three per hart and the upload's.
+pub const MAX_STATS_BYTES: usize = (STAT_COUNT + 3 * MAX_FRAME_HARTS + UPLOAD_STATS) * STAT_ENTRY_LEN;
 
 impl FrameStats {
     /// Adds every counter of `o` (all but `plan`) to this one's, as if this frame had also
@@ -283,6 +301,7 @@ impl FrameStats {
             link_cycles,
             frame_tx_bytes,
             harts,
+            upload: _,
         } = *o;
         count(&mut self.primary_rays, primary_rays);
         count(&mut self.shadow_rays, shadow_rays);
@@ -368,15 +387,26 @@ impl FrameStats {
         })
     }
 
+    /// The upload's entries, after an upload timed by a cycle counter (none otherwise).
+    pub fn upload_entries(&self) -> impl Iterator<Item = (u8, u64)> {
+        let u = self.upload;
+        [
+            (stat::UPLOAD_CYCLES, u.cycles),
+            (stat::UPLOAD_FEED_CYCLES, u.feed_cycles),
+            (stat::UPLOAD_PARSE_CYCLES, u.parse_cycles),
+        ]
+        .into_iter()
+        .filter(move |_| u.cycles > 0)
+    }
+
     /// The `entries` of `Msg::Stats`: each pair as its key byte and the value in little
-    /// endian, [`entries`](Self::entries) then [`hart_entries`](Self::hart_entries); the
-    /// first `len` bytes of the buffer.
+    /// endian, [`entries`](Self::entries), [`hart_entries`](Self::hart_entries), then
+    /// [`upload_entries`](Self::upload_entries); the first `len` bytes of the buffer.
     pub fn to_bytes(&self) -> ([u8; MAX_STATS_BYTES], usize) {
         let mut buf = [0u8; MAX_STATS_BYTES];
         let mut len = 0usize;
-        for (chunk, (k, v)) in
-            buf.chunks_exact_mut(STAT_ENTRY_LEN).zip(self.entries().into_iter().chain(self.hart_entries()))
-        {
+        let all = self.entries().into_iter().chain(self.hart_entries()).chain(self.upload_entries());
+        for (chunk, (k, v)) in buf.chunks_exact_mut(STAT_ENTRY_LEN).zip(all) {
             if let Some((key, val)) = chunk.split_first_mut() {
                 *key = k;
                 val.copy_from_slice(&v.to_le_bytes());

@@ -566,6 +566,62 @@ fn stage_counters_are_reported_under_stage_keys() {
     assert_eq!(Stage::Encode.cycles_key(), stat::STAGE_BASE + 9);
 }
 
+/// The upload's cycles: every input batch from the one holding `SceneBegin` to the one that
+/// completed the image, and the waits between them; the feed cycles only the batches; the
+/// parse cycles only the scene parser's share of them. Sent with every later frame, and not at
+/// all by a device without a cycle counter.
+/// A clock that advances by 10 per read, shared with the test, which can let time pass.
+#[derive(Clone)]
+struct SharedClock(std::rc::Rc<core::cell::Cell<u64>>);
+impl StageClock for SharedClock {
+    fn now(&self) -> StageStamp {
+        let t = self.0.get() + 10;
+        self.0.set(t);
+        StageStamp { cycles: t as u32, instret: t as u32 }
+    }
+}
+
+/// The upload's cycles: every input batch from the one holding `SceneBegin` to the one that
+/// completed the image, and the waits between them; the feed cycles only the batches; the
+/// parse cycles only the scene parser's share of them. Sent with every later frame, and not at
+/// all by a device without a cycle counter.
+#[test]
+fn upload_cycles_count_the_batches_and_the_waits_between_them() {
+    let time = std::rc::Rc::new(core::cell::Cell::new(0u64));
+    let mut dev: Device<FakeCoproc, SharedClock, VOXELS> =
+        Device::new(FakeCoproc::new(), SharedClock(time.clone()), info());
+    // The host's bytes take a while: the device waits on its UART between the batches.
+    let wait = || time.set(time.get() + 1000);
+    let mut w = Wire::new();
+    let img = scene_image([2, 2, 1], &materials());
+    let (first, rest) = img.split_at(img.len() / 2);
+    dev.feed(&frame(&Msg::SceneBegin { total_len: img.len() as u32, crc: crc32(&img) }, 0), &mut w);
+    wait();
+    dev.feed(&frame(&Msg::SceneChunk { offset: 0, data: first }, 1), &mut w);
+    wait();
+    dev.feed(&frame(&Msg::SceneChunk { offset: first.len() as u32, data: rest }, 2), &mut w);
+    let acks = replies(&w);
+    assert!(matches!(acks.last().unwrap().msg(), Msg::SceneAck { status: SceneStatus::Loaded, .. }), "{acks:?}");
+    // After the upload the clock runs on: none of it is the upload's.
+    wait();
+    let mut w = Wire::new();
+    dev.feed(&frame(&Msg::RenderRequest(request(4, 3, 0)), 3), &mut w);
+    let s = rendered(&replies(&w), 4, 3).stats;
+    let (cycles, feed, parse) = (s[&stat::UPLOAD_CYCLES], s[&stat::UPLOAD_FEED_CYCLES], s[&stat::UPLOAD_PARSE_CYCLES]);
+    // Each parse is one lap of 10 cycles; each batch has a few more reads around it.
+    assert_eq!(parse, 2 * 10, "two chunks parsed");
+    assert!(feed > parse, "feed {feed}, parse {parse}");
+    // The two waits inside the upload, not the one after it.
+    assert_eq!(cycles - feed, 2 * 1000 + 2 * 10, "cycles {cycles}, feed {feed}");
+
+    // A device without a cycle counter sends no upload entries.
+    let mut plain = loaded_device();
+    let mut w = Wire::new();
+    plain.feed(&frame(&Msg::RenderRequest(request(4, 3, 0)), 3), &mut w);
+    let s = rendered(&replies(&w), 4, 3).stats;
+    assert!(!s.contains_key(&stat::UPLOAD_CYCLES) && !s.contains_key(&stat::UPLOAD_PARSE_CYCLES), "{s:?}");
+}
+
 mod link;
 mod upload;
 

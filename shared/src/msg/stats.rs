@@ -56,6 +56,16 @@ pub mod stat {
     /// Bytes the device wrote to the UART between those two instants (the frame's spans and
     /// `Stats` excluded: pixels only, framing included).
     pub const FRAME_TX_BYTES: u8 = 0x2C;
+    /// Cycles (`mcycle`) of the upload that loaded the current scene: from the UART batch
+    /// that held its `SceneBegin` to the one that completed it. Sent only by a device with a
+    /// cycle counter, in every frame's `Stats` after such an upload.
+    pub const UPLOAD_CYCLES: u8 = 0x2D;
+    /// Of those, the cycles inside the device's input handling (framing, CRC-32, messages,
+    /// answers); the rest went to reading the UART and waiting for bytes.
+    pub const UPLOAD_FEED_CYCLES: u8 = 0x2E;
+    /// Of the feed cycles, those in the scene parser and loader (the image's CRC-32, its
+    /// records into the scene store, the LOAD_PE words to the co-processor).
+    pub const UPLOAD_PARSE_CYCLES: u8 = 0x2F;
     /// First key of the per-hart counters of a frame shared by several harts (SoC built with
     /// `--harts N`): rows hart h traced at `HART_ROWS_BASE + h`, h = 0..=3 (0: the first).
     pub const HART_ROWS_BASE: u8 = 0x50;

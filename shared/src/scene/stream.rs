@@ -275,6 +275,22 @@ impl SceneStream {
             }
             Stage::PeWords => {
                 let h = self.header.ok_or(SceneError::BadHeader)?;
+                // Whole words at hand go to the sink straight from `bytes`: one CRC update
+                // for the run, no staging (the upload's hot loop on a soft-core).
+                let whole = (bytes.len() / 4).min(self.words_left.saturating_sub(1) as usize);
+                if self.staged == 0 && whole > 0 {
+                    let (run, tail) = bytes.split_at(whole.saturating_mul(4));
+                    self.crc.update(run);
+                    for w in run.chunks_exact(4) {
+                        if let [b0, b1, b2, b3] = *w {
+                            sink.pe_word(u32::from_le_bytes([b0, b1, b2, b3]))?;
+                        }
+                    }
+                    self.offset = self.offset.saturating_add(run.len() as u32);
+                    self.words_left = self.words_left.saturating_sub(whole as u32);
+                    *bytes = tail;
+                    return Ok(());
+                }
                 if self.stage_bytes(bytes, 4) {
                     let [b0, b1, b2, b3, ..] = self.staging;
                     sink.pe_word(u32::from_le_bytes([b0, b1, b2, b3]))?;

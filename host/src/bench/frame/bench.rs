@@ -250,13 +250,24 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
         reference_ms,
         qemu: gridrt_qemu::version(),
         skipped: skipped.map(|why| vec![report::SkippedRow { config: Configuration::Rtl.name().into(), why }]).unwrap_or_default(),
-        soc_sim: soc.as_ref().map(|(s, _)| report::SocSimReport {
-            sim_cycles_per_s: s.sim_cycles_per_s,
-            sim_reported_cycles_per_s: s.sim_reported_cycles_per_s,
-            flash_s: s.flash_s,
-            upload_s: s.upload_s,
-            render_s: s.render_s,
-            upload_line: "unpaced: the host-to-SoC line runs faster than the baud rate in simulation; the upload is not part of the frame".into(),
+        soc_sim: soc.as_ref().map(|(s, _)| {
+            let mut r = report::SocSimReport {
+                sim_cycles_per_s: s.sim_cycles_per_s,
+                sim_reported_cycles_per_s: s.sim_reported_cycles_per_s,
+                flash_s: s.flash_s,
+                upload_s: s.upload_s,
+                render_s: s.render_s,
+                upload_line: "unpaced: the host-to-SoC line runs faster than the baud rate in simulation; the upload is not part of the frame".into(),
+                upload_wire_bytes: 0,
+                upload_cycles: 0,
+                upload_feed_cycles: 0,
+                upload_parse_cycles: 0,
+                upload_cycles_per_wire_byte: 0.0,
+                upload_device_ms: 0.0,
+                upload_line_ms: 0.0,
+            };
+            r.upload(&s.run, s.clock.clock_mhz, s.clock.baud);
+            r
         }),
         rows,
     })

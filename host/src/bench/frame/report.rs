@@ -96,6 +96,35 @@ pub struct SocSimReport {
     pub render_s: f64,
     /// How the host-to-SoC line is simulated.
     pub upload_line: String,
+    /// Wire bytes of the upload, both directions (measured on the pty).
+    pub upload_wire_bytes: u64,
+    /// The SoC's cycles of the upload (`mcycle`, `stat::UPLOAD_CYCLES`; measured), with the
+    /// line unpaced: what the firmware needs, without waiting for the line.
+    pub upload_cycles: u64,
+    /// Of those, in the device's input handling (`UPLOAD_FEED_CYCLES`); the rest read the UART.
+    pub upload_feed_cycles: u64,
+    /// Of the feed cycles, in the scene parser and loader (`UPLOAD_PARSE_CYCLES`).
+    pub upload_parse_cycles: u64,
+    /// `upload_cycles` per wire byte.
+    pub upload_cycles_per_wire_byte: f64,
+    /// `upload_cycles` at the SoC's clock: the firmware's own upload time (measured cycles).
+    pub upload_device_ms: f64,
+    /// The wire bytes at the baud rate (modelled): the line's time. On the board the upload
+    /// takes at least the larger of the two.
+    pub upload_line_ms: f64,
+}
+
+impl SocSimReport {
+    /// The upload's figures of a `soc` run: measured cycles, the line modelled at `baud`.
+    pub(crate) fn upload(&mut self, run: &DeviceRun, clock_mhz: f64, baud: u32) {
+        self.upload_wire_bytes = run.upload_bytes;
+        self.upload_cycles = run.stat(stat::UPLOAD_CYCLES);
+        self.upload_feed_cycles = run.stat(stat::UPLOAD_FEED_CYCLES);
+        self.upload_parse_cycles = run.stat(stat::UPLOAD_PARSE_CYCLES);
+        self.upload_cycles_per_wire_byte = self.upload_cycles as f64 / run.upload_bytes.max(1) as f64;
+        self.upload_device_ms = self.upload_cycles as f64 / (clock_mhz * 1e3);
+        self.upload_line_ms = run.upload_bytes as f64 * 10.0 / f64::from(baud.max(1)) * 1e3;
+    }
 }
 
 /// One configuration on one target.

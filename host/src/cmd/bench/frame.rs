@@ -322,6 +322,18 @@ fn print_table(r: &FrameReport) {
             s.upload_s,
             s.render_s
         );
+        if s.upload_cycles > 0 {
+            println!(
+                "soc upload (measured cycles): {} wire B in {} cycles, {:.1} cycles/B ({:.1} % in input handling, {:.1} % in the scene parser and loader): {:.0} ms at the clock; the line at the baud rate {:.0} ms (modelled)",
+                s.upload_wire_bytes,
+                s.upload_cycles,
+                s.upload_cycles_per_wire_byte,
+                100.0 * s.upload_feed_cycles as f64 / s.upload_cycles as f64,
+                100.0 * s.upload_parse_cycles as f64 / s.upload_cycles as f64,
+                s.upload_device_ms,
+                s.upload_line_ms
+            );
+        }
     }
     println!(
         "{:<15} {:<13} {:>10} {:>10} {:>10} {:>9} {:>10} {:>8}  {:<9} {:>7}  {:<10}",
