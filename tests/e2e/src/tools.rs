@@ -184,6 +184,20 @@ pub fn soc_sim_opted_in(test: &str) -> bool {
     false
 }
 
+/// Set to `1` (besides [`SOC_SIM_VAR`]) to run the SoC tests of large scenes, whose upload
+/// alone takes about an hour of simulation: not in CI.
+pub const SOC_SIM_LARGE_VAR: &str = "GRIDRT_SOC_SIM_LARGE";
+
+/// True when [`SOC_SIM_LARGE_VAR`] is `1`; otherwise `test` should return at once (a line
+/// on standard error says it was skipped and how to run it).
+pub fn soc_sim_large_opted_in(test: &str) -> bool {
+    if std::env::var(SOC_SIM_LARGE_VAR).is_ok_and(|v| v.trim() == "1") {
+        return true;
+    }
+    say(&format!("{test}: {NOT_OPTED_IN} {SOC_SIM_LARGE_VAR}=1 (a large scene: about an hour of simulation)"));
+    false
+}
+
 /// One line on the process's standard error, past libtest's output capture, in one write
 /// (so it does not interleave with libtest's own lines).
 fn say(line: &str) {

@@ -21,7 +21,9 @@
 //!
 //! The imac SoC (`--float-hw none`) has its own test,
 //! `soc_with_the_imac_renders_like_the_rtl_cosim`; a scene beyond block RAM (bun_zipper_res3)
-//! too, `soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim`.
+//! too, `soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim`; and stanford-bunny,
+//! `soc_renders_stanford_bunny_like_the_rtl_cosim`, only with `GRIDRT_SOC_SIM_LARGE=1` as
+//! well (its upload alone is about an hour of simulation: not in CI).
 //!
 //! It runs only with `GRIDRT_SOC_SIM=1` (it takes minutes: see BENCHMARKS.md, "The LiteX
 //! SoC"); `.ci/run` sets it. Then missing Verilator or LiteX fails the test;
@@ -34,7 +36,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use gridrt_e2e::tools::{require, soc_sim_opted_in, Tool};
+use gridrt_e2e::tools::{require, soc_sim_large_opted_in, soc_sim_opted_in, Tool};
 use gridrt_host::compare::compare;
 use gridrt_host::flash::{flash, FlashConfig, FlashError, FlashImage};
 use gridrt_host::serial;
@@ -345,4 +347,30 @@ fn soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim() {
     let row = soc_bench_row_of("bun_zipper_res3.obj", "bench-res3", &["--width", WIDTH, "--height", HEIGHT]);
     assert_eq!(row["pe_cache_lines"].as_u64(), Some(512), "{row}");
     assert_eq!(row["identical_to_rtl_sim"], true, "the SoC's res3 frame equals --sim --coproc rtl: {row}");
+}
+
+/// stanford-bunny (69 451 triangles, 6.3 MB of scene image, its fullest PE far beyond block
+/// RAM) on the default SoC: the 32×24 frame identical to `--sim --coproc rtl` with the same
+/// PE memories and caches, and to the f64 reference; the device reports the upload's cycles.
+/// Needs `GRIDRT_SOC_SIM_LARGE=1` besides `GRIDRT_SOC_SIM=1` (the upload is about 1.2 × 10⁹
+/// simulated cycles).
+#[test]
+fn soc_renders_stanford_bunny_like_the_rtl_cosim() {
+    let test = "soc_renders_stanford_bunny_like_the_rtl_cosim";
+    if !soc_sim_opted_in(test)
+        || !soc_sim_large_opted_in(test)
+        || !require(test, Tool::Verilator)
+        || !require(test, Tool::Litex)
+    {
+        return;
+    }
+    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let row = soc_bench_row_of("stanford-bunny.obj", "bench-stanford", &["--width", WIDTH, "--height", HEIGHT]);
+    assert_eq!(row["pe_cache_lines"].as_u64(), Some(512), "{row}");
+    assert_eq!(row["identical_to_rtl_sim"], true, "the SoC's stanford-bunny frame equals --sim --coproc rtl: {row}");
+    assert_eq!(row["identical"], true, "and the f64 reference: {row}");
+    let upload = &row["soc_sim"];
+    let (cycles, bytes) = (upload["upload_cycles"].as_u64().unwrap(), upload["upload_wire_bytes"].as_u64().unwrap());
+    eprintln!("upload: {bytes} wire bytes in {cycles} cycles");
+    assert!(bytes > 6_000_000 && cycles > bytes, "{upload}");
 }

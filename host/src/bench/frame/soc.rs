@@ -29,8 +29,8 @@ use crate::scene_image::PreparedScene;
 use crate::session::{Session, SessionConfig};
 
 /// How long the simulated SoC may take for one stage (flash, upload, render): a 320×240
-/// frame is a few hundred million cycles.
-const SOC_STAGE_TIMEOUT: Duration = Duration::from_secs(3600);
+/// frame of a large scene is a few billion cycles, hours at the simulation's speed.
+const SOC_STAGE_TIMEOUT: Duration = Duration::from_secs(4 * 3600);
 
 /// What `cargo xtask soc sim` prints for the speed of the simulation (`serial2pty`).
 const SPEED_MARKER: &str = "serial2pty: speed ";
