@@ -274,3 +274,31 @@ fn frame_refused_as_unknown_still_loads_other_errors_reject_the_scene() {
         assert_eq!(dev.link().loads.len(), if loads { 2 } else { 0 }, "{word:08x}");
     }
 }
+
+/// A host that resends from inside a frame the device already holds (a smaller chunk after a
+/// loss) overlaps bytes that arrived: only the new bytes are parsed, each once and in order,
+/// so the co-processor gets the same PE blocks as from one piece.
+#[test]
+fn scene_data_overlapping_what_arrived_loads_each_byte_once() {
+    let img = scene_image([2, 2, 1], &materials());
+    let crc = crc32(&img);
+    let mut whole = device();
+    send(&mut whole, &Msg::SceneBegin { total_len: img.len() as u32, crc });
+    send_seq(&mut whole, &Msg::SceneData { offset: 0, data: &img }, 1);
+    assert!(whole.scene_loaded());
+    let mut rng = ChaCha8Rng::seed_from_u64(0x5AC_0002);
+    for _ in 0..50 {
+        let mut dev = device();
+        send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc });
+        let (mut next, mut seq) = (0usize, 1u16);
+        while next < img.len() {
+            let o = next - rng.gen_range(0..=next.min(30));
+            let n = rng.gen_range(1..=40).min(img.len() - o);
+            seq += 1;
+            send_seq(&mut dev, &Msg::SceneData { offset: o as u32, data: &img[o..o + n] }, seq);
+            next = next.max(o + n);
+        }
+        assert!(dev.scene_loaded());
+        assert_eq!(dev.link().loads, whole.link().loads, "the same PE blocks, each once");
+    }
+}
