@@ -49,8 +49,8 @@ pub use raypath::DEFAULT_POLLS;
 pub use request::MAX_IMAGE_DIM;
 pub use scene::{MAX_MATERIALS, MAX_OBJECTS};
 pub use stats::{
-    CounterClock, ExcludedWork, FrameStats, HartWork, NoClock, Stage, StageClock, StageCount, StageStamp,
-    UploadWork, MAX_FRAME_HARTS, STAT_COUNT,
+    CounterClock, ExcludedWork, FrameStats, HartWork, NoClock, Stage, StageClock, StageCount, StageStamp, UploadWork,
+    MAX_FRAME_HARTS, STAT_COUNT,
 };
 
 #[cfg(test)]
