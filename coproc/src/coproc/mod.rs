@@ -69,8 +69,9 @@
 //! | `stats` | [`CoprocStats`], [`TraceInfo`] | — |
 //! | `image` | a loaded PE image: table offsets, the checks beyond `PeImage::parse`, vertices | — |
 //! | `search` | one ray: request checks, the list search through the PE memories, arbitration, the result | `image`, `stats`, `observe` |
-//! | `pes` | the PE array: LOAD (with record tables), CLEAR, the timed trace and its counters | `image`, `search`, `stats`, `observe` |
+//! | `pes` | the PE array: LOAD (with record tables), CLEAR, the timed trace and its counters | `image`, `search`, `stats`, `observe`, `pe_cache` |
 //! | `observe` | [`PeReadObserver`]: the PE-memory reads of a timed trace, for memory studies | — |
+//! | `pe_cache` | the RTL's PE caches' stall cycles, cycle by cycle ([`Coprocessor::with_pe_caches`]) | — |
 //! | `link` | the FSL word interface: packet receiver, resynchronisation, reply queue | `pes`, `search` |
 //!
 //! [`Coprocessor`] (this module) owns a `pes::Pes` and a `link::Link` and is the public API.
