@@ -457,7 +457,7 @@ fn model_with_caches(params: RtlParams, mem_latency: u32) -> Coprocessor<'static
         kernel: KernelKind::Watertight,
     };
     let caches = PeCacheConfig { lines: params.pe_cache_lines, mem_latency };
-    let words = cfg.required_backing_words() + caches.tag_words(cfg.pe_count);
+    let words = cfg.required_backing_words() + caches.state_words(cfg.pe_count);
     let backing: &'static mut [u32] = vec![0u32; words].leak();
     let mut m = Coprocessor::with_pe_caches(cfg, caches, backing).expect("valid configuration");
     m.set_number_format(NumberFormat::Fixed64Q23, FixedFrame::IDENTITY);

@@ -100,7 +100,7 @@ use search::Numerics;
 
 pub use link::{load_ack, CLEAR_ACK, FRAME_ACK};
 pub use observe::{NoObserver, PeRead, PeReadKind, PeReadObserver};
-pub use pe_cache::{PeCacheConfig, PE_CACHE_MAX_PES};
+pub use pe_cache::{PeCacheConfig, PE_CACHE_MAX_PES, PE_STATE_WORDS};
 pub use search::T_EXIT_REL_TOL;
 pub use stats::{CoprocStats, TraceInfo};
 
@@ -141,8 +141,8 @@ impl<'m> Coprocessor<'m> {
     /// ([`CoprocStats::pe_stall_cycles`]) and its external memory's words. Exact for the
     /// `rtl` timing profile (4 PEs per pipeline) with the request words taken one per
     /// cycle, as the Verilator harness without `--stall` gives them. `backing` holds the PE
-    /// memories, then the tags: [`CoprocConfig::required_backing_words`] +
-    /// [`PeCacheConfig::tag_words`] words. The tags start cold, as after the RTL's reset.
+    /// memories, then the caches' tags and registers: [`CoprocConfig::required_backing_words`]
+    /// + [`PeCacheConfig::state_words`] words. The caches start as after the RTL's reset.
     pub fn with_pe_caches(
         config: CoprocConfig,
         caches: PeCacheConfig,
@@ -151,14 +151,13 @@ impl<'m> Coprocessor<'m> {
         config.validate()?;
         caches.validate(&config)?;
         let mem_words = config.required_backing_words();
-        let need = mem_words.saturating_add(caches.tag_words(config.pe_count));
+        let need = mem_words.saturating_add(caches.state_words(config.pe_count));
         if backing.len() < need {
             return Err(ConfigError::BackingTooSmall { need, have: backing.len() });
         }
         let (mem, rest) = backing.split_at_mut(mem_words);
         let (tags, _) = rest.split_at_mut(need.saturating_sub(mem_words));
-        tags.fill(0);
-        let timing = pe_cache::PeCacheTiming::new(caches, &config);
+        let timing = pe_cache::PeCacheTiming::new(caches, &config, tags);
         Ok(Self::from_parts(config, mem, tags, Some(timing)))
     }
 

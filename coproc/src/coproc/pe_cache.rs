@@ -36,6 +36,9 @@ use crate::config::{ConfigError, CoprocConfig};
 /// PEs the cache model covers (the RTL's PES is at most 16).
 pub const PE_CACHE_MAX_PES: usize = 16;
 
+/// Words of one PE's registers in the backing, after its tags ([`PeCacheConfig::state_words`]).
+pub const PE_STATE_WORDS: usize = 19;
+
 /// Write-buffer depth of `gridrt_pe_cache` (`WB_DEPTH`).
 const WB_DEPTH: u32 = 4;
 
@@ -59,9 +62,10 @@ pub struct PeCacheConfig {
 }
 
 impl PeCacheConfig {
-    /// Backing words the tags take after the PE memories: one per line per PE.
-    pub const fn tag_words(&self, pe_count: u16) -> usize {
-        (pe_count as usize).saturating_mul(self.lines as usize)
+    /// Backing words the caches' state takes after the PE memories: per PE one tag word
+    /// per line and [`PE_STATE_WORDS`] of registers (the model's own footprint stays small).
+    pub const fn state_words(&self, pe_count: u16) -> usize {
+        (pe_count as usize).saturating_mul((self.lines as usize).saturating_add(PE_STATE_WORDS))
     }
 
     /// Checks the caches against the co-processor they serve: at most
@@ -95,11 +99,11 @@ enum Phase {
 /// A cache's memory side.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Ms {
-    Clear,
-    Idle,
-    Write,
-    FillE,
-    FillO,
+    Clear = 0,
+    Idle = 1,
+    Write = 2,
+    FillE = 3,
+    FillO = 4,
 }
 
 /// One cache's registers (names as in `gridrt_pe_cache.sv`).
@@ -156,6 +160,119 @@ impl Regs {
     };
 }
 
+// Word offsets of a PE's registers after its tags.
+const W_TE: usize = 0;
+const W_TO: usize = 1;
+const W_LE: usize = 2;
+const W_LO: usize = 3;
+const W_FLAGS: usize = 4;
+const W_LOOK_A: usize = 5;
+const W_SAV_R: usize = 6;
+const W_SAV_R2: usize = 7;
+const W_WB_N: usize = 8;
+const W_MS: usize = 9;
+const W_CLR: usize = 10;
+const W_PL_E: usize = 11;
+const W_PL_O: usize = 12;
+const W_FW: usize = 13;
+/// The controller's address register of the PE.
+const W_A_ADDR: usize = 14;
+/// The PE's write register: a write of the last enabled cycle, pushed this one.
+const W_W_REG: usize = 15;
+/// The controller's `pe_tri_off` of the PE (its image's triangle offset).
+const W_TRI_OFF: usize = 16;
+/// The PE's result stage: the triangle of its last Closest take (`best_tri`, kept across
+/// rays) and what its result memory holds for list entry 0.
+const W_BEST_TRI: usize = 17;
+const W_RES_TRI0: usize = 18;
+
+const F_NEED_E: u32 = 1;
+const F_NEED_O: u32 = 2;
+const F_LOOK_V: u32 = 4;
+const F_SAV_R_V: u32 = 8;
+const F_SAV_R2_V: u32 = 16;
+const F_PEND_E: u32 = 32;
+const F_PEND_O: u32 = 64;
+const F_REQ: u32 = 128;
+const F_W_REG: u32 = 256;
+
+fn word(w: &[u32], i: usize) -> u32 {
+    w.get(i).copied().unwrap_or(0)
+}
+
+fn set_word(w: &mut [u32], i: usize, v: u32) {
+    if let Some(x) = w.get_mut(i) {
+        *x = v;
+    }
+}
+
+impl Regs {
+    fn load(w: &[u32]) -> Regs {
+        let f = word(w, W_FLAGS);
+        Regs {
+            te: word(w, W_TE),
+            to: word(w, W_TO),
+            le: word(w, W_LE),
+            lo: word(w, W_LO),
+            need_e: f & F_NEED_E != 0,
+            need_o: f & F_NEED_O != 0,
+            look_v: f & F_LOOK_V != 0,
+            look_a: word(w, W_LOOK_A),
+            sav_r: word(w, W_SAV_R),
+            sav_r_v: f & F_SAV_R_V != 0,
+            sav_r2: word(w, W_SAV_R2),
+            sav_r2_v: f & F_SAV_R2_V != 0,
+            wb_n: word(w, W_WB_N),
+            ms: match word(w, W_MS) {
+                0 => Ms::Clear,
+                1 => Ms::Idle,
+                2 => Ms::Write,
+                3 => Ms::FillE,
+                _ => Ms::FillO,
+            },
+            clr: word(w, W_CLR),
+            pend_e: f & F_PEND_E != 0,
+            pend_o: f & F_PEND_O != 0,
+            pl_e: word(w, W_PL_E),
+            pl_o: word(w, W_PL_O),
+            fw: word(w, W_FW),
+            req: f & F_REQ != 0,
+        }
+    }
+
+    fn store(&self, w: &mut [u32]) {
+        let flag = |b: bool, f: u32| if b { f } else { 0 };
+        let keep = word(w, W_FLAGS) & F_W_REG;
+        let f = flag(self.need_e, F_NEED_E)
+            | flag(self.need_o, F_NEED_O)
+            | flag(self.look_v, F_LOOK_V)
+            | flag(self.sav_r_v, F_SAV_R_V)
+            | flag(self.sav_r2_v, F_SAV_R2_V)
+            | flag(self.pend_e, F_PEND_E)
+            | flag(self.pend_o, F_PEND_O)
+            | flag(self.req, F_REQ)
+            | keep;
+        for (i, v) in [
+            (W_TE, self.te),
+            (W_TO, self.to),
+            (W_LE, self.le),
+            (W_LO, self.lo),
+            (W_FLAGS, f),
+            (W_LOOK_A, self.look_a),
+            (W_SAV_R, self.sav_r),
+            (W_SAV_R2, self.sav_r2),
+            (W_WB_N, self.wb_n),
+            (W_MS, self.ms as u32),
+            (W_CLR, self.clr),
+            (W_PL_E, self.pl_e),
+            (W_PL_O, self.pl_o),
+            (W_FW, self.fw),
+        ] {
+            set_word(w, i, v);
+        }
+    }
+}
+
 /// What one PE's port does in an enabled cycle.
 #[derive(Debug, Clone, Copy, Default)]
 struct Port {
@@ -165,8 +282,10 @@ struct Port {
 
 const VALID: u32 = 1 << 31;
 
-/// The caches, the freeze controller, the memory arbiter and the harness's memory, plus
-/// the controller state the caches see (address registers, the result stage's leftovers).
+/// The freeze controller, the memory arbiter and the harness's memory; the caches' tags and
+/// registers, and the controller state each PE sees (its address register, the result
+/// stage's leftovers), live in the caller's words (`st`: per PE its tags, then
+/// [`PE_STATE_WORDS`]), so the model's own footprint stays small.
 #[derive(Debug, Clone)]
 pub(super) struct PeCacheTiming {
     cfg: PeCacheConfig,
@@ -174,27 +293,16 @@ pub(super) struct PeCacheTiming {
     words: u32,
     amask: u32,
     iw: u32,
-    regs: [Regs; PE_CACHE_MAX_PES],
     phase: Phase,
     busy: bool,
     who: usize,
     mem_wait: i64,
-    /// Controller: each PE's address register, and a write of the last enabled cycle
-    /// (the PE's write register: pushed into the cache this cycle).
-    a_addr: [u32; PE_CACHE_MAX_PES],
-    w_reg: [Option<u32>; PE_CACHE_MAX_PES],
-    /// Each PE's triangle offset in its image (the controller's `pe_tri_off`).
-    pub(super) tri_off: [u32; PE_CACHE_MAX_PES],
-    /// Each PE's result stage: the triangle of its last Closest take (`best_tri`, kept
-    /// across rays) and what its result memory holds for list entry 0.
-    pub(super) best_tri: [u32; PE_CACHE_MAX_PES],
-    pub(super) res_tri0: [u32; PE_CACHE_MAX_PES],
     /// The PE of list entry 0 of the last ray with entries (`ent_pe_of[0]`).
     pub(super) ent_pe0: u8,
     /// Cycles stopped, words read (line fills) and written.
-    pub(super) stall_cycles: u64,
-    pub(super) reads: u64,
-    pub(super) writes: u64,
+    stall_cycles: u64,
+    reads: u64,
+    writes: u64,
 }
 
 /// The tests a ray's execution issues, per PE, for [`PeCacheTiming::execute`].
@@ -228,29 +336,87 @@ struct Issuer {
 }
 
 impl PeCacheTiming {
-    pub(super) fn new(cfg: PeCacheConfig, config: &CoprocConfig) -> Self {
+    /// The timing of `cfg`'s caches for `config`; `st` (its [`PeCacheConfig::state_words`])
+    /// is set as after the RTL's reset.
+    pub(super) fn new(cfg: PeCacheConfig, config: &CoprocConfig, st: &mut [u32]) -> Self {
         let words = config.pe_mem_words;
-        Self {
+        let t = Self {
             cfg,
             pes: (config.pe_count as usize).min(PE_CACHE_MAX_PES),
             words,
             amask: words.wrapping_sub(1),
             iw: cfg.lines.trailing_zeros(),
-            regs: [Regs::RESET; PE_CACHE_MAX_PES],
             phase: Phase::Run,
             busy: false,
             who: 0,
             mem_wait: -1,
-            a_addr: [0; PE_CACHE_MAX_PES],
-            w_reg: [None; PE_CACHE_MAX_PES],
-            tri_off: [0; PE_CACHE_MAX_PES],
-            best_tri: [0; PE_CACHE_MAX_PES],
-            res_tri0: [0; PE_CACHE_MAX_PES],
             ent_pe0: 0,
             stall_cycles: 0,
             reads: 0,
             writes: 0,
+        };
+        st.fill(0);
+        for p in 0..t.pes {
+            Regs::RESET.store(t.regs_mut(st, p));
         }
+        t
+    }
+
+    /// PE `p`'s block of `st`: its tags, then its registers.
+    fn block(&self, p: usize) -> core::ops::Range<usize> {
+        let n = (self.cfg.lines as usize).saturating_add(PE_STATE_WORDS);
+        let start = p.saturating_mul(n);
+        start..start.saturating_add(n)
+    }
+
+    fn regs<'s>(&self, st: &'s [u32], p: usize) -> &'s [u32] {
+        let b = self.block(p);
+        st.get(b.start.saturating_add(self.cfg.lines as usize)..b.end).unwrap_or(&[])
+    }
+
+    fn regs_mut<'s>(&self, st: &'s mut [u32], p: usize) -> &'s mut [u32] {
+        let b = self.block(p);
+        st.get_mut(b.start.saturating_add(self.cfg.lines as usize)..b.end).unwrap_or(&mut [])
+    }
+
+    /// A word of PE `pe`'s controller state (`W_A_ADDR` .. `W_RES_TRI0`).
+    fn get(&self, st: &[u32], pe: u8, i: usize) -> u32 {
+        word(self.regs(st, pe as usize), i)
+    }
+
+    fn set(&self, st: &mut [u32], pe: u8, i: usize, v: u32) {
+        set_word(self.regs_mut(st, pe as usize), i, v);
+    }
+
+    /// PE `pe`'s result stage: the triangle of its last Closest take.
+    pub(super) fn best_tri(&self, st: &[u32], pe: u8) -> u32 {
+        self.get(st, pe, W_BEST_TRI)
+    }
+
+    pub(super) fn set_best_tri(&self, st: &mut [u32], pe: u8, tri: u32) {
+        self.set(st, pe, W_BEST_TRI, tri);
+    }
+
+    /// PE `pe`'s result memory at list entry 0.
+    pub(super) fn res_tri0(&self, st: &[u32], pe: u8) -> u32 {
+        self.get(st, pe, W_RES_TRI0)
+    }
+
+    pub(super) fn set_res_tri0(&self, st: &mut [u32], pe: u8, tri: u32) {
+        self.set(st, pe, W_RES_TRI0, tri);
+    }
+
+    /// The PE's write register: `Some(address)` of last enabled cycle's write.
+    fn w_reg(&self, st: &[u32], p: usize) -> Option<u32> {
+        let r = self.regs(st, p);
+        (word(r, W_FLAGS) & F_W_REG != 0).then(|| word(r, W_W_REG))
+    }
+
+    fn set_w_reg(&self, st: &mut [u32], p: usize, w: Option<u32>) {
+        let r = self.regs_mut(st, p);
+        let f = word(r, W_FLAGS) & !F_W_REG;
+        set_word(r, W_FLAGS, if w.is_some() { f | F_W_REG } else { f });
+        set_word(r, W_W_REG, w.unwrap_or(0));
     }
 
     /// Stopped cycles, words read, words written since the reset.
@@ -259,7 +425,7 @@ impl PeCacheTiming {
     }
 
     fn tag_index(&self, pe: usize, line: u32) -> usize {
-        pe.saturating_mul(self.cfg.lines as usize).saturating_add((line & self.cfg.lines.wrapping_sub(1)) as usize)
+        self.block(pe).start.saturating_add((line & self.cfg.lines.wrapping_sub(1)) as usize)
     }
 
     /// One clock cycle of every cache, the arbiter, the memory and the freeze controller;
@@ -281,13 +447,13 @@ impl PeCacheTiming {
         let mut all_ready = true;
         let mut pick: Option<usize> = None;
         for p in 0..self.pes {
-            if self.regs.get(p).is_some_and(|r| r.req) && pick.is_none() {
+            if word(self.regs(tags, p), W_FLAGS) & F_REQ != 0 && pick.is_none() {
                 pick = Some(p);
             }
         }
         for p in 0..self.pes {
             let port = ports.get(p).copied().unwrap_or_default();
-            let Some(&r) = self.regs.get(p) else { continue };
+            let r = Regs::load(self.regs(tags, p));
             let (a, a_v) = match self.phase {
                 Phase::ReplayR => (r.sav_r, r.sav_r_v),
                 Phase::ReplayR2 => (r.sav_r2, r.sav_r2_v),
@@ -400,9 +566,7 @@ impl PeCacheTiming {
                 n.pl_e = r.le;
                 n.pl_o = r.lo;
             }
-            if let Some(slot) = self.regs.get_mut(p) {
-                *slot = n;
-            }
+            n.store(self.regs_mut(tags, p));
         }
         // The arbiter: one word per grant, the lowest requesting PE first.
         let was_busy = self.busy;
@@ -433,9 +597,7 @@ impl PeCacheTiming {
     /// register too. Then the cycles the co-processor stands still, if it stops.
     fn enabled(&mut self, tags: &mut [u32], exec: Option<&[Option<u32>; PE_CACHE_MAX_PES]>, write: Option<(u8, u32)>) {
         if let Some((pe, addr)) = write {
-            if let Some(a) = self.a_addr.get_mut(pe as usize) {
-                *a = addr & self.amask;
-            }
+            self.set(tags, pe, W_A_ADDR, addr & self.amask);
         }
         let mut ports = [Port::default(); PE_CACHE_MAX_PES];
         for (p, port) in ports.iter_mut().enumerate().take(self.pes) {
@@ -443,15 +605,16 @@ impl PeCacheTiming {
             port.read = match exec {
                 Some(reads) => reads.get(p).copied().flatten(),
                 None if writing => None,
-                None => self.a_addr.get(p).copied(),
+                None => Some(word(self.regs(tags, p), W_A_ADDR)),
             };
-            port.push = self.w_reg.get(p).copied().flatten();
+            port.push = self.w_reg(tags, p);
         }
-        for (p, w) in self.w_reg.iter_mut().enumerate() {
-            *w = match write {
-                Some((pe, addr)) if exec.is_none() && pe as usize == p => Some(addr),
+        for p in 0..self.pes {
+            let w = match write {
+                Some((pe, addr)) if exec.is_none() && pe as usize == p => Some(addr & self.amask),
                 _ => None,
             };
+            self.set_w_reg(tags, p, w);
         }
         self.clock(tags, &ports);
         // Bounded: a stop ends once every fill and write is done (at most a few thousand
@@ -485,9 +648,7 @@ impl PeCacheTiming {
         let (tris, voxels, refs) = (word(1), word(2), word(3));
         let ref_end = 5u32.wrapping_add(voxels.wrapping_mul(3)).wrapping_add(refs);
         let tri_end = ref_end.wrapping_add(tris.wrapping_mul(11));
-        if let Some(off) = self.tri_off.get_mut(pe as usize) {
-            *off = ref_end & self.amask;
-        }
+        self.set(tags, pe, W_TRI_OFF, ref_end & self.amask);
         // Header, count, and the first image word's cycle (its write is registered).
         self.idle(tags, 3);
         let mut rec = self.words.wrapping_sub(10);
@@ -516,21 +677,19 @@ impl PeCacheTiming {
         for (i, &mid) in probes.iter().enumerate() {
             let last = i.wrapping_add(1) == probes.len();
             let cycles = if last && matched.is_some() { 3 } else { 4 };
-            self.set_addr(pe, 5u32.wrapping_add(mid.wrapping_mul(3)));
+            self.set_addr(tags, pe, 5u32.wrapping_add(mid.wrapping_mul(3)));
             self.idle(tags, cycles);
         }
         if let Some(mid) = matched {
-            self.set_addr(pe, 6u32.wrapping_add(mid.wrapping_mul(3)));
+            self.set_addr(tags, pe, 6u32.wrapping_add(mid.wrapping_mul(3)));
             self.idle(tags, 1);
-            self.set_addr(pe, 7u32.wrapping_add(mid.wrapping_mul(3)));
+            self.set_addr(tags, pe, 7u32.wrapping_add(mid.wrapping_mul(3)));
             self.idle(tags, 4);
         }
     }
 
-    fn set_addr(&mut self, pe: u8, addr: u32) {
-        if let Some(a) = self.a_addr.get_mut(pe as usize) {
-            *a = addr & self.amask;
-        }
+    fn set_addr(&mut self, tags: &mut [u32], pe: u8, addr: u32) {
+        self.set(tags, pe, W_A_ADDR, addr & self.amask);
     }
 
     /// A ray's execution (exec cycles 0 ..= `end` + 3: the stop reaches the PEs three
@@ -584,9 +743,9 @@ impl PeCacheTiming {
         // Stopped: the PEs read at their address registers again (exec end + 4 on); the
         // result stage moves the winner's PE's from end + 8.
         self.idle(tags, 4);
-        let base = self.tri_off.get(win_pe as usize).copied().unwrap_or(0).wrapping_add(win_tri.wrapping_mul(11));
+        let base = self.get(tags, win_pe, W_TRI_OFF).wrapping_add(win_tri.wrapping_mul(11));
         for off in [9u32, 10, 0, 1, 2] {
-            self.set_addr(win_pe, base.wrapping_add(off));
+            self.set_addr(tags, win_pe, base.wrapping_add(off));
             self.idle(tags, 1);
         }
         // The result words and the reply.
@@ -640,8 +799,8 @@ mod tests {
     fn the_reset_clears_the_tags_and_fills_each_pes_first_line() {
         for (lines, lat) in [(16u32, 1u32), (512, 8), (16, 23)] {
             let caches = PeCacheConfig { lines, mem_latency: lat };
-            let mut c = PeCacheTiming::new(caches, &config());
-            let mut tags = vec![0u32; caches.tag_words(4)];
+            let mut tags = vec![0u32; caches.state_words(4)];
+            let mut c = PeCacheTiming::new(caches, &config(), &mut tags);
             c.other_packet(&mut tags);
             let fill = 4 * 8 * (lat as u64 + 1);
             assert_eq!(c.counters(), (lines as u64 / 2 + fill + 3, 32, 0), "{lines} lines, latency {lat}");
@@ -655,8 +814,8 @@ mod tests {
     fn a_miss_costs_its_line_fills_and_two_replays() {
         for lat in [1u32, 8, 23] {
             let caches = PeCacheConfig { lines: 16, mem_latency: lat };
-            let mut c = PeCacheTiming::new(caches, &config());
-            let mut tags = vec![0u32; caches.tag_words(4)];
+            let mut tags = vec![0u32; caches.state_words(4)];
+            let mut c = PeCacheTiming::new(caches, &config(), &mut tags);
             c.other_packet(&mut tags);
             let (s0, r0, _) = c.counters();
             // Probe mid 100: the window at 305..=308, line 38 only.

@@ -346,14 +346,11 @@ fn cache_ray(
     if let (Some(e0), Some(&(_, n0))) = (list.first(), refs.first()) {
         c.ent_pe0 = e0.pe;
         if n0 > 0 {
-            let before = c.best_tri.get(e0.pe as usize).copied().unwrap_or(0);
             let tri = match (found, winner) {
                 (Some(f), Some((_, tri))) if f.k == 0 => tri,
-                _ => before,
+                _ => c.best_tri(tags, e0.pe),
             };
-            if let Some(slot) = c.res_tri0.get_mut(e0.pe as usize) {
-                *slot = tri;
-            }
+            c.set_res_tri0(tags, e0.pe, tri);
         }
     }
     // Closest takes after this ray: the winner's entry, and the later entries' tests
@@ -361,6 +358,7 @@ fn cache_ray(
     if let (RayKind::Closest, Some(f)) = (kind, found) {
         let mut clocks = [0u64; PE_CACHE_MAX_PES];
         let mut best: [(bool, f32, u32); PE_CACHE_MAX_PES] = [(false, 0.0, 0); PE_CACHE_MAX_PES];
+        let mut last_take: [Option<u32>; PE_CACHE_MAX_PES] = [None; PE_CACHE_MAX_PES];
         for (k, (e, &(_, n))) in list.iter().zip(refs.iter()).enumerate() {
             let Some(clock) = clocks.get_mut(e.pe as usize) else { continue };
             let first_issue = clock.saturating_add(4);
@@ -376,7 +374,7 @@ fn cache_ray(
             } else {
                 0
             };
-            let (Some(b), Some(best_tri)) = (best.get_mut(e.pe as usize), c.best_tri.get_mut(e.pe as usize)) else {
+            let (Some(b), Some(taken)) = (best.get_mut(e.pe as usize), last_take.get_mut(e.pe as usize)) else {
                 continue;
             };
             let mut j = 0u32;
@@ -388,14 +386,19 @@ fn cache_ray(
                     b.0 = false;
                 } else if let (true, Some((t, prim))) = (take, acc) {
                     *b = (true, t, prim);
-                    *best_tri = tri;
+                    *taken = Some(tri);
                 }
             });
+        }
+        for (pe, t) in last_take.iter().enumerate() {
+            if let Some(tri) = *t {
+                c.set_best_tri(tags, pe as u8, tri);
+            }
         }
     }
     let (win_pe, win_tri) = match winner {
         Some(w) => w,
-        None => (c.ent_pe0, c.res_tri0.get(c.ent_pe0 as usize).copied().unwrap_or(0)),
+        None => (c.ent_pe0, c.res_tri0(tags, c.ent_pe0)),
     };
     let src = RayExec { view, list, refs: &refs };
     c.execute(tags, &src, end, win_pe, win_tri);

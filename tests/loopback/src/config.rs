@@ -117,7 +117,7 @@ impl SimConfig {
     pub fn model_backing_words(&self) -> usize {
         let c = self.coproc();
         let tags = match (self.backend, self.pe_caches()) {
-            (Backend::Model, Some(p)) => p.tag_words(c.pe_count),
+            (Backend::Model, Some(p)) => p.state_words(c.pe_count),
             _ => 0,
         };
         c.required_backing_words() + tags
