@@ -14,7 +14,10 @@
 //!   after the triangle loader's 35 cycles), one cycle late through the PE's write register;
 //! - while a ray executes, each test's ref word (issue + 1) and its record's three windows
 //!   (issue + 4, + 6, + 7), until the stop reaches the PEs (three cycles after the model's
-//!   decision time T), tests issued after T included.
+//!   decision time T), tests issued after T included;
+//! - the result stage's five reads (image words 9, 10, 0, 1, 2 of the winner's triangle;
+//!   on a miss, of the triangle entry 0's PE still holds in its result memory, which this
+//!   model follows from ray to ray as the RTL's result stage keeps it).
 //!
 //! Each cache is direct-mapped, `lines` lines of 8 words, line l at index l mod lines with
 //! tag l / lines; a 4-word window at a looks up lines a / 8 and (a + 3) / 8 (the even and
@@ -23,7 +26,8 @@
 //! memory port, lowest PE first, each word an arbitration cycle and `mem_latency` cycles),
 //! REPLAY_R, REPLAY_R2, and back to FILL if a replayed read misses; the write buffer (4
 //! words) stops it too when it holds 3. After a reset every tag is cleared (lines / 2
-//! stopped cycles) and each PE's first read misses. The stopped cycles are
+//! stopped cycles) and each PE's first read misses; CLEAR and FRAME leave the tags as
+//! they are, as the RTL does. The stopped cycles are
 //! `CoprocStats::pe_stall_cycles`; the words read and written, `pe_mem_reads` and
 //! `pe_mem_writes` (the harness's PE-memory counters).
 //!
