@@ -1,7 +1,8 @@
 //! The co-processor RTL against the model (watertight, fixed64-q23, `rtl` timing), word for
 //! word through the Verilator build: random rays over random scenes (10⁵ in all), in several
 //! fixed-point frames (FRAME packets), with the stream handshakes stalled at random, and over a
-//! PE memory filled to its last word.
+//! PE memory filled to its last word; with PE caches, the cycles the RTL stands still for
+//! them against the model's timing of them.
 
 mod support;
 
