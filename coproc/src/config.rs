@@ -77,6 +77,10 @@ pub enum ConfigError {
     MaxList,
     /// `timing.test_issue_cycles` is 0.
     Timing,
+    /// PE caches (`PeCacheConfig::validate`) that do not fit the co-processor: more than
+    /// 16 PEs, `pe_mem_words` not a power of two, `lines` not a power of two from 2 below
+    /// `pe_mem_words / 8`, or a memory latency of 0.
+    PeCache,
     /// The backing slice is shorter than [`CoprocConfig::required_backing_words`].
     BackingTooSmall {
         /// Words needed.
@@ -93,6 +97,9 @@ impl core::fmt::Display for ConfigError {
             Self::PeMemWords => f.write_str("pe_mem_words must be non-zero and pe_count*pe_mem_words must fit usize"),
             Self::MaxList => write!(f, "max_list must be 1..={LIST_CAPACITY}"),
             Self::Timing => f.write_str("timing.test_issue_cycles must be at least 1"),
+            Self::PeCache => f.write_str(
+                "PE caches need at most 16 PEs, pe_mem_words a power of two, lines a power of two from 2 below pe_mem_words/8 and a memory latency of at least 1",
+            ),
             Self::BackingTooSmall { need, have } => {
                 write!(f, "backing memory too small: need {need} words, have {have}")
             }

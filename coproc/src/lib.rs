@@ -41,8 +41,8 @@ mod tests;
 
 pub use config::{ArbitrationRule, ConfigError, CoprocConfig, LIST_CAPACITY, OUT_QUEUE_WORDS};
 pub use coproc::{
-    load_ack, CoprocStats, Coprocessor, NoObserver, PeRead, PeReadKind, PeReadObserver, RayPort, TraceInfo, CLEAR_ACK,
-    FRAME_ACK, T_EXIT_REL_TOL,
+    load_ack, CoprocStats, Coprocessor, NoObserver, PeCacheConfig, PeRead, PeReadKind, PeReadObserver, RayPort,
+    TraceInfo, CLEAR_ACK, FRAME_ACK, T_EXIT_REL_TOL,
 };
 pub use gridrt_shared::fsl::{FslError, FslWord, ListEntry, RayKind, RayResult};
 pub use gridrt_shared::math::Ray;

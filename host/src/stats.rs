@@ -227,6 +227,33 @@ pub struct RenderStats {
     /// `device_instructions` of each stage divided by the primary rays.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub instructions_per_primary_ray_by_stage: Option<BTreeMap<String, f64>>,
+    /// The simulated boards' PE caches (`--pe-cache-lines`): the cycles the co-processor
+    /// stood still for them, which `coproc_cycles` leaves out.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pe_cache: Option<PeCacheReport>,
+}
+
+/// What the PE caches of the simulated boards cost (`--pe-cache-lines`), summed over the
+/// boards: counted by the RTL (`--coproc rtl`) or by the model's timing of the RTL's caches
+/// (`--coproc model --timing rtl`, exact against the RTL with the Verilator harness's
+/// fixed-latency memory: rtl/README.md §4.6).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct PeCacheReport {
+    /// Lines of 8 words per PE.
+    pub lines: u32,
+    /// The external memory's latency in cycles.
+    pub mem_latency: u32,
+    /// True when the model counted the stalls, false when the RTL did.
+    pub modelled: bool,
+    /// Cycles stopped during the scene upload (LOAD_PE's writes, its records' reads back,
+    /// the tag clear after the reset).
+    pub upload_stall_cycles: u64,
+    /// Cycles stopped during the frame.
+    pub frame_stall_cycles: u64,
+    /// Words read from the external memory during the frame (8 per line filled).
+    pub frame_reads: u64,
+    /// Words written to it during the upload.
+    pub upload_writes: u64,
 }
 
 /// Name of a device pipeline stage in the stats JSON.
@@ -375,6 +402,7 @@ impl RenderStats {
             device_instructions: instructions.0,
             instructions_per_primary_ray: instructions.1,
             instructions_per_primary_ray_by_stage: instructions.2,
+            pe_cache: None,
         }
     }
 }

@@ -94,7 +94,8 @@ fn rtl_refuses_another_kernel_or_format() {
 /// PE memories beyond block RAM (rtl/README.md §4.6): bun_zipper_res3 needs more than the
 /// 16 384 words per PE of block RAM; with `--pe-mem-words 1048576 --pe-cache-lines 512` the
 /// RTL keeps them in its external memory behind caches and renders the frame byte-identical
-/// to the model, every reply word compared (lockstep).
+/// to the model, every reply word compared (lockstep); the model's timing of those caches
+/// counts the RTL's stall cycles and memory words.
 #[test]
 fn rtl_with_pe_caches_renders_a_scene_beyond_block_ram_like_the_model() {
     if !gridrt_rtl::sim::require_verilator("rtl_with_pe_caches_renders_a_scene_beyond_block_ram_like_the_model") {
@@ -105,18 +106,57 @@ fn rtl_with_pe_caches_renders_a_scene_beyond_block_ram_like_the_model() {
     let rtl_flags = [&["--coproc", "rtl", "--pe-cache-lines", "512"][..], &words].concat();
     let (rtl_png, rtl) = render_scene(&res3, ("32", "24"), "res3-rtl", &rtl_flags, true);
     assert!(rtl["coproc_rays"].as_u64().unwrap() > 100, "the bunny must be in view: {rtl}");
-    let model_flags =
-        [&["--coproc", "model", "--kernel", "watertight", "--format", "fixed64-q23", "--timing", "rtl"][..], &words]
-            .concat();
+    let model_flags = [
+        &["--coproc", "model", "--kernel", "watertight", "--format", "fixed64-q23", "--timing", "rtl"][..],
+        &["--pe-cache-lines", "512"],
+        &words,
+    ]
+    .concat();
     let (model_png, model) = render_scene(&res3, ("32", "24"), "res3-model", &model_flags, false);
     assert!(rtl_png == model_png, "PNGs differ");
     for key in ["coproc_rays", "list_entries", "intersection_tests", "coproc_cycles"] {
         assert_eq!(rtl[key], model[key], "{key}");
     }
+    // The model's timing of the caches counts what the RTL's counters count.
+    for key in ["upload_stall_cycles", "frame_stall_cycles", "frame_reads", "upload_writes"] {
+        assert_eq!(rtl["pe_cache"][key], model["pe_cache"][key], "{key}");
+    }
+}
+
+/// `--pe-cache-lines` with `--coproc model --timing rtl`: the model's count of the cycles
+/// the RTL stands still for its caches, in the upload and in the frame, and the external
+/// memory's words, are the RTL's own counts (`--coproc rtl`), at two memory latencies.
+#[test]
+fn the_models_pe_cache_stalls_in_the_render_stats_are_the_rtls() {
+    if !gridrt_rtl::sim::require_verilator("the_models_pe_cache_stalls_in_the_render_stats_are_the_rtls") {
+        return;
+    }
+    for (lines, latency) in [("512", "8"), ("16", "1")] {
+        let common = ["--pe-mem-words", "16384", "--pe-cache-lines", lines, "--pe-mem-latency", latency];
+        let (_, rtl) = render_scene(
+            &scene(),
+            ("32", "24"),
+            &format!("stall-rtl-{lines}"),
+            &[&["--coproc", "rtl"][..], &common].concat(),
+            false,
+        );
+        let model_flags = [
+            &["--coproc", "model", "--kernel", "watertight", "--format", "fixed64-q23", "--timing", "rtl"][..],
+            &common,
+        ]
+        .concat();
+        let (_, model) = render_scene(&scene(), ("32", "24"), &format!("stall-model-{lines}"), &model_flags, false);
+        let (r, m) = (&rtl["pe_cache"], &model["pe_cache"]);
+        assert_eq!((&r["modelled"], &m["modelled"]), (&false.into(), &true.into()), "{r} {m}");
+        assert!(m["frame_stall_cycles"].as_u64().unwrap() > 0, "{m}");
+        for key in ["upload_stall_cycles", "frame_stall_cycles", "frame_reads", "upload_writes"] {
+            assert_eq!(r[key], m[key], "{lines} lines, latency {latency}: {key}");
+        }
+    }
 }
 
 #[test]
-fn pe_cache_lines_are_the_rtls_and_a_power_of_two() {
+fn pe_cache_lines_need_the_rtl_timeline_and_a_power_of_two() {
     for flags in [
         &["--pe-cache-lines", "512"][..],
         &["--coproc", "rtl", "--pe-cache-lines", "500"],

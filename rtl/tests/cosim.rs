@@ -1,11 +1,15 @@
 //! The co-processor RTL against the model (watertight, fixed64-q23, `rtl` timing), word for
 //! word through the Verilator build: random rays over random scenes (10⁵ in all), in several
 //! fixed-point frames (FRAME packets), with the stream handshakes stalled at random, and over a
-//! PE memory filled to its last word.
+//! PE memory filled to its last word; with PE caches, the cycles the RTL stands still for
+//! them against the model's timing of them.
 
 mod support;
 
-use gridrt_coproc::{Coprocessor, FslWord, ListEntry, RayKind};
+use gridrt_coproc::{
+    CoprocConfig, Coprocessor, FixedFrame, FslWord, KernelKind, ListEntry, NumberFormat, PeCacheConfig, RayKind,
+    TimingProfile,
+};
 use gridrt_rtl::sim::{default_programs, require_verilator, CoprocSim, RtlParams};
 use gridrt_shared::math::{Ray, Vec3};
 use rand::Rng;
@@ -42,21 +46,38 @@ struct Place {
     frame_packet: bool,
 }
 
+/// After each packet of [`random_rays_then`]: the RTL, the model, what the packet was.
+type AfterPacket<'a> = &'a mut dyn FnMut(&mut CoprocSim, &Coprocessor, &dyn Fn() -> String);
+
 /// `rounds` random scenes over `pes` PEs at `place`, `rays` random rays each; every reply
 /// of the RTL equals the model's.
 fn random_rays(
     s: &mut CoprocSim,
     m: &mut Coprocessor,
     rng: &mut ChaCha8Rng,
+    sizes: (usize, usize, usize),
+    place: Place,
+) -> Tally {
+    random_rays_then(s, m, rng, sizes, place, &mut |_, _, _| {})
+}
+
+/// [`random_rays`], calling `after` after every packet.
+fn random_rays_then(
+    s: &mut CoprocSim,
+    m: &mut Coprocessor,
+    rng: &mut ChaCha8Rng,
     (pes, rounds, rays): (usize, usize, usize),
     place: Place,
+    after: AfterPacket<'_>,
 ) -> Tally {
     let Place { center, ext, frame_packet } = place;
     let mut tally = Tally::default();
     if frame_packet {
         let (min, max) = ((center - Vec3::splat(ext)).to_array(), (center + Vec3::splat(ext)).to_array());
-        let ack = exchange(s, m, &support::frame_packet(min, max), &|| format!("FRAME {min:?} {max:?}"));
+        let what = || format!("FRAME {min:?} {max:?}");
+        let ack = exchange(s, m, &support::frame_packet(min, max), &what);
         assert_eq!(ack, framed(&[0x9500_0000]));
+        after(s, m, &what);
     }
     for round in 0..rounds {
         let mut scene = random_scene(rng, pes, ext);
@@ -68,8 +89,10 @@ fn random_rays(
         for (pe, p) in scene.iter().enumerate() {
             let img = p.image();
             assert_valid(&img);
-            let ack = exchange(s, m, &load_packet(pe as u8, &img), &|| format!("round {round} load {pe}"));
+            let what = || format!("round {round} load {pe}");
+            let ack = exchange(s, m, &load_packet(pe as u8, &img), &what);
             assert_eq!(ack, framed(&[0x9100_0000 | pe as u32]), "round {round} load {pe}");
+            after(s, m, &what);
         }
         for _ in 0..rays {
             let origin =
@@ -98,6 +121,7 @@ fn random_rays(
             let what = || format!("round {round}: {kind:?} {ray:?} t_max {t_max} list {list:?}");
             let got = exchange(s, m, &ray_packet(kind, &ray, t_max, &list), &what);
             assert_eq!(got.len(), 8, "{}", what());
+            after(s, m, &what);
             tally.rays += 1;
             tally.hits += (got[0].data & 1) as usize;
             tally.any += (kind == RayKind::Any) as usize;
@@ -422,4 +446,74 @@ fn a_pe_image_beyond_block_ram_loads_through_the_cache() {
     assert!(hits >= 70, "{hits} of 80 rays hit");
     let mem = s.pe_memory().unwrap();
     assert!(mem.writes as usize >= img.len() + 10 * tris.len(), "{mem:?}");
+}
+
+/// The model's PE-cache timing (`Coprocessor::with_pe_caches`) for a build with caches.
+fn model_with_caches(params: RtlParams, mem_latency: u32) -> Coprocessor<'static> {
+    let cfg = CoprocConfig {
+        pe_count: params.pes,
+        pe_mem_words: params.pe_mem_words,
+        max_list: params.max_list,
+        timing: TimingProfile::rtl(params.pes_per_pipeline.into()),
+        kernel: KernelKind::Watertight,
+    };
+    let caches = PeCacheConfig { lines: params.pe_cache_lines, mem_latency };
+    let words = cfg.required_backing_words() + caches.state_words(cfg.pe_count);
+    let backing: &'static mut [u32] = vec![0u32; words].leak();
+    let mut m = Coprocessor::with_pe_caches(cfg, caches, backing).expect("valid configuration");
+    m.set_number_format(NumberFormat::Fixed64Q23, FixedFrame::IDENTITY);
+    m
+}
+
+/// The model's PE-cache timing (rtl/README.md §4.6) against the RTL's counters: after every
+/// packet (FRAME, LOAD_PE, rays) of random scenes, the cycles the co-processor stood still
+/// for its caches and the words it read and wrote in the external memory equal the
+/// model's, through caches of 16 lines (most reads miss, lines evict each other) and of
+/// 512, with memory latencies of 1, 8 and 23 cycles (request words offered every cycle).
+#[test]
+fn the_models_pe_cache_stalls_equal_the_rtls_cycle_for_cycle() {
+    if !require_verilator("the_models_pe_cache_stalls_equal_the_rtls_cycle_for_cycle") {
+        return;
+    }
+    let (rounds, rays) = (6, 200);
+    for (lines, latency, seed) in [
+        (16u32, 1u32, 0x57A1u64),
+        (16, 8, 0x57A2),
+        (16, 23, 0x57A3),
+        (512, 1, 0x57A4),
+        (512, 8, 0x57A5),
+        (512, 23, 0x57A6),
+    ] {
+        let params = RtlParams { pe_cache_lines: lines, ..RtlParams::default() };
+        let programs = gridrt_rtl::sim::build(params).unwrap_or_else(|e| panic!("{e}"));
+        let args = ["--mem-latency".to_string(), latency.to_string()];
+        let mut s = CoprocSim::spawn_with(&programs.coproc, &args).unwrap();
+        let mut m = model_with_caches(params, latency);
+        let mut rng = rng(seed);
+        let mut packets = 0usize;
+        let t = random_rays_then(
+            &mut s,
+            &mut m,
+            &mut rng,
+            (4, rounds, rays),
+            Place { center: Vec3::new(3.0, -1.0, 2.0), ext: 4.0, frame_packet: true },
+            &mut |s, m, what| {
+                packets += 1;
+                let rtl = s.pe_memory().unwrap();
+                let st = m.stats();
+                let model = (st.pe_stall_cycles, st.pe_mem_reads, st.pe_mem_writes);
+                assert_eq!(
+                    model,
+                    (rtl.stall_cycles, rtl.reads as u64, rtl.writes as u64),
+                    "{lines} lines, latency {latency}, packet {packets} ({}): model (stalls, reads, writes) against the RTL's",
+                    what()
+                );
+            },
+        );
+        let mem = s.pe_memory().unwrap();
+        assert!(
+            t.rays >= rounds * rays * 9 / 10 && mem.stall_cycles > 0 && mem.reads > 0,
+            "{lines} lines: {t:?} {mem:?}"
+        );
+    }
 }

@@ -69,8 +69,9 @@
 //! | `stats` | [`CoprocStats`], [`TraceInfo`] | — |
 //! | `image` | a loaded PE image: table offsets, the checks beyond `PeImage::parse`, vertices | — |
 //! | `search` | one ray: request checks, the list search through the PE memories, arbitration, the result | `image`, `stats`, `observe` |
-//! | `pes` | the PE array: LOAD (with record tables), CLEAR, the timed trace and its counters | `image`, `search`, `stats`, `observe` |
+//! | `pes` | the PE array: LOAD (with record tables), CLEAR, the timed trace and its counters | `image`, `search`, `stats`, `observe`, `pe_cache` |
 //! | `observe` | [`PeReadObserver`]: the PE-memory reads of a timed trace, for memory studies | — |
+//! | `pe_cache` | the RTL's PE caches' stall cycles, cycle by cycle ([`Coprocessor::with_pe_caches`]) | — |
 //! | `link` | the FSL word interface: packet receiver, resynchronisation, reply queue | `pes`, `search` |
 //!
 //! [`Coprocessor`] (this module) owns a `pes::Pes` and a `link::Link` and is the public API.
@@ -81,6 +82,7 @@
 mod image;
 mod link;
 mod observe;
+mod pe_cache;
 mod pes;
 mod search;
 mod stats;
@@ -98,6 +100,7 @@ use search::Numerics;
 
 pub use link::{load_ack, CLEAR_ACK, FRAME_ACK};
 pub use observe::{NoObserver, PeRead, PeReadKind, PeReadObserver};
+pub use pe_cache::{PeCacheConfig, PE_CACHE_MAX_PES, PE_STATE_WORDS};
 pub use search::T_EXIT_REL_TOL;
 pub use stats::{CoprocStats, TraceInfo};
 
@@ -129,7 +132,42 @@ impl<'m> Coprocessor<'m> {
             return Err(ConfigError::BackingTooSmall { need, have: backing.len() });
         }
         let (mem, _) = backing.split_at_mut(need);
-        Ok(Self {
+        Ok(Self::from_parts(config, mem, &mut [], None))
+    }
+
+    /// A co-processor whose PE memories sit behind the RTL's PE caches (`PE_CACHE = 1`,
+    /// rtl/README.md §4.6): answers and `cycles` are those of [`Coprocessor::new`], and the
+    /// counters also count the cycles the RTL stands still for its caches
+    /// ([`CoprocStats::pe_stall_cycles`]) and its external memory's words. Exact for the
+    /// `rtl` timing profile (4 PEs per pipeline) with the request words taken one per
+    /// cycle, as the Verilator harness without `--stall` gives them. `backing` holds the PE
+    /// memories, then the caches' tags and registers: [`CoprocConfig::required_backing_words`]
+    /// + [`PeCacheConfig::state_words`] words. The caches start as after the RTL's reset.
+    pub fn with_pe_caches(
+        config: CoprocConfig,
+        caches: PeCacheConfig,
+        backing: &'m mut [u32],
+    ) -> Result<Self, ConfigError> {
+        config.validate()?;
+        caches.validate(&config)?;
+        let mem_words = config.required_backing_words();
+        let need = mem_words.saturating_add(caches.state_words(config.pe_count));
+        if backing.len() < need {
+            return Err(ConfigError::BackingTooSmall { need, have: backing.len() });
+        }
+        let (mem, rest) = backing.split_at_mut(mem_words);
+        let (tags, _) = rest.split_at_mut(need.saturating_sub(mem_words));
+        let timing = pe_cache::PeCacheTiming::new(caches, &config, tags);
+        Ok(Self::from_parts(config, mem, tags, Some(timing)))
+    }
+
+    fn from_parts(
+        config: CoprocConfig,
+        mem: &'m mut [u32],
+        tags: &'m mut [u32],
+        cache: Option<pe_cache::PeCacheTiming>,
+    ) -> Self {
+        Self {
             pes: Pes {
                 cfg: config,
                 mem,
@@ -139,9 +177,11 @@ impl<'m> Coprocessor<'m> {
                 numerics: Numerics::default(),
                 clocks: [0; MAX_PES],
                 stats: CoprocStats::default(),
+                cache,
+                tags,
             },
             link: Link::new(),
-        })
+        }
     }
 
     /// The configuration.
@@ -346,6 +386,8 @@ impl<'m> Coprocessor<'m> {
                 numerics: p.numerics,
                 clocks: [0; MAX_PES],
                 stats: CoprocStats::default(),
+                cache: None,
+                tags: &[],
             },
             link: Link::new(),
         }

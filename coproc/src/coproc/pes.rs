@@ -7,7 +7,8 @@ use gridrt_shared::scene::{MAX_PES, TRIANGLE_WORDS};
 
 use super::image::{record, record_at, span, span_mut, validate_image, PeSlot};
 use super::observe::PeReadObserver;
-use super::search::{Numerics, View};
+use super::pe_cache::{ExecSource, PeCacheTiming, PE_CACHE_MAX_PES};
+use super::search::{Found, Numerics, View};
 use super::stats::CoprocStats;
 use crate::config::{ArbitrationRule, CoprocConfig, LIST_CAPACITY};
 use crate::isect::{with_kernel, Kernel, RecordStatus};
@@ -51,6 +52,10 @@ pub(super) struct Pes<M> {
     pub(super) numerics: Numerics,
     pub(super) clocks: [u64; MAX_PES],
     pub(super) stats: CoprocStats,
+    /// The PE caches' timing model (`Coprocessor::with_pe_caches`), and its tags: words of
+    /// the caller's backing after the PE memories (empty without caches).
+    pub(super) cache: Option<PeCacheTiming>,
+    pub(super) tags: M,
 }
 
 impl<M: PeMem> Pes<M> {
@@ -97,6 +102,13 @@ impl<M: PeMem> Pes<M> {
         });
         let dst = self.slots.get_mut(pe as usize).ok_or(FslError::PeOutOfRange)?;
         *dst = slot;
+        if let (Some(c), Some(tags)) = (self.cache.as_mut(), self.tags.words_mut()) {
+            let before = c.counters();
+            if let Some(image) = span(self.mem.words(), base, len) {
+                c.load(tags, pe, image);
+            }
+            add_counters(&mut self.stats, before, c.counters());
+        }
         self.loaded_pes = self.loaded_pes.saturating_add(1);
         self.stats.loads = self.stats.loads.saturating_add(1);
         let t = &self.cfg.timing;
@@ -149,6 +161,17 @@ impl<M: PeMem> Pes<M> {
     pub(super) fn clear(&mut self) {
         self.slots = [PeSlot::default(); MAX_PES];
         self.loaded_pes = 0;
+        self.cache_other_packet();
+    }
+
+    /// A packet without PE-memory traffic, for the PE caches' timing (after a reset, the
+    /// cycle that starts the tag clear).
+    fn cache_other_packet(&mut self) {
+        if let (Some(c), Some(tags)) = (self.cache.as_mut(), self.tags.words_mut()) {
+            let before = c.counters();
+            c.other_packet(tags);
+            add_counters(&mut self.stats, before, c.counters());
+        }
     }
 
     /// FRAME: the frame of the box for the number format in force (`FixedFrame::for_box`;
@@ -248,6 +271,11 @@ impl<M: PeMem> Pes<M> {
         if O::ACTIVE {
             view.observe_result(list, found, obs);
         }
+        if let (Some(c), Some(tags)) = (self.cache.as_mut(), self.tags.words_mut()) {
+            let before = c.counters();
+            cache_ray(c, tags, &view, (kind, ray, t_max), list, found, end);
+            add_counters(&mut self.stats, before, c.counters());
+        }
         let cycles = profile.ray_io_cycles(list.len()).saturating_add(end);
         result.tests = tests.min(u16::MAX as u64) as u16;
         result.cycles = cycles.min(u32::MAX as u64) as u32;
@@ -260,4 +288,118 @@ impl<M: PeMem> Pes<M> {
         obs.ray_end(&result);
         result
     }
+}
+
+/// Adds what the PE caches counted since `before` to the model's counters.
+fn add_counters(stats: &mut CoprocStats, before: (u64, u64, u64), now: (u64, u64, u64)) {
+    stats.pe_stall_cycles = stats.pe_stall_cycles.saturating_add(now.0.saturating_sub(before.0));
+    stats.pe_mem_reads = stats.pe_mem_reads.saturating_add(now.1.saturating_sub(before.1));
+    stats.pe_mem_writes = stats.pe_mem_writes.saturating_add(now.2.saturating_sub(before.2));
+}
+
+/// A ray's list as the PEs' issue loops see it (`pe_cache::ExecSource`).
+struct RayExec<'v, 'a> {
+    view: &'v View<'a>,
+    list: &'v [ListEntry],
+    refs: &'v [(u32, u32)],
+}
+
+impl ExecSource for RayExec<'_, '_> {
+    fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    fn entry(&self, k: usize) -> (u8, u32, u32) {
+        let pe = self.list.get(k).map_or(0, |e| e.pe);
+        let (first, n) = self.refs.get(k).copied().unwrap_or((0, 0));
+        (pe, first, n)
+    }
+
+    fn ref_word(&self, pe: u8, addr: u32) -> u32 {
+        let at = (pe as usize).saturating_mul(self.view.cfg.pe_mem_words as usize).saturating_add(addr as usize);
+        self.view.mem.get(at).copied().unwrap_or(0)
+    }
+}
+
+/// One validated ray through the PE caches' timing model: the voxel lookups, the
+/// execution until the stop (decision at `end`), the result stage's reads, and the result
+/// stage's leftovers the next rays read (`pe_cache` module doc).
+fn cache_ray(
+    c: &mut PeCacheTiming,
+    tags: &mut [u32],
+    view: &View<'_>,
+    (kind, ray, t_max): (RayKind, &Ray, f32),
+    list: &[ListEntry],
+    found: Option<Found>,
+    end: u64,
+) {
+    let mut refs: heapless::Vec<(u32, u32), LIST_CAPACITY> = heapless::Vec::new();
+    for e in list {
+        let mut probes = heapless::Vec::<u32, 32>::new();
+        let matched = view.lookup_probes(e.pe, e.voxel, &mut probes);
+        c.lookup(tags, e.pe, &probes, matched);
+        let _ = refs.push(view.entry_refs(e));
+    }
+    let winner = found.and_then(|f| view.winner_tri(list, f));
+    // Entry 0's result (the result memory's word the result stage reads on a miss): the
+    // winner's triangle if it won, else the PE's last Closest take before this ray.
+    if let (Some(e0), Some(&(_, n0))) = (list.first(), refs.first()) {
+        c.ent_pe0 = e0.pe;
+        if n0 > 0 {
+            let tri = match (found, winner) {
+                (Some(f), Some((_, tri))) if f.k == 0 => tri,
+                _ => c.best_tri(tags, e0.pe),
+            };
+            c.set_res_tri0(tags, e0.pe, tri);
+        }
+    }
+    // Closest takes after this ray: the winner's entry, and the later entries' tests
+    // whose results came before the stop (issued by end - 70).
+    if let (RayKind::Closest, Some(f)) = (kind, found) {
+        let mut clocks = [0u64; PE_CACHE_MAX_PES];
+        let mut best: [(bool, f32, u32); PE_CACHE_MAX_PES] = [(false, 0.0, 0); PE_CACHE_MAX_PES];
+        let mut last_take: [Option<u32>; PE_CACHE_MAX_PES] = [None; PE_CACHE_MAX_PES];
+        for (k, (e, &(_, n))) in list.iter().zip(refs.iter()).enumerate() {
+            let Some(clock) = clocks.get_mut(e.pe as usize) else { continue };
+            let first_issue = clock.saturating_add(4);
+            *clock = first_issue.saturating_add(4u64.saturating_mul(n as u64));
+            if k < f.k || n == 0 {
+                continue;
+            }
+            let m = if k == f.k {
+                n
+            } else if end >= first_issue.saturating_add(70) {
+                let m = (end.saturating_sub(70).saturating_sub(first_issue) / 4).saturating_add(1);
+                m.min(n as u64) as u32
+            } else {
+                0
+            };
+            let (Some(b), Some(taken)) = (best.get_mut(e.pe as usize), last_take.get_mut(e.pe as usize)) else {
+                continue;
+            };
+            let mut j = 0u32;
+            view.each_test(ray, t_max, e, m, &mut |tri, acc| {
+                let last = j.saturating_add(1) == n;
+                j = j.saturating_add(1);
+                let take = acc.is_some_and(|(t, prim)| !b.0 || t < b.1 || (t == b.1 && prim < b.2));
+                if last {
+                    b.0 = false;
+                } else if let (true, Some((t, prim))) = (take, acc) {
+                    *b = (true, t, prim);
+                    *taken = Some(tri);
+                }
+            });
+        }
+        for (pe, t) in last_take.iter().enumerate() {
+            if let Some(tri) = *t {
+                c.set_best_tri(tags, pe as u8, tri);
+            }
+        }
+    }
+    let (win_pe, win_tri) = match winner {
+        Some(w) => w,
+        None => (c.ent_pe0, c.res_tri0(tags, c.ent_pe0)),
+    };
+    let src = RayExec { view, list, refs: &refs };
+    c.execute(tags, &src, end, win_pe, win_tri);
 }

@@ -183,6 +183,100 @@ impl View<'_> {
         }
     }
 
+    /// For the PE caches' timing (`pe_cache`): the voxel lookup of `voxel` on PE `pe` as
+    /// the RTL's controller probes it: each probe's `mid` into `probes`, and the match.
+    pub(super) fn lookup_probes(&self, pe: u8, voxel: u32, probes: &mut heapless::Vec<u32, 32>) -> Option<u32> {
+        let slot = self.slots.get(pe as usize).filter(|s| s.loaded)?;
+        let base = self.pe_base(pe).saturating_add(slot.hdr as usize);
+        let (mut lo, mut hi) = (0usize, slot.voxels as usize);
+        while lo < hi {
+            let mid = lo.midpoint(hi);
+            let _ = probes.push(mid as u32);
+            let id = self.mem.get(base.saturating_add(mid.saturating_mul(VOXEL_ENTRY_WORDS))).copied()?;
+            if id < voxel {
+                lo = mid.saturating_add(1);
+            } else if id > voxel {
+                hi = mid;
+            } else {
+                return Some(mid as u32);
+            }
+        }
+        None
+    }
+
+    /// For the PE caches' timing: entry `e`'s first ref word (an address in its PE's
+    /// memory) and its tests.
+    pub(super) fn entry_refs(&self, e: &ListEntry) -> (u32, u32) {
+        self.lookup(e.pe, e.voxel).map_or((0, 0), |r| {
+            let rel = r.first.saturating_sub(self.pe_base(e.pe));
+            (u32::try_from(rel).unwrap_or(u32::MAX), r.count)
+        })
+    }
+
+    /// For the PE caches' timing: the winner's PE and triangle index (None for an
+    /// analytic primitive).
+    pub(super) fn winner_tri(&self, list: &[ListEntry], f: Found) -> Option<(u8, u32)> {
+        let e = list.get(f.k)?;
+        if f.prim {
+            return None;
+        }
+        let refs = self.lookup(e.pe, e.voxel)?;
+        let off = f.rec.checked_sub(refs.tri_base)?;
+        Some((e.pe, u32::try_from(off / TRIANGLE_WORDS).ok()?))
+    }
+
+    /// For the PE caches' timing (the RTL's result stage, which keeps the triangle of its
+    /// last Closest take across rays): the first `m` tests of entry `e` in order, `f(tri,
+    /// accepted)` with `accepted` = (t, prim id) of an accepted hit. The kernel runs as in
+    /// `test_entry`, without its culling by the best hit so far (a culled test is never
+    /// taken).
+    pub(super) fn each_test(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        e: &ListEntry,
+        m: u32,
+        f: &mut dyn FnMut(u32, Option<(f32, u32)>),
+    ) {
+        with_kernel!(self.cfg.kernel, self.numerics.format, K => self.each_test_k::<K>(ray, t_max, e, m, f));
+    }
+
+    fn each_test_k<K: Kernel>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        e: &ListEntry,
+        m: u32,
+        f: &mut dyn FnMut(u32, Option<(f32, u32)>),
+    ) {
+        let Ok(pre) = K::prepare(ray, &self.numerics.frame) else { return };
+        let Some(refs) = self.lookup(e.pe, e.voxel) else { return };
+        let Some(list) = span(self.mem, refs.first, refs.count as usize) else { return };
+        let hi = self.entry_hi(e);
+        let bound = inflate(if t_max < hi { t_max } else { hi });
+        for &r in list.iter().take(m as usize) {
+            let mut acc = None;
+            if r < refs.tris {
+                let rec = refs.tri_base.saturating_add((r as usize).saturating_mul(TRIANGLE_WORDS));
+                let kr = if K::USES_IMAGE {
+                    rec
+                } else {
+                    refs.rec_base.saturating_add((r as usize).saturating_mul(K::RECORD_WORDS))
+                };
+                if let (Some(words), Some(kwords)) =
+                    (record_at::<TRIANGLE_WORDS>(self.mem, rec), span(self.mem, kr, K::RECORD_WORDS))
+                {
+                    if let Ok(Some(t)) = K::intersect(&pre, kwords, bound) {
+                        if accept(t, t_max, hi) {
+                            acc = Some((t, words[9]));
+                        }
+                    }
+                }
+            }
+            f(r, acc);
+        }
+    }
+
     /// Request-level checks (ray header and ray words).
     pub(super) fn check_header(&self, count: usize) -> Result<(), (FslError, u16)> {
         if self.loaded_pes == 0 {

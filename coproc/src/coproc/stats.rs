@@ -29,6 +29,16 @@ pub struct CoprocStats {
     /// Triangle records whose precomputed values do not fit the fixed-point storage at load
     /// (every test of them counts in `overflows`).
     pub overflow_records: u64,
+    /// With PE caches ([`Coprocessor::with_pe_caches`](super::Coprocessor::with_pe_caches)):
+    /// cycles the RTL co-processor stands still for them (line fills, write-buffer drains,
+    /// replays, the tag clear after the reset), not in `cycles` (the RTL's
+    /// `stall_cycles_o`; `pe_cache` module doc).
+    pub pe_stall_cycles: u64,
+    /// With PE caches: words read from the external memory (8 per line filled).
+    pub pe_mem_reads: u64,
+    /// With PE caches: words written to the external memory (LOAD_PE's image words,
+    /// records and normals, written through).
+    pub pe_mem_writes: u64,
 }
 
 /// What an untimed trace saw besides its result ([`Coprocessor::trace_untimed_with_info`](super::Coprocessor::trace_untimed_with_info)).

@@ -192,11 +192,19 @@ pub struct ModelOptions {
     /// device thread alone, as firmware does). The bytes it sends do not depend on it.
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub sim_threads: u16,
-    /// With --coproc rtl: 0 keeps each PE's memory in block RAM; N keeps it in an external
-    /// memory read through a cache of N 8-word lines (a power of two, 4..=4096; the SoC's
-    /// PE caches, rtl/README.md section 4.6). The image is the same either way.
+    /// 0 keeps each PE's memory in block RAM; N keeps it in an external memory read through
+    /// a cache of N 8-word lines per PE (a power of two, 4..=4096; the SoC's PE caches,
+    /// rtl/README.md section 4.6). The image is the same either way. With --coproc rtl the
+    /// RTL counts the cycles it stands still for its caches; with --coproc model (and
+    /// --timing rtl) the model counts them, as the RTL would with the Verilator harness's
+    /// memory. Printed in the summary, not in the co-processor cycles.
     #[arg(long, default_value_t = 0, value_name = "LINES", value_parser = pe_cache_lines)]
     pub pe_cache_lines: u32,
+    /// With --pe-cache-lines: the external memory's latency in cycles, the same for every
+    /// request (the Verilator harness's --mem-latency). Real SDRAM varies: on the SoC the
+    /// model's stall cycles are an estimate.
+    #[arg(long, default_value_t = 8, value_name = "CYCLES", value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub pe_mem_latency: u32,
 }
 
 impl ModelOptions {
@@ -207,19 +215,35 @@ impl ModelOptions {
         let kernel = self.kernel.unwrap_or(Kernel::Watertight);
         match self.coproc {
             Coproc::Model => {
-                if self.pe_cache_lines != 0 {
-                    anyhow::bail!("--pe-cache-lines is the RTL's: use it with --coproc rtl");
+                let timing = self.timing.unwrap_or(Timing::Gridrt);
+                if self.pe_cache_lines != 0 && timing != Timing::Rtl {
+                    anyhow::bail!(
+                        "--pe-cache-lines with --coproc model times the RTL's caches: give --timing rtl (the RTL's timeline)"
+                    );
                 }
                 let d = gridrt_loopback::SimConfig::default();
-                Ok(gridrt_loopback::SimConfig {
+                let config = gridrt_loopback::SimConfig {
                     pe_count: pes,
                     pe_mem_words: pe_mem_words.unwrap_or(d.pe_mem_words),
-                    timing: self.timing.unwrap_or(Timing::Gridrt).into(),
+                    timing: timing.into(),
                     kernel: kernel.into(),
                     format: self.format.unwrap_or(Format::F32).into(),
                     threads: self.sim_threads,
+                    pe_cache_lines: self.pe_cache_lines,
+                    pe_mem_latency: self.pe_mem_latency,
                     ..d
-                })
+                };
+                if let Some(caches) = config.pe_caches() {
+                    caches.validate(&config.coproc()).map_err(|e| {
+                        anyhow::anyhow!(
+                            "--pe-cache-lines {} with {} PEs of {} words: {e}",
+                            self.pe_cache_lines,
+                            config.pe_count,
+                            config.pe_mem_words
+                        )
+                    })?;
+                }
+                Ok(config)
             }
             Coproc::Rtl => {
                 let rtl = gridrt_loopback::SimConfig::RTL;
@@ -245,6 +269,7 @@ impl ModelOptions {
                     pe_count: pes,
                     pe_mem_words: pe_mem_words.unwrap_or(rtl.pe_mem_words),
                     pe_cache_lines: lines,
+                    pe_mem_latency: self.pe_mem_latency,
                     ..rtl
                 })
             }
@@ -344,5 +369,35 @@ impl From<Timing> for TimingProfile {
             Timing::Pipelined => TimingProfile::PIPELINED,
             Timing::Rtl => TimingProfile::RTL,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(flatten)]
+        model: ModelOptions,
+    }
+
+    fn sim(args: &[&str]) -> anyhow::Result<gridrt_loopback::SimConfig> {
+        let cli = Cli::try_parse_from(std::iter::once("t").chain(args.iter().copied()))?;
+        cli.model.sim_config(4, Some(16384))
+    }
+
+    /// `--pe-cache-lines` with the model times the RTL's caches, so it needs the RTL's
+    /// timeline; the memory latency reaches the board either way.
+    #[test]
+    fn pe_cache_lines_with_the_model_need_the_rtl_timing_and_carry_the_latency() {
+        assert!(sim(&["--pe-cache-lines", "512"]).is_err());
+        let m = sim(&["--pe-cache-lines", "512", "--timing", "rtl", "--pe-mem-latency", "23"]).unwrap();
+        assert_eq!((m.pe_cache_lines, m.pe_mem_latency, m.farm_threads()), (512, 23, 1));
+        let r = sim(&["--coproc", "rtl", "--pe-cache-lines", "16", "--pe-mem-latency", "1"]).unwrap();
+        assert_eq!((r.pe_cache_lines, r.pe_mem_latency), (16, 1));
+        assert_eq!(sim(&[]).unwrap().pe_mem_latency, 8);
+        assert!(sim(&["--pe-mem-latency", "0"]).is_err());
     }
 }

@@ -14,7 +14,9 @@ use gridrt_host::reference::{self, Reference, Stages};
 use gridrt_host::scene::Scene;
 use gridrt_host::scene_image::PreparedScene;
 use gridrt_host::session::{RenderedFrame, Session, SessionConfig};
-use gridrt_host::stats::{CoprocFacts, LinkReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts};
+use gridrt_host::stats::{
+    CoprocFacts, LinkReport, PeCacheReport, PipelineStats, ReferenceStats, RenderStats, SceneFacts,
+};
 use gridrt_shared::msg::PixelEncoding;
 
 use super::common::{ModelOptions, PortOptions, SceneOptions};
@@ -264,7 +266,13 @@ impl Cmd {
                 eprintln!("rtl        building or reusing the Verilator co-processor (cargo xtask rtl sim) …");
             }
             gridrt_loopback::prepare(&config).map_err(anyhow::Error::msg).context("the RTL co-processor")?;
-            self.run_on(self.sim_ports(config), mesh, Some(ModelOptions::facts(&config)))
+            let ports = self.sim_ports(config);
+            let caches = (config.pe_cache_lines != 0).then(|| CacheWatch {
+                lines: config.pe_cache_lines,
+                mem_latency: config.pe_mem_latency,
+                probes: ports.iter().map(|(p, _)| p.pe_cache_probe()).collect(),
+            });
+            self.run_on_watched(ports, mesh, Some(ModelOptions::facts(&config)), caches)
         }
     }
 
@@ -454,9 +462,21 @@ impl Cmd {
         loaded: Scene,
         coproc: Option<CoprocFacts>,
     ) -> anyhow::Result<()> {
+        self.run_on_watched(ports, loaded, coproc, None)
+    }
+
+    /// [`Self::run_on`], reporting the simulated boards' PE caches if `caches` watches them.
+    fn run_on_watched<T: Read + Write + Send>(
+        &self,
+        ports: Vec<(T, String)>,
+        loaded: Scene,
+        coproc: Option<CoprocFacts>,
+        caches: Option<CacheWatch>,
+    ) -> anyhow::Result<()> {
         let total_start = Instant::now();
         let mut progress = CliProgress::default();
         let setup = self.setup(ports, loaded, &mut progress)?;
+        let after_upload = caches.as_ref().and_then(CacheWatch::read);
         if let Some(dir) = &self.out_dir {
             return self.run_stream(setup, dir, progress, total_start);
         }
@@ -467,6 +487,7 @@ impl Cmd {
             gridrt_host::stream::render_frame(&mut sessions, &request, self.band_rows, &mut on_event)
                 .context(if sessions.len() > 1 { "rendering on several boards" } else { "rendering" })?;
         drop(progress);
+        let after_frame = caches.as_ref().and_then(CacheWatch::read);
         let out = self.out_path();
         write_png(out, frame.width, frame.height, frame.rgb.clone())?;
         let facts = SceneFacts {
@@ -478,6 +499,17 @@ impl Cmd {
         };
         let mut stats = RenderStats::new(&facts, &prepared.grid, &frame);
         stats.coproc = coproc;
+        if let (Some(w), Some(up), Some(fr)) = (&caches, after_upload, after_frame) {
+            stats.pe_cache = Some(PeCacheReport {
+                lines: w.lines,
+                mem_latency: w.mem_latency,
+                modelled: fr.modelled,
+                upload_stall_cycles: up.stall_cycles,
+                frame_stall_cycles: fr.stall_cycles - up.stall_cycles,
+                frame_reads: fr.reads - up.reads,
+                upload_writes: up.writes,
+            });
+        }
         stats.pipeline = Some(PipelineStats::new(&plan.names(), self.interp, &frame));
         let baud = self.port.baud();
         let modelled_link_s = if devices.is_empty() {
@@ -561,6 +593,28 @@ fn si(v: u64) -> String {
     }
 }
 
+/// The simulated boards' PE caches, watched through their ports' probes.
+struct CacheWatch {
+    lines: u32,
+    mem_latency: u32,
+    probes: Vec<gridrt_loopback::PeCacheProbe>,
+}
+
+impl CacheWatch {
+    /// The boards' counters summed (None if a board does not answer).
+    fn read(&self) -> Option<gridrt_loopback::PeCacheCounts> {
+        let mut sum = gridrt_loopback::PeCacheCounts::default();
+        for p in &self.probes {
+            let c = p.counts()?;
+            sum.stall_cycles += c.stall_cycles;
+            sum.reads += c.reads;
+            sum.writes += c.writes;
+            sum.modelled = c.modelled;
+        }
+        Some(sum)
+    }
+}
+
 fn print_summary(s: &RenderStats, frame: &RenderedFrame, out: &std::path::Path, total: Duration) {
     let g = s.grid;
     println!(
@@ -619,6 +673,18 @@ fn print_summary(s: &RenderStats, frame: &RenderedFrame, out: &std::path::Path, 
             si(p.fsl_words_primary),
             si(p.fsl_words_shadow),
             si(p.fsl_words_reflection)
+        );
+    }
+    if let Some(c) = &s.pe_cache {
+        println!(
+            "pe caches  {} lines × 8 words per PE, memory latency {} cycles: {} cycles stopped in the frame ({}; not in the co-processor cycles), {} in the upload; {} words read in the frame, {} written in the upload",
+            c.lines,
+            c.mem_latency,
+            si(c.frame_stall_cycles),
+            if c.modelled { "modelled" } else { "the RTL's count" },
+            si(c.upload_stall_cycles),
+            si(c.frame_reads),
+            si(c.upload_writes)
         );
     }
     if let Some(r) = &s.reference {

@@ -1,7 +1,7 @@
 //! The simulated board's configuration: the co-processor behind the FSL link (model or RTL)
 //! and what the board reports in its Version message.
 
-use gridrt_coproc::{CoprocConfig, KernelKind, NumberFormat, TimingProfile};
+use gridrt_coproc::{CoprocConfig, KernelKind, NumberFormat, PeCacheConfig, TimingProfile};
 use gridrt_shared::frame::MAX_PAYLOAD;
 use gridrt_shared::msg::DeviceInfo;
 
@@ -34,10 +34,16 @@ pub struct SimConfig {
     /// UART bytes are the same either way. Frames with row interpolation, and the RTL
     /// backend, always run on the device thread.
     pub threads: u16,
-    /// With [`Backend::Rtl`]: 0 for PE memories in block RAM, N for PE memories in the
-    /// harness's external memory behind caches of N 8-word lines (rtl/README.md §4.6; the
-    /// answers are the same).
+    /// 0 for PE memories in block RAM, N for PE memories in an external memory behind
+    /// caches of N 8-word lines (rtl/README.md §4.6; the answers are the same). With
+    /// [`Backend::Rtl`] the harness's memory; with [`Backend::Model`] the model's timing of
+    /// those caches (`Coprocessor::with_pe_caches`: the cycles the RTL would stand still,
+    /// [`SimPort::pe_cache_counts`](crate::SimPort::pe_cache_counts)), which needs the
+    /// `rtl` timing and traces every ray on the device thread, in order.
     pub pe_cache_lines: u32,
+    /// With PE caches: the external memory's latency in cycles (the harness's
+    /// `--mem-latency`; 8 by default).
+    pub pe_mem_latency: u32,
 }
 
 /// The co-processor of a simulated board.
@@ -62,6 +68,7 @@ impl Default for SimConfig {
             backend: Backend::Model,
             threads: 0,
             pe_cache_lines: 0,
+            pe_mem_latency: 8,
         }
     }
 }
@@ -80,6 +87,7 @@ impl SimConfig {
         backend: Backend::Rtl,
         threads: 1,
         pe_cache_lines: 0,
+        pe_mem_latency: 8,
     };
 }
 
@@ -95,6 +103,33 @@ impl SimConfig {
             max_list: self.max_list,
             timing: self.timing.for_kernel(self.kernel, self.format),
             kernel: self.kernel,
+        }
+    }
+
+    /// The model's PE caches, if this board has them ([`SimConfig::pe_cache_lines`]).
+    pub fn pe_caches(&self) -> Option<PeCacheConfig> {
+        (self.pe_cache_lines != 0)
+            .then_some(PeCacheConfig { lines: self.pe_cache_lines, mem_latency: self.pe_mem_latency })
+    }
+
+    /// Words of backing memory the model of this board needs (PE memories, and the
+    /// caches' tags when the model times them).
+    pub fn model_backing_words(&self) -> usize {
+        let c = self.coproc();
+        let tags = match (self.backend, self.pe_caches()) {
+            (Backend::Model, Some(p)) => p.state_words(c.pe_count),
+            _ => 0,
+        };
+        c.required_backing_words() + tags
+    }
+
+    /// Threads the row farm may use: the model with PE caches traces every ray in order,
+    /// on the device thread (its caches' state runs from ray to ray).
+    pub fn farm_threads(&self) -> u16 {
+        if self.backend == Backend::Model && self.pe_cache_lines != 0 {
+            1
+        } else {
+            self.threads
         }
     }
 

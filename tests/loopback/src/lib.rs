@@ -33,7 +33,7 @@ mod link;
 pub use config::{Backend, SimConfig, BOARD_LOOPBACK, SIM_MAX_VOXELS};
 use farm::SimFarm;
 use link::SimLink;
-pub use link::{RtlLinkError, LOCKSTEP_VAR};
+pub use link::{PeCacheCounts, RtlLinkError, LOCKSTEP_VAR};
 
 /// Points the simulated device keeps for splat frames (SPEC.md §6): 64 B each.
 pub const SIM_MAX_POINTS: usize = 1 << 17;
@@ -51,6 +51,8 @@ enum Input {
     Bytes(Vec<u8>),
     /// Wakes the device thread so it notices a reset request.
     Reset,
+    /// Asks for the PE caches' counters (answered after every byte sent before it).
+    PeCacheCounts(Sender<Option<PeCacheCounts>>),
     /// The port was dropped: the device thread ends (reset handles may still hold senders).
     Shutdown,
 }
@@ -88,8 +90,7 @@ impl embedded_io::Write for ChannelSink<'_> {
 /// [`SimReset`]) drops the device (scene, last request, sequence numbers, co-processor
 /// memories), boots a fresh one and sends its banner (`Device::announce`).
 fn run_device(config: SimConfig, input: Receiver<Input>, output: Sender<(u32, Vec<u8>)>, reset: Arc<ResetState>) {
-    let coproc_config = config.coproc();
-    let mut backing = vec![0u32; if link::needs_model(&config) { coproc_config.required_backing_words() } else { 0 }];
+    let mut backing = vec![0u32; if link::needs_model(&config) { config.model_backing_words() } else { 0 }];
     // The board cannot start without its co-processor: say so on the line, like firmware
     // would, then stop.
     let fail = |what: String| {
@@ -107,7 +108,7 @@ fn run_device(config: SimConfig, input: Receiver<Input>, output: Sender<(u32, Ve
             Err(e) => return fail(e),
         };
         let mut device: Box<SimDevice<'_>> =
-            Box::new(Device::with_farm(link, config.device_info(), SimFarm::new(config.threads)));
+            Box::new(Device::with_farm(link, config.device_info(), SimFarm::new(config.farm_threads())));
         reset.muted.store(false, Ordering::Release);
         let epoch = reset.count.load(Ordering::Acquire);
         let mut sink = ChannelSink { out: &output, muted: &reset.muted, epoch };
@@ -122,6 +123,9 @@ fn run_device(config: SimConfig, input: Receiver<Input>, output: Sender<(u32, Ve
             match input.recv() {
                 Ok(Input::Bytes(bytes)) => device.feed(&bytes, &mut sink),
                 Ok(Input::Reset) => {}
+                Ok(Input::PeCacheCounts(reply)) => {
+                    let _ = reply.send(device.link_mut().pe_cache_counts(&config));
+                }
                 Ok(Input::Shutdown) | Err(_) => return,
             }
         }
@@ -163,6 +167,23 @@ impl SimReset {
     /// Resets requested so far.
     pub fn count(&self) -> u32 {
         self.state.count.load(Ordering::Acquire)
+    }
+}
+
+/// Reads a simulated board's PE-cache counters from any thread ([`SimPort::pe_cache_probe`]).
+#[derive(Debug, Clone)]
+pub struct PeCacheProbe {
+    wake: Sender<Input>,
+}
+
+impl PeCacheProbe {
+    /// The counters once the device has handled every byte sent to it before this call:
+    /// `None` for a board without PE caches ([`SimConfig::pe_cache_lines`] 0) or one that
+    /// stopped or did not answer within 120 s (an RTL board can be busy that long).
+    pub fn counts(&self) -> Option<PeCacheCounts> {
+        let (tx, rx) = mpsc::channel();
+        self.wake.send(Input::PeCacheCounts(tx)).ok()?;
+        rx.recv_timeout(Duration::from_secs(120)).ok().flatten()
     }
 }
 
@@ -212,14 +233,13 @@ fn is_timeout(e: &io::Error) -> bool {
 /// in firmware RAM); this call blocks until it ends.
 pub fn run_on_port<T: io::Read + io::Write + Send>(mut port: T, config: SimConfig) -> io::Result<()> {
     let run = move || -> io::Result<()> {
-        let coproc_config = config.coproc();
-        let words = if link::needs_model(&config) { coproc_config.required_backing_words() } else { 0 };
+        let words = if link::needs_model(&config) { config.model_backing_words() } else { 0 };
         let mut backing = vec![0u32; words];
         let invalid = |e: String| io::Error::new(io::ErrorKind::InvalidInput, e);
         let program = link::rtl_program(&config).map_err(invalid)?;
         let link = link::open(&config, &mut backing, program.as_deref()).map_err(invalid)?;
         let mut device: Box<SimDevice<'_>> =
-            Box::new(Device::with_farm(link, config.device_info(), SimFarm::new(config.threads)));
+            Box::new(Device::with_farm(link, config.device_info(), SimFarm::new(config.farm_threads())));
         let mut buf = [0u8; 4096];
         loop {
             let n = match port.read(&mut buf) {
@@ -330,6 +350,17 @@ impl SimPort {
     /// Resets the simulated board now (see [`SimReset`]).
     pub fn reset(&self) {
         self.reset_handle().reset();
+    }
+
+    /// A handle that reads the board's PE-cache counters (usable after the port moved into
+    /// a session).
+    pub fn pe_cache_probe(&self) -> PeCacheProbe {
+        PeCacheProbe { wake: self.to_device.clone().unwrap_or_else(|| mpsc::channel().0) }
+    }
+
+    /// The board's PE-cache counters since it booted ([`PeCacheProbe::counts`]).
+    pub fn pe_cache_counts(&self) -> Option<PeCacheCounts> {
+        self.pe_cache_probe().counts()
     }
 
     /// Delivers device → host bytes no faster than an 8N1 UART at `baud` (`baud / 10`

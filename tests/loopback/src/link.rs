@@ -127,13 +127,21 @@ pub(crate) fn open<'m>(
 ) -> Result<SimLink<'m>, String> {
     match program {
         None => {
-            let mut model = Coprocessor::new(config.coproc(), backing)
-                .map_err(|e| format!("invalid co-processor configuration: {e:?}"))?;
+            let model = match config.pe_caches() {
+                Some(caches) => Coprocessor::with_pe_caches(config.coproc(), caches, backing),
+                None => Coprocessor::new(config.coproc(), backing),
+            };
+            let mut model = model.map_err(|e| format!("invalid co-processor configuration: {e}"))?;
             model.set_number_format(config.format, FixedFrame::IDENTITY);
             Ok(SimLink::Model(VirtualCoproc { model }))
         }
         Some(p) => {
-            let sim = Box::new(CoprocSim::spawn(p, None).map_err(|e| e.to_string())?);
+            let args = if config.pe_cache_lines != 0 {
+                vec!["--mem-latency".to_string(), config.pe_mem_latency.to_string()]
+            } else {
+                Vec::new()
+            };
+            let sim = Box::new(CoprocSim::spawn_with(p, &args).map_err(|e| e.to_string())?);
             if !lockstep() {
                 return Ok(SimLink::Rtl(sim));
             }
@@ -141,6 +149,46 @@ pub(crate) fn open<'m>(
                 .map_err(|e| format!("invalid co-processor configuration: {e:?}"))?;
             model.set_number_format(config.format, FixedFrame::IDENTITY);
             Ok(SimLink::Checked(sim, VirtualCoproc { model }))
+        }
+    }
+}
+
+/// What the PE caches did since the board booted: the cycles the co-processor stood still
+/// for them and the external memory's words (the RTL's counters, or the model's timing).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct PeCacheCounts {
+    /// Cycles stopped (not in the co-processor's `RESULT.cycles`).
+    pub stall_cycles: u64,
+    /// Words read (line fills).
+    pub reads: u64,
+    /// Words written (LOAD_PE's, through).
+    pub writes: u64,
+    /// True when the model counted them, false for the RTL's own counters.
+    pub modelled: bool,
+}
+
+impl SimLink<'_> {
+    /// The PE caches' counters, if this co-processor has caches.
+    pub(crate) fn pe_cache_counts(&mut self, config: &SimConfig) -> Option<PeCacheCounts> {
+        if config.pe_cache_lines == 0 {
+            return None;
+        }
+        match self {
+            Self::Model(m) => {
+                let s = m.model.stats();
+                Some(PeCacheCounts {
+                    stall_cycles: s.pe_stall_cycles,
+                    reads: s.pe_mem_reads,
+                    writes: s.pe_mem_writes,
+                    modelled: true,
+                })
+            }
+            Self::Rtl(s) | Self::Checked(s, _) => s.pe_memory().ok().map(|c| PeCacheCounts {
+                stall_cycles: c.stall_cycles,
+                reads: c.reads.into(),
+                writes: c.writes.into(),
+                modelled: false,
+            }),
         }
     }
 }
