@@ -85,6 +85,11 @@ def main(argv=None):
     sim.add_argument("--clk-hz", type=int, default=None, help="the clock the UART's pacing assumes (default: the SoC's)")
     sim.add_argument("--baud", type=int, default=0, help="SoC -> host line rate in simulated time (0: unpaced)")
     sim.add_argument("--rx-baud", type=int, default=0, help="host -> SoC line rate in simulated time (0: unpaced)")
+    sim.add_argument(
+        "--rx-overrun",
+        action="store_true",
+        help="with --rx-baud: a byte that arrives while the UART's receive FIFO is full is lost, as on a board",
+    )
     ulx3s = sub.add_parser("ulx3s", help="build the ULX3S bitstream (yosys, nextpnr-ecp5, ecppack)")
     common(ulx3s, rom=True)
     ulx3s.set_defaults(harts=ULX3S_HARTS)
@@ -105,6 +110,8 @@ def main(argv=None):
     lines = getattr(args, "pe_cache_lines", 0)
     if lines and (lines & (lines - 1) or not 4 <= lines <= 4096):
         parser.error(f"--pe-cache-lines {lines}: expected 0 or a power of two in 4..4096")
+    if args.cmd == "sim" and args.rx_overrun and not args.rx_baud:
+        parser.error("--rx-overrun needs --rx-baud (an unpaced line cannot overrun)")
     if args.cmd == "sim":
         from . import sim
 
@@ -120,6 +127,7 @@ def main(argv=None):
             clk_hz,
             args.baud,
             args.rx_baud,
+            args.rx_overrun,
             args.float_hw,
             args.l2_kib * 1024,
             args.harts,

@@ -142,6 +142,7 @@ def prepare(
     clk_hz=SYS_CLK_FREQ,
     baud=0,
     rx_baud=0,
+    rx_overrun=False,
     float_hw=DEFAULT_FLOAT_HW,
     l2_size=SDRAM_L2_SIZE,
     harts=1,
@@ -150,7 +151,9 @@ def prepare(
     """Generates and (if needed) compiles the simulator; returns its gateware directory.
 
     ``clk_hz``, ``baud``, ``rx_baud``: the UART line's pacing (``serial2pty``); 0 = unpaced.
-    They are read when the simulator starts (sim_config.js): changing them rebuilds nothing.
+    ``rx_overrun`` (with ``rx_baud``): a byte that arrives while the receive FIFO is full is
+    lost, as on a board. They are read when the simulator starts (sim_config.js): changing
+    them rebuilds nothing.
     """
     build_dir = Path(build_dir).resolve()
     soc = make_soc(rtl_dir, rom_words, float_hw, l2_size, harts, pe_cache_lines)
@@ -163,7 +166,14 @@ def prepare(
     sim_config = SimConfig()
     sim_config.add_clocker("sys_clk", freq_hz=SYS_CLK_FREQ)
     sim_config.add_module(
-        "serial2pty", "serial", args={"clk_hz": str(int(clk_hz)), "baud": str(int(baud)), "rx_baud": str(int(rx_baud))}
+        "serial2pty",
+        "serial",
+        args={
+            "clk_hz": str(int(clk_hz)),
+            "baud": str(int(baud)),
+            "rx_baud": str(int(rx_baud)),
+            "rx_overrun": "1" if rx_overrun else "0",
+        },
     )
 
     builder = Builder(

@@ -62,6 +62,10 @@ pub struct SimCmd {
     /// uploads do not cost simulated minutes.
     #[arg(long, default_value_t = 0)]
     rx_baud: u32,
+    /// With --rx-baud: a byte that arrives while the SoC's receive FIFO is full is lost, as
+    /// a board's UART loses it (no flow control); the simulator counts the lost bytes.
+    #[arg(long, requires = "rx_baud")]
+    rx_overrun: bool,
     /// The clock the line's bit times are counted in, MHz (default: the SoC's 50 MHz; give
     /// the routed clock of a bitstream to time its link).
     #[arg(long)]
@@ -136,6 +140,9 @@ impl SimCmd {
         py.args(["sim", "--build-dir"]).arg(&dir).arg("--rtl-dir").arg(self.rtl.dir());
         py.arg("--rom-image").arg(&rom).args(["--jobs", &self.jobs.to_string()]);
         py.args(["--baud", &self.baud.to_string(), "--rx-baud", &self.rx_baud.to_string()]);
+        if self.rx_overrun {
+            py.arg("--rx-overrun");
+        }
         py.args(["--float-hw", self.float_hw.name(), "--l2-kib", &self.l2_kib.to_string()]);
         py.args(["--harts", &self.harts.to_string()]);
         py.args(["--pe-cache-lines", &self.pe_cache_lines.to_string()]);

@@ -62,6 +62,8 @@ struct Core<L, C, const N: usize, const P: usize, const T: usize, F> {
     upload_lap: Option<StageStamp>,
     /// An upload began in the batch at hand.
     upload_began: bool,
+    /// The window the device offers in its `SceneSack`s ([`Device::set_upload_window`]).
+    upload_window: u16,
     /// The point cloud, shape table and stage of `SPLATS` frames, and their span encoder.
     #[cfg(feature = "splats")]
     splat: SplatEngine<P, T>,
@@ -166,6 +168,7 @@ impl<
                 upload_work: UploadWork::default(),
                 upload_lap: None,
                 upload_began: false,
+                upload_window: UPLOAD_WINDOW as u16,
                 #[cfg(feature = "splats")]
                 splat: SplatEngine::new(),
                 #[cfg(feature = "splats")]
@@ -233,6 +236,16 @@ impl<
     /// failed write does).
     pub fn write_errors(&self) -> u32 {
         self.core.tx.write_errors()
+    }
+
+    /// Sets the window of the scene upload, the bytes past the last contiguous one a host may
+    /// send before the next `SceneSack` (SPEC.md §3.14), from 1 to [`UPLOAD_WINDOW`] (the
+    /// default). A board whose UART buffers fewer bytes than arrive while a data frame is
+    /// parsed offers one frame's worth: the host then sends the next frame only after the
+    /// `SceneSack` of the last, and no byte arrives while the device is busy. Applies from
+    /// the next `SceneBegin`.
+    pub fn set_upload_window(&mut self, bytes: u16) {
+        self.core.upload_window = bytes.clamp(1, UPLOAD_WINDOW as u16);
     }
 
     /// Sets the poll budget of every blocking FSL put/get (default
@@ -316,7 +329,7 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
                 self.scene.loaded = false;
                 self.loaded_image = None;
                 self.end_upload();
-                self.upload = Some(Upload::new(total_len, crc));
+                self.upload = Some(Upload::new(total_len, crc, self.upload_window));
                 self.upload_work = UploadWork::default();
                 self.upload_lap = None;
                 self.upload_began = true;
@@ -370,13 +383,8 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
         let Some(up) = self.upload.as_mut() else {
             if let (true, Some((total, crc)), true) = (windowed, self.loaded_image, self.scene.loaded) {
                 // The upload is over: its last SceneSack again.
-                let sack = Sack {
-                    next_offset: total,
-                    heard: seq,
-                    window: UPLOAD_WINDOW as u16,
-                    crc,
-                    ranges: SackRanges::new(),
-                };
+                let sack =
+                    Sack { next_offset: total, heard: seq, window: self.upload_window, crc, ranges: SackRanges::new() };
                 return self.send(&Msg::SceneSack { status: SceneStatus::Loaded, sack }, out);
             }
             let text = if windowed { "scene data without SceneBegin" } else { "scene chunk without SceneBegin" };

@@ -97,7 +97,7 @@ pub(super) struct Upload {
 
 impl Upload {
     /// The upload `SceneBegin` announced: `total_len` bytes whose CRC-32 is `crc`.
-    pub(super) fn new(total_len: u32, crc: u32) -> Self {
+    pub(super) fn new(total_len: u32, crc: u32, window: u16) -> Self {
         Self {
             unpack: Unpacker::new(),
             stream: SceneStream::new(),
@@ -105,7 +105,7 @@ impl Upload {
             crc,
             digest: Crc32Digest::default(),
             next: 0,
-            window: ReceiveWindow::new(total_len, UPLOAD_WINDOW as u16),
+            window: ReceiveWindow::new(total_len, window),
             pe_words_left: 0,
         }
     }

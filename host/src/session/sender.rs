@@ -196,6 +196,12 @@ impl WindowSender {
 
     /// The chunk size for new data at the estimated byte error rate.
     pub(crate) fn chunk_size(&self, est: &mut LossEstimator) -> usize {
+        // A receiver whose window is one chunk or less takes one frame at a time (its UART
+        // holds less than arrives while it parses a frame): every frame fills the window,
+        // so that the next goes only after its `Sack`.
+        if self.window as usize <= self.max_chunk {
+            return self.window.max(1) as usize;
+        }
         if est.samples() < 4 {
             return FIRST_CHUNK.clamp(self.min_chunk, self.max_chunk);
         }
@@ -232,7 +238,9 @@ impl WindowSender {
         let q = est.byte_error_rate();
         let room = self.flight_limit(self.last_chunk, q).saturating_sub(self.in_flight());
         let limit = (self.acked as u64 + self.window as u64).min(self.total as u64) as u32;
-        let n = (self.last_chunk as u32).min(self.total - self.next_new);
+        // A window smaller than the chunk (a device that takes one frame at a time) gets
+        // chunks of its size; a larger one waits for room for a whole chunk.
+        let n = (self.last_chunk as u32).min(self.total - self.next_new).min(self.window);
         let end = self.next_new + n;
         if end > limit || n > room {
             return None;
@@ -390,6 +398,24 @@ mod tests {
         tx.min_rtt = Some(Duration::from_millis(100));
         assert_eq!(tx.flight_limit(300, 0.0), 8192);
         assert!(tx.flight_limit(300, 1e-2) < 3600, "two holes at 1 % per byte");
+    }
+
+    /// A device that takes one frame at a time offers a window of at most one chunk: every
+    /// frame fills the window, one frame is in flight, and the transfer ends, on a clean
+    /// line and a lossy one.
+    #[test]
+    fn a_window_of_one_chunk_gets_one_frame_at_a_time() {
+        let (sent, resent, probes) = transfer(20_000, 300, 0.0, 0.0, 5);
+        assert_eq!((resent, probes), (0, 0));
+        assert_eq!(sent, 20_000u64.div_ceil(300), "one window per frame");
+        let mut tx = WindowSender::new(20_000, 7, 300, (16, 2044), 8192, 11_520.0);
+        let mut est = LossEstimator::default();
+        let first = tx.next(&mut est).unwrap();
+        tx.sent(first, 1, data_wire_len(first.len as usize));
+        assert_eq!(first.len, 300);
+        assert_eq!(tx.next(&mut est), None, "nothing more before its Sack");
+        let (sent, resent, _) = transfer(20_000, 300, 0.1, 0.1, 6);
+        assert!(resent > 0 && sent > 67, "{sent} frames, {resent} resent");
     }
 
     #[test]

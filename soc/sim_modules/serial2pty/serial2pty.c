@@ -19,14 +19,17 @@
  * real transmitter would: `source_ready` stays low while the line is busy, so the SoC's
  * transmit FIFO backs up and its firmware waits exactly as on a board. "rx_baud" paces the
  * host -> SoC direction the same way; 0 (the default) leaves it unpaced (a byte per clock
- * at most), so that a scene upload does not cost simulated minutes.
+ * at most), so that a scene upload does not cost simulated minutes. With "rx_overrun" set
+ * as well, the host -> SoC line is a board's: a byte that has arrived while the SoC's receive
+ * FIFO is full is lost (counted, and printed with the speed reports), as the RS232 PHY of a
+ * board, which has no flow control, loses it.
  *
  * It counts the clock cycles it sees and prints the simulation's speed, simulated cycles per
  * wall-clock second, every REPORT_S seconds and when it closes:
  *   "serial2pty: speed <cycles> cycles in <s> s: <rate> cycles/s"
  *
  * Arguments (sim_config.js, all optional): {"link": "/path"} also makes a symlink to the
- * pty; "clk_hz", "baud", "rx_baud" as above (numbers as strings or integers).
+ * pty; "clk_hz", "baud", "rx_baud", "rx_overrun" as above (numbers as strings or integers).
  */
 /* posix_openpt, grantpt, unlockpt, ptsname, cfmakeraw. */
 #define _GNU_SOURCE
@@ -70,7 +73,9 @@ struct session_s {
   uint64_t cycle, next_poll;
   /* Pacing: a byte takes 10 * clk_hz / baud cycles. Kept exact as a rational: the line is
    * free again once cycle * baud >= *_free_at (units of cycles x baud). */
-  uint64_t clk_hz, tx_baud, rx_baud;
+  uint64_t clk_hz, tx_baud, rx_baud, rx_overrun;
+  /* Bytes the host sent that arrived while the SoC's receive FIFO was full (rx_overrun). */
+  uint64_t rx_lost;
   uint64_t tx_free_at, rx_free_at;
   /* Speed report. */
   double wall_start, wall_last;
@@ -89,6 +94,9 @@ static void report_speed(struct session_s *s, double now, const char *what) {
   printf("serial2pty: speed %llu cycles in %.1f s: %.0f cycles/s (%s; %.0f cycles/s since start)\n",
          (unsigned long long)(s->cycle - s->cycle_last), span, span > 0 ? (double)(s->cycle - s->cycle_last) / span : 0.0,
          what, total > 0 ? (double)s->cycle / total : 0.0);
+  if (s->rx_overrun)
+    printf("serial2pty: overrun: %llu bytes from the host lost (the SoC's receive FIFO was full)\n",
+           (unsigned long long)s->rx_lost);
   fflush(stdout);
   s->wall_last = now;
   s->cycle_last = s->cycle;
@@ -169,6 +177,13 @@ static int serial2pty_new(void **sess, char *args) {
   s->clk_hz = number_arg(args, "clk_hz");
   s->tx_baud = number_arg(args, "baud");
   s->rx_baud = number_arg(args, "rx_baud");
+  s->rx_overrun = number_arg(args, "rx_overrun");
+  if (s->rx_overrun && !s->rx_baud) {
+    eprintf("serial2pty: \"rx_overrun\" needs \"rx_baud\"\n");
+    free(link);
+    *sess = s;
+    return RC_ERROR;
+  }
   if ((s->tx_baud || s->rx_baud) && !s->clk_hz) {
     eprintf("serial2pty: \"baud\" needs \"clk_hz\"\n");
     free(link);
@@ -267,7 +282,12 @@ static int serial2pty_tick(void *sess, uint64_t time_ps) {
   if (s->in_len && (!s->rx_baud || s->cycle * s->rx_baud >= s->rx_free_at)) {
     *s->rx = (char)s->in[s->in_head];
     *s->rx_valid = 1;
-    if (*s->rx_ready) {
+    if (!*s->rx_ready && s->rx_overrun) {
+      /* The byte has arrived and the FIFO has no room: a board's PHY drops it. */
+      *s->rx_valid = 0;
+      s->rx_lost++;
+    }
+    if (*s->rx_ready || s->rx_overrun) {
       s->in_head++;
       s->in_len--;
       if (s->rx_baud)

@@ -190,6 +190,11 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     serve(&mut device, console)
 }
 
+/// The scene upload's window on the LiteX SoC: the data of one `SceneData` of the largest
+/// payload (its offset field is 4 bytes).
+#[cfg(feature = "board-litex")]
+const LITEX_UPLOAD_WINDOW: u16 = (gridrt_shared::frame::MAX_PAYLOAD - 4) as u16;
+
 #[cfg(feature = "board-litex")]
 fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     use gridrt_firmware::bsp::coproc_csr::CoprocCsr;
@@ -211,5 +216,9 @@ fn run(console: &mut board::Console, info: DeviceInfo) -> ! {
     let _ = console.write_all(&[0]);
     let mut device: Device<_, _, { board::MAX_VOXELS }, 0, 0, HartFarm> =
         Device::with_clock_and_farm(CsrFifoLink(fifos), CounterClock(CsrCounters), info, farm);
+    // The UART holds UART_FIFO_DEPTH bytes, and parsing a data frame takes far longer than
+    // that many bytes on the line (docs/bench-upload.md): one frame in flight, so that no
+    // byte arrives while the device is busy and the board's line drops none.
+    device.set_upload_window(LITEX_UPLOAD_WINDOW);
     serve(&mut device, console)
 }

@@ -302,3 +302,32 @@ fn scene_data_overlapping_what_arrived_loads_each_byte_once() {
         assert_eq!(dev.link().loads, whole.link().loads, "the same PE blocks, each once");
     }
 }
+
+/// A device that takes one frame at a time offers that window in every `SceneSack`, and
+/// holds nothing beyond it; the window is clamped to 1..=`UPLOAD_WINDOW`.
+#[test]
+fn the_upload_window_set_is_offered_and_bounds_what_is_held() {
+    let img = scene_image([2, 2, 1], &materials());
+    let crc = crc32(&img);
+    let mut dev = device();
+    dev.set_upload_window(100);
+    send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc });
+    let r = send_seq(&mut dev, &Msg::SceneData { offset: 0, data: &img[..60] }, 1);
+    let (_, sack) = sack_of(&r[0]);
+    assert_eq!((sack.window, sack.next_offset), (100, 60));
+    // Past next_offset + window: dropped, not held.
+    let r = send_seq(&mut dev, &Msg::SceneData { offset: 170, data: &img[170..180] }, 2);
+    let (_, sack) = sack_of(&r[0]);
+    assert!(sack.ranges.as_slice().is_empty(), "{sack:?}");
+    // Inside it: held above the gap.
+    let r = send_seq(&mut dev, &Msg::SceneData { offset: 150, data: &img[150..160] }, 3);
+    let (_, sack) = sack_of(&r[0]);
+    assert_eq!(sack.ranges.as_slice(), &[(90, 100)]);
+    for (set, offered) in [(0u16, 1u16), (u16::MAX, super::super::scene::UPLOAD_WINDOW as u16)] {
+        let mut dev = device();
+        dev.set_upload_window(set);
+        send(&mut dev, &Msg::SceneBegin { total_len: img.len() as u32, crc });
+        let r = send_seq(&mut dev, &Msg::SceneData { offset: 0, data: &img[..1] }, 1);
+        assert_eq!(sack_of(&r[0]).1.window, offered);
+    }
+}
