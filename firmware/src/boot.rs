@@ -61,6 +61,8 @@ struct Core<'m> {
     /// `FlashSack` of the last `FlashData`, and a corrupt frame after it.
     held_sack: Option<(FlashStatus, Sack)>,
     held_bad: Option<FrameError>,
+    /// The window offered in `FlashSack`s ([`Bootloader::set_window`]).
+    window: u16,
 }
 
 impl<'m> Bootloader<'m> {
@@ -77,8 +79,26 @@ impl<'m> Bootloader<'m> {
             features: FEATURE_BOOTLOADER | feature::WINDOWED,
             ..info
         };
-        let core = Core { tx: FrameTx::new(), info, base, region, xfer: None, held_sack: None, held_bad: None };
+        let core = Core {
+            tx: FrameTx::new(),
+            info,
+            base,
+            region,
+            xfer: None,
+            held_sack: None,
+            held_bad: None,
+            window: u16::MAX,
+        };
         Self { rx: FrameAccumulator::new(), core }
+    }
+
+    /// Sets the window of a flash transfer, the bytes past the last contiguous one a host may
+    /// send before the next `FlashSack` (SPEC.md §3.14; at least 1, default 65 535: data goes
+    /// straight to its address). A board whose UART buffers fewer bytes than arrive while a
+    /// data frame is written offers one frame's worth, so that no byte arrives while the
+    /// bootloader is busy. Applies from the next `FlashBegin`.
+    pub fn set_window(&mut self, bytes: u16) {
+        self.core.window = bytes.max(1);
     }
 
     /// What the bootloader reports in `Msg::Version`.
@@ -225,7 +245,7 @@ impl Core<'_> {
                 write!(t, "entry {entry:#010x} not inside the image {load_addr:#010x}+{total_len:#x} (or misaligned)");
             return self.reject(FlashError::BadEntry, &t, out);
         }
-        let window = ReceiveWindow::new(total_len, u16::MAX);
+        let window = ReceiveWindow::new(total_len, self.window);
         self.xfer = Some(Transfer { start, total_len, crc, entry, window, verified: false });
         self.send(&Msg::FlashAck { next_offset: 0, status: FlashStatus::Receiving, crc: 0 }, out);
     }
@@ -510,6 +530,27 @@ mod tests {
             assert_eq!(&b.region()[8..3008], &img[..]);
             assert_eq!(exchange(&mut b, &Msg::FlashBoot { crc: crc32(&img) }).0, Some(BASE + 8));
         }
+    }
+
+    /// A board that takes one frame at a time offers that window in every `FlashSack`, and
+    /// holds nothing beyond it.
+    #[test]
+    fn the_window_set_is_offered_and_bounds_what_is_held() {
+        let mut mem = vec![0u8; 4096];
+        let img = image(1000);
+        let mut b = Bootloader::new(BASE, &mut mem, info());
+        b.set_window(200);
+        one(&mut b, &begin(&img, BASE, BASE));
+        let (_, s) = sack(one(&mut b, &Msg::FlashData { offset: 0, data: &img[..100] }));
+        assert_eq!((s.window, s.next_offset), (200, 100));
+        let (_, s) = sack(one(&mut b, &Msg::FlashData { offset: 350, data: &img[350..360] }));
+        assert!(s.ranges.as_slice().is_empty(), "beyond the window: not held, {s:?}");
+        let (_, s) = sack(one(&mut b, &Msg::FlashData { offset: 250, data: &img[250..260] }));
+        assert_eq!(s.ranges.as_slice(), &[(150, 160)][..]);
+        b.set_window(0);
+        one(&mut b, &begin(&img, BASE, BASE));
+        let (_, s) = sack(one(&mut b, &Msg::FlashData { offset: 0, data: &img[..1] }));
+        assert_eq!(s.window, 1);
     }
 
     #[test]

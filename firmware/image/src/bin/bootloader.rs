@@ -49,6 +49,10 @@ fn main() -> ! {
         features: 0,
     };
     let mut boot = Bootloader::new(start as u32, region, info);
+    // The LiteX UART holds 64 bytes, and writing a data frame to main RAM takes longer than
+    // that many bytes on a 3 Mbaud line: one frame in flight, so that the line drops none.
+    #[cfg(feature = "board-litex")]
+    boot.set_window((gridrt_shared::frame::MAX_PAYLOAD - 4) as u16);
     let mut buf = [0u8; RX_BATCH];
     loop {
         let n = read_some(&mut console, &mut buf);
