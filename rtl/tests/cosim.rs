@@ -6,10 +6,7 @@
 
 mod support;
 
-use gridrt_coproc::{
-    CoprocConfig, Coprocessor, FixedFrame, FslWord, KernelKind, ListEntry, NumberFormat, PeCacheConfig, RayKind,
-    TimingProfile,
-};
+use gridrt_coproc::{Coprocessor, FixedFrame, FslWord, ListEntry, NumberFormat, PeCacheConfig, RayKind};
 use gridrt_rtl::sim::{default_programs, require_verilator, CoprocSim, RtlParams};
 use gridrt_shared::math::{Ray, Vec3};
 use rand::Rng;
@@ -450,13 +447,7 @@ fn a_pe_image_beyond_block_ram_loads_through_the_cache() {
 
 /// The model's PE-cache timing (`Coprocessor::with_pe_caches`) for a build with caches.
 fn model_with_caches(params: RtlParams, mem_latency: u32) -> Coprocessor<'static> {
-    let cfg = CoprocConfig {
-        pe_count: params.pes,
-        pe_mem_words: params.pe_mem_words,
-        max_list: params.max_list,
-        timing: TimingProfile::rtl(params.pes_per_pipeline.into()),
-        kernel: KernelKind::Watertight,
-    };
+    let cfg = support::model_config(params);
     let caches = PeCacheConfig { lines: params.pe_cache_lines, mem_latency };
     let words = cfg.required_backing_words() + caches.state_words(cfg.pe_count);
     let backing: &'static mut [u32] = vec![0u32; words].leak();

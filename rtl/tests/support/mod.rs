@@ -79,17 +79,23 @@ pub fn framed(words: &[u32]) -> Vec<FslWord> {
 /// The model configured as the RTL build `params` is: watertight fixed64-q23, the `rtl`
 /// timing profile of its pipeline sharing, the reset frame (identity).
 pub fn model(params: RtlParams) -> Coprocessor<'static> {
-    let cfg = CoprocConfig {
+    let cfg = model_config(params);
+    let backing: &'static mut [u32] = vec![0u32; cfg.required_backing_words()].leak();
+    let mut m = Coprocessor::new(cfg, backing).expect("valid configuration");
+    m.set_number_format(NumberFormat::Fixed64Q23, FixedFrame::IDENTITY);
+    m
+}
+
+/// The model's configuration for the RTL build `params`: its PEs and memories, the `rtl`
+/// timing profile of its pipeline sharing, the watertight kernel.
+pub fn model_config(params: RtlParams) -> CoprocConfig {
+    CoprocConfig {
         pe_count: params.pes,
         pe_mem_words: params.pe_mem_words,
         max_list: params.max_list,
         timing: TimingProfile::rtl(params.pes_per_pipeline.into()),
         kernel: KernelKind::Watertight,
-    };
-    let backing: &'static mut [u32] = vec![0u32; cfg.required_backing_words()].leak();
-    let mut m = Coprocessor::new(cfg, backing).expect("valid configuration");
-    m.set_number_format(NumberFormat::Fixed64Q23, FixedFrame::IDENTITY);
-    m
+    }
 }
 
 /// Every reply word of the model to `words`.
