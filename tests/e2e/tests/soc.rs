@@ -21,7 +21,8 @@
 //!
 //! The imac SoC (`--float-hw none`) has its own test,
 //! `soc_with_the_imac_renders_like_the_rtl_cosim`; a scene beyond block RAM (bun_zipper_res3)
-//! too, `soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim`; and stanford-bunny,
+//! too, `soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim`; a board's lossy line,
+//! `on_a_boards_line_flash_and_upload_lose_no_byte`; and stanford-bunny,
 //! `soc_renders_stanford_bunny_like_the_rtl_cosim`, only with `GRIDRT_SOC_SIM_LARGE=1` as
 //! well (its upload alone is about an hour of simulation: not in CI).
 //!
@@ -70,19 +71,35 @@ fn build_firmware(args: &[&str]) -> PathBuf {
 struct SocSim {
     child: Child,
     pty: String,
+    /// The simulator's last count of host bytes lost at a full receive FIFO (`--rx-overrun`).
+    lost: std::sync::Arc<std::sync::Mutex<Option<u64>>>,
 }
+
+/// What `serial2pty` prints with each speed report under `--rx-overrun`.
+const OVERRUN_MARKER: &str = "serial2pty: overrun: ";
 
 impl SocSim {
     fn start() -> Self {
+        Self::start_with(&[])
+    }
+
+    /// `cargo xtask soc sim` with `args` besides the timeout.
+    fn start_with(args: &[&str]) -> Self {
         let mut child = cargo("run")
             .args(["--package", "xtask", "--", "soc", "sim", "--timeout-s", &SIM_TIMEOUT_S.to_string()])
+            .args(args)
             .stdout(Stdio::piped())
             .spawn()
             .unwrap();
         let (tx, rx) = mpsc::channel();
         let stdout = child.stdout.take().unwrap();
+        let lost = std::sync::Arc::new(std::sync::Mutex::new(None));
+        let seen = lost.clone();
         std::thread::spawn(move || {
             for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if let Some(n) = line.split(OVERRUN_MARKER).nth(1).and_then(|r| r.split(' ').next()?.parse().ok()) {
+                    *seen.lock().unwrap() = Some(n);
+                }
                 match line.strip_prefix("serial: ") {
                     Some(p) => {
                         let _ = tx.send(p.trim().to_string());
@@ -93,7 +110,22 @@ impl SocSim {
         });
         // Generous: a fresh machine compiles the Verilated SoC first (minutes).
         let pty = rx.recv_timeout(Duration::from_secs(1200)).expect("cargo xtask soc sim prints the pty");
-        Self { child, pty }
+        Self { child, pty, lost }
+    }
+
+    /// The simulator's count of lost host bytes at its next report (every 10 s), once more
+    /// has been simulated than `since` saw.
+    fn lost_after(&self, since: Option<u64>) -> u64 {
+        *self.lost.lock().unwrap() = None;
+        let t = Instant::now();
+        while t.elapsed() < Duration::from_secs(120) {
+            if let Some(n) = *self.lost.lock().unwrap() {
+                assert!(since.is_none_or(|s| n >= s));
+                return n;
+            }
+            std::thread::sleep(Duration::from_millis(200));
+        }
+        panic!("the simulator printed no overrun count in 120 s");
     }
 }
 
@@ -373,4 +405,62 @@ fn soc_renders_stanford_bunny_like_the_rtl_cosim() {
     let (cycles, bytes) = (upload["upload_cycles"].as_u64().unwrap(), upload["upload_wire_bytes"].as_u64().unwrap());
     eprintln!("upload: {bytes} wire bytes in {cycles} cycles");
     assert!(bytes > 6_000_000 && cycles > bytes, "{upload}");
+}
+
+/// A board's line: the host's bytes paced at 3 Mbaud, and a byte that arrives while the UART's
+/// 64-byte receive FIFO is full is lost (`cargo xtask soc sim --rx-baud 3000000 --rx-overrun`),
+/// as a board's RS232 PHY loses it. The bootloader and the app take one data frame at a time
+/// (their window), so the flash and a scene upload lose no byte and resend nothing.
+#[test]
+fn on_a_boards_line_flash_and_upload_lose_no_byte() {
+    let test = "on_a_boards_line_flash_and_upload_lose_no_byte";
+    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
+        return;
+    }
+    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let app = build_firmware(&DEFAULT_SOC_APP);
+    let sim = SocSim::start_with(&["--baud", "3000000", "--rx-baud", "3000000", "--rx-overrun"]);
+    // The host's waits at the simulation's wall-clock pace (it runs ~10⁴ baud of wall time).
+    let log = run_gridrt(&["flash", "--port", &sim.pty, "--baud", "10000", &app.display().to_string()]);
+    eprintln!("{log}");
+    assert!(log.contains("verified") && log.contains("running    application"), "{log}");
+    assert!(log.contains(" 0 chunks resent"), "the flash resent nothing: {log}");
+    let after_flash = sim.lost_after(None);
+    assert_eq!(after_flash, 0, "the flash lost {after_flash} bytes at the full FIFO");
+
+    let dir = tempdir("overrun");
+    let (png, stats) = (dir.join("r.png"), dir.join("r.json"));
+    let scene = repo_root().join("tests/scenes/bun_zipper_res4.obj").display().to_string();
+    // A tiny frame, and waits for a slow line (--baud 3000): no region is asked for again
+    // while the device renders (such a request would arrive while it is busy).
+    let log = run_gridrt(&[
+        "render",
+        "--port",
+        &sim.pty,
+        "--baud",
+        "3000",
+        "--timeout",
+        "2400",
+        "--scene",
+        &scene,
+        "--width",
+        "4",
+        "--height",
+        "3",
+        "--out",
+        &png.display().to_string(),
+        "--stats",
+        &stats.display().to_string(),
+    ]);
+    eprintln!("{log}");
+    let s = json(&stats);
+    let cycles = s["device_counters"]["upload_cycles"].as_u64().unwrap_or(0);
+    let bytes = s["upload_wire_bytes"].as_u64().unwrap();
+    eprintln!("upload on the paced line: {bytes} wire bytes in {cycles} cycles; link {}", s["link"]);
+    // On the paced line the upload takes at least its bytes' line time (167 cycles each).
+    assert!(cycles as f64 >= bytes as f64 * 10.0 * 50e6 / 3e6 * 0.9, "{cycles} cycles for {bytes} bytes");
+    assert_eq!(s["link"]["upload_chunks_resent"], 0, "the upload resent nothing: {}", s["link"]);
+    assert_eq!(s["link"]["device_bad_frames"], 0, "the device saw no corrupt frame: {}", s["link"]);
+    let after = sim.lost_after(Some(after_flash));
+    assert_eq!(after, 0, "{after} bytes lost at the full FIFO");
 }
