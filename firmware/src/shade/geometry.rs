@@ -45,10 +45,8 @@ pub fn facing(n: Vec3, dir: Vec3) -> Vec3 {
 }
 
 /// Slots of [`UnitNormals`] (direct-mapped by primitive id); one on a bare-metal hard-float
-/// image, which does not use it. 128 slots (36 B each, 4.5 KiB) hold about two rows' worth of
-/// a mesh's triangles: at 320×240 on bun_zipper_res4, 32 slots left 6.6 instructions per
-/// primary ray of normalising on riscv32imac that 128 save (64: 4.3).
-const NORMAL_SLOTS: usize = if cfg!(any(soft_float, not(target_os = "none"))) { 128 } else { 1 };
+/// image, which does not use it.
+const NORMAL_SLOTS: usize = if cfg!(any(soft_float, not(target_os = "none"))) { 32 } else { 1 };
 
 /// The unit normals of recent hits by primitive: neighbouring pixels mostly hit the same
 /// triangle, whose normal the co-processor returns with the same bits each time, and
@@ -80,9 +78,7 @@ impl UnitNormals {
     pub fn unit(&mut self, prim: u32, normal: [f32; 3]) -> Option<Vec3> {
         let bits = normal.map(f32::to_bits);
         let slot = self.slots.get_mut(prim as usize % NORMAL_SLOTS)?;
-        // Word by word: `==` on the arrays is a `memcmp` call.
-        let [a, b, c] = slot.normal;
-        if slot.filled && slot.prim == prim && a == bits[0] && b == bits[1] && c == bits[2] {
+        if slot.filled && slot.prim == prim && slot.normal == bits {
             return slot.unit;
         }
         let unit = try_normalize(Vec3::from_array(normal));
@@ -166,8 +162,8 @@ mod tests {
     }
 
     /// The cache gives `try_normalize`'s bits for every lookup: random primitives (many
-    /// sharing slots) with normals that change for the same primitive now and then (all
-    /// components or one), zero and NaN normals included.
+    /// sharing slots) with normals that change for the same primitive now and then, zero and
+    /// NaN normals included.
     #[test]
     fn unit_normals_equal_try_normalize() {
         use rand::{Rng, SeedableRng};
@@ -181,9 +177,6 @@ mod tests {
             let prim = rng.gen_range(0..200u32);
             if rng.gen_bool(0.01) {
                 normals[prim as usize] = [0; 3].map(|_| rng.gen_range(-4.0..4.0f32));
-            } else if rng.gen_bool(0.02) {
-                // One component changed alone: the slot must compare every word.
-                normals[prim as usize][rng.gen_range(0..3)] = rng.gen_range(-4.0..4.0f32);
             }
             let normal = normals[prim as usize];
             let slot = cache.slots[prim as usize % NORMAL_SLOTS];
