@@ -177,11 +177,7 @@ pub const NOT_OPTED_IN: &str = "SKIPPED without opt-in";
 /// True when [`SOC_SIM_VAR`] is `1`; otherwise `test` should return at once (a line on
 /// standard error says it was skipped and how to run it).
 pub fn soc_sim_opted_in(test: &str) -> bool {
-    if std::env::var(SOC_SIM_VAR).is_ok_and(|v| v.trim() == "1") {
-        return true;
-    }
-    say(&format!("{test}: {NOT_OPTED_IN} {SOC_SIM_VAR}=1 (the SoC simulation takes minutes)"));
-    false
+    opted_in(test, SOC_SIM_VAR, "the SoC simulation takes minutes")
 }
 
 /// Set to `1` (besides [`SOC_SIM_VAR`]) to run the SoC tests of large scenes, whose upload
@@ -191,10 +187,15 @@ pub const SOC_SIM_LARGE_VAR: &str = "GRIDRT_SOC_SIM_LARGE";
 /// True when [`SOC_SIM_LARGE_VAR`] is `1`; otherwise `test` should return at once (a line
 /// on standard error says it was skipped and how to run it).
 pub fn soc_sim_large_opted_in(test: &str) -> bool {
-    if std::env::var(SOC_SIM_LARGE_VAR).is_ok_and(|v| v.trim() == "1") {
+    opted_in(test, SOC_SIM_LARGE_VAR, "a large scene: about an hour of simulation")
+}
+
+/// True when `var` is `1`; otherwise says that `test` was skipped, how to run it and why.
+fn opted_in(test: &str, var: &str, why: &str) -> bool {
+    if std::env::var(var).is_ok_and(|v| v.trim() == "1") {
         return true;
     }
-    say(&format!("{test}: {NOT_OPTED_IN} {SOC_SIM_LARGE_VAR}=1 (a large scene: about an hour of simulation)"));
+    say(&format!("{test}: {NOT_OPTED_IN} {var}=1 ({why})"));
     false
 }
 
