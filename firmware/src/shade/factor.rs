@@ -63,7 +63,7 @@ const RSQRT: [u32; 48] = {
 
 /// A normal component `c` (|c| < 2) as `c·2²⁹` truncated; `None` from 2 up (and NaN).
 #[inline(always)]
-fn q29_of_unit(c: f32) -> Option<i64> {
+fn q29_of_unit(c: f32) -> Option<i32> {
     let bits = c.to_bits();
     let abs = bits & 0x7FFF_FFFF;
     if abs >= 0x4000_0000 {
@@ -79,23 +79,34 @@ fn q29_of_unit(c: f32) -> Option<i64> {
     } else {
         0
     };
-    Some(if bits >> 31 != 0 { -i64::from(v) } else { i64::from(v) })
+    // v < 2^30: the magnitude and its negation are i32s.
+    let v = v as i32;
+    Some(if bits >> 31 != 0 { -v } else { v })
 }
 
 /// A component of `d` as `c·2^(156 − e_max)` truncated (below 2³⁰ in magnitude), for the
 /// largest biased exponent `e_max` of the three.
 #[inline(always)]
-fn scaled(c: f32, e_max: u32) -> i64 {
+fn scaled(c: f32, e_max: u32) -> i32 {
     let bits = c.to_bits();
     let abs = bits & 0x7FFF_FFFF;
     let exp = abs >> 23;
     let shift = e_max - exp;
     let v = if exp == 0 || shift >= 31 { 0 } else { (((abs & 0x007F_FFFF) | 0x0080_0000) << 6) >> shift };
+    // v < 2^30, as in `q29_of_unit`.
+    let v = v as i32;
     if bits >> 31 != 0 {
-        -i64::from(v)
+        -v
     } else {
-        i64::from(v)
+        v
     }
+}
+
+/// `a·b` of two values below 2³⁰ in magnitude, widened: one `mul` and one `mulh` on a 32-bit
+/// core (an i64 product of i64 operands is four multiplications and their carries).
+#[inline(always)]
+fn wide(a: i32, b: i32) -> i64 {
+    i64::from(a) * i64::from(b)
 }
 
 /// The light's factor at a hit with unit normal `n` and light offset `d = light − p` (module
@@ -114,22 +125,25 @@ pub fn light_factor(n: Vec3, d: Vec3) -> LightFactor {
     }
     let (d0, d1, d2) = (scaled(d[0], e_max), scaled(d[1], e_max), scaled(d[2], e_max));
     // Both sums are exact: products below 2^60, the largest |d| component at least 2^29.
-    let s = n0 * d0 + n1 * d1 + n2 * d2;
-    let q = (d0 * d0 + d1 * d1 + d2 * d2) as u64;
+    let s = wide(n0, d0) + wide(n1, d1) + wide(n2, d2);
+    let q = (wide(d0, d0) + wide(d1, d1) + wide(d2, d2)) as u64;
     // q in [2^58, 2^62): to [2^60, 2^62) by an even shift, then h = q/2^30 in [2^30, 2^32).
     let j = u32::from(q < 1 << 60);
     let h = ((q << (2 * j)) >> 30) as u32;
     // y ≈ 2^46/√h: the table, then three Newton steps y·(3 − h·y²/2^92)/2.
     let idx = ((h >> 26) as usize).wrapping_sub(16);
-    let mut y = u64::from(RSQRT.get(idx).copied().unwrap_or(1 << 30));
+    // In u32 with u32 × u32 → u64 products (`mul` and `mulhu`): y ≤ 2^31 from the table, and
+    // a Newton step never lands above 2^46/√h (r(3 − r²)/2 ≤ 1 for r = y·√h/2^46) but for
+    // its truncations, so y < 2^32 throughout; y²/2^32 ≤ 2^30, w < 2^32.
+    let mut y = RSQRT.get(idx).copied().unwrap_or(1 << 30);
     for _ in 0..3 {
-        let y2 = (y * y) >> 32; // y²/2^32 < 2^30
-        let hy2 = (u64::from(h) * y2) >> 28; // h·y²/2^60 ≈ 2^32
-        let w = (3u64 << 32).saturating_sub(hy2) >> 2; // (3 − h·y²/2^92)·2^30
-        y = (y * w) >> 31;
+        let y2 = ((u64::from(y) * u64::from(y)) >> 32) as u32; // y²/2^32 < 2^30
+        let hy2 = (u64::from(h) * u64::from(y2)) >> 28; // h·y²/2^60 ≈ 2^32
+        let w = ((3u64 << 32).saturating_sub(hy2) >> 2) as u32; // (3 − h·y²/2^92)·2^30
+        y = ((u64::from(y) * u64::from(w)) >> 31) as u32;
     }
     // e·2^30 = 2·s/√q = (s/2^30)·y·2^(j − 30): |s/2^30| ≤ 2^30.
-    let e30 = ((s >> 30) * y as i64) >> (30 - j);
+    let e30 = ((s >> 30) * i64::from(y)) >> (30 - j);
     if e30 > UNSURE {
         LightFactor::Lit(e30.min(i64::from(u32::MAX)) as u32)
     } else if e30 < -UNSURE {
@@ -156,7 +170,7 @@ pub fn dot_sign(n: Vec3, v: Vec3) -> Option<bool> {
     if !(27..255).contains(&e_max) {
         return None;
     }
-    let s = n0 * scaled(v[0], e_max) + n1 * scaled(v[1], e_max) + n2 * scaled(v[2], e_max);
+    let s = wide(n0, scaled(v[0], e_max)) + wide(n1, scaled(v[1], e_max)) + wide(n2, scaled(v[2], e_max));
     if s > 1 << 39 {
         Some(true)
     } else if s < -(1 << 39) {
@@ -264,6 +278,148 @@ mod tests {
         assert_eq!(dot_sign(Vec3::Z, Vec3::splat(1e-32)), None);
         assert_eq!(dot_sign(Vec3::Z, Vec3::new(0.0, 0.0, f32::NAN)), None);
         assert!(answered as f64 > 0.999 * asked as f64, "{answered} of {asked}");
+    }
+
+    /// The factor and the sign as the i64 arithmetic before the 32-bit products computed
+    /// them (the reference for `the_32_bit_products_equal_the_i64_arithmetic`).
+    mod wide_reference {
+        use super::super::{LightFactor, RSQRT, UNSURE};
+        use gridrt_shared::math::Vec3;
+        fn q29_of_unit(c: f32) -> Option<i64> {
+            let bits = c.to_bits();
+            let abs = bits & 0x7FFF_FFFF;
+            if abs >= 0x4000_0000 {
+                return None;
+            }
+            let exp = abs >> 23;
+            let sig = (abs & 0x007F_FFFF) | 0x0080_0000;
+            // c·2^29 = sig·2^(exp − 121).
+            let v = if exp >= 121 {
+                sig << (exp - 121)
+            } else if exp > 121 - 31 {
+                sig >> (121 - exp)
+            } else {
+                0
+            };
+            Some(if bits >> 31 != 0 { -i64::from(v) } else { i64::from(v) })
+        }
+
+        fn scaled(c: f32, e_max: u32) -> i64 {
+            let bits = c.to_bits();
+            let abs = bits & 0x7FFF_FFFF;
+            let exp = abs >> 23;
+            let shift = e_max - exp;
+            let v = if exp == 0 || shift >= 31 { 0 } else { (((abs & 0x007F_FFFF) | 0x0080_0000) << 6) >> shift };
+            if bits >> 31 != 0 {
+                -i64::from(v)
+            } else {
+                i64::from(v)
+            }
+        }
+
+        fn light_factor(n: Vec3, d: Vec3) -> LightFactor {
+            let (n, d) = (n.to_array(), d.to_array());
+            let (Some(n0), Some(n1), Some(n2)) = (q29_of_unit(n[0]), q29_of_unit(n[1]), q29_of_unit(n[2])) else {
+                return LightFactor::Unsure;
+            };
+            let e_max =
+                (d[0].to_bits() & 0x7FFF_FFFF).max(d[1].to_bits() & 0x7FFF_FFFF).max(d[2].to_bits() & 0x7FFF_FFFF)
+                    >> 23;
+            // |d| between 2^-60 and 2^60: its f32 square neither overflows nor underflows, so the f32
+            // light vector exists (and NaN and ∞ are out).
+            if !(67..=187).contains(&e_max) {
+                return LightFactor::Unsure;
+            }
+            let (d0, d1, d2) = (scaled(d[0], e_max), scaled(d[1], e_max), scaled(d[2], e_max));
+            // Both sums are exact: products below 2^60, the largest |d| component at least 2^29.
+            let s = n0 * d0 + n1 * d1 + n2 * d2;
+            let q = (d0 * d0 + d1 * d1 + d2 * d2) as u64;
+            // q in [2^58, 2^62): to [2^60, 2^62) by an even shift, then h = q/2^30 in [2^30, 2^32).
+            let j = u32::from(q < 1 << 60);
+            let h = ((q << (2 * j)) >> 30) as u32;
+            // y ≈ 2^46/√h: the table, then three Newton steps y·(3 − h·y²/2^92)/2.
+            let idx = ((h >> 26) as usize).wrapping_sub(16);
+            let mut y = u64::from(RSQRT.get(idx).copied().unwrap_or(1 << 30));
+            for _ in 0..3 {
+                let y2 = (y * y) >> 32; // y²/2^32 < 2^30
+                let hy2 = (u64::from(h) * y2) >> 28; // h·y²/2^60 ≈ 2^32
+                let w = (3u64 << 32).saturating_sub(hy2) >> 2; // (3 − h·y²/2^92)·2^30
+                y = (y * w) >> 31;
+            }
+            // e·2^30 = 2·s/√q = (s/2^30)·y·2^(j − 30): |s/2^30| ≤ 2^30.
+            let e30 = ((s >> 30) * y as i64) >> (30 - j);
+            if e30 > UNSURE {
+                LightFactor::Lit(e30.min(i64::from(u32::MAX)) as u32)
+            } else if e30 < -UNSURE {
+                LightFactor::Unlit
+            } else {
+                LightFactor::Unsure
+            }
+        }
+
+        fn dot_sign(n: Vec3, v: Vec3) -> Option<bool> {
+            let (n, v) = (n.to_array(), v.to_array());
+            let (n0, n1, n2) = (q29_of_unit(n[0])?, q29_of_unit(n[1])?, q29_of_unit(n[2])?);
+            let e_max =
+                (v[0].to_bits() & 0x7FFF_FFFF).max(v[1].to_bits() & 0x7FFF_FFFF).max(v[2].to_bits() & 0x7FFF_FFFF)
+                    >> 23;
+            // v_max ≥ 2^-100: the f32 products' underflow (2^-150 each) is far below 3.01u·v_max.
+            if !(27..255).contains(&e_max) {
+                return None;
+            }
+            let s = n0 * scaled(v[0], e_max) + n1 * scaled(v[1], e_max) + n2 * scaled(v[2], e_max);
+            if s > 1 << 39 {
+                Some(true)
+            } else if s < -(1 << 39) {
+                Some(false)
+            } else {
+                None
+            }
+        }
+
+        pub(super) fn light_factor_ref(n: Vec3, d: Vec3) -> LightFactor {
+            light_factor(n, d)
+        }
+        pub(super) fn dot_sign_ref(n: Vec3, v: Vec3) -> Option<bool> {
+            dot_sign(n, v)
+        }
+    }
+
+    /// `light_factor` and `dot_sign` with 32-bit operands and `u32 × u32` products give what
+    /// the i64 arithmetic gave, for every input: random unit and non-unit normals (components
+    /// up to 2), offsets over 2⁻⁷⁰..2⁷⁰ and the edges of the ranges.
+    #[test]
+    fn the_32_bit_products_equal_the_i64_arithmetic() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0x3232_6464);
+        let mut lit = 0u32;
+        for i in 0..400_000 {
+            let n = if i % 4 == 0 {
+                Vec3::new(rng.gen_range(-1.999..1.999), rng.gen_range(-1.999..1.999), rng.gen_range(-1.999..1.999))
+            } else {
+                let v = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+                try_normalize(v).unwrap_or(Vec3::Z)
+            };
+            let scale = 2f32.powi(rng.gen_range(-70..70));
+            let mut d = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)) * scale;
+            if i % 7 == 0 {
+                d[rng.gen_range(0..3)] = 0.0;
+            }
+            if i % 11 == 0 {
+                d[rng.gen_range(0..3)] = f32::from_bits(rng.gen_range(0..0x0080_0000));
+            }
+            let got = light_factor(n, d);
+            assert_eq!(got, wide_reference::light_factor_ref(n, d), "{n:?} {d:?}");
+            lit += u32::from(matches!(got, LightFactor::Lit(_)));
+            assert_eq!(dot_sign(n, d), wide_reference::dot_sign_ref(n, d), "{n:?} {d:?}");
+        }
+        assert!(lit > 100_000, "{lit}");
+        for c in [0.0, -0.0, 1.0, -1.0, 1.999_999_9, -1.999_999_9, 2.0, f32::MIN_POSITIVE, 1e-30, f32::NAN] {
+            for e in [1e-18f32, 1.0, 1e18, f32::MAX, f32::INFINITY] {
+                let (n, d) = (Vec3::new(c, 0.5, -0.25), Vec3::new(e, -e * 0.5, c));
+                assert_eq!(light_factor(n, d), wide_reference::light_factor_ref(n, d), "{n:?} {d:?}");
+                assert_eq!(dot_sign(n, d), wide_reference::dot_sign_ref(n, d), "{n:?} {d:?}");
+            }
+        }
     }
 
     /// The table's start is within 2⁻⁶ of `2⁴⁶/√h` over each interval.
