@@ -50,8 +50,8 @@ pub(super) struct FrameCtx {
     pub(super) direct: shade::DirectLight,
     /// The light reaches surfaces at all (a light with a non-zero radiance).
     pub(super) lit: bool,
-    /// The unit spot axis ([`shade::spot_axis`]).
-    pub(super) spot_axis: Option<gridrt_shared::math::Vec3>,
+    /// The spotlight's cone ([`shade::SpotCone`]); `None` for an omnidirectional light.
+    pub(super) spot: Option<shade::SpotCone>,
     pub(super) shadows: bool,
     pub(super) reflections: bool,
     pub(super) textures: bool,
@@ -196,7 +196,7 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
         let mut e_seen = 0.0;
         if lit {
             let (e, l) = shade::irradiance_toward(lighting, n, p, dl.pos);
-            let spot = if e > 0.0 { shade::spot_factor_on(lighting, ctx.spot_axis, dl.pos, p) } else { 0.0 };
+            let spot = if e > 0.0 { shade::spot_factor_in(ctx.spot.as_ref(), dl.pos, p) } else { 0.0 };
             // E > 0 has a light vector.
             if let (true, Some(l)) = (e > 0.0 && spot > 0.0, l) {
                 let visible = if ctx.shadows {

@@ -130,7 +130,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
             ambient: lighting.ambient_colour.map(|c| c * light.ambient),
             lit: lighting.light_count > 0 && direct.radiance.iter().any(|&c| c != 0.0),
             direct,
-            spot_axis: shade::spot_axis(lighting),
+            spot: shade::SpotCone::of(lighting),
             eps_diag: shade::SHADOW_EPS_DIAG * diag,
             spans: BoxSpans::new(&job.cam, &scene.grid.aabb()),
             occupancy: OccupancyMask::new(&job.cam, &scene.grid, scene.voxel_pe.get(..scene.voxels).unwrap_or(&[])),
@@ -174,7 +174,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
             let plan = (ctx.direct.specular, ctx.textures, ctx.reflections);
             let radiance = if ctx.lit { ctx.direct.radiance } else { [0.0; 3] };
             ctx.bytes = shade::MatteBytes::new(&scene.materials, &scene.material_model, ctx.ambient, radiance, plan);
-            ctx.estimate_light = ctx.lit && scene.lighting.falloff == Falloff::None && ctx.spot_axis.is_none();
+            ctx.estimate_light = ctx.lit && scene.lighting.falloff == Falloff::None && ctx.spot.is_none();
         }
         let step = render_flags::interp_step(req.flags);
         let params = interp::Params {

@@ -31,12 +31,42 @@ pub fn spot_factor(lighting: &LightingRecord, light_pos: Vec3, p: Vec3) -> f32 {
 
 /// [`spot_factor`] with the frame's [`spot_axis`].
 pub fn spot_factor_on(lighting: &LightingRecord, axis: Option<Vec3>, light_pos: Vec3, p: Vec3) -> f32 {
-    let Some(axis) = axis else { return 1.0 };
+    spot_factor_in(axis.map(|axis| SpotCone::new(lighting, axis)).as_ref(), light_pos, p)
+}
+
+/// A spotlight's cone as [`spot_factor_in`] reads it, once per frame: the unit axis, the
+/// cosines and the cone's width `cos_inner − cos_outer` (computed per hit it was a
+/// subtraction that the compiler hoisted in front of every camera ray's path, a soft-float
+/// call per traced pixel, spotlight or not).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpotCone {
+    axis: Vec3,
+    cos_outer: f32,
+    cos_inner: f32,
+    width: f32,
+}
+
+impl SpotCone {
+    /// The cone of `lighting` around the unit `axis` ([`spot_axis`]).
+    pub fn new(lighting: &LightingRecord, axis: Vec3) -> Self {
+        let (co, ci) = (lighting.cos_outer, lighting.cos_inner);
+        Self { axis, cos_outer: co, cos_inner: ci, width: ci - co }
+    }
+
+    /// The frame's cone; `None` for an omnidirectional light.
+    pub fn of(lighting: &LightingRecord) -> Option<Self> {
+        spot_axis(lighting).map(|axis| Self::new(lighting, axis))
+    }
+}
+
+/// [`spot_factor`] with the frame's [`SpotCone`] (`None`: omnidirectional, factor 1).
+pub fn spot_factor_in(cone: Option<&SpotCone>, light_pos: Vec3, p: Vec3) -> f32 {
+    let Some(cone) = cone else { return 1.0 };
     let Some(dir) = try_normalize(p - light_pos) else { return 0.0 };
-    let c = axis.dot(dir);
-    let (co, ci) = (lighting.cos_outer, lighting.cos_inner);
+    let c = cone.axis.dot(dir);
+    let (co, ci) = (cone.cos_outer, cone.cos_inner);
     if ci > co {
-        ((c - co) / (ci - co)).clamp(0.0, 1.0)
+        ((c - co) / cone.width).clamp(0.0, 1.0)
     } else if c >= co {
         1.0
     } else {
@@ -81,6 +111,42 @@ mod tests {
         assert_eq!(irradiance(&l, Vec3::Z, Vec3::ZERO, Vec3::new(0.0, 0.0, 10.0)), 1.0);
         let sq = LightingRecord { falloff: Falloff::InverseSquare, ..l };
         assert_eq!(irradiance(&sq, Vec3::Z, Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0)), 0.25);
+    }
+
+    /// The factor with the frame's cone is `spot_factor`'s, whose cone width was computed per
+    /// hit: random cones (the inner cosine above, equal to or below the outer one) and points.
+    #[test]
+    fn the_frames_cone_gives_spot_factor() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5B07_C0DE);
+        for _ in 0..20_000 {
+            let co = rng.gen_range(-1.0..1.0f32);
+            let ci = if rng.gen_bool(0.1) { co } else { rng.gen_range(-1.0..1.0f32) };
+            let spot_dir = [0; 3].map(|_| rng.gen_range(-1.0..1.0f32));
+            let l = LightingRecord { spot_dir, cos_outer: co, cos_inner: ci, ..LightingRecord::default() };
+            let light = Vec3::from_array([0; 3].map(|_| rng.gen_range(-5.0..5.0f32)));
+            let p = Vec3::from_array([0; 3].map(|_| rng.gen_range(-5.0..5.0f32)));
+            let cone = SpotCone::of(&l);
+            let want = spot_factor_per_hit(&l, light, p);
+            assert_eq!(spot_factor(&l, light, p).to_bits(), want.to_bits());
+            assert_eq!(spot_factor_in(cone.as_ref(), light, p).to_bits(), want.to_bits(), "{l:?} {p:?}");
+        }
+    }
+
+    /// The reference for `the_frames_cone_gives_spot_factor`: the factor with the cone's width
+    /// computed per hit.
+    fn spot_factor_per_hit(lighting: &LightingRecord, light_pos: Vec3, p: Vec3) -> f32 {
+        let Some(axis) = spot_axis(lighting) else { return 1.0 };
+        let Some(dir) = try_normalize(p - light_pos) else { return 0.0 };
+        let c = axis.dot(dir);
+        let (co, ci) = (lighting.cos_outer, lighting.cos_inner);
+        if ci > co {
+            ((c - co) / (ci - co)).clamp(0.0, 1.0)
+        } else if c >= co {
+            1.0
+        } else {
+            0.0
+        }
     }
 
     #[test]

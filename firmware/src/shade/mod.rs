@@ -39,4 +39,6 @@ pub use geometry::{
     facing, facing_normal, hit_point, shadow_epsilon, shadow_epsilon_from, shadow_ray, shadow_ray_from, UnitNormals,
     SHADOW_EPS_DIAG, SHADOW_EPS_POS, SHADOW_T_MAX,
 };
-pub use light::{irradiance, irradiance_toward, spot_axis, spot_factor, spot_factor_on, Light};
+pub use light::{
+    irradiance, irradiance_toward, spot_axis, spot_factor, spot_factor_in, spot_factor_on, Light, SpotCone,
+};
