@@ -78,7 +78,9 @@ impl UnitNormals {
     pub fn unit(&mut self, prim: u32, normal: [f32; 3]) -> Option<Vec3> {
         let bits = normal.map(f32::to_bits);
         let slot = self.slots.get_mut(prim as usize % NORMAL_SLOTS)?;
-        if slot.filled && slot.prim == prim && slot.normal == bits {
+        // Word by word: `==` on the arrays is a `memcmp` call.
+        let [a, b, c] = slot.normal;
+        if slot.filled && slot.prim == prim && a == bits[0] && b == bits[1] && c == bits[2] {
             return slot.unit;
         }
         let unit = try_normalize(Vec3::from_array(normal));
@@ -162,8 +164,8 @@ mod tests {
     }
 
     /// The cache gives `try_normalize`'s bits for every lookup: random primitives (many
-    /// sharing slots) with normals that change for the same primitive now and then, zero and
-    /// NaN normals included.
+    /// sharing slots) with normals that change for the same primitive now and then (all
+    /// components or one), zero and NaN normals included.
     #[test]
     fn unit_normals_equal_try_normalize() {
         use rand::{Rng, SeedableRng};
@@ -177,6 +179,9 @@ mod tests {
             let prim = rng.gen_range(0..200u32);
             if rng.gen_bool(0.01) {
                 normals[prim as usize] = [0; 3].map(|_| rng.gen_range(-4.0..4.0f32));
+            } else if rng.gen_bool(0.02) {
+                // One component changed alone: the slot must compare every word.
+                normals[prim as usize][rng.gen_range(0..3)] = rng.gen_range(-4.0..4.0f32);
             }
             let normal = normals[prim as usize];
             let slot = cache.slots[prim as usize % NORMAL_SLOTS];
