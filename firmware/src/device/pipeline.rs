@@ -19,11 +19,11 @@ use super::stats::{count, Stage, StageClock, Stopwatch};
 use crate::camera::{Camera, ColumnTerms, RowRays};
 use crate::cull::{BoxSpans, OccupancyMask};
 use crate::fsl::FslLink;
-use crate::interp::{self, Sample};
+use crate::interp::Sample;
 use crate::sfloat::{add, mul, vsub};
 use crate::shade::{self, LightFactor, DEFAULT_ALBEDO};
 use core::ops::Range;
-use gridrt_shared::fsl::RayKind;
+use gridrt_shared::fsl::{RayKind, RayResult};
 use gridrt_shared::math::{Ray, Vec3};
 use gridrt_shared::msg::{feature, render_flags};
 #[cfg(feature = "textures")]
@@ -116,7 +116,6 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
     row: &RowRays<'_>,
     x: u16,
 ) -> Result<Sample, Fail> {
-    let lighting = &scene.lighting;
     count(&mut path.stats.primary_rays, 1);
     // A camera ray that can meet only empty cells: its walk would list nothing (culled), its
     // pixel is the background (`crate::cull::OccupancyMask`).
@@ -125,41 +124,91 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
         sw.lap(clock, &mut path.stats, Stage::RayGen);
         return Ok(ctx.background);
     }
-    let mut ray = row.ray(x as u32);
+    let ray = row.ray(x as u32);
     sw.lap(clock, &mut path.stats, Stage::RayGen);
+    let hit = path.trace_as(scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, RayClass::Primary)?;
+    let r = match hit {
+        Some(r) if r.hit => r,
+        // A camera ray that meets nothing is the frame's background, computed once with the
+        // same formula (`0 + 1·background`).
+        _ => {
+            sw.lap(clock, &mut path.stats, Stage::Shade);
+            return Ok(ctx.background);
+        }
+    };
+    let p = shade::hit_point(&ray, r.t);
+    let unit = unit_normal(path, &r, ray.dir);
+    // The common camera hit: a material with a fixed-point rule under a light whose factor
+    // the integers estimate. Everything else, and the estimate's `Unsure`, is `path_from`'s:
+    // kept out of line, its loop's state does not crowd this path's registers.
+    if let Some(n) = unit {
+        if ctx.estimate_light && ctx.bytes.covers(r.material) {
+            let m = material(scene, r.material);
+            let ext = scene.material_model.get(r.material as usize).unwrap_or(&MATTE);
+            if let Some(rgb) = matte_camera_hit(path, scene, clock, sw, ctx, (p, n), &m, ext, r.material)? {
+                sw.lap(clock, &mut path.stats, Stage::Shade);
+                return Ok(Sample { rgb, prim: r.prim, t: r.t });
+            }
+        }
+    }
+    path_from(path, scene, clock, sw, ctx, ray, (r, p, unit))
+}
+
+/// The material of id `material`, or the default one when the scene does not define it.
+#[inline(always)]
+fn material<const N: usize>(scene: &SceneStore<N>, material: u16) -> Material {
+    scene.materials.get(material as usize).copied().unwrap_or(Material { diffuse: DEFAULT_ALBEDO, reflect: 0.0 })
+}
+
+/// The unit normal of hit `r` facing a ray along `dir`; `None` for a degenerate normal. On a
+/// soft-float core the unit normal of a primitive hit recently comes from the cache.
+#[inline(always)]
+fn unit_normal<L>(path: &mut RayPath<L>, r: &RayResult, dir: Vec3) -> Option<Vec3> {
+    if cfg!(soft_float) {
+        path.normals.unit(r.prim, r.normal).map(|n| shade::facing(n, dir))
+    } else {
+        shade::facing_normal(r.normal, dir)
+    }
+}
+
+/// The rest of [`pixel`] from the camera ray's hit `first` (the result, its point and unit
+/// normal): shading, the shadow ray, and the mirror bounces, in the f32 rules.
+#[allow(clippy::arithmetic_side_effects)] // f32 shading on glam vectors, as in `pixel`
+#[inline(never)]
+fn path_from<L: FslLink, C: StageClock, const N: usize>(
+    path: &mut RayPath<L>,
+    scene: &SceneStore<N>,
+    clock: &C,
+    sw: &mut Stopwatch,
+    ctx: &FrameCtx,
+    mut ray: Ray,
+    first: (RayResult, Vec3, Option<Vec3>),
+) -> Result<Sample, Fail> {
+    let lighting = &scene.lighting;
     let (la, dl, lit) = (ctx.ambient, &ctx.direct, ctx.lit);
     let depth = if ctx.reflections { lighting.max_depth.max(1) } else { 1 };
     let mut acc = [0f32; 3];
     let mut throughput = 1f32;
-    let (mut first_prim, mut first_t) = (interp::MISS, f32::INFINITY);
+    let (first_prim, first_t) = (first.0.prim, first.0.t);
+    let mut pending = Some(first);
     for bounce in 0..depth {
-        let class = if bounce == 0 { RayClass::Primary } else { RayClass::Reflection };
-        let hit = path.trace_as(scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, class)?;
-        let r = match hit {
-            Some(r) if r.hit => r,
-            // A camera ray that meets nothing is the frame's background, computed once with
-            // the same formula (`0 + 1·background`).
-            _ if bounce == 0 => {
-                sw.lap(clock, &mut path.stats, Stage::Shade);
-                return Ok(ctx.background);
-            }
-            _ => {
-                for (a, b) in acc.iter_mut().zip(lighting.background) {
-                    *a = add(*a, mul(throughput, b));
-                }
-                break;
+        let (r, p, unit) = match pending.take() {
+            Some(hit) => hit,
+            None => {
+                let hit =
+                    path.trace_as(scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, RayClass::Reflection)?;
+                let Some(r) = hit.filter(|r| r.hit) else {
+                    for (a, b) in acc.iter_mut().zip(lighting.background) {
+                        *a = add(*a, mul(throughput, b));
+                    }
+                    break;
+                };
+                let p = shade::hit_point(&ray, r.t);
+                let unit = unit_normal(path, &r, ray.dir);
+                (r, p, unit)
             }
         };
-        if bounce == 0 {
-            first_prim = r.prim;
-            first_t = r.t;
-        }
-        let p = shade::hit_point(&ray, r.t);
-        let m = scene
-            .materials
-            .get(r.material as usize)
-            .copied()
-            .unwrap_or(Material { diffuse: DEFAULT_ALBEDO, reflect: 0.0 });
+        let m = material(scene, r.material);
         // By reference: the model is ~90 bytes, a copy per hit is a memcpy call.
         let ext = scene.material_model.get(r.material as usize).unwrap_or(&MATTE);
         #[allow(unused_mut)]
@@ -170,12 +219,6 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
                 cd = crate::texture::sample(ext, cd, po);
             }
         }
-        // On a soft-float core the unit normal of a primitive hit recently comes from the cache.
-        let unit = if cfg!(soft_float) {
-            path.normals.unit(r.prim, r.normal).map(|n| shade::facing(n, ray.dir))
-        } else {
-            shade::facing_normal(r.normal, ray.dir)
-        };
         let Some(n) = unit else {
             // Degenerate normal: no direction to light it from; ambient only.
             for (a, b) in acc.iter_mut().zip(shade::outgoing(ext, cd, la, None)) {
@@ -183,12 +226,6 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
             }
             break;
         };
-        if bounce == 0 && ctx.estimate_light && ctx.bytes.covers(r.material) {
-            if let Some(rgb) = matte_camera_hit(path, scene, clock, sw, ctx, (p, n), &m, ext, r.material)? {
-                sw.lap(clock, &mut path.stats, Stage::Shade);
-                return Ok(Sample { rgb, prim: r.prim, t: r.t });
-            }
-        }
         // The unit view vector, computed only for the models that read it.
         let view = || crate::fmath::try_normalize(-ray.dir).unwrap_or(n);
         let mut direct = None;
@@ -258,6 +295,7 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
 /// rays and bytes as [`pixel`]'s f32 path; `None` (nothing traced) when the estimate cannot
 /// tell the factor's sign.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn matte_camera_hit<L: FslLink, C: StageClock, const N: usize>(
     path: &mut RayPath<L>,
     scene: &SceneStore<N>,
