@@ -138,9 +138,10 @@ pub(super) fn pixel<L: FslLink, C: StageClock, const N: usize>(
     };
     let p = shade::hit_point(&ray, r.t);
     let unit = unit_normal(path, &r, ray.dir);
-    // The common camera hit: a material with a fixed-point rule under a light whose factor
-    // the integers estimate. Everything else, and the estimate's `Unsure`, is `path_from`'s:
-    // kept out of line, its loop's state does not crowd this path's registers.
+    // The common camera hit on a soft-float core: a material with a fixed-point rule under a
+    // light whose factor the integers estimate. Everything else, and the estimate's `Unsure`,
+    // is `path_from`'s: kept out of line there, its loop's state does not crowd this path's
+    // registers.
     if let Some(n) = unit {
         if ctx.estimate_light && ctx.bytes.covers(r.material) {
             let m = material(scene, r.material);
@@ -172,9 +173,12 @@ fn unit_normal<L>(path: &mut RayPath<L>, r: &RayResult, dir: Vec3) -> Option<Vec
 }
 
 /// The rest of [`pixel`] from the camera ray's hit `first` (the result, its point and unit
-/// normal): shading, the shadow ray, and the mirror bounces, in the f32 rules.
+/// normal): shading, the shadow ray, and the mirror bounces, in the f32 rules. Out of line on
+/// a soft-float core, where [`pixel`] answers most hits without it; inline with an FPU, where
+/// every hit comes here (out of line it cost riscv32imafc 8 instructions per primary ray).
 #[allow(clippy::arithmetic_side_effects)] // f32 shading on glam vectors, as in `pixel`
-#[inline(never)]
+#[cfg_attr(soft_float, inline(never))]
+#[cfg_attr(not(soft_float), inline(always))]
 fn path_from<L: FslLink, C: StageClock, const N: usize>(
     path: &mut RayPath<L>,
     scene: &SceneStore<N>,
