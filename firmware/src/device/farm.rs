@@ -98,10 +98,9 @@ pub struct RowTracer<L> {
 
 impl<L: FslLink> RowTracer<L> {
     /// A tracer over `link` with the device's poll budget.
+    #[inline(always)]
     pub fn new<const N: usize>(rows: &Rows<'_, N>, link: L) -> Self {
-        let mut path = RayPath::new(link);
-        path.polls = rows.polls;
-        Self { path }
+        Self { path: RayPath::with_polls(link, rows.polls) }
     }
 
     /// Traces the [`Rows::columns`] of row `y` into `out`, left-aligned (`out` holds at

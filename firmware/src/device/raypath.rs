@@ -61,12 +61,20 @@ pub(super) struct RayPath<L> {
 impl<L: FslLink> RayPath<L> {
     /// A path over `link` with the default poll budget.
     pub(super) fn new(link: L) -> Self {
+        Self::with_polls(link, DEFAULT_POLLS)
+    }
+
+    /// A path over `link` whose blocking calls poll at most `polls` times. Inline, so that
+    /// the path (6 KiB of request words) is built where it lives: on a worker hart's 32 KiB
+    /// stack each copy counts.
+    #[inline(always)]
+    pub(super) fn with_polls(link: L, polls: u32) -> Self {
         Self {
             link,
             request: [0; REQUEST_WORDS],
             result: [0; RESULT_WORDS],
             stats: FrameStats::default(),
-            polls: DEFAULT_POLLS,
+            polls,
             eye_planes: OriginPlanes::default(),
             normals: crate::shade::UnitNormals::default(),
         }
