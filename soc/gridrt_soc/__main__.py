@@ -61,7 +61,7 @@ def main(argv=None):
             "--l2-kib",
             type=int,
             default=SDRAM_L2_SIZE // 1024,
-            help="KiB of LiteX's L2 cache in front of the SDRAM (a power of two; 2 DP16KD per 4 KiB)",
+            help="KiB of LiteX's L2 cache in front of the SDRAM (a power of two; its data takes 16 DP16KD up to 32 KiB, 32 at 64 KiB)",
         )
         p.add_argument(
             "--harts",

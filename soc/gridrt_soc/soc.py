@@ -55,7 +55,9 @@ SDRAM_RATE = "1:1"
 SDRAM_DATA_WIDTH = 16
 # LiteX's L2 cache between the CPU's bus and LiteDRAM: its default size. It holds the hot
 # code and stack that the CPU's 4 KiB caches miss (docs/bench-frame.md measures 8 and 32
-# KiB); a target may build another (``l2_size``, a power of two), at 2 DP16KD per 4 KiB.
+# KiB); a target may build another (``l2_size``, a power of two). Its data is 16 byte-wide
+# memories, one DP16KD each up to 32 KiB (2 each at 64 KiB), beside its tags; 32 KiB did not
+# route on the ULX3S (docs/bench-frame.md).
 SDRAM_L2_SIZE = 8 * KIB
 # The SDRAM's halves: main RAM, then the PE images (with PE caches: each PE's memory of
 # COPROC_PE_IMAGE_WORDS words, 4 PEs × 4 MiB).

@@ -81,11 +81,11 @@ pub struct BuildCmd {
     /// firmware is built for riscv32im with `cfu-float`) or none (VexRiscv imac, soft float:
     /// a smaller CPU and no CFU, for small boards). cfu is the default because it measured
     /// 12.5 % fewer frame cycles than none on 1 hart and 3.5 % on 4 in simulation
-    /// (BENCHMARKS.md, "Whole frame").
+    /// (docs/bench-frame.md, "Where the harts' time goes").
     #[arg(long, value_enum, default_value_t = FloatHw::Cfu)]
     float_hw: FloatHw,
     /// KiB of LiteX's L2 cache in front of the SDRAM that holds main RAM (a power of two;
-    /// 2 DP16KD per 4 KiB).
+    /// its data takes 16 DP16KD up to 32 KiB, 32 at 64 KiB; 32 KiB did not route).
     #[arg(long, default_value_t = DEFAULT_L2_KIB, value_parser = parse_l2_kib, value_name = "KIB")]
     l2_kib: u32,
     /// CPUs, 1 to 4: the first and workers (VexRiscvs of the same variant, each with its own

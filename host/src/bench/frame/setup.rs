@@ -207,13 +207,13 @@ impl CpuProfile {
     /// The SoC's CPU as built: VexRiscv imac (LiteX `imac` variant, 4 KiB caches), its CPI
     /// measured by its own `mcycle`/`minstret` over a whole frame in the SoC's Verilator
     /// simulation (`gridrt bench frame --scene tests/scenes/bun_zipper_res4.obj --configs soc`,
-    /// BENCHMARKS.md "Whole frame"). A run with a `soc` row charges the riscv32imac rows each
+    /// docs/bench-history/2026-11-30-whole-frame-first-soc.md). A run with a `soc` row charges the riscv32imac rows each
     /// stage's CPI measured in that run instead.
     pub const VEXRISCV_IMAC: CpuProfile = CpuProfile {
         name: "vexriscv-imac",
         cpi: 2.73,
         citation: "measured: VexRiscv imac in the LiteX SoC's cycle-accurate simulation, mcycle / minstret over \
-                   the firmware's stages of a bun_zipper_res4 frame (BENCHMARKS.md \"Whole frame\"). It has no \
+                   the firmware's stages of a bun_zipper_res4 frame (docs/bench-history/2026-11-30-whole-frame-first-soc.md). It has no \
                    FPU: for riscv32imafc the CPI is applied to the F instructions too, an assumption",
     };
 
@@ -333,7 +333,7 @@ pub enum SocFloatHw {
     None,
     /// VexRiscv full+cfu with the f32 CFU (`gridrt_cfu_f32`); the firmware for riscv32im
     /// with `cfu-float`. The default, as in `cargo xtask soc sim`: fewer frame cycles,
-    /// measured (BENCHMARKS.md, "Whole frame").
+    /// measured (docs/bench-frame.md, "Where the harts' time goes").
     #[default]
     Cfu,
 }
