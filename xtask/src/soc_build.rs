@@ -85,7 +85,8 @@ pub struct BuildCmd {
     #[arg(long, value_enum, default_value_t = FloatHw::Cfu)]
     float_hw: FloatHw,
     /// KiB of LiteX's L2 cache in front of the SDRAM that holds main RAM (a power of two;
-    /// its data takes 16 DP16KD up to 32 KiB, 32 at 64 KiB; 32 KiB did not route).
+    /// its data takes 16 DP16KD up to 32 KiB, 32 at 64 KiB; 32 KiB did not route on the
+    /// ULX3S: docs/bench-frame.md).
     #[arg(long, default_value_t = DEFAULT_L2_KIB, value_parser = parse_l2_kib, value_name = "KIB")]
     l2_kib: u32,
     /// CPUs, 1 to 4: the first and workers (VexRiscvs of the same variant, each with its own

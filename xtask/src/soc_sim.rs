@@ -73,8 +73,9 @@ pub struct SimCmd {
     /// Floating point in hardware: cfu (default: VexRiscv full+cfu with the f32 CFU; the
     /// firmware for riscv32im with `cfu-float`) or none (VexRiscv imac, soft float: a smaller
     /// CPU and no CFU, for small boards). cfu is the default because it measured 12.5 % fewer
-    /// frame cycles than none on 1 hart and 3.5 % on 4 (docs/bench-frame.md, "Where the harts' time goes"). Each
-    /// has its own build folder, target/soc/sim-cfu and target/soc/sim.
+    /// frame cycles than none on 1 hart and 3.5 % on 4 (docs/bench-frame.md, "Where the
+    /// harts' time goes"). Each has its own build folder, target/soc/sim-cfu and
+    /// target/soc/sim.
     #[arg(long, value_enum, default_value_t = FloatHw::Cfu)]
     float_hw: FloatHw,
     /// KiB of LiteX's L2 cache in front of the SDRAM that holds main RAM (a power of two).

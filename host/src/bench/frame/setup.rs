@@ -207,8 +207,8 @@ impl CpuProfile {
     /// The SoC's CPU as built: VexRiscv imac (LiteX `imac` variant, 4 KiB caches), its CPI
     /// measured by its own `mcycle`/`minstret` over a whole frame in the SoC's Verilator
     /// simulation (`gridrt bench frame --scene tests/scenes/bun_zipper_res4.obj --configs soc`,
-    /// docs/bench-history/2026-11-30-whole-frame-first-soc.md). A run with a `soc` row charges the riscv32imac rows each
-    /// stage's CPI measured in that run instead.
+    /// docs/bench-history/2026-11-30-whole-frame-first-soc.md). A run with a `soc` row charges
+    /// the riscv32imac rows each stage's CPI measured in that run instead.
     pub const VEXRISCV_IMAC: CpuProfile = CpuProfile {
         name: "vexriscv-imac",
         cpi: 2.73,

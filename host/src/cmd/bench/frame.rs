@@ -56,8 +56,8 @@ pub struct Args {
     /// The `soc` row's CPU: cfu (default: VexRiscv full+cfu with the f32 CFU, the firmware
     /// for riscv32im) or none (VexRiscv imac, f32 in soft float: the smaller CPU, for small
     /// boards). cfu is the default because it measured 12.5 % fewer frame cycles than none on
-    /// 1 hart and 3.5 % on 4 (docs/bench-frame.md, "Where the harts' time goes"). Only none's soc row calibrates
-    /// the modelled riscv32imac rows (their CPU is the imac).
+    /// 1 hart and 3.5 % on 4 (docs/bench-frame.md, "Where the harts' time goes"). Only none's
+    /// soc row calibrates the modelled riscv32imac rows (their CPU is the imac).
     #[arg(long, value_enum, default_value_t = SocFloat::Cfu)]
     soc_float_hw: SocFloat,
     /// The `soc` row's L2 cache in front of the SDRAM that holds main RAM, KiB (a power of
