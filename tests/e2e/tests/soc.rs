@@ -50,6 +50,18 @@ const HEIGHT: &str = "24";
 /// One simulation at a time: they share the Verilated SoC's build folder, and the machine.
 static ONE_SOC: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
+/// Every SoC test's start: `None` (the test returns at once; each check says why on standard
+/// error) without `GRIDRT_SOC_SIM=1`, with `large` also without `GRIDRT_SOC_SIM_LARGE=1`, or
+/// without Verilator and LiteX; else the lock that runs one simulation at a time. The opt-ins
+/// come before the tools, so that a skipped test reports no tool it did not use.
+fn soc_test(test: &str, large: bool) -> Option<std::sync::MutexGuard<'static, ()>> {
+    let run = soc_sim_opted_in(test)
+        && (!large || soc_sim_large_opted_in(test))
+        && require(test, Tool::Verilator)
+        && require(test, Tool::Litex);
+    run.then(|| ONE_SOC.lock().unwrap_or_else(|e| e.into_inner()))
+}
+
 /// Seconds the simulation may run in all (flash, upload and render of the small frame).
 const SIM_TIMEOUT_S: u32 = 2400;
 
@@ -182,10 +194,7 @@ fn soc_bench_row_of(scene: &str, name: &str, args: &[&str]) -> serde_json::Value
 #[test]
 fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     let test = "soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim";
-    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
-        return;
-    }
-    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let Some(_one) = soc_test(test, false) else { return };
     let app = build_firmware(&DEFAULT_SOC_APP);
     let sim = SocSim::start();
     let started = Instant::now();
@@ -295,10 +304,7 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
 #[test]
 fn soc_row_link_cycles_are_the_frames_bytes_at_the_baud_rate() {
     let test = "soc_row_link_cycles_are_the_frames_bytes_at_the_baud_rate";
-    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
-        return;
-    }
-    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let Some(_one) = soc_test(test, false) else { return };
     let row = soc_bench_row("bench", &["--width", "8", "--height", "6", "--encoding", "rgb888"]);
     // The default SoC's CPU.
     assert_eq!((row["target"].as_str(), row["float_hw"].as_str()), (Some("riscv32im"), Some("cfu")));
@@ -327,10 +333,7 @@ fn soc_row_link_cycles_are_the_frames_bytes_at_the_baud_rate() {
 #[test]
 fn soc_with_the_imac_renders_like_the_rtl_cosim() {
     let test = "soc_with_the_imac_renders_like_the_rtl_cosim";
-    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
-        return;
-    }
-    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let Some(_one) = soc_test(test, false) else { return };
     let row = soc_bench_row("bench-imac", &["--soc-float-hw", "none", "--width", WIDTH, "--height", HEIGHT]);
     assert_eq!(row["target"], "riscv32imac");
     assert_eq!((row["float_hw"].as_str(), row["cpu_profile"].as_str()), (Some("none"), Some("vexriscv-imac")));
@@ -347,10 +350,7 @@ fn soc_with_the_imac_renders_like_the_rtl_cosim() {
 #[test]
 fn soc_with_two_harts_renders_like_the_rtl_cosim() {
     let test = "soc_with_two_harts_renders_like_the_rtl_cosim";
-    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
-        return;
-    }
-    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let Some(_one) = soc_test(test, false) else { return };
     let row = soc_bench_row("bench-harts", &["--soc-harts", "2", "--width", WIDTH, "--height", HEIGHT]);
     assert_eq!((&row["harts"], &row["float_hw"]), (&2.into(), &"cfu".into()), "{row}");
     assert_eq!(row["identical_to_rtl_sim"], true, "the 2-hart SoC's frame equals --sim --coproc rtl");
@@ -370,10 +370,7 @@ fn soc_with_two_harts_renders_like_the_rtl_cosim() {
 #[test]
 fn soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim() {
     let test = "soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim";
-    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
-        return;
-    }
-    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let Some(_one) = soc_test(test, false) else { return };
     let res3 = repo_root().join("tests/scenes/bun_zipper_res3.obj");
     let bram = Command::new(gridrt())
         .args(["render", "--sim", "--pe-mem-words", "16384", "--width", WIDTH, "--height", HEIGHT, "--out"])
@@ -397,14 +394,7 @@ fn soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim() {
 #[test]
 fn soc_renders_stanford_bunny_like_the_rtl_cosim() {
     let test = "soc_renders_stanford_bunny_like_the_rtl_cosim";
-    if !soc_sim_opted_in(test)
-        || !soc_sim_large_opted_in(test)
-        || !require(test, Tool::Verilator)
-        || !require(test, Tool::Litex)
-    {
-        return;
-    }
-    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let Some(_one) = soc_test(test, true) else { return };
     let row = soc_bench_row_of("stanford-bunny.obj", "bench-stanford", &["--width", WIDTH, "--height", HEIGHT]);
     assert_eq!(row["pe_cache_lines"].as_u64(), Some(512), "{row}");
     assert_eq!(row["identical_to_rtl_sim"], true, "the SoC's stanford-bunny frame equals --sim --coproc rtl: {row}");
@@ -422,10 +412,7 @@ fn soc_renders_stanford_bunny_like_the_rtl_cosim() {
 #[test]
 fn on_a_boards_line_the_flash_and_the_upload_lose_nothing() {
     let test = "on_a_boards_line_the_flash_and_the_upload_lose_nothing";
-    if !soc_sim_opted_in(test) || !require(test, Tool::Verilator) || !require(test, Tool::Litex) {
-        return;
-    }
-    let _one = ONE_SOC.lock().unwrap_or_else(|e| e.into_inner());
+    let Some(_one) = soc_test(test, false) else { return };
     let app = build_firmware(&DEFAULT_SOC_APP);
     let sim = SocSim::start_with(&["--baud", "3000000", "--rx-baud", "3000000", "--rx-overrun"]);
     // The host's waits at the simulation's wall-clock pace (it runs ~10⁴ baud of wall time).
