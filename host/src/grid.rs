@@ -64,6 +64,12 @@ pub const VOXEL_PAD_REL: f64 = 1.0 / 1024.0;
 pub const VOXEL_PAD_ABS_REL: f64 = 1.0 / 1_048_576.0;
 /// An axis with extent ≤ this fraction of the largest extent counts as flat.
 pub const FLAT_AXIS_REL: f64 = 1.0 / 1_048_576.0;
+/// Default voxel budget of an Eq. 6.1 grid ([`GridParams::max_voxels`]). The soft-core pays
+/// per voxel a ray crosses, the co-processor (idle most of a frame) per triangle it tests:
+/// past about this many voxels a finer grid costs the soft-core more than it saves
+/// (docs/bench-firmware.md, "Cost independent of mesh size"). Meshes up to about 2 000
+/// triangles keep Eq. 6.1's grid (bun_zipper_res4: 11×11×9 = 1 089 voxels).
+pub const DEFAULT_MAX_VOXELS: u32 = 2048;
 
 /// How voxels are assigned to PEs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -100,11 +106,21 @@ pub struct GridParams {
     pub mapping: PeMapping,
     /// Fixed resolution instead of Eq. 6.1 (still clamped to 1..=255).
     pub dims_override: Option<[u16; 3]>,
+    /// Most voxels of an Eq. 6.1 grid: a mesh whose grid would hold more gets a smaller `m`
+    /// ([`resolution_within`]); `dims_override` is not capped.
+    pub max_voxels: u32,
 }
 
 impl Default for GridParams {
     fn default() -> Self {
-        Self { m: 1.0, pe_count: 4, pe_mem_words: 1 << 20, mapping: PeMapping::Interleaved, dims_override: None }
+        Self {
+            m: 1.0,
+            pe_count: 4,
+            pe_mem_words: 1 << 20,
+            mapping: PeMapping::Interleaved,
+            dims_override: None,
+            max_voxels: DEFAULT_MAX_VOXELS,
+        }
     }
 }
 
@@ -240,6 +256,38 @@ fn pad_bounds(b: &Bounds) -> Bounds {
     out
 }
 
+/// [`resolution`] with at most `max_voxels` voxels (at least 1): Eq. 6.1 at the largest
+/// multiplier `m' ≤ m` whose grid fits. Eq. 6.1's dimensions never shrink as `m` grows, so a
+/// bisection on `m'` finds it; a grid that fits at `m` is returned unchanged.
+///
+/// ```
+/// use gridrt_host::grid::{resolution, resolution_within};
+/// // The full Stanford bunny: Eq. 6.1 gives 45×45×35 = 70 875 voxels.
+/// let w = [77.849503, 77.166809, 60.336647];
+/// assert_eq!(resolution(w, 69_451, 1.0), [45, 45, 35]);
+/// let capped = resolution_within(w, 69_451, 1.0, 2048);
+/// assert!(capped.iter().map(|&d| d as u32).product::<u32>() <= 2048);
+/// ```
+pub fn resolution_within(w: [f64; 3], n: usize, m: f64, max_voxels: u32) -> [u16; 3] {
+    let voxels = |d: [u16; 3]| d.iter().map(|&v| u64::from(v)).product::<u64>();
+    let budget = u64::from(max_voxels.max(1));
+    let full = resolution(w, n, m);
+    if voxels(full) <= budget || !(m > 0.0 && m.is_finite()) {
+        return full;
+    }
+    // resolution(w, n, lo) fits (m' = 0 is the 1×1×1 grid), resolution(w, n, hi) does not.
+    let (mut lo, mut hi) = (0.0f64, m);
+    for _ in 0..64 {
+        let mid = 0.5 * (lo + hi);
+        if voxels(resolution(w, n, mid)) <= budget {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    resolution(w, n, lo)
+}
+
 /// Builds the grid, bins the triangles, maps voxels to PEs and lays out the PE images.
 pub fn build(mesh: &Mesh, params: &GridParams) -> Result<Grid, GridError> {
     build_with_prims(mesh, &[], params)
@@ -257,7 +305,7 @@ pub fn build_with_prims(mesh: &Mesh, prims: &[AnalyticPrim], params: &GridParams
     let n_prims = mesh.triangles.len() + prims.len();
     let dims = match params.dims_override {
         Some(d) => d.map(|v| v.clamp(1, MAX_DIM)),
-        None => resolution(mesh_bounds.extent(), n_prims, params.m),
+        None => resolution_within(mesh_bounds.extent(), n_prims, params.m, params.max_voxels),
     };
     let bounds = pad_bounds(&mesh_bounds);
     let gmin = bounds.min.map(|v| v as f64);
@@ -530,6 +578,52 @@ mod tests {
         assert_eq!(resolution([1.0, 1.0, 0.0], 100, 1.0), [11, 11, 1]);
         assert_eq!(resolution([0.0, 0.0, 0.0], 100, 1.0), [1, 1, 1]);
         assert_eq!(resolution([1.0, 1.0, 1.0], 1, 1.0), [2, 2, 2]);
+    }
+
+    fn voxels(d: [u16; 3]) -> u64 {
+        d.iter().map(|&v| u64::from(v)).product()
+    }
+
+    /// The capped grid is Eq. 6.1's at some multiplier m' ≤ m, fits the budget, and no
+    /// Eq. 6.1 grid at a multiplier in (0, m] that fits holds more voxels; a grid that fits
+    /// is left as Eq. 6.1 gives it.
+    #[test]
+    fn the_voxel_budget_keeps_the_largest_eq61_grid_that_fits() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x6121_D0C5);
+        for _ in 0..400 {
+            let w = [0, 1, 2].map(|_| if rng.gen_bool(0.1) { 0.0 } else { rng.gen_range(0.01..100.0) });
+            let n = rng.gen_range(1..200_000usize);
+            let m = rng.gen_range(0.1..3.0);
+            let budget = rng.gen_range(1..20_000u32);
+            let capped = resolution_within(w, n, m, budget);
+            let full = resolution(w, n, m);
+            if voxels(full) <= u64::from(budget) {
+                assert_eq!(capped, full, "{w:?} {n} {m} {budget}");
+                continue;
+            }
+            assert!(voxels(capped) <= u64::from(budget), "{w:?} {n} {m} {budget}: {capped:?}");
+            assert!((0..3).all(|i| capped[i] <= full[i]));
+            for k in 1..=200 {
+                let d = resolution(w, n, m * k as f64 / 200.0);
+                if voxels(d) <= u64::from(budget) {
+                    assert!(voxels(d) <= voxels(capped), "{w:?} {n} {m} {budget}: {d:?} fits, {capped:?} kept");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_default_budget_caps_larger_bunnies_and_leaves_res4_alone() {
+        let load = |f: &str| crate::scene::load_mesh(&scenes().join(f)).unwrap();
+        let full = build(&load("stanford-bunny.obj"), &GridParams::default()).unwrap();
+        assert_eq!(full.dims, [14, 13, 11]);
+        assert!(voxels(full.dims) <= u64::from(DEFAULT_MAX_VOXELS));
+        let res4 = build(&load("bun_zipper_res4.obj"), &GridParams::default()).unwrap();
+        assert_eq!(res4.dims, [11, 11, 9]);
+        // bun_zipper_res3: Eq. 6.1 gives 18×17×14 = 4 284 voxels.
+        assert_eq!(build(&load("bun_zipper_res3.obj"), &GridParams::default()).unwrap().dims, [14, 13, 11]);
+        let uncapped = GridParams { max_voxels: u32::MAX, ..GridParams::default() };
+        assert_eq!(build(&load("bun_zipper_res3.obj"), &uncapped).unwrap().dims, [18, 17, 14]);
     }
 
     /// Independent exact overlap: clip the triangle polygon against the six slabs of the box

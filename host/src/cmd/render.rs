@@ -390,6 +390,7 @@ impl Cmd {
             pe_mem_words,
             mapping: self.scene.mapping.into(),
             dims_override: None,
+            max_voxels: self.scene.grid_max_voxels.min(info.voxel_capacity),
         };
         for w in &loaded.mesh.stats.warnings {
             eprintln!("warning: {w}");

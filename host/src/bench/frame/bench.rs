@@ -20,17 +20,20 @@ use gridrt_firmware::device::Stage;
 
 /// The scene prepared for the qemu-virt board's PEs, and the render request of the frame:
 /// the scene's view at `width`×`height`, the stages it needs (as `gridrt render` derives
-/// them), `encoding`; the grid's resolution multiplier `grid_m` (GridRT Eq. 6.1).
+/// them), `encoding`; the grid's resolution multiplier `grid_m` (GridRT Eq. 6.1) and its most
+/// voxels `max_voxels` ([`GridParams::max_voxels`]).
 pub fn prepare(
     scene: &Path,
     width: u16,
     height: u16,
     encoding: PixelEncoding,
     grid_m: f64,
+    max_voxels: u32,
 ) -> Result<(PreparedScene, RenderRequest, Plan), FrameBenchError> {
     let loaded = crate::scene::load(scene)?;
     let params = GridParams {
         m: grid_m,
+        max_voxels,
         pe_count: run::QEMU_PE_COUNT,
         pe_mem_words: run::QEMU_PE_MEM_WORDS,
         ..GridParams::default()
@@ -47,7 +50,8 @@ pub fn prepare(
 /// Runs every configuration × target of `opt` (`bench::frame` module docs) and assembles the
 /// report.
 pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Result<FrameReport, FrameBenchError> {
-    let (prepared, req, plan) = prepare(&opt.scene, opt.width, opt.height, opt.encoding, opt.grid_m)?;
+    let (prepared, req, plan) =
+        prepare(&opt.scene, opt.width, opt.height, opt.encoding, opt.grid_m, opt.grid_max_voxels)?;
     // The RTL's PEs hold `SimConfig::RTL.pe_mem_words` each: a scene whose fullest PE
     // needs more gets no `rtl` row (the QEMU board's 2¹⁹ words would describe no hardware).
     let skipped = rtl_skip_reason(&prepared).filter(|_| opt.configs.contains(&Configuration::Rtl));
@@ -71,7 +75,7 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
             &opt.repo,
             &loaded,
             &req,
-            opt.grid_m,
+            (opt.grid_m, opt.grid_max_voxels),
             opt.soc_clock(),
             (opt.soc_float_hw, opt.soc_l2_kib, opt.soc_harts, opt.soc_pe_cache_lines),
             progress,
@@ -239,6 +243,7 @@ pub fn run_bench(opt: &BenchOptions, progress: &mut dyn FnMut(BenchEvent)) -> Re
         triangles: prepared.grid.triangle_count,
         grid: prepared.grid.dims,
         grid_m: opt.grid_m,
+        grid_max_voxels: opt.grid_max_voxels,
         pe_count: prepared.grid.pe_count,
         plan: plan.names().iter().map(|s| s.to_string()).collect(),
         tx_buffer_bytes: opt.tx_buffer_bytes,

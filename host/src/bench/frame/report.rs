@@ -42,6 +42,8 @@ pub struct FrameReport {
     pub grid: [u16; 3],
     /// Its multiplier m (GridRT Eq. 6.1).
     pub grid_m: f64,
+    /// Its most voxels (a mesh with more gets a smaller m: `GridParams::max_voxels`).
+    pub grid_max_voxels: u32,
     /// PEs.
     pub pe_count: u16,
     /// Stages the frame runs.

@@ -291,6 +291,8 @@ pub struct BenchOptions {
     pub encoding: PixelEncoding,
     /// Grid resolution multiplier m of GridRT Eq. 6.1, for every row.
     pub grid_m: f64,
+    /// Most voxels of the grid, for every row (`GridParams::max_voxels`).
+    pub grid_max_voxels: u32,
     /// The `soc` row's CPU: floating point in hardware or not.
     pub soc_float_hw: SocFloatHw,
     /// The `soc` row's L2 cache in front of its SDRAM, KiB (None: the SoC's default).

@@ -185,7 +185,7 @@ pub fn run_on_soc(
     repo: &Path,
     loaded: &crate::scene::Scene,
     request: &RenderRequest,
-    grid_m: f64,
+    (grid_m, max_voxels): (f64, u32),
     clock: SocClock,
     (float_hw, l2_kib, harts, pe_cache_lines): (SocFloatHw, Option<u32>, u32, u32),
     progress: &mut dyn FnMut(BenchEvent),
@@ -260,8 +260,13 @@ pub fn run_on_soc(
             info.pe_count, info.pe_mem_words, rtl.pe_count, rtl.pe_mem_words
         )));
     }
-    let params =
-        GridParams { m: grid_m, pe_count: info.pe_count, pe_mem_words: info.pe_mem_words, ..GridParams::default() };
+    let params = GridParams {
+        m: grid_m,
+        max_voxels,
+        pe_count: info.pe_count,
+        pe_mem_words: info.pe_mem_words,
+        ..GridParams::default()
+    };
     let prepared = PreparedScene::new(loaded.clone(), &params)?;
     // Refused here, before minutes of simulated upload, as `gridrt render` refuses it.
     let voxels = prepared.grid.voxel_count();

@@ -25,6 +25,7 @@ fn options() -> BenchOptions {
         baud: 921_600,
         encoding: PixelEncoding::Rle,
         grid_m: 1.0,
+        grid_max_voxels: crate::grid::DEFAULT_MAX_VOXELS,
         soc_float_hw: SocFloatHw::None,
         soc_l2_kib: None,
         soc_harts: 1,
@@ -45,7 +46,7 @@ fn options() -> BenchOptions {
 #[test]
 fn a_wrapper_the_device_reports_is_not_taken_out_twice() {
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0, opt.grid_max_voxels).unwrap();
     let quiet = &mut |_| {};
     let mut run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
     let sim = run.clone();
@@ -66,7 +67,7 @@ fn a_wrapper_the_device_reports_is_not_taken_out_twice() {
 #[test]
 fn a_device_row_charges_the_firmware_without_the_wrapper_and_serialises_every_issue_field() {
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0, opt.grid_max_voxels).unwrap();
     let quiet = &mut |_| {};
     let mut run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
     let sim = run.clone();
@@ -156,7 +157,7 @@ fn measured_cpi_charges_each_stage_at_its_own_cpi_on_the_soft_float_target_only(
     assert_eq!(measured.cpi("fsl_io"), Some(5.0));
     let mut opt = options();
     opt.measured_cpi = Some(measured);
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0, opt.grid_max_voxels).unwrap();
     let quiet = &mut |_| {};
     let mut run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
     let sim = run.clone();
@@ -187,7 +188,7 @@ fn measured_cpi_charges_each_stage_at_its_own_cpi_on_the_soft_float_target_only(
 #[test]
 fn host_native_renders_the_loopbacks_image_and_reports_measured_wall_time() {
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0, opt.grid_max_voxels).unwrap();
     let quiet = &mut |_| {};
     let sim = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", quiet).unwrap();
     let native = run_native(&prepared, &req, 0, 2, quiet).unwrap();
@@ -212,7 +213,7 @@ fn host_native_renders_the_loopbacks_image_and_reports_measured_wall_time() {
 #[test]
 fn csv_and_svg_have_a_line_and_a_bar_label_per_row() {
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), 8, 6, opt.encoding, 1.0).unwrap();
+    let (prepared, req, _) = prepare(res4(), 8, 6, opt.encoding, 1.0, opt.grid_max_voxels).unwrap();
     let quiet = &mut |_| {};
     let sim = run_on_loopback(TimingProfile::PIPELINED, kernel(), &prepared, &req, "t", quiet).unwrap();
     let cmp = compare(&sim.frame.rgb, &sim.frame.rgb, None, None).unwrap();
@@ -239,6 +240,7 @@ fn csv_and_svg_have_a_line_and_a_bar_label_per_row() {
         triangles: 946,
         grid: [11, 11, 9],
         grid_m: 1.0,
+        grid_max_voxels: crate::grid::DEFAULT_MAX_VOXELS,
         pe_count: 4,
         plan: vec!["shadows".into()],
         tx_buffer_bytes: 16,
@@ -304,7 +306,7 @@ fn the_rtl_row_runs_the_rtls_kernel_and_charges_its_profile_at_the_boards_one_cl
     }
 
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0, opt.grid_max_voxels).unwrap();
     let quiet = &mut |_| {};
     let sim = run_on_loopback(TimingProfile::RTL, Configuration::Rtl.kernel(), &prepared, &req, "t", quiet).unwrap();
     let cmp = compare(&sim.frame.rgb, &sim.frame.rgb, None, None).unwrap();
@@ -335,7 +337,7 @@ fn measured_cpi_is_not_charged_to_the_soft_core_only_rows() {
     }});
     let mut opt = options();
     opt.measured_cpi = Some(MeasuredCpi::from_stats_json("vexriscv-imac", "soc.json", &stats.to_string()).unwrap());
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0, opt.grid_max_voxels).unwrap();
     let run = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "t", &mut |_| {}).unwrap();
     let cmp = compare(&run.frame.rgb, &run.frame.rgb, None, None).unwrap();
     let row = device_row(Configuration::SoftCoreOnly, Target::Riscv32imac, &run, None, &cmp, &opt);
@@ -368,7 +370,7 @@ fn soc_run(run: DeviceRun, rtl: DeviceRun, harts: u32) -> super::soc::SocRun {
 fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_it() {
     use super::report::{distance_from_soc, soc_row};
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0, opt.grid_max_voxels).unwrap();
     let mut run =
         run_on_loopback(TimingProfile::RTL, Configuration::Soc.kernel(), &prepared, &req, "t", &mut |_| {}).unwrap();
     let rtl = run.clone();
@@ -415,7 +417,7 @@ fn the_soc_row_is_the_socs_counters_and_modelled_rows_state_their_distance_from_
 fn a_two_hart_soc_row_has_no_stage_figures_and_models_no_distance_from_it() {
     use super::report::{distance_from_soc, soc_row};
     let opt = options();
-    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0).unwrap();
+    let (prepared, req, _) = prepare(res4(), opt.width, opt.height, opt.encoding, 1.0, opt.grid_max_voxels).unwrap();
     let mut run =
         run_on_loopback(TimingProfile::RTL, Configuration::Soc.kernel(), &prepared, &req, "t", &mut |_| {}).unwrap();
     let rtl = run.clone();
@@ -456,13 +458,20 @@ fn a_two_hart_soc_row_has_no_stage_figures_and_models_no_distance_from_it() {
 #[test]
 fn a_scene_larger_than_the_rtls_pe_memory_gets_no_rtl_row() {
     let res3 = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/scenes/bun_zipper_res3.obj"));
-    let (big, ..) = bench::prepare(res3, 8, 6, PixelEncoding::Rle, 1.0).unwrap();
+    // Eq. 6.1's own grid (18×17×14), uncapped.
+    let (big, ..) = bench::prepare(res3, 8, 6, PixelEncoding::Rle, 1.0, u32::MAX).unwrap();
     let why = bench::rtl_skip_reason(&big).expect("res3's fullest PE exceeds the RTL's 16384 words");
     assert!(why.contains("16384"), "{why}");
-    let (small, ..) = bench::prepare(res4(), 8, 6, PixelEncoding::Rle, 1.0).unwrap();
+    let (small, ..) = bench::prepare(res4(), 8, 6, PixelEncoding::Rle, 1.0, crate::grid::DEFAULT_MAX_VOXELS).unwrap();
     assert_eq!(bench::rtl_skip_reason(&small), None, "res4 fits the RTL's 4 PEs");
 
-    let opt = BenchOptions { scene: res3.into(), configs: vec![Configuration::Rtl], targets: vec![], ..options() };
+    let opt = BenchOptions {
+        scene: res3.into(),
+        configs: vec![Configuration::Rtl],
+        targets: vec![],
+        grid_max_voxels: u32::MAX,
+        ..options()
+    };
     let report = run_bench(&opt, &mut |_| {}).unwrap();
     assert!(report.rows.is_empty(), "no rtl row: {:?}", report.rows.iter().map(|r| &r.config).collect::<Vec<_>>());
     assert_eq!(report.skipped.len(), 1);

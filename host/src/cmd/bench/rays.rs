@@ -159,6 +159,7 @@ impl Args {
             pe_mem_words: self.scene.pe_mem_words.unwrap_or(u32::MAX),
             mapping: self.scene.mapping.into(),
             dims_override: None,
+            max_voxels: self.scene.grid_max_voxels,
         };
         let grid = build(&scene.mesh, &params).context("building the grid")?;
         let kernel: KernelKind = self.kernel.into();
