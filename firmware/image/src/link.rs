@@ -23,12 +23,25 @@ pub struct Excluded {
     calls: Cell<u64>,
     /// Instructions of [`TimedLink`] per timed call outside its counter reads.
     wrapper: Cell<u32>,
+    /// What [`ModelFreeClock`] subtracts from the low counter words: the low words of the
+    /// excluded cycles and instructions plus `calls × wrapper`, kept by [`Excluded::add`]
+    /// (outside the timed reads, so calibrated away with the wrapper), so that a stage lap
+    /// pays one subtraction per counter, as a board's clock pays none.
+    offset_cycles: Cell<u32>,
+    offset_instret: Cell<u32>,
 }
 
 impl Excluded {
     /// Nothing excluded yet; no wrapper cost known (see [`Excluded::calibrate`]).
     pub const fn new() -> Self {
-        Self { cycles: Cell::new(0), instret: Cell::new(0), calls: Cell::new(0), wrapper: Cell::new(0) }
+        Self {
+            cycles: Cell::new(0),
+            instret: Cell::new(0),
+            calls: Cell::new(0),
+            wrapper: Cell::new(0),
+            offset_cycles: Cell::new(0),
+            offset_instret: Cell::new(0),
+        }
     }
 
     /// Instructions inside the timed calls (the model's work and the wrapper's own inside
@@ -57,6 +70,10 @@ impl Excluded {
         let wrapped = t1.instret.wrapping_sub(t0.instret);
         let plain = t2.instret.wrapping_sub(t1.instret);
         self.wrapper.set(wrapped.saturating_sub(plain).checked_div(N).unwrap_or(0));
+        // The calls so far now count the wrapper's cost too (`ModelFreeClock::now` before).
+        let w = (self.calls.get() as u32).wrapping_mul(self.wrapper.get());
+        self.offset_cycles.set((self.cycles.get() as u32).wrapping_add(w));
+        self.offset_instret.set((self.instret.get() as u32).wrapping_add(w));
     }
 
     /// The calibrated instructions per call ([`Excluded::calibrate`]).
@@ -67,9 +84,13 @@ impl Excluded {
     #[inline(always)]
     fn add(&self, from: StageStamp, to: StageStamp) {
         let (c, i) = (self.cycles.get(), self.instret.get());
-        self.cycles.set(c.wrapping_add(u64::from(to.cycles.wrapping_sub(from.cycles))));
-        self.instret.set(i.wrapping_add(u64::from(to.instret.wrapping_sub(from.instret))));
+        let (dc, di) = (to.cycles.wrapping_sub(from.cycles), to.instret.wrapping_sub(from.instret));
+        self.cycles.set(c.wrapping_add(u64::from(dc)));
+        self.instret.set(i.wrapping_add(u64::from(di)));
         self.calls.set(self.calls.get().wrapping_add(1));
+        let w = self.wrapper.get();
+        self.offset_cycles.set(self.offset_cycles.get().wrapping_add(dc).wrapping_add(w));
+        self.offset_instret.set(self.offset_instret.get().wrapping_add(di).wrapping_add(w));
     }
 }
 
@@ -212,11 +233,10 @@ impl<K: CycleCounter + Clone> StageClock for ModelFreeClock<'_, K> {
         let ex = self.excluded;
         // Low words: the stopwatch only takes wrapping differences. The wrapper's cost
         // outside its reads is charged at one cycle per instruction (exact under QEMU's
-        // `-icount shift=0`).
-        let wrapper = (ex.calls.get() as u32).wrapping_mul(ex.wrapper.get());
+        // `-icount shift=0`), in the offsets (`Excluded::add`).
         StageStamp {
-            cycles: cycles.wrapping_sub(ex.cycles.get() as u32).wrapping_sub(wrapper),
-            instret: instret.wrapping_sub(ex.instret.get() as u32).wrapping_sub(wrapper),
+            cycles: cycles.wrapping_sub(ex.offset_cycles.get()),
+            instret: instret.wrapping_sub(ex.offset_instret.get()),
         }
     }
 
