@@ -276,6 +276,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
             // Flush per row so the host sees progress while the next row renders.
             self.spans.flush(tx, out).map_err(Fail::tx)?;
             sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
+            sw.flush(&mut self.path.stats);
         }
         self.path.stats.interpolated_pixels = counts.interpolated;
         self.path.stats.interp_retraces = counts.retraces;

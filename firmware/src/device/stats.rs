@@ -24,9 +24,10 @@ impl StageCount {
 
 /// The low 32 bits of both counters: what a stage lap reads (one CSR read each on RV32,
 /// where a consistent 64-bit read is a three-instruction retry loop). A lap charges the
-/// wrapping difference of two stamps, which is exact while a lap lasts fewer than 2^32
-/// cycles: the pixel loop laps at least once per pixel, and a pixel's work is bounded
-/// (lists ≤ 765 entries, ≤ 8 bounces, every link wait ≤ `DEFAULT_POLLS` polls).
+/// wrapping difference of two stamps, which is exact while a lap lasts fewer than 2^31
+/// cycles (43 s at 50 MHz; [`Stopwatch`] sums laps in 32 bits): the pixel loop laps at
+/// least once per pixel, and a pixel's work is bounded (lists ≤ 765 entries, ≤ 8 bounces,
+/// every link wait ≤ `DEFAULT_POLLS` polls).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct StageStamp {
     /// Low word of `mcycle`.
@@ -418,23 +419,94 @@ impl FrameStats {
 }
 
 /// Stage stopwatch: each lap charges the time since the previous lap to one stage.
+///
+/// Laps add into 32-bit sums per stage ([`StageStamp`]s), which go into the frame's 64-bit
+/// counters at [`flush`](Self::flush) (the frame loop's end of every row) and whenever a sum
+/// reaches 2^31: two 32-bit additions per lap where the 64-bit counters took two carries
+/// and twice the loads and stores. With every lap below 2^31 cycles no sum wraps.
 pub(super) struct Stopwatch {
     last: StageStamp,
+    pending: [StageStamp; 5],
 }
 
 impl Stopwatch {
     /// A stopwatch whose first lap starts now.
     pub(super) fn start<C: StageClock>(clock: &C) -> Self {
-        Self { last: clock.now() }
+        Self { last: clock.now(), pending: [StageStamp::default(); 5] }
     }
 
     /// Charges the time since the previous lap to `stage`.
     #[inline(always)]
     pub(super) fn lap<C: StageClock>(&mut self, clock: &C, stats: &mut FrameStats, stage: Stage) {
         let now = clock.now();
-        if let Some(s) = stats.stages.get_mut(stage.index()) {
-            s.add(now.since(self.last));
-        }
+        let d = now.since(self.last);
         self.last = now;
+        if let Some(p) = self.pending.get_mut(stage.index()) {
+            p.cycles = p.cycles.wrapping_add(d.cycles);
+            p.instret = p.instret.wrapping_add(d.instret);
+            if (p.cycles | p.instret) >> 31 != 0 {
+                self.flush(stats);
+            }
+        }
+    }
+
+    /// Adds the laps' sums into `stats` and starts them again from zero.
+    #[cold]
+    #[inline(never)]
+    pub(super) fn flush(&mut self, stats: &mut FrameStats) {
+        for (s, p) in stats.stages.iter_mut().zip(&mut self.pending) {
+            s.add(core::mem::take(p));
+        }
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::arithmetic_side_effects, clippy::indexing_slicing)] // test sums in u64
+mod tests {
+    use super::{FrameStats, Stage, StageClock, StageStamp, Stopwatch};
+    use core::cell::Cell;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A clock that reads what the test set.
+    #[derive(Clone)]
+    struct Scripted<'a>(&'a Cell<StageStamp>);
+
+    impl StageClock for Scripted<'_> {
+        fn now(&self) -> StageStamp {
+            self.0.get()
+        }
+    }
+
+    /// Laps of up to 2^31 − 1 cycles each, in any order of stages, flushed or not: the
+    /// frame's counters equal the 64-bit sums of the laps (the 32-bit sums never wrap).
+    #[test]
+    fn laps_summed_in_32_bits_equal_the_64_bit_sums() {
+        let mut rng = ChaCha8Rng::seed_from_u64(0x1A95_0032);
+        for round in 0..50 {
+            let now = Cell::new(StageStamp { cycles: rng.gen(), instret: rng.gen() });
+            let clock = Scripted(&now);
+            let mut sw = Stopwatch::start(&clock);
+            let mut stats = FrameStats::default();
+            let mut want = [(0u64, 0u64); 5];
+            let big = round % 2 == 0;
+            for _ in 0..2_000 {
+                let dc: u32 = if big { rng.gen_range(0..1 << 31) } else { rng.gen_range(0..5_000) };
+                let di = rng.gen_range(0..=dc);
+                let t = now.get();
+                now.set(StageStamp { cycles: t.cycles.wrapping_add(dc), instret: t.instret.wrapping_add(di) });
+                let stage = Stage::ALL[rng.gen_range(0..5)];
+                sw.lap(&clock, &mut stats, stage);
+                want[stage.index()].0 += u64::from(dc);
+                want[stage.index()].1 += u64::from(di);
+                if rng.gen_bool(0.01) {
+                    sw.flush(&mut stats);
+                }
+            }
+            sw.flush(&mut stats);
+            for (s, (c, i)) in stats.stages.iter().zip(want) {
+                assert_eq!((s.cycles, s.instret), (c, i), "round {round}");
+            }
+        }
     }
 }
