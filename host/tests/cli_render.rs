@@ -63,10 +63,10 @@ fn render_sim_of_bunny_res4_matches_the_f64_reference() {
 #[test]
 fn render_sim_of_the_69k_triangle_bunny_matches_the_f64_reference() {
     let stats = render_sim("stanford-bunny.obj", &[]);
-    assert_eq!(stats["grid"], serde_json::json!([14, 13, 11]), "Eq. 6.1 within the default 2048 voxels");
+    assert_eq!(stats["grid"], serde_json::json!([45, 45, 35]), "Eq. 6.1 at m = 1");
     assert_matches_reference(&stats);
-    let eq61 = render_sim("stanford-bunny.obj", &["--width", "16", "--height", "12", "--grid-max-voxels", "16581375"]);
-    assert_eq!(eq61["grid"], serde_json::json!([45, 45, 35]), "Eq. 6.1 at m = 1, uncapped");
+    let capped = render_sim("stanford-bunny.obj", &["--width", "16", "--height", "12", "--grid-max-voxels", "2048"]);
+    assert_eq!(capped["grid"], serde_json::json!([14, 13, 11]), "Eq. 6.1 within 2048 voxels");
 }
 
 #[test]

@@ -121,11 +121,11 @@ pub struct SceneOptions {
     #[arg(long, default_value_t = 1.0, value_name = "M", value_parser = positive_f64)]
     pub grid_m: f64,
     /// Most voxels of the grid: a mesh whose Eq. 6.1 grid holds more gets the largest m below
-    /// --grid-m that fits, and no more than the device holds. A coarser grid costs the
-    /// soft-core fewer 3D-DDA steps per ray and the co-processor more tests; past about 2 048
-    /// voxels the soft-core loses more than it gains (docs/bench-firmware.md). 16581375 (255³)
-    /// leaves Eq. 6.1's grid as it is.
-    #[arg(long, default_value_t = gridrt_host::grid::DEFAULT_MAX_VOXELS, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    /// --grid-m that fits [default: 16581375 = 255³, no cap]. A coarser grid costs the
+    /// soft-core fewer 3D-DDA steps per ray and the co-processor more tests: it pays where PE
+    /// memory is fast (block RAM, the simulator's model), and costs a board whose PE images sit
+    /// in SDRAM behind caches (docs/bench-firmware.md, "Cost independent of mesh size").
+    #[arg(long, default_value_t = gridrt_host::grid::MAX_VOXELS, hide_default_value = true, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     pub grid_max_voxels: u32,
     /// Voxel→PE mapping.
     #[arg(long, value_enum, default_value_t = Mapping::Interleaved)]

@@ -390,7 +390,7 @@ impl Cmd {
             pe_mem_words,
             mapping: self.scene.mapping.into(),
             dims_override: None,
-            max_voxels: self.scene.grid_max_voxels.min(info.voxel_capacity),
+            max_voxels: self.scene.grid_max_voxels,
         };
         for w in &loaded.mesh.stats.warnings {
             eprintln!("warning: {w}");
@@ -400,7 +400,7 @@ impl Cmd {
         if voxels > info.voxel_capacity {
             let d = prepared.grid.dims;
             bail!(
-                "grid {}×{}×{} = {voxels} voxels exceeds the device's capacity of {} voxels; use a smaller --grid-m (now {})",
+                "grid {}×{}×{} = {voxels} voxels exceeds the device's capacity of {} voxels; use a smaller --grid-m (now {}) or --grid-max-voxels",
                 d[0],
                 d[1],
                 d[2],

@@ -221,7 +221,7 @@ fn qemu_and_loopback_do_the_same_work_for_the_same_frame() {
     let coproc = build_firmware(&["--target", "riscv32imafc", "--bin", "app"]);
     let direct = build_firmware(&["--target", "riscv32imafc", "--bin", "app", "--features", "soft-core-only"]);
     let (prepared, req, _) =
-        prepare(Path::new(&scene()), 48, 36, PixelEncoding::Rle, 1.0, gridrt_host::grid::DEFAULT_MAX_VOXELS).unwrap();
+        prepare(Path::new(&scene()), 48, 36, PixelEncoding::Rle, 1.0, gridrt_host::grid::MAX_VOXELS).unwrap();
     let quiet = &mut |_| {};
     let q = run_on_qemu(&coproc, &prepared, &req, "qemu", quiet).unwrap();
     let s = run_on_loopback(TimingProfile::GRIDRT, kernel(), &prepared, &req, "loopback", quiet).unwrap();

@@ -25,7 +25,7 @@ fn options() -> BenchOptions {
         baud: 921_600,
         encoding: PixelEncoding::Rle,
         grid_m: 1.0,
-        grid_max_voxels: crate::grid::DEFAULT_MAX_VOXELS,
+        grid_max_voxels: crate::grid::MAX_VOXELS,
         soc_float_hw: SocFloatHw::None,
         soc_l2_kib: None,
         soc_harts: 1,
@@ -240,7 +240,7 @@ fn csv_and_svg_have_a_line_and_a_bar_label_per_row() {
         triangles: 946,
         grid: [11, 11, 9],
         grid_m: 1.0,
-        grid_max_voxels: crate::grid::DEFAULT_MAX_VOXELS,
+        grid_max_voxels: crate::grid::MAX_VOXELS,
         pe_count: 4,
         plan: vec!["shadows".into()],
         tx_buffer_bytes: 16,
@@ -458,18 +458,18 @@ fn a_two_hart_soc_row_has_no_stage_figures_and_models_no_distance_from_it() {
 #[test]
 fn a_scene_larger_than_the_rtls_pe_memory_gets_no_rtl_row() {
     let res3 = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/scenes/bun_zipper_res3.obj"));
-    // Eq. 6.1's own grid (18×17×14), uncapped.
-    let (big, ..) = bench::prepare(res3, 8, 6, PixelEncoding::Rle, 1.0, u32::MAX).unwrap();
+    // Eq. 6.1's own grid (18×17×14).
+    let (big, ..) = bench::prepare(res3, 8, 6, PixelEncoding::Rle, 1.0, crate::grid::MAX_VOXELS).unwrap();
     let why = bench::rtl_skip_reason(&big).expect("res3's fullest PE exceeds the RTL's 16384 words");
     assert!(why.contains("16384"), "{why}");
-    let (small, ..) = bench::prepare(res4(), 8, 6, PixelEncoding::Rle, 1.0, crate::grid::DEFAULT_MAX_VOXELS).unwrap();
+    let (small, ..) = bench::prepare(res4(), 8, 6, PixelEncoding::Rle, 1.0, crate::grid::MAX_VOXELS).unwrap();
     assert_eq!(bench::rtl_skip_reason(&small), None, "res4 fits the RTL's 4 PEs");
 
     let opt = BenchOptions {
         scene: res3.into(),
         configs: vec![Configuration::Rtl],
         targets: vec![],
-        grid_max_voxels: u32::MAX,
+        grid_max_voxels: crate::grid::MAX_VOXELS,
         ..options()
     };
     let report = run_bench(&opt, &mut |_| {}).unwrap();

@@ -54,8 +54,8 @@ pub struct Args {
     #[arg(long, default_value_t = 1.0, value_name = "M", value_parser = crate::cmd::common::positive_f64)]
     grid_m: f64,
     /// Most voxels of the grid, for every row: a mesh whose Eq. 6.1 grid holds more gets the
-    /// largest m below --grid-m that fits (16581375 = 255³: Eq. 6.1's grid as it is).
-    #[arg(long, default_value_t = gridrt_host::grid::DEFAULT_MAX_VOXELS, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    /// largest m below --grid-m that fits [default: 16581375 = 255³, no cap].
+    #[arg(long, default_value_t = gridrt_host::grid::MAX_VOXELS, hide_default_value = true, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     grid_max_voxels: u32,
     /// The `soc` row's CPU: cfu (default: VexRiscv full+cfu with the f32 CFU, the firmware
     /// for riscv32im) or none (VexRiscv imac, f32 in soft float: the smaller CPU, for small

@@ -124,7 +124,7 @@ impl Args {
             pe_mem_words: info.pe_mem_words,
             mapping: gridrt_host::grid::PeMapping::Interleaved,
             dims_override: None,
-            max_voxels: gridrt_host::grid::DEFAULT_MAX_VOXELS,
+            max_voxels: gridrt_host::grid::MAX_VOXELS,
         };
         let mut out = Vec::new();
         for &n in self.points.iter().filter(|&&n| n <= 10_000) {
