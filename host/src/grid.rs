@@ -584,9 +584,9 @@ mod tests {
         d.iter().map(|&v| u64::from(v)).product()
     }
 
-    /// The capped grid is Eq. 6.1's at some multiplier m' ≤ m, fits the budget, and no
-    /// Eq. 6.1 grid at a multiplier in (0, m] that fits holds more voxels; a grid that fits
-    /// is left as Eq. 6.1 gives it.
+    /// The capped grid fits the budget, is nowhere finer than Eq. 6.1's at m, and no Eq. 6.1
+    /// grid at a multiplier in (0, m] that fits holds more voxels; a grid that fits is left as
+    /// Eq. 6.1 gives it.
     #[test]
     fn the_voxel_budget_keeps_the_largest_eq61_grid_that_fits() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x6121_D0C5);
