@@ -168,6 +168,9 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         out: &mut impl Write,
     ) -> Result<(), Fail> {
         let (req, region) = (job.req, job.region);
+        // The frame's setup (camera, spans, the occupancy mask: work per non-empty cell, per
+        // column) is ray generation's, and counted as such.
+        let mut sw = Stopwatch::start(&self.clock);
         let mut ctx = Self::frame_ctx(scene, job)?;
         ctx.columns.fill(&ctx.cam, req.width, cfg!(soft_float));
         if cfg!(soft_float) {
@@ -206,7 +209,6 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
                 & (render_flags::INTERP_STEP_MASK | render_flags::INTERP_EPS_MASK | render_flags::INTERP_ADAPTIVE);
         }
         self.path.stats.plan = plan as u64;
-        let mut sw = Stopwatch::start(&self.clock);
         let (x1, y1) = (region.x0.saturating_add(region.cols), region.y0.saturating_add(region.rows));
         if !interpolate {
             let rows = Rows {
@@ -222,6 +224,8 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
                 return r;
             }
         }
+        // Timed frames only (the farm's are not): the setup, charged to ray generation.
+        sw.lap(&self.clock, &mut self.path.stats, Stage::RayGen);
         let mut counts = Counts::default();
         let mut ctl = StepControl::new(&params);
         for y in region.y0..y1 {

@@ -138,7 +138,7 @@ impl<T: crate::bsp::CycleCounter + Clone> StageClock for CounterClock<T> {
 /// Pipeline stages with their own cycle/instruction counters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stage {
-    /// Camera ray generation.
+    /// Camera ray generation, and the frame's setup for it (camera, spans, occupancy mask).
     RayGen,
     /// 3D-DDA and list building.
     Traverse,
