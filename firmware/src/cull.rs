@@ -30,6 +30,9 @@ const Q: u32 = 8;
 const QS: u32 = 16;
 /// Largest projected coordinate accepted, in pixels.
 const FAR_PX: f32 = (1u32 << 20) as f32;
+/// Most consecutive non-empty cells of a grid row that [`OccupancyMask::new`] projects as one
+/// box.
+const MASK_RUN: usize = 4;
 /// Corner pairs.
 const SEGMENTS: usize = 28;
 /// Half height of a row's band, Q8: 1/8 pixel, far above the projection's rounding
@@ -221,23 +224,40 @@ impl OccupancyMask {
         let [nx, ny, nz] = grid.dims;
         let cell = extent / Vec3::new(nx as f32, ny as f32, nz as f32);
         let grow = (extent.max_element() + (bounds.center() - eye).length()) * (1.0 / 65536.0);
-        // The grown cell's half extents dotted with |r|, |u|, |f| (rounded up by far more than
-        // their f32 rounding).
-        let half = cell * 0.5 + Vec3::splat(grow);
+        // The grown box's half extents dotted with |r|, |u|, |f| (rounded up by far more than
+        // their f32 rounding), per run length. Up to MASK_RUN consecutive non-empty cells of a row along x are one box: a box's
+        // bound below holds for any half extents, so the mask stays safe; it is looser, and
+        // it costs one projection per run instead of one per cell.
         let up = 1.0 + 1.0 / 4096.0;
-        let (hr, hu, hf) = (half.dot(r.abs()) * up, half.dot(u.abs()) * up, half.dot(f.abs()) * up);
+        let halves: [(f32, f32, f32); MASK_RUN] = core::array::from_fn(|i| {
+            let half = cell * Vec3::new((i + 1) as f32 * 0.5, 0.5, 0.5) + Vec3::splat(grow);
+            (half.dot(r.abs()) * up, half.dot(u.abs()) * up, half.dot(f.abs()) * up)
+        });
         let (tile_w, tile_h) = ((w as u32).div_ceil(TILES).max(1), (h as u32).div_ceil(TILES).max(1));
         let mut mask = Self { active: true, tile_w, tile_h, rows: [[0; ROW_WORDS]; TILES as usize] };
         let (sx_px, sy_px) = (w * 0.5 / half_w, h * 0.5 / half_h);
-        let mut cells = voxel_pe.iter();
+        let filled = |i: usize| voxel_pe.get(i).map(|&pe| pe != gridrt_shared::scene::EMPTY_VOXEL);
+        // Voxel ids stay below 255³: the index arithmetic cannot overflow.
+        let (nx, ny, nz) = (nx as usize, ny as usize, nz as usize);
         for z in 0..nz {
             for y in 0..ny {
-                for x in 0..nx {
-                    let Some(&pe) = cells.next() else { return mask };
-                    if pe == gridrt_shared::scene::EMPTY_VOXEL {
+                let base = (z * ny + y) * nx;
+                let mut x = 0;
+                while x < nx {
+                    // Ids past the map's end are empty: no cell after them has primitives.
+                    let Some(here) = filled(base + x) else { return mask };
+                    if !here {
+                        x += 1;
                         continue;
                     }
-                    let centre = bounds.min + cell * Vec3::new(x as f32 + 0.5, y as f32 + 0.5, z as f32 + 0.5);
+                    let mut k = 1;
+                    while k < MASK_RUN && x + k < nx && filled(base + x + k) == Some(true) {
+                        k += 1;
+                    }
+                    let (hr, hu, hf) = halves[k - 1];
+                    let centre =
+                        bounds.min + cell * Vec3::new(x as f32 + k as f32 * 0.5, y as f32 + 0.5, z as f32 + 0.5);
+                    x += k;
                     let rel = centre - eye;
                     let zc = rel.dot(f);
                     let in_front = zc > 2.0 * hf;
