@@ -32,7 +32,7 @@ const QS: u32 = 16;
 const FAR_PX: f32 = (1u32 << 20) as f32;
 /// Most consecutive non-empty cells of a grid row that [`OccupancyMask::new`] projects as one
 /// box.
-const MASK_RUN: usize = 4;
+const MASK_RUN: usize = 16;
 /// Corner pairs.
 const SEGMENTS: usize = 28;
 /// Half height of a row's band, Q8: 1/8 pixel, far above the projection's rounding
