@@ -102,6 +102,24 @@ pub fn check_port_exists(path: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The grid's resolution: GridRT Eq. 6.1's multiplier and the most voxels it may give
+/// (`render`, `bench rays`, `bench frame`, `bench pe-cache`, ...).
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct GridResolution {
+    /// Grid resolution multiplier m of GridRT Eq. 6.1 (n_i = floor(m·w_i/s) + 1): smaller means
+    /// fewer, fuller voxels (fewer 3D-DDA steps for the soft-core, more tests for the
+    /// co-processor).
+    #[arg(long, default_value_t = 1.0, value_name = "M", value_parser = positive_f64)]
+    pub grid_m: f64,
+    /// Most voxels of the grid: a mesh whose Eq. 6.1 grid holds more gets the largest m below
+    /// --grid-m that fits [default: 16581375 = 255³, no cap]. A coarser grid costs the
+    /// soft-core fewer 3D-DDA steps per ray and the co-processor more tests: it pays where PE
+    /// memory is fast (block RAM, the simulator's model), and costs a board whose PE images sit
+    /// in SDRAM behind caches (docs/bench-firmware.md, "Cost independent of mesh size").
+    #[arg(long, default_value_t = gridrt_host::grid::MAX_VOXELS, hide_default_value = true, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub grid_max_voxels: u32,
+}
+
 /// Scene file and grid build.
 #[derive(Debug, Clone, clap::Args)]
 #[command(next_help_heading = "Scene and grid")]
@@ -117,16 +135,8 @@ pub struct SceneOptions {
     /// bench: the largest PE image].
     #[arg(long, value_name = "W")]
     pub pe_mem_words: Option<u32>,
-    /// Grid resolution multiplier m of GridRT Eq. 6.1 (n_i = floor(m·w_i/s) + 1).
-    #[arg(long, default_value_t = 1.0, value_name = "M", value_parser = positive_f64)]
-    pub grid_m: f64,
-    /// Most voxels of the grid: a mesh whose Eq. 6.1 grid holds more gets the largest m below
-    /// --grid-m that fits [default: 16581375 = 255³, no cap]. A coarser grid costs the
-    /// soft-core fewer 3D-DDA steps per ray and the co-processor more tests: it pays where PE
-    /// memory is fast (block RAM, the simulator's model), and costs a board whose PE images sit
-    /// in SDRAM behind caches (docs/bench-firmware.md, "Cost independent of mesh size").
-    #[arg(long, default_value_t = gridrt_host::grid::MAX_VOXELS, hide_default_value = true, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
-    pub grid_max_voxels: u32,
+    #[command(flatten)]
+    pub grid: GridResolution,
     /// Voxel→PE mapping.
     #[arg(long, value_enum, default_value_t = Mapping::Interleaved)]
     pub mapping: Mapping,

@@ -385,12 +385,12 @@ impl Cmd {
 
         // Grid and scene image.
         let params = GridParams {
-            m: self.scene.grid_m,
+            m: self.scene.grid.grid_m,
             pe_count: info.pe_count,
             pe_mem_words,
             mapping: self.scene.mapping.into(),
             dims_override: None,
-            max_voxels: self.scene.grid_max_voxels,
+            max_voxels: self.scene.grid.grid_max_voxels,
         };
         for w in &loaded.mesh.stats.warnings {
             eprintln!("warning: {w}");
@@ -405,7 +405,7 @@ impl Cmd {
                 d[1],
                 d[2],
                 info.voxel_capacity,
-                self.scene.grid_m
+                self.scene.grid.grid_m
             );
         }
 

@@ -51,12 +51,12 @@ impl Cmd {
             );
         }
         let params = GridParams {
-            m: self.scene.grid_m,
+            m: self.scene.grid.grid_m,
             pe_count: info.pe_count,
             pe_mem_words: self.scene.pe_mem_words.unwrap_or(info.pe_mem_words),
             mapping: self.scene.mapping.into(),
             dims_override: None,
-            max_voxels: self.scene.grid_max_voxels,
+            max_voxels: self.scene.grid.grid_max_voxels,
         };
         let whole_bounds = cloud.bounds();
         let whole = points::prepare(&cloud, &whole_bounds, &params).context("building the grid of the disks")?;

@@ -48,15 +48,9 @@ pub struct Args {
     /// Pixel encoding of the answer.
     #[arg(long, value_enum, default_value_t = Encoding::Rle)]
     encoding: Encoding,
-    /// Grid resolution multiplier m of GridRT Eq. 6.1 (n_i = floor(m·w_i/s) + 1), for every
-    /// row: smaller means fewer, fuller voxels (fewer DDA steps for the soft-core, more tests
-    /// for the co-processor).
-    #[arg(long, default_value_t = 1.0, value_name = "M", value_parser = crate::cmd::common::positive_f64)]
-    grid_m: f64,
-    /// Most voxels of the grid, for every row: a mesh whose Eq. 6.1 grid holds more gets the
-    /// largest m below --grid-m that fits [default: 16581375 = 255³, no cap].
-    #[arg(long, default_value_t = gridrt_host::grid::MAX_VOXELS, hide_default_value = true, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
-    grid_max_voxels: u32,
+    /// The grid's resolution, for every row.
+    #[command(flatten)]
+    grid: crate::cmd::common::GridResolution,
     /// The `soc` row's CPU: cfu (default: VexRiscv full+cfu with the f32 CFU, the firmware
     /// for riscv32im) or none (VexRiscv imac, f32 in soft float: the smaller CPU, for small
     /// boards). cfu is the default because it measured 12.5 % fewer frame cycles than none on
@@ -258,8 +252,8 @@ impl Args {
             clock_source,
             baud: self.baud,
             encoding: self.encoding.into(),
-            grid_m: self.grid_m,
-            grid_max_voxels: self.grid_max_voxels,
+            grid_m: self.grid.grid_m,
+            grid_max_voxels: self.grid.grid_max_voxels,
             soc_l2_kib: self.soc_l2_kib,
             soc_harts: self.soc_harts,
             soc_pe_cache_lines: self.soc_pe_cache_lines,

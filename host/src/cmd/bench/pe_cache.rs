@@ -53,10 +53,9 @@ pub struct Args {
     /// Words of each PE's (external) memory: the image and the 10-word record table must fit.
     #[arg(long, default_value_t = 1 << 20, value_name = "W", value_parser = clap::value_parser!(u32).range(1..=1 << 24))]
     pe_mem_words: u32,
-    /// Most voxels of the grid: a mesh whose Eq. 6.1 grid holds more gets the
-    /// largest m below --grid-m that fits [default: 16581375 = 255³, no cap].
-    #[arg(long, default_value_t = gridrt_host::grid::MAX_VOXELS, hide_default_value = true, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
-    grid_max_voxels: u32,
+    /// The grid's resolution.
+    #[command(flatten)]
+    grid: crate::cmd::common::GridResolution,
     /// Cache sizes per PE, KiB (powers of two).
     #[arg(long, value_delimiter = ',', default_value = "2,4,8,16,32", value_name = "KIB", value_parser = clap::value_parser!(u32).range(1..=1 << 16))]
     sizes: Vec<u32>,
@@ -117,7 +116,8 @@ impl Args {
             let params = GridParams {
                 pe_count: self.pes,
                 pe_mem_words: self.pe_mem_words,
-                max_voxels: self.grid_max_voxels,
+                m: self.grid.grid_m,
+                max_voxels: self.grid.grid_max_voxels,
                 ..GridParams::default()
             };
             let prepared = PreparedScene::new(loaded, &params).with_context(|| {

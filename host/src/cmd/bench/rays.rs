@@ -154,12 +154,12 @@ impl Args {
         let scene = self.scene.load()?;
         // The bench has no device: size each PE memory to the largest image unless given.
         let params = GridParams {
-            m: self.scene.grid_m,
+            m: self.scene.grid.grid_m,
             pe_count: self.scene.pes,
             pe_mem_words: self.scene.pe_mem_words.unwrap_or(u32::MAX),
             mapping: self.scene.mapping.into(),
             dims_override: None,
-            max_voxels: self.scene.grid_max_voxels,
+            max_voxels: self.scene.grid.grid_max_voxels,
         };
         let grid = build(&scene.mesh, &params).context("building the grid")?;
         let kernel: KernelKind = self.kernel.into();
