@@ -95,6 +95,41 @@ pub struct OriginPlanes {
     /// Per axis, when the integer start cell's bound holds ([`WalkGrid::integer_start`]):
     /// `(o − min)·(n/extent)` in 16.16 fixed point, from the f32 `−(min − o)·scale16`.
     origin_cell16: [Option<i64>; 3],
+    /// Per axis, the bits of the last direction component walked from this table and its
+    /// reciprocal: camera rays of a row share their vertical component, and those of a
+    /// frame the forward one when the camera is axis-aligned (`ReciprocalMemo`).
+    recips: ReciprocalMemo,
+}
+
+/// The last reciprocal per axis, keyed by the bits of the direction component: the same
+/// bits give the same correctly rounded `1/d`, so a hit costs a comparison where a
+/// reciprocal is a soft-float division.
+#[derive(Debug, Clone, Copy)]
+struct ReciprocalMemo {
+    bits: [u32; 3],
+    inv: [f32; 3],
+}
+
+impl Default for ReciprocalMemo {
+    /// `1/1 = 1` on every axis: a valid entry.
+    fn default() -> Self {
+        Self { bits: [1.0f32.to_bits(); 3], inv: [1.0; 3] }
+    }
+}
+
+impl ReciprocalMemo {
+    /// `recip(d[a])` per axis, from the memo where the bits match.
+    #[inline(always)]
+    fn get(&mut self, d: [f32; 3]) -> [f32; 3] {
+        for a in 0..3 {
+            let b = d[a].to_bits();
+            if b != self.bits[a] {
+                self.bits[a] = b;
+                self.inv[a] = recip(d[a]);
+            }
+        }
+        self.inv
+    }
 }
 
 impl Default for OriginPlanes {
@@ -110,6 +145,7 @@ impl Default for OriginPlanes {
             in_slab: [false; 3],
             face_cell: [false; 3],
             origin_cell16: [None; 3],
+            recips: ReciprocalMemo::default(),
         }
     }
 }
@@ -187,6 +223,23 @@ impl WalkGrid {
         t_max: f32,
         words: &mut [u32],
     ) -> usize {
+        self.write_entries_inv(keys, table, None, voxel_pe, ray, t_max, words)
+    }
+
+    /// [`write_entries_with`](Self::write_entries_with) with the direction's reciprocals
+    /// `recips` where the caller has them (else they are computed).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn write_entries_inv(
+        &self,
+        keys: bool,
+        table: Option<&OriginPlanes>,
+        recips: Option<[f32; 3]>,
+        voxel_pe: &[u8],
+        ray: &Ray,
+        t_max: f32,
+        words: &mut [u32],
+    ) -> usize {
         let o = ray.origin.to_array();
         let d = ray.dir.to_array();
         let zero_dir = (d[0].to_bits() | d[1].to_bits() | d[2].to_bits()) & 0x7FFF_FFFF == 0;
@@ -194,7 +247,10 @@ impl WalkGrid {
         if !self.valid || !valid_ray || t_max.is_nan() {
             return 0;
         }
-        let inv = [recip(d[0]), recip(d[1]), recip(d[2])];
+        let inv = match recips {
+            Some(inv) => inv,
+            None => [recip(d[0]), recip(d[1]), recip(d[2])],
+        };
         // Without an infinite reciprocal no clip distance or boundary can be NaN (finite ·
         // finite), and the comparisons may be made on integers (module doc); a soft-float core
         // does so.
@@ -280,11 +336,28 @@ impl WalkGrid {
             // this keeps the hard-float walk one copy.
             return self.write_entries(voxel_pe, ray, t_max, words);
         }
+        self.write_entries_table(INTEGER_KEYS, table, voxel_pe, ray, t_max, words)
+    }
+
+    /// [`write_entries_from`](Self::write_entries_from) on a soft-float core: the origin's
+    /// subtractions and the direction's reciprocals from `table` (rebuilt first when it is
+    /// not this ray's origin's on this grid).
+    #[inline(always)]
+    pub(super) fn write_entries_table(
+        &self,
+        keys: bool,
+        table: &mut OriginPlanes,
+        voxel_pe: &[u8],
+        ray: &Ray,
+        t_max: f32,
+        words: &mut [u32],
+    ) -> usize {
         let origin = ray.origin.to_array();
         if !self.origin_table_fits(origin, table) {
             self.fill_origin_planes(origin, table);
         }
-        self.write_entries_with(INTEGER_KEYS, Some(table), voxel_pe, ray, t_max, words)
+        let inv = table.recips.get(ray.dir.to_array());
+        self.write_entries_inv(keys, Some(table), Some(inv), voxel_pe, ray, t_max, words)
     }
 
     /// The start cell of `Traversal::new` on axis `a` from `q = entry − min`:

@@ -493,7 +493,9 @@ fn request_words_equal_build_list() {
 
 /// Camera-like rays (one eye per grid, 1 to 8 box sizes away, aimed at points in the box and
 /// at points on its cell boundaries) give the same words with the eye's table — whose start
-/// cells come from `WalkGrid::integer_start` where its bound holds — as `build_list`.
+/// cells come from `WalkGrid::integer_start` where its bound holds — as `build_list`; and with
+/// the table's reciprocals too (`write_entries_table`), the rays sharing one or two direction
+/// components with the ray before them now and then, as a camera's rows do.
 #[test]
 fn camera_rays_from_one_table_equal_build_list() {
     let mut rng = ChaCha8Rng::seed_from_u64(0x0E7E_CE11);
@@ -510,6 +512,8 @@ fn camera_rays_from_one_table_equal_build_list() {
         let walk = WalkGrid::new(&g);
         let mut table = OriginPlanes::default();
         walk.fill_origin_planes(eye.to_array(), &mut table);
+        let mut memo_table = OriginPlanes::default();
+        let mut before = Vec3::X;
         for _ in 0..1000 {
             let mut target = g.min + ext * Vec3::new(rng.gen(), rng.gen(), rng.gen());
             // On a cell boundary of one or two axes: entries exactly between two cells.
@@ -517,7 +521,14 @@ fn camera_rays_from_one_table_equal_build_list() {
                 let a = rng.gen_range(0..3);
                 target[a] = plane_coord(&mut rng, &g, a);
             }
-            let ray = Ray { origin: eye, dir: target - eye };
+            let mut dir = target - eye;
+            for a in 1..3 {
+                if rng.gen_bool(0.5) {
+                    dir[a] = before[a];
+                }
+            }
+            before = dir;
+            let ray = Ray { origin: eye, dir };
             build_list_in(RayFormat::F32, &g, &map, &ray, 0.0, f32::INFINITY, &mut list);
             let zero = |w: u32| if w == 0x8000_0000 { 0 } else { w };
             let want: Vec<[u32; 2]> =
@@ -527,6 +538,9 @@ fn camera_rays_from_one_table_equal_build_list() {
                 let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
                 assert_eq!(got, want, "keys {keys}: {g:?} {ray:?}");
                 checked += usize::from(n > 0);
+                let n = walk.write_entries_table(keys, &mut memo_table, &map, &ray, f32::INFINITY, &mut words);
+                let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
+                assert_eq!(got, want, "keys {keys}, reciprocals from the table: {g:?} {ray:?}");
             }
         }
     }
