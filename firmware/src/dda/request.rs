@@ -38,6 +38,9 @@ const INTEGER_KEYS: bool = cfg!(soft_float);
 /// one instruction.
 const UNPACK_RECIPROCALS: bool = cfg!(all(any(soft_float, not(target_os = "none")), not(feature = "cfu-float")));
 
+/// The key of the least positive normal f32 (`f32::MIN_POSITIVE`).
+const MIN_NORMAL_KEY: i32 = 0x0080_0000;
+
 /// Planes per axis: `n + 1 ≤ MAX_GRID_DIM + 1`.
 const PLANES: usize = MAX_GRID_DIM as usize + 1;
 
@@ -469,6 +472,12 @@ impl WalkGrid {
         let mut far_least = f32::INFINITY;
         // The axis through whose face the ray enters (t0 > 0), and whether that is the max face.
         let mut face: Option<(usize, bool)> = None;
+        // An origin inside the box (every slab; shadow rays) walking on integer keys with
+        // t_max > 0 needs no clip: `WalkGrid::inside_far`'s bound, checked below.
+        let inside = ord.keys
+            && table.is_none()
+            && key(t_max) > 0
+            && (0..3).all(|a| key(self.min[a]) <= key(o[a]) && key(o[a]) <= key(self.max[a]));
         // An origin inside the slab of an axis (min ≤ o ≤ max) with finite reciprocals (integer
         // keys): its near distance is ≤ 0 (its two products have opposite signs), so it never
         // raises t0, and the far one is the product of the face ahead: `max − o` going up,
@@ -476,6 +485,9 @@ impl WalkGrid {
         // distance, bit for bit; of zeros of either sign, the same key). Shadow rays start
         // inside the box (every axis), camera rays mostly inside the slabs across the view.
         for a in 0..3 {
+            if inside {
+                break;
+            }
             let in_slab = ord.keys
                 && match table {
                     Some(t) => t.in_slab[a],
@@ -516,11 +528,16 @@ impl WalkGrid {
                 far_least = far;
             }
         }
-        let by_widen = if UNPACK_RECIPROCALS { Multiplier::new(WIDEN) } else { None };
-        let widened = product(by_widen, far_least, WIDEN);
-        let t1 = if ord.lt(widened, t_max) { widened } else { t_max };
-        if t1.is_nan() || ord.le(t1, t0) || !finite(t0) {
-            return 0;
+        let mut t1 = t_max;
+        if !inside {
+            let by_widen = if UNPACK_RECIPROCALS { Multiplier::new(WIDEN) } else { None };
+            let widened = product(by_widen, far_least, WIDEN);
+            if ord.lt(widened, t_max) {
+                t1 = widened;
+            }
+            if t1.is_nan() || ord.le(t1, t0) || !finite(t0) {
+                return 0;
+            }
         }
         // `Traversal::new`: start cell, step and first boundary per axis.
         // Built axis by axis as values (constant indices, no array initialisation).
@@ -546,9 +563,45 @@ impl WalkGrid {
             self.start_axis(&start, origin_cell16, planes, 1),
             self.start_axis(&start, origin_cell16, planes, 2),
         ];
+        if inside && axes.iter().any(|ax| key(ax.t_next) < MIN_NORMAL_KEY) {
+            // A first boundary below the normal range (the origin on or next to a face): the
+            // clip decides.
+            t1 = self.inside_far(ord, o, d, inv, t_max);
+            if ord.le(t1, t0) {
+                return 0;
+            }
+        }
         let voxel = axes[0].cell as u32 + self.stride[1] * axes[1].cell as u32 + self.stride[2] * axes[2].cell as u32;
         let walk = Walk { planes, voxel_pe, t0, t_end: t1, bound: self.bound };
         walk.run(ord, axes, voxel, words)
+    }
+
+    /// The clip's exit for an origin inside the box on integer keys: the least far distance
+    /// (the face ahead on each axis), widened, or `t_max`.
+    ///
+    /// Why [`walk`](Self::walk) may skip it when every first boundary `t_a` is a normal
+    /// number: the boundaries of an axis grow with the plane (each `RN((plane − o)·(1/d))`
+    /// is monotone in the plane), so `0 < t_a ≤ far_a` and the clip is not empty; every
+    /// crossing the walk compares is a least boundary, at most `far = min far_a`, and
+    /// `RN(far·WIDEN) > far` for a normal `far` (`WIDEN − 1 > 2^-23`). So each `min(t_cross,
+    /// t_end)` is `t_cross` and no `t_cross < t_end` fails with either end, unless `t_max`
+    /// is the end of both: the same entries. Pinned by `request_words_equal_build_list`.
+    #[inline(never)]
+    fn inside_far(&self, ord: Order, o: [f32; 3], d: [f32; 3], inv: [f32; 3], t_max: f32) -> f32 {
+        let mut far_least = f32::INFINITY;
+        for a in 0..3 {
+            let up = d[a].to_bits() >> 31 == 0;
+            let far = mul(sub(if up { self.max[a] } else { self.min[a] }, o[a]), inv[a]);
+            if ord.lt(far, far_least) {
+                far_least = far;
+            }
+        }
+        let widened = mul(far_least, WIDEN);
+        if ord.lt(widened, t_max) {
+            widened
+        } else {
+            t_max
+        }
     }
 
     /// Axis `a` of a walk: start cell, step and first boundary (`Traversal::new`). Inline:

@@ -546,3 +546,52 @@ fn camera_rays_from_one_table_equal_build_list() {
     }
     assert!(checked > 400_000, "{checked}");
 }
+
+/// Origins inside the box, where the walk on integer keys skips the clip
+/// (`WalkGrid::inside_far`): the same words as `build_list` at the edges of that shortcut —
+/// origins on a face or a few ulps from one (going out or in), directions from 2^-60 to
+/// 2^60 (first boundaries below the normal range), and `t_max` of ±0, negative, subnormal,
+/// the least normal, finite and infinite.
+#[test]
+fn inside_origins_walk_without_the_clip_as_build_list() {
+    let mut rng = ChaCha8Rng::seed_from_u64(0x1A51DE);
+    let mut list = TraversalList::new();
+    let mut words = vec![0u32; 2 * MAX_LIST];
+    let t_maxes = [0.0, -0.0, -1.0, f32::from_bits(1), f32::MIN_POSITIVE, 0.75, 1.0 - 1.0 / 1024.0, f32::INFINITY];
+    let (mut nonempty, mut edges) = (0, 0);
+    for i in 0..60_000 {
+        let g = random_grid(&mut rng, 12);
+        let mut o = g.min + (g.max - g.min) * Vec3::new(rng.gen(), rng.gen(), rng.gen());
+        for a in 0..3 {
+            match rng.gen_range(0..4) {
+                0 => o[a] = if rng.gen() { g.min[a] } else { g.max[a] },
+                1 => {
+                    // A few ulps inside a face.
+                    let (face, inward) = if rng.gen() { (g.min[a], 1i32) } else { (g.max[a], -1) };
+                    let ulps = rng.gen_range(0..4i32) * inward;
+                    let step = if face >= 0.0 { ulps } else { -ulps };
+                    o[a] = f32::from_bits((face.to_bits() as i32 + step) as u32);
+                    o[a] = o[a].clamp(g.min[a], g.max[a]);
+                }
+                _ => {}
+            }
+        }
+        let scale = 2f32.powi(rng.gen_range(-60..=60));
+        let dir = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)) * scale;
+        let ray = Ray { origin: o, dir };
+        let t_max = t_maxes[i % t_maxes.len()];
+        let map: Vec<u8> = (0..g.voxel_count()).map(|_| rng.gen_range(0..4)).collect();
+        build_list_in(RayFormat::F32, &g, &map, &ray, 0.0, t_max, &mut list);
+        let zero = |w: u32| if w == 0x8000_0000 { 0 } else { w };
+        let want: Vec<[u32; 2]> =
+            list.iter().map(|e| gridrt_shared::fsl::entry_words(*e)).map(|[a, b]| [a, zero(b)]).collect();
+        let walk = WalkGrid::new(&g);
+        let n = walk.write_entries_in(true, &map, &ray, t_max, &mut words);
+        let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
+        assert_eq!(got, want, "{g:?} {ray:?} t_max {t_max:e}");
+        nonempty += usize::from(n > 0);
+        edges += usize::from(n == 0 && t_max > 0.0);
+    }
+    // Both kinds occur: walks, and clips that are empty although t_max > 0.
+    assert!(nonempty > 20_000 && edges > 500, "{nonempty} {edges}");
+}
