@@ -41,6 +41,10 @@ const UNPACK_RECIPROCALS: bool = cfg!(all(any(soft_float, not(target_os = "none"
 /// The key of the least positive normal f32 (`f32::MIN_POSITIVE`).
 const MIN_NORMAL_KEY: i32 = 0x0080_0000;
 
+/// Start cells of origins inside the box from thresholds (`WalkGrid::cell_of`): where the
+/// formula is soft float, and off the target (host tests cover that path).
+const CELL_STARTS: bool = cfg!(any(soft_float, not(target_os = "none")));
+
 /// Planes per axis: `n + 1 ≤ MAX_GRID_DIM + 1`.
 const PLANES: usize = MAX_GRID_DIM as usize + 1;
 
@@ -67,6 +71,11 @@ pub struct WalkGrid {
     bound: u32,
     /// Boundary plane k of axis a: `min + k·(extent/n)`, and exactly `max` for k = n.
     planes: [[f32; PLANES]; 3],
+    /// Per axis, for k in 1..n: the key of the least f32 whose start cell
+    /// ([`WalkGrid::start_cell`] of `o − min`) is k or more (`WalkGrid::cell_of`).
+    cell_starts: [[i32; PLANES]; 3],
+    /// Every threshold of `cell_starts` was found.
+    cell_starts_found: bool,
 }
 
 /// The walk's subtractions that depend only on the ray origin, for one origin: `plane − o` for
@@ -124,11 +133,10 @@ impl ReciprocalMemo {
     /// `recip(d[a])` per axis, from the memo where the bits match.
     #[inline(always)]
     fn get(&mut self, d: [f32; 3]) -> [f32; 3] {
-        for a in 0..3 {
-            let b = d[a].to_bits();
-            if b != self.bits[a] {
-                self.bits[a] = b;
-                self.inv[a] = recip(d[a]);
+        for ((bits, inv), c) in self.bits.iter_mut().zip(&mut self.inv).zip(d) {
+            if c.to_bits() != *bits {
+                *bits = c.to_bits();
+                *inv = recip(c);
             }
         }
         self.inv
@@ -174,6 +182,8 @@ impl WalkGrid {
             by_scale16: [None; 3],
             bound: 0,
             planes: [[0.0; PLANES]; 3],
+            cell_starts: [[i32::MAX; PLANES]; 3],
+            cell_starts_found: false,
         };
         if !w.valid {
             return w;
@@ -199,7 +209,90 @@ impl WalkGrid {
                 *p = if k as i32 >= n { w.max[a] } else { w.min[a] + k as f32 * size };
             }
         }
+        if CELL_STARTS {
+            let mut found = true;
+            for a in 0..3 {
+                for k in 1..w.dims[a] {
+                    let start = w.least_key_of_cell(a, k);
+                    found &= start.is_some();
+                    w.cell_starts[a][k as usize] = start.unwrap_or(i32::MAX);
+                }
+            }
+            w.cell_starts_found = found;
+        }
         w
+    }
+
+    /// The start cell of an origin `o` on axis `a` ([`WalkGrid::start_cell`] of `o − min`)
+    /// from [`WalkGrid::cell_starts`]: that formula is monotone in `o` (each rounding is,
+    /// and the truncation and clamp), so its cell is the number of thresholds at or below
+    /// `o`'s key; ±0 give the same cell. A binary search on integers where the formula is a
+    /// subtraction, a division and a product in soft float.
+    #[inline(always)]
+    fn cell_of(&self, a: usize, o: f32) -> i32 {
+        let k = key(o);
+        let starts = &self.cell_starts[a];
+        // Invariant: the cell is in [lo, hi): thresholds 1..lo are at or below k, hi.. above.
+        let (mut lo, mut hi) = (0usize, self.dims[a] as usize);
+        // Bounded: the interval halves (at most 8 rounds for 255 cells).
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if starts.get(mid).is_some_and(|&t| t <= k) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo as i32
+    }
+
+    /// The least key whose f32 has start cell `k` or more on axis `a` (1 ≤ k < n): from the
+    /// key of plane k (the threshold is within a few ulps of it), a doubling search to
+    /// bracket it, then bisection; 34 + 32 formula evaluations at most. `None` when no finite
+    /// f32 has that cell (then [`WalkGrid::cell_of`] is not used on the grid).
+    fn least_key_of_cell(&self, a: usize, k: i32) -> Option<i32> {
+        const TOP: i64 = 0x7F7F_FFFF;
+        let at_least = |x: i64| self.start_cell(false, a, sub(from_key(x as i32), self.min[a])) >= k;
+        let guess = i64::from(key(self.planes[a][k as usize])).clamp(-TOP, TOP);
+        // Bracket: `at_least(hi)`, and not `at_least(lo)` or lo = −TOP − 1 (below all).
+        let (mut lo, mut hi) = (-TOP - 1, TOP);
+        let up = !at_least(guess);
+        if up {
+            lo = guess;
+        } else {
+            hi = guess;
+        }
+        for shift in 0..34 {
+            let x = if up { (guess + (1 << shift)).min(TOP) } else { (guess - (1 << shift)).max(-TOP - 1) };
+            if up {
+                if at_least(x) {
+                    hi = x;
+                    break;
+                }
+                lo = x;
+            } else {
+                if x < -TOP || !at_least(x) {
+                    lo = x;
+                    break;
+                }
+                hi = x;
+            }
+        }
+        if !at_least(hi) {
+            return None;
+        }
+        for _ in 0..34 {
+            if hi - lo <= 1 {
+                break;
+            }
+            let mid = lo + (hi - lo) / 2;
+            if mid >= -TOP && at_least(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        i32::try_from(hi).ok().filter(|_| hi - lo == 1)
     }
 
     /// Walks `ray` over `[0, t_max]` and writes each non-empty voxel it crosses, in order, as
@@ -626,8 +719,12 @@ impl WalkGrid {
                     // Not on a bare-metal hard-float image: its walk compiles worse with the
                     // branch (measured: riscv32imafc 586 -> 645 instructions per primary ray).
                     let inside = cfg!(any(soft_float, not(target_os = "none"))) && s.t0.to_bits() == 0;
-                    let entry = if inside { s.o[a] } else { add(s.o[a], mul(s.d[a], s.t0)) };
-                    self.start_cell(s.fast, a, sub(entry, self.min[a]))
+                    if CELL_STARTS && inside && self.cell_starts_found {
+                        self.cell_of(a, s.o[a])
+                    } else {
+                        let entry = if inside { s.o[a] } else { add(s.o[a], mul(s.d[a], s.t0)) };
+                        self.start_cell(s.fast, a, sub(entry, self.min[a]))
+                    }
                 }
             },
         };
@@ -747,6 +844,16 @@ impl Axis {
 #[derive(Clone, Copy)]
 struct Order {
     keys: bool,
+}
+
+/// The f32 of a key ([`key`]'s inverse; key 0 is +0).
+#[inline(always)]
+fn from_key(k: i32) -> f32 {
+    if k < 0 {
+        f32::from_bits(k.unsigned_abs() | 0x8000_0000)
+    } else {
+        f32::from_bits(k as u32)
+    }
 }
 
 #[inline(always)]
