@@ -312,7 +312,7 @@ impl RowRays<'_> {
                     Some(&c) if COLUMN_TERMS > 0 => c,
                     _ => self.cam.column_term(x),
                 };
-                Ray { origin: self.cam.eye, dir: vadd(column, self.sy_up) }
+                Ray { origin: self.cam.eye, dir: sfloat::vadd_often_zero(column, self.sy_up) }
             }
         }
     }

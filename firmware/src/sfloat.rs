@@ -80,6 +80,41 @@ pub fn recip(b: f32) -> f32 {
     }
 }
 
+/// `a + b` where an operand is often ±0 (a camera ray's column and row terms, one of which
+/// is zero per component when the camera is axis-aligned): that case in a few integer
+/// instructions on a soft-float core without the f32 unit, where `add` would call its
+/// out-of-line zero path; else [`add`].
+#[inline(always)]
+pub fn add_often_zero(a: f32, b: f32) -> f32 {
+    if cfg!(all(soft_float, not(feature = "cfu-float"))) {
+        if let Some(sum) = sum_with_zero(a, b) {
+            return sum;
+        }
+    }
+    add(a, b)
+}
+
+/// `a + b` when an operand is ±0 and the other finite (`add_slow`'s rule), else `None`.
+#[inline(always)]
+fn sum_with_zero(a: f32, b: f32) -> Option<f32> {
+    let (ua, ub) = (a.to_bits(), b.to_bits());
+    let finite = |u: u32| u & INF != INF;
+    if ub & !SIGN == 0 && finite(ua) {
+        // x + ±0 = x for x ≠ 0; ±0 + ±0 is −0 only when both are −0 (ties to even).
+        return Some(if ua & !SIGN != 0 { a } else { f32::from_bits(ua & ub) });
+    }
+    if ua & !SIGN == 0 && finite(ub) {
+        return Some(b);
+    }
+    None
+}
+
+/// [`vadd`] with [`add_often_zero`] per component.
+#[inline(always)]
+pub fn vadd_often_zero(a: Vec3, b: Vec3) -> Vec3 {
+    Vec3::new(add_often_zero(a.x, b.x), add_often_zero(a.y, b.y), add_often_zero(a.z, b.z))
+}
+
 /// `a + b` of glam's `Vec3`.
 #[inline(always)]
 pub fn vadd(a: Vec3, b: Vec3) -> Vec3 {
@@ -599,6 +634,34 @@ mod tests {
         }
         // x − x is +0 under ties-to-even, as the operator gives.
         assert_eq!(add_int(1.5, -1.5).to_bits(), 0);
+    }
+
+    /// The zero shortcut of `add_often_zero` answers exactly where the operator's sum is
+    /// the other operand or a signed zero, and leaves everything else to `add`: every pair
+    /// of ±0, ±finite, ±∞ and NaN, and random operands.
+    #[test]
+    fn sums_with_a_zero_equal_the_operator() {
+        let specials = [0.0, -0.0, 1.5, -2.25e-40, f32::MAX, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
+        let mut rng = ChaCha8Rng::seed_from_u64(0x2E50_ADD5);
+        let mut pairs: Vec<(f32, f32)> = specials.iter().flat_map(|&a| specials.map(|b| (a, b))).collect();
+        for _ in 0..200_000 {
+            let a = operand(&mut rng, 1.0);
+            let z = if rng.gen() { 0.0 } else { -0.0 };
+            pairs.extend([(a, z), (z, a), (a, operand(&mut rng, a))]);
+        }
+        let mut shortcut = 0;
+        for (a, b) in pairs {
+            let zero_and_finite = (a == 0.0 && b.is_finite()) || (b == 0.0 && a.is_finite());
+            match sum_with_zero(a, b) {
+                Some(sum) => {
+                    assert!(same(sum, a + b), "{a:e} + {b:e}: {sum:e}");
+                    shortcut += 1;
+                }
+                None => assert!(!zero_and_finite, "{a:e} + {b:e} left to add"),
+            }
+            assert!(same(add_often_zero(a, b), a + b), "{a:e} + {b:e}");
+        }
+        assert!(shortcut > 300_000, "{shortcut}");
     }
 
     /// The CFU path off the target (the unit's Rust twin) gives the operators' sums and
