@@ -14,6 +14,11 @@
 //! lookup of the same f32), the float validity tests (bit tests), and the list buffer (each
 //! entry is stored once, as its two request words).
 //!
+//! On soft-float cores also: camera rays' reciprocals from a memo in the eye's table
+//! ([`OriginPlanes`]), and for origins inside the box (shadow rays) no clip
+//! (`WalkGrid::inside_far` says why) and start cells from per-axis thresholds of the
+//! start-cell formula (`WalkGrid::cell_of`). Each gives the same words.
+//!
 //! Numeric kernel: the tables are indexed by axis numbers (0..3) and plane numbers
 //! (0..=n ≤ 255, `n` checked by [`WalkGrid::new`]); the voxel map and the output words, which
 //! come from the scene upload and the caller, are accessed with `get`.
