@@ -52,6 +52,7 @@ const CELL_STARTS: bool = cfg!(any(soft_float, not(target_os = "none")));
 
 /// Planes per axis: `n + 1 ≤ MAX_GRID_DIM + 1`.
 const PLANES: usize = MAX_GRID_DIM as usize + 1;
+const _: () = assert!(PLANES.is_power_of_two());
 
 /// The grid as the f32 walk uses it, computed once per scene.
 #[derive(Debug, Clone)]
@@ -813,7 +814,8 @@ impl Axis {
     /// (of planes, or of `plane − o`).
     #[inline(always)]
     fn crossing(&self, planes: &[f32; PLANES]) -> f32 {
-        let p = planes[self.plane as usize];
+        // The plane is in 0..=n ≤ 255: the mask changes no index and spares the bounds check.
+        let p = planes[self.plane as usize & (PLANES - 1)];
         let p = if self.pre { p } else { sub(p, self.o) };
         // The same correctly rounded product, inline where operands and product are normal.
         match self.by_inv.and_then(|m| m.times(p)) {
@@ -826,7 +828,8 @@ impl Axis {
     #[inline(always)]
     fn advance(&mut self, planes: &[f32; PLANES], voxel: &mut u32) -> bool {
         let c = self.cell + self.step;
-        if c < 0 || c >= self.end {
+        // One unsigned comparison: a cell below 0 wraps above every `end`.
+        if c as u32 >= self.end as u32 {
             return false;
         }
         self.cell = c;
