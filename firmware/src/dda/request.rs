@@ -834,10 +834,10 @@ impl Axis {
         }
         self.cell = c;
         *voxel = voxel.wrapping_add(self.stride as u32);
-        if self.step != 0 {
-            self.plane += self.step;
-            self.t_next = self.crossing(planes);
-        }
+        // Never an axis that is not stepped: its boundary stays +∞, which ends the walk
+        // (`t_cross < t_end` fails) before any step on it.
+        self.plane += self.step;
+        self.t_next = self.crossing(planes);
         true
     }
 }
