@@ -12,7 +12,7 @@ use gridrt_shared::scene::Falloff;
 
 use super::fail::Fail;
 use super::farm::{RowDone, RowFarm, Rows};
-use super::pipeline::{check_plan, compiled_plan, pixel, FrameCtx};
+use super::pipeline::{check_plan, compiled_plan, open_pixel, pixel, FrameCtx};
 use super::raypath::RayPath;
 use super::request::{field, Job};
 use super::scene::SceneStore;
@@ -261,6 +261,8 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
                 // (`pixel` would return it at once): each run of them goes out as one
                 // background run, like the columns outside the span.
                 let mut clear_from = None;
+                // The row's traced pixels, each a primary ray: counted once per row.
+                let mut traced = 0u32;
                 for x in lo..hi {
                     if !ctx.occupancy.may_hit(x, y) {
                         clear_from = clear_from.or(Some(x));
@@ -270,11 +272,13 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
                         self.background(&ctx.background, from, x, y, tx, out)?;
                         sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
                     }
-                    let s = pixel(&mut self.path, scene, &self.clock, &mut sw, &ctx, &rays, x)?;
+                    traced = traced.wrapping_add(1);
+                    let s = open_pixel(&mut self.path, scene, &self.clock, &mut sw, &ctx, &rays, x)?;
                     self.spans.push(x, y, s.rgb, s.prim, tx, out).map_err(Fail::tx)?;
-                    count(&mut self.path.stats.pixels, 1);
                     sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
                 }
+                count(&mut self.path.stats.primary_rays, u64::from(traced));
+                count(&mut self.path.stats.pixels, u64::from(traced));
                 self.background(&ctx.background, clear_from.unwrap_or(hi), x1, y, tx, out)?;
             }
             // Flush per row so the host sees progress while the next row renders.
