@@ -682,9 +682,10 @@ impl WalkGrid {
     /// number: the boundaries of an axis grow with the plane (each `RN((plane − o)·(1/d))`
     /// is monotone in the plane), so `0 < t_a ≤ far_a` and the clip is not empty; every
     /// crossing the walk compares is a least boundary, at most `far = min far_a`, and
-    /// `RN(far·WIDEN) > far` for a normal `far` (`WIDEN − 1 > 2^-23`). So each `min(t_cross,
-    /// t_end)` is `t_cross` and no `t_cross < t_end` fails with either end, unless `t_max`
-    /// is the end of both: the same entries. Pinned by `request_words_equal_build_list`.
+    /// `RN(far·WIDEN) > far` for a normal `far` (`WIDEN − 1 > 2^-23`; a `far` of +∞ makes
+    /// both ends `t_max`). So each `min(t_cross, t_end)` is `t_cross` and no
+    /// `t_cross < t_end` fails with either end, unless `t_max` is the end of both: the same
+    /// entries. Pinned by `inside_origins_walk_without_the_clip_as_build_list`.
     #[inline(never)]
     fn inside_far(&self, ord: Order, o: [f32; 3], d: [f32; 3], inv: [f32; 3], t_max: f32) -> f32 {
         let mut far_least = f32::INFINITY;
