@@ -17,7 +17,12 @@ bun_zipper_res4), then
 
     python3 scripts/qemu-profile.py qemu.log APP.elf [--top 40] [--function NAME]
 
---function prints that function's instructions with their execution counts.
+--function prints that function's instructions with their execution counts. --inclusive
+counts each function with everything it calls, and --callers NAME splits a function's own
+instructions by its caller; both follow a call stack kept from the log: a block whose last
+instruction is `jal`/`jalr` writing `ra` is a call (its return address is pushed), a block
+that starts at one of the six newest return addresses is a return (the frames above it are
+dropped). Estimates where code leaves a function other than by its return address.
 """
 
 import argparse
@@ -51,6 +56,57 @@ def read_log(path):
     return counts
 
 
+CALL = re.compile(rb"\bjalr?\s+ra,")
+
+
+def read_blocks(path):
+    """The executed blocks in order: each a list of (pc, size, is_call) of its instructions."""
+    blocks = {}
+    pending = []
+    with open(path, "rb") as f:
+        for line in f:
+            if line.startswith(b"Trace"):
+                key = line[9 : line.index(b"[")].strip()
+                if pending:
+                    blocks[key] = pending
+                    pending = []
+                block = blocks.get(key)
+                if block:
+                    yield block
+            elif line.startswith(b"0x"):
+                # "0x80000000:  00000297          auipc t0,0": 8 hex digits of code are 4 bytes.
+                rest = line[11:].strip()
+                code = rest.split()[0] if rest else b""
+                pending.append((int(line[2:10], 16), 2 if len(code) == 4 else 4, bool(CALL.search(rest))))
+
+
+def inclusive_counts(blocks, function_of, depth=6):
+    """Per function: (inclusive, own) instructions, and per (function, caller) the function's
+    own instructions, from executed `blocks` (lists of (pc, size, is_call)) and `function_of`
+    (pc -> function name)."""
+    inclusive = collections.Counter()
+    own = collections.Counter()
+    by_caller = collections.Counter()
+    stack = []  # (return address, caller)
+    for block in blocks:
+        start = block[0][0]
+        for k in range(len(stack) - 1, max(len(stack) - 1 - depth, -1), -1):
+            if stack[k][0] == start:
+                del stack[k:]
+                break
+        here = function_of(start)
+        n = len(block)
+        for name in {here, *(caller for _, caller in stack)}:
+            inclusive[name] += n
+        own[here] += n
+        if stack:
+            by_caller[(here, stack[-1][1])] += n
+        pc, size, is_call = block[-1]
+        if is_call:
+            stack.append((pc + size, here))
+    return inclusive, own, by_caller
+
+
 def symbols(elf):
     """(start, size, name) of the ELF's functions, sorted; local labels left out."""
     out = subprocess.run(["nm", "-C", "--defined-only", "-n", "-S", elf], capture_output=True, text=True, check=True)
@@ -68,7 +124,31 @@ def main():
     ap.add_argument("elf", help="the firmware image QEMU ran")
     ap.add_argument("--top", type=int, default=40, help="functions to list (default 40)")
     ap.add_argument("--function", help="print the instructions of the function whose name contains this, with counts")
+    ap.add_argument("--inclusive", action="store_true", help="count each function with what it calls (see above)")
+    ap.add_argument("--callers", metavar="NAME", help="split the own instructions of functions named like this by caller")
     args = ap.parse_args()
+
+    if args.inclusive or args.callers:
+        syms = symbols(args.elf)
+        starts = [s for s, _, _ in syms]
+
+        def function_of(pc):
+            i = bisect.bisect_right(starts, pc) - 1
+            return syms[i][2] if i >= 0 and pc < syms[i][0] + max(syms[i][1], 1) else "(no symbol)"
+
+        inclusive, own, by_caller = inclusive_counts(read_blocks(args.log), function_of)
+        if not own:
+            sys.exit(f"qemu-profile: {args.log} holds no executed block (was it written with -d in_asm,exec,nochain?)")
+        print(f"{sum(own.values())} instructions executed")
+        if args.inclusive:
+            print(f"{'inclusive':>12} {'own':>12}  function")
+            for name, n in inclusive.most_common(args.top):
+                print(f"{n:12d} {own[name]:12d}  {name[:150]}")
+        if args.callers:
+            for (name, caller), n in by_caller.most_common():
+                if args.callers in name:
+                    print(f"{n:12d}  {name[:60]} <- {caller[:100]}")
+        return
 
     counts = read_log(args.log)
     if not counts:
