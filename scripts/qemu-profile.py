@@ -33,10 +33,13 @@ import subprocess
 import sys
 
 
-def read_log(path):
-    """Executions per instruction address."""
-    blocks = {}  # host address of a translated block -> its guest instruction addresses
-    runs = collections.Counter()
+CALL = re.compile(rb"\bjalr?\s+ra,")
+
+
+def executions(path):
+    """Each execution of a translated block, in order: its host key and its instructions,
+    a list of (pc, size, is_call), or None when the log did not show its translation."""
+    blocks = {}  # host address of a translated block -> its guest instructions
     pending = []
     with open(path, "rb") as f:
         for line in f:
@@ -46,38 +49,32 @@ def read_log(path):
                 if pending:
                     blocks[key] = pending
                     pending = []
-                runs[key] += 1
-            elif line.startswith(b"0x"):
-                pending.append(int(line[2:10], 16))
-    counts = collections.Counter()
-    for key, n in runs.items():
-        for pc in blocks.get(key, ()):
-            counts[pc] += n
-    return counts
-
-
-CALL = re.compile(rb"\bjalr?\s+ra,")
-
-
-def read_blocks(path):
-    """The executed blocks in order: each a list of (pc, size, is_call) of its instructions."""
-    blocks = {}
-    pending = []
-    with open(path, "rb") as f:
-        for line in f:
-            if line.startswith(b"Trace"):
-                key = line[9 : line.index(b"[")].strip()
-                if pending:
-                    blocks[key] = pending
-                    pending = []
-                block = blocks.get(key)
-                if block:
-                    yield block
+                yield key, blocks.get(key)
             elif line.startswith(b"0x"):
                 # "0x80000000:  00000297          auipc t0,0": 8 hex digits of code are 4 bytes.
                 rest = line[11:].strip()
                 code = rest.split()[0] if rest else b""
                 pending.append((int(line[2:10], 16), 2 if len(code) == 4 else 4, bool(CALL.search(rest))))
+
+
+def read_log(path):
+    """Executions per instruction address."""
+    runs = collections.Counter()
+    blocks = {}
+    for key, block in executions(path):
+        runs[key] += 1
+        if block:
+            blocks[key] = block
+    counts = collections.Counter()
+    for key, n in runs.items():
+        for pc, _, _ in blocks.get(key, ()):
+            counts[pc] += n
+    return counts
+
+
+def read_blocks(path):
+    """The executed blocks in order: each a list of (pc, size, is_call) of its instructions."""
+    return (block for _, block in executions(path) if block)
 
 
 def inclusive_counts(blocks, function_of, depth=6):
@@ -118,6 +115,17 @@ def symbols(elf):
     return sorted(syms)
 
 
+def function_lookup(syms):
+    """pc -> the name of the function of `syms` (from `symbols`) holding it, or "(no symbol)"."""
+    starts = [s for s, _, _ in syms]
+
+    def function_of(pc):
+        i = bisect.bisect_right(starts, pc) - 1
+        return syms[i][2] if i >= 0 and pc < syms[i][0] + max(syms[i][1], 1) else "(no symbol)"
+
+    return function_of
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], epilog="See the module docstring for how to record the log.")
     ap.add_argument("log", help="QEMU log written with -d in_asm,exec,nochain -D LOG")
@@ -128,14 +136,9 @@ def main():
     ap.add_argument("--callers", metavar="NAME", help="split the own instructions of functions named like this by caller")
     args = ap.parse_args()
 
+    syms = symbols(args.elf)
+    function_of = function_lookup(syms)
     if args.inclusive or args.callers:
-        syms = symbols(args.elf)
-        starts = [s for s, _, _ in syms]
-
-        def function_of(pc):
-            i = bisect.bisect_right(starts, pc) - 1
-            return syms[i][2] if i >= 0 and pc < syms[i][0] + max(syms[i][1], 1) else "(no symbol)"
-
         inclusive, own, by_caller = inclusive_counts(read_blocks(args.log), function_of)
         if not own:
             sys.exit(f"qemu-profile: {args.log} holds no executed block (was it written with -d in_asm,exec,nochain?)")
@@ -153,13 +156,9 @@ def main():
     counts = read_log(args.log)
     if not counts:
         sys.exit(f"qemu-profile: {args.log} holds no executed block (was it written with -d in_asm,exec,nochain?)")
-    syms = symbols(args.elf)
-    starts = [s for s, _, _ in syms]
     per_function = collections.Counter()
     for pc, n in counts.items():
-        i = bisect.bisect_right(starts, pc) - 1
-        inside = i >= 0 and pc < syms[i][0] + max(syms[i][1], 1)
-        per_function[syms[i][2] if inside else "(no symbol)"] += n
+        per_function[function_of(pc)] += n
     total = sum(per_function.values())
     print(f"{total} instructions executed")
     for name, n in per_function.most_common(args.top):

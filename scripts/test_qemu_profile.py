@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Tests of scripts/qemu-profile.py's call stack (run by .ci/run): inclusive counts and
-callers from a synthetic run, a return that skips a frame, and a log parsed into blocks.
+callers from a synthetic run, a return that skips a frame, and a log parsed into blocks and
+counted per address.
 
     python3 scripts/test_qemu_profile.py
 """
@@ -64,7 +65,9 @@ log = "".join([lines[1], lines[2], lines[3], lines[0], lines[4], lines[6], lines
 with tempfile.NamedTemporaryFile("w", suffix=".log", delete=False) as f:
     f.write(log)
 blocks = list(qp.read_blocks(f.name))
+counts = qp.read_log(f.name)
 Path(f.name).unlink()
+check(counts == {0x80000000: 2, 0x80000004: 2, 0x80000006: 2, 0x80000010: 1}, f"counts per pc {counts}")
 check(len(blocks) == 3, f"blocks {blocks}")
 check(blocks[0] == [(0x80000000, 4, False), (0x80000004, 2, False), (0x80000006, 4, True)], f"block {blocks[0]}")
 check(blocks[2] == [(0x80000010, 4, False)], f"ret block {blocks[2]}")
