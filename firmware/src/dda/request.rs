@@ -311,28 +311,14 @@ impl WalkGrid {
     }
 
     /// [`write_entries_in`](Self::write_entries_in) with the origin's subtractions from
-    /// `table` (the caller checked it is this ray's).
+    /// `table` (the caller checked it is this ray's) and the direction's reciprocals `recips`
+    /// where the caller has them (else they are computed).
     // Inline: on hard-float cores the plain walk then folds to what it was before the table;
     // on soft-float cores there are two copies, with and without a table (each folds its
     // branches on the table).
-    #[inline(always)]
-    pub(super) fn write_entries_with(
-        &self,
-        keys: bool,
-        table: Option<&OriginPlanes>,
-        voxel_pe: &[u8],
-        ray: &Ray,
-        t_max: f32,
-        words: &mut [u32],
-    ) -> usize {
-        self.write_entries_inv(keys, table, None, voxel_pe, ray, t_max, words)
-    }
-
-    /// [`write_entries_with`](Self::write_entries_with) with the direction's reciprocals
-    /// `recips` where the caller has them (else they are computed).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn write_entries_inv(
+    pub(super) fn write_entries_with(
         &self,
         keys: bool,
         table: Option<&OriginPlanes>,
@@ -371,7 +357,7 @@ impl WalkGrid {
         t_max: f32,
         words: &mut [u32],
     ) -> usize {
-        self.write_entries_with(keys, None, voxel_pe, ray, t_max, words)
+        self.write_entries_with(keys, None, None, voxel_pe, ray, t_max, words)
     }
 
     /// `table` is the [`OriginPlanes`] of rays from `origin` on this grid (word comparisons:
@@ -459,7 +445,7 @@ impl WalkGrid {
             self.fill_origin_planes(origin, table);
         }
         let inv = table.recips.get(ray.dir.to_array());
-        self.write_entries_inv(keys, Some(table), Some(inv), voxel_pe, ray, t_max, words)
+        self.write_entries_with(keys, Some(table), Some(inv), voxel_pe, ray, t_max, words)
     }
 
     /// The start cell of `Traversal::new` on axis `a` from `q = entry − min`:

@@ -452,7 +452,8 @@ fn request_words_equal_build_list() {
             let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
             assert_eq!(got, want, "keys {keys}: {:?} {:?} t_max {}", g, case.ray, case.tmax);
             nonempty += (n > 0) as u32;
-            let n = walk.write_entries_with(keys, Some(&table), &map, &case.ray, case.tmax, &mut words[..2 * cap]);
+            let n =
+                walk.write_entries_with(keys, Some(&table), None, &map, &case.ray, case.tmax, &mut words[..2 * cap]);
             let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
             assert_eq!(got, want, "table, keys {keys}: {:?} {:?} t_max {}", g, case.ray, case.tmax);
         }
@@ -534,7 +535,7 @@ fn camera_rays_from_one_table_equal_build_list() {
             let want: Vec<[u32; 2]> =
                 list.iter().map(|e| gridrt_shared::fsl::entry_words(*e)).map(|[a, b]| [a, zero(b)]).collect();
             for keys in [false, true] {
-                let n = walk.write_entries_with(keys, Some(&table), &map, &ray, f32::INFINITY, &mut words);
+                let n = walk.write_entries_with(keys, Some(&table), None, &map, &ray, f32::INFINITY, &mut words);
                 let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
                 assert_eq!(got, want, "keys {keys}: {g:?} {ray:?}");
                 checked += usize::from(n > 0);
