@@ -314,7 +314,7 @@ impl OccupancyMask {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dda::{GridDesc, WalkGrid};
+    use crate::dda::{GridDesc, VoxelMap, WalkGrid};
     use gridrt_shared::math::Ray;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -353,7 +353,9 @@ mod tests {
             let mut words = [0u32; 128];
             for y in 0..h {
                 for x in 0..w {
-                    let listed = walk.write_entries(&map, &cam.primary_ray(x, y), f32::INFINITY, &mut words) > 0;
+                    let listed =
+                        walk.write_entries(VoxelMap::plain(&map), &cam.primary_ray(x, y), f32::INFINITY, &mut words)
+                            > 0;
                     let may = mask.may_hit(x as u16, y as u16);
                     assert!(may || !listed, "pixel ({x}, {y}) lists cells in a clear tile: {cam:?} {grid:?}");
                     empty_walks += u64::from(!listed);
@@ -405,7 +407,7 @@ mod tests {
                 let (mut first, mut last) = (u32::MAX, 0);
                 for x in 0..w {
                     let ray: Ray = cam.primary_ray(x, y);
-                    let hit = walk.write_entries(&map, &ray, f32::INFINITY, &mut words) > 0;
+                    let hit = walk.write_entries(VoxelMap::plain(&map), &ray, f32::INFINITY, &mut words) > 0;
                     if hit {
                         (first, last) = (first.min(x), x);
                         hits += 1;

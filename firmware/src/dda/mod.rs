@@ -23,8 +23,10 @@
 //! | `float` | [`Traversal`]: clip and setup in f32, boundaries recomputed per step | `grid`, `walk` |
 //! | `fixed` | [`FixedTraversal`]: exact setup in integers, `t_delta` steps, [`DdaOverflow`] | `grid`, `walk` |
 //! | `list` | [`build_list`]: the non-empty voxels with their PE for the FSL request | all of the above |
-//! | `request` | [`WalkGrid`]: the f32 walk and the list fused, written as FSL request words (what the device runs); [`OriginPlanes`]: the camera rays' per-origin subtractions | `grid` |
+//! | `ahead` | [`fill_ahead`]: per voxel and octant, a non-empty voxel ahead (walks stop where none is); [`VoxelMap`] | — |
+//! | `request` | [`WalkGrid`]: the f32 walk and the list fused, written as FSL request words (what the device runs); [`OriginPlanes`]: the camera rays' per-origin subtractions | `grid`, `ahead` |
 
+mod ahead;
 mod fixed;
 mod float;
 mod grid;
@@ -32,6 +34,7 @@ mod list;
 mod request;
 mod walk;
 
+pub use ahead::{fill_ahead, VoxelMap};
 pub use fixed::{DdaOverflow, FixedTraversal};
 pub use float::Traversal;
 pub use grid::{GridDesc, VoxelStep, MAX_GRID_DIM};

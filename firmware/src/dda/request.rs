@@ -23,6 +23,7 @@
 //! (0..=n ≤ 255, `n` checked by [`WalkGrid::new`]); the voxel map and the output words, which
 //! come from the scene upload and the caller, are accessed with `get`.
 
+use super::ahead::VoxelMap;
 use super::grid::{GridDesc, MAX_GRID_DIM};
 use crate::sfloat::{add, mul, recip, sub, trunc_i32, Multiplier};
 use gridrt_shared::fsl::VOXEL_MASK;
@@ -303,11 +304,12 @@ impl WalkGrid {
 
     /// Walks `ray` over `[0, t_max]` and writes each non-empty voxel it crosses, in order, as
     /// the two words of a request entry (`pe << 24 | voxel`, `t_exit` bits) into `words`;
-    /// returns the number of entries. `voxel_pe` is the scene's voxel → PE map
-    /// ([`EMPTY_VOXEL`] = empty; ids past its end count as empty). Stops when `words` is full,
-    /// like [`build_list`](super::build_list) at [`MAX_LIST`](super::MAX_LIST) entries.
-    pub fn write_entries(&self, voxel_pe: &[u8], ray: &Ray, t_max: f32, words: &mut [u32]) -> usize {
-        self.write_entries_in(INTEGER_KEYS, voxel_pe, ray, t_max, words)
+    /// returns the number of entries. `map` is the scene's voxel → PE map ([`EMPTY_VOXEL`] =
+    /// empty; ids past its end count as empty) with its occupancy-ahead table, where the walk
+    /// stops once no entry can follow (the same entries). Stops when `words` is full, like
+    /// [`build_list`](super::build_list) at [`MAX_LIST`](super::MAX_LIST) entries.
+    pub fn write_entries(&self, map: VoxelMap<'_>, ray: &Ray, t_max: f32, words: &mut [u32]) -> usize {
+        self.write_entries_in(INTEGER_KEYS, map, ray, t_max, words)
     }
 
     /// [`write_entries_in`](Self::write_entries_in) with the origin's subtractions from
@@ -323,7 +325,7 @@ impl WalkGrid {
         keys: bool,
         table: Option<&OriginPlanes>,
         recips: Option<[f32; 3]>,
-        voxel_pe: &[u8],
+        map: VoxelMap<'_>,
         ray: &Ray,
         t_max: f32,
         words: &mut [u32],
@@ -343,7 +345,7 @@ impl WalkGrid {
         // finite), and the comparisons may be made on integers (module doc); a soft-float core
         // does so.
         let no_nan = inv.iter().all(|&i| finite(i));
-        self.walk(Order { keys: no_nan && keys }, keys, table, voxel_pe, o, d, inv, t_max, words)
+        self.walk(Order { keys: no_nan && keys }, keys, table, map, o, d, inv, t_max, words)
     }
 
     /// [`write_entries`](Self::write_entries), comparing on integer keys where that is exact
@@ -352,12 +354,12 @@ impl WalkGrid {
     pub(super) fn write_entries_in(
         &self,
         keys: bool,
-        voxel_pe: &[u8],
+        map: VoxelMap<'_>,
         ray: &Ray,
         t_max: f32,
         words: &mut [u32],
     ) -> usize {
-        self.write_entries_with(keys, None, None, voxel_pe, ray, t_max, words)
+        self.write_entries_with(keys, None, None, map, ray, t_max, words)
     }
 
     /// `table` is the [`OriginPlanes`] of rays from `origin` on this grid (word comparisons:
@@ -414,7 +416,7 @@ impl WalkGrid {
     pub fn write_entries_from(
         &self,
         table: &mut OriginPlanes,
-        voxel_pe: &[u8],
+        map: VoxelMap<'_>,
         ray: &Ray,
         t_max: f32,
         words: &mut [u32],
@@ -422,9 +424,9 @@ impl WalkGrid {
         if !cfg!(soft_float) {
             // With an FPU the subtraction costs less than the table's check (measured), and
             // this keeps the hard-float walk one copy.
-            return self.write_entries(voxel_pe, ray, t_max, words);
+            return self.write_entries(map, ray, t_max, words);
         }
-        self.write_entries_table(INTEGER_KEYS, table, voxel_pe, ray, t_max, words)
+        self.write_entries_table(INTEGER_KEYS, table, map, ray, t_max, words)
     }
 
     /// [`write_entries_from`](Self::write_entries_from) on a soft-float core: the origin's
@@ -435,7 +437,7 @@ impl WalkGrid {
         &self,
         keys: bool,
         table: &mut OriginPlanes,
-        voxel_pe: &[u8],
+        map: VoxelMap<'_>,
         ray: &Ray,
         t_max: f32,
         words: &mut [u32],
@@ -445,7 +447,7 @@ impl WalkGrid {
             self.fill_origin_planes(origin, table);
         }
         let inv = table.recips.get(ray.dir.to_array());
-        self.write_entries_with(keys, Some(table), Some(inv), voxel_pe, ray, t_max, words)
+        self.write_entries_with(keys, Some(table), Some(inv), map, ray, t_max, words)
     }
 
     /// The start cell of `Traversal::new` on axis `a` from `q = entry − min`:
@@ -541,7 +543,7 @@ impl WalkGrid {
         ord: Order,
         fast: bool,
         table: Option<&OriginPlanes>,
-        voxel_pe: &[u8],
+        map: VoxelMap<'_>,
         o: [f32; 3],
         d: [f32; 3],
         inv: [f32; 3],
@@ -657,7 +659,7 @@ impl WalkGrid {
             }
         }
         let voxel = axes[0].cell as u32 + self.stride[1] * axes[1].cell as u32 + self.stride[2] * axes[2].cell as u32;
-        let walk = Walk { planes, voxel_pe, t0, t_end: t1, bound: self.bound };
+        let walk = Walk { planes, map, octant: VoxelMap::octant_bit(d), t0, t_end: t1, bound: self.bound };
         walk.run(ord, axes, voxel, words)
     }
 
@@ -907,7 +909,9 @@ impl Order {
 /// The loop of `Walk::next`, once the start cell is known.
 struct Walk<'a> {
     planes: &'a [[f32; PLANES]; 3],
-    voxel_pe: &'a [u8],
+    map: VoxelMap<'a>,
+    /// The ray's bit of the map's occupancy-ahead table.
+    octant: u8,
     t0: f32,
     t_end: f32,
     bound: u32,
@@ -931,11 +935,14 @@ impl Walk<'_> {
                 (z.t_next, 2)
             };
             let t_exit = ord.max(ord.min(t_cross, t_end), t);
-            let pe = self.voxel_pe.get(voxel as usize).copied().unwrap_or(EMPTY_VOXEL);
+            let pe = self.map.pe.get(voxel as usize).copied().unwrap_or(EMPTY_VOXEL);
             if pe != EMPTY_VOXEL {
                 let Some(pair) = out.next() else { break };
                 pair.copy_from_slice(&[(voxel & VOXEL_MASK) | (pe as u32) << 24, t_exit.to_bits()]);
                 entries += 1;
+            } else if !self.map.any_ahead(voxel, self.octant) {
+                // No non-empty voxel from here on (`dda::ahead`): no entry can follow.
+                break;
             }
             // Ends at t_end, and at a NaN boundary (which compares neither way).
             if !ord.lt(t_cross, t_end) {

@@ -25,6 +25,14 @@ fn trav(fmt: RayFormat, g: &GridDesc, r: &Ray, tmin: f32, tmax: f32) -> Vec<Voxe
 }
 use rand_chacha::ChaCha8Rng;
 
+/// `pe` over grid `g` with its occupancy-ahead table ([`fill_ahead`]) in `ahead`.
+fn with_ahead<'a>(g: &GridDesc, pe: &'a [u8], ahead: &'a mut Vec<u8>) -> VoxelMap<'a> {
+    ahead.clear();
+    ahead.resize(g.voxel_count() as usize, 0);
+    assert!(fill_ahead(g.dims, pe, ahead));
+    VoxelMap { pe, ahead }
+}
+
 type V64 = [f64; 3];
 
 fn v64(v: Vec3) -> V64 {
@@ -438,6 +446,9 @@ fn request_words_equal_build_list() {
         }
         let walk = WalkGrid::new(g);
         build_list_in(RayFormat::F32, g, &map, &case.ray, 0.0, case.tmax, &mut list);
+        // Every other case walks with the occupancy-ahead table (stopping early).
+        let mut ahead = Vec::new();
+        let vm = if i % 2 == 0 { with_ahead(g, &map, &mut ahead) } else { VoxelMap::plain(&map) };
         let cap = if i % 13 == 0 { rng.gen_range(0..4) } else { MAX_LIST };
         // ±0 exit distances are one value here (the integer-key comparisons may return either
         // zero; both accept the same hits).
@@ -448,12 +459,11 @@ fn request_words_equal_build_list() {
         let mut table = OriginPlanes::default();
         walk.fill_origin_planes(case.ray.origin.to_array(), &mut table);
         for keys in [false, true] {
-            let n = walk.write_entries_in(keys, &map, &case.ray, case.tmax, &mut words[..2 * cap]);
+            let n = walk.write_entries_in(keys, vm, &case.ray, case.tmax, &mut words[..2 * cap]);
             let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
             assert_eq!(got, want, "keys {keys}: {:?} {:?} t_max {}", g, case.ray, case.tmax);
             nonempty += (n > 0) as u32;
-            let n =
-                walk.write_entries_with(keys, Some(&table), None, &map, &case.ray, case.tmax, &mut words[..2 * cap]);
+            let n = walk.write_entries_with(keys, Some(&table), None, vm, &case.ray, case.tmax, &mut words[..2 * cap]);
             let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
             assert_eq!(got, want, "table, keys {keys}: {:?} {:?} t_max {}", g, case.ray, case.tmax);
         }
@@ -462,7 +472,7 @@ fn request_words_equal_build_list() {
         let mut stale = OriginPlanes::default();
         walk.fill_origin_planes(other.origin.to_array(), &mut stale);
         for _ in 0..2 {
-            let n = walk.write_entries_from(&mut stale, &map, &case.ray, case.tmax, &mut words[..2 * cap]);
+            let n = walk.write_entries_from(&mut stale, vm, &case.ray, case.tmax, &mut words[..2 * cap]);
             let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
             assert_eq!(got, want, "stale table: {:?} {:?}", g, case.ray);
         }
@@ -470,7 +480,7 @@ fn request_words_equal_build_list() {
         let mut other_grid = OriginPlanes::default();
         let shifted = GridDesc { min: g.min - Vec3::ONE, ..*g };
         WalkGrid::new(&shifted).fill_origin_planes(case.ray.origin.to_array(), &mut other_grid);
-        let n = walk.write_entries_from(&mut other_grid, &map, &case.ray, case.tmax, &mut words[..2 * cap]);
+        let n = walk.write_entries_from(&mut other_grid, vm, &case.ray, case.tmax, &mut words[..2 * cap]);
         let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
         assert_eq!(got, want, "table of another grid: {:?} {:?}", g, case.ray);
     }
@@ -478,17 +488,21 @@ fn request_words_equal_build_list() {
     // An invalid grid, ray or t_max walks nothing (as `build_list`).
     let bad = GridDesc { min: Vec3::ONE, max: Vec3::ZERO, dims: [2, 2, 2] };
     let r = Ray { origin: Vec3::splat(-1.0), dir: Vec3::ONE };
-    assert_eq!(WalkGrid::new(&bad).write_entries(&[0; 8], &r, f32::INFINITY, &mut words), 0);
+    assert_eq!(WalkGrid::new(&bad).write_entries(VoxelMap::plain(&[0; 8]), &r, f32::INFINITY, &mut words), 0);
     let good = WalkGrid::new(&GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [2, 2, 2] });
     // The diagonal through the corners: ties step x, then y, then z (zero-length voxels included).
-    assert_eq!(good.write_entries(&[0; 8], &r, f32::INFINITY, &mut words), 4);
+    assert_eq!(good.write_entries(VoxelMap::plain(&[0; 8]), &r, f32::INFINITY, &mut words), 4);
     for (o, d, t_max) in [
         (Vec3::new(f32::NAN, -1.0, -1.0), Vec3::ONE, f32::INFINITY),
         (Vec3::splat(-1.0), Vec3::new(1.0, f32::INFINITY, 1.0), f32::INFINITY),
         (Vec3::splat(-1.0), Vec3::new(-0.0, 0.0, -0.0), f32::INFINITY),
         (Vec3::splat(-1.0), Vec3::ONE, f32::NAN),
     ] {
-        assert_eq!(good.write_entries(&[0; 8], &Ray { origin: o, dir: d }, t_max, &mut words), 0, "{o} {d} {t_max}");
+        assert_eq!(
+            good.write_entries(VoxelMap::plain(&[0; 8]), &Ray { origin: o, dir: d }, t_max, &mut words),
+            0,
+            "{o} {d} {t_max}"
+        );
     }
 }
 
@@ -509,7 +523,12 @@ fn camera_rays_from_one_table_equal_build_list() {
         let centre = g.min + ext * 0.5;
         let away = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
         let eye = centre + away.normalize_or(Vec3::X) * ext.length() * rng.gen_range(1.0..8.0f32);
-        let map: Vec<u8> = (0..g.voxel_count()).map(|_| rng.gen_range(0..4)).collect();
+        // Full maps, and sparse ones walked with their occupancy-ahead table.
+        let fill = if rng.gen_bool(0.5) { 1.0 } else { rng.gen_range(0.0..0.3f64) };
+        let map: Vec<u8> =
+            (0..g.voxel_count()).map(|_| if rng.gen_bool(fill) { rng.gen_range(0..4) } else { EMPTY_VOXEL }).collect();
+        let mut ahead = Vec::new();
+        let vm = with_ahead(&g, &map, &mut ahead);
         let walk = WalkGrid::new(&g);
         let mut table = OriginPlanes::default();
         walk.fill_origin_planes(eye.to_array(), &mut table);
@@ -535,11 +554,11 @@ fn camera_rays_from_one_table_equal_build_list() {
             let want: Vec<[u32; 2]> =
                 list.iter().map(|e| gridrt_shared::fsl::entry_words(*e)).map(|[a, b]| [a, zero(b)]).collect();
             for keys in [false, true] {
-                let n = walk.write_entries_with(keys, Some(&table), None, &map, &ray, f32::INFINITY, &mut words);
+                let n = walk.write_entries_with(keys, Some(&table), None, vm, &ray, f32::INFINITY, &mut words);
                 let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
                 assert_eq!(got, want, "keys {keys}: {g:?} {ray:?}");
                 checked += usize::from(n > 0);
-                let n = walk.write_entries_table(keys, &mut memo_table, &map, &ray, f32::INFINITY, &mut words);
+                let n = walk.write_entries_table(keys, &mut memo_table, vm, &ray, f32::INFINITY, &mut words);
                 let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
                 assert_eq!(got, want, "keys {keys}, reciprocals from the table: {g:?} {ray:?}");
             }
@@ -581,18 +600,69 @@ fn inside_origins_walk_without_the_clip_as_build_list() {
         let dir = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)) * scale;
         let ray = Ray { origin: o, dir };
         let t_max = t_maxes[i % t_maxes.len()];
-        let map: Vec<u8> = (0..g.voxel_count()).map(|_| rng.gen_range(0..4)).collect();
+        let fill = if i % 2 == 0 { 1.0 } else { rng.gen_range(0.0..0.3f64) };
+        let map: Vec<u8> =
+            (0..g.voxel_count()).map(|_| if rng.gen_bool(fill) { rng.gen_range(0..4) } else { EMPTY_VOXEL }).collect();
+        let mut ahead = Vec::new();
+        let vm = with_ahead(&g, &map, &mut ahead);
         build_list_in(RayFormat::F32, &g, &map, &ray, 0.0, t_max, &mut list);
         let zero = |w: u32| if w == 0x8000_0000 { 0 } else { w };
         let want: Vec<[u32; 2]> =
             list.iter().map(|e| gridrt_shared::fsl::entry_words(*e)).map(|[a, b]| [a, zero(b)]).collect();
         let walk = WalkGrid::new(&g);
-        let n = walk.write_entries_in(true, &map, &ray, t_max, &mut words);
+        let n = walk.write_entries_in(true, vm, &ray, t_max, &mut words);
         let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
         assert_eq!(got, want, "{g:?} {ray:?} t_max {t_max:e}");
         nonempty += usize::from(n > 0);
-        edges += usize::from(n == 0 && t_max > 0.0);
+        edges += usize::from(n == 0 && t_max > 0.0 && fill == 1.0);
     }
     // Both kinds occur: walks, and clips that are empty although t_max > 0.
-    assert!(nonempty > 20_000 && edges > 500, "{nonempty} {edges}");
+    assert!(nonempty > 10_000 && edges > 500, "{nonempty} {edges}");
+}
+
+/// Bit `o` of voxel `v` in [`fill_ahead`]'s table is set exactly when a non-empty voxel lies
+/// in the box from `v` toward octant `o`'s corner (`v` included; octant bit `a` = going down
+/// on axis `a`): brute force over random grids and maps, maps shorter than the grid
+/// included. A table shorter than the grid says "never stop" everywhere.
+#[test]
+fn ahead_bits_say_a_non_empty_voxel_lies_in_the_octant_box() {
+    let mut rng = ChaCha8Rng::seed_from_u64(0xA4EAD);
+    let (mut set, mut clear) = (0u32, 0u32);
+    for _ in 0..300 {
+        let dims = [rng.gen_range(1..7u32), rng.gen_range(1..7), rng.gen_range(1..7)];
+        let g = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims };
+        let voxels = g.voxel_count() as usize;
+        let fill = rng.gen_range(0.0..0.3f64);
+        let mut pe: Vec<u8> =
+            (0..voxels).map(|_| if rng.gen_bool(fill) { rng.gen_range(0..4) } else { EMPTY_VOXEL }).collect();
+        if rng.gen_bool(0.2) {
+            pe.truncate(rng.gen_range(0..=voxels));
+        }
+        let mut ahead = Vec::new();
+        let map = with_ahead(&g, &pe, &mut ahead);
+        let filled = |c: [u32; 3]| pe.get(g.voxel_id(c) as usize).is_some_and(|&p| p != EMPTY_VOXEL);
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                for x in 0..dims[0] {
+                    let v = g.voxel_id([x, y, z]);
+                    for o in 0..8u8 {
+                        let range = |a: usize, c: u32| if o >> a & 1 == 1 { 0..=c } else { c..=dims[a] - 1 };
+                        let any = range(2, z)
+                            .flat_map(|k| range(1, y).flat_map(move |j| range(0, x).map(move |i| [i, j, k])))
+                            .any(filled);
+                        assert_eq!(map.any_ahead(v, 1 << o), any, "{dims:?} {pe:?} voxel {v} octant {o}");
+                        set += u32::from(any);
+                        clear += u32::from(!any);
+                    }
+                }
+            }
+        }
+        // Direction signs pick the octant: bit a of the octant is the sign bit of d[a].
+        assert_eq!(VoxelMap::octant_bit([1.0, -0.0, -2.0]), 1 << 0b110);
+        assert_eq!(VoxelMap::octant_bit([-1.0, 0.0, 0.0]), 1 << 0b001);
+    }
+    assert!(set > 10_000 && clear > 10_000, "{set} {clear}");
+    let mut short = [0u8; 7];
+    assert!(!fill_ahead([2, 2, 2], &[0; 8], &mut short));
+    assert_eq!(short, [0xFF; 7]);
 }

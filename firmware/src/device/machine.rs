@@ -424,6 +424,7 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
             if let Err((e, text)) = result {
                 return self.error(ErrorCode::SceneRejected, e.code(), text, out);
             }
+            self.scene.fill_ahead();
             self.scene.loaded = true;
             self.loaded_image = Some((total, crc));
             SceneStatus::Loaded

@@ -93,7 +93,7 @@ impl<L: FslLink> RayPath<L> {
         t_max: f32,
         class: RayClass,
     ) -> Result<Option<RayResult>, Fail> {
-        let map = scene.voxel_pe.get(..scene.voxels).unwrap_or(&[]);
+        let map = scene.map();
         let entries = self.request.get_mut(RAY_HEADER_WORDS..).unwrap_or(&mut []);
         // Camera rays share the eye: on a soft-float core their walks take `plane − o` from
         // one table per frame (with an FPU the subtraction costs less than the table's check).

@@ -5,7 +5,7 @@
 //! one CLEAR, checking every ACK.
 
 use super::fail::Fail;
-use crate::dda::{GridDesc, WalkGrid, MAX_GRID_DIM};
+use crate::dda::{GridDesc, VoxelMap, WalkGrid, MAX_GRID_DIM};
 use crate::fsl::{FslLink, FslWord};
 use crate::splat::PointSink;
 use gridrt_shared::frame::Crc32Digest;
@@ -47,6 +47,9 @@ pub(super) struct SceneStore<const N: usize> {
     pub(super) voxels: usize,
     /// Owning PE of each voxel, or `EMPTY_VOXEL`.
     pub(super) voxel_pe: [u8; N],
+    /// Occupancy ahead of each voxel (`dda::fill_ahead`), filled once the scene is complete;
+    /// 0xFF (a walk never stops early) before.
+    pub(super) ahead: [u8; N],
     /// Material table.
     pub(super) materials: heapless::Vec<Material, MAX_MATERIALS>,
     /// Shading models, parallel to `materials`.
@@ -58,6 +61,21 @@ pub(super) struct SceneStore<const N: usize> {
 }
 
 impl<const N: usize> SceneStore<N> {
+    /// The voxel map walks read: the grid's prefix of `voxel_pe`, with `ahead`.
+    #[inline(always)]
+    pub(super) fn map(&self) -> VoxelMap<'_> {
+        VoxelMap {
+            pe: self.voxel_pe.get(..self.voxels).unwrap_or(&[]),
+            ahead: self.ahead.get(..self.voxels).unwrap_or(&[]),
+        }
+    }
+
+    /// Builds `ahead` from the complete voxel map (scene load).
+    pub(super) fn fill_ahead(&mut self) {
+        let pe = self.voxel_pe.get(..self.voxels).unwrap_or(&[]);
+        crate::dda::fill_ahead(self.grid.dims, pe, &mut self.ahead);
+    }
+
     /// No scene.
     pub(super) fn new() -> Self {
         let grid = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [1; 3] };
@@ -67,6 +85,7 @@ impl<const N: usize> SceneStore<N> {
             walk: WalkGrid::new(&grid),
             voxels: 0,
             voxel_pe: [EMPTY_VOXEL; N],
+            ahead: [0xFF; N],
             materials: heapless::Vec::new(),
             material_model: heapless::Vec::new(),
             objects: heapless::Vec::new(),
@@ -330,6 +349,7 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
         self.store.walk = WalkGrid::new(&self.store.grid);
         self.store.voxels = h.voxel_count() as usize;
         self.store.voxel_pe.fill(EMPTY_VOXEL);
+        self.store.ahead.fill(0xFF);
         self.store.materials.clear();
         self.store.material_model.clear();
         self.store.objects.clear();
