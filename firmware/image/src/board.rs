@@ -36,8 +36,8 @@ mod imp {
     }
     /// Board id in `Msg::Version` (SPEC.md §3.2).
     pub const BOARD_ID: u8 = 1;
-    /// Largest grid the app accepts (voxels): 64³. The voxel map lives on the stack, which
-    /// is most of RAM here.
+    /// Largest grid the app accepts (voxels): 64³. The voxel map and its occupancy-ahead
+    /// table (a byte per voxel each) live on the stack, which is most of RAM here.
     pub const MAX_VOXELS: usize = 1 << 18;
     /// PEs of the virtual co-processor (GridRT had 4).
     pub const PE_COUNT: u16 = 4;
@@ -108,7 +108,8 @@ mod imp {
     /// Board id in `Msg::Version` (SPEC.md §3.2).
     pub const BOARD_ID: u8 = 2;
     /// Largest grid the app accepts (voxels, e.g. 20³), sized for 128 KiB of BRAM: the
-    /// voxel map lives on the stack with the rest of the device state (boards/fpga-soc.x).
+    /// voxel map and its occupancy-ahead table (8 KiB each) live on the stack with the rest
+    /// of the device state (boards/fpga-soc.x).
     pub const MAX_VOXELS: usize = 1 << 13;
     /// PEs of the co-processor in the block design (GridRT: 4).
     pub const PE_COUNT: u16 = 4;
@@ -271,8 +272,8 @@ mod imp {
     /// Board id in `Msg::Version` (SPEC.md §3.2).
     pub const BOARD_ID: u8 = 3;
     /// Largest grid the app accepts (voxels): 64³, as on QEMU, for scenes like stanford-bunny
-    /// (45×45×35) whose PE images are in SDRAM. The voxel map (a byte per voxel, 256 KiB)
-    /// lives on the stack in main RAM with the rest of the device state (boards/litex.x),
+    /// (45×45×35) whose PE images are in SDRAM. The voxel map and its occupancy-ahead table
+    /// (a byte per voxel each, 256 KiB each) live on the stack in main RAM with the rest of the device state (boards/litex.x),
     /// never on a hart's own 32 KiB stack.
     pub const MAX_VOXELS: usize = 1 << 18;
 
