@@ -2,7 +2,7 @@
 //!
 //! Field meanings (all counters are of the one rendered frame):
 //! - `primary_rays`, `shadow_rays`: rays the device generated; `rays` = their sum.
-//! - `coproc_rays`: rays sent to the co-processor; `culled_rays`: rays that missed the grid box
+//! - `coproc_rays`: ray requests sent to the co-processor (a list sent in two parts, SPEC.md §4.3, is two); `culled_rays`: rays that missed the grid box
 //!   and cost no FSL traffic.
 //! - `fsl_words` = `fsl_words_out` + `fsl_words_in`; `list_entries`: traversal-list entries sent.
 //! - `intersection_tests`, `coproc_cycles`: as reported by the co-processor.

@@ -166,3 +166,46 @@ fn record_tables_are_charged_against_pe_memory() {
         }
     }
 }
+
+/// A list sent in two parts answers as the whole list (what the firmware relies on when it
+/// sends a camera ray's first entries, then the rest after a miss, SPEC.md §4.3): for every
+/// split point, a first part that hits gives the whole list's hit (same t, prim, normal,
+/// material and entry), and one that misses leaves the same answer to the rest (its entry
+/// shifted by the split). RAY_ANY: a hit in either part exactly when the whole list has one.
+#[test]
+fn a_list_split_in_two_answers_as_the_whole_list() {
+    let scene = GridScene::random(0x5B11, 40);
+    let map = |id: u32| (id % 4) as u8;
+    let images = scene.images(4, map);
+    for kernel in KernelKind::ALL {
+        let mut backing = Vec::new();
+        let mut cp = loaded(CoprocConfig { kernel, ..config(4, 4096) }, &mut backing, &images);
+        let mut rng = ChaCha8Rng::seed_from_u64(0x5B12 + kernel as u64);
+        let (mut first_hits, mut rest_hits) = (0, 0);
+        for _ in 0..4000 {
+            let (ray, t_max) = random_ray(&mut rng);
+            let list = scene.list(&ray, map);
+            let key = |r: &RayResult| (r.hit, r.t.to_bits(), r.prim, r.material, r.normal.map(f32::to_bits));
+            let whole = cp.trace(RayKind::Closest, &ray, t_max, &list).unwrap();
+            let any = cp.trace(RayKind::Any, &ray, t_max, &list).unwrap().hit;
+            for k in 0..=list.len() {
+                let (head, tail) = list.split_at(k);
+                let first = cp.trace(RayKind::Closest, &ray, t_max, head).unwrap();
+                let (r, pos) = if first.hit {
+                    first_hits += 1;
+                    (first, first.list_pos)
+                } else {
+                    let rest = cp.trace(RayKind::Closest, &ray, t_max, tail).unwrap();
+                    rest_hits += usize::from(rest.hit);
+                    (rest, rest.list_pos + k as u16 * u16::from(rest.hit))
+                };
+                assert_eq!(key(&r), key(&whole), "{kernel:?}: split at {k} of {list:?}, {ray:?}");
+                assert_eq!(pos, whole.list_pos, "{kernel:?}: entry, split at {k}");
+                let any_parts = cp.trace(RayKind::Any, &ray, t_max, head).unwrap().hit
+                    || cp.trace(RayKind::Any, &ray, t_max, tail).unwrap().hit;
+                assert_eq!(any_parts, any, "{kernel:?}: RAY_ANY, split at {k}");
+            }
+        }
+        assert!(first_hits > 1000 && rest_hits > 1000, "{kernel:?}: {first_hits} {rest_hits}");
+    }
+}

@@ -39,7 +39,7 @@ pub use fixed::{DdaOverflow, FixedTraversal};
 pub use float::Traversal;
 pub use grid::{GridDesc, VoxelStep, MAX_GRID_DIM};
 pub use list::{build_list, build_list_in, TraversalList, MAX_LIST};
-pub use request::{OriginPlanes, WalkGrid};
+pub use request::{OriginPlanes, Resume, WalkGrid};
 
 #[cfg(test)]
 mod tests;

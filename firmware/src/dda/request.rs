@@ -329,6 +329,7 @@ impl WalkGrid {
         ray: &Ray,
         t_max: f32,
         words: &mut [u32],
+        resume: &mut Option<Resume>,
     ) -> usize {
         let o = ray.origin.to_array();
         let d = ray.dir.to_array();
@@ -345,7 +346,7 @@ impl WalkGrid {
         // finite), and the comparisons may be made on integers (module doc); a soft-float core
         // does so.
         let no_nan = inv.iter().all(|&i| finite(i));
-        self.walk(Order { keys: no_nan && keys }, keys, table, map, o, d, inv, t_max, words)
+        self.walk(Order { keys: no_nan && keys }, keys, table, map, o, d, inv, t_max, words, resume)
     }
 
     /// [`write_entries`](Self::write_entries), comparing on integer keys where that is exact
@@ -359,7 +360,8 @@ impl WalkGrid {
         t_max: f32,
         words: &mut [u32],
     ) -> usize {
-        self.write_entries_with(keys, None, None, map, ray, t_max, words)
+        // No resumption: the state the walk would keep is a dead store here.
+        self.write_entries_with(keys, None, None, map, ray, t_max, words, &mut None)
     }
 
     /// `table` is the [`OriginPlanes`] of rays from `origin` on this grid (word comparisons:
@@ -412,6 +414,9 @@ impl WalkGrid {
     /// [`write_entries`](Self::write_entries) for rays that mostly share an origin (camera
     /// rays): the subtractions that depend only on the origin come from `table`, which is
     /// rebuilt first when it is not this ray's origin's on this grid. The same entries.
+    ///
+    /// Where `words` fills up before the walk ends, `resume` holds where it stopped
+    /// ([`resume_entries`](Self::resume_entries) goes on from there); else it is `None`.
     #[cfg_attr(soft_float, inline(never))]
     pub fn write_entries_from(
         &self,
@@ -420,18 +425,51 @@ impl WalkGrid {
         ray: &Ray,
         t_max: f32,
         words: &mut [u32],
+        resume: &mut Option<Resume>,
     ) -> usize {
         if !cfg!(soft_float) {
             // With an FPU the subtraction costs less than the table's check (measured), and
-            // this keeps the hard-float walk one copy.
-            return self.write_entries(map, ray, t_max, words);
+            // this keeps the hard-float walk without a table.
+            return self.write_entries_with(INTEGER_KEYS, None, None, map, ray, t_max, words, resume);
         }
-        self.write_entries_table(INTEGER_KEYS, table, map, ray, t_max, words)
+        self.write_entries_table(INTEGER_KEYS, table, map, ray, t_max, words, resume)
+    }
+
+    /// Goes on with the walk `resume` holds, from
+    /// [`write_entries_from`](Self::write_entries_from) with the same `table` (not rebuilt
+    /// since) and `map`, writing its next entries into `words`; `resume` then holds where it
+    /// stopped again, or `None`. The entries of both calls together are those of one walk
+    /// with room for all of them.
+    #[inline(never)]
+    pub fn resume_entries(
+        &self,
+        table: &OriginPlanes,
+        map: VoxelMap<'_>,
+        resume: &mut Option<Resume>,
+        words: &mut [u32],
+    ) -> usize {
+        let Some(r) = resume.take() else { return 0 };
+        let planes = if r.pre { &table.diff } else { &self.planes };
+        let axis = |a: usize| Axis {
+            cell: r.cell[a],
+            end: self.dims[a],
+            step: r.step[a],
+            plane: r.plane[a],
+            stride: r.step[a].wrapping_mul(self.stride[a] as i32),
+            o: r.o[a],
+            pre: r.pre,
+            inv: r.inv[a],
+            by_inv: if UNPACK_RECIPROCALS { Multiplier::new(r.inv[a]) } else { None },
+            t_next: r.t_next[a],
+        };
+        let walk = Walk { planes, map, octant: r.octant, t0: r.t, t_end: r.t_end, bound: r.bound };
+        walk.run(Order { keys: r.keys }, [axis(0), axis(1), axis(2)], r.voxel, words, resume)
     }
 
     /// [`write_entries_from`](Self::write_entries_from) on a soft-float core: the origin's
     /// subtractions and the direction's reciprocals from `table` (rebuilt first when it is
     /// not this ray's origin's on this grid).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(super) fn write_entries_table(
         &self,
@@ -441,13 +479,14 @@ impl WalkGrid {
         ray: &Ray,
         t_max: f32,
         words: &mut [u32],
+        resume: &mut Option<Resume>,
     ) -> usize {
         let origin = ray.origin.to_array();
         if !self.origin_table_fits(origin, table) {
             self.fill_origin_planes(origin, table);
         }
         let inv = table.recips.get(ray.dir.to_array());
-        self.write_entries_with(keys, Some(table), Some(inv), map, ray, t_max, words)
+        self.write_entries_with(keys, Some(table), Some(inv), map, ray, t_max, words, resume)
     }
 
     /// The start cell of `Traversal::new` on axis `a` from `q = entry − min`:
@@ -549,7 +588,9 @@ impl WalkGrid {
         inv: [f32; 3],
         t_max: f32,
         words: &mut [u32],
+        resume: &mut Option<Resume>,
     ) -> usize {
+        *resume = None;
         // The clip of `Aabb::clip` over [0, t_max]. Its exit is the least of t_max and the
         // widened far distances `RN(far·WIDEN)`; widening is monotone, so that is the least far
         // distance widened once (one multiplication where there were three: the same value,
@@ -660,7 +701,7 @@ impl WalkGrid {
         }
         let voxel = axes[0].cell as u32 + self.stride[1] * axes[1].cell as u32 + self.stride[2] * axes[2].cell as u32;
         let walk = Walk { planes, map, octant: VoxelMap::octant_bit(d), t0, t_end: t1, bound: self.bound };
-        walk.run(ord, axes, voxel, words)
+        walk.run(ord, axes, voxel, words, resume)
     }
 
     /// The clip's exit for an origin inside the box on integer keys: the least far distance
@@ -906,6 +947,30 @@ impl Order {
     }
 }
 
+/// Where a walk stopped because its output was full, to go on from
+/// ([`WalkGrid::resume_entries`]): per axis what changes along a walk, its reciprocal and
+/// origin; the rest comes from the grid again.
+#[derive(Debug, Clone, Copy)]
+pub struct Resume {
+    cell: [i32; 3],
+    step: [i32; 3],
+    plane: [i32; 3],
+    t_next: [f32; 3],
+    inv: [f32; 3],
+    o: [f32; 3],
+    voxel: u32,
+    /// The entry distance of `voxel`.
+    t: f32,
+    t_end: f32,
+    /// The walk's bound on steps (a resumed walk has it again: a walk never takes that many,
+    /// it is a guard).
+    bound: u32,
+    octant: u8,
+    keys: bool,
+    /// The walk's planes are `plane − o` ([`OriginPlanes`]).
+    pre: bool,
+}
+
 /// The loop of `Walk::next`, once the start cell is known.
 struct Walk<'a> {
     planes: &'a [[f32; PLANES]; 3],
@@ -919,12 +984,20 @@ struct Walk<'a> {
 
 impl Walk<'_> {
     #[inline(always)]
-    fn run(&self, ord: Order, axes: [Axis; 3], mut voxel: u32, words: &mut [u32]) -> usize {
+    fn run(
+        &self,
+        ord: Order,
+        axes: [Axis; 3],
+        mut voxel: u32,
+        words: &mut [u32],
+        resume: &mut Option<Resume>,
+    ) -> usize {
         let [mut x, mut y, mut z] = axes;
         let [px, py, pz] = self.planes;
         let (mut t, t_end) = (self.t0, self.t_end);
         let mut out = words.chunks_exact_mut(2);
         let mut entries = 0;
+        let mut full = false;
         for _ in 0..self.bound {
             // Lowest axis wins ties.
             let (t_cross, axis) = if ord.le(x.t_next, y.t_next) && ord.le(x.t_next, z.t_next) {
@@ -937,7 +1010,11 @@ impl Walk<'_> {
             let t_exit = ord.max(ord.min(t_cross, t_end), t);
             let pe = self.map.pe.get(voxel as usize).copied().unwrap_or(EMPTY_VOXEL);
             if pe != EMPTY_VOXEL {
-                let Some(pair) = out.next() else { break };
+                let Some(pair) = out.next() else {
+                    // Full: this voxel is the first of the next call's.
+                    full = true;
+                    break;
+                };
                 pair.copy_from_slice(&[(voxel & VOXEL_MASK) | (pe as u32) << 24, t_exit.to_bits()]);
                 entries += 1;
             } else if !self.map.any_ahead(voxel, self.octant) {
@@ -957,6 +1034,26 @@ impl Walk<'_> {
                 break;
             }
             t = t_exit;
+        }
+        if full {
+            // Field by field, after the loop: an axis taken by reference or copied whole lived
+            // in memory for the whole walk (measured: about 90 instructions more per walk on
+            // riscv32imac).
+            *resume = Some(Resume {
+                cell: [x.cell, y.cell, z.cell],
+                step: [x.step, y.step, z.step],
+                plane: [x.plane, y.plane, z.plane],
+                t_next: [x.t_next, y.t_next, z.t_next],
+                inv: [x.inv, y.inv, z.inv],
+                o: [x.o, y.o, z.o],
+                voxel,
+                t,
+                t_end,
+                bound: self.bound,
+                octant: self.octant,
+                keys: ord.keys,
+                pre: x.pre,
+            });
         }
         entries
     }

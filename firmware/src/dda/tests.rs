@@ -33,6 +33,39 @@ fn with_ahead<'a>(g: &GridDesc, pe: &'a [u8], ahead: &'a mut Vec<u8>) -> VoxelMa
     VoxelMap { pe, ahead }
 }
 
+/// The entries of a walk written in parts of `parts[0]`, `parts[1]`, … entries (then
+/// [`MAX_LIST`]), `cap` in all: `start` writes the first part, [`WalkGrid::resume_entries`]
+/// each next one. A resumed walk always writes an entry where it has room (it stopped at a
+/// non-empty voxel).
+fn in_parts(
+    walk: &WalkGrid,
+    table: &OriginPlanes,
+    map: VoxelMap<'_>,
+    parts: &[usize],
+    cap: usize,
+    start: impl FnOnce(&mut [u32], &mut Option<Resume>) -> usize,
+) -> Vec<[u32; 2]> {
+    let mut words = vec![0u32; 2 * MAX_LIST];
+    let mut resume = None;
+    let first = parts[0].min(cap);
+    let n = start(&mut words[..2 * first], &mut resume);
+    let mut got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], c[1]]).collect();
+    for i in 1.. {
+        if resume.is_none() {
+            break;
+        }
+        let left = cap - got.len();
+        let room = parts.get(i).copied().unwrap_or(MAX_LIST).min(left);
+        let n = walk.resume_entries(table, map, &mut resume, &mut words[..2 * room]);
+        assert!(n > 0 || room == 0, "a resumed walk with room wrote nothing");
+        got.extend(words[..2 * n].chunks(2).map(|c| [c[0], c[1]]));
+        if left == 0 {
+            break;
+        }
+    }
+    got
+}
+
 type V64 = [f64; 3];
 
 fn v64(v: Vec3) -> V64 {
@@ -463,16 +496,37 @@ fn request_words_equal_build_list() {
             let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
             assert_eq!(got, want, "keys {keys}: {:?} {:?} t_max {}", g, case.ray, case.tmax);
             nonempty += (n > 0) as u32;
-            let n = walk.write_entries_with(keys, Some(&table), None, vm, &case.ray, case.tmax, &mut words[..2 * cap]);
+            let n = walk.write_entries_with(
+                keys,
+                Some(&table),
+                None,
+                vm,
+                &case.ray,
+                case.tmax,
+                &mut words[..2 * cap],
+                &mut None,
+            );
             let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
             assert_eq!(got, want, "table, keys {keys}: {:?} {:?} t_max {}", g, case.ray, case.tmax);
+            // In parts, resumed where the buffer filled up: the same entries.
+            let parts = [rng.gen_range(0..4), rng.gen_range(0..3), rng.gen_range(1..3)];
+            let got = in_parts(&walk, &table, vm, &parts, cap, |w, r| {
+                walk.write_entries_with(keys, None, None, vm, &case.ray, case.tmax, w, r)
+            });
+            let got: Vec<[u32; 2]> = got.into_iter().map(|[a, b]| [a, zero(b)]).collect();
+            assert_eq!(got, want, "parts {parts:?}, keys {keys}: {:?} {:?} t_max {}", g, case.ray, case.tmax);
+            let got = in_parts(&walk, &table, vm, &parts, cap, |w, r| {
+                walk.write_entries_with(keys, Some(&table), None, vm, &case.ray, case.tmax, w, r)
+            });
+            let got: Vec<[u32; 2]> = got.into_iter().map(|[a, b]| [a, zero(b)]).collect();
+            assert_eq!(got, want, "parts {parts:?}, table, keys {keys}: {:?} {:?} t_max {}", g, case.ray, case.tmax);
         }
         // A table of another origin or grid is not used.
         let other = Ray { origin: case.ray.origin + Vec3::X, dir: case.ray.dir };
         let mut stale = OriginPlanes::default();
         walk.fill_origin_planes(other.origin.to_array(), &mut stale);
         for _ in 0..2 {
-            let n = walk.write_entries_from(&mut stale, vm, &case.ray, case.tmax, &mut words[..2 * cap]);
+            let n = walk.write_entries_from(&mut stale, vm, &case.ray, case.tmax, &mut words[..2 * cap], &mut None);
             let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
             assert_eq!(got, want, "stale table: {:?} {:?}", g, case.ray);
         }
@@ -480,7 +534,7 @@ fn request_words_equal_build_list() {
         let mut other_grid = OriginPlanes::default();
         let shifted = GridDesc { min: g.min - Vec3::ONE, ..*g };
         WalkGrid::new(&shifted).fill_origin_planes(case.ray.origin.to_array(), &mut other_grid);
-        let n = walk.write_entries_from(&mut other_grid, vm, &case.ray, case.tmax, &mut words[..2 * cap]);
+        let n = walk.write_entries_from(&mut other_grid, vm, &case.ray, case.tmax, &mut words[..2 * cap], &mut None);
         let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
         assert_eq!(got, want, "table of another grid: {:?} {:?}", g, case.ray);
     }
@@ -554,13 +608,22 @@ fn camera_rays_from_one_table_equal_build_list() {
             let want: Vec<[u32; 2]> =
                 list.iter().map(|e| gridrt_shared::fsl::entry_words(*e)).map(|[a, b]| [a, zero(b)]).collect();
             for keys in [false, true] {
-                let n = walk.write_entries_with(keys, Some(&table), None, vm, &ray, f32::INFINITY, &mut words);
+                let n =
+                    walk.write_entries_with(keys, Some(&table), None, vm, &ray, f32::INFINITY, &mut words, &mut None);
                 let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
                 assert_eq!(got, want, "keys {keys}: {g:?} {ray:?}");
                 checked += usize::from(n > 0);
-                let n = walk.write_entries_table(keys, &mut memo_table, vm, &ray, f32::INFINITY, &mut words);
+                let n = walk.write_entries_table(keys, &mut memo_table, vm, &ray, f32::INFINITY, &mut words, &mut None);
                 let got: Vec<[u32; 2]> = words[..2 * n].chunks(2).map(|c| [c[0], zero(c[1])]).collect();
                 assert_eq!(got, want, "keys {keys}, reciprocals from the table: {g:?} {ray:?}");
+                // A few entries, then the rest (the device's camera rays).
+                let parts = [rng.gen_range(1..4)];
+                // (The table the call just above built for this ray: the one `start` uses.)
+                let got = in_parts(&walk, &memo_table.clone(), vm, &parts, MAX_LIST, |w, r| {
+                    walk.write_entries_table(keys, &mut memo_table, vm, &ray, f32::INFINITY, w, r)
+                });
+                let got: Vec<[u32; 2]> = got.into_iter().map(|[a, b]| [a, zero(b)]).collect();
+                assert_eq!(got, want, "keys {keys}, in parts {parts:?}: {g:?} {ray:?}");
             }
         }
     }

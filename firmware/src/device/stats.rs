@@ -184,10 +184,12 @@ pub struct FrameStats {
     pub primary_rays: u64,
     /// Shadow rays generated (lit hits with shadows on), culled ones included.
     pub shadow_rays: u64,
-    /// Rays sent to the co-processor (all kinds).
+    /// Ray requests sent to the co-processor (all kinds; a camera ray whose list went in two
+    /// parts, `RayPath::trace_as`, sent two).
     pub coproc_rays: u64,
     /// Rays whose list was empty (missed the grid box or crossed only empty voxels): sent
-    /// nothing. `primary_rays + shadow_rays == coproc_rays + culled_rays` on a full frame.
+    /// nothing. `primary_rays + shadow_rays ≤ coproc_rays + culled_rays` on a full frame,
+    /// the difference being the second parts.
     pub culled_rays: u64,
     /// FSL words put (ray requests only; scene loads are not counted).
     pub fsl_words_out: u64,
