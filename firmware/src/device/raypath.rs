@@ -120,18 +120,7 @@ impl<L: FslLink> RayPath<L> {
             count(&mut self.stats.culled_rays, 1);
             return Ok(None);
         }
-        let r = if L::DIRECT { self.trace_direct(kind, ray, t_max, n) } else { None };
-        let r = match r {
-            Some(answer) => self.direct(answer, n),
-            None => {
-                // n ≤ MAX_LIST (the walk stops at the buffer's end): the casts and sums are exact.
-                let head = wire::ray_request_head(kind, ray.origin.to_array(), ray.dir.to_array(), t_max, n as u16);
-                if let Some(h) = self.request.get_mut(..RAY_HEADER_WORDS) {
-                    h.copy_from_slice(&head);
-                }
-                self.exchange(RAY_HEADER_WORDS.wrapping_add(ENTRY_WORDS.wrapping_mul(n)), class)
-            }
-        };
+        let r = self.send(kind, ray, t_max, n, class);
         sw.lap(clock, &mut self.stats, Stage::FslIo);
         if r.is_err() {
             self.drain();
@@ -165,22 +154,27 @@ impl<L: FslLink> RayPath<L> {
         // Whatever remains past MAX_LIST entries is dropped, as one list would drop it.
         self.resume = None;
         sw.lap(clock, &mut self.stats, Stage::Traverse);
-        let r = if L::DIRECT { self.trace_direct(kind, ray, t_max, n) } else { None };
-        let r = match r {
-            Some(answer) => self.direct(answer, n),
-            None => {
-                let head = wire::ray_request_head(kind, ray.origin.to_array(), ray.dir.to_array(), t_max, n as u16);
-                if let Some(h) = self.request.get_mut(..RAY_HEADER_WORDS) {
-                    h.copy_from_slice(&head);
-                }
-                self.exchange(RAY_HEADER_WORDS.wrapping_add(ENTRY_WORDS.wrapping_mul(n)), RayClass::Primary)
-            }
-        };
+        let r = self.send(kind, ray, t_max, n, RayClass::Primary);
         sw.lap(clock, &mut self.stats, Stage::FslIo);
         if r.is_err() {
             self.drain();
         }
         r.map(Some)
+    }
+
+    /// Sends the ray with the `n` entries the walk wrote and returns the answer (or hands
+    /// them to a link that is the kernel itself).
+    #[inline(always)]
+    fn send(&mut self, kind: RayKind, ray: &Ray, t_max: f32, n: usize, class: RayClass) -> Result<RayResult, Fail> {
+        if let Some(answer) = if L::DIRECT { self.trace_direct(kind, ray, t_max, n) } else { None } {
+            return self.direct(answer, n);
+        }
+        // n ≤ MAX_LIST (the walk stops at the buffer's end): the casts and sums are exact.
+        let head = wire::ray_request_head(kind, ray.origin.to_array(), ray.dir.to_array(), t_max, n as u16);
+        if let Some(h) = self.request.get_mut(..RAY_HEADER_WORDS) {
+            h.copy_from_slice(&head);
+        }
+        self.exchange(RAY_HEADER_WORDS.wrapping_add(ENTRY_WORDS.wrapping_mul(n)), class)
     }
 
     /// Puts the first `len` words of the request and gets the 8 result words. Inline: out of
