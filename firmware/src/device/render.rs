@@ -133,7 +133,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
             spot: shade::SpotCone::of(lighting),
             eps_diag: shade::SHADOW_EPS_DIAG * diag,
             spans: BoxSpans::new(&job.cam, &scene.grid.aabb()),
-            occupancy: OccupancyMask::new(&job.cam, &scene.grid, scene.voxel_pe.get(..scene.voxels).unwrap_or(&[])),
+            occupancy: OccupancyMask::new(&job.cam, &scene.grid, scene.map().pe),
             background: Sample { rgb: shade::to_rgb8(background), prim: interp::MISS, t: f32::INFINITY },
             shadows,
             reflections: req.flags & render_flags::REFLECTIONS != 0 && scene.lighting.max_depth > 1,
