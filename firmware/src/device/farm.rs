@@ -120,6 +120,7 @@ impl<L: FslLink> RowTracer<L> {
 
     /// The counters since the last call; zeroes them.
     pub fn take_stats(&mut self) -> FrameStats {
+        self.path.settle();
         core::mem::take(&mut self.path.stats)
     }
 }

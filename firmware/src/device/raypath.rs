@@ -37,6 +37,7 @@ const _: () = assert!(FIRST_PART < MAX_LIST);
 
 /// Which counter an FSL exchange is charged to.
 #[derive(Clone, Copy)]
+#[repr(usize)]
 pub(super) enum RayClass {
     /// Camera rays.
     Primary,
@@ -44,6 +45,31 @@ pub(super) enum RayClass {
     Shadow,
     /// Mirror-reflection rays.
     Reflection,
+}
+
+/// The counter of `class`'s FSL words.
+fn class_words(s: &mut FrameStats, class: RayClass) -> &mut u64 {
+    match class {
+        RayClass::Primary => &mut s.fsl_words_primary,
+        RayClass::Shadow => &mut s.fsl_words_shadow,
+        RayClass::Reflection => &mut s.fsl_words_reflection,
+    }
+}
+
+/// The exchanges of the current row by class (primary, shadow, reflection), in 32 bits: one
+/// add per count where [`FrameStats`]' 64-bit word counters took seven each (measured:
+/// about 40 instructions per request on RV32). [`RayPath::settle`] derives the word counts
+/// from them (a request is its head and 2 words per entry, a well-formed answer 8 words) and
+/// adds them to the frame's. A row sends at most 4 096 pixels' requests of at most
+/// [`MAX_LIST`] entries each, far below 2^32.
+#[derive(Clone, Copy, Default)]
+struct RequestTally {
+    /// Requests the link took.
+    requests: [u32; 3],
+    /// Their list entries.
+    entries: [u32; 3],
+    /// Well-formed 8-word answers received.
+    answers: [u32; 3],
 }
 
 /// The ray path: link, request buffer and counters.
@@ -55,8 +81,11 @@ pub(super) struct RayPath<L> {
     /// The answer's words, reused from ray to ray: a fresh zeroed array per ray was a
     /// `memset` call (`exchange` reads only the words an answer filled).
     result: [u32; RESULT_WORDS],
-    /// Counters of the current (or last) frame.
+    /// Counters of the current (or last) frame; the exchanges' since the last
+    /// [`settle`](Self::settle) are in `tally`.
     pub(super) stats: FrameStats,
+    /// The exchanges not yet in `stats`.
+    tally: RequestTally,
     /// Poll budget of every blocking put/get.
     pub(super) polls: u32,
     /// The walk's `plane − o` of the camera rays' origin (`dda::OriginPlanes`).
@@ -83,6 +112,7 @@ impl<L: FslLink> RayPath<L> {
             request: [0; REQUEST_WORDS],
             result: [0; RESULT_WORDS],
             stats: FrameStats::default(),
+            tally: RequestTally::default(),
             polls,
             eye_planes: OriginPlanes::default(),
             resume: None,
@@ -183,38 +213,68 @@ impl<L: FslLink> RayPath<L> {
     fn exchange(&mut self, len: usize, class: RayClass) -> Result<RayResult, Fail> {
         let request = self.request.get(..len).unwrap_or(&[]);
         let sent = self.link.put_packet(request, self.polls);
-        let s = &mut self.stats;
-        let class_words = match class {
-            RayClass::Primary => &mut s.fsl_words_primary,
-            RayClass::Shadow => &mut s.fsl_words_shadow,
-            RayClass::Reflection => &mut s.fsl_words_reflection,
-        };
         sent.map_err(|e| Fail::link(e, "ray request"))?;
-        count(&mut s.fsl_words_out, len as u64);
-        count(class_words, len as u64);
-        count(&mut s.coproc_rays, 1);
-        count(&mut s.list_entries, (len.wrapping_sub(RAY_HEADER_WORDS) / ENTRY_WORDS) as u64);
+        let (t, c) = (&mut self.tally, class as usize);
+        // `c` < 3 and len ≤ REQUEST_WORDS: the sums stay below 2^32 within a row (above).
+        if let (Some(r), Some(e)) = (t.requests.get_mut(c), t.entries.get_mut(c)) {
+            *r = r.wrapping_add(1);
+            *e = e.wrapping_add((len.wrapping_sub(RAY_HEADER_WORDS) / ENTRY_WORDS) as u32);
+        }
         // The checks below read only words this answer filled (`words[..n]`, n ≥ 1: a read
         // into a non-empty buffer fills at least word 0 or fails), so the reused buffer
         // reads as a fresh zeroed one.
         let words = &mut self.result;
         let got = self.link.get_packet(words, self.polls);
         let (n, ended) = got.map_err(|e| Fail::link(e, "ray result"))?;
-        count(&mut s.fsl_words_in, n as u64);
-        count(class_words, n as u64);
         // An ERROR word is a whole packet; anything else must be an 8-word RESULT packet
         // whose only control bit is on the last word.
-        if wire::opcode(words[0]) != op::RESULT {
-            return Err(Fail::Word(words[0], "ray result"));
+        if wire::opcode(words[0]) != op::RESULT || n != RESULT_WORDS || !ended {
+            return Err(Self::malformed(&mut self.stats, class, words, n));
         }
-        if n != RESULT_WORDS || !ended {
-            let at = words.get(n.wrapping_sub(1)).copied().unwrap_or(0);
-            return Err(Fail::Word(at, "ray result (misplaced control bit)"));
+        if let Some(a) = self.tally.answers.get_mut(c) {
+            *a = a.wrapping_add(1);
         }
+        let s = &mut self.stats;
         let r = RayResult::from_words(words).map_err(|_| Fail::Word(words[0], "ray result"))?;
         count(&mut s.intersection_tests, r.tests as u64);
         count(&mut s.coproc_cycles, r.cycles as u64);
         Ok(r)
+    }
+
+    /// The failure of an answer that is not one well-formed RESULT packet, its `n` words
+    /// counted (the frame stops: no tally for them).
+    #[cold]
+    #[inline(never)]
+    fn malformed(stats: &mut FrameStats, class: RayClass, words: &[u32], n: usize) -> Fail {
+        count(&mut stats.fsl_words_in, n as u64);
+        count(class_words(stats, class), n as u64);
+        let first = words.first().copied().unwrap_or(0);
+        if wire::opcode(first) != op::RESULT {
+            return Fail::Word(first, "ray result");
+        }
+        let at = words.get(n.wrapping_sub(1)).copied().unwrap_or(0);
+        Fail::Word(at, "ray result (misplaced control bit)")
+    }
+
+    /// Adds the exchanges tallied since the last call to [`stats`](Self::stats): at each
+    /// row's end and before the frame's counters are read.
+    pub(super) fn settle(&mut self) {
+        let t = core::mem::take(&mut self.tally);
+        let s = &mut self.stats;
+        for (class, i) in [(RayClass::Primary, 0), (RayClass::Shadow, 1), (RayClass::Reflection, 2)] {
+            let requests = u64::from(t.requests.get(i).copied().unwrap_or(0));
+            let entries = u64::from(t.entries.get(i).copied().unwrap_or(0));
+            let answers = u64::from(t.answers.get(i).copied().unwrap_or(0));
+            // Each term < 2^32 · 800: no overflow in 64 bits.
+            let out =
+                requests.wrapping_mul(RAY_HEADER_WORDS as u64).wrapping_add(entries.wrapping_mul(ENTRY_WORDS as u64));
+            let inw = answers.wrapping_mul(RESULT_WORDS as u64);
+            count(&mut s.coproc_rays, requests);
+            count(&mut s.list_entries, entries);
+            count(&mut s.fsl_words_out, out);
+            count(&mut s.fsl_words_in, inw);
+            count(class_words(s, class), out.wrapping_add(inw));
+        }
     }
 
     /// A link that is the kernel itself ([`FslLink::DIRECT`]): the `n` entries the walk wrote,

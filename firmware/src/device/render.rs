@@ -83,7 +83,9 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         let excluded = self.clock.excluded();
         let arrival = self.clock.now();
         let mut wire = FrameWriter::new(out, self.clock.clone());
-        self.pixels(scene, tx, job, &mut wire)?;
+        let drawn = self.pixels(scene, tx, job, &mut wire);
+        self.path.settle();
+        drawn?;
         // The frame ends when its last byte has left the transmit FIFO (SPEC.md §3.8).
         wire.flush().map_err(|_| Fail::Output)?;
         let drained = self.clock.now();
@@ -285,6 +287,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
             self.spans.flush(tx, out).map_err(Fail::tx)?;
             sw.lap(&self.clock, &mut self.path.stats, Stage::Encode);
             sw.flush(&mut self.path.stats);
+            self.path.settle();
         }
         self.path.stats.interpolated_pixels = counts.interpolated;
         self.path.stats.interp_retraces = counts.retraces;

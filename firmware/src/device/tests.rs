@@ -268,6 +268,9 @@ fn render_4x3_sends_one_span_per_row_then_stats_then_frame_end_with_image_crc() 
     assert_eq!(s[&stat::FSL_WORDS_IN], 8 * fake.rays.len() as u64);
     assert_eq!(s[&stat::INTERSECTION_TESTS], entries as u64);
     assert_eq!(s[&stat::COPROC_CYCLES], 648 * entries as u64);
+    // Camera rays only: every word is charged to the primary class.
+    let words = (s[&stat::FSL_WORDS_PRIMARY], s[&stat::FSL_WORDS_SHADOW], s[&stat::FSL_WORDS_REFLECTION]);
+    assert_eq!(words, (s[&stat::FSL_WORDS_OUT] + s[&stat::FSL_WORDS_IN], 0, 0));
     for st in Stage::ALL {
         assert_eq!((s[&st.instret_key()], s[&st.cycles_key()]), (0, 0), "NoClock counts nothing");
     }
