@@ -170,7 +170,7 @@ pub(super) fn open_pixel<L: FslLink, C: StageClock, const N: usize>(
             }
         }
     }
-    path_from(path, scene, clock, sw, ctx, ray, (r, p, unit))
+    path_from(path, scene, clock, sw, ctx, &ray, (r, p, unit))
 }
 
 /// The material of id `material`, or the default one when the scene does not define it.
@@ -203,7 +203,7 @@ fn path_from<L: FslLink, C: StageClock, const N: usize>(
     clock: &C,
     sw: &mut Stopwatch,
     ctx: &FrameCtx,
-    mut ray: Ray,
+    camera: &Ray,
     first: (RayResult, Vec3, Option<Vec3>),
 ) -> Result<Sample, Fail> {
     let lighting = &scene.lighting;
@@ -213,19 +213,23 @@ fn path_from<L: FslLink, C: StageClock, const N: usize>(
     let mut throughput = 1f32;
     let (first_prim, first_t) = (first.0.prim, first.0.t);
     let mut pending = Some(first);
+    // The ray of the current bounce: the camera ray's by reference until a mirror bounce
+    // (a copy of it was a `memcpy` call per hit).
+    let mut bounced: Option<Ray> = None;
     for bounce in 0..depth {
+        let ray = bounced.as_ref().unwrap_or(camera);
         let (r, p, unit) = match pending.take() {
             Some(hit) => hit,
             None => {
                 let hit =
-                    path.trace_as(scene, clock, sw, &ray, RayKind::Closest, f32::INFINITY, RayClass::Reflection)?;
+                    path.trace_as(scene, clock, sw, ray, RayKind::Closest, f32::INFINITY, RayClass::Reflection)?;
                 let Some(r) = hit.filter(|r| r.hit) else {
                     for (a, b) in acc.iter_mut().zip(lighting.background) {
                         *a = add(*a, mul(throughput, b));
                     }
                     break;
                 };
-                let p = shade::hit_point(&ray, r.t);
+                let p = shade::hit_point(ray, r.t);
                 let unit = unit_normal(path, &r, ray.dir);
                 (r, p, unit)
             }
@@ -303,7 +307,7 @@ fn path_from<L: FslLink, C: StageClock, const N: usize>(
         throughput *= refl;
         count(&mut path.stats.reflection_rays, 1);
         let origin = p + n * shade::shadow_epsilon_from(ctx.eps_diag, p);
-        ray = Ray { origin, dir: ray.dir - n * (2.0 * ray.dir.dot(n)) };
+        bounced = Some(Ray { origin, dir: ray.dir - n * (2.0 * ray.dir.dot(n)) });
     }
     let rgb = shade::to_rgb8(acc);
     sw.lap(clock, &mut path.stats, Stage::Shade);
