@@ -186,20 +186,25 @@ pub fn direct_toward(ext: &MaterialModel, n: Vec3, v: Vec3, l: Vec3, light: &Dir
 /// Radiance leaving the surface towards the viewer (module doc): ambient `L_a` plus the
 /// direct term when the light is visible.
 pub fn outgoing(ext: &MaterialModel, cd: [f32; 3], la: [f32; 3], direct: Option<&DirectTerm>) -> [f32; 3] {
-    [0, 1, 2].map(|k| match (ext.diffuse_model, direct) {
-        // `crate::sfloat`'s arithmetic, in the order of the formulas:
-        // cd·(ka·la), cd·(ka·la + D·kd) + D·(ks·cs), ka·cd·la, ka·cd·la + D·(kd·cd + ks·cs).
-        (DiffuseModel::Matte, None) => mul(cd[k], mul(ext.ka, la[k])),
-        (DiffuseModel::Matte, Some(d)) => add(
-            mul(cd[k], add(mul(ext.ka, la[k]), mul(d.light[k], d.diffuse))),
-            mul(d.light[k], mul(d.specular, ext.specular[k])),
-        ),
-        (_, None) => mul(mul(ext.ka, cd[k]), la[k]),
-        (_, Some(d)) => add(
-            mul(mul(ext.ka, cd[k]), la[k]),
-            mul(d.light[k], add(mul(d.diffuse, cd[k]), mul(d.specular, ext.specular[k]))),
-        ),
-    })
+    // The model decided once, not per channel (per channel it was a match in each of three
+    // closure calls). `crate::sfloat`'s arithmetic, in the order of the formulas:
+    // cd·(ka·la), cd·(ka·la + D·kd) + D·(ks·cs), ka·cd·la, ka·cd·la + D·(kd·cd + ks·cs).
+    match (ext.diffuse_model, direct) {
+        (DiffuseModel::Matte, None) => [0, 1, 2].map(|k| mul(cd[k], mul(ext.ka, la[k]))),
+        (DiffuseModel::Matte, Some(d)) => [0, 1, 2].map(|k| {
+            add(
+                mul(cd[k], add(mul(ext.ka, la[k]), mul(d.light[k], d.diffuse))),
+                mul(d.light[k], mul(d.specular, ext.specular[k])),
+            )
+        }),
+        (_, None) => [0, 1, 2].map(|k| mul(mul(ext.ka, cd[k]), la[k])),
+        (_, Some(d)) => [0, 1, 2].map(|k| {
+            add(
+                mul(mul(ext.ka, cd[k]), la[k]),
+                mul(d.light[k], add(mul(d.diffuse, cd[k]), mul(d.specular, ext.specular[k]))),
+            )
+        }),
+    }
 }
 
 #[cfg(test)]
