@@ -224,10 +224,20 @@ fn change_op(prev: [u8; 3], p: [u8; 3]) -> (u32, usize) {
     (u32::from_le_bytes([OP_RGB, r, g, b]), 4)
 }
 
-/// Stores the low `dst.len()` (≤ 4) bytes of `w`, little-endian.
+/// Stores the low `dst.len()` (≤ 4) bytes of `w`, little-endian: one store per byte for
+/// the lengths an op has (a loop over the bytes staged `w` in memory, ~7 instructions a byte).
+#[inline(always)]
 fn put_le(dst: &mut [u8], w: u32) {
-    for (d, b) in dst.iter_mut().zip(w.to_le_bytes()) {
-        *d = b;
+    let [b0, b1, b2, b3] = w.to_le_bytes();
+    match dst {
+        [d0] => *d0 = b0,
+        [d0, d1] => (*d0, *d1) = (b0, b1),
+        [d0, d1, d2, d3] => (*d0, *d1, *d2, *d3) = (b0, b1, b2, b3),
+        _ => {
+            for (d, b) in dst.iter_mut().zip([b0, b1, b2, b3]) {
+                *d = b;
+            }
+        }
     }
 }
 
