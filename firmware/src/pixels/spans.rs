@@ -143,8 +143,10 @@ impl SpanEncoder {
     }
 
     /// Adds pixel (x, y). A pixel that does not continue the pending span (other row, gap), a
-    /// full span or a full data buffer flushes the pending span first.
-    #[inline]
+    /// full span or a full data buffer flushes the pending span first. Inline: a call cost the
+    /// render loop about 25 instructions per traced pixel (its saves and arguments), for
+    /// 1.4 KiB of code at its six call sites.
+    #[inline(always)]
     pub fn push<W: Write + ?Sized>(
         &mut self,
         x: u16,
