@@ -186,25 +186,28 @@ pub fn direct_toward(ext: &MaterialModel, n: Vec3, v: Vec3, l: Vec3, light: &Dir
 /// Radiance leaving the surface towards the viewer (module doc): ambient `L_a` plus the
 /// direct term when the light is visible.
 pub fn outgoing(ext: &MaterialModel, cd: [f32; 3], la: [f32; 3], direct: Option<&DirectTerm>) -> [f32; 3] {
-    // The model decided once, not per channel (per channel it was a match in each of three
-    // closure calls). `crate::sfloat`'s arithmetic, in the order of the formulas:
+    // The model decided once, the channels written out (per channel it was a match in each
+    // of three closure calls, and `[0, 1, 2].map` kept a loop with its index in memory).
+    // `crate::sfloat`'s arithmetic, in the order of the formulas:
     // cd·(ka·la), cd·(ka·la + D·kd) + D·(ks·cs), ka·cd·la, ka·cd·la + D·(kd·cd + ks·cs).
+    let ka = ext.ka;
+    let cs = ext.specular;
     match (ext.diffuse_model, direct) {
-        (DiffuseModel::Matte, None) => [0, 1, 2].map(|k| mul(cd[k], mul(ext.ka, la[k]))),
-        (DiffuseModel::Matte, Some(d)) => [0, 1, 2].map(|k| {
-            add(
-                mul(cd[k], add(mul(ext.ka, la[k]), mul(d.light[k], d.diffuse))),
-                mul(d.light[k], mul(d.specular, ext.specular[k])),
-            )
+        (DiffuseModel::Matte, None) => rgb(|k| mul(cd[k], mul(ka, la[k]))),
+        (DiffuseModel::Matte, Some(d)) => rgb(|k| {
+            add(mul(cd[k], add(mul(ka, la[k]), mul(d.light[k], d.diffuse))), mul(d.light[k], mul(d.specular, cs[k])))
         }),
-        (_, None) => [0, 1, 2].map(|k| mul(mul(ext.ka, cd[k]), la[k])),
-        (_, Some(d)) => [0, 1, 2].map(|k| {
-            add(
-                mul(mul(ext.ka, cd[k]), la[k]),
-                mul(d.light[k], add(mul(d.diffuse, cd[k]), mul(d.specular, ext.specular[k]))),
-            )
+        (_, None) => rgb(|k| mul(mul(ka, cd[k]), la[k])),
+        (_, Some(d)) => rgb(|k| {
+            add(mul(mul(ka, cd[k]), la[k]), mul(d.light[k], add(mul(d.diffuse, cd[k]), mul(d.specular, cs[k]))))
         }),
     }
+}
+
+/// `[f(0), f(1), f(2)]`, each call inline.
+#[inline(always)]
+fn rgb(f: impl Fn(usize) -> f32) -> [f32; 3] {
+    [f(0), f(1), f(2)]
 }
 
 #[cfg(test)]
