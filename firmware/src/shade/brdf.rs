@@ -89,34 +89,40 @@ pub fn diffuse_brdf(ext: &MaterialModel, n: Vec3, l: Vec3, v: Vec3) -> f32 {
     match ext.diffuse_model {
         DiffuseModel::Matte => 1.0,
         DiffuseModel::Lambert => INV_PI,
-        DiffuseModel::OrenNayar => {
-            let s2 = ext.sigma2;
-            let a = 1.0 - s2 / (2.0 * (s2 + 0.33));
-            let b = 0.45 * s2 / (s2 + 0.09);
-            let cos_i = n.dot(l).clamp(-1.0, 1.0);
-            let cos_o = n.dot(v).clamp(-1.0, 1.0);
-            let sin_i = libm::sqrtf((1.0 - cos_i * cos_i).max(0.0));
-            let sin_o = libm::sqrtf((1.0 - cos_o * cos_o).max(0.0));
-            // cos(φi − φo) from the tangent-plane projections.
-            let lp = l - n * cos_i;
-            let vp = v - n * cos_o;
-            let cos_phi = match (try_normalize(lp), try_normalize(vp)) {
-                (Some(a), Some(b)) => a.dot(b).max(0.0),
-                _ => 0.0,
-            };
-            // α = max(θi, θo), β = min: sin α · tan β.
-            let (sin_a, tan_b) = if cos_i < cos_o {
-                (sin_i, if cos_o > 0.0 { sin_o / cos_o } else { 0.0 })
-            } else {
-                (sin_o, if cos_i > 0.0 { sin_i / cos_i } else { 0.0 })
-            };
-            INV_PI * (a + b * cos_phi * sin_a * tan_b)
-        }
+        DiffuseModel::OrenNayar => oren_nayar(ext, n, l, v),
     }
 }
 
-/// Specular BRDF value (0 without a specular model).
+/// The simplified Oren–Nayar BRDF. Out of line: inline, its registers were saved and
+/// restored on every matte and Lambert hit too.
+#[inline(never)]
+fn oren_nayar(ext: &MaterialModel, n: Vec3, l: Vec3, v: Vec3) -> f32 {
+    let s2 = ext.sigma2;
+    let a = 1.0 - s2 / (2.0 * (s2 + 0.33));
+    let b = 0.45 * s2 / (s2 + 0.09);
+    let cos_i = n.dot(l).clamp(-1.0, 1.0);
+    let cos_o = n.dot(v).clamp(-1.0, 1.0);
+    let sin_i = libm::sqrtf((1.0 - cos_i * cos_i).max(0.0));
+    let sin_o = libm::sqrtf((1.0 - cos_o * cos_o).max(0.0));
+    // cos(φi − φo) from the tangent-plane projections.
+    let lp = l - n * cos_i;
+    let vp = v - n * cos_o;
+    let cos_phi = match (try_normalize(lp), try_normalize(vp)) {
+        (Some(a), Some(b)) => a.dot(b).max(0.0),
+        _ => 0.0,
+    };
+    // α = max(θi, θo), β = min: sin α · tan β.
+    let (sin_a, tan_b) = if cos_i < cos_o {
+        (sin_i, if cos_o > 0.0 { sin_o / cos_o } else { 0.0 })
+    } else {
+        (sin_o, if cos_i > 0.0 { sin_i / cos_i } else { 0.0 })
+    };
+    INV_PI * (a + b * cos_phi * sin_a * tan_b)
+}
+
+/// Specular BRDF value (0 without a specular model). Out of line, as `oren_nayar`.
 #[cfg(feature = "specular")]
+#[inline(never)]
 pub fn specular_brdf(ext: &MaterialModel, n: Vec3, l: Vec3, v: Vec3) -> f32 {
     let Some(h) = try_normalize(l + v) else { return 0.0 };
     let nh = n.dot(h).max(0.0);
@@ -180,7 +186,8 @@ pub fn direct_toward(ext: &MaterialModel, n: Vec3, v: Vec3, l: Vec3, light: &Dir
     let specular = if light.specular { ext.ks * specular_brdf(ext, n, l, v) } else { 0.0 };
     #[cfg(not(feature = "specular"))]
     let specular = 0.0;
-    DirectTerm { light: light.radiance.map(|c| mul(e_spot, c)), diffuse, specular }
+    let [r, g, b] = light.radiance;
+    DirectTerm { light: [mul(e_spot, r), mul(e_spot, g), mul(e_spot, b)], diffuse, specular }
 }
 
 /// Radiance leaving the surface towards the viewer (module doc): ambient `L_a` plus the
