@@ -259,7 +259,13 @@ impl<L: FslLink> RayPath<L> {
     /// Adds the exchanges tallied since the last call to [`stats`](Self::stats): at each
     /// row's end and before the frame's counters are read.
     pub(super) fn settle(&mut self) {
-        let t = core::mem::take(&mut self.tally);
+        // Copied and cleared field by field (`mem::take` of the whole tally was a `memcpy`
+        // and a `memset` call).
+        let t =
+            RequestTally { requests: self.tally.requests, entries: self.tally.entries, answers: self.tally.answers };
+        self.tally.requests = [0; 3];
+        self.tally.entries = [0; 3];
+        self.tally.answers = [0; 3];
         let s = &mut self.stats;
         for (class, i) in [(RayClass::Primary, 0), (RayClass::Shadow, 1), (RayClass::Reflection, 2)] {
             let requests = u64::from(t.requests.get(i).copied().unwrap_or(0));
