@@ -293,9 +293,9 @@ fn path_from<L: FslLink, C: StageClock, const N: usize>(
                 return Ok(Sample { rgb, prim: r.prim, t: r.t });
             }
         }
-        for (a, b) in acc.iter_mut().zip(shade::outgoing(ext, cd, la, direct.as_ref())) {
-            *a = add(*a, mul(throughput, b));
-        }
+        // Written out per channel (a zipped loop kept `acc` in memory with an FPU).
+        let [o0, o1, o2] = shade::outgoing(ext, cd, la, direct.as_ref());
+        acc = [add(acc[0], mul(throughput, o0)), add(acc[1], mul(throughput, o1)), add(acc[2], mul(throughput, o2))];
         sw.lap(clock, &mut path.stats, Stage::Shade);
         if bounce.wrapping_add(1) == depth || ext.reflect_mode == ReflectMode::None {
             break;

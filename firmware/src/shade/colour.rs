@@ -46,8 +46,8 @@ pub fn to_u8_soft(c: f32) -> u8 {
 
 /// [`to_u8`] per channel.
 #[inline]
-pub fn to_rgb8(c: [f32; 3]) -> [u8; 3] {
-    c.map(to_u8)
+pub fn to_rgb8([r, g, b]: [f32; 3]) -> [u8; 3] {
+    [to_u8(r), to_u8(g), to_u8(b)]
 }
 
 #[cfg(test)]
