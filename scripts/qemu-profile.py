@@ -23,6 +23,11 @@ instructions by its caller; both follow a call stack kept from the log: a block 
 instruction is `jal`/`jalr` writing `ra` is a call (its return address is pushed), a block
 that starts at one of the six newest return addresses is a return (the frames above it are
 dropped). Estimates where code leaves a function other than by its return address.
+
+--laps splits the run at every `csrr …, minstret` (the firmware's stage laps, and the
+qemu-virt link's reads around the model) and lists the most-executed spans from one such
+read to the next: instructions per pass, and per function inside. A stage's cost per ray,
+cut where the stopwatch cuts it.
 """
 
 import argparse
@@ -104,6 +109,34 @@ def inclusive_counts(blocks, function_of, depth=6):
     return inclusive, own, by_caller
 
 
+def lap_points(elf):
+    """Addresses of the ELF's `csrr …, minstret` instructions (the counter reads)."""
+    dis = subprocess.run(["llvm-objdump", "-d", "--no-show-raw-insn", elf], capture_output=True, text=True, check=True).stdout
+    return {int(m.group(1), 16) for m in re.finditer(r"^\s*([0-9a-f]+):\s+csrr\s+\w+, minstret", dis, re.M)}
+
+
+def lap_spans(blocks, laps, function_of):
+    """Splits executed `blocks` at each instruction whose pc is in `laps`. Per span (lap pc,
+    next lap pc): its passes, and its instructions per function (the first read's own
+    counted in its span, the second's in the next)."""
+    passes = collections.Counter()
+    per_function = collections.defaultdict(collections.Counter)
+    names = {}
+    prev, span = None, collections.Counter()
+    for block in blocks:
+        for pc, _, _ in block:
+            if pc in laps:
+                if prev is not None:
+                    passes[(prev, pc)] += 1
+                    per_function[(prev, pc)].update(span)
+                prev, span = pc, collections.Counter()
+            name = names.get(pc)
+            if name is None:
+                name = names[pc] = function_of(pc)
+            span[name] += 1
+    return passes, per_function
+
+
 def symbols(elf):
     """(start, size, name) of the ELF's functions, sorted; local labels left out."""
     out = subprocess.run(["nm", "-C", "--defined-only", "-n", "-S", elf], capture_output=True, text=True, check=True)
@@ -134,10 +167,23 @@ def main():
     ap.add_argument("--function", help="print the instructions of the function whose name contains this, with counts")
     ap.add_argument("--inclusive", action="store_true", help="count each function with what it calls (see above)")
     ap.add_argument("--callers", metavar="NAME", help="split the own instructions of functions named like this by caller")
+    ap.add_argument("--laps", action="store_true", help="the spans between counter reads (stage laps), per pass (see above)")
     args = ap.parse_args()
 
     syms = symbols(args.elf)
     function_of = function_lookup(syms)
+    if args.laps:
+        passes, per_function = lap_spans(read_blocks(args.log), lap_points(args.elf), function_of)
+        if not passes:
+            sys.exit(f"qemu-profile: {args.log} passes no two counter reads of {args.elf}")
+        total = {k: sum(c.values()) for k, c in per_function.items()}
+        print(f"{'instructions':>12} {'passes':>8} {'per pass':>9}  from -> to (counter reads)")
+        for k in sorted(total, key=total.get, reverse=True)[: args.top]:
+            a, b = k
+            print(f"{total[k]:12d} {passes[k]:8d} {total[k] / passes[k]:9.1f}  {a:#x} {function_of(a)[:50]} -> {b:#x} {function_of(b)[:50]}")
+            for name, n in per_function[k].most_common(6):
+                print(f"{'':32}{n / passes[k]:9.1f}  {name[:100]}")
+        return
     if args.inclusive or args.callers:
         inclusive, own, by_caller = inclusive_counts(read_blocks(args.log), function_of)
         if not own:

@@ -71,4 +71,13 @@ check(counts == {0x80000000: 2, 0x80000004: 2, 0x80000006: 2, 0x80000010: 1}, f"
 check(len(blocks) == 3, f"blocks {blocks}")
 check(blocks[0] == [(0x80000000, 4, False), (0x80000004, 2, False), (0x80000006, 4, True)], f"block {blocks[0]}")
 check(blocks[2] == [(0x80000010, 4, False)], f"ret block {blocks[2]}")
+# Laps at 0x104 (in main) and 0x304 (in g): main 0x104.. -> f -> g up to 0x304, twice.
+laps = {0x104, 0x304}
+run = [block(0x100, 3, True), block(0x200, 2, True), block(0x300, 3), block(0x100, 3, True), block(0x200, 2, True), block(0x300, 3)]
+passes, per_function = qp.lap_spans(run, laps, function_of)
+check(passes == {(0x104, 0x304): 2, (0x304, 0x104): 1}, f"lap passes {passes}")
+# From main's read: main's 2 (the read and the call), f's 2, g's 1 before its read; twice.
+check(per_function[(0x104, 0x304)] == {"main": 4, "f": 4, "g": 2}, f"lap span {per_function[(0x104, 0x304)]}")
+check(per_function[(0x304, 0x104)] == {"g": 2, "main": 1}, f"lap span back {per_function[(0x304, 0x104)]}")
+
 print("test_qemu_profile: all checks passed")
