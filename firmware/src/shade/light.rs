@@ -60,8 +60,18 @@ impl SpotCone {
 }
 
 /// [`spot_factor`] with the frame's [`SpotCone`] (`None`: omnidirectional, factor 1).
+/// Inline, so that an omnidirectional light costs no call; the cone out of line.
+#[inline(always)]
 pub fn spot_factor_in(cone: Option<&SpotCone>, light_pos: Vec3, p: Vec3) -> f32 {
-    let Some(cone) = cone else { return 1.0 };
+    match cone {
+        None => 1.0,
+        Some(cone) => spot_factor_of_cone(cone, light_pos, p),
+    }
+}
+
+/// [`spot_factor_in`] for a spotlight.
+#[inline(never)]
+fn spot_factor_of_cone(cone: &SpotCone, light_pos: Vec3, p: Vec3) -> f32 {
     let Some(dir) = try_normalize(p - light_pos) else { return 0.0 };
     let c = cone.axis.dot(dir);
     let (co, ci) = (cone.cos_outer, cone.cos_inner);
