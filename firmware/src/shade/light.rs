@@ -90,7 +90,9 @@ pub fn irradiance(lighting: &LightingRecord, n: Vec3, p: Vec3, light_pos: Vec3) 
 }
 
 /// [`irradiance`] and the unit light vector `l = (light − p)/|light − p|` it used (`None`,
-/// with E = 0, when the light sits on p): the direct term reuses `l`.
+/// with E = 0, when the light sits on p): the direct term reuses `l`. Inline with an FPU (a
+/// call and its arguments cost about as much as its body).
+#[cfg_attr(not(soft_float), inline(always))]
 pub fn irradiance_toward(lighting: &LightingRecord, n: Vec3, p: Vec3, light_pos: Vec3) -> (f32, Option<Vec3>) {
     let d = sfloat::vsub(light_pos, p);
     let Some(l) = try_normalize(d) else { return (0.0, None) };
