@@ -179,7 +179,9 @@ pub fn direct_reads_view(ext: &MaterialModel, light: &DirectLight) -> bool {
     ext.diffuse_model == DiffuseModel::OrenNayar || (cfg!(feature = "specular") && light.specular)
 }
 
-/// [`direct`] with the unit light vector `l` the irradiance computed already.
+/// [`direct`] with the unit light vector `l` the irradiance computed already. Inline with an
+/// FPU, as `outgoing`.
+#[cfg_attr(not(soft_float), inline(always))]
 pub fn direct_toward(ext: &MaterialModel, n: Vec3, v: Vec3, l: Vec3, light: &DirectLight, e_spot: f32) -> DirectTerm {
     let diffuse = ext.kd * diffuse_brdf(ext, n, l, v);
     #[cfg(feature = "specular")]
@@ -191,7 +193,9 @@ pub fn direct_toward(ext: &MaterialModel, n: Vec3, v: Vec3, l: Vec3, light: &Dir
 }
 
 /// Radiance leaving the surface towards the viewer (module doc): ambient `L_a` plus the
-/// direct term when the light is visible.
+/// direct term when the light is visible. Inline with an FPU (a call and its arguments cost
+/// about as much as its body).
+#[cfg_attr(not(soft_float), inline(always))]
 pub fn outgoing(ext: &MaterialModel, cd: [f32; 3], la: [f32; 3], direct: Option<&DirectTerm>) -> [f32; 3] {
     // The model decided once, the channels written out (per channel it was a match in each
     // of three closure calls, and `[0, 1, 2].map` kept a loop with its index in memory).
