@@ -123,10 +123,11 @@ impl<L: FslLink> RayPath<L> {
     /// Traces one ray and charges its FSL words to `class`; `Ok(None)` when its list is empty
     /// (nothing sent).
     ///
-    /// Inline with an FPU (its saves and restores cost about 18 instructions per pixel),
-    /// except with `compact-code`: a copy of the walk at each call site is 6.6 KiB.
+    /// Inline (a call's saves and restores cost about 18 instructions per pixel with an FPU,
+    /// 25 without), except with `compact-code`: a copy of the walk at each call site is
+    /// 4–7 KiB.
     #[allow(clippy::too_many_arguments)]
-    #[cfg_attr(not(any(soft_float, feature = "compact-code")), inline(always))]
+    #[cfg_attr(not(feature = "compact-code"), inline(always))]
     pub(super) fn trace_as<C: StageClock, const N: usize>(
         &mut self,
         scene: &SceneStore<N>,
