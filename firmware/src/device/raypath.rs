@@ -35,7 +35,7 @@ const REQUEST_WORDS: usize = RAY_HEADER_WORDS + ENTRY_WORDS * MAX_LIST;
 const FIRST_PART_END: usize = RAY_HEADER_WORDS + ENTRY_WORDS * FIRST_PART;
 const _: () = assert!(FIRST_PART < MAX_LIST);
 
-/// Which counter an FSL exchange is charged to.
+/// Which counter an FSL exchange is charged to; as `usize`, its index in [`RequestTally`].
 #[derive(Clone, Copy)]
 #[repr(usize)]
 pub(super) enum RayClass {
@@ -272,7 +272,8 @@ impl<L: FslLink> RayPath<L> {
         self.tally.entries = [0; 3];
         self.tally.answers = [0; 3];
         let s = &mut self.stats;
-        for (class, i) in [(RayClass::Primary, 0), (RayClass::Shadow, 1), (RayClass::Reflection, 2)] {
+        for class in [RayClass::Primary, RayClass::Shadow, RayClass::Reflection] {
+            let i = class as usize;
             let requests = u64::from(t.requests.get(i).copied().unwrap_or(0));
             let entries = u64::from(t.entries.get(i).copied().unwrap_or(0));
             let answers = u64::from(t.answers.get(i).copied().unwrap_or(0));
