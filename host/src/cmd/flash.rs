@@ -45,6 +45,10 @@ pub struct Cmd {
     /// Do not check that the started application answers Hello.
     #[arg(long)]
     no_check: bool,
+    /// Seconds the started application has to answer Hello (a board boots in milliseconds;
+    /// its simulation, `cargo xtask soc sim`, takes hundreds of times longer).
+    #[arg(long, default_value_t = 15, value_name = "SECONDS", value_parser = clap::value_parser!(u64).range(1..=3600))]
+    boot_wait: u64,
 }
 
 impl Cmd {
@@ -104,7 +108,7 @@ impl Cmd {
         let cfg = SessionConfig::new(port_name.clone())
             .baud(baud)
             .turnaround(Duration::from_millis(self.turnaround))
-            .hello_timeout(Duration::from_secs(15));
+            .hello_timeout(Duration::from_secs(self.boot_wait));
         let mut session = Session::new(&mut port, cfg);
         let info = session.hello(&mut |_| {}).context("the started application did not answer Hello")?;
         println!(
