@@ -45,8 +45,8 @@ pub struct Cmd {
     /// Do not check that the started application answers Hello.
     #[arg(long)]
     no_check: bool,
-    /// Seconds the started application has to answer Hello (a board boots in milliseconds;
-    /// its simulation, `cargo xtask soc sim`, takes hundreds of times longer).
+    /// Seconds the started application has to answer Hello (a board's start is short;
+    /// its simulation, `cargo xtask soc sim`, runs hundreds of times slower).
     #[arg(long, default_value_t = 15, value_name = "SECONDS", value_parser = clap::value_parser!(u64).range(1..=3600))]
     boot_wait: u64,
 }

@@ -418,8 +418,8 @@ fn on_a_boards_line_the_flash_and_the_upload_lose_nothing() {
     // The host's waits for a line of 3 000 baud of wall time: the simulation runs about 10⁴
     // alone and slower beside another one (CI runs two at once), and an expired wait resends
     // a chunk. The host does not pace its writes by --baud: only the waits grow.
-    // The app's start (its .bss cleared in SDRAM) takes the simulation more than the default
-    // 15 s of wall time to answer Hello.
+    // The app's start takes the simulated SoC more than the default 15 s of wall time to
+    // answer Hello.
     let log =
         run_gridrt(&["flash", "--port", &sim.pty, "--baud", "3000", "--boot-wait", "600", &app.display().to_string()]);
     eprintln!("{log}");
