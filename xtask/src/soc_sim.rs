@@ -216,6 +216,9 @@ impl SimCmd {
             flash
                 .current_dir(crate::toolchain::repo_root())
                 .args(["run", "--quiet", "--package", "gridrt-host", "--bin", "gridrt", "--", "flash", "--port", &pty])
+                // The simulated app's start (its .bss cleared) outlasts the default 15 s of wall
+                // time before it answers Hello.
+                .args(["--boot-wait", "600"])
                 .arg(&app);
             eprintln!("xtask: {}", display_command(&flash));
             let status = flash.status().context("running gridrt flash")?;

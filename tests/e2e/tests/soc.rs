@@ -4,27 +4,31 @@
 //!
 //! `soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim`, one test because
 //! the simulation is slow, on the default SoC (VexRiscv full+cfu with the f32 CFU; its
-//! Verilator build is cached under target/soc/sim-cfu/):
+//! Verilator build is cached under target/soc/sim-cfu/) and a board's line (the host's bytes
+//! paced at 3 Mbaud, a byte that arrives at a full receive FIFO lost: `cargo xtask soc sim
+//! --rx-baud 3000000 --rx-overrun`):
 //! - the bootloader in ROM refuses an image corrupted on the way (`BadCrc`) and one larger
 //!   than main RAM (`TooLarge`) and keeps serving;
 //! - `gridrt flash` writes the app built for `--board litex --target riscv32im --features
-//!   cfu-float`, verifies and starts it;
+//!   cfu-float`, verifies and starts it, and resends no chunk: the bootloader and the app
+//!   take one data frame at a time (their window), so no byte of the image or the scene is
+//!   lost;
 //! - `gridrt render --port` of a 32×24 bun_zipper_res4 frame is byte-identical to
 //!   `gridrt render --sim --coproc rtl` with the same co-processor (the default SoC keeps
 //!   each PE's 2²⁰ words in SDRAM behind 512-line caches; the co-processor RTL is the same
 //!   in both; the soft-core runs the same firmware as the loopback simulator, whose f32 is
 //!   Rust's: so every sum and product the CFU answered was the operator's, as a wrong answer
 //!   changes the walk and the shading, so the image), and to `--coproc model` at the RTL's
-//!   kernel and format (watertight, fixed64-q23);
+//!   kernel and format (watertight, fixed64-q23); its upload resent no chunk;
 //! - the device's per-stage `mcycle`/`minstret` are in the stats JSON: measured cycles per
 //!   instruction of a real soft-core, printed per stage.
 //!
 //! The imac SoC (`--float-hw none`) has its own test,
-//! `soc_with_the_imac_renders_like_the_rtl_cosim`; a scene beyond block RAM (bun_zipper_res3)
-//! too, `soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim`; a board's lossy line,
-//! `on_a_boards_line_the_flash_and_the_upload_lose_nothing`; and stanford-bunny,
-//! `soc_renders_stanford_bunny_like_the_rtl_cosim`, only with `GRIDRT_SOC_SIM_LARGE=1` as
-//! well (its upload alone is about an hour of simulation: not in CI).
+//! `soc_with_the_imac_renders_like_the_rtl_cosim`; two harts with a scene beyond block RAM
+//! (bun_zipper_res3) too, `soc_with_two_harts_renders_a_scene_beyond_block_ram_like_the_rtl_cosim`;
+//! and stanford-bunny, `soc_renders_stanford_bunny_like_the_rtl_cosim`, only with
+//! `GRIDRT_SOC_SIM_LARGE=1` as well (its upload alone is about an hour of simulation: not in
+//! CI).
 //!
 //! It runs only with `GRIDRT_SOC_SIM=1` (it takes minutes: see BENCHMARKS.md, "The LiteX
 //! SoC"); `.ci/run` sets it. Then missing Verilator or LiteX fails the test;
@@ -62,6 +66,11 @@ fn soc_test(test: &str, large: bool) -> Option<std::sync::MutexGuard<'static, ()
     run.then(|| ONE_SOC.lock().unwrap_or_else(|e| e.into_inner()))
 }
 
+/// The host's waits in the flash test, as for a line of this many baud (wall time): the
+/// simulation runs the board's 3 Mbaud about 10⁴ times slower, and an expired wait resends a
+/// chunk. The host does not pace its writes by `--baud`: only its waits grow.
+const SLOW_LINE_BAUD: &str = "3000";
+
 /// Seconds the simulation may run in all (flash, upload and render of the small frame).
 const SIM_TIMEOUT_S: u32 = 2400;
 
@@ -91,10 +100,6 @@ struct SocSim {
 const OVERRUN_MARKER: &str = "serial2pty: overrun: ";
 
 impl SocSim {
-    fn start() -> Self {
-        Self::start_with(&[])
-    }
-
     /// `cargo xtask soc sim` with `args` besides the timeout.
     fn start_with(args: &[&str]) -> Self {
         let mut child = cargo("run")
@@ -196,13 +201,16 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     let test = "soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim";
     let Some(_one) = soc_test(test, false) else { return };
     let app = build_firmware(&DEFAULT_SOC_APP);
-    let sim = SocSim::start();
+    // A board's line: the host's bytes paced at 3 Mbaud, and a byte that arrives while the
+    // UART's 64-byte receive FIFO is full is lost, as a board's RS232 PHY loses it.
+    let sim = SocSim::start_with(&["--baud", "3000000", "--rx-baud", "3000000", "--rx-overrun"]);
     let started = Instant::now();
 
     // Corrupted on the way: the bootloader reads the image back and refuses its CRC; an image
     // larger than main RAM is refused before a byte is written. The bootloader stays alive.
     let good = FlashImage::from_elf(&std::fs::read(&app).unwrap()).unwrap();
-    let cfg = FlashConfig::new(sim.pty.clone());
+    let mut cfg = FlashConfig::new(sim.pty.clone());
+    cfg.session = cfg.session.baud(SLOW_LINE_BAUD.parse().unwrap());
     {
         let mut port = serial::open(&sim.pty, 115_200, serial::DEFAULT_READ_TIMEOUT).unwrap();
         let mut big = good.clone();
@@ -221,11 +229,20 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     eprintln!("refusals: {:.0} s", started.elapsed().as_secs_f64());
 
     let t = Instant::now();
-    let log = run_gridrt(&["flash", "--port", &sim.pty, &app.display().to_string()]);
+    // The app's start (its .bss and the device's tables cleared) takes the simulated SoC
+    // longer than the default 15 s of wall time to answer Hello.
+    let app_arg = app.display().to_string();
+    let log = run_gridrt(&["flash", "--port", &sim.pty, "--baud", SLOW_LINE_BAUD, "--boot-wait", "600", &app_arg]);
     eprintln!("{log}flash: {:.0} s", t.elapsed().as_secs_f64());
     assert!(log.contains("verified") && log.contains("running    application"), "{log}");
     assert!(log.contains("on board 3: 4 PEs"), "the flashed app must answer, not the bootloader: {log}");
     assert!(log.contains("1048576"), "the default SoC keeps 2^20 words per PE in SDRAM: {log}");
+    // Nothing of the image was lost on the board's line (a lost byte costs its chunk a
+    // resend). The host's `Hello` probes while the app starts (its .bss cleared, nothing
+    // read) may be lost: counted here, and not against the upload.
+    assert!(log.contains(" 0 chunks resent"), "the flash resent nothing: {log}");
+    let after_flash = sim.lost_after(None);
+    eprintln!("bytes lost before the upload (the app's start): {after_flash}");
 
     let dir = tempdir("render");
     let p = |p: &Path| p.display().to_string();
@@ -235,9 +252,11 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     let frame = ["--scene", &scene, "--width", WIDTH, "--height", HEIGHT];
     let t = Instant::now();
     let timeout = SIM_TIMEOUT_S.to_string();
-    // The host's waits at about the simulated line's wall-clock pace (the simulation runs
-    // ~100× slower than the board): no region is re-requested and rendered twice.
+    // The host's waits for the slow line, and a minute per exchange besides: no region is
+    // asked for again while the simulated device renders (such a request would arrive while
+    // it is busy, and its bytes could be lost).
     let mut soc_args = vec!["render", "--port", &sim.pty, "--timeout", &timeout];
+    soc_args.extend(["--baud", SLOW_LINE_BAUD, "--turnaround", "60000"]);
     let (soc_out, soc_stats) = (p(&soc_png), p(&soc_json));
     soc_args.extend(frame);
     soc_args.extend(["--out", &soc_out, "--stats", &soc_stats]);
@@ -277,6 +296,17 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     assert_eq!(std::fs::read(&soc_png).unwrap(), std::fs::read(&model_png).unwrap(), "SoC vs --coproc model PNG bytes");
 
     let (soc, rtl) = (json(&soc_json), json(&sim_json));
+    let upload_cycles = soc["device_counters"]["upload_cycles"].as_u64().unwrap_or(0);
+    let upload_bytes = soc["upload_wire_bytes"].as_u64().unwrap();
+    eprintln!("upload on the paced line: {upload_bytes} wire bytes in {upload_cycles} cycles; link {}", soc["link"]);
+    // On the paced line the upload takes at least its bytes' line time (167 cycles each).
+    let line_cycles = upload_bytes as f64 * 10.0 * 50e6 / 3e6;
+    assert!(upload_cycles as f64 >= line_cycles * 0.9, "{upload_cycles} cycles for {upload_bytes} bytes");
+    // A byte lost from a data frame fails its CRC, and the host sends its chunk again.
+    assert_eq!(soc["link"]["upload_chunks_resent"], 0, "the upload resent nothing: {}", soc["link"]);
+    assert_eq!(soc["link"]["device_bad_frames"], 0, "the device saw no corrupt frame: {}", soc["link"]);
+    let after = sim.lost_after(Some(after_flash));
+    eprintln!("bytes lost during the upload and render: {}", after - after_flash);
     assert_eq!((&rtl["kernel"], &rtl["format"]), (&"watertight".into(), &"fixed64-q23".into()));
     for k in ["primary_rays", "shadow_rays", "coproc_rays", "list_entries", "intersection_tests"] {
         assert_eq!(soc[k], rtl[k], "{k}");
@@ -342,34 +372,17 @@ fn soc_with_the_imac_renders_like_the_rtl_cosim() {
 }
 
 /// Two harts (`--harts 2`: a worker VexRiscv, full+cfu like the first, with its own port on
-/// the co-processor claims rows beside the first hart): `gridrt bench frame --configs soc
-/// --soc-harts 2` renders the 32×24 frame byte-identical to `--sim --coproc rtl` with the
-/// same work counted (rays, list entries, tests: `bench frame` refuses a soc row whose counts
-/// differ), so every row the worker traced reached the first hart whole and in order, and
-/// through the shared co-processor each hart got its own answers.
+/// the co-processor, claims rows beside the first hart) and a scene beyond block RAM:
+/// bun_zipper_res3's fullest PE needs more than the 16 384 words of a block-RAM PE (the
+/// simulator refuses it there); the SoC, whose PE images are in SDRAM behind 512-line caches,
+/// renders its 32×24 frame with `gridrt bench frame --configs soc --soc-harts 2`
+/// byte-identical to `--sim --coproc rtl` with the same PE memories and the same work counted
+/// (rays, list entries, tests: `bench frame` refuses a soc row whose counts differ), so every
+/// row the worker traced reached the first hart whole and in order, and through the shared
+/// co-processor each hart got its own answers. One simulation for both (each costs minutes).
 #[test]
-fn soc_with_two_harts_renders_like_the_rtl_cosim() {
-    let test = "soc_with_two_harts_renders_like_the_rtl_cosim";
-    let Some(_one) = soc_test(test, false) else { return };
-    let row = soc_bench_row("bench-harts", &["--soc-harts", "2", "--width", WIDTH, "--height", HEIGHT]);
-    assert_eq!((&row["harts"], &row["float_hw"]), (&2.into(), &"cfu".into()), "{row}");
-    assert_eq!(row["identical_to_rtl_sim"], true, "the 2-hart SoC's frame equals --sim --coproc rtl");
-    assert_eq!(row["identical"], true, "and the f64 reference");
-    // Each hart counted its own rows: together every row of the frame, a worker among them.
-    let work = row["hart_work"].as_array().unwrap_or_else(|| panic!("per-hart counters: {row}"));
-    let rows: Vec<u64> = work.iter().map(|w| w["rows"].as_u64().unwrap()).collect();
-    assert_eq!(rows.iter().sum::<u64>(), HEIGHT.parse::<u64>().unwrap(), "{work:?}");
-    assert!(rows.len() == 2 && rows[1] > 0, "the worker traced rows: {work:?}");
-    assert!(work.iter().all(|w| w["busy_cycles"].as_u64().unwrap() > 0), "{work:?}");
-}
-
-/// A scene beyond block RAM: bun_zipper_res3's fullest PE needs more than the 16 384 words of
-/// a block-RAM PE (the simulator refuses it there); the default SoC, whose PE images are in
-/// SDRAM behind 512-line caches, renders the 32×24 frame identical to `--sim --coproc rtl`
-/// with the same PE memories (`gridrt bench frame --configs soc`).
-#[test]
-fn soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim() {
-    let test = "soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim";
+fn soc_with_two_harts_renders_a_scene_beyond_block_ram_like_the_rtl_cosim() {
+    let test = "soc_with_two_harts_renders_a_scene_beyond_block_ram_like_the_rtl_cosim";
     let Some(_one) = soc_test(test, false) else { return };
     let res3 = repo_root().join("tests/scenes/bun_zipper_res3.obj");
     let bram = Command::new(gridrt())
@@ -381,9 +394,18 @@ fn soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim() {
         .unwrap();
     let why = String::from_utf8_lossy(&bram.stderr);
     assert!(!bram.status.success() && why.contains("scene too large"), "res3 must not fit block RAM: {why}");
-    let row = soc_bench_row_of("bun_zipper_res3.obj", "bench-res3", &["--width", WIDTH, "--height", HEIGHT]);
+    let args = ["--soc-harts", "2", "--width", WIDTH, "--height", HEIGHT];
+    let row = soc_bench_row_of("bun_zipper_res3.obj", "bench-harts-res3", &args);
+    assert_eq!((&row["harts"], &row["float_hw"]), (&2.into(), &"cfu".into()), "{row}");
     assert_eq!(row["pe_cache_lines"].as_u64(), Some(512), "{row}");
-    assert_eq!(row["identical_to_rtl_sim"], true, "the SoC's res3 frame equals --sim --coproc rtl: {row}");
+    assert_eq!(row["identical_to_rtl_sim"], true, "the 2-hart SoC's res3 frame equals --sim --coproc rtl: {row}");
+    assert_eq!(row["identical"], true, "and the f64 reference");
+    // Each hart counted its own rows: together every row of the frame, a worker among them.
+    let work = row["hart_work"].as_array().unwrap_or_else(|| panic!("per-hart counters: {row}"));
+    let rows: Vec<u64> = work.iter().map(|w| w["rows"].as_u64().unwrap()).collect();
+    assert_eq!(rows.iter().sum::<u64>(), HEIGHT.parse::<u64>().unwrap(), "{work:?}");
+    assert!(rows.len() == 2 && rows[1] > 0, "the worker traced rows: {work:?}");
+    assert!(work.iter().all(|w| w["busy_cycles"].as_u64().unwrap() > 0), "{work:?}");
 }
 
 /// stanford-bunny (69 451 triangles, 6.3 MB of scene image, its fullest PE far beyond block
@@ -403,74 +425,4 @@ fn soc_renders_stanford_bunny_like_the_rtl_cosim() {
     let (cycles, bytes) = (upload["upload_cycles"].as_u64().unwrap(), upload["upload_wire_bytes"].as_u64().unwrap());
     eprintln!("upload: {bytes} wire bytes in {cycles} cycles");
     assert!(bytes > 6_000_000 && cycles > bytes, "{upload}");
-}
-
-/// A board's line: the host's bytes paced at 3 Mbaud, and a byte that arrives while the UART's
-/// 64-byte receive FIFO is full is lost (`cargo xtask soc sim --rx-baud 3000000 --rx-overrun`),
-/// as a board's RS232 PHY loses it. The bootloader and the app take one data frame at a time
-/// (their window), so neither the flash nor a scene upload resends a chunk.
-#[test]
-fn on_a_boards_line_the_flash_and_the_upload_lose_nothing() {
-    let test = "on_a_boards_line_the_flash_and_the_upload_lose_nothing";
-    let Some(_one) = soc_test(test, false) else { return };
-    let app = build_firmware(&DEFAULT_SOC_APP);
-    let sim = SocSim::start_with(&["--baud", "3000000", "--rx-baud", "3000000", "--rx-overrun"]);
-    // The host's waits for a line of 3 000 baud of wall time: the simulation runs about 10⁴
-    // alone and slower beside another one (CI runs two at once), and an expired wait resends
-    // a chunk. The host does not pace its writes by --baud: only the waits grow.
-    // The app's start takes the simulated SoC more than the default 15 s of wall time to
-    // answer Hello.
-    let log =
-        run_gridrt(&["flash", "--port", &sim.pty, "--baud", "3000", "--boot-wait", "600", &app.display().to_string()]);
-    eprintln!("{log}");
-    assert!(log.contains("verified") && log.contains("running    application"), "{log}");
-    // Nothing of the image was lost (a lost byte costs its chunk a resend). The host's `Hello`
-    // probes while the app starts (its .bss cleared, nothing read) may be lost: counted here,
-    // and not against the upload.
-    assert!(log.contains(" 0 chunks resent"), "the flash resent nothing: {log}");
-    let after_flash = sim.lost_after(None);
-    eprintln!("bytes lost before the upload (the app's start): {after_flash}");
-
-    let dir = tempdir("overrun");
-    let (png, stats) = (dir.join("r.png"), dir.join("r.json"));
-    let scene = repo_root().join("tests/scenes/bun_zipper_res4.obj").display().to_string();
-    // A tiny frame, and waits for a slow line (--baud 3000): no region is asked for again
-    // while the device renders (such a request would arrive while it is busy).
-    let log = run_gridrt(&[
-        "render",
-        "--port",
-        &sim.pty,
-        "--baud",
-        "3000",
-        "--timeout",
-        "2400",
-        "--scene",
-        &scene,
-        "--width",
-        "4",
-        "--height",
-        "3",
-        "--out",
-        &png.display().to_string(),
-        "--stats",
-        &stats.display().to_string(),
-    ]);
-    eprintln!("{log}");
-    let s = json(&stats);
-    let cycles = s["device_counters"]["upload_cycles"].as_u64().unwrap_or(0);
-    let bytes = s["upload_wire_bytes"].as_u64().unwrap();
-    eprintln!("upload on the paced line: {bytes} wire bytes in {cycles} cycles; link {}", s["link"]);
-    // On the paced line the upload takes at least its bytes' line time (167 cycles each).
-    assert!(cycles as f64 >= bytes as f64 * 10.0 * 50e6 / 3e6 * 0.9, "{cycles} cycles for {bytes} bytes");
-    // A byte lost from a data frame fails its CRC, and the host sends its chunk again.
-    assert_eq!(s["link"]["upload_chunks_resent"], 0, "the upload resent nothing: {}", s["link"]);
-    assert_eq!(s["link"]["device_bad_frames"], 0, "the device saw no corrupt frame: {}", s["link"]);
-    // Regions the host asks for again while the simulated device still renders (its waits
-    // run ahead of the simulation) arrive while it is busy and may be lost: reported only.
-    let after = sim.lost_after(Some(after_flash));
-    eprintln!(
-        "bytes lost during the upload and render: {} ({} regions asked for again)",
-        after - after_flash,
-        s["link"]["regions_resent"]
-    );
 }
