@@ -24,11 +24,11 @@
 //!   instruction of a real soft-core, printed per stage.
 //!
 //! The imac SoC (`--float-hw none`) has its own test,
-//! `soc_with_the_imac_renders_like_the_rtl_cosim`; two harts with a scene beyond block RAM
-//! (bun_zipper_res3) too, `soc_with_two_harts_renders_a_scene_beyond_block_ram_like_the_rtl_cosim`;
-//! and stanford-bunny, `soc_renders_stanford_bunny_like_the_rtl_cosim`, only with
-//! `GRIDRT_SOC_SIM_LARGE=1` as well (its upload alone is about an hour of simulation: not in
-//! CI).
+//! `soc_with_the_imac_renders_like_the_rtl_cosim`; two harts too,
+//! `soc_with_two_harts_renders_like_the_rtl_cosim`. Scenes beyond block RAM run only with
+//! `GRIDRT_SOC_SIM_LARGE=1` as well (their uploads take 6 minutes to an hour of simulation:
+//! not in CI): bun_zipper_res3, `soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim`,
+//! and stanford-bunny, `soc_renders_stanford_bunny_like_the_rtl_cosim`.
 //!
 //! It runs only with `GRIDRT_SOC_SIM=1` (it takes minutes: see BENCHMARKS.md, "The LiteX
 //! SoC"); `.ci/run` sets it. Then missing Verilator or LiteX fails the test;
@@ -372,18 +372,38 @@ fn soc_with_the_imac_renders_like_the_rtl_cosim() {
 }
 
 /// Two harts (`--harts 2`: a worker VexRiscv, full+cfu like the first, with its own port on
-/// the co-processor, claims rows beside the first hart) and a scene beyond block RAM:
-/// bun_zipper_res3's fullest PE needs more than the 16 384 words of a block-RAM PE (the
-/// simulator refuses it there); the SoC, whose PE images are in SDRAM behind 512-line caches,
-/// renders its 32×24 frame with `gridrt bench frame --configs soc --soc-harts 2`
-/// byte-identical to `--sim --coproc rtl` with the same PE memories and the same work counted
-/// (rays, list entries, tests: `bench frame` refuses a soc row whose counts differ), so every
-/// row the worker traced reached the first hart whole and in order, and through the shared
-/// co-processor each hart got its own answers. One simulation for both (each costs minutes).
+/// the co-processor claims rows beside the first hart): `gridrt bench frame --configs soc
+/// --soc-harts 2` renders the 32×24 frame byte-identical to `--sim --coproc rtl` with the
+/// same work counted (rays, list entries, tests: `bench frame` refuses a soc row whose counts
+/// differ), so every row the worker traced reached the first hart whole and in order, and
+/// through the shared co-processor each hart got its own answers.
 #[test]
-fn soc_with_two_harts_renders_a_scene_beyond_block_ram_like_the_rtl_cosim() {
-    let test = "soc_with_two_harts_renders_a_scene_beyond_block_ram_like_the_rtl_cosim";
+fn soc_with_two_harts_renders_like_the_rtl_cosim() {
+    let test = "soc_with_two_harts_renders_like_the_rtl_cosim";
     let Some(_one) = soc_test(test, false) else { return };
+    let row = soc_bench_row("bench-harts", &["--soc-harts", "2", "--width", WIDTH, "--height", HEIGHT]);
+    assert_eq!((&row["harts"], &row["float_hw"]), (&2.into(), &"cfu".into()), "{row}");
+    assert_eq!(row["identical_to_rtl_sim"], true, "the 2-hart SoC's frame equals --sim --coproc rtl");
+    assert_eq!(row["identical"], true, "and the f64 reference");
+    // Each hart counted its own rows: together every row of the frame, a worker among them.
+    let work = row["hart_work"].as_array().unwrap_or_else(|| panic!("per-hart counters: {row}"));
+    let rows: Vec<u64> = work.iter().map(|w| w["rows"].as_u64().unwrap()).collect();
+    assert_eq!(rows.iter().sum::<u64>(), HEIGHT.parse::<u64>().unwrap(), "{work:?}");
+    assert!(rows.len() == 2 && rows[1] > 0, "the worker traced rows: {work:?}");
+    assert!(work.iter().all(|w| w["busy_cycles"].as_u64().unwrap() > 0), "{work:?}");
+}
+
+/// A scene beyond block RAM: bun_zipper_res3's fullest PE needs more than the 16 384 words of
+/// a block-RAM PE (the simulator refuses it there); the default SoC, whose PE images are in
+/// SDRAM behind 512-line caches, renders the 32×24 frame identical to `--sim --coproc rtl`
+/// with the same PE memories and to the f64 reference (`gridrt bench frame --configs soc`).
+/// Needs `GRIDRT_SOC_SIM_LARGE=1` besides `GRIDRT_SOC_SIM=1`: the test takes about 11 minutes
+/// here, 6 of them the upload (460 007 wire bytes at about 230 simulated cycles each), so it
+/// is not in CI; the other SoC tests already keep their PE images in SDRAM.
+#[test]
+fn soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim() {
+    let test = "soc_renders_a_scene_beyond_block_ram_like_the_rtl_cosim";
+    let Some(_one) = soc_test(test, true) else { return };
     let res3 = repo_root().join("tests/scenes/bun_zipper_res3.obj");
     let bram = Command::new(gridrt())
         .args(["render", "--sim", "--pe-mem-words", "16384", "--width", WIDTH, "--height", HEIGHT, "--out"])
@@ -394,18 +414,10 @@ fn soc_with_two_harts_renders_a_scene_beyond_block_ram_like_the_rtl_cosim() {
         .unwrap();
     let why = String::from_utf8_lossy(&bram.stderr);
     assert!(!bram.status.success() && why.contains("scene too large"), "res3 must not fit block RAM: {why}");
-    let args = ["--soc-harts", "2", "--width", WIDTH, "--height", HEIGHT];
-    let row = soc_bench_row_of("bun_zipper_res3.obj", "bench-harts-res3", &args);
-    assert_eq!((&row["harts"], &row["float_hw"]), (&2.into(), &"cfu".into()), "{row}");
+    let row = soc_bench_row_of("bun_zipper_res3.obj", "bench-res3", &["--width", WIDTH, "--height", HEIGHT]);
     assert_eq!(row["pe_cache_lines"].as_u64(), Some(512), "{row}");
-    assert_eq!(row["identical_to_rtl_sim"], true, "the 2-hart SoC's res3 frame equals --sim --coproc rtl: {row}");
-    assert_eq!(row["identical"], true, "and the f64 reference");
-    // Each hart counted its own rows: together every row of the frame, a worker among them.
-    let work = row["hart_work"].as_array().unwrap_or_else(|| panic!("per-hart counters: {row}"));
-    let rows: Vec<u64> = work.iter().map(|w| w["rows"].as_u64().unwrap()).collect();
-    assert_eq!(rows.iter().sum::<u64>(), HEIGHT.parse::<u64>().unwrap(), "{work:?}");
-    assert!(rows.len() == 2 && rows[1] > 0, "the worker traced rows: {work:?}");
-    assert!(work.iter().all(|w| w["busy_cycles"].as_u64().unwrap() > 0), "{work:?}");
+    assert_eq!(row["identical_to_rtl_sim"], true, "the SoC's res3 frame equals --sim --coproc rtl: {row}");
+    assert_eq!(row["identical"], true, "and the f64 reference: {row}");
 }
 
 /// stanford-bunny (69 451 triangles, 6.3 MB of scene image, its fullest PE far beyond block
