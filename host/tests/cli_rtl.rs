@@ -26,6 +26,10 @@ fn render_scene(
     flags: &[&str],
     lockstep: bool,
 ) -> (Vec<u8>, serde_json::Value) {
+    // One render at a time: a 2-core machine running several RTL co-simulations at once
+    // once gave an RTL stall count unlike the model's (CI, 2026-12-01); alone it matched.
+    static ONE_RENDER: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one = ONE_RENDER.lock().unwrap_or_else(|e| e.into_inner());
     let dir = std::env::temp_dir().join(format!("gridrt-cli-rtl-{}-{tag}", std::process::id()));
     let (png, json) = (dir.join("a.png"), dir.join("a.json"));
     let out = Command::new(env!("CARGO_BIN_EXE_gridrt"))
