@@ -71,6 +71,11 @@ fn soc_test(test: &str, long: bool) -> Option<std::sync::MutexGuard<'static, ()>
 /// chunk. The host does not pace its writes by `--baud`: only its waits grow.
 const SLOW_LINE_BAUD: &str = "3000";
 
+/// Seconds of wall time the started app has to answer Hello (`gridrt flash --boot-wait`): the
+/// simulated app's start (the device built with its voxel tables, then moved) took about 80 s
+/// here, past the default 15.
+const SIM_BOOT_WAIT_S: &str = "600";
+
 /// Seconds the simulation may run in all (flash, upload and render of the small frame).
 const SIM_TIMEOUT_S: u32 = 2400;
 
@@ -229,10 +234,9 @@ fn soc_sim_flashes_through_the_bootloader_and_renders_like_the_rtl_cosim() {
     eprintln!("refusals: {:.0} s", started.elapsed().as_secs_f64());
 
     let t = Instant::now();
-    // The app's start (its .bss and the device's tables cleared) takes the simulated SoC
-    // longer than the default 15 s of wall time to answer Hello.
     let app_arg = app.display().to_string();
-    let log = run_gridrt(&["flash", "--port", &sim.pty, "--baud", SLOW_LINE_BAUD, "--boot-wait", "600", &app_arg]);
+    let log =
+        run_gridrt(&["flash", "--port", &sim.pty, "--baud", SLOW_LINE_BAUD, "--boot-wait", SIM_BOOT_WAIT_S, &app_arg]);
     eprintln!("{log}flash: {:.0} s", t.elapsed().as_secs_f64());
     assert!(log.contains("verified") && log.contains("running    application"), "{log}");
     assert!(log.contains("on board 3: 4 PEs"), "the flashed app must answer, not the bootloader: {log}");
