@@ -138,10 +138,12 @@ impl<
     /// A device with a farm and a clock: the frames the farm takes report only their whole
     /// (`frame_cycles`, `link_cycles`; the stages read 0, as the farm's rows are not timed),
     /// the others every stage. A board whose worker harts trace rows beside the device loop.
+    #[inline(always)]
     pub fn with_clock_and_farm(link: L, clock: C, info: DeviceInfo, farm: F) -> Self {
         Device::build(link, clock, info, farm)
     }
 
+    #[inline(always)]
     fn build(link: L, clock: C, info: DeviceInfo, farm: F) -> Self {
         let info = DeviceInfo {
             protocol: gridrt_shared::PROTOCOL_VERSION as u16,

@@ -77,6 +77,7 @@ impl<const N: usize> SceneStore<N> {
     }
 
     /// No scene.
+    #[inline(always)]
     pub(super) fn new() -> Self {
         let grid = GridDesc { min: Vec3::ZERO, max: Vec3::ONE, dims: [1; 3] };
         Self {
@@ -348,8 +349,14 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
         self.store.grid = GridDesc { min: Vec3::from_array(h.bounds_min), max: Vec3::from_array(h.bounds_max), dims };
         self.store.walk = WalkGrid::new(&self.store.grid);
         self.store.voxels = h.voxel_count() as usize;
-        self.store.voxel_pe.fill(EMPTY_VOXEL);
-        self.store.ahead.fill(0xFF);
+        // Only the grid's prefix is ever read (`SceneStore::map`): filling all N bytes of
+        // each table cost a board with 2 × 256 KiB tables in SDRAM millions of cycles per upload.
+        if let Some(pe) = self.store.voxel_pe.get_mut(..self.store.voxels) {
+            pe.fill(EMPTY_VOXEL);
+        }
+        if let Some(ahead) = self.store.ahead.get_mut(..self.store.voxels) {
+            ahead.fill(0xFF);
+        }
         self.store.materials.clear();
         self.store.material_model.clear();
         self.store.objects.clear();
