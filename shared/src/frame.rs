@@ -305,6 +305,33 @@ pub enum Received<'buf> {
     Bad(FrameError),
 }
 
+/// COBS-decodes `buf` in place (it holds no `0x00`: the accumulator stops at delimiters) and
+/// returns the decoded length, or `None` when a block runs past the end. The same bytes and
+/// the same refusals as `cobs::decode_in_place` on such input (tests), with each block moved
+/// as one copy where that loop moved a byte at a time and first scanned for a delimiter.
+fn cobs_decode_in_place(buf: &mut [u8]) -> Option<usize> {
+    let (mut src, mut dst) = (0usize, 0usize);
+    // Each round consumes a code byte, so there are at most as many rounds as bytes.
+    for _ in 0..buf.len() {
+        let Some(&code) = buf.get(src) else { break };
+        let data = src.checked_add(1)?;
+        let end = src.checked_add(usize::from(code))?;
+        if end > buf.len() {
+            return None;
+        }
+        let run = end.checked_sub(data)?;
+        buf.copy_within(data..end, dst);
+        dst = dst.checked_add(run)?;
+        src = end;
+        // A block shorter than 254 bytes stands for its bytes and a zero, except at the end.
+        if code != 0xFF && src < buf.len() {
+            *buf.get_mut(dst)? = 0;
+            dst = dst.checked_add(1)?;
+        }
+    }
+    Some(dst)
+}
+
 /// Fixed-capacity reassembly buffer for a COBS byte stream.
 ///
 /// Bytes are buffered up to the next `0x00`. Empty frames (repeated delimiters) are skipped
@@ -379,30 +406,30 @@ impl<const N: usize> FrameAccumulator<N> {
 
     /// Feeds bytes and returns at the first complete frame, error, or end of input.
     pub fn feed<'me, 'input>(&'me mut self, input: &'input [u8]) -> FeedResult<'me, 'input> {
-        for (i, &b) in input.iter().enumerate() {
-            if b != 0 {
-                match self.buf.get_mut(self.len) {
-                    Some(slot) if !self.overflowed => {
-                        *slot = b;
-                        self.len = self.len.saturating_add(1); // < buf.len(): `get_mut` succeeded
-                    }
-                    _ => self.overflowed = true,
-                }
-                continue;
-            }
-            let rest = input.get(i.saturating_add(1)..).unwrap_or(&[]);
+        let mut input = input;
+        // Each round ends at a delimiter, so there are at most as many rounds as bytes.
+        for _ in 0..=input.len() {
+            // The bytes up to the next delimiter go into the buffer in one copy (a byte loop
+            // cost the soft-core 20 instructions a byte).
+            let Some(end) = input.iter().position(|&b| b == 0) else {
+                self.append(input);
+                return FeedResult::Consumed;
+            };
+            self.append(input.get(..end).unwrap_or(&[]));
+            let rest = input.get(end.saturating_add(1)..).unwrap_or(&[]);
             if self.overflowed {
                 self.reset();
                 return FeedResult::Overflow { rest };
             }
             if self.len == 0 {
+                input = rest;
                 continue;
             }
             let len = core::mem::replace(&mut self.len, 0);
             let Some(encoded) = self.buf.get_mut(..len) else {
                 return FeedResult::BadFrame { error: FrameError::DecodeOversize, rest };
             };
-            let Ok(n) = cobs::decode_in_place(encoded) else {
+            let Some(n) = cobs_decode_in_place(encoded) else {
                 return FeedResult::BadFrame { error: FrameError::DecodeBadCobs, rest };
             };
             let raw = encoded.get_mut(..n).unwrap_or(&mut []);
@@ -422,6 +449,22 @@ impl<const N: usize> FrameAccumulator<N> {
             };
         }
         FeedResult::Consumed
+    }
+
+    /// Buffers `bytes` (no delimiter among them); past the capacity the frame is marked
+    /// overflowed and dropped at its delimiter.
+    fn append(&mut self, bytes: &[u8]) {
+        if self.overflowed {
+            return;
+        }
+        let end = self.len.checked_add(bytes.len());
+        match end.and_then(|e| Some((e, self.buf.get_mut(self.len..e)?))) {
+            Some((e, slot)) => {
+                slot.copy_from_slice(bytes);
+                self.len = e;
+            }
+            None => self.overflowed = true,
+        }
     }
 
     /// Feeds all of `input`, handing every frame and every rejected frame to `on`, in order.
@@ -721,6 +764,74 @@ mod tests {
             want.truncate(n);
             want.push(0);
             proptest::prop_assert_eq!(encode(kind, seq, &payload), want);
+        }
+
+        /// The in-place decoder decodes, and refuses, what the `cobs` crate's does, on every
+        /// input the accumulator can hand it (non-empty, no `0x00`): blocks of every length,
+        /// ones that run past the end, 254-byte blocks.
+        #[test]
+        fn cobs_decoding_in_place_matches_the_cobs_crate(
+            data in proptest::collection::vec(proptest::prop_oneof![
+                4 => 1u8..=255, 1 => 1u8..=4, 1 => proptest::strategy::Just(255u8)], 1..1100),
+        ) {
+            let mut want = data.clone();
+            let want = cobs::decode_in_place(&mut want).ok().map(|n| want[..n].to_vec());
+            let mut got = data.clone();
+            let got = cobs_decode_in_place(&mut got).map(|n| got[..n].to_vec());
+            proptest::prop_assert_eq!(got, want);
+        }
+
+        /// Frames, noise and frames too long for the buffer come out the same however the
+        /// bytes are split into `feed` calls.
+        #[test]
+        fn any_split_of_the_input_gives_the_same_frames_and_refusals(
+            payloads in proptest::collection::vec(proptest::collection::vec(proptest::num::u8::ANY, 0..200), 1..5),
+            noise in proptest::collection::vec(1u8..=255, 0..300),
+            cuts in proptest::collection::vec(0usize..2000, 0..8),
+        ) {
+            let mut wire = Vec::new();
+            for (i, p) in payloads.iter().enumerate() {
+                wire.extend_from_slice(&encode(0x21, i as u16, p));
+                if i == 1 {
+                    wire.extend_from_slice(&noise);
+                    wire.push(0);
+                }
+            }
+            let run = |pieces: &[&[u8]]| {
+                let mut acc = FrameAccumulator::<256>::new();
+                let mut seen = Vec::new();
+                for piece in pieces {
+                    let mut input: &[u8] = piece;
+                    loop {
+                        let rest = match acc.feed(input) {
+                            FeedResult::Frame { frame, rest } => { seen.push(Ok((frame.seq, frame.payload.to_vec()))); rest }
+                            FeedResult::BadFrame { error, rest } => { seen.push(Err(error)); rest }
+                            FeedResult::Overflow { rest } => { seen.push(Err(FrameError::DecodeOversize)); rest }
+                            FeedResult::Consumed => break,
+                        };
+                        input = rest;
+                    }
+                }
+                seen
+            };
+            let whole = run(&[&wire]);
+            let mut cuts: Vec<usize> = cuts.into_iter().map(|c| c % (wire.len() + 1)).collect();
+            cuts.sort_unstable();
+            let mut pieces = Vec::new();
+            let mut at = 0;
+            for c in cuts {
+                pieces.push(&wire[at..c]);
+                at = c;
+            }
+            pieces.push(&wire[at..]);
+            let bytewise: Vec<&[u8]> = wire.chunks(1).collect();
+            proptest::prop_assert_eq!(run(&pieces), whole.clone());
+            proptest::prop_assert_eq!(run(&bytewise), whole.clone());
+            // Every frame that fits came out, in order; a longer one was refused as oversize.
+            let fits = |p: &Vec<u8>| encode(0x21, 0, p).len() - 1 <= 256;
+            let frames: Vec<_> = whole.iter().filter_map(|r| r.as_ref().ok().cloned()).collect();
+            let want: Vec<_> = payloads.iter().enumerate().filter(|(_, p)| fits(p)).map(|(i, p)| (i as u16, p.clone())).collect();
+            proptest::prop_assert_eq!(frames, want);
         }
 
         #[test]
