@@ -349,8 +349,8 @@ impl<L: FslLink, const N: usize> SceneSink for Loader<'_, L, N> {
         self.store.grid = GridDesc { min: Vec3::from_array(h.bounds_min), max: Vec3::from_array(h.bounds_max), dims };
         self.store.walk = WalkGrid::new(&self.store.grid);
         self.store.voxels = h.voxel_count() as usize;
-        // Only the grid's prefix is ever read (`SceneStore::map`): filling all N bytes of
-        // each table cost a board with 2 × 256 KiB tables in SDRAM millions of cycles per upload.
+        // Only the grid's prefix is ever read (`SceneStore::map`); filling all N bytes of both
+        // tables wrote 512 KiB per upload on the LiteX board (N = 2^18), whatever the grid.
         if let Some(pe) = self.store.voxel_pe.get_mut(..self.store.voxels) {
             pe.fill(EMPTY_VOXEL);
         }
