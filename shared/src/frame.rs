@@ -786,9 +786,10 @@ mod tests {
             proptest::prop_assert_eq!(run(&pieces), whole.clone());
             proptest::prop_assert_eq!(run(&bytewise), whole.clone());
             // Every frame that fits came out, in order; a longer one was refused as oversize.
-            let fits = |p: &Vec<u8>| encode(0x21, 0, p).len() - 1 <= 256;
+            // Encoded without its delimiter, within the 256-byte buffer.
+            let fits = |i: usize, p: &[u8]| encode(0x21, i as u16, p).len() - 1 <= 256;
             let frames: Vec<_> = whole.iter().filter_map(|r| r.as_ref().ok().cloned()).collect();
-            let want: Vec<_> = payloads.iter().enumerate().filter(|(_, p)| fits(p)).map(|(i, p)| (i as u16, p.clone())).collect();
+            let want: Vec<_> = payloads.iter().enumerate().filter(|(i, p)| fits(*i, p)).map(|(i, p)| (i as u16, p.clone())).collect();
             proptest::prop_assert_eq!(frames, want);
         }
 

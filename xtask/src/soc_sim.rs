@@ -216,8 +216,8 @@ impl SimCmd {
             flash
                 .current_dir(crate::toolchain::repo_root())
                 .args(["run", "--quiet", "--package", "gridrt-host", "--bin", "gridrt", "--", "flash", "--port", &pty])
-                // The simulated app's start (the device built with its voxel tables, then moved)
-                // outlasts the default 15 s of wall time before it answers Hello: about 80 s.
+                // The simulated app's start takes about 13 s of wall time before it answers
+                // Hello, close to the default 15 s even before load slows the simulation.
                 .args(["--boot-wait", "600"])
                 .arg(&app);
             eprintln!("xtask: {}", display_command(&flash));

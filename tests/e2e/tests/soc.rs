@@ -72,8 +72,8 @@ fn soc_test(test: &str, long: bool) -> Option<std::sync::MutexGuard<'static, ()>
 const SLOW_LINE_BAUD: &str = "3000";
 
 /// Seconds of wall time the started app has to answer Hello (`gridrt flash --boot-wait`): the
-/// simulated app's start (the device built with its voxel tables, then moved) took about 80 s
-/// here, past the default 15.
+/// simulated app's start took about 13 s here (docs/bench-upload.md), close to the default 15
+/// even before a loaded machine slows the simulation.
 const SIM_BOOT_WAIT_S: &str = "600";
 
 /// Seconds the simulation may run in all (flash, upload and render of the small frame).
