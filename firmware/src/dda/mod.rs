@@ -24,12 +24,14 @@
 //! | `fixed` | [`FixedTraversal`]: exact setup in integers, `t_delta` steps, [`DdaOverflow`] | `grid`, `walk` |
 //! | `list` | [`build_list`]: the non-empty voxels with their PE for the FSL request | all of the above |
 //! | `ahead` | [`fill_ahead`]: per voxel and octant, a non-empty voxel ahead (walks stop where none is); [`VoxelMap`] | — |
+//! | `light_cells` | [`LightCells`]: shadow-ray lists from the non-empty voxels binned by direction from the light, no walk | `request`, `ahead` |
 //! | `request` | [`WalkGrid`]: the f32 walk and the list fused, written as FSL request words (what the device runs); [`OriginPlanes`]: the camera rays' per-origin subtractions | `grid`, `ahead` |
 
 mod ahead;
 mod fixed;
 mod float;
 mod grid;
+mod light_cells;
 mod list;
 mod request;
 mod walk;
@@ -38,6 +40,7 @@ pub use ahead::{fill_ahead, VoxelMap};
 pub use fixed::{DdaOverflow, FixedTraversal};
 pub use float::Traversal;
 pub use grid::{GridDesc, VoxelStep, MAX_GRID_DIM};
+pub use light_cells::{LightCells, T_EXIT_ALL};
 pub use list::{build_list, build_list_in, TraversalList, MAX_LIST};
 pub use request::{OriginPlanes, Resume, WalkGrid};
 

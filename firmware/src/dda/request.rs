@@ -239,6 +239,27 @@ impl WalkGrid {
         w
     }
 
+    /// [`GridDesc::is_valid`] of the grid.
+    pub(super) fn is_valid(&self) -> bool {
+        self.valid
+    }
+
+    /// Voxels per axis.
+    pub(super) fn dims(&self) -> [u32; 3] {
+        self.dims.map(|n| n as u32)
+    }
+
+    /// Voxel-id step per axis: 1, nx, nx·ny.
+    pub(super) fn strides(&self) -> [u32; 3] {
+        self.stride
+    }
+
+    /// The `n + 1` boundary planes of axis `a` (empty for an invalid grid).
+    pub(super) fn planes(&self, a: usize) -> &[f32] {
+        let n = if self.valid { self.dims.get(a).map_or(0, |&n| n as usize + 1) } else { 0 };
+        self.planes.get(a).and_then(|p| p.get(..n)).unwrap_or(&[])
+    }
+
     /// The start cell of an origin `o` on axis `a` ([`WalkGrid::start_cell`] of `o − min`)
     /// from [`WalkGrid::cell_starts`]: that formula is monotone in `o` (each rounding is,
     /// and the truncation and clamp), so its cell is the number of thresholds at or below

@@ -729,3 +729,59 @@ fn ahead_bits_say_a_non_empty_voxel_lies_in_the_octant_box() {
     assert!(!fill_ahead([2, 2, 2], &[0; 8], &mut short));
     assert_eq!(short, [0xFF; 7]);
 }
+
+/// Shadow rays toward a point light, from origins in the box (on cell planes too) and lights
+/// inside, beside and far from it: the list [`LightCells`] gives holds every voxel of the
+/// walk's list (`WalkGrid::write_entries`, the device's shadow walk), with `t_exit` 1. Most
+/// rays are answered by the cells, not sent back to the walk.
+#[test]
+fn a_light_cell_list_holds_every_voxel_of_the_shadow_walk() {
+    let mut rng = ChaCha8Rng::seed_from_u64(0x5AAD_0CE1);
+    let mut cells = Box::new(LightCells::<16, 24>::new());
+    let mut words = vec![0u32; 2 * MAX_LIST];
+    let mut listed = vec![0u32; 2 * MAX_LIST];
+    let (mut rays, mut answered, mut walked_entries) = (0usize, 0usize, 0usize);
+    for _ in 0..200 {
+        let g = random_grid(&mut rng, 24);
+        let ext = g.max - g.min;
+        let fill = rng.gen_range(0.02..0.4f64);
+        let map: Vec<u8> =
+            (0..g.voxel_count()).map(|_| if rng.gen_bool(fill) { rng.gen_range(0..4) } else { EMPTY_VOXEL }).collect();
+        let mut ahead = Vec::new();
+        let vm = with_ahead(&g, &map, &mut ahead);
+        let walk = WalkGrid::new(&g);
+        let centre = g.min + ext * 0.5;
+        let light = match rng.gen_range(0..3) {
+            0 => g.min + ext * Vec3::new(rng.gen(), rng.gen(), rng.gen()),
+            1 => centre + Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)) * ext,
+            _ => {
+                centre
+                    + Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0))
+                        * ext.length()
+                        * 20.0
+            }
+        };
+        cells.build(&walk, vm, light);
+        assert!(cells.is_built_for(light));
+        for _ in 0..300 {
+            let mut o = g.min + ext * Vec3::new(rng.gen(), rng.gen(), rng.gen());
+            for _ in 0..rng.gen_range(0..3) {
+                let a = rng.gen_range(0..3);
+                o[a] = plane_coord(&mut rng, &g, a);
+            }
+            let ray = Ray { origin: o, dir: light - o };
+            let want = walk.write_entries(vm, &ray, crate::shade::SHADOW_T_MAX, &mut words);
+            rays += 1;
+            let Some(n) = cells.write_entries(&ray, crate::shade::SHADOW_T_MAX, &mut listed) else { continue };
+            answered += 1;
+            walked_entries += want;
+            let got: std::collections::HashSet<u32> = listed[..2 * n].chunks(2).map(|c| c[0]).collect();
+            assert!(listed[..2 * n].chunks(2).all(|c| c[1] == T_EXIT_ALL.to_bits()));
+            for e in words[..2 * want].chunks(2) {
+                assert!(got.contains(&e[0]), "voxel {:#x} of the walk not listed: {g:?} light {light:?} {ray:?}", e[0]);
+            }
+        }
+    }
+    assert!(answered * 2 > rays, "{answered} of {rays} rays answered by the cells");
+    assert!(walked_entries > 20_000, "{walked_entries}");
+}

@@ -466,7 +466,7 @@ impl<L: FslLink, C: StageClock, const N: usize, const P: usize, const T: usize, 
                     "this firmware was built without the splat path (feature `splats`)",
                 ));
             } else {
-                self.render.frame(&self.scene, &mut self.tx, &job, out)
+                self.render.frame(&mut self.scene, &mut self.tx, &job, out)
             }
         });
         let (spans, crc) = match result {

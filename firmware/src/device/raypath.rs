@@ -9,7 +9,7 @@
 //! charged to its class (primary, shadow, reflection) in [`FrameStats`].
 
 use super::fail::Fail;
-use super::scene::SceneStore;
+use super::scene::{SceneStore, LIGHT_CELLS};
 use super::stats::{count, FrameStats, Stage, StageClock, Stopwatch};
 use crate::dda::{OriginPlanes, Resume, MAX_LIST};
 use crate::fsl::FslLink;
@@ -147,6 +147,8 @@ impl<L: FslLink> RayPath<L> {
         let entries = self.request.get_mut(RAY_HEADER_WORDS..end).unwrap_or(&mut []);
         let n = if parts {
             scene.walk.write_entries_from(&mut self.eye_planes, map, ray, t_max, entries, &mut self.resume)
+        } else if let Some(n) = Self::light_list(scene, class, ray, t_max, entries) {
+            n
         } else {
             scene.walk.write_entries(map, ray, t_max, entries)
         };
@@ -164,6 +166,22 @@ impl<L: FslLink> RayPath<L> {
             return self.rest_of_list(scene, clock, sw, ray, (kind, t_max), n);
         }
         r.map(Some)
+    }
+
+    /// A shadow ray's list from the light's cells (`dda::LightCells`: a superset of the walk's
+    /// voxels with `t_exit` 1, the same answer); `None` where it is to be walked.
+    #[inline(always)]
+    fn light_list<const N: usize>(
+        scene: &SceneStore<N>,
+        class: RayClass,
+        ray: &Ray,
+        t_max: f32,
+        entries: &mut [u32],
+    ) -> Option<usize> {
+        if LIGHT_CELLS == 0 || !matches!(class, RayClass::Shadow) {
+            return None;
+        }
+        scene.light_cells.write_entries(ray, t_max, entries)
     }
 
     /// A camera ray whose first [`FIRST_PART`] entries (`listed`) missed: the rest of its

@@ -19,6 +19,7 @@ use super::scene::SceneStore;
 use super::stats::{count, cycles_between, FrameStats, FrameWriter, Stage, StageClock, Stopwatch, UploadWork};
 use crate::camera::ColumnTerms;
 use crate::cull::{BoxSpans, OccupancyMask};
+use crate::dda::VoxelMap;
 use crate::fsl::FslLink;
 use crate::interp::{self, Counts, Sample, StepControl};
 use crate::pixels::{FrameTx, SpanEncoder, TxError};
@@ -65,7 +66,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
     /// report of the failure.
     pub(super) fn frame<const N: usize>(
         &mut self,
-        scene: &SceneStore<N>,
+        scene: &mut SceneStore<N>,
         tx: &mut FrameTx,
         job: &Job<'_>,
         out: &mut impl Write,
@@ -164,7 +165,7 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
     /// failure.
     fn pixels<const N: usize>(
         &mut self,
-        scene: &SceneStore<N>,
+        scene: &mut SceneStore<N>,
         tx: &mut FrameTx,
         job: &Job<'_>,
         out: &mut impl Write,
@@ -174,6 +175,12 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         // column) is ray generation's, and counted as such.
         let mut sw = Stopwatch::start(&self.clock);
         let mut ctx = Self::frame_ctx(scene, job)?;
+        // Shadow rays take their lists from the light's cells (built once per light).
+        if ctx.shadows && !scene.light_cells.is_built_for(ctx.direct.pos) {
+            let map = VoxelMap { pe: scene.voxel_pe.get(..scene.voxels).unwrap_or(&[]), ahead: &[] };
+            scene.light_cells.build(&scene.walk, map, ctx.direct.pos);
+        }
+        let scene = &*scene;
         ctx.columns.fill(&ctx.cam, req.width, cfg!(soft_float));
         if cfg!(soft_float) {
             let plan = (ctx.direct.specular, ctx.textures, ctx.reflections);

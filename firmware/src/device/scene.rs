@@ -5,7 +5,7 @@
 //! one CLEAR, checking every ACK.
 
 use super::fail::Fail;
-use crate::dda::{GridDesc, VoxelMap, WalkGrid, MAX_GRID_DIM};
+use crate::dda::{GridDesc, LightCells, VoxelMap, WalkGrid, MAX_GRID_DIM};
 use crate::fsl::{FslLink, FslWord};
 use crate::splat::PointSink;
 use gridrt_shared::frame::Crc32Digest;
@@ -31,6 +31,14 @@ pub(super) type Reorder = [u8; UPLOAD_WINDOW];
 /// the `compact-scene` feature, else none (compact streams are refused with `BadCompact`, and
 /// `feature::COMPACT_SCENE` is not advertised).
 pub const VERTEX_CACHE: usize = if cfg!(feature = "compact-scene") { 4096 } else { 0 };
+
+/// Cells per cube-face edge of the shadow rays' light cells (`dda::LightCells`): 32 with the
+/// `light-cells` feature (6·32² cells of [`LIGHT_CELL_VOXELS`] voxels, 624 KiB), else 0:
+/// every shadow ray walks.
+pub const LIGHT_CELLS: usize = if cfg!(feature = "light-cells") { 32 } else { 0 };
+
+/// Voxels a light cell holds (a shadow ray whose list would need more walks).
+pub const LIGHT_CELL_VOXELS: usize = 12;
 
 /// Largest material table the device holds.
 pub const MAX_MATERIALS: usize = 64;
@@ -58,6 +66,9 @@ pub(super) struct SceneStore<const N: usize> {
     pub(super) objects: heapless::Vec<ObjectRecord, MAX_OBJECTS>,
     /// Lighting record.
     pub(super) lighting: LightingRecord,
+    /// The shadow rays' lists by direction from the frame's light, built at the first frame
+    /// with shadows for that light (`Renderer::pixels`), cleared with each scene.
+    pub(super) light_cells: LightCells<LIGHT_CELLS, LIGHT_CELL_VOXELS>,
 }
 
 impl<const N: usize> SceneStore<N> {
@@ -74,6 +85,7 @@ impl<const N: usize> SceneStore<N> {
     pub(super) fn fill_ahead(&mut self) {
         let pe = self.voxel_pe.get(..self.voxels).unwrap_or(&[]);
         crate::dda::fill_ahead(self.grid.dims, pe, &mut self.ahead);
+        self.light_cells.clear();
     }
 
     /// No scene.
@@ -91,6 +103,7 @@ impl<const N: usize> SceneStore<N> {
             material_model: heapless::Vec::new(),
             objects: heapless::Vec::new(),
             lighting: LightingRecord::default(),
+            light_cells: LightCells::new(),
         }
     }
 }
