@@ -107,7 +107,7 @@ impl<const K: usize, const C: usize> LightCells<K, C> {
     /// Bins the non-empty voxels of `map` on `walk`'s grid by direction from `light`. Leaves
     /// the cells empty (lookups walk) for an invalid grid, a light that is not finite, or
     /// `K = 0`.
-    #[allow(clippy::arithmetic_side_effects)] // f32 geometry; integer indices below 256 per axis
+    #[allow(clippy::arithmetic_side_effects, clippy::indexing_slicing)] // f32 geometry; axis indices < 3 into [_; 3], counts below 256 per axis
     pub fn build(&mut self, walk: &WalkGrid, map: VoxelMap<'_>, light: Vec3) {
         self.built = false;
         for c in self.faces.iter_mut().flatten().flatten() {
@@ -122,10 +122,10 @@ impl<const K: usize, const C: usize> LightCells<K, C> {
         let stride = walk.strides();
         // δ: the walk's reach beyond the exact ray, doubled (module doc).
         let mut s = 0f32;
-        for a in 0..3 {
+        for (a, la) in l.iter().enumerate() {
             let p = walk.planes(a);
             let (lo, hi) = (p.first().copied().unwrap_or(0.0), p.last().copied().unwrap_or(0.0));
-            s = s.max(lo.abs()).max(hi.abs()).max(l[a].abs());
+            s = s.max(lo.abs()).max(hi.abs()).max(la.abs());
         }
         let delta = s * (1.0 / (1u32 << 19) as f32);
         let half = (K / 2) as f32;
@@ -154,7 +154,7 @@ impl<const K: usize, const C: usize> LightCells<K, C> {
                 // faces, on this face's side; a slab wholly on the other side is skipped.
                 let (near, far) = if down { (l[a] - p1, l[a] - p0) } else { (p0 - l[a], p1 - l[a]) };
                 let far = far + delta;
-                if !(far > 0.0) {
+                if far.is_nan() || far <= 0.0 {
                     continue;
                 }
                 let near = near - delta;
@@ -200,7 +200,7 @@ impl<const K: usize, const C: usize> LightCells<K, C> {
     /// quotient, a cell that dropped a voxel within reach, or more entries than `words` holds.
     #[inline]
     pub fn write_entries(&self, ray: &Ray, t_max: f32, words: &mut [u32]) -> Option<usize> {
-        if !self.built || !(t_max <= T_EXIT_ALL) {
+        if !self.built || t_max.is_nan() || t_max > T_EXIT_ALL {
             return None;
         }
         // w = o − L = −dir: the face of its largest component, the cell of the other two.
@@ -216,7 +216,7 @@ impl<const K: usize, const C: usize> LightCells<K, C> {
         let (ma, wa) = (m.get(a).copied()?, w.get(a).copied()?);
         // Finite, and 2^-100 or more so that a subnormal other component counts as 0 within
         // 2^-26 of the quotient.
-        if ma >= 0x7F80_0000 || ma < 27 << 23 {
+        if !(27 << 23..0x7F80_0000).contains(&ma) {
             return None;
         }
         let face = a.wrapping_mul(2).wrapping_add((wa >> 31) as usize);
@@ -245,7 +245,7 @@ impl<const K: usize, const C: usize> LightCells<K, C> {
 /// `⌊x⌋` as a cell index in `0..=top` (below 0 and NaN → 0).
 #[inline(always)]
 fn cell_floor(x: f32, top: usize) -> usize {
-    if !(x > 0.0) {
+    if x.is_nan() || x <= 0.0 {
         0
     } else if x >= top as f32 {
         top

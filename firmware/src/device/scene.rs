@@ -32,10 +32,10 @@ pub(super) type Reorder = [u8; UPLOAD_WINDOW];
 /// `feature::COMPACT_SCENE` is not advertised).
 pub const VERTEX_CACHE: usize = if cfg!(feature = "compact-scene") { 4096 } else { 0 };
 
-/// Cells per cube-face edge of the shadow rays' light cells (`dda::LightCells`): 32 with the
-/// `light-cells` feature (6·32² cells of [`LIGHT_CELL_VOXELS`] voxels, 624 KiB), else 0:
+/// Cells per cube-face edge of the shadow rays' light cells (`dda::LightCells`): 48 with the
+/// `light-cells` feature (6·48² cells of [`LIGHT_CELL_VOXELS`] voxels, 1.4 MiB), else 0:
 /// every shadow ray walks.
-pub const LIGHT_CELLS: usize = if cfg!(feature = "light-cells") { 32 } else { 0 };
+pub const LIGHT_CELLS: usize = if cfg!(feature = "light-cells") { 48 } else { 0 };
 
 /// Voxels a light cell holds (a shadow ray whose list would need more walks).
 pub const LIGHT_CELL_VOXELS: usize = 12;
