@@ -15,7 +15,7 @@ use super::farm::{RowDone, RowFarm, Rows};
 use super::pipeline::{check_plan, compiled_plan, open_pixel, pixel, FrameCtx};
 use super::raypath::RayPath;
 use super::request::{field, Job};
-use super::scene::SceneStore;
+use super::scene::{SceneStore, LIGHT_CELLS_MAX_VOXELS};
 use super::stats::{count, cycles_between, FrameStats, FrameWriter, Stage, StageClock, Stopwatch, UploadWork};
 use crate::camera::ColumnTerms;
 use crate::cull::{BoxSpans, OccupancyMask};
@@ -175,8 +175,10 @@ impl<L: FslLink, C: StageClock, F: RowFarm<L>> Renderer<L, C, F> {
         // column) is ray generation's, and counted as such.
         let mut sw = Stopwatch::start(&self.clock);
         let mut ctx = Self::frame_ctx(scene, job)?;
-        // Shadow rays take their lists from the light's cells (built once per light).
-        if ctx.shadows && !scene.light_cells.is_built_for(ctx.direct.pos) {
+        // Shadow rays take their lists from the light's cells (built once per light) on grids
+        // where the build pays.
+        let cells = ctx.shadows && scene.voxels <= LIGHT_CELLS_MAX_VOXELS;
+        if cells && !scene.light_cells.is_built_for(ctx.direct.pos) {
             let map = VoxelMap { pe: scene.voxel_pe.get(..scene.voxels).unwrap_or(&[]), ahead: &[] };
             scene.light_cells.build(&scene.walk, map, ctx.direct.pos);
         }

@@ -40,6 +40,12 @@ pub const LIGHT_CELLS: usize = if cfg!(feature = "light-cells") { 48 } else { 0 
 /// Voxels a light cell holds (a shadow ray whose list would need more walks).
 pub const LIGHT_CELL_VOXELS: usize = 12;
 
+/// Largest grid whose shadow rays use light cells: the build visits every voxel on three
+/// faces and projects every column of every slab, about 150 instructions per voxel on
+/// riscv32imac; on stanford-bunny's 45×45×35 grid that cost more than the walks it saved
+/// (docs/bench-firmware.md, "Shadow rays from light cells").
+pub const LIGHT_CELLS_MAX_VOXELS: usize = 8192;
+
 /// Largest material table the device holds.
 pub const MAX_MATERIALS: usize = 64;
 
