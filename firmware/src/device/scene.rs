@@ -87,7 +87,8 @@ impl<const N: usize> SceneStore<N> {
         }
     }
 
-    /// Builds `ahead` from the complete voxel map (scene load).
+    /// Builds `ahead` from the complete voxel map (scene load) and forgets the last scene's
+    /// light cells.
     pub(super) fn fill_ahead(&mut self) {
         let pe = self.voxel_pe.get(..self.voxels).unwrap_or(&[]);
         crate::dda::fill_ahead(self.grid.dims, pe, &mut self.ahead);
